@@ -1,0 +1,242 @@
+//! Evaluation of all `N²` real SH at a direction, by the normalised Legendre recurrence in
+//! Cartesian form (no trigonometric calls, exact at the poles).
+//!
+//! For a unit vector `(x, y, z)` with `z = cosθ`, `sinθ^m cos(mφ) = Re (x + iy)^m` and
+//! `sinθ^m sin(mφ) = Im (x + iy)^m`. The recurrence of [`crate::legendre`] is run on the
+//! polynomial part `Q_l^m = P̄_l^m / sinθ^m` (same recurrence with `s = 1` on the diagonal), and
+//!
+//! ```text
+//! Y_l^0  = Q_l^0(z)
+//! Y_l^m  = √2 · Q_l^m(z) · Re (x+iy)^m      (m > 0)
+//! Y_l^-m = √2 · Q_l^m(z) · Im (x+iy)^m      (m > 0)
+//! ```
+//!
+//! (DESIGN.md §1; the papers' appendix; the Cartesian trick as in sphericart, Bigi et al. 2023.)
+//! Domain: unit directions (callers with raw vectors use [`ShBasis::eval_dir`], which normalises
+//! and rejects zero or non-finite input), any order up to [`crate::MAX_ORDER`].
+
+use crate::legendre::Legendre;
+use crate::{check_order, coeff_count, sh_index, Real, ShError};
+
+/// Evaluator of the real SH basis of one order, holding its recurrence tables.
+#[derive(Clone, Debug)]
+pub struct ShBasis<T> {
+    leg: Legendre<T>,
+    sqrt2: T,
+}
+
+impl<T: Real> ShBasis<T> {
+    /// Tables for order `N` (`1 ≤ N ≤ MAX_ORDER`).
+    pub fn new(order: usize) -> Result<Self, ShError> {
+        check_order(order)?;
+        Ok(Self {
+            leg: Legendre::new(order)?,
+            sqrt2: T::c(std::f64::consts::SQRT_2),
+        })
+    }
+
+    /// The order `N`.
+    pub fn order(&self) -> usize {
+        self.leg.order()
+    }
+
+    /// Number of coefficients `N²`.
+    pub fn len(&self) -> usize {
+        coeff_count(self.order())
+    }
+
+    /// Always false: an order is at least 1.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// All `N²` values at the **unit** direction `d`, into `out[0..N²]` in index order.
+    /// The direction is not normalised here (see [`ShBasis::eval_dir`]).
+    #[inline]
+    pub fn eval(&self, d: [T; 3], out: &mut [T]) {
+        let n = self.order();
+        let out = &mut out[..n * n];
+        let [x, y, z] = d;
+        let leg = &self.leg;
+        let mut pmm = T::c(0.5 / std::f64::consts::PI.sqrt());
+        // (c, s) = (Re, Im) of (x + iy)^m.
+        let (mut c, mut s) = (T::one(), T::zero());
+        let mut k = 0;
+        for m in 0..n {
+            if m > 0 {
+                pmm = pmm * leg.diag[m];
+                let c_next = x * c - y * s;
+                s = x * s + y * c;
+                c = c_next;
+            }
+            let (fc, fs) = if m == 0 {
+                (T::one(), T::zero())
+            } else {
+                (self.sqrt2 * c, self.sqrt2 * s)
+            };
+            let mi = m as i64;
+            // l = m
+            out[sh_index(m, mi)] = pmm * fc;
+            if m > 0 {
+                out[sh_index(m, -mi)] = pmm * fs;
+            }
+            if m + 1 < n {
+                let mut p2 = pmm;
+                let mut p1 = leg.sub[m] * z * pmm;
+                out[sh_index(m + 1, mi)] = p1 * fc;
+                if m > 0 {
+                    out[sh_index(m + 1, -mi)] = p1 * fs;
+                }
+                for l in (m + 2)..n {
+                    let (a, ab) = leg.ab[k];
+                    k += 1;
+                    let p = a * z * p1 - ab * p2;
+                    out[sh_index(l, mi)] = p * fc;
+                    if m > 0 {
+                        out[sh_index(l, -mi)] = p * fs;
+                    }
+                    p2 = p1;
+                    p1 = p;
+                }
+            }
+        }
+    }
+
+    /// All values at the direction `v`, normalised first. Errors on a zero, denormal-length or
+    /// non-finite vector.
+    pub fn eval_dir(&self, v: [T; 3], out: &mut [T]) -> Result<(), ShError> {
+        let d = normalize(v)?;
+        self.eval(d, out);
+        Ok(())
+    }
+
+    /// All values at polar angle `θ ∈ [0, π]` and azimuth `φ` (any real).
+    pub fn eval_theta_phi(&self, theta: T, phi: T, out: &mut [T]) {
+        let st = theta.sin();
+        self.eval([st * phi.cos(), st * phi.sin(), theta.cos()], out)
+    }
+
+    /// Batched evaluation: `out[j·N² .. (j+1)·N²]` receives the values at `dirs[j]` (unit).
+    pub fn eval_batch(&self, dirs: &[[T; 3]], out: &mut [T]) {
+        let nn = self.len();
+        assert_eq!(out.len(), dirs.len() * nn, "eval_batch: output length");
+        for (d, o) in dirs.iter().zip(out.chunks_exact_mut(nn)) {
+            self.eval(*d, o);
+        }
+    }
+
+    /// Allocating convenience: the `N²` values at the unit direction `d`.
+    pub fn values(&self, d: [T; 3]) -> Vec<T> {
+        let mut v = vec![T::zero(); self.len()];
+        self.eval(d, &mut v);
+        v
+    }
+}
+
+/// Normalise `v`; errors if its length is zero, not finite, or so small that `v/|v|` is inexact.
+pub fn normalize<T: Real>(v: [T; 3]) -> Result<[T; 3], ShError> {
+    let [x, y, z] = v.map(|c| c.f64());
+    // Scale by the largest component first so tiny or huge vectors neither under- nor overflow.
+    let big = x.abs().max(y.abs()).max(z.abs());
+    if !(x.is_finite() && y.is_finite() && z.is_finite() && big > f64::MIN_POSITIVE) {
+        return Err(ShError::Direction { x, y, z });
+    }
+    let (a, b, c) = (x / big, y / big, z / big);
+    let len = (a * a + b * b + c * c).sqrt();
+    Ok([T::c(a / len), T::c(b / len), T::c(c / len)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// Hand-written real SH for l ≤ 3 in Cartesian form (no Condon–Shortley phase).
+    fn closed(i: usize, d: [f64; 3]) -> f64 {
+        let [x, y, z] = d;
+        let k = |num: f64, den: f64| (num / (den * PI)).sqrt();
+        match i {
+            0 => k(1.0, 4.0),
+            1 => k(3.0, 4.0) * y,
+            2 => k(3.0, 4.0) * z,
+            3 => k(3.0, 4.0) * x,
+            4 => k(15.0, 4.0) * x * y,
+            5 => k(15.0, 4.0) * y * z,
+            6 => k(5.0, 16.0) * (3.0 * z * z - 1.0),
+            7 => k(15.0, 4.0) * x * z,
+            8 => k(15.0, 16.0) * (x * x - y * y),
+            9 => k(35.0, 32.0) * y * (3.0 * x * x - y * y),
+            10 => k(105.0, 4.0) * x * y * z,
+            11 => k(21.0, 32.0) * y * (5.0 * z * z - 1.0),
+            12 => k(7.0, 16.0) * z * (5.0 * z * z - 3.0),
+            13 => k(21.0, 32.0) * x * (5.0 * z * z - 1.0),
+            14 => k(105.0, 16.0) * z * (x * x - y * y),
+            15 => k(35.0, 32.0) * x * (x * x - 3.0 * y * y),
+            _ => unreachable!(),
+        }
+    }
+
+    fn dirs() -> Vec<[f64; 3]> {
+        let mut v = vec![
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ];
+        for i in 0..50 {
+            let t = (i as f64 + 0.5) / 50.0;
+            let z = 1.0 - 2.0 * t;
+            let r = (1.0 - z * z).sqrt();
+            let p = 2.399963229728653 * i as f64;
+            v.push([r * p.cos(), r * p.sin(), z]);
+        }
+        v
+    }
+
+    #[test]
+    fn matches_hand_written_forms_f64_and_f32() {
+        const TOL64: f64 = 2e-15;
+        const TOL32: f64 = 2e-6;
+        let b64 = ShBasis::<f64>::new(4).unwrap();
+        let b32 = ShBasis::<f32>::new(4).unwrap();
+        for d in dirs() {
+            let v64 = b64.values(d);
+            let v32 = b32.values(d.map(|c| c as f32));
+            for i in 0..16 {
+                let want = closed(i, d);
+                let e64 = (v64[i] - want).abs();
+                let e32 = (v32[i] as f64 - want).abs();
+                assert!(e64 < TOL64, "f64 i={i} d={d:?}: err {e64:e}");
+                assert!(e32 < TOL32, "f32 i={i} d={d:?}: err {e32:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn theta_phi_form_agrees_with_cartesian() {
+        let b = ShBasis::<f64>::new(10).unwrap();
+        let mut a = vec![0.0; 100];
+        for (theta, phi) in [(0.0, 0.3), (PI, 1.0), (0.7, -2.0), (2.9, 5.0)] {
+            b.eval_theta_phi(theta, phi, &mut a);
+            let c = b.values([
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ]);
+            for i in 0..100 {
+                assert!((a[i] - c[i]).abs() < 1e-14, "i={i}");
+            }
+        }
+    }
+
+    #[test]
+    fn normalize_rejects_degenerate_vectors() {
+        assert!(normalize([0.0f64, 0.0, 0.0]).is_err());
+        assert!(normalize([f64::NAN, 0.0, 1.0]).is_err());
+        assert!(normalize([f64::INFINITY, 0.0, 1.0]).is_err());
+        let d = normalize([1e-300f64, 0.0, 1e-300]).unwrap();
+        assert!((d[0] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-15);
+        let d = normalize([1e300f64, 1e300, 0.0]).unwrap();
+        assert!((d[1] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-15);
+    }
+}
