@@ -1,1 +1,52 @@
-fn main() {}
+//! The `shscale` binary: glue between the command line and the numerical crates.
+//!
+//! Every failure prints one line `error: …` on stderr and exits with status 2; nothing panics on
+//! user input.
+
+mod args;
+mod demo;
+mod matrix_cmd;
+mod output;
+mod sh_cmd;
+
+use args::{Cli, Command};
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                let _ = e.print();
+                return ExitCode::from(2);
+            }
+            // One line: clap's first line, which names the argument and the problem.
+            let text = e.render().to_string();
+            let line = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("invalid arguments");
+            eprintln!("{}", line.trim());
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Sh(cmd) => sh_cmd::run(cmd),
+        Command::Matrix(cmd) => matrix_cmd::run(cmd),
+        Command::Demo(cmd) => demo::run(cmd),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {msg}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,152 @@
+//! Command-line schema (clap derive). Parsing of comma lists lives here; validation of values
+//! against their mathematical domains lives in the numerical crates.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "shscale",
+    version,
+    about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Inspect the SH core: evaluate the basis, cap coefficients, rotate coefficients.
+    /// Example: shscale sh eval --order 4 --dir 0,0,1
+    #[command(subcommand)]
+    Sh(ShCommand),
+    /// Print a dense SH scaling matrix, or build a k-table and report its interpolation error.
+    /// Example: shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2 --format pretty
+    Matrix(MatrixArgs),
+    /// Built-in demonstration: scale caps with M_k and check them against the analytic caps.
+    /// Example: shscale demo --order 8
+    Demo(DemoArgs),
+}
+
+/// Output formats of the inspection commands.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Json,
+    Csv,
+    Pretty,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ShCommand {
+    /// The N² basis values at a direction (normalised first).
+    /// Example: shscale sh eval --order 3 --dir 1,1,0 --format csv
+    Eval {
+        /// SH order N (bands 0..N-1).
+        #[arg(long)]
+        order: usize,
+        /// Direction X,Y,Z (any non-zero length).
+        #[arg(long, allow_hyphen_values = true)]
+        dir: String,
+        #[arg(long, value_enum, default_value_t = Format::Json)]
+        format: Format,
+    },
+    /// Analytic coefficients of the cap θ ≤ A about +z.
+    /// Example: shscale sh cap --order 4 --angle-deg 30
+    Cap {
+        #[arg(long)]
+        order: usize,
+        /// Cap half-angle A in degrees, 0..=180.
+        #[arg(long, allow_hyphen_values = true)]
+        angle_deg: f64,
+        #[arg(long, value_enum, default_value_t = Format::Json)]
+        format: Format,
+    },
+    /// Coefficients of the function rotated by R = Rz(A)·Ry(B)·Rz(C): g(ω) = f(R⁻¹ω).
+    /// Example: shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0
+    Rotate {
+        #[arg(long)]
+        order: usize,
+        /// N² coefficients c0,c1,… in index order l·l+l+m.
+        #[arg(long, allow_hyphen_values = true)]
+        coeffs: String,
+        /// Euler angles A,B,C in degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        euler_zyz_deg: String,
+        #[arg(long, value_enum, default_value_t = Format::Json)]
+        format: Format,
+    },
+}
+
+/// Angular scaling families.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TauArg {
+    Cone,
+    Midrange,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpacingArg {
+    Exp,
+    Uniform,
+    Chebyshev,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InterpArg {
+    Linear,
+    Cubic,
+}
+
+#[derive(Args, Debug)]
+pub struct MatrixArgs {
+    /// SH order N (1..=32 for this command).
+    #[arg(long)]
+    pub order: usize,
+    /// Angular scaling family.
+    #[arg(long, value_enum)]
+    pub tau: TauArg,
+    /// Cone half-angle α in degrees, strictly inside (0, 90). Required for --tau cone.
+    #[arg(long, allow_hyphen_values = true)]
+    pub alpha_deg: Option<f64>,
+    /// Scale k: d/r > 0 for the cone, d/R in (-1, 1) for mid-range.
+    #[arg(long, allow_hyphen_values = true)]
+    pub k: Option<f64>,
+    /// Energy-preserving η = sin τ · τ′ (radiance) instead of η = sin θ (visibility).
+    #[arg(long)]
+    pub energy: bool,
+    /// Build a k-table with this many samples instead of printing one matrix.
+    #[arg(long, value_name = "K_COUNT")]
+    pub table: Option<usize>,
+    /// Table range KMIN,KMAX.
+    #[arg(long, allow_hyphen_values = true)]
+    pub k_range: Option<String>,
+    #[arg(long, value_enum, default_value_t = SpacingArg::Exp)]
+    pub spacing: SpacingArg,
+    #[arg(long, value_enum, default_value_t = InterpArg::Linear)]
+    pub interp: InterpArg,
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    pub format: Format,
+}
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Largest SH order of the convergence table.
+    #[arg(long, default_value_t = 16)]
+    pub order: usize,
+    /// Cone half-angle α in degrees.
+    #[arg(long, default_value_t = 45.0)]
+    pub alpha_deg: f64,
+}
+
+/// Parse `a,b,c,…` into numbers; the error names the flag and the bad item.
+pub fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    s.split(',')
+        .enumerate()
+        .map(|(i, t)| {
+            t.trim().parse::<f64>().map_err(|_| {
+                anyhow::anyhow!("--{flag}: item {} ({:?}) is not a number", i + 1, t.trim())
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,159 @@
+//! `shscale demo`: the built-in demonstration run by the README's main command until the
+//! experiment runner exists. It computes real scaling matrices and checks them against closed
+//! forms; the exit status is 1 if a check fails.
+//!
+//! 1. Operator accuracy: scaling the cap `θ ≤ A` with `M_k` must give the cap `θ ≤ τ_k⁻¹(A)` —
+//!    exact in function space, so the error is band-limiting alone (table over k and N).
+//! 2. The on-surface failure case (DESIGN.md §7): a solid sphere whose bounding sphere is itself;
+//!    every sample sees exactly half the sphere occluded, the truth at distance `d = k·r` is the
+//!    cap of half-angle `asin(1/k)`. The cone model predicts `τ_k⁻¹(90°)`; the table shows both
+//!    angles and `occ_rel_l2` at order 4.
+//! 3. Identities: `M_1 = I`, energy preservation of the energy-preserving M, orthonormality.
+
+use crate::args::DemoArgs;
+use anyhow::bail;
+use shscale_scaling::{AngularScaling, Cone, Eta, ScalingMatrix};
+use shscale_sh::{cap_coeffs, DirectionSet, ShBasis};
+use std::f64::consts::PI;
+use std::process::ExitCode;
+use std::time::Instant;
+
+fn l2(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
+    if !(2..=32).contains(&a.order) {
+        bail!("--order: {} is outside 2..=32", a.order);
+    }
+    if !(a.alpha_deg > 0.0 && a.alpha_deg < 90.0) {
+        bail!("--alpha-deg: {} is outside (0, 90)", a.alpha_deg);
+    }
+    let alpha = a.alpha_deg.to_radians();
+    let t0 = Instant::now();
+    let mut failures = Vec::new();
+    let radii = [0.5, 0.7, 0.9, 1.3, 2.0];
+    let orders: Vec<usize> = [2usize, 4, 8, 16, 32]
+        .into_iter()
+        .filter(|&n| n <= a.order)
+        .collect();
+
+    println!(
+        "shscale demo — cone model α = {}°, radii k = d/r of the papers' Fig. 5",
+        a.alpha_deg
+    );
+    println!();
+    println!("1. Operator accuracy: ‖M_k·cap(40°) − cap(τ_k⁻¹(40°))‖₂ / ‖cap(τ_k⁻¹(40°))‖₂ (band-limiting only)");
+    print!("{:>6}", "k");
+    for n in &orders {
+        print!("  {:>10}", format!("N={n}"));
+    }
+    println!();
+    let cap_angle = 40f64.to_radians();
+    for &k in &radii {
+        let tau = Cone::new(k, alpha)?;
+        let target = tau.inverse(cap_angle);
+        print!("{k:>6}");
+        let mut errs = Vec::new();
+        for &n in &orders {
+            let m = ScalingMatrix::compute(&tau, Eta::Plain, n)?;
+            let src = cap_coeffs(n, cap_angle)?;
+            let want = cap_coeffs(n, target)?;
+            let mut got = vec![0.0; n * n];
+            m.apply(&src, &mut got)?;
+            let e = l2(&got, &want) / l2(&want, &vec![0.0; n * n]);
+            errs.push(e);
+            print!("  {e:>10.3e}");
+        }
+        println!();
+        if errs.len() >= 2 && errs[errs.len() - 1] >= errs[0] {
+            failures.push(format!(
+                "operator error does not decrease with N at k = {k}: {errs:?}"
+            ));
+        }
+    }
+
+    println!();
+    println!("2. On-surface failure case: solid sphere, samples on its surface (visibility = half sphere)");
+    println!(
+        "{:>6}  {:>14}  {:>16}  {:>12}",
+        "k", "true cap angle", "cone prediction", "occ_rel_l2 N=4"
+    );
+    for &k in &[1.05, 1.3, 2.0, 4.0, 8.0] {
+        let tau = Cone::new(k, alpha)?;
+        let truth = (1.0 / k).asin();
+        let predicted = tau.inverse(0.5 * PI);
+        let n = 4;
+        let m = ScalingMatrix::compute(&tau, Eta::Plain, n)?;
+        // Occluded parts as caps (visibility = 1 − cap; the constant cancels in differences).
+        let src = cap_coeffs(n, 0.5 * PI)?;
+        let want = cap_coeffs(n, truth)?;
+        let mut got = vec![0.0; n * n];
+        // M maps the constant to itself, so M·(1 − cap) = 1 − M·cap.
+        m.apply(&src, &mut got)?;
+        let occ = l2(&got, &want) / l2(&want, &vec![0.0; n * n]);
+        println!(
+            "{k:>6}  {:>13.3}°  {:>15.3}°  {occ:>12.3e}",
+            truth.to_degrees(),
+            predicted.to_degrees()
+        );
+    }
+
+    println!();
+    println!("3. Identities");
+    let n = a.order.min(16);
+    let m1 = ScalingMatrix::compute(&Cone::new(1.0, alpha)?, Eta::Plain, n)?;
+    let e_id = m1.max_abs_diff(&ScalingMatrix::identity(n)?);
+    let me = ScalingMatrix::compute(&Cone::new(3.0, alpha)?, Eta::Energy, n)?.to_dense();
+    let e_energy = (me[0][0] - 1.0)
+        .abs()
+        .max(me[0][1..].iter().fold(0.0f64, |s, v| s.max(v.abs())));
+    let basis = ShBasis::<f64>::new(n)?;
+    let set = DirectionSet::gauss_sphere_for_order(n);
+    let mut gram = vec![0.0; n * n * n * n];
+    let mut y = vec![0.0; n * n];
+    for (d, &w) in set.dirs.iter().zip(&set.weights) {
+        basis.eval(*d, &mut y);
+        for i in 0..n * n {
+            for j in 0..n * n {
+                gram[i * n * n + j] += w * y[i] * y[j];
+            }
+        }
+    }
+    let e_orth = (0..n * n)
+        .flat_map(|i| (0..n * n).map(move |j| (i, j)))
+        .map(|(i, j)| (gram[i * n * n + j] - if i == j { 1.0 } else { 0.0 }).abs())
+        .fold(0.0f64, f64::max);
+    const TOL: f64 = 1e-12;
+    for (name, e) in [
+        ("M at k = 1 equals I", e_id),
+        (
+            "energy-preserving M keeps the l = 0 coefficient (row 0 = e0)",
+            e_energy,
+        ),
+        ("SH orthonormal on the exact quadrature", e_orth),
+    ] {
+        let ok = e < TOL;
+        println!(
+            "  [{}] {name} (order {n}): max error {e:.2e} (tolerance {TOL:e})",
+            if ok { "ok" } else { "FAIL" }
+        );
+        if !ok {
+            failures.push(format!("{name}: {e:e}"));
+        }
+    }
+    println!();
+    println!("done in {:.2} s", t0.elapsed().as_secs_f64());
+    if failures.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for f in &failures {
+            eprintln!("check failed: {f}");
+        }
+        Ok(ExitCode::from(1))
+    }
+}
