@@ -32,7 +32,7 @@
 use crate::quad::{integrate_vec, QuadReport};
 use crate::{AngularScaling, ScalingError};
 use shscale_sh::legendre::{tri_count, tri_index, Legendre};
-use shscale_sh::{check_coeffs, check_order, coeff_count, sh_index, GaussLegendre, Real};
+use shscale_sh::{check_coeffs, check_order, coeff_count, GaussLegendre, Real};
 use std::f64::consts::PI;
 
 /// The angular weight η in the scaling integral.
@@ -181,6 +181,33 @@ impl ScalingMatrix<f64> {
     }
 }
 
+/// `y = M·x` for order `n` from the packed blocks `v`: for each `m`, the `(N−m)²` block multiplies
+/// the `+m` and the `−m` coefficients (indices `l² + l ± m`).
+#[inline(always)]
+fn apply_kernel<T: Real>(v: &[T], n: usize, x: &[T], y: &mut [T]) {
+    let (x, y) = (&x[..n * n], &mut y[..n * n]);
+    let mut off = 0;
+    for m in 0..n {
+        let w = n - m;
+        let blk = &v[off..off + w * w];
+        off += w * w;
+        for r in 0..w {
+            let lo = m + r;
+            let (mut acc_p, mut acc_n) = (T::zero(), T::zero());
+            for c in 0..w {
+                let li = m + c;
+                let b = blk[r * w + c];
+                acc_p = acc_p + b * x[li * li + li + m];
+                acc_n = acc_n + b * x[li * li + li - m];
+            }
+            // For m = 0 both accumulators hold the same value (the duplicate is cheaper than a
+            // branch once unrolled).
+            y[lo * lo + lo - m] = acc_n;
+            y[lo * lo + lo + m] = acc_p;
+        }
+    }
+}
+
 /// `τ⁻¹` as an angular scaling function (for the substituted energy integral).
 struct Inverted<'a>(&'a dyn AngularScaling);
 
@@ -309,35 +336,24 @@ impl<T: Real> ScalingMatrix<T> {
     /// `y = M·x` without length checks beyond slice indexing (lengths must be `N²`).
     #[inline]
     pub fn apply_unchecked(&self, x: &[T], y: &mut [T]) {
-        let n = self.order;
-        let mut off = 0;
-        for m in 0..n {
-            let w = n - m;
-            let blk = &self.values[off..off + w * w];
-            off += w * w;
-            for (r, row) in blk.chunks_exact(w).enumerate() {
-                let lo = m + r;
-                let mut acc_p = T::zero();
-                let mut acc_n = T::zero();
-                for (c, &v) in row.iter().enumerate() {
-                    let li = m + c;
-                    acc_p = acc_p + v * x[sh_index(li, m as i64)];
-                    if m > 0 {
-                        acc_n = acc_n + v * x[sh_index(li, -(m as i64))];
-                    }
-                }
-                y[sh_index(lo, m as i64)] = acc_p;
-                if m > 0 {
-                    y[sh_index(lo, -(m as i64))] = acc_n;
-                }
-            }
+        // Literal orders let the compiler unroll the block products completely (N = 4: 44
+        // multiply-adds, no index arithmetic left).
+        let v = &self.values[..];
+        match self.order {
+            1 => apply_kernel(v, 1, x, y),
+            2 => apply_kernel(v, 2, x, y),
+            3 => apply_kernel(v, 3, x, y),
+            4 => apply_kernel(v, 4, x, y),
+            5 => apply_kernel(v, 5, x, y),
+            6 => apply_kernel(v, 6, x, y),
+            n => apply_kernel(v, n, x, y),
         }
     }
 
     /// Batched `y_b = M·x_b` over contiguous vectors of length `N²`.
     pub fn apply_batch(&self, xs: &[T], ys: &mut [T]) -> Result<(), shscale_sh::ShError> {
         let nn = coeff_count(self.order);
-        if xs.len() != ys.len() || xs.len() % nn != 0 {
+        if xs.len() != ys.len() || !xs.len().is_multiple_of(nn) {
             return Err(shscale_sh::ShError::Length {
                 what: "apply_batch: inputs vs outputs (multiples of N²)",
                 a: xs.len(),
@@ -346,6 +362,52 @@ impl<T: Real> ScalingMatrix<T> {
         }
         for (x, y) in xs.chunks_exact(nn).zip(ys.chunks_exact_mut(nn)) {
             self.apply_unchecked(x, y);
+        }
+        Ok(())
+    }
+
+    /// Batched `y = M·x` in coefficient-major (structure-of-arrays) layout: coefficient `i` of
+    /// vector `b` is at `i·count + b`, for `count` vectors. Every stored value then multiplies a
+    /// contiguous run of `count` inputs, which the compiler vectorises — the layout to use for
+    /// many receivers (measured in docs/BENCHMARKS.md).
+    pub fn apply_batch_soa(
+        &self,
+        xs: &[T],
+        ys: &mut [T],
+        count: usize,
+    ) -> Result<(), shscale_sh::ShError> {
+        let nn = coeff_count(self.order);
+        if xs.len() != nn * count || ys.len() != nn * count {
+            return Err(shscale_sh::ShError::Length {
+                what: "apply_batch_soa: N²·count vs inputs/outputs",
+                a: nn * count,
+                b: xs.len().min(ys.len()),
+            });
+        }
+        ys.iter_mut().for_each(|v| *v = T::zero());
+        let n = self.order;
+        let mut off = 0;
+        for m in 0..n {
+            let w = n - m;
+            let blk = &self.values[off..off + w * w];
+            off += w * w;
+            let signs: &[i64] = if m == 0 { &[0] } else { &[1, -1] };
+            for &sg in signs {
+                for r in 0..w {
+                    let lo = m + r;
+                    let yi = (lo * lo + lo) as i64 + sg * m as i64;
+                    let y = &mut ys[yi as usize * count..(yi as usize + 1) * count];
+                    for c in 0..w {
+                        let li = m + c;
+                        let xi = ((li * li + li) as i64 + sg * m as i64) as usize;
+                        let b = blk[r * w + c];
+                        let x = &xs[xi * count..(xi + 1) * count];
+                        for (yv, &xv) in y.iter_mut().zip(x) {
+                            *yv = *yv + b * xv;
+                        }
+                    }
+                }
+            }
         }
         Ok(())
     }

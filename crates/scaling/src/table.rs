@@ -215,7 +215,7 @@ impl KTable {
     pub fn size_bytes(&self) -> usize {
         self.mats
             .iter()
-            .map(|m| m.values().len() * std::mem::size_of::<f64>())
+            .map(|m| std::mem::size_of_val(m.values()))
             .sum()
     }
 

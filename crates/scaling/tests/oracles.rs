@@ -621,3 +621,28 @@ fn extreme_k_limits_match_closed_forms() {
         "extreme-k limits: {worst_big:e} {worst_small:e}"
     );
 }
+
+#[test]
+fn soa_batch_equals_per_vector_apply() {
+    let m = ScalingMatrix::compute(&cone(0.8, 35.0), Eta::Energy, 5).unwrap();
+    let count = 7;
+    let aos: Vec<f64> = (0..25 * count)
+        .map(|i| ((i * 13) % 17) as f64 / 8.0 - 1.0)
+        .collect();
+    let mut soa = vec![0.0; aos.len()];
+    for b in 0..count {
+        for i in 0..25 {
+            soa[i * count + b] = aos[b * 25 + i];
+        }
+    }
+    let mut y_aos = vec![0.0; aos.len()];
+    m.apply_batch(&aos, &mut y_aos).unwrap();
+    let mut y_soa = vec![0.0; aos.len()];
+    m.apply_batch_soa(&soa, &mut y_soa, count).unwrap();
+    for b in 0..count {
+        for i in 0..25 {
+            assert!((y_soa[i * count + b] - y_aos[b * 25 + i]).abs() < 1e-14);
+        }
+    }
+    assert!(m.apply_batch_soa(&soa, &mut y_soa, count + 1).is_err());
+}

@@ -16,13 +16,12 @@
 //! and rejects zero or non-finite input), any order up to [`crate::MAX_ORDER`].
 
 use crate::legendre::Legendre;
-use crate::{check_order, coeff_count, sh_index, Real, ShError};
+use crate::{check_order, coeff_count, Real, ShError};
 
 /// Evaluator of the real SH basis of one order, holding its recurrence tables.
 #[derive(Clone, Debug)]
 pub struct ShBasis<T> {
     leg: Legendre<T>,
-    sqrt2: T,
 }
 
 impl<T: Real> ShBasis<T> {
@@ -31,7 +30,6 @@ impl<T: Real> ShBasis<T> {
         check_order(order)?;
         Ok(Self {
             leg: Legendre::new(order)?,
-            sqrt2: T::c(std::f64::consts::SQRT_2),
         })
     }
 
@@ -54,51 +52,20 @@ impl<T: Real> ShBasis<T> {
     /// The direction is not normalised here (see [`ShBasis::eval_dir`]).
     #[inline]
     pub fn eval(&self, d: [T; 3], out: &mut [T]) {
-        let n = self.order();
-        let out = &mut out[..n * n];
-        let [x, y, z] = d;
+        // Literal orders let the compiler unroll the recurrences and drop bounds checks.
         let leg = &self.leg;
-        let mut pmm = T::c(0.5 / std::f64::consts::PI.sqrt());
-        // (c, s) = (Re, Im) of (x + iy)^m.
-        let (mut c, mut s) = (T::one(), T::zero());
-        let mut k = 0;
-        for m in 0..n {
-            if m > 0 {
-                pmm = pmm * leg.diag[m];
-                let c_next = x * c - y * s;
-                s = x * s + y * c;
-                c = c_next;
-            }
-            let (fc, fs) = if m == 0 {
-                (T::one(), T::zero())
-            } else {
-                (self.sqrt2 * c, self.sqrt2 * s)
-            };
-            let mi = m as i64;
-            // l = m
-            out[sh_index(m, mi)] = pmm * fc;
-            if m > 0 {
-                out[sh_index(m, -mi)] = pmm * fs;
-            }
-            if m + 1 < n {
-                let mut p2 = pmm;
-                let mut p1 = leg.sub[m] * z * pmm;
-                out[sh_index(m + 1, mi)] = p1 * fc;
-                if m > 0 {
-                    out[sh_index(m + 1, -mi)] = p1 * fs;
-                }
-                for l in (m + 2)..n {
-                    let (a, ab) = leg.ab[k];
-                    k += 1;
-                    let p = a * z * p1 - ab * p2;
-                    out[sh_index(l, mi)] = p * fc;
-                    if m > 0 {
-                        out[sh_index(l, -mi)] = p * fs;
-                    }
-                    p2 = p1;
-                    p1 = p;
-                }
-            }
+        match self.order() {
+            1 => eval_kernel::<T, 8>(leg, 1, d, out),
+            2 => eval_kernel::<T, 8>(leg, 2, d, out),
+            3 => eval_kernel::<T, 8>(leg, 3, d, out),
+            4 => eval_kernel::<T, 8>(leg, 4, d, out),
+            5 => eval_kernel::<T, 8>(leg, 5, d, out),
+            6 => eval_kernel::<T, 8>(leg, 6, d, out),
+            8 => eval_kernel::<T, 8>(leg, 8, d, out),
+            n if n <= 8 => eval_kernel::<T, 8>(leg, n, d, out),
+            n if n <= 16 => eval_kernel::<T, 16>(leg, n, d, out),
+            n if n <= 32 => eval_kernel::<T, 32>(leg, n, d, out),
+            n => eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, d, out),
         }
     }
 
@@ -130,6 +97,52 @@ impl<T: Real> ShBasis<T> {
         let mut v = vec![T::zero(); self.len()];
         self.eval(d, &mut v);
         v
+    }
+}
+
+/// The recurrence of the module docs for order `n ≤ CAP`, writing `out[0..n²]`.
+///
+/// Runs band by band (l outer, m inner) so the updates of different m are independent and
+/// pipeline well; `Q_m^m` is a constant (no dependence on the direction) taken from the table,
+/// and `√2` is folded into it for m > 0. `p1[m]`, `p2[m]` hold `Q_{l−1}^m`, `Q_{l−2}^m`.
+#[inline(always)]
+fn eval_kernel<T: Real, const CAP: usize>(leg: &Legendre<T>, n: usize, d: [T; 3], out: &mut [T]) {
+    let out = &mut out[..n * n];
+    let [x, y, z] = d;
+    // (Re, Im) of (x + iy)^m.
+    let mut cs = [T::zero(); CAP];
+    let mut sn = [T::zero(); CAP];
+    cs[0] = T::one();
+    for m in 1..n {
+        cs[m] = x * cs[m - 1] - y * sn[m - 1];
+        sn[m] = x * sn[m - 1] + y * cs[m - 1];
+    }
+    let mut p1 = [T::zero(); CAP];
+    let mut p2 = [T::zero(); CAP];
+    let ab = &leg.ab_l[..];
+    let (qmm, sub) = (&leg.qmm[..n], &leg.sub[..n]);
+    let mut k = 0;
+    out[0] = qmm[0];
+    p1[0] = qmm[0];
+    for l in 1..n {
+        // The three-term recurrence for m ≤ l − 2 (independent in m).
+        let row = &ab[k..k + l.saturating_sub(1)];
+        k += row.len();
+        for (m, &(a, b)) in row.iter().enumerate() {
+            let q = (a * z) * p1[m] - b * p2[m];
+            p2[m] = p1[m];
+            p1[m] = q;
+        }
+        p2[l - 1] = p1[l - 1];
+        p1[l - 1] = sub[l - 1] * z * qmm[l - 1];
+        p1[l] = qmm[l];
+        let c = l * l + l;
+        out[c] = p1[0];
+        let band = &mut out[c - l..=c + l];
+        for m in 1..=l {
+            band[l + m] = p1[m] * cs[m];
+            band[l - m] = p1[m] * sn[m];
+        }
     }
 }
 

@@ -42,6 +42,10 @@ pub struct Legendre<T> {
     pub(crate) sub: Vec<T>,
     /// `(a_l^m, a_l^m·b_l^m)` for m = 0..N−1 (outer), l = m+2..N−1 (inner).
     pub(crate) ab: Vec<(T, T)>,
+    /// The same coefficients in l-outer order: l = 2..N−1 (outer), m = 0..l−2 (inner).
+    pub(crate) ab_l: Vec<(T, T)>,
+    /// `Q_m^m = P̄_m^m / sin^m θ`, a constant, with `√2` folded in for m > 0 (SH evaluation).
+    pub(crate) qmm: Vec<T>,
 }
 
 impl<T: Real> Legendre<T> {
@@ -65,11 +69,36 @@ impl<T: Real> Legendre<T> {
                 ab.push((T::c(a), T::c(a * b)));
             }
         }
+        let mut ab_l = Vec::with_capacity(tri_count(order));
+        for l in 2..order {
+            for m in 0..=(l - 2) {
+                let (lf, mf) = (l as f64, m as f64);
+                let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
+                let lm1 = lf - 1.0;
+                let b = ((lm1 * lm1 - mf * mf) / (4.0 * lm1 * lm1 - 1.0)).sqrt();
+                ab_l.push((T::c(a), T::c(a * b)));
+            }
+        }
+        let mut q = 0.5 / std::f64::consts::PI.sqrt();
+        let mut qmm = Vec::with_capacity(order);
+        for m in 0..order {
+            if m > 0 {
+                let mf = m as f64;
+                q *= ((2.0 * mf + 1.0) / (2.0 * mf)).sqrt();
+            }
+            qmm.push(T::c(if m == 0 {
+                q
+            } else {
+                q * std::f64::consts::SQRT_2
+            }));
+        }
         Ok(Self {
             order,
             diag,
             sub,
             ab,
+            ab_l,
+            qmm,
         })
     }
 

@@ -30,4 +30,4 @@ pub use lobe::{clamped_cosine_zonal, irradiance, ClampedCosine};
 pub use project::{dot, project_fn, project_samples, reconstruct};
 pub use quadrature::{DirectionSet, GaussLegendre};
 pub use real::Real;
-pub use rotation::{euler_zyz, rotate_zonal, ShRotation};
+pub use rotation::{euler_zyz, rotate_zonal, EulerRotator, ShRotation, ShRotator};

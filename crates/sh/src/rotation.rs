@@ -53,6 +53,9 @@ pub struct ShRotation<T> {
     order: usize,
     /// Band `l` block at `offset(l)`, row-major, `(2l+1)²` entries, row/col index `m + l`.
     data: Vec<T>,
+    /// Scratch for the `P` values of one column: `Q₀, Q₁, Q₋₁`, each `2l−1 ≤ 255` long. Fixed
+    /// 256-entry arrays indexed by `u8` need no bounds checks in the hot loop.
+    scratch: Box<[[T; 256]; 3]>,
 }
 
 /// Start of band `l` in the packed block storage: `Σ_{k<l} (2k+1)² = l(4l²−1)/3`.
@@ -61,29 +64,193 @@ const fn offset(l: usize) -> usize {
     l * (4 * l * l - 1) / 3
 }
 
-impl<T: Real> ShRotation<T> {
-    /// Build `D(R)` for order `N` from a proper rotation matrix `r` (orthonormal, det +1; not
-    /// checked beyond a debug assertion — a reflection would give a meaningless result).
-    pub fn new(order: usize, r: &Mat3<T>) -> Result<Self, ShError> {
+/// Per-row coefficients of the `U, V, W` terms, with `1/√denom(n)` factored out: entry
+/// `D[m][n] = invd[n] · (cu Q₀[a0] + cv1 Q₁[a1] + cv2 Q₋₁[a2] + cw1 Q₁[a3] + cw2 Q₋₁[a4])` where
+/// `Q_i[a] = P(i, l, a, n)`; indices are offsets `a + l − 1` into the `Q` arrays (0 where the
+/// coefficient is zero, so they stay in range).
+#[derive(Clone, Copy, Debug, Default)]
+struct RowCoeffs<T> {
+    c: [T; 5],
+    a: [u8; 5],
+}
+
+/// Rotation-independent tables of one order: build `D(R)` for many `R` without recomputing
+/// square roots. Building a rotation with it costs `O(N³)` multiply-adds and no allocation.
+#[derive(Clone, Debug)]
+pub struct ShRotator<T> {
+    order: usize,
+    /// Band `l ≥ 2`: rows at `rows_off(l)`, `2l+1` entries.
+    rows: Vec<RowCoeffs<T>>,
+    /// Band `l ≥ 2`: `1/√denom(n)` at `rows_off(l) + n + l`.
+    invd: Vec<T>,
+}
+
+/// Start of band `l`'s rows: `Σ_{k=2}^{l−1} (2k+1) = l² − 4`.
+#[inline(always)]
+const fn rows_off(l: usize) -> usize {
+    l * l - 4
+}
+
+impl<T: Real> ShRotator<T> {
+    /// Tables for order `N`.
+    pub fn new(order: usize) -> Result<Self, ShError> {
         check_order(order)?;
-        let mut data = vec![T::zero(); offset(order)];
+        let count = if order > 2 { rows_off(order) } else { 0 };
+        let mut rows = vec![RowCoeffs::default(); count];
+        let mut invd = vec![T::zero(); count];
+        for l in 2..order {
+            let li = l as i64;
+            for n in -li..=li {
+                let denom = if n.abs() == li {
+                    (2 * li * (2 * li - 1)) as f64
+                } else {
+                    ((li + n) * (li - n)) as f64
+                };
+                invd[rows_off(l) + (n + li) as usize] = T::c(1.0 / denom.sqrt());
+            }
+            let idx = |a: i64| (a + li - 1) as u8;
+            for m in -li..=li {
+                let d = (m == 0) as i64 as f64;
+                let am = m.abs();
+                let cu = (((li + m) * (li - m)) as f64).sqrt();
+                let cvb =
+                    0.5 * ((1.0 + d) * ((li + am - 1) * (li + am)) as f64).sqrt() * (1.0 - 2.0 * d);
+                let cwb = -0.5 * (((li - am - 1).max(0) * (li - am)) as f64).sqrt() * (1.0 - d);
+                let mut c = [0.0; 5];
+                let mut a = [0u8; 5];
+                if cu != 0.0 {
+                    c[0] = cu;
+                    a[0] = idx(m);
+                }
+                if m == 0 {
+                    c[1] = cvb;
+                    a[1] = idx(1);
+                    c[2] = cvb;
+                    a[2] = idx(-1);
+                } else if m > 0 {
+                    let d1 = (m == 1) as i64 as f64;
+                    c[1] = cvb * (1.0 + d1).sqrt();
+                    a[1] = idx(m - 1);
+                    c[2] = -cvb * (1.0 - d1);
+                    a[2] = idx(-m + 1);
+                } else {
+                    let d1 = (m == -1) as i64 as f64;
+                    c[1] = cvb * (1.0 - d1);
+                    a[1] = idx(m + 1);
+                    c[2] = cvb * (1.0 + d1).sqrt();
+                    a[2] = idx(-m - 1);
+                }
+                if cwb != 0.0 {
+                    if m > 0 {
+                        c[3] = cwb;
+                        a[3] = idx(m + 1);
+                        c[4] = cwb;
+                        a[4] = idx(-m - 1);
+                    } else {
+                        c[3] = cwb;
+                        a[3] = idx(m - 1);
+                        c[4] = -cwb;
+                        a[4] = idx(-m + 1);
+                    }
+                }
+                rows[rows_off(l) + (m + li) as usize] = RowCoeffs { c: c.map(T::c), a };
+            }
+        }
+        Ok(Self { order, rows, invd })
+    }
+
+    /// The order `N`.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// A zeroed rotation of this order, to be filled by [`ShRotator::build_into`].
+    pub fn empty(&self) -> ShRotation<T> {
+        ShRotation {
+            order: self.order,
+            data: vec![T::zero(); offset(self.order)],
+            scratch: Box::new([[T::zero(); 256]; 3]),
+        }
+    }
+
+    /// Fill `out` (same order) with `D(r)` for a proper rotation matrix `r` (orthonormal,
+    /// det +1; not checked — a reflection gives a meaningless result).
+    pub fn build_into(&self, r: &Mat3<T>, out: &mut ShRotation<T>) {
+        assert_eq!(out.order, self.order, "rotation order mismatch");
+        let data = &mut out.data;
         data[0] = T::one();
-        if order > 1 {
-            // Basis order (y, z, x) ↔ m = −1, 0, 1.
-            const P: [usize; 3] = [1, 2, 0];
-            for i in 0..3 {
-                for j in 0..3 {
-                    data[offset(1) + i * 3 + j] = r[P[i]][P[j]];
+        if self.order < 2 {
+            return;
+        }
+        // Basis order (y, z, x) ↔ m = −1, 0, 1.
+        const P: [usize; 3] = [1, 2, 0];
+        for i in 0..3 {
+            for j in 0..3 {
+                data[offset(1) + i * 3 + j] = r[P[i]][P[j]];
+            }
+        }
+        let r1: [T; 9] = std::array::from_fn(|e| data[offset(1) + e]);
+        let r1at = |i: usize, j: usize| r1[i * 3 + j]; // i, j ∈ {0, 1, 2} ↔ {−1, 0, 1}
+        for l in 2..self.order {
+            let (prev, cur) = data.split_at_mut(offset(l));
+            let wp = 2 * l - 1;
+            let rl1 = &prev[offset(l - 1)..offset(l - 1) + wp * wp];
+            let w = 2 * l + 1;
+            let cur = &mut cur[..w * w];
+            let rows = &self.rows[rows_off(l)..rows_off(l) + w];
+            let invd = &self.invd[rows_off(l)..rows_off(l) + w];
+            let [q0, qp, qm] = &mut *out.scratch;
+            for nn in 0..w {
+                // Q_i[a] = P(i, l, a, n) for n = nn − l.
+                if nn == 0 || nn == w - 1 {
+                    // n = −l: r1[i][1]·rl1[a][−l+1] + r1[i][−1]·rl1[a][l−1]
+                    // n = +l: r1[i][1]·rl1[a][l−1] − r1[i][−1]·rl1[a][−l+1]
+                    let (lo, hi) = (0, wp - 1);
+                    for a in 0..wp {
+                        let (x_lo, x_hi) = (rl1[a * wp + lo], rl1[a * wp + hi]);
+                        let f = |i: usize| {
+                            if nn == 0 {
+                                r1at(i, 2) * x_lo + r1at(i, 0) * x_hi
+                            } else {
+                                r1at(i, 2) * x_hi - r1at(i, 0) * x_lo
+                            }
+                        };
+                        q0[a] = f(1);
+                        qp[a] = f(2);
+                        qm[a] = f(0);
+                    }
+                } else {
+                    let (c0, cp, cm) = (r1at(1, 1), r1at(2, 1), r1at(0, 1));
+                    for a in 0..wp {
+                        let x = rl1[a * wp + nn - 1];
+                        q0[a] = c0 * x;
+                        qp[a] = cp * x;
+                        qm[a] = cm * x;
+                    }
+                }
+                let s = invd[nn];
+                for (m, rc) in rows.iter().enumerate() {
+                    let (c, a) = (&rc.c, &rc.a);
+                    let v = c[0] * q0[a[0] as usize]
+                        + c[1] * qp[a[1] as usize]
+                        + c[2] * qm[a[2] as usize]
+                        + c[3] * qp[a[3] as usize]
+                        + c[4] * qm[a[4] as usize];
+                    cur[m * w + nn] = s * v;
                 }
             }
         }
-        for l in 2..order {
-            let (prev, cur) = data.split_at_mut(offset(l));
-            let r1 = &prev[offset(1)..offset(2)];
-            let rl1 = &prev[offset(l - 1)..];
-            band(l, r1, rl1, &mut cur[..(2 * l + 1) * (2 * l + 1)]);
-        }
-        Ok(Self { order, data })
+    }
+}
+
+impl<T: Real> ShRotation<T> {
+    /// Build `D(R)` for order `N` from a proper rotation matrix `r` (convenience: builds the
+    /// order's tables too; use [`ShRotator`] to build many rotations).
+    pub fn new(order: usize, r: &Mat3<T>) -> Result<Self, ShError> {
+        let rot = ShRotator::new(order)?;
+        let mut out = rot.empty();
+        rot.build_into(r, &mut out);
+        Ok(out)
     }
 
     /// The order `N`.
@@ -120,17 +287,21 @@ impl<T: Real> ShRotation<T> {
             let base = l * l;
             let blk = &self.data[offset(l)..offset(l) + w * w];
             let x = &input[base..base + w];
-            for i in 0..w {
-                let mut acc = T::zero();
-                for j in 0..w {
-                    let d = if transpose {
-                        blk[j * w + i]
-                    } else {
-                        blk[i * w + j]
-                    };
-                    acc = acc + d * x[j];
+            let y = &mut out[base..base + w];
+            if transpose {
+                y.iter_mut().for_each(|v| *v = T::zero());
+                for (row, &xj) in blk.chunks_exact(w).zip(x) {
+                    for (yi, &d) in y.iter_mut().zip(row) {
+                        *yi = *yi + d * xj;
+                    }
                 }
-                out[base + i] = acc;
+            } else {
+                for (yi, row) in y.iter_mut().zip(blk.chunks_exact(w)) {
+                    *yi = row
+                        .iter()
+                        .zip(x)
+                        .fold(T::zero(), |acc, (&d, &xj)| acc + d * xj);
+                }
             }
         }
     }
@@ -147,66 +318,6 @@ impl<T: Real> ShRotation<T> {
             }
         }
         m
-    }
-}
-
-/// Fill band `l ≥ 2` from band 1 (`r1`, 3×3) and band `l−1` (`rl1`, packed from its start).
-fn band<T: Real>(l: usize, r1: &[T], rl1: &[T], out: &mut [T]) {
-    let li = l as i64;
-    let wp = 2 * l - 1; // width of band l−1
-    let r1at = |i: i64, j: i64| r1[((i + 1) * 3 + (j + 1)) as usize];
-    let rlat = |a: i64, b: i64| rl1[((a + li - 1) as usize) * wp + (b + li - 1) as usize];
-    // Ivanic & Ruedenberg's P function.
-    let p = |i: i64, a: i64, b: i64| -> T {
-        if b == li {
-            r1at(i, 1) * rlat(a, li - 1) - r1at(i, -1) * rlat(a, -li + 1)
-        } else if b == -li {
-            r1at(i, 1) * rlat(a, -li + 1) + r1at(i, -1) * rlat(a, li - 1)
-        } else {
-            r1at(i, 0) * rlat(a, b)
-        }
-    };
-    let w = 2 * l + 1;
-    for m in -li..=li {
-        for n in -li..=li {
-            let d = (m == 0) as i64 as f64;
-            let denom = if n.abs() == li {
-                (2 * li * (2 * li - 1)) as f64
-            } else {
-                ((li + n) * (li - n)) as f64
-            };
-            let am = m.abs();
-            let u = (((li + m) * (li - m)) as f64 / denom).sqrt();
-            let v = 0.5
-                * ((1.0 + d) * ((li + am - 1) * (li + am)) as f64 / denom).sqrt()
-                * (1.0 - 2.0 * d);
-            let wc = -0.5 * (((li - am - 1) * (li - am)) as f64 / denom).sqrt() * (1.0 - d);
-            let mut acc = T::zero();
-            if u != 0.0 {
-                acc = acc + T::c(u) * p(0, m, n);
-            }
-            if v != 0.0 {
-                let vv = if m == 0 {
-                    p(1, 1, n) + p(-1, -1, n)
-                } else if m > 0 {
-                    let d1 = (m == 1) as i64 as f64;
-                    p(1, m - 1, n) * T::c((1.0 + d1).sqrt()) - p(-1, -m + 1, n) * T::c(1.0 - d1)
-                } else {
-                    let d1 = (m == -1) as i64 as f64;
-                    p(1, m + 1, n) * T::c(1.0 - d1) + p(-1, -m - 1, n) * T::c((1.0 + d1).sqrt())
-                };
-                acc = acc + T::c(v) * vv;
-            }
-            if wc != 0.0 {
-                let ww = if m > 0 {
-                    p(1, m + 1, n) + p(-1, -m - 1, n)
-                } else {
-                    p(1, m - 1, n) - p(-1, -m + 1, n)
-                };
-                acc = acc + T::c(wc) * ww;
-            }
-            out[(m + li) as usize * w + (n + li) as usize] = acc;
-        }
     }
 }
 
@@ -237,4 +348,124 @@ pub fn rotate_zonal<T: Real>(
         }
     }
     Ok(())
+}
+
+/// Rotation applied through Euler angles without forming `D(R)`: with
+/// `R = Rz(α)·Ry(β)·Rz(γ)` and `Ry(β) = Rx(−90°)·Rz(β)·Rx(90°)`,
+///
+/// ```text
+/// D(R) = D(Rz(α)) · D(Rx(90°))ᵀ · D(Rz(β)) · D(Rx(90°)) · D(Rz(γ))
+/// ```
+///
+/// where `D(Rz(φ))` mixes only the `±m` pair of each band
+/// (`c'_m = c_m cos mφ − c_{−m} sin mφ`, `c'_{−m} = c_{−m} cos mφ + c_m sin mφ`) and `D(Rx(90°))` is
+/// a fixed matrix built once per order (by [`ShRotator`]). The Euler angles are never formed:
+/// `cos β = R₂₂` and the `(cos, sin)` of α and γ come from `R`'s third column and row, and the
+/// multiples `mα` by complex recurrence — no trigonometric calls. The ZXZXZ factorisation is the
+/// standard one for SH rotation (e.g. Kautz, Sloan & Snyder 2002; Pinchon & Hoggan 2007). It
+/// costs ~2·Σ(2l+1)² multiply-adds per vector, which beats building `D(R)` when each rotation is
+/// applied once (per-receiver frames); build `D(R)` with [`ShRotator`] to rotate many vectors.
+#[derive(Clone, Debug)]
+pub struct EulerRotator<T> {
+    order: usize,
+    /// `D(Rx(90°))`, packed like [`ShRotation`].
+    x90: ShRotation<T>,
+    /// Its transpose `D(Rx(−90°))`, so both products are row-times-vector dot products.
+    x90t: ShRotation<T>,
+}
+
+impl<T: Real> EulerRotator<T> {
+    /// Tables for order `N`.
+    pub fn new(order: usize) -> Result<Self, ShError> {
+        let rx90 =
+            [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]].map(|r: [f64; 3]| r.map(T::c));
+        let rx90t =
+            [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]].map(|r: [f64; 3]| r.map(T::c));
+        Ok(Self {
+            order,
+            x90: ShRotation::new(order, &rx90)?,
+            x90t: ShRotation::new(order, &rx90t)?,
+        })
+    }
+
+    /// The order `N`.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// `y = D(r)·x` for a proper rotation matrix `r`. Both of length `N²`.
+    pub fn apply(&self, r: &Mat3<T>, x: &[T], y: &mut [T]) -> Result<(), ShError> {
+        check_coeffs(self.order, x.len())?;
+        check_coeffs(self.order, y.len())?;
+        // (cos, sin) of α, β, γ from R = Rz(α)Ry(β)Rz(γ).
+        let cb = r[2][2];
+        let sb = (r[0][2] * r[0][2] + r[1][2] * r[1][2]).sqrt();
+        let tiny = T::c(1e-12);
+        let (ca, sa, cg, sg) = if sb > tiny {
+            (r[0][2] / sb, r[1][2] / sb, -r[2][0] / sb, r[2][1] / sb)
+        } else {
+            // β ≈ 0 or π: only α ± γ is defined; put it all in α (γ = 0).
+            let s = if cb > T::zero() { T::one() } else { -T::one() };
+            let (c, si) = (r[0][0] * s, r[1][0] * s);
+            let n = (c * c + si * si).sqrt();
+            (c / n, si / n, T::one(), T::zero())
+        };
+        let ang = [(ca, sa), (cb, sb), (cg, sg)];
+        // Literal orders let the compiler unroll the small bands completely.
+        match self.order {
+            2 => self.apply_cap::<8>(2, x, y, ang),
+            3 => self.apply_cap::<8>(3, x, y, ang),
+            4 => self.apply_cap::<8>(4, x, y, ang),
+            n if n <= 4 => self.apply_cap::<8>(n, x, y, ang),
+            n if n <= 8 => self.apply_cap::<16>(n, x, y, ang),
+            n if n <= 32 => self.apply_cap::<64>(n, x, y, ang),
+            n => self.apply_cap::<256>(n, x, y, ang),
+        }
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn apply_cap<const CAP: usize>(&self, n: usize, x: &[T], y: &mut [T], angles: [(T, T); 3]) {
+        // cos(mφ), sin(mφ) for m < N and the three angles.
+        let mut cs = [[T::zero(); CAP]; 3];
+        let mut sn = [[T::zero(); CAP]; 3];
+        for (k, &(c, s)) in angles.iter().enumerate() {
+            cs[k][0] = T::one();
+            for m in 1..n {
+                cs[k][m] = cs[k][m - 1] * c - sn[k][m - 1] * s;
+                sn[k][m] = sn[k][m - 1] * c + cs[k][m - 1] * s;
+            }
+        }
+        let zrot = |v: &mut [T], l: usize, k: usize| {
+            for m in 1..=l {
+                let (p, q) = (v[l + m], v[l - m]);
+                v[l + m] = p * cs[k][m] - q * sn[k][m];
+                v[l - m] = q * cs[k][m] + p * sn[k][m];
+            }
+        };
+        let mut t = [T::zero(); CAP];
+        for l in 0..n {
+            let w = 2 * l + 1;
+            let (xb, yb) = (&x[l * l..l * l + w], &mut y[l * l..l * l + w]);
+            let blk = &self.x90.data[offset(l)..offset(l) + w * w];
+            let blk_t = &self.x90t.data[offset(l)..offset(l) + w * w];
+            yb.copy_from_slice(xb);
+            zrot(yb, l, 2);
+            let t = &mut t[..w];
+            for (ti, row) in t.iter_mut().zip(blk.chunks_exact(w)) {
+                *ti = row
+                    .iter()
+                    .zip(yb.iter())
+                    .fold(T::zero(), |acc, (&d, &v)| acc + d * v);
+            }
+            zrot(t, l, 1);
+            for (yi, row) in yb.iter_mut().zip(blk_t.chunks_exact(w)) {
+                *yi = row
+                    .iter()
+                    .zip(t.iter())
+                    .fold(T::zero(), |acc, (&d, &v)| acc + d * v);
+            }
+            zrot(yb, l, 0);
+        }
+    }
 }

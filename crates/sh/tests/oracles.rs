@@ -198,6 +198,39 @@ fn rotation_matches_reprojection_of_the_rotated_function() {
 }
 
 #[test]
+fn euler_path_equals_explicit_matrix_including_gimbal_cases() {
+    const TOL: f64 = 1e-12;
+    for order in [1usize, 2, 4, 9] {
+        let er = EulerRotator::<f64>::new(order).unwrap();
+        let x: Vec<f64> = (0..order * order)
+            .map(|i| ((i * 31) % 13) as f64 / 6.0 - 1.0)
+            .collect();
+        for (a, b, c) in [
+            (0.3, 1.1, -0.7),
+            (2.0, 0.0, 0.5),
+            (0.4, PI, -1.3),
+            (-1.0, 2.5, 3.0),
+            (0.0, 1e-13, 0.2),
+        ] {
+            let r = euler_zyz(a, b, c);
+            let mut want = vec![0.0; x.len()];
+            ShRotation::new(order, &r)
+                .unwrap()
+                .apply(&x, &mut want)
+                .unwrap();
+            let mut got = vec![0.0; x.len()];
+            er.apply(&r, &x, &mut got).unwrap();
+            let err = got
+                .iter()
+                .zip(&want)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max);
+            assert!(err < TOL, "N={order} euler=({a},{b},{c}): {err:e}");
+        }
+    }
+}
+
+#[test]
 fn rotation_composition_inverse_and_f32() {
     const TOL: f64 = 1e-12;
     const TOL_F32: f64 = 2e-5;
