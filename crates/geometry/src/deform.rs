@@ -1,0 +1,122 @@
+//! Deformers: deterministic functions of a time parameter `t` that rewrite positions only
+//! (topology fixed), applied to a rest pose.
+
+use crate::Mesh;
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// Bend about the z axis: a point at `x` along the bend axis is rotated in the x–y... plane by
+/// angle `κ·x` around the centre of curvature at `y = 1/κ`, with `κ = max_curvature · sin(πt)`
+/// (t ∈ [0, 1] bends and straightens). The papers' bending plane and sponge.
+pub fn bend(rest: &Mesh, out: &mut Mesh, max_curvature: f64, t: f64) {
+    let k = max_curvature * (PI * t).sin();
+    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
+        *o = if k.abs() < 1e-12 {
+            *p
+        } else {
+            // Map x ↦ angle κx on a circle of radius 1/κ − z (z is the thickness offset).
+            let (s, c) = (k * p.x).sin_cos();
+            let r = 1.0 / k - p.z;
+            DVec3::new(r * s, p.y, 1.0 / k - r * c)
+        };
+    }
+}
+
+/// Twist about the z axis by `max_turns · 2π · sin(πt) · z / h` (h = half height of the rest pose).
+pub fn twist(rest: &Mesh, out: &mut Mesh, max_turns: f64, t: f64) {
+    let h = rest
+        .positions
+        .iter()
+        .map(|p| p.z.abs())
+        .fold(1e-12, f64::max);
+    let a = max_turns * 2.0 * PI * (PI * t).sin();
+    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
+        let (s, c) = (a * p.z / h).sin_cos();
+        *o = DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z);
+    }
+}
+
+/// Morph between two poses of the same topology: `(1 − w) a + w b`, `w = (1 − cos 2πt)/2`.
+pub fn morph(a: &Mesh, b: &Mesh, out: &mut Mesh, t: f64) {
+    assert_eq!(
+        a.positions.len(),
+        b.positions.len(),
+        "morph targets differ in vertex count"
+    );
+    let w = 0.5 * (1.0 - (2.0 * PI * t).cos());
+    for ((o, p), q) in out.positions.iter_mut().zip(&a.positions).zip(&b.positions) {
+        *o = *p * (1.0 - w) + *q * w;
+    }
+}
+
+/// Flap wings: vertices with `|y| > y0` rotate about the x axis (through `y = ±y0`) by
+/// `amplitude · sin(2πt)` times a smooth span weight, so the wing bends as it flaps.
+pub fn flap(rest: &Mesh, out: &mut Mesh, y0: f64, amplitude: f64, t: f64) {
+    let a = amplitude * (2.0 * PI * t).sin();
+    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
+        let d = p.y.abs() - y0;
+        *o = if d <= 0.0 {
+            *p
+        } else {
+            let ang = a * (1.0 - (-d).exp()) * p.y.signum();
+            let (s, c) = ang.sin_cos();
+            let (yy, zz) = (p.y - p.y.signum() * y0, p.z);
+            DVec3::new(p.x, p.y.signum() * y0 + c * yy - s * zz, s * yy + c * zz)
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+
+    #[test]
+    fn deformers_keep_topology_and_are_deterministic() {
+        let rest = shapes::box_block(DVec3::new(1.0, 0.3, 0.1), 6);
+        let mut a = rest.clone();
+        let mut b = rest.clone();
+        for t in [0.0, 0.25, 0.5, 0.9] {
+            bend(&rest, &mut a, 1.2, t);
+            bend(&rest, &mut b, 1.2, t);
+            assert_eq!(a, b);
+            assert_eq!(a.triangles, rest.triangles);
+            assert!(a.positions.iter().all(|p| p.is_finite()));
+        }
+        // Bending preserves lengths along the bend axis on the neutral surface (z = 0 row).
+        let strip = shapes::plane(2.0, 0.5, 41, 3);
+        let mut s = strip.clone();
+        bend(&strip, &mut s, 1.5, 0.5);
+        let len: f64 = (0..40)
+            .map(|i| (s.positions[i + 1] - s.positions[i]).length())
+            .sum();
+        assert!((len - 2.0).abs() < 1e-3, "arc length {len}");
+        bend(&strip, &mut s, 1.5, 0.0);
+        assert_eq!(s.positions, strip.positions);
+        let bird = shapes::bird();
+        let mut f = bird.clone();
+        flap(&bird, &mut f, 0.3, 0.8, 0.25);
+        assert_eq!(f.triangles, bird.triangles);
+        assert!(f
+            .positions
+            .iter()
+            .zip(&bird.positions)
+            .any(|(p, q)| (*p - *q).length() > 0.1));
+        let egg = shapes::egg(1.0, 0.5, 22, 24);
+        let sphere = shapes::uv_sphere(1.0, 22, 24);
+        let mut m = egg.clone();
+        morph(&egg, &sphere, &mut m, 0.5);
+        assert!(m
+            .positions
+            .iter()
+            .zip(&sphere.positions)
+            .all(|(p, q)| (*p - *q).length() < 1e-12));
+        let mut tw = rest.clone();
+        twist(&rest, &mut tw, 0.25, 0.5);
+        assert!(tw
+            .positions
+            .iter()
+            .zip(&rest.positions)
+            .all(|(p, q)| ((p.x * p.x + p.y * p.y) - (q.x * q.x + q.y * q.y)).abs() < 1e-12));
+    }
+}

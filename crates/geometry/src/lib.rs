@@ -1,0 +1,19 @@
+//! Geometry for shadow fields: triangle meshes (OBJ/PLY, validated, bundled by name), procedural
+//! shapes and deformers, minimal bounding spheres, and ray casting against meshes (BVH via obvhs)
+//! or the analytic sphere. Knows nothing of SH, configs or files beyond mesh loading.
+
+pub mod bsphere;
+pub mod bundled;
+pub mod deform;
+pub mod error;
+pub mod mesh;
+pub mod ply;
+pub mod ray;
+pub mod shapes;
+
+pub use bsphere::{min_enclosing_sphere, Sphere};
+pub use error::GeometryError;
+pub use mesh::Mesh;
+pub use ray::{AnalyticSphere, BruteForce, MeshBvh, Occluder, RAY_EPS};
+
+pub use glam::DVec3;

@@ -1,0 +1,270 @@
+//! Triangle meshes as flat arrays with fixed topology: positions (f64) and index triples.
+//! Deformers rewrite `positions` only.
+
+use crate::{GeometryError, Sphere};
+use glam::DVec3;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A triangle mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// Where it came from (file path, bundled name or shape description), for messages.
+    pub name: String,
+    pub positions: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Non-fatal findings of [`Mesh::inspect`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub bounding_sphere: Sphere,
+    /// Every edge shared by exactly two faces with opposite orientation.
+    pub watertight: bool,
+    pub boundary_edges: usize,
+    pub non_manifold_edges: usize,
+    /// Triangles with zero area (kept; they never occlude).
+    pub degenerate_triangles: usize,
+    pub unreferenced_vertices: usize,
+}
+
+impl Mesh {
+    /// Build and validate: at least one vertex and one triangle, finite coordinates, indices in
+    /// range. Zero-area triangles are an error (`allow_degenerate = false`) or counted by
+    /// [`Mesh::inspect`] (`true`). Errors name `name` and the element.
+    pub fn new(
+        name: &str,
+        positions: Vec<DVec3>,
+        triangles: Vec<[u32; 3]>,
+        allow_degenerate: bool,
+    ) -> Result<Self, GeometryError> {
+        if positions.is_empty() || triangles.is_empty() {
+            return Err(GeometryError::Empty {
+                file: name.into(),
+                vertices: positions.len(),
+                triangles: triangles.len(),
+            });
+        }
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(GeometryError::Invalid {
+                file: name.into(),
+                element: "vertex",
+                index: i,
+                reason: format!("non-finite coordinate {:?}", positions[i]),
+            });
+        }
+        let n = positions.len() as u32;
+        for (f, t) in triangles.iter().enumerate() {
+            if let Some(&bad) = t.iter().find(|&&v| v >= n) {
+                return Err(GeometryError::Invalid {
+                    file: name.into(),
+                    element: "face",
+                    index: f,
+                    reason: format!("vertex index {bad} out of range (mesh has {n} vertices)"),
+                });
+            }
+        }
+        let mesh = Self {
+            name: name.into(),
+            positions,
+            triangles,
+        };
+        if !allow_degenerate {
+            if let Some(f) = (0..mesh.triangles.len()).find(|&f| mesh.triangle_area(f) == 0.0) {
+                return Err(GeometryError::Invalid {
+                    file: name.into(),
+                    element: "face",
+                    index: f,
+                    reason: format!("zero-area triangle {:?}", mesh.triangles[f]),
+                });
+            }
+        }
+        Ok(mesh)
+    }
+
+    /// Load an OBJ (tobj, triangulated) or PLY file; the extension decides.
+    pub fn load(path: &Path) -> Result<Self, GeometryError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| GeometryError::Io {
+            file: name.clone(),
+            reason: e.to_string(),
+        })?;
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("obj") => Self::from_obj_bytes(&name, &bytes),
+            Some("ply") => crate::ply::parse_ply(&name, &bytes),
+            _ => Err(GeometryError::Unknown(format!(
+                "{name}: unsupported mesh format (expected .obj or .ply)"
+            ))),
+        }
+    }
+
+    /// Parse OBJ text. tobj's parse errors carry no line, so lines are pre-checked here: every
+    /// `v` line needs three numbers and every `f` line three or more vertex references.
+    pub fn from_obj_bytes(name: &str, bytes: &[u8]) -> Result<Self, GeometryError> {
+        let text = std::str::from_utf8(bytes).map_err(|e| GeometryError::Parse {
+            file: name.into(),
+            line: 0,
+            reason: format!("not UTF-8 text: {e}"),
+        })?;
+        let mut vcount = 0usize;
+        for (i, line) in text.lines().enumerate() {
+            let mut it = line.split_whitespace();
+            match it.next() {
+                Some("v") => {
+                    let nums: Vec<&str> = it.collect();
+                    if nums.len() < 3 || nums[..3].iter().any(|s| s.parse::<f64>().is_err()) {
+                        return Err(GeometryError::Parse {
+                            file: name.into(),
+                            line: i + 1,
+                            reason: format!("bad vertex line {line:?}"),
+                        });
+                    }
+                    if let Some(bad) = nums[..3]
+                        .iter()
+                        .map(|s| s.parse::<f64>().unwrap())
+                        .find(|v| !v.is_finite())
+                    {
+                        return Err(GeometryError::Parse {
+                            file: name.into(),
+                            line: i + 1,
+                            reason: format!("non-finite coordinate {bad}"),
+                        });
+                    }
+                    vcount += 1;
+                }
+                Some("f") => {
+                    let refs: Vec<&str> = it.collect();
+                    if refs.len() < 3 {
+                        return Err(GeometryError::Parse {
+                            file: name.into(),
+                            line: i + 1,
+                            reason: format!("face with fewer than 3 vertices: {line:?}"),
+                        });
+                    }
+                    for r in refs {
+                        let idx = r.split('/').next().unwrap_or("");
+                        match idx.parse::<i64>() {
+                            Ok(v) if v > 0 && (v as usize) <= vcount => {}
+                            Ok(v) if v < 0 && (-v as usize) <= vcount => {}
+                            _ => {
+                                return Err(GeometryError::Parse {
+                                    file: name.into(),
+                                    line: i + 1,
+                                    reason: format!("vertex reference {r:?} out of range (1..={vcount} defined so far)"),
+                                })
+                            }
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ..Default::default()
+        };
+        let (models, _) = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &opts, |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .map_err(|e| GeometryError::Parse {
+            file: name.into(),
+            line: 0,
+            reason: e.to_string(),
+        })?;
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for m in models {
+            let base = positions.len() as u32;
+            positions.extend(
+                m.mesh
+                    .positions
+                    .chunks_exact(3)
+                    .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)),
+            );
+            triangles.extend(
+                m.mesh
+                    .indices
+                    .chunks_exact(3)
+                    .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+            );
+        }
+        Self::new(name, positions, triangles, false)
+    }
+
+    /// Area of triangle `f`.
+    pub fn triangle_area(&self, f: usize) -> f64 {
+        let [a, b, c] = self.corners(f);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    /// The three corners of triangle `f`.
+    #[inline]
+    pub fn corners(&self, f: usize) -> [DVec3; 3] {
+        let t = self.triangles[f];
+        [
+            self.positions[t[0] as usize],
+            self.positions[t[1] as usize],
+            self.positions[t[2] as usize],
+        ]
+    }
+
+    /// The minimal enclosing sphere of the vertices.
+    pub fn bounding_sphere(&self) -> Sphere {
+        crate::min_enclosing_sphere(&self.positions)
+    }
+
+    /// Topology and validity findings.
+    pub fn inspect(&self) -> MeshReport {
+        let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new(); // (forward, backward) counts
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let e = edges.entry((a.min(b), a.max(b))).or_default();
+                if a < b {
+                    e.0 += 1;
+                } else {
+                    e.1 += 1;
+                }
+            }
+        }
+        let boundary = edges.values().filter(|(f, b)| f + b == 1).count();
+        let non_manifold = edges
+            .values()
+            .filter(|(f, b)| f + b > 2 || (f + b == 2 && *f != 1))
+            .count();
+        let mut used = vec![false; self.positions.len()];
+        self.triangles
+            .iter()
+            .flatten()
+            .for_each(|&v| used[v as usize] = true);
+        MeshReport {
+            vertices: self.positions.len(),
+            triangles: self.triangles.len(),
+            bounding_sphere: self.bounding_sphere(),
+            watertight: boundary == 0 && non_manifold == 0,
+            boundary_edges: boundary,
+            non_manifold_edges: non_manifold,
+            degenerate_triangles: (0..self.triangles.len())
+                .filter(|&f| self.triangle_area(f) == 0.0)
+                .count(),
+            unreferenced_vertices: used.iter().filter(|u| !**u).count(),
+        }
+    }
+
+    /// Uniformly scale and translate so the minimal bounding sphere becomes `target`.
+    pub fn fit_to(&mut self, target: &Sphere) {
+        let s = self.bounding_sphere();
+        let f = target.radius / s.radius;
+        for p in &mut self.positions {
+            *p = target.center + (*p - s.center) * f;
+        }
+    }
+}

@@ -1,0 +1,336 @@
+//! Ray casting against an entity's surface: the [`Occluder`] seam with three implementations
+//! compared in tests — [`MeshBvh`] (obvhs compressed-wide BVH, f32, the production path),
+//! [`BruteForce`] (every triangle, f64 Möller–Trumbore; the oracle) and [`AnalyticSphere`]
+//! (exact f64 ray–sphere intersection, for closed-form truth).
+//!
+//! **Offset rule.** Rays that start on a surface would re-hit it at `t ≈ 0` through round-off
+//! (f32 positions carry ~6e-8 relative error, so a hit at distance ≲ 1e-6·r is indistinguishable
+//! from the origin's own surface). Every query therefore starts at `tmin = RAY_EPS · r`, `r` the
+//! entity's bounding radius: with `RAY_EPS = 1e-4` the smallest accepted hit is ~10³ f32 ulps away.
+//! The price: geometry closer than `1e-4·r` to the origin is ignored (a contact gap of 0.01 % of
+//! the entity's size), and a grazing ray that leaves a concave surface tangentially may miss a
+//! re-entry closer than that.
+
+use crate::{Mesh, Sphere};
+use glam::{DVec3, Vec3A};
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::bvh2::Bvh2;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use std::time::Duration;
+
+/// Relative ray start offset: queries start at `t = RAY_EPS · bounding radius`.
+pub const RAY_EPS: f64 = 1e-4;
+
+/// An entity's surface as seen by rays.
+pub trait Occluder: Send + Sync {
+    /// Whether the ray `o + t d` (`d` unit) hits the surface for some `t ∈ (tmin, tmax)`.
+    fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool;
+    /// The nearest hit distance in `(tmin, tmax)`, if any.
+    fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64>;
+    /// Minimal enclosing sphere of the surface.
+    fn bounding_sphere(&self) -> Sphere;
+    /// Euclidean distance from `p` to the surface.
+    fn distance_to_surface(&self, p: DVec3) -> f64;
+}
+
+/// How [`MeshBvh::update`] follows a deforming mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpdateStrategy {
+    /// Rebuild a compressed wide BVH (fast traversal, cannot be refit in place).
+    Rebuild,
+    /// Keep a binary BVH and refit its boxes (fast update, slower traversal).
+    Refit,
+}
+
+enum Accel {
+    Wide(CwBvh),
+    Binary(Bvh2),
+}
+
+/// A BVH over a mesh's triangles (obvhs), in f32.
+pub struct MeshBvh {
+    tris: Vec<Triangle>,
+    accel: Accel,
+    strategy: UpdateStrategy,
+    sphere: Sphere,
+    mesh_tris: Vec<[u32; 3]>,
+    positions: Vec<DVec3>,
+}
+
+fn to_tri(m: &Mesh, f: usize) -> Triangle {
+    let [a, b, c] = m.corners(f);
+    Triangle {
+        v0: Vec3A::from(a.as_vec3()),
+        v1: Vec3A::from(b.as_vec3()),
+        v2: Vec3A::from(c.as_vec3()),
+    }
+}
+
+impl MeshBvh {
+    /// Build for `mesh` with the given per-frame update strategy.
+    pub fn build(mesh: &Mesh, strategy: UpdateStrategy) -> Self {
+        let tris: Vec<Triangle> = (0..mesh.triangles.len()).map(|f| to_tri(mesh, f)).collect();
+        let accel = Self::make_accel(&tris, strategy);
+        Self {
+            tris,
+            accel,
+            strategy,
+            sphere: mesh.bounding_sphere(),
+            mesh_tris: mesh.triangles.clone(),
+            positions: mesh.positions.clone(),
+        }
+    }
+
+    fn make_accel(tris: &[Triangle], strategy: UpdateStrategy) -> Accel {
+        let mut t = Duration::default();
+        match strategy {
+            UpdateStrategy::Rebuild => Accel::Wide(build_cwbvh_from_tris(
+                tris,
+                BvhBuildParams::fast_build(),
+                &mut t,
+            )),
+            UpdateStrategy::Refit => {
+                let mut b = build_bvh2_from_tris(tris, BvhBuildParams::fast_build(), &mut t);
+                b.init_primitives_to_nodes_if_uninit();
+                Accel::Binary(b)
+            }
+        }
+    }
+
+    /// Follow a deformation of the same mesh (same topology): rebuild or refit.
+    pub fn update(&mut self, mesh: &Mesh) {
+        assert_eq!(mesh.triangles.len(), self.tris.len(), "topology changed");
+        for f in 0..self.tris.len() {
+            self.tris[f] = to_tri(mesh, f);
+        }
+        match &mut self.accel {
+            Accel::Wide(_) => self.accel = Self::make_accel(&self.tris, UpdateStrategy::Rebuild),
+            Accel::Binary(b) => {
+                // Leaves may hold several primitives: recompute each leaf box from its primitives,
+                // then the inner boxes bottom-up.
+                for n in 0..b.nodes.len() {
+                    let node = b.nodes[n];
+                    if node.is_leaf() {
+                        let mut aabb = self.tris
+                            [b.primitive_indices[node.first_index as usize] as usize]
+                            .aabb();
+                        for k in node.first_index..node.first_index + node.prim_count {
+                            aabb = aabb
+                                .union(&self.tris[b.primitive_indices[k as usize] as usize].aabb());
+                        }
+                        b.nodes[n].set_aabb(aabb);
+                    }
+                }
+                b.refit_all();
+            }
+        }
+        self.sphere = mesh.bounding_sphere();
+        self.positions.clone_from(&mesh.positions);
+    }
+
+    /// The update strategy.
+    pub fn strategy(&self) -> UpdateStrategy {
+        self.strategy
+    }
+
+    fn ray(o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Ray {
+        Ray::new(
+            Vec3A::from(o.as_vec3()),
+            Vec3A::from(d.as_vec3()),
+            tmin as f32,
+            tmax.min(f32::MAX as f64) as f32,
+        )
+    }
+}
+
+impl Occluder for MeshBvh {
+    #[inline]
+    fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        let ray = Self::ray(o, d, tmin, tmax);
+        match &self.accel {
+            Accel::Wide(b) => !b.ray_traverse_miss(ray, |r, id| {
+                self.tris[b.primitive_indices[id] as usize].intersect(r)
+            }),
+            Accel::Binary(b) => !b.ray_traverse_miss(ray, |r, id| {
+                self.tris[b.primitive_indices[id] as usize].intersect(r)
+            }),
+        }
+    }
+
+    fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
+        let ray = Self::ray(o, d, tmin, tmax);
+        let mut hit = RayHit::none();
+        let found = match &self.accel {
+            Accel::Wide(b) => b.ray_traverse(ray, &mut hit, |r, id| {
+                self.tris[b.primitive_indices[id] as usize].intersect(r)
+            }),
+            Accel::Binary(b) => b.ray_traverse(ray, &mut hit, |r, id| {
+                self.tris[b.primitive_indices[id] as usize].intersect(r)
+            }),
+        };
+        found.then_some(hit.t as f64)
+    }
+
+    fn bounding_sphere(&self) -> Sphere {
+        self.sphere
+    }
+
+    fn distance_to_surface(&self, p: DVec3) -> f64 {
+        mesh_distance(&self.positions, &self.mesh_tris, p)
+    }
+}
+
+/// Brute force over every triangle in f64: the oracle for the BVH.
+pub struct BruteForce {
+    mesh: Mesh,
+    sphere: Sphere,
+}
+
+impl BruteForce {
+    pub fn new(mesh: &Mesh) -> Self {
+        Self {
+            mesh: mesh.clone(),
+            sphere: mesh.bounding_sphere(),
+        }
+    }
+}
+
+/// Möller–Trumbore in f64: hit distance or `None`. Edges count as hits (closed test).
+pub fn intersect_triangle(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<f64> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if u < 0.0 || v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some(e2.dot(q) * inv)
+}
+
+impl Occluder for BruteForce {
+    fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        self.closest_hit(o, d, tmin, tmax).is_some()
+    }
+    fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
+        (0..self.mesh.triangles.len())
+            .filter_map(|f| intersect_triangle(o, d, self.mesh.corners(f)))
+            .filter(|t| *t > tmin && *t < tmax)
+            .min_by(f64::total_cmp)
+    }
+    fn bounding_sphere(&self) -> Sphere {
+        self.sphere
+    }
+    fn distance_to_surface(&self, p: DVec3) -> f64 {
+        mesh_distance(&self.mesh.positions, &self.mesh.triangles, p)
+    }
+}
+
+/// Closest point on triangle `abc` to `p` (Ericson, *Real-Time Collision Detection*, §5.1.5).
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Distance from `p` to the nearest triangle (brute force with a bounding-box early-out).
+pub fn mesh_distance(pos: &[DVec3], tris: &[[u32; 3]], p: DVec3) -> f64 {
+    let mut best = f64::INFINITY;
+    for t in tris {
+        let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
+        let lo = a.min(b).min(c);
+        let hi = a.max(b).max(c);
+        let box_d = (lo - p).max(p - hi).max(DVec3::ZERO).length();
+        if box_d >= best {
+            continue;
+        }
+        best = best.min((closest_point_on_triangle(p, a, b, c) - p).length());
+    }
+    best
+}
+
+/// The exact sphere `|x − c| = R`, intersected in f64.
+#[derive(Clone, Copy, Debug)]
+pub struct AnalyticSphere {
+    pub sphere: Sphere,
+}
+
+impl AnalyticSphere {
+    /// The unit sphere at the origin.
+    pub fn unit() -> Self {
+        Self {
+            sphere: Sphere {
+                center: DVec3::ZERO,
+                radius: 1.0,
+            },
+        }
+    }
+
+    /// Both roots of `|o + t d − c|² = R²` (`d` unit), ascending, computed without cancellation.
+    fn roots(&self, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+        let oc = o - self.sphere.center;
+        let b = d.dot(oc);
+        // |oc|² − R² as (|oc| − R)(|oc| + R) keeps accuracy for origins on the surface.
+        let l = oc.length();
+        let c = (l - self.sphere.radius) * (l + self.sphere.radius);
+        let disc = b * b - c;
+        if disc < 0.0 {
+            return None;
+        }
+        let q = -b - b.signum() * disc.sqrt();
+        let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q, c / q) };
+        Some((t0.min(t1), t0.max(t1)))
+    }
+}
+
+impl Occluder for AnalyticSphere {
+    fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        self.closest_hit(o, d, tmin, tmax).is_some()
+    }
+    fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
+        let (t0, t1) = self.roots(o, d)?;
+        [t0, t1].into_iter().find(|t| *t > tmin && *t < tmax)
+    }
+    fn bounding_sphere(&self) -> Sphere {
+        self.sphere
+    }
+    fn distance_to_surface(&self, p: DVec3) -> f64 {
+        ((p - self.sphere.center).length() - self.sphere.radius).abs()
+    }
+}

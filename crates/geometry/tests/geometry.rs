@@ -1,0 +1,277 @@
+//! Geometry oracles: mesh validation errors, bundled meshes, BVH against brute force, the
+//! analytic sphere, bounding spheres of real meshes.
+
+use shscale_geometry::ray::{intersect_triangle, UpdateStrategy};
+use shscale_geometry::*;
+
+fn err_of(name: &str, text: &str) -> String {
+    Mesh::from_obj_bytes(name, text.as_bytes())
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn bad_obj_files_name_file_and_line() {
+    let e = err_of("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+    assert!(e.contains("a.obj:4") && e.contains("out of range"), "{e}");
+    let e = err_of("b.obj", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
+    assert!(e.contains("b.obj:2") && e.contains("non-finite"), "{e}");
+    let e = err_of("c.obj", "v 0 0\n");
+    assert!(e.contains("c.obj:1"), "{e}");
+    let e = err_of("d.obj", "# nothing\n");
+    assert!(e.contains("d.obj") && e.contains("empty"), "{e}");
+    let e = err_of("e.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+    assert!(
+        e.contains("e.obj") && e.contains("face 0") && e.contains("zero-area"),
+        "{e}"
+    );
+    let e = err_of("f.obj", "v 0 0 0\nf 1 2\n");
+    assert!(e.contains("f.obj:2"), "{e}");
+    let e = Mesh::load(std::path::Path::new("/nonexistent/x.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("/nonexistent/x.obj"), "{e}");
+}
+
+#[test]
+fn ply_ascii_and_binary_and_errors() {
+    let ascii = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+    let m = ply::parse_ply("q.ply", ascii.as_bytes()).unwrap();
+    assert_eq!(m.triangles.len(), 2);
+    assert_eq!(m.positions.len(), 4);
+    // Binary little endian: same quad.
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+    for v in [
+        [0.0f64, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ] {
+        for c in v {
+            b.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    b.push(4);
+    for i in [0u32, 1, 2, 3] {
+        b.extend_from_slice(&i.to_le_bytes());
+    }
+    let mb = ply::parse_ply("q.ply", &b).unwrap();
+    assert_eq!(mb.positions, m.positions);
+    assert_eq!(mb.triangles, m.triangles);
+    // Truncated binary names the element; bad ASCII names the line.
+    let e = ply::parse_ply("t.ply", &b[..b.len() - 3])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("t.ply") && e.contains("face"), "{e}");
+    let bad = ascii.replace("1 1 0\n", "1 x 0\n");
+    let e = ply::parse_ply("r.ply", bad.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("r.ply:12"), "{e}");
+    let bad = ascii.replace("4 0 1 2 3", "4 0 1 2 9");
+    let e = ply::parse_ply("s.ply", bad.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("s.ply") && e.contains("face 0"), "{e}");
+}
+
+#[test]
+fn bundled_meshes_load_with_expected_topology() {
+    for (name, v, f, watertight) in [
+        ("bunny", 1839, 3674, true),
+        ("duck", 2108, 4212, true),
+        ("dragon_19k", 9357, 18718, true),
+        ("knot", 3200, 6400, true),
+        ("teapot", 8257, 16256, false),
+    ] {
+        let m = bundled::load(name).unwrap();
+        let r = m.inspect();
+        assert_eq!((r.vertices, r.triangles), (v, f), "{name}");
+        assert_eq!(r.watertight, watertight, "{name}: {r:?}");
+        // Every vertex lies inside the bounding sphere, and it is tight: some vertex is on it.
+        let s = r.bounding_sphere;
+        assert!(m.positions.iter().all(|p| s.contains(*p)), "{name}");
+        let far = m
+            .positions
+            .iter()
+            .map(|p| (*p - s.center).length())
+            .fold(0.0, f64::max);
+        assert!((far - s.radius).abs() < 1e-9 * s.radius, "{name}");
+    }
+    assert!(bundled::load("nope")
+        .unwrap_err()
+        .to_string()
+        .contains("bunny"));
+}
+
+/// xorshift for reproducible random rays.
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn dir(&mut self) -> DVec3 {
+        let z = 2.0 * self.f() - 1.0;
+        let p = 2.0 * std::f64::consts::PI * self.f();
+        let r = (1.0 - z * z).sqrt();
+        DVec3::new(r * p.cos(), r * p.sin(), z)
+    }
+}
+
+/// Smallest barycentric margin of the ray against any triangle it hits or nearly hits (how
+/// grazing it is).
+fn grazing_margin(m: &Mesh, o: DVec3, d: DVec3) -> f64 {
+    let mut best = f64::INFINITY;
+    for f in 0..m.triangles.len() {
+        let [a, b, c] = m.corners(f);
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-300 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(p) / det;
+        let v = d.dot(s.cross(e1)) / det;
+        let w = 1.0 - u - v;
+        if u > -1e-3 && v > -1e-3 && w > -1e-3 {
+            best = best.min(u.abs().min(v.abs()).min(w.abs()));
+        }
+    }
+    best
+}
+
+#[test]
+fn bvh_agrees_with_brute_force_on_random_rays() {
+    let mesh = bundled::load("bunny").unwrap();
+    let s = mesh.bounding_sphere();
+    let brute = BruteForce::new(&mesh);
+    let mut rng = Rng(7);
+    for strategy in [UpdateStrategy::Rebuild, UpdateStrategy::Refit] {
+        let bvh = MeshBvh::build(&mesh, strategy);
+        let (mut disagree, mut total) = (0, 0);
+        for _ in 0..3000 {
+            // Origins on the bounding sphere, directions random (half of them aimed inward).
+            let o = s.center + s.radius * rng.dir();
+            let mut d = rng.dir();
+            if rng.f() < 0.5 && d.dot(s.center - o) < 0.0 {
+                d = -d;
+            }
+            let tmin = RAY_EPS * s.radius;
+            let (a, b) = (
+                bvh.occluded(o, d, tmin, 1e30),
+                brute.occluded(o, d, tmin, 1e30),
+            );
+            total += 1;
+            if a != b {
+                disagree += 1;
+                let g = grazing_margin(&mesh, o, d);
+                // f32 vs f64 may disagree only for rays within ~1e-5 (barycentric) of an edge.
+                assert!(
+                    g < 1e-5,
+                    "{strategy:?}: non-grazing disagreement (margin {g:e}) at o={o} d={d}"
+                );
+            }
+            if a && b {
+                let (ta, tb) = (
+                    bvh.closest_hit(o, d, tmin, 1e30).unwrap(),
+                    brute.closest_hit(o, d, tmin, 1e30).unwrap(),
+                );
+                assert!(
+                    (ta - tb).abs() < 1e-4 * s.radius || grazing_margin(&mesh, o, d) < 1e-5,
+                    "{strategy:?}: t {ta} vs {tb}"
+                );
+            }
+        }
+        println!("{strategy:?}: {disagree} grazing disagreements in {total} rays");
+        assert!(
+            disagree * 100 < total,
+            "too many disagreements: {disagree}/{total}"
+        );
+    }
+}
+
+#[test]
+fn refit_follows_deformation_like_a_rebuild() {
+    let rest = shapes::box_block(DVec3::new(1.0, 0.3, 0.1), 12);
+    let mut bent = rest.clone();
+    let mut refit = MeshBvh::build(&rest, UpdateStrategy::Refit);
+    let mut rebuilt = MeshBvh::build(&rest, UpdateStrategy::Rebuild);
+    deform::bend(&rest, &mut bent, 1.4, 0.5);
+    refit.update(&bent);
+    rebuilt.update(&bent);
+    let brute = BruteForce::new(&bent);
+    let mut rng = Rng(99);
+    let s = bent.bounding_sphere();
+    for _ in 0..2000 {
+        let o = s.center + 1.5 * s.radius * rng.dir();
+        let d = (s.center + 0.5 * s.radius * rng.dir() - o).normalize();
+        let (a, b, c) = (
+            refit.occluded(o, d, 0.0, 1e30),
+            rebuilt.occluded(o, d, 0.0, 1e30),
+            brute.occluded(o, d, 0.0, 1e30),
+        );
+        if !(a == c && b == c) {
+            assert!(
+                grazing_margin(&bent, o, d) < 1e-5,
+                "refit {a} rebuild {b} brute {c}"
+            );
+        }
+    }
+}
+
+#[test]
+fn analytic_sphere_and_triangle_intersection() {
+    let s = AnalyticSphere::unit();
+    // From outside along the axis: hits at t = 2 (near side).
+    let o = DVec3::new(0.0, 0.0, 3.0);
+    assert_eq!(s.closest_hit(o, -DVec3::Z, 0.0, 10.0), Some(2.0));
+    // From a point on the surface: outward rays miss, inward rays hit the far side at 2cosθ.
+    let p = DVec3::new(0.0, 0.0, 1.0);
+    assert!(!s.occluded(p, DVec3::Z, RAY_EPS, 1e30));
+    let d = DVec3::new(0.6, 0.0, -0.8);
+    let t = s.closest_hit(p, d, RAY_EPS, 1e30).unwrap();
+    assert!((t - 1.6).abs() < 1e-15, "{t}");
+    // Tangent ray from the surface: misses beyond tmin.
+    assert!(!s.occluded(p, DVec3::X, RAY_EPS, 1e30));
+    assert!((s.distance_to_surface(DVec3::new(0.0, 2.0, 0.0)) - 1.0).abs() < 1e-15);
+    let tri = [DVec3::ZERO, DVec3::X, DVec3::Y];
+    assert_eq!(
+        intersect_triangle(DVec3::new(0.2, 0.2, 1.0), -DVec3::Z, tri),
+        Some(1.0)
+    );
+    assert_eq!(
+        intersect_triangle(DVec3::new(0.8, 0.8, 1.0), -DVec3::Z, tri),
+        None
+    );
+    // Tessellated sphere distance: vertices at 0.
+    let m = shapes::uv_sphere(1.0, 8, 12);
+    let b = MeshBvh::build(&m, UpdateStrategy::Rebuild);
+    assert!(b.distance_to_surface(m.positions[5]) < 1e-12);
+    assert!((b.distance_to_surface(DVec3::new(0.0, 0.0, 3.0)) - 2.0).abs() < 1e-12);
+}
+
+#[test]
+fn procedural_shapes_have_papers_sizes_and_are_watertight() {
+    let sponge = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 37);
+    assert!(
+        (8000..9000).contains(&sponge.positions.len()),
+        "{}",
+        sponge.positions.len()
+    );
+    assert!(sponge.inspect().watertight);
+    let egg = shapes::egg(1.0, 0.4, 22, 24);
+    assert!((450..600).contains(&egg.positions.len()));
+    assert!(egg.inspect().watertight);
+    let bird = shapes::bird();
+    assert!(
+        (1000..1300).contains(&bird.positions.len()),
+        "{}",
+        bird.positions.len()
+    );
+    assert!(bird.inspect().watertight, "{:?}", bird.inspect());
+    assert!(shapes::uv_sphere(1.0, 10, 16).inspect().watertight);
+}
