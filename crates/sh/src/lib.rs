@@ -21,7 +21,7 @@ pub mod quadrature;
 pub mod real;
 pub mod rotation;
 
-pub use cap::cap_coeffs;
+pub use cap::{cap_coeffs, cap_zonal};
 pub use error::ShError;
 pub use eval::ShBasis;
 pub use gaunt::GauntTensor;

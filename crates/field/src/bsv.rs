@@ -1,0 +1,224 @@
+//! Base-sphere visibility (BSV, DESIGN.md §4): visibility sampled at P points on the entity's
+//! bounding sphere (optionally inflated by `s ≥ 1`), over the hemisphere facing the centre at
+//! `H × H` directions, projected to order N in the entity frame; on-surface flags (§7); and
+//! interpolation at any direction from the centre.
+//!
+//! Layouts: lat-long θ×φ cell centres (`latlong:12x20`, the TR's GPU layout), cube faces
+//! (`cube:8`: 6·8·8 cell centres of the cube map projected to the sphere, the paper's layout),
+//! Fibonacci (`fib:P`). All three are interpolated on the spherical Delaunay triangulation of their
+//! sample directions ([`crate::delaunay`]) — one interpolation path for every layout, so layouts
+//! are compared on their sample placement alone (a deliberate simplification: bilinear
+//! interpolation on the lat-long and cube grids is not implemented).
+
+use crate::delaunay::SphericalTriangulation;
+use crate::visibility::{Frame, VisibilitySampler};
+use crate::FieldError;
+use glam::DVec3;
+use rayon::prelude::*;
+use shscale_geometry::{Occluder, Sphere};
+use std::f64::consts::PI;
+
+/// Placement of the base-sphere samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// `rows × cols` θ×φ cell centres.
+    LatLong { rows: usize, cols: usize },
+    /// `6 × n × n` cube-face cell centres.
+    Cube { n: usize },
+    /// `p` Fibonacci-lattice points.
+    Fibonacci { p: usize },
+}
+
+impl Layout {
+    /// Parse `latlong:RxC`, `cube:N` or `fib:P`.
+    pub fn parse(s: &str) -> Result<Self, FieldError> {
+        let bad = || {
+            FieldError::Spec(format!(
+                "layout {s:?}: expected latlong:RxC, cube:N or fib:P"
+            ))
+        };
+        let (kind, arg) = s.split_once(':').ok_or_else(bad)?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|v| *v > 0)
+                .ok_or_else(bad)
+        };
+        let l = match kind.trim() {
+            "latlong" => {
+                let (r, c) = arg.split_once('x').ok_or_else(bad)?;
+                Layout::LatLong {
+                    rows: num(r)?,
+                    cols: num(c)?,
+                }
+            }
+            "cube" => Layout::Cube { n: num(arg)? },
+            "fib" => Layout::Fibonacci { p: num(arg)? },
+            _ => return Err(bad()),
+        };
+        if l.directions().len() < 4 {
+            return Err(FieldError::Spec(format!(
+                "layout {s:?} has fewer than 4 samples"
+            )));
+        }
+        Ok(l)
+    }
+
+    /// Unit directions (from the centre) of the samples.
+    pub fn directions(&self) -> Vec<DVec3> {
+        match *self {
+            Layout::LatLong { rows, cols } => shscale_sh::DirectionSet::latlong(rows, cols)
+                .dirs
+                .iter()
+                .map(|d| DVec3::from_array(*d))
+                .collect(),
+            Layout::Fibonacci { p } => shscale_sh::DirectionSet::fibonacci_sphere(p)
+                .dirs
+                .iter()
+                .map(|d| DVec3::from_array(*d))
+                .collect(),
+            Layout::Cube { n } => {
+                let mut v = Vec::with_capacity(6 * n * n);
+                for axis in 0..3 {
+                    for sign in [1.0, -1.0] {
+                        for j in 0..n {
+                            for i in 0..n {
+                                let (a, b) = (
+                                    2.0 * (i as f64 + 0.5) / n as f64 - 1.0,
+                                    2.0 * (j as f64 + 0.5) / n as f64 - 1.0,
+                                );
+                                let mut q = [0.0; 3];
+                                q[axis] = sign;
+                                q[(axis + 1) % 3] = a;
+                                q[(axis + 2) % 3] = b;
+                                v.push(DVec3::from_array(q).normalize());
+                            }
+                        }
+                    }
+                }
+                v
+            }
+        }
+    }
+
+    /// Canonical string form (as parsed).
+    pub fn name(&self) -> String {
+        match *self {
+            Layout::LatLong { rows, cols } => format!("latlong:{rows}x{cols}"),
+            Layout::Cube { n } => format!("cube:{n}"),
+            Layout::Fibonacci { p } => format!("fib:{p}"),
+        }
+    }
+}
+
+/// One base-sphere sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BsvSample {
+    /// Unit direction from the centre.
+    pub dir: DVec3,
+    /// Sample position `c + s·r·dir`.
+    pub pos: DVec3,
+    /// Visibility coefficients (entity frame), order N.
+    pub coeffs: Vec<f64>,
+    /// Distance from the sample to the surface is below `ε·r` (DESIGN.md §7).
+    pub on_surface: bool,
+}
+
+/// Base-sphere visibility of one entity at one instant.
+#[derive(Clone, Debug)]
+pub struct Bsv {
+    pub layout: Layout,
+    pub sphere: Sphere,
+    /// The sampling sphere's radius `s·r`.
+    pub sampling_radius: f64,
+    pub samples: Vec<BsvSample>,
+    pub rays: usize,
+    tri: SphericalTriangulation,
+}
+
+impl Bsv {
+    /// Sample the BSV of `occ` (rayon-parallel over samples). `inflate ≥ 1` scales the sampling
+    /// sphere (the on-surface mitigation), `eps` is the on-surface threshold relative to r.
+    pub fn sample(
+        occ: &dyn Occluder,
+        layout: Layout,
+        sampler: &VisibilitySampler,
+        inflate: f64,
+        eps: f64,
+    ) -> Result<Self, FieldError> {
+        if !(inflate.is_finite() && inflate >= 1.0) {
+            return Err(FieldError::Spec(format!(
+                "sampling radius factor {inflate} must be ≥ 1"
+            )));
+        }
+        if !(eps.is_finite() && eps >= 0.0) {
+            return Err(FieldError::Spec(format!(
+                "on-surface epsilon {eps} must be ≥ 0"
+            )));
+        }
+        Self::sample_dirs(occ, layout, layout.directions(), sampler, inflate, eps)
+    }
+
+    /// As [`Bsv::sample`] with explicit sample directions (unit vectors); `layout` is recorded.
+    pub fn sample_dirs(
+        occ: &dyn Occluder,
+        layout: Layout,
+        dirs: Vec<DVec3>,
+        sampler: &VisibilitySampler,
+        inflate: f64,
+        eps: f64,
+    ) -> Result<Self, FieldError> {
+        let sphere = occ.bounding_sphere();
+        let rs = inflate * sphere.radius;
+        let samples: Vec<BsvSample> = dirs
+            .par_iter()
+            .map(|&dir| {
+                let pos = sphere.center + rs * dir;
+                let (coeffs, _) = sampler.facing_hemisphere(occ, pos, sphere.center, Frame::Entity);
+                let on_surface = occ.distance_to_surface(pos) < eps * sphere.radius;
+                BsvSample {
+                    dir,
+                    pos,
+                    coeffs,
+                    on_surface,
+                }
+            })
+            .collect();
+        let tri = SphericalTriangulation::new(&dirs).map_err(FieldError::Spec)?;
+        let rays = samples.len() * sampler.rays_per_hemisphere();
+        Ok(Self {
+            layout,
+            sphere,
+            sampling_radius: rs,
+            samples,
+            rays,
+            tri,
+        })
+    }
+
+    /// Interpolated coefficients (entity frame) at the unit direction `q` from the centre.
+    pub fn interpolate(&self, q: DVec3, out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        for (v, w) in self.tri.locate(q) {
+            for (o, c) in out.iter_mut().zip(&self.samples[v as usize].coeffs) {
+                *o += w * c;
+            }
+        }
+    }
+
+    /// Number of on-surface samples.
+    pub fn on_surface_count(&self) -> usize {
+        self.samples.iter().filter(|s| s.on_surface).count()
+    }
+}
+
+/// Solid angle of the cap subtended by a sphere of radius `r` seen from distance `d > r`:
+/// the half-angle is `asin(r/d)`.
+pub fn subtended_half_angle(r: f64, d: f64) -> f64 {
+    if d <= r {
+        PI / 2.0
+    } else {
+        (r / d).asin()
+    }
+}

@@ -1,0 +1,27 @@
+//! Fields of visibility around an entity: visibility sampling at a point (full sphere or the
+//! hemisphere facing the entity), base-sphere visibility (BSV) on layouts of the bounding sphere
+//! with spherical-Delaunay interpolation, and ray-traced truth (band-limited SH and full-frequency
+//! maps). Built on the SH core and the geometry crate's [`Occluder`]; knows nothing of configs,
+//! files or GPUs. Conventions: DESIGN.md §2 (frames), §4 (fields), §7 (on-surface samples).
+
+pub mod bsv;
+pub mod delaunay;
+pub mod frame;
+pub mod truth;
+pub mod visibility;
+
+pub use bsv::{Bsv, BsvSample, Layout};
+pub use frame::LocalFrame;
+pub use shscale_geometry::Occluder;
+pub use visibility::{Frame, VisibilitySampler};
+
+/// Errors of the field crate.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum FieldError {
+    /// A layout string or parameter is invalid.
+    #[error("{0}")]
+    Spec(String),
+    /// An SH-core error (order).
+    #[error(transparent)]
+    Sh(#[from] shscale_sh::ShError),
+}

@@ -1,0 +1,127 @@
+//! Visibility sampling at a point by ray casting, projected to SH.
+//!
+//! Directions: Gauss–Legendre in cosθ × uniform φ over a hemisphere (`H × H`, weights sum to 2π),
+//! taken in the point's local frame (z toward the entity centre). The full sphere is two such
+//! hemispheres (`2H²` rays). For the hemisphere facing the centre, the back hemisphere is exactly
+//! unoccluded for any point on or outside the bounding sphere (the tangent plane separates it from
+//! the entity), so it is added in closed form: the cap of half-angle π/2 about the direction away
+//! from the centre, `c_l = (−1)^l cap_l(π/2)` rotated onto that axis. Visibility is 1 when the ray
+//! escapes. Rays start at `tmin = RAY_EPS · r` (the offset rule of [`shscale_geometry::ray`]).
+//! Error: the quadrature integrates the visibility step exactly only where it is aligned with the
+//! rings, so coefficient errors are O(1/H) (see the tests for the stated bound).
+
+use crate::frame::LocalFrame;
+use glam::DVec3;
+use shscale_geometry::{Occluder, RAY_EPS};
+use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
+
+/// The frame SH coefficients are expressed in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Frame {
+    /// The entity's (world) axes, no rotation.
+    Entity,
+    /// The point's local frame: z toward the entity centre (DESIGN.md §2).
+    Local,
+}
+
+/// Visibility sampler of one order and hemisphere resolution.
+#[derive(Clone, Debug)]
+pub struct VisibilitySampler {
+    basis: ShBasis<f64>,
+    hemi: DirectionSet,
+    back_zonal: Vec<f64>,
+}
+
+impl VisibilitySampler {
+    /// Order `N` and hemisphere resolution `H ≥ 1` (`H × H` rays per hemisphere).
+    pub fn new(order: usize, h: usize) -> Result<Self, crate::FieldError> {
+        let basis = ShBasis::new(order)?;
+        if h == 0 {
+            return Err(crate::FieldError::Spec(
+                "hemisphere resolution must be ≥ 1".into(),
+            ));
+        }
+        let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)?;
+        Ok(Self {
+            basis,
+            hemi: DirectionSet::gauss_hemisphere(h),
+            back_zonal: cap,
+        })
+    }
+
+    /// The order N.
+    pub fn order(&self) -> usize {
+        self.basis.order()
+    }
+
+    /// Rays per hemisphere (`H²`).
+    pub fn rays_per_hemisphere(&self) -> usize {
+        self.hemi.len()
+    }
+
+    /// Project the visibility over the hemisphere about the local `z` axis (+1) or `−z` (−1).
+    fn accumulate(
+        &self,
+        occ: &dyn Occluder,
+        p: DVec3,
+        f: &LocalFrame,
+        side: f64,
+        frame: Frame,
+        out: &mut [f64],
+    ) {
+        let tmin = RAY_EPS * occ.bounding_sphere().radius;
+        let mut y = vec![0.0; out.len()];
+        for (d, &w) in self.hemi.dirs.iter().zip(&self.hemi.weights) {
+            let local = DVec3::new(d[0], d[1], side * d[2]);
+            let world = f.to_world(local);
+            if occ.occluded(p, world, tmin, f64::INFINITY) {
+                continue;
+            }
+            let e = match frame {
+                Frame::Entity => world,
+                Frame::Local => local,
+            };
+            self.basis.eval(e.to_array(), &mut y);
+            out.iter_mut().zip(&y).for_each(|(o, v)| *o += w * v);
+        }
+    }
+
+    /// Visibility over the full sphere at `p` (local frame toward the occluder's bounding-sphere
+    /// centre); returns the coefficients and the ray count `2H²`.
+    pub fn full_sphere(&self, occ: &dyn Occluder, p: DVec3, frame: Frame) -> (Vec<f64>, usize) {
+        let c = occ.bounding_sphere().center;
+        let f = if (c - p).length() > 0.0 {
+            LocalFrame::toward(p, c)
+        } else {
+            LocalFrame::from_z(DVec3::Z)
+        };
+        let mut out = vec![0.0; self.basis.len()];
+        self.accumulate(occ, p, &f, 1.0, frame, &mut out);
+        self.accumulate(occ, p, &f, -1.0, frame, &mut out);
+        (out, 2 * self.hemi.len())
+    }
+
+    /// Visibility sampled over the hemisphere facing `center` only, the back hemisphere taken as
+    /// unoccluded in closed form (valid on or outside the bounding sphere). Returns coefficients
+    /// and the ray count `H²`.
+    pub fn facing_hemisphere(
+        &self,
+        occ: &dyn Occluder,
+        p: DVec3,
+        center: DVec3,
+        frame: Frame,
+    ) -> (Vec<f64>, usize) {
+        let f = LocalFrame::toward(p, center);
+        let mut out = vec![0.0; self.basis.len()];
+        self.accumulate(occ, p, &f, 1.0, frame, &mut out);
+        let axis = match frame {
+            Frame::Entity => -f.z,
+            Frame::Local => -DVec3::Z,
+        };
+        let mut back = vec![0.0; out.len()];
+        rotate_zonal(&self.basis, &self.back_zonal, axis.to_array(), &mut back)
+            .expect("lengths agree");
+        out.iter_mut().zip(&back).for_each(|(o, b)| *o += b);
+        (out, self.hemi.len())
+    }
+}

@@ -1,0 +1,212 @@
+//! Field oracles: visibility of the analytic and the tessellated sphere against the closed-form
+//! cap, frames, BSV on-surface flags and interpolation.
+
+use glam::DVec3;
+use shscale_field::*;
+use shscale_geometry::{bundled, ray::UpdateStrategy, shapes, AnalyticSphere, MeshBvh};
+use shscale_sh::{cap_zonal, rotate_zonal, ShBasis, ShRotation};
+use std::f64::consts::PI;
+
+/// Closed-form visibility of a sphere (centre c, radius r) seen from p, entity frame:
+/// `√(4π)·δ_i0 − cap(asin(r/d))` rotated onto the direction toward the centre.
+fn sphere_visibility(order: usize, c: DVec3, r: f64, p: DVec3) -> Vec<f64> {
+    let b = ShBasis::<f64>::new(order).unwrap();
+    let d = (c - p).length();
+    let cap = cap_zonal(order, (r / d).asin()).unwrap();
+    let mut v = vec![0.0; order * order];
+    rotate_zonal(&b, &cap, ((c - p) / d).to_array(), &mut v).unwrap();
+    v.iter_mut().for_each(|x| *x = -*x);
+    v[0] += (4.0 * PI).sqrt();
+    v
+}
+
+/// The stated quadrature bound: the visibility step can fall inside one Gauss–Legendre ring, whose
+/// weight is at most `2π · π/(2H)`, so `|Δc_l^m| ≤ (π²/H) · √((2l+1)/4π)` (the largest |Y_l^m|).
+fn quad_bound(l: usize, h: usize) -> f64 {
+    PI * PI / h as f64 * ((2 * l + 1) as f64 / (4.0 * PI)).sqrt()
+}
+
+#[test]
+fn analytic_sphere_visibility_matches_the_cap() {
+    let order = 6;
+    let sphere = AnalyticSphere::unit();
+    for h in [16usize, 64] {
+        let s = VisibilitySampler::new(order, h).unwrap();
+        for p in [
+            DVec3::new(0.0, 0.0, 2.0),
+            DVec3::new(1.3, -0.4, 0.9),
+            DVec3::new(-3.0, 2.0, 1.0),
+        ] {
+            let want = sphere_visibility(order, DVec3::ZERO, 1.0, p);
+            let (full, rays) = s.full_sphere(&sphere, p, Frame::Entity);
+            let (hemi, hrays) = s.facing_hemisphere(&sphere, p, DVec3::ZERO, Frame::Entity);
+            assert_eq!((rays, hrays), (2 * h * h, h * h));
+            let mut worst = 0.0f64;
+            for i in 0..order * order {
+                let l = shscale_sh::sh_lm(i).0;
+                for got in [full[i], hemi[i]] {
+                    let e = (got - want[i]).abs();
+                    worst = worst.max(e / quad_bound(l, h));
+                    assert!(
+                        e <= quad_bound(l, h),
+                        "H={h} p={p} i={i}: err {e:e} > bound {:e}",
+                        quad_bound(l, h)
+                    );
+                }
+            }
+            println!("analytic sphere H={h} p={p}: max error / bound = {worst:.3}");
+        }
+    }
+}
+
+#[test]
+fn local_frame_is_the_entity_frame_rotated() {
+    let order = 5;
+    let sphere = AnalyticSphere::unit();
+    let s = VisibilitySampler::new(order, 24).unwrap();
+    let p = DVec3::new(0.7, 1.1, -1.4);
+    let (ent, _) = s.full_sphere(&sphere, p, Frame::Entity);
+    let (loc, _) = s.full_sphere(&sphere, p, Frame::Local);
+    let f = LocalFrame::toward(p, DVec3::ZERO);
+    // Local coefficients rotated by the local→world rotation give the entity coefficients.
+    let rot = ShRotation::new(order, &f.matrix()).unwrap();
+    let mut back = vec![0.0; loc.len()];
+    rot.apply(&loc, &mut back).unwrap();
+    let e = back
+        .iter()
+        .zip(&ent)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(e < 1e-12, "frames disagree by {e:e}");
+    // In the local frame the sphere's visibility is zonal (only m = 0 survives) up to quadrature.
+    for (i, v) in loc.iter().enumerate() {
+        if shscale_sh::sh_lm(i).1 != 0 {
+            assert!(v.abs() < 1e-12, "local coefficient {i} = {v}");
+        }
+    }
+}
+
+#[test]
+fn tessellated_sphere_matches_the_cap_within_geometric_and_quadrature_bounds() {
+    let order = 4;
+    let (rings, segs) = (48, 96);
+    let mesh = shapes::uv_sphere(1.0, rings, segs);
+    let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    let h = 32;
+    let s = VisibilitySampler::new(order, h).unwrap();
+    // The polyhedron lies between radius r_in = cos(π/rings)·cos(π/segs) and 1.
+    let r_in = (PI / rings as f64).cos() * (PI / segs as f64).cos();
+    for p in [DVec3::new(0.0, 0.0, 2.5), DVec3::new(1.5, 1.0, -0.5)] {
+        let want = sphere_visibility(order, DVec3::ZERO, 1.0, p);
+        let d = p.length();
+        let geo = 2.0 * PI * ((r_in / d).asin().cos() - (1.0 / d).asin().cos()).abs();
+        let (got, _) = s.full_sphere(&bvh, p, Frame::Entity);
+        for i in 0..order * order {
+            let l = shscale_sh::sh_lm(i).0;
+            let bound = quad_bound(l, h) + geo * ((2 * l + 1) as f64 / (4.0 * PI)).sqrt();
+            let e = (got[i] - want[i]).abs();
+            assert!(e <= bound, "p={p} i={i}: err {e:e} > bound {bound:e}");
+        }
+    }
+}
+
+#[test]
+fn bsv_on_the_analytic_sphere_is_all_on_surface_and_half_occluded() {
+    let order = 4;
+    let sphere = AnalyticSphere::unit();
+    let s = VisibilitySampler::new(order, 16).unwrap();
+    let bsv = Bsv::sample(
+        &sphere,
+        Layout::parse("latlong:12x20").unwrap(),
+        &s,
+        1.0,
+        1e-6,
+    )
+    .unwrap();
+    assert_eq!(bsv.samples.len(), 240);
+    assert_eq!(bsv.on_surface_count(), 240);
+    // From its own surface the sphere hides exactly the hemisphere toward its centre, so the
+    // visibility is the back hemisphere: √(4π)/2 at l = 0 (up to rays within 1e-4 of tangent).
+    for smp in &bsv.samples {
+        assert!(
+            (smp.coeffs[0] - 0.5 * (4.0 * PI).sqrt()).abs() < 1e-3,
+            "{}",
+            smp.coeffs[0]
+        );
+    }
+    // Inflating the sampling sphere removes the flags; the visibility there is the cap again.
+    let inflated = Bsv::sample(&sphere, Layout::parse("fib:100").unwrap(), &s, 1.2, 1e-6).unwrap();
+    assert_eq!(inflated.on_surface_count(), 0);
+    let want = sphere_visibility(order, DVec3::ZERO, 1.0, inflated.samples[3].pos);
+    assert!((inflated.samples[3].coeffs[0] - want[0]).abs() <= quad_bound(0, 16));
+    // Interpolation at a sample direction returns that sample.
+    let mut out = vec![0.0; 16];
+    inflated.interpolate(inflated.samples[7].dir, &mut out);
+    let e = out
+        .iter()
+        .zip(&inflated.samples[7].coeffs)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(e < 1e-9, "interpolation at a node: {e:e}");
+}
+
+#[test]
+fn on_surface_flags_mark_only_contact_points_of_a_mesh() {
+    // A cube's bounding sphere touches it at its 8 corners only.
+    let cube = shapes::box_block(DVec3::ONE, 2);
+    let bvh = MeshBvh::build(&cube, UpdateStrategy::Rebuild);
+    let s = VisibilitySampler::new(3, 8).unwrap();
+    let mut dirs: Vec<DVec3> = Vec::new();
+    for x in [-1.0, 1.0] {
+        for y in [-1.0, 1.0] {
+            for z in [-1.0, 1.0] {
+                dirs.push(DVec3::new(x, y, z).normalize());
+            }
+        }
+    }
+    dirs.extend([
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Y,
+        DVec3::Z,
+        -DVec3::Z,
+    ]);
+    dirs.push(DVec3::new(1.0, 0.9, 1.0).normalize()); // near, but not at, a corner
+    let bsv = Bsv::sample_dirs(
+        &bvh,
+        Layout::Fibonacci { p: dirs.len() },
+        dirs,
+        &s,
+        1.0,
+        1e-6,
+    )
+    .unwrap();
+    let flags: Vec<bool> = bsv.samples.iter().map(|x| x.on_surface).collect();
+    assert!(flags[..8].iter().all(|f| *f), "{flags:?}");
+    assert!(flags[8..].iter().all(|f| !*f), "{flags:?}");
+    // A real mesh: few samples touch the surface.
+    let bunny = bundled::load("bunny").unwrap();
+    let b = MeshBvh::build(&bunny, UpdateStrategy::Rebuild);
+    let bsv = Bsv::sample(&b, Layout::Cube { n: 8 }, &s, 1.0, 1e-3).unwrap();
+    println!(
+        "bunny cube:8 on-surface samples at ε = 1e-3: {}",
+        bsv.on_surface_count()
+    );
+    assert!(bsv.on_surface_count() < bsv.samples.len() / 10);
+}
+
+#[test]
+fn layouts_parse_and_reject_bad_specs() {
+    assert_eq!(
+        Layout::parse("latlong:12x20").unwrap().directions().len(),
+        240
+    );
+    assert_eq!(Layout::parse("cube:8").unwrap().directions().len(), 384);
+    assert_eq!(Layout::parse("fib:500").unwrap().directions().len(), 500);
+    for bad in ["latlong:12", "cube:0", "fib:x", "hex:3", "fib:3", ""] {
+        assert!(Layout::parse(bad).is_err(), "{bad}");
+    }
+    assert!(VisibilitySampler::new(0, 8).is_err());
+    assert!(VisibilitySampler::new(4, 0).is_err());
+}
