@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "shscale",
     version,
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
-    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10"
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -27,6 +27,47 @@ pub enum Command {
     /// Built-in demonstration: scale caps with M_k and check them against the analytic caps.
     /// Example: shscale demo --order 8
     Demo(DemoArgs),
+    /// Mesh counts, minimal bounding sphere, watertightness and validation findings.
+    /// Example: shscale inspect bunny
+    Inspect(InspectArgs),
+    /// Ray-traced visibility (1 = unoccluded) at a point over the full sphere, projected to SH.
+    /// Example: shscale visibility --mesh sphere --point 0,0,2 --order 4
+    Visibility(VisibilityArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// A bundled mesh name (bunny, duck, dragon_19k, knot, teapot), an .obj/.ply path, or `sphere`.
+    pub mesh: String,
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    pub format: Format,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameArg {
+    Entity,
+    Local,
+}
+
+#[derive(Args, Debug)]
+pub struct VisibilityArgs {
+    /// A bundled mesh name, an .obj/.ply path, or `sphere` (the analytic unit sphere at the origin).
+    #[arg(long)]
+    pub mesh: String,
+    /// The point X,Y,Z.
+    #[arg(long, allow_hyphen_values = true)]
+    pub point: String,
+    /// SH order N.
+    #[arg(long)]
+    pub order: usize,
+    /// Rays per hemisphere H×H (the full sphere uses 2H²).
+    #[arg(long, default_value_t = 32)]
+    pub hemisphere_res: usize,
+    /// Frame of the coefficients: the mesh's own axes, or z toward the bounding-sphere centre.
+    #[arg(long, value_enum, default_value_t = FrameArg::Entity)]
+    pub frame: FrameArg,
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    pub format: Format,
 }
 
 /// Output formats of the inspection commands.
@@ -137,6 +178,17 @@ pub struct DemoArgs {
     /// Cone half-angle α in degrees.
     #[arg(long, default_value_t = 45.0)]
     pub alpha_deg: f64,
+}
+
+/// Small helpers on [`Format`].
+pub trait FormatArgsExt {
+    fn is_json(&self) -> bool;
+}
+
+impl FormatArgsExt for Format {
+    fn is_json(&self) -> bool {
+        *self == Format::Json
+    }
 }
 
 /// Parse `a,b,c,…` into numbers; the error names the flag and the bad item.

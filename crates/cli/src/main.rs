@@ -5,6 +5,7 @@
 
 mod args;
 mod demo;
+mod geometry_cmd;
 mod matrix_cmd;
 mod output;
 mod sh_cmd;
@@ -40,6 +41,8 @@ fn main() -> ExitCode {
         Command::Sh(cmd) => sh_cmd::run(cmd),
         Command::Matrix(cmd) => matrix_cmd::run(cmd),
         Command::Demo(cmd) => demo::run(cmd),
+        Command::Inspect(cmd) => geometry_cmd::inspect(cmd),
+        Command::Visibility(cmd) => geometry_cmd::visibility(cmd),
     };
     match result {
         Ok(code) => code,

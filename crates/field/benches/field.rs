@@ -1,1 +1,84 @@
-fn main() {}
+//! Criterion benchmarks of geometry and BSV sampling: BVH build (wide BVH, rebuild) and refit
+//! (binary BVH) for ~20k and ~100k triangles; occlusion rays per second of the BSV workload on
+//! dragon_19k with 1 and 2 threads; BSV sampling of the bunny at 12×20×32² and 6×8×8×32² with 2
+//! threads. Run: `cargo bench -p shscale-field`; results in docs/BENCHMARKS.md.
+
+use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use glam::DVec3;
+use rayon::prelude::*;
+use shscale_field::{Bsv, Layout, LocalFrame, VisibilitySampler};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{bundled, deform, shapes, MeshBvh, Occluder, RAY_EPS};
+use shscale_sh::DirectionSet;
+
+fn pool(n: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+}
+
+fn bvh_build_refit(c: &mut Criterion) {
+    let mut g = c.benchmark_group("bvh");
+    g.sample_size(10);
+    for (label, rest) in [("sphere_20k", shapes::uv_sphere(1.0, 100, 100)), ("sphere_100k", shapes::uv_sphere(1.0, 224, 224))] {
+        let tris = rest.triangles.len();
+        let mut bent = rest.clone();
+        deform::twist(&rest, &mut bent, 0.2, 0.5);
+        g.bench_function(BenchmarkId::new("build_wide", format!("{label}_{tris}")), |b| b.iter(|| black_box(MeshBvh::build(&rest, UpdateStrategy::Rebuild))));
+        let mut wide = MeshBvh::build(&rest, UpdateStrategy::Rebuild);
+        g.bench_function(BenchmarkId::new("update_rebuild_wide", format!("{label}_{tris}")), |b| b.iter(|| wide.update(black_box(&bent))));
+        let mut bin = MeshBvh::build(&rest, UpdateStrategy::Refit);
+        g.bench_function(BenchmarkId::new("update_refit_binary", format!("{label}_{tris}")), |b| b.iter(|| bin.update(black_box(&bent))));
+    }
+    g.finish();
+}
+
+/// The BSV ray workload: from every cube:8 sample on the bounding sphere, 32×32 rays over the
+/// hemisphere facing the centre.
+fn bsv_rays(occ: &dyn Occluder) -> Vec<(DVec3, DVec3)> {
+    let s = occ.bounding_sphere();
+    let hemi = DirectionSet::gauss_hemisphere(32);
+    let mut rays = Vec::new();
+    for dir in Layout::Cube { n: 8 }.directions() {
+        let p = s.center + s.radius * dir;
+        let f = LocalFrame::toward(p, s.center);
+        for d in &hemi.dirs {
+            rays.push((p, f.to_world(DVec3::from_array(*d))));
+        }
+    }
+    rays
+}
+
+fn occlusion_rays(c: &mut Criterion) {
+    let mesh = bundled::load("dragon_19k").unwrap();
+    let mut g = c.benchmark_group("occlusion_rays_dragon_19k_bsv");
+    g.sample_size(10);
+    for strategy in [UpdateStrategy::Rebuild, UpdateStrategy::Refit] {
+        let bvh = MeshBvh::build(&mesh, strategy);
+        let rays = bsv_rays(&bvh);
+        let tmin = RAY_EPS * bvh.bounding_sphere().radius;
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        for threads in [1usize, 2] {
+            let p = pool(threads);
+            g.bench_function(BenchmarkId::new(format!("{strategy:?}"), format!("{threads}_threads")), |b| {
+                b.iter(|| p.install(|| rays.par_iter().with_min_len(1024).filter(|(o, d)| bvh.occluded(*o, *d, tmin, f64::INFINITY)).count()))
+            });
+        }
+    }
+    g.finish();
+}
+
+fn bsv_sampling(c: &mut Criterion) {
+    let mesh = bundled::load("bunny").unwrap();
+    let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    let sampler = VisibilitySampler::new(4, 32).unwrap();
+    let mut g = c.benchmark_group("bsv_sampling_bunny_n4_h32_2_threads");
+    g.sample_size(10);
+    let p = pool(2);
+    for layout in ["latlong:12x20", "cube:8"] {
+        let l = Layout::parse(layout).unwrap();
+        g.bench_function(layout, |b| b.iter(|| p.install(|| black_box(Bsv::sample(&bvh, l, &sampler, 1.0, 0.0).unwrap()))));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bvh_build_refit, occlusion_rays, bsv_sampling);
+criterion_main!(benches);

@@ -176,7 +176,8 @@ impl Bsv {
             .map(|&dir| {
                 let pos = sphere.center + rs * dir;
                 let (coeffs, _) = sampler.facing_hemisphere(occ, pos, sphere.center, Frame::Entity);
-                let on_surface = occ.distance_to_surface(pos) < eps * sphere.radius;
+                // eps = 0 can flag nothing (distances are ≥ 0): skip the distance query.
+                let on_surface = eps > 0.0 && occ.distance_to_surface(pos) < eps * sphere.radius;
                 BsvSample {
                     dir,
                     pos,

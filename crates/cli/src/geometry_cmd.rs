@@ -1,0 +1,149 @@
+//! `shscale inspect` and `shscale visibility`.
+
+use crate::args::{parse_list, FormatArgsExt, FrameArg, InspectArgs, VisibilityArgs};
+use crate::output::{print_coeffs, print_json};
+use anyhow::{bail, Context};
+use serde::Serialize;
+use shscale_field::{Frame, VisibilitySampler};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{bundled, AnalyticSphere, DVec3, MeshBvh, Occluder};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Largest hemisphere resolution accepted (2H² rays; 1024 gives 2M rays).
+const MAX_H: usize = 1024;
+
+/// The analytic unit sphere, or a mesh (bundled name or path) behind a BVH.
+fn occluder(spec: &str) -> anyhow::Result<Box<dyn Occluder>> {
+    if spec == "sphere" {
+        return Ok(Box::new(AnalyticSphere::unit()));
+    }
+    let mesh = bundled::resolve(spec)?;
+    Ok(Box::new(MeshBvh::build(&mesh, UpdateStrategy::Rebuild)))
+}
+
+#[derive(Serialize)]
+struct SphereOut {
+    center: [f64; 3],
+    radius: f64,
+}
+
+#[derive(Serialize)]
+struct InspectOut {
+    mesh: String,
+    vertices: usize,
+    triangles: usize,
+    bounding_sphere: SphereOut,
+    watertight: bool,
+    boundary_edges: usize,
+    non_manifold_edges: usize,
+    degenerate_triangles: usize,
+    unreferenced_vertices: usize,
+}
+
+pub fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
+    let out = if a.mesh == "sphere" {
+        InspectOut {
+            mesh: "sphere (analytic unit sphere)".into(),
+            vertices: 0,
+            triangles: 0,
+            bounding_sphere: SphereOut {
+                center: [0.0; 3],
+                radius: 1.0,
+            },
+            watertight: true,
+            boundary_edges: 0,
+            non_manifold_edges: 0,
+            degenerate_triangles: 0,
+            unreferenced_vertices: 0,
+        }
+    } else {
+        let mesh = bundled::resolve(&a.mesh)?;
+        let r = mesh.inspect();
+        InspectOut {
+            mesh: a.mesh.clone(),
+            vertices: r.vertices,
+            triangles: r.triangles,
+            bounding_sphere: SphereOut {
+                center: r.bounding_sphere.center.to_array(),
+                radius: r.bounding_sphere.radius,
+            },
+            watertight: r.watertight,
+            boundary_edges: r.boundary_edges,
+            non_manifold_edges: r.non_manifold_edges,
+            degenerate_triangles: r.degenerate_triangles,
+            unreferenced_vertices: r.unreferenced_vertices,
+        }
+    };
+    if a.format.is_json() {
+        print_json(&out)?;
+    } else {
+        println!("mesh                 {}", out.mesh);
+        println!("vertices / triangles {} / {}", out.vertices, out.triangles);
+        println!(
+            "bounding sphere      centre {:?}, radius {}",
+            out.bounding_sphere.center, out.bounding_sphere.radius
+        );
+        println!("watertight           {}", out.watertight);
+        println!("boundary edges       {}", out.boundary_edges);
+        println!("non-manifold edges   {}", out.non_manifold_edges);
+        println!("degenerate triangles {}", out.degenerate_triangles);
+        println!("unreferenced verts   {}", out.unreferenced_vertices);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[derive(Serialize)]
+struct VisOut<'a> {
+    order: usize,
+    frame: &'static str,
+    rays: usize,
+    seconds: f64,
+    values: &'a [f64],
+}
+
+pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
+    shscale_sh::check_order(a.order).context("--order")?;
+    if a.hemisphere_res == 0 || a.hemisphere_res > MAX_H {
+        bail!(
+            "--hemisphere-res: {} is outside 1..={MAX_H}",
+            a.hemisphere_res
+        );
+    }
+    let p = parse_list("point", &a.point)?;
+    if p.len() != 3 || p.iter().any(|v| !v.is_finite()) {
+        bail!(
+            "--point: expected 3 finite coordinates X,Y,Z, got {:?}",
+            a.point
+        );
+    }
+    let p = DVec3::new(p[0], p[1], p[2]);
+    let occ = occluder(&a.mesh)?;
+    if a.frame == FrameArg::Local && (occ.bounding_sphere().center - p).length() == 0.0 {
+        bail!("--point: the local frame is undefined at the bounding-sphere centre {p}");
+    }
+    let sampler = VisibilitySampler::new(a.order, a.hemisphere_res)?;
+    let frame = match a.frame {
+        FrameArg::Entity => Frame::Entity,
+        FrameArg::Local => Frame::Local,
+    };
+    let t0 = Instant::now();
+    let (values, rays) = sampler.full_sphere(occ.as_ref(), p, frame);
+    let seconds = t0.elapsed().as_secs_f64();
+    if a.format.is_json() {
+        print_json(&VisOut {
+            order: a.order,
+            frame: if frame == Frame::Entity {
+                "entity"
+            } else {
+                "local"
+            },
+            rays,
+            seconds,
+            values: &values,
+        })?;
+    } else {
+        print_coeffs(&values, a.format);
+    }
+    Ok(ExitCode::SUCCESS)
+}
