@@ -37,7 +37,7 @@ fn bsv_rays(occ: &dyn Occluder) -> Vec<(DVec3, DVec3)> {
     let s = occ.bounding_sphere();
     let hemi = DirectionSet::gauss_hemisphere(32);
     let mut rays = Vec::new();
-    for dir in Layout::Cube { n: 8 }.directions() {
+    for dir in (Layout::Cube { n: 8 }).directions() {
         let p = s.center + s.radius * dir;
         let f = LocalFrame::toward(p, s.center);
         for d in &hemi.dirs {
