@@ -12,21 +12,36 @@ use shscale_geometry::{bundled, deform, shapes, MeshBvh, Occluder, RAY_EPS};
 use shscale_sh::DirectionSet;
 
 fn pool(n: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .unwrap()
 }
 
 fn bvh_build_refit(c: &mut Criterion) {
     let mut g = c.benchmark_group("bvh");
     g.sample_size(10);
-    for (label, rest) in [("sphere_20k", shapes::uv_sphere(1.0, 100, 100)), ("sphere_100k", shapes::uv_sphere(1.0, 224, 224))] {
+    for (label, rest) in [
+        ("sphere_20k", shapes::uv_sphere(1.0, 100, 100)),
+        ("sphere_100k", shapes::uv_sphere(1.0, 224, 224)),
+    ] {
         let tris = rest.triangles.len();
         let mut bent = rest.clone();
         deform::twist(&rest, &mut bent, 0.2, 0.5);
-        g.bench_function(BenchmarkId::new("build_wide", format!("{label}_{tris}")), |b| b.iter(|| black_box(MeshBvh::build(&rest, UpdateStrategy::Rebuild))));
+        g.bench_function(
+            BenchmarkId::new("build_wide", format!("{label}_{tris}")),
+            |b| b.iter(|| black_box(MeshBvh::build(&rest, UpdateStrategy::Rebuild))),
+        );
         let mut wide = MeshBvh::build(&rest, UpdateStrategy::Rebuild);
-        g.bench_function(BenchmarkId::new("update_rebuild_wide", format!("{label}_{tris}")), |b| b.iter(|| wide.update(black_box(&bent))));
+        g.bench_function(
+            BenchmarkId::new("update_rebuild_wide", format!("{label}_{tris}")),
+            |b| b.iter(|| wide.update(black_box(&bent))),
+        );
         let mut bin = MeshBvh::build(&rest, UpdateStrategy::Refit);
-        g.bench_function(BenchmarkId::new("update_refit_binary", format!("{label}_{tris}")), |b| b.iter(|| bin.update(black_box(&bent))));
+        g.bench_function(
+            BenchmarkId::new("update_refit_binary", format!("{label}_{tris}")),
+            |b| b.iter(|| bin.update(black_box(&bent))),
+        );
     }
     g.finish();
 }
@@ -58,9 +73,19 @@ fn occlusion_rays(c: &mut Criterion) {
         g.throughput(Throughput::Elements(rays.len() as u64));
         for threads in [1usize, 2] {
             let p = pool(threads);
-            g.bench_function(BenchmarkId::new(format!("{strategy:?}"), format!("{threads}_threads")), |b| {
-                b.iter(|| p.install(|| rays.par_iter().with_min_len(1024).filter(|(o, d)| bvh.occluded(*o, *d, tmin, f64::INFINITY)).count()))
-            });
+            g.bench_function(
+                BenchmarkId::new(format!("{strategy:?}"), format!("{threads}_threads")),
+                |b| {
+                    b.iter(|| {
+                        p.install(|| {
+                            rays.par_iter()
+                                .with_min_len(1024)
+                                .filter(|(o, d)| bvh.occluded(*o, *d, tmin, f64::INFINITY))
+                                .count()
+                        })
+                    })
+                },
+            );
         }
     }
     g.finish();
@@ -75,10 +100,72 @@ fn bsv_sampling(c: &mut Criterion) {
     let p = pool(2);
     for layout in ["latlong:12x20", "cube:8"] {
         let l = Layout::parse(layout).unwrap();
-        g.bench_function(layout, |b| b.iter(|| p.install(|| black_box(Bsv::sample(&bvh, l, &sampler, 1.0, 0.0).unwrap()))));
+        g.bench_function(layout, |b| {
+            b.iter(|| p.install(|| black_box(Bsv::sample(&bvh, l, &sampler, 1.0, 0.0).unwrap())))
+        });
     }
     g.finish();
 }
 
-criterion_group!(benches, bvh_build_refit, occlusion_rays, bsv_sampling);
+/// Per-frame cost of following a deformation: BVH update (rebuild vs refit) plus the BSV ray
+/// workload (cube:8, 16×16 rays per sample, 2 threads), for each deforming scene.
+fn frame_cost(c: &mut Criterion) {
+    let bird = shapes::bird();
+    let egg = shapes::egg(1.0, 0.5, 22, 24);
+    let sphere = shapes::uv_sphere(1.0, 22, 24);
+    let sponge = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 37);
+    type Deform<'a> = Box<dyn Fn(&mut shscale_geometry::Mesh) + 'a>;
+    let scenes: Vec<(&str, &shscale_geometry::Mesh, Deform)> = vec![
+        (
+            "bird_flap",
+            &bird,
+            Box::new(|m| deform::flap(&bird, m, 0.3, 0.8, 0.25)),
+        ),
+        (
+            "egg_morph",
+            &egg,
+            Box::new(|m| deform::morph(&egg, &sphere, m, 0.3)),
+        ),
+        (
+            "sponge_bend",
+            &sponge,
+            Box::new(|m| deform::bend(&sponge, m, 1.2, 0.5)),
+        ),
+        (
+            "sponge_twist",
+            &sponge,
+            Box::new(|m| deform::twist(&sponge, m, 0.25, 0.5)),
+        ),
+    ];
+    let sampler = VisibilitySampler::new(4, 16).unwrap();
+    let p = pool(2);
+    let mut g = c.benchmark_group("frame_update_plus_bsv_cube8_h16_2_threads");
+    g.sample_size(10);
+    for (name, rest, deformer) in &scenes {
+        let mut posed = (*rest).clone();
+        deformer(&mut posed);
+        for strategy in [UpdateStrategy::Rebuild, UpdateStrategy::Refit] {
+            let mut bvh = MeshBvh::build(rest, strategy);
+            g.bench_function(BenchmarkId::new(*name, format!("{strategy:?}")), |b| {
+                b.iter(|| {
+                    bvh.update(&posed);
+                    p.install(|| {
+                        black_box(
+                            Bsv::sample(&bvh, Layout::Cube { n: 8 }, &sampler, 1.0, 0.0).unwrap(),
+                        )
+                    })
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bvh_build_refit,
+    occlusion_rays,
+    bsv_sampling,
+    frame_cost
+);
 criterion_main!(benches);

@@ -1,9 +1,33 @@
 //! Deformers: deterministic functions of a time parameter `t` that rewrite positions only
 //! (topology fixed), applied to a rest pose.
 
+use crate::ray::UpdateStrategy;
 use crate::Mesh;
 use glam::DVec3;
 use std::f64::consts::PI;
+
+/// The deformers of this module, for choosing how a BVH follows them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeformerKind {
+    Bend,
+    Twist,
+    Morph,
+    Flap,
+}
+
+impl DeformerKind {
+    /// The BVH update strategy measured to be faster per frame (update + the BSV ray workload,
+    /// `cargo bench -p shscale-field -- frame_update`, docs/BENCHMARKS.md): refitting keeps the
+    /// old tree topology, which stays good under small or local motion (egg morph: 10.3 vs 12.7 ms;
+    /// bird flap: equal) but degrades badly under large shear (sponge bend: 36 vs 20 ms; twist:
+    /// 174 vs 22 ms), where a rebuild pays for itself.
+    pub fn preferred_update(self) -> UpdateStrategy {
+        match self {
+            DeformerKind::Morph | DeformerKind::Flap => UpdateStrategy::Refit,
+            DeformerKind::Bend | DeformerKind::Twist => UpdateStrategy::Rebuild,
+        }
+    }
+}
 
 /// Bend about the z axis: a point at `x` along the bend axis is rotated in the x–y... plane by
 /// angle `κ·x` around the centre of curvature at `y = 1/κ`, with `κ = max_curvature · sin(πt)`

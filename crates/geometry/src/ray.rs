@@ -90,7 +90,7 @@ impl MeshBvh {
         match strategy {
             UpdateStrategy::Rebuild => Accel::Wide(build_cwbvh_from_tris(
                 tris,
-                BvhBuildParams::fast_build(),
+                BvhBuildParams::medium_build(),
                 &mut t,
             )),
             UpdateStrategy::Refit => {
