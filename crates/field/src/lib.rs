@@ -7,11 +7,13 @@
 pub mod bsv;
 pub mod delaunay;
 pub mod frame;
+pub mod radiance;
 pub mod truth;
 pub mod visibility;
 
 pub use bsv::{Bsv, BsvSample, Layout};
 pub use frame::LocalFrame;
+pub use radiance::Emitter;
 pub use shscale_geometry::Occluder;
 pub use visibility::{Frame, VisibilitySampler};
 

@@ -59,7 +59,33 @@ impl VisibilitySampler {
         self.hemi.len()
     }
 
-    /// Project the visibility over the hemisphere about the local `z` axis (+1) or `−z` (−1).
+    /// Project `value(world direction)` over the hemisphere about the local `z` axis (`side` =
+    /// +1) or `−z` (−1) into `out`.
+    pub(crate) fn accumulate_with(
+        &self,
+        p_frame: &LocalFrame,
+        side: f64,
+        frame: Frame,
+        out: &mut [f64],
+        mut value: impl FnMut(DVec3) -> f64,
+    ) {
+        let mut y = vec![0.0; out.len()];
+        for (d, &w) in self.hemi.dirs.iter().zip(&self.hemi.weights) {
+            let local = DVec3::new(d[0], d[1], side * d[2]);
+            let world = p_frame.to_world(local);
+            let v = value(world);
+            if v == 0.0 {
+                continue;
+            }
+            let e = match frame {
+                Frame::Entity => world,
+                Frame::Local => local,
+            };
+            self.basis.eval(e.to_array(), &mut y);
+            out.iter_mut().zip(&y).for_each(|(o, b)| *o += w * v * b);
+        }
+    }
+
     fn accumulate(
         &self,
         occ: &dyn Occluder,
@@ -70,20 +96,13 @@ impl VisibilitySampler {
         out: &mut [f64],
     ) {
         let tmin = RAY_EPS * occ.bounding_sphere().radius;
-        let mut y = vec![0.0; out.len()];
-        for (d, &w) in self.hemi.dirs.iter().zip(&self.hemi.weights) {
-            let local = DVec3::new(d[0], d[1], side * d[2]);
-            let world = f.to_world(local);
-            if occ.occluded(p, world, tmin, f64::INFINITY) {
-                continue;
+        self.accumulate_with(f, side, frame, out, |w| {
+            if occ.occluded(p, w, tmin, f64::INFINITY) {
+                0.0
+            } else {
+                1.0
             }
-            let e = match frame {
-                Frame::Entity => world,
-                Frame::Local => local,
-            };
-            self.basis.eval(e.to_array(), &mut y);
-            out.iter_mut().zip(&y).for_each(|(o, v)| *o += w * v);
-        }
+        });
     }
 
     /// Visibility over the full sphere at `p` (local frame toward the occluder's bounding-sphere

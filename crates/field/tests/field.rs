@@ -210,3 +210,118 @@ fn layouts_parse_and_reject_bad_specs() {
     assert!(VisibilitySampler::new(0, 8).is_err());
     assert!(VisibilitySampler::new(4, 0).is_err());
 }
+
+#[test]
+fn radiance_of_a_one_sided_square_matches_its_solid_angle() {
+    // A square emitter [−1, 1]² at z = 0 facing +z, radiance 2. Seen from (0, 0, h) its solid angle
+    // is Ω = 4 asin(1/(1 + h²)), so c_0 = 2 Ω / √(4π); from below it is dark (one-sided).
+    let quad = shscale_geometry::Mesh::new(
+        "quad",
+        vec![
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(1.0, -1.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(-1.0, 1.0, 0.0),
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+        false,
+    )
+    .unwrap();
+    let e = Emitter::new(
+        &quad,
+        MeshBvh::build(&quad, UpdateStrategy::Rebuild),
+        vec![2.0, 2.0],
+    )
+    .unwrap();
+    let h = 64;
+    let s = VisibilitySampler::new(3, h).unwrap();
+    for height in [0.5f64, 1.5, 4.0] {
+        let omega = 4.0 * (1.0 / (1.0 + height * height)).asin();
+        let want = 2.0 * omega / (4.0 * PI).sqrt();
+        let (full, _) = s.radiance_full_sphere(&e, DVec3::new(0.0, 0.0, height), Frame::Entity);
+        let (facing, _) =
+            s.radiance_facing(&e, DVec3::new(0.0, 0.0, height.max(1.5)), Frame::Entity);
+        // The square's edge is not aligned with the rings: bound = 2 × one ring per crossing row.
+        let bound = 2.0 * 2.0 * quad_bound(0, h);
+        assert!(
+            (full[0] - want).abs() < bound,
+            "h={height}: {} vs {want}",
+            full[0]
+        );
+        if height >= 1.5 {
+            assert!(
+                (facing[0] - want).abs() < bound,
+                "facing h={height}: {} vs {want}",
+                facing[0]
+            );
+        }
+        let (below, _) = s.radiance_full_sphere(&e, DVec3::new(0.0, 0.0, -height), Frame::Entity);
+        assert!(
+            below.iter().all(|v| v.abs() < 1e-15),
+            "back side must be dark"
+        );
+    }
+    assert!(Emitter::new(
+        &quad,
+        MeshBvh::build(&quad, UpdateStrategy::Rebuild),
+        vec![1.0]
+    )
+    .is_err());
+    assert!(Emitter::new(
+        &quad,
+        MeshBvh::build(&quad, UpdateStrategy::Rebuild),
+        vec![1.0, -1.0]
+    )
+    .is_err());
+}
+
+#[test]
+fn visibility_map_occluded_solid_angle_matches_the_cap() {
+    // Lat-long map of the unit sphere from distance 3: the occluded solid angle, summed with the
+    // texels' exact solid angles, equals the cap 2π(1 − cos asin(1/3)) up to the boundary texels
+    // (bound: the texels the cap's rim crosses, ≤ its perimeter / texel size × texel area).
+    let (w, h) = (512, 256);
+    let p = DVec3::new(0.0, 3.0, 0.0);
+    let map = truth::visibility_map(&AnalyticSphere::unit(), p, w, h);
+    let mut occluded = 0.0;
+    for j in 0..h {
+        let (t0, t1) = (PI * j as f64 / h as f64, PI * (j + 1) as f64 / h as f64);
+        let texel = 2.0 * PI / w as f64 * (t0.cos() - t1.cos());
+        occluded += map[j * w..(j + 1) * w]
+            .iter()
+            .filter(|v| **v == 0.0)
+            .count() as f64
+            * texel;
+    }
+    let a = (1.0f64 / 3.0).asin();
+    let want = 2.0 * PI * (1.0 - a.cos());
+    let texel_edge = PI / h as f64;
+    let bound = 2.0 * PI * a.sin() * texel_edge * 2.0;
+    assert!(
+        (occluded - want).abs() < bound,
+        "occluded {occluded} vs {want} (bound {bound})"
+    );
+}
+
+#[test]
+fn batched_queries_equal_single_queries() {
+    let bunny = bundled::load("bunny").unwrap();
+    let bvh = MeshBvh::build(&bunny, UpdateStrategy::Refit);
+    let s = bunny.bounding_sphere();
+    let rays: Vec<(DVec3, DVec3)> = shscale_sh::DirectionSet::fibonacci_sphere(500)
+        .dirs
+        .iter()
+        .map(|d| {
+            (
+                s.center + 1.5 * s.radius * DVec3::from_array(*d),
+                -DVec3::from_array(*d),
+            )
+        })
+        .collect();
+    let batch = bvh.occluded_batch(&rays, 0.0);
+    for ((o, d), b) in rays.iter().zip(&batch) {
+        assert_eq!(bvh.occluded(*o, *d, 0.0, f64::INFINITY), *b);
+    }
+    // Rays aimed at the centre from outside mostly hit the bunny.
+    assert!(batch.iter().filter(|b| **b).count() > 250);
+}

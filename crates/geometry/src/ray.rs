@@ -184,6 +184,55 @@ impl Occluder for MeshBvh {
     }
 }
 
+impl MeshBvh {
+    /// Any-hit queries for a batch of rays `(origin, unit direction)` in parallel (rayon), all
+    /// from `tmin` to infinity: `true` = occluded.
+    pub fn occluded_batch(&self, rays: &[(DVec3, DVec3)], tmin: f64) -> Vec<bool> {
+        use rayon::prelude::*;
+        rays.par_iter()
+            .with_min_len(256)
+            .map(|(o, d)| self.occluded(*o, *d, tmin, f64::INFINITY))
+            .collect()
+    }
+
+    /// Closest hit `(t, triangle index in the mesh)` in `(tmin, tmax)`, if any.
+    pub fn closest_hit_triangle(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<(f64, usize)> {
+        let ray = Self::ray(o, d, tmin, tmax);
+        let mut hit = RayHit::none();
+        let (found, idx) = match &self.accel {
+            Accel::Wide(b) => {
+                let f = b.ray_traverse(ray, &mut hit, |r, id| {
+                    self.tris[b.primitive_indices[id] as usize].intersect(r)
+                });
+                (
+                    f,
+                    f.then(|| b.primitive_indices[hit.primitive_id as usize] as usize),
+                )
+            }
+            Accel::Binary(b) => {
+                let f = b.ray_traverse(ray, &mut hit, |r, id| {
+                    self.tris[b.primitive_indices[id] as usize].intersect(r)
+                });
+                (
+                    f,
+                    f.then(|| b.primitive_indices[hit.primitive_id as usize] as usize),
+                )
+            }
+        };
+        if found {
+            idx.map(|i| (hit.t as f64, i))
+        } else {
+            None
+        }
+    }
+}
+
 /// Brute force over every triangle in f64: the oracle for the BVH.
 pub struct BruteForce {
     mesh: Mesh,

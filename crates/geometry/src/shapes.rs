@@ -130,11 +130,40 @@ pub fn box_block(h: DVec3, n: usize) -> Mesh {
         .expect("valid by construction")
 }
 
-/// An egg: a UV sphere of radius `r` whose horizontal radius is scaled by `1 + e·z/r` and whose
-/// vertical extent by `1 + e/2` (e = 0 is the sphere; the papers' transforming egg uses ~0.5k
-/// vertices: 22 rings × 24 segments). Morphs between egg (e > 0) and sphere with [`crate::deform::morph`].
+/// A superquadric (superellipsoid) with semi-axes `a`, east-west exponent `e1` (in θ) and
+/// north-south exponent `e2` (in φ), on the same UV topology as [`uv_sphere`]:
+/// `x = a.x·sgn(sθ cφ)|sθ|^e1 |cφ|^e2`, `y = a.y·sgn(sθ sφ)|sθ|^e1 |sφ|^e2`, `z = a.z·sgn(cθ)|cθ|^e1`
+/// (Barr 1981). `e1 = e2 = 1` and equal semi-axes give the sphere.
+pub fn superquadric(a: DVec3, e1: f64, e2: f64, rings: usize, segments: usize) -> Mesh {
+    let mut m = uv_sphere(1.0, rings, segments);
+    let sp = |v: f64, e: f64| v.signum() * v.abs().powf(e);
+    for q in &mut m.positions {
+        let theta = q.z.clamp(-1.0, 1.0).acos();
+        let phi = q.y.atan2(q.x);
+        let (st, ct) = theta.sin_cos();
+        let (sf, cf) = phi.sin_cos();
+        *q = DVec3::new(
+            a.x * sp(st, e1) * sp(cf, e2),
+            a.y * sp(st, e1) * sp(sf, e2),
+            a.z * sp(ct, e1),
+        );
+    }
+    m.name = format!("superquadric({:?},{e1},{e2})", a.to_array());
+    m
+}
+
+/// An egg: a [`superquadric`] (exponents `1 − e/3`, slightly boxy) of radius `r` whose horizontal
+/// radius is tapered by `1 + e·z/r` and whose height is stretched by `1 + e/2` (e = 0 is the
+/// sphere). The papers' transforming egg has ~0.5k vertices: 22 rings × 24 segments gives 506.
+/// Morph between egg and sphere (same topology) with [`crate::deform::morph`].
 pub fn egg(r: f64, e: f64, rings: usize, segments: usize) -> Mesh {
-    let mut m = uv_sphere(r, rings, segments);
+    let mut m = superquadric(
+        DVec3::splat(r),
+        1.0 - e / 3.0,
+        1.0 - e / 3.0,
+        rings,
+        segments,
+    );
     for q in &mut m.positions {
         let s = 1.0 + e * q.z / r;
         *q = DVec3::new(q.x * s, q.y * s, q.z * (1.0 + 0.5 * e));

@@ -1,0 +1,83 @@
+//! Radiance sampling for emissive meshes (lights; DESIGN.md §4 "source radiance fields"):
+//! `L(ω)` is the emitted radiance of the first surface a ray hits — per-triangle radiance,
+//! one-sided (a triangle emits toward the side its counter-clockwise normal faces; a ray hitting
+//! its back sees 0) — and 0 on a miss. Sampled like visibility; for a point on or outside the
+//! bounding sphere the back hemisphere is exactly 0 (DESIGN.md §4), so only the facing hemisphere
+//! is traced.
+
+use crate::frame::LocalFrame;
+use crate::visibility::{Frame, VisibilitySampler};
+use glam::DVec3;
+use shscale_geometry::{Mesh, MeshBvh, Occluder, RAY_EPS};
+
+/// An emissive mesh: geometry, a BVH and per-triangle emitted radiance.
+pub struct Emitter {
+    pub bvh: MeshBvh,
+    normals: Vec<DVec3>,
+    pub radiance: Vec<f64>,
+}
+
+impl Emitter {
+    /// `radiance` has one value per triangle (≥ 0, finite).
+    pub fn new(mesh: &Mesh, bvh: MeshBvh, radiance: Vec<f64>) -> Result<Self, crate::FieldError> {
+        if radiance.len() != mesh.triangles.len() {
+            return Err(crate::FieldError::Spec(format!(
+                "{} radiance values for {} triangles",
+                radiance.len(),
+                mesh.triangles.len()
+            )));
+        }
+        if let Some(i) = radiance.iter().position(|r| !(r.is_finite() && *r >= 0.0)) {
+            return Err(crate::FieldError::Spec(format!(
+                "triangle {i}: radiance {} must be finite and ≥ 0",
+                radiance[i]
+            )));
+        }
+        let normals = (0..mesh.triangles.len())
+            .map(|f| {
+                let [a, b, c] = mesh.corners(f);
+                (b - a).cross(c - a).normalize_or_zero()
+            })
+            .collect();
+        Ok(Self {
+            bvh,
+            normals,
+            radiance,
+        })
+    }
+
+    /// `L` seen from `p` along unit `d`.
+    pub fn radiance_along(&self, p: DVec3, d: DVec3) -> f64 {
+        let tmin = RAY_EPS * self.bvh.bounding_sphere().radius;
+        match self.bvh.closest_hit_triangle(p, d, tmin, f64::INFINITY) {
+            Some((_, tri)) if self.normals[tri].dot(d) < 0.0 => self.radiance[tri],
+            _ => 0.0,
+        }
+    }
+}
+
+impl VisibilitySampler {
+    /// Radiance over the full sphere at `p` (`2H²` rays), SH coefficients in `frame`.
+    pub fn radiance_full_sphere(&self, e: &Emitter, p: DVec3, frame: Frame) -> (Vec<f64>, usize) {
+        let c = e.bvh.bounding_sphere().center;
+        let f = if (c - p).length() > 0.0 {
+            LocalFrame::toward(p, c)
+        } else {
+            LocalFrame::from_z(DVec3::Z)
+        };
+        let mut out = vec![0.0; self.order() * self.order()];
+        for side in [1.0, -1.0] {
+            self.accumulate_with(&f, side, frame, &mut out, |w| e.radiance_along(p, w));
+        }
+        (out, 2 * self.rays_per_hemisphere())
+    }
+
+    /// Radiance over the hemisphere facing the emitter's centre only (the back hemisphere is 0 on
+    /// or outside the bounding sphere), `H²` rays.
+    pub fn radiance_facing(&self, e: &Emitter, p: DVec3, frame: Frame) -> (Vec<f64>, usize) {
+        let f = LocalFrame::toward(p, e.bvh.bounding_sphere().center);
+        let mut out = vec![0.0; self.order() * self.order()];
+        self.accumulate_with(&f, 1.0, frame, &mut out, |w| e.radiance_along(p, w));
+        (out, self.rays_per_hemisphere())
+    }
+}
