@@ -162,17 +162,7 @@ impl Occluder for MeshBvh {
     }
 
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
-        let ray = Self::ray(o, d, tmin, tmax);
-        let mut hit = RayHit::none();
-        let found = match &self.accel {
-            Accel::Wide(b) => b.ray_traverse(ray, &mut hit, |r, id| {
-                self.tris[b.primitive_indices[id] as usize].intersect(r)
-            }),
-            Accel::Binary(b) => b.ray_traverse(ray, &mut hit, |r, id| {
-                self.tris[b.primitive_indices[id] as usize].intersect(r)
-            }),
-        };
-        found.then_some(hit.t as f64)
+        self.closest_hit_triangle(o, d, tmin, tmax).map(|(t, _)| t)
     }
 
     fn bounding_sphere(&self) -> Sphere {

@@ -307,6 +307,21 @@ impl Tabulated {
         Self::new(theta, tau)
     }
 
+    /// Hermite data at θ: local parameter `s ∈ [0, 1]`, width `h`, end values and scaled slopes.
+    fn hermite(&self, theta: f64) -> (f64, f64, [f64; 4]) {
+        let (i, s, h) = self.segment(theta);
+        (
+            s,
+            h,
+            [
+                self.tau[i],
+                self.tau[i + 1],
+                self.slope[i] * h,
+                self.slope[i + 1] * h,
+            ],
+        )
+    }
+
     fn segment(&self, theta: f64) -> (usize, f64, f64) {
         let t = theta.clamp(0.0, PI);
         let i = match self.theta.partition_point(|&x| x <= t) {
@@ -320,13 +335,7 @@ impl Tabulated {
 
 impl AngularScaling for Tabulated {
     fn tau(&self, theta: f64) -> f64 {
-        let (i, s, h) = self.segment(theta);
-        let (y0, y1, d0, d1) = (
-            self.tau[i],
-            self.tau[i + 1],
-            self.slope[i] * h,
-            self.slope[i + 1] * h,
-        );
+        let (s, _, [y0, y1, d0, d1]) = self.hermite(theta);
         let (s2, s3) = (s * s, s * s * s);
         (2.0 * s3 - 3.0 * s2 + 1.0) * y0
             + (s3 - 2.0 * s2 + s) * d0
@@ -334,13 +343,7 @@ impl AngularScaling for Tabulated {
             + (s3 - s2) * d1
     }
     fn dtau(&self, theta: f64) -> f64 {
-        let (i, s, h) = self.segment(theta);
-        let (y0, y1, d0, d1) = (
-            self.tau[i],
-            self.tau[i + 1],
-            self.slope[i] * h,
-            self.slope[i + 1] * h,
-        );
+        let (s, h, [y0, y1, d0, d1]) = self.hermite(theta);
         let s2 = s * s;
         ((6.0 * s2 - 6.0 * s) * y0
             + (3.0 * s2 - 4.0 * s + 1.0) * d0
