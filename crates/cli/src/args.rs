@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "shscale",
     version,
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
-    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4"
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -33,6 +33,42 @@ pub enum Command {
     /// Ray-traced visibility (1 = unoccluded) at a point over the full sphere, projected to SH.
     /// Example: shscale visibility --mesh sphere --point 0,0,2 --order 4
     Visibility(VisibilityArgs),
+    /// Extrapolated vs ray-traced visibility at the papers' probe radii (Fig. 5), with metrics.
+    /// Example: shscale probe --mesh bunny --order 4 --alpha-deg 45
+    Probe(ProbeArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ProbeArgs {
+    /// A bundled mesh name, an .obj/.ply path, or `sphere` (analytic, closed-form truth).
+    #[arg(long)]
+    pub mesh: String,
+    /// SH order N.
+    #[arg(long)]
+    pub order: usize,
+    /// Cone half-angle α in degrees, inside (0, 90).
+    #[arg(long)]
+    pub alpha_deg: f64,
+    /// Base-sphere layout: latlong:RxC, cube:N or fib:P.
+    #[arg(long, default_value = "latlong:12x20")]
+    pub layout: String,
+    /// Rays per hemisphere H×H for the BSV and for the truth (2H²).
+    #[arg(long, default_value_t = 32)]
+    pub hemisphere_res: usize,
+    /// Sampling sphere radius as a multiple of the bounding radius (≥ 1; > 1 mitigates on-surface samples).
+    #[arg(long, default_value_t = 1.0)]
+    pub sampling_radius: f64,
+    /// Probe radii as multiples of the bounding radius.
+    #[arg(long, default_value = "0.5,0.7,0.9,1.3,2")]
+    pub radii: String,
+    /// Number of tabulated k values (exponential spacing over the probed k range).
+    #[arg(long, default_value_t = 40)]
+    pub k_count: usize,
+    /// On-surface threshold ε: a sample closer than ε·r to the surface is flagged.
+    #[arg(long, default_value_t = 1e-3)]
+    pub on_surface_eps: f64,
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    pub format: Format,
 }
 
 #[derive(Args, Debug)]

@@ -14,7 +14,7 @@ use std::time::Instant;
 const MAX_H: usize = 1024;
 
 /// The analytic unit sphere, or a mesh (bundled name or path) behind a BVH.
-fn occluder(spec: &str) -> anyhow::Result<Box<dyn Occluder>> {
+pub fn occluder(spec: &str) -> anyhow::Result<Box<dyn Occluder>> {
     if spec == "sphere" {
         return Ok(Box::new(AnalyticSphere::unit()));
     }

@@ -8,6 +8,7 @@ mod demo;
 mod geometry_cmd;
 mod matrix_cmd;
 mod output;
+mod probe_cmd;
 mod sh_cmd;
 
 use args::{Cli, Command};
@@ -43,6 +44,7 @@ fn main() -> ExitCode {
         Command::Demo(cmd) => demo::run(cmd),
         Command::Inspect(cmd) => geometry_cmd::inspect(cmd),
         Command::Visibility(cmd) => geometry_cmd::visibility(cmd),
+        Command::Probe(cmd) => probe_cmd::run(cmd),
     };
     match result {
         Ok(code) => code,

@@ -6,7 +6,10 @@
 
 pub mod bsv;
 pub mod delaunay;
+pub mod extrapolate;
 pub mod frame;
+pub mod metrics;
+pub mod probe;
 pub mod radiance;
 pub mod truth;
 pub mod visibility;

@@ -230,6 +230,16 @@ impl KTable {
         }
         let kk = self.ks.len();
         let (k_min, k_max) = (self.ks[0], self.ks[kk - 1]);
+        // A k within 1e-12 (relative) of an end is that end: distances recomputed from positions
+        // (p = c + ρ r u, then |p − c|/r) round across the boundary otherwise.
+        const END_TOL: f64 = 1e-12;
+        let k = if k < k_min && k >= k_min * (1.0 - END_TOL) {
+            k_min
+        } else if k > k_max && k <= k_max * (1.0 + END_TOL) {
+            k_max
+        } else {
+            k
+        };
         if k < k_min {
             out.values_mut().copy_from_slice(self.mats[0].values());
             return Ok(KLookup::BelowMin { k_min });

@@ -643,3 +643,35 @@ fn soa_batch_equals_per_vector_apply() {
     }
     assert!(m.apply_batch_soa(&soa, &mut y_soa, count + 1).is_err());
 }
+
+#[test]
+fn lookups_within_rounding_of_the_ends_are_interior() {
+    let t = KTable::build(
+        TauFamily::Cone { alpha: 45.0 * DEG },
+        Eta::Plain,
+        3,
+        5,
+        0.5,
+        2.0,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    let mut out = ScalingMatrix::identity(3).unwrap();
+    assert_eq!(
+        t.lookup(0.5 * (1.0 - 4e-16), &mut out).unwrap(),
+        KLookup::Interior
+    );
+    assert_eq!(
+        t.lookup(2.0 * (1.0 + 4e-16), &mut out).unwrap(),
+        KLookup::Interior
+    );
+    assert_eq!(
+        t.lookup(0.5 * (1.0 - 1e-9), &mut out).unwrap(),
+        KLookup::BelowMin { k_min: 0.5 }
+    );
+    assert_eq!(
+        t.lookup(2.0 * (1.0 + 1e-9), &mut out).unwrap(),
+        KLookup::AboveMax { k_max: 2.0 }
+    );
+}

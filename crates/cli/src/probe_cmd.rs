@@ -1,0 +1,189 @@
+//! `shscale probe`: extrapolated vs ray-traced visibility at the papers' probe radii.
+
+use crate::args::{parse_list, Format, ProbeArgs};
+use crate::geometry_cmd::occluder;
+use crate::output::print_json;
+use anyhow::{bail, Context};
+use serde::Serialize;
+use shscale_field::probe::{probe, ProbeRow, ProbeSpec};
+use shscale_field::Layout;
+use shscale_geometry::AnalyticSphere;
+use std::process::ExitCode;
+
+#[derive(Serialize)]
+struct RowOut {
+    radius: f64,
+    k: f64,
+    probes: usize,
+    inside_count: usize,
+    unoccluded_truth_count: usize,
+    clamped_count: usize,
+    vis_rel_l2_mean: Option<f64>,
+    vis_rel_l2_max: Option<f64>,
+    occ_rel_l2_mean: Option<f64>,
+    occ_rel_l2_max: Option<f64>,
+    on_surface_count: usize,
+    vis_rel_l2_on_surface_mean: Option<f64>,
+    occ_rel_l2_on_surface_mean: Option<f64>,
+    occ_rel_l2_on_surface_max: Option<f64>,
+    extrapolation_seconds: f64,
+    truth_seconds: f64,
+}
+
+impl From<&ProbeRow> for RowOut {
+    fn from(r: &ProbeRow) -> Self {
+        Self {
+            radius: r.radius,
+            k: r.k,
+            probes: r.probes,
+            inside_count: r.inside_count,
+            unoccluded_truth_count: r.unoccluded_truth_count,
+            clamped_count: r.clamped_count,
+            vis_rel_l2_mean: r.vis_rel_l2_mean,
+            vis_rel_l2_max: r.vis_rel_l2_max,
+            occ_rel_l2_mean: r.occ_rel_l2_mean,
+            occ_rel_l2_max: r.occ_rel_l2_max,
+            on_surface_count: r.on_surface_count,
+            vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
+            occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
+            occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
+            extrapolation_seconds: r.extrapolation_seconds,
+            truth_seconds: r.truth_seconds,
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct ProbeOut {
+    mesh: String,
+    order: usize,
+    alpha_deg: f64,
+    layout: String,
+    hemisphere_res: usize,
+    sampling_radius: f64,
+    k_count: usize,
+    k_min: f64,
+    k_max: f64,
+    samples: usize,
+    on_surface_samples: usize,
+    bsv_rays: usize,
+    bsv_sampling_seconds: f64,
+    table_build_seconds: f64,
+    threads: usize,
+    rows: Vec<RowOut>,
+}
+
+pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
+    shscale_sh::check_order(a.order).context("--order")?;
+    if a.order > 16 {
+        bail!(
+            "--order: {} is above 16, the largest order this command tabulates",
+            a.order
+        );
+    }
+    if !(a.alpha_deg > 0.0 && a.alpha_deg < 90.0) {
+        bail!("--alpha-deg: {} is outside (0, 90)", a.alpha_deg);
+    }
+    let layout = Layout::parse(&a.layout).context("--layout")?;
+    if a.hemisphere_res == 0 || a.hemisphere_res > 256 {
+        bail!("--hemisphere-res: {} is outside 1..=256", a.hemisphere_res);
+    }
+    if !(a.sampling_radius.is_finite() && a.sampling_radius >= 1.0) {
+        bail!("--sampling-radius: {} must be ≥ 1", a.sampling_radius);
+    }
+    let radii = parse_list("radii", &a.radii)?;
+    if let Some(r) = radii.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
+        bail!("--radii: {r} must be finite and > 0");
+    }
+    if a.k_count < 2 {
+        bail!("--k-count: {} must be ≥ 2", a.k_count);
+    }
+    if !(a.on_surface_eps.is_finite() && a.on_surface_eps >= 0.0) {
+        bail!("--on-surface-eps: {} must be ≥ 0", a.on_surface_eps);
+    }
+    let occ = occluder(&a.mesh)?;
+    let analytic = (a.mesh == "sphere").then(|| AnalyticSphere::unit().sphere);
+    let spec = ProbeSpec {
+        order: a.order,
+        alpha: a.alpha_deg.to_radians(),
+        layout,
+        hemisphere_res: a.hemisphere_res,
+        sampling_radius: a.sampling_radius,
+        radii,
+        k_count: a.k_count,
+        on_surface_eps: a.on_surface_eps,
+    };
+    let res = probe(occ.as_ref(), analytic, &spec)?;
+    let out = ProbeOut {
+        mesh: a.mesh.clone(),
+        order: a.order,
+        alpha_deg: a.alpha_deg,
+        layout: layout.name(),
+        hemisphere_res: a.hemisphere_res,
+        sampling_radius: a.sampling_radius,
+        k_count: a.k_count,
+        k_min: res.k_min,
+        k_max: res.k_max,
+        samples: res.samples,
+        on_surface_samples: res.on_surface_samples,
+        bsv_rays: res.bsv_rays,
+        bsv_sampling_seconds: res.bsv_sampling_seconds,
+        table_build_seconds: res.table_build_seconds,
+        threads: rayon_threads(),
+        rows: res.rows.iter().map(RowOut::from).collect(),
+    };
+    match a.format {
+        Format::Json => print_json(&out)?,
+        _ => {
+            let v = serde_json::to_value(&out.rows)?;
+            let rows = v.as_array().expect("array");
+            let keys: Vec<String> = rows[0]
+                .as_object()
+                .expect("object")
+                .keys()
+                .cloned()
+                .collect();
+            let head = [
+                "mesh",
+                "order",
+                "alpha_deg",
+                "layout",
+                "hemisphere_res",
+                "sampling_radius",
+                "k_count",
+            ];
+            // Rows keep the struct's field order (serde_json preserve_order).
+            println!("{},{}", head.join(","), keys.join(","));
+            for r in rows {
+                let cells: Vec<String> = keys
+                    .iter()
+                    .map(|k| {
+                        if r[k].is_null() {
+                            String::new()
+                        } else {
+                            r[k].to_string()
+                        }
+                    })
+                    .collect();
+                println!(
+                    "{},{},{},{},{},{},{},{}",
+                    out.mesh,
+                    out.order,
+                    out.alpha_deg,
+                    out.layout,
+                    out.hemisphere_res,
+                    out.sampling_radius,
+                    out.k_count,
+                    cells.join(",")
+                );
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}

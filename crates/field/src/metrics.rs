@@ -1,0 +1,72 @@
+//! Accuracy metrics, named as in DESIGN.md §6 (CSV headers use these names).
+//!
+//! * `vis_rel_l2 = ‖S_ext − S_true‖ / ‖S_true‖` over coefficients — by Parseval the relative L2
+//!   error of the band-limited visibility functions;
+//! * `occ_rel_l2 = ‖S_ext − S_true‖ / ‖S_occ_true‖`, `S_occ = P_N(1 − V) = √(4π)e₀ − S_true`: the
+//!   honest figure, because the constant 1 dominates `‖S_true‖`.
+//!
+//! Both are `None` when their denominator vanishes (a point that sees nothing, or nothing
+//! occluded), so callers can count such points instead of averaging infinities.
+
+/// Euclidean norm of a coefficient vector.
+pub fn l2(a: &[f64]) -> f64 {
+    a.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `‖a − b‖`.
+pub fn l2_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// `vis_rel_l2`, or `None` when `‖S_true‖` is 0.
+pub fn vis_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
+    let d = l2(truth);
+    (d > 0.0).then(|| l2_diff(ext, truth) / d)
+}
+
+/// `occ_rel_l2`, or `None` when the truth has nothing occluded (`‖S_occ_true‖ ≤ 1e-12`).
+pub fn occ_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
+    let mut occ: Vec<f64> = truth.iter().map(|v| -v).collect();
+    occ[0] += (4.0 * std::f64::consts::PI).sqrt();
+    let d = l2(&occ);
+    (d > 1e-12).then(|| l2_diff(ext, truth) / d)
+}
+
+/// Mean and max of the present values, and how many were present.
+pub fn mean_max(values: impl Iterator<Item = Option<f64>>) -> (Option<f64>, Option<f64>, usize) {
+    let v: Vec<f64> = values.flatten().collect();
+    if v.is_empty() {
+        return (None, None, 0);
+    }
+    (
+        Some(v.iter().sum::<f64>() / v.len() as f64),
+        Some(v.iter().copied().fold(f64::MIN, f64::max)),
+        v.len(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics_on_simple_vectors() {
+        let s = (4.0 * std::f64::consts::PI).sqrt();
+        let truth = [s - 1.0, 0.5, 0.0, 0.0];
+        let ext = [s - 1.0, 0.0, 0.0, 0.0];
+        let v = vis_rel_l2(&ext, &truth).unwrap();
+        assert!((v - 0.5 / ((s - 1.0).powi(2) + 0.25).sqrt()).abs() < 1e-15);
+        let o = occ_rel_l2(&ext, &truth).unwrap();
+        assert!((o - 0.5 / (1.0f64 + 0.25).sqrt()).abs() < 1e-15);
+        assert!(occ_rel_l2(&ext, &[s, 0.0, 0.0, 0.0]).is_none());
+        assert!(vis_rel_l2(&ext, &[0.0; 4]).is_none());
+        assert_eq!(
+            mean_max([Some(1.0), None, Some(3.0)].into_iter()),
+            (Some(2.0), Some(3.0), 2)
+        );
+    }
+}

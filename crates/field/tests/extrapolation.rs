@@ -1,0 +1,214 @@
+//! Oracles for the extrapolated field: a configuration where the cone model is exact, and the
+//! analytic sphere's on-surface failure against its closed-form prediction.
+
+use glam::DVec3;
+use shscale_field::extrapolate::{ExtrapolationKind, Extrapolator};
+use shscale_field::metrics::{l2, l2_diff, occ_rel_l2};
+use shscale_field::probe::{probe, ProbeSpec};
+use shscale_field::*;
+use shscale_geometry::{ray::UpdateStrategy, AnalyticSphere, Mesh, MeshBvh};
+use shscale_scaling::{
+    AngularScaling, Cone, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily,
+};
+use shscale_sh::{cap_zonal, rotate_zonal, ShBasis};
+use std::f64::consts::PI;
+
+/// A flat disc of radius `a` in the plane z = 0 (a two-sided 512-gon fan).
+fn disc(a: f64, n: usize) -> Mesh {
+    let mut p = vec![DVec3::ZERO];
+    for i in 0..n {
+        let t = 2.0 * PI * i as f64 / n as f64;
+        p.push(DVec3::new(a * t.cos(), a * t.sin(), 0.0));
+    }
+    let mut tris = Vec::new();
+    for i in 0..n as u32 {
+        tris.push([0, 1 + i, 1 + (i + 1) % n as u32]);
+    }
+    Mesh::new("disc", p, tris, false).unwrap()
+}
+
+/// Coefficients of `√(4π)e₀ − cap(A)` about the unit axis (entity frame).
+fn complement_cap(basis: &ShBasis<f64>, angle: f64, axis: DVec3) -> Vec<f64> {
+    let n = basis.order();
+    let cap = cap_zonal(n, angle).unwrap();
+    let mut v = vec![0.0; n * n];
+    rotate_zonal(basis, &cap, axis.to_array(), &mut v).unwrap();
+    v.iter_mut().for_each(|x| *x = -*x);
+    v[0] += (4.0 * PI).sqrt();
+    v
+}
+
+#[test]
+fn cone_model_is_exact_for_a_disc_seen_along_its_axis() {
+    // A disc of radius a centred at c, seen from its axis: the rim is the silhouette from every
+    // distance, and it lies on the cone of half-angle α = 90° about the axis through c (the flat
+    // disc limit tanθ_r = k tanθ_d of DESIGN.md §3.1). So with α → 90° scaling is exact in
+    // function space, and the extrapolated visibility differs from the truth only by (1) the
+    // band-limiting of the sampled input (closed-form prediction below) and (2) the BSV quadrature.
+    let order = 6;
+    let a = 1.0;
+    let mesh = disc(a, 512);
+    let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    assert!((bvh.bounding_sphere().radius - a).abs() < 1e-12);
+    let h = 64;
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    // Samples: the +z axis (the one we probe) plus a few others for the triangulation.
+    let dirs = vec![
+        DVec3::Z,
+        DVec3::X,
+        DVec3::Y,
+        -DVec3::X,
+        -DVec3::Y,
+        -DVec3::Z,
+    ];
+    let bsv = Bsv::sample_dirs(&bvh, Layout::Fibonacci { p: 6 }, dirs, &sampler, 1.0, 0.0).unwrap();
+    let alpha = 90f64.to_radians() - 1e-7;
+    let table = KTable::build(
+        TauFamily::Cone { alpha },
+        Eta::Plain,
+        order,
+        60,
+        0.3,
+        5.0,
+        Spacing::Exp,
+        Interp::Cubic,
+    )
+    .unwrap();
+    let ex = Extrapolator::new(&bsv, &table);
+    let basis = ShBasis::<f64>::new(order).unwrap();
+    let mut m = ScalingMatrix::identity(order).unwrap();
+    for k in [0.5, 0.8, 1.5, 3.0] {
+        let p = DVec3::new(0.0, 0.0, k * a);
+        let mut ext = vec![0.0; order * order];
+        assert_eq!(ex.eval(p, &mut m, &mut ext), ExtrapolationKind::Scaled);
+        // Truth: the disc hides the cap of half-angle atan(a/d) about −z.
+        let truth = complement_cap(&basis, (a / (k * a)).atan(), -DVec3::Z);
+        // Prediction of the band-limiting error alone: M_k applied to the exact projected input.
+        let tau = Cone::new(k, alpha).unwrap();
+        let m_exact = ScalingMatrix::compute(&tau, Eta::Plain, order).unwrap();
+        let input = complement_cap(&basis, PI / 4.0, -DVec3::Z);
+        // (The input cap angle π/4 maps to τ_k⁻¹(π/4) = atan(1/k): exact in function space.)
+        assert!((tau.inverse(PI / 4.0) - (1.0 / k).atan()).abs() < 1e-6);
+        let f = LocalFrame::toward(p, DVec3::ZERO);
+        let rot = shscale_sh::ShRotation::new(order, &f.matrix()).unwrap();
+        let mut local = vec![0.0; input.len()];
+        rot.apply_inverse(&input, &mut local).unwrap();
+        let mut scaled = vec![0.0; input.len()];
+        m_exact.apply(&local, &mut scaled).unwrap();
+        let mut predicted = vec![0.0; input.len()];
+        rot.apply(&scaled, &mut predicted).unwrap();
+        let band_limit = l2_diff(&predicted, &truth);
+        // BSV error, measured against the exact input; it reaches the output through the table's
+        // M (the Frobenius norm bounds the spectral norm; rotations are orthogonal). The table's
+        // interpolation error enters as (M_table − M_exact)·input, computed exactly.
+        let bsv_err = l2_diff(&bsv.samples[0].coeffs, &input);
+        let mut m_table = ScalingMatrix::identity(order).unwrap();
+        table.lookup(k, &mut m_table).unwrap();
+        let m_norm = l2(m_table.values()) * 2f64.sqrt();
+        let mut via_table = vec![0.0; input.len()];
+        m_table.apply(&local, &mut via_table).unwrap();
+        let table_err = l2_diff(&via_table, &scaled);
+        let err = l2_diff(&ext, &truth);
+        let bound = band_limit + m_norm * bsv_err + table_err;
+        println!("disc k={k}: ‖ext − truth‖ = {err:.4e} ≤ band-limiting {band_limit:.4e} + BSV {:.2e} + table {table_err:.1e}", m_norm * bsv_err);
+        assert!(err <= bound, "k={k}: {err:e} > {bound:e}");
+        assert!(
+            err >= band_limit - m_norm * bsv_err - table_err,
+            "k={k}: below the band-limiting floor"
+        );
+        assert!(err < 0.5 * l2(&truth), "k={k}: not even close");
+    }
+}
+
+#[test]
+fn sphere_on_surface_error_matches_the_closed_form_prediction() {
+    // Every sample on the sphere's surface sees exactly half of it occluded; the truth at d = k·r
+    // is the cap asin(1/k). Prediction: occ_rel_l2 = ‖M_k·cap(π/2) − cap(asin 1/k)‖ / ‖cap(asin 1/k)‖
+    // (all zonal in the local frame; M maps the constant to itself, so complements cancel).
+    let order = 4;
+    let alpha = 45f64.to_radians();
+    let spec = ProbeSpec {
+        order,
+        alpha,
+        layout: Layout::parse("fib:60").unwrap(),
+        hemisphere_res: 32,
+        sampling_radius: 1.0,
+        radii: vec![1.3, 2.0],
+        k_count: 40,
+        on_surface_eps: 1e-6,
+    };
+    let sphere = AnalyticSphere::unit();
+    let res = probe(&sphere, Some(sphere.sphere), &spec).unwrap();
+    assert_eq!(res.on_surface_samples, 60);
+    // The table is built over exactly [1.3, 2]; its interpolation error enters the probe but not
+    // the prediction, so the prediction uses the same table.
+    let table = KTable::build(
+        TauFamily::Cone { alpha },
+        Eta::Plain,
+        order,
+        40,
+        1.3,
+        2.0,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    for row in &res.rows {
+        let mut m = ScalingMatrix::identity(order).unwrap();
+        table.lookup(row.k, &mut m).unwrap();
+        let src = shscale_sh::cap_coeffs(order, PI / 2.0).unwrap();
+        let want = shscale_sh::cap_coeffs(order, (1.0 / row.k).asin()).unwrap();
+        let mut got = vec![0.0; src.len()];
+        m.apply(&src, &mut got).unwrap();
+        let predicted = l2_diff(&got, &want) / l2(&want);
+        let measured = row.occ_rel_l2_mean.unwrap();
+        println!(
+            "sphere ρ={}: occ_rel_l2 measured {measured:.6}, predicted {predicted:.6}",
+            row.radius
+        );
+        assert_eq!(row.on_surface_count, 60);
+        assert!(
+            (measured - predicted).abs() < 1e-9,
+            "ρ={}: {measured} vs {predicted}",
+            row.radius
+        );
+        assert!(
+            (row.occ_rel_l2_max.unwrap() - measured).abs() < 1e-9,
+            "every sample is alike"
+        );
+        // The failure is large: this is the case the papers warn about.
+        assert!(measured > 0.3);
+    }
+    // Inflating the sampling sphere is the mitigation: errors drop.
+    let inflated = probe(
+        &sphere,
+        Some(sphere.sphere),
+        &ProbeSpec {
+            sampling_radius: 1.2,
+            radii: vec![1.3, 2.0],
+            ..spec.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(inflated.on_surface_samples, 0);
+    for (a, b) in res.rows.iter().zip(&inflated.rows) {
+        assert!(
+            b.occ_rel_l2_mean.unwrap() < a.occ_rel_l2_mean.unwrap(),
+            "ρ={}",
+            a.radius
+        );
+    }
+    // Inside the sphere the probes are excluded and counted.
+    let inside = probe(
+        &sphere,
+        Some(sphere.sphere),
+        &ProbeSpec {
+            radii: vec![0.5],
+            ..spec
+        },
+    )
+    .unwrap();
+    assert_eq!(inside.rows[0].inside_count, 60);
+    assert!(inside.rows[0].occ_rel_l2_mean.is_none());
+    let _ = occ_rel_l2;
+}

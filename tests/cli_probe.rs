@@ -1,0 +1,184 @@
+//! End-to-end tests of `shscale probe`.
+
+mod common;
+use common::*;
+
+#[test]
+fn probe_json_form_and_on_surface_sphere() {
+    let v = json(&[
+        "probe",
+        "--mesh",
+        "sphere",
+        "--order",
+        "4",
+        "--alpha-deg",
+        "45",
+        "--layout",
+        "fib:40",
+        "--radii",
+        "1.3,2",
+    ]);
+    assert_eq!(v["mesh"], "sphere");
+    assert_eq!(v["order"], 4);
+    assert_eq!(v["alpha_deg"].as_f64(), Some(45.0));
+    assert_eq!(v["samples"], 40);
+    assert_eq!(v["on_surface_samples"], 40);
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for (row, radius) in rows.iter().zip([1.3, 2.0]) {
+        assert_eq!(row["radius"].as_f64(), Some(radius));
+        for key in [
+            "vis_rel_l2_mean",
+            "occ_rel_l2_mean",
+            "occ_rel_l2_max",
+            "on_surface_count",
+            "occ_rel_l2_on_surface_mean",
+            "extrapolation_seconds",
+            "truth_seconds",
+        ] {
+            assert!(!row[key].is_null(), "{key} missing in {row}");
+        }
+        assert_eq!(row["on_surface_count"], 40);
+        // Every sample of the sphere is alike: mean = max.
+        let (m, x) = (
+            row["occ_rel_l2_mean"].as_f64().unwrap(),
+            row["occ_rel_l2_max"].as_f64().unwrap(),
+        );
+        assert!((m - x).abs() < 1e-9 && m > 0.3, "{m} {x}");
+    }
+    // The closed-form prediction at 1.3 r, α = 45°, N = 4 (crates/field/tests/extrapolation.rs).
+    assert!((rows[0]["occ_rel_l2_mean"].as_f64().unwrap() - 0.804271).abs() < 1e-5);
+    // Sampling on an inflated sphere removes the on-surface samples and the error drops.
+    let w = json(&[
+        "probe",
+        "--mesh",
+        "sphere",
+        "--order",
+        "4",
+        "--alpha-deg",
+        "45",
+        "--layout",
+        "fib:40",
+        "--radii",
+        "1.3,2",
+        "--sampling-radius",
+        "1.2",
+    ]);
+    assert_eq!(w["on_surface_samples"], 0);
+    assert!(
+        w["rows"][0]["occ_rel_l2_mean"].as_f64().unwrap()
+            < rows[0]["occ_rel_l2_mean"].as_f64().unwrap()
+    );
+    assert!(w["rows"][0]["occ_rel_l2_on_surface_mean"].is_null());
+}
+
+#[test]
+fn probe_on_a_mesh_and_csv() {
+    let v = json(&[
+        "probe",
+        "--mesh",
+        "duck",
+        "--order",
+        "3",
+        "--alpha-deg",
+        "30",
+        "--layout",
+        "cube:4",
+        "--hemisphere-res",
+        "12",
+    ]);
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    for r in rows {
+        assert_eq!(r["probes"], 96);
+        let inside = r["inside_count"].as_u64().unwrap();
+        if inside < 96 {
+            assert!(r["vis_rel_l2_mean"].as_f64().unwrap().is_finite());
+        }
+    }
+    let out = shscale(&[
+        "probe",
+        "--mesh",
+        "duck",
+        "--order",
+        "2",
+        "--alpha-deg",
+        "45",
+        "--layout",
+        "fib:20",
+        "--hemisphere-res",
+        "8",
+        "--format",
+        "csv",
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(
+        header.starts_with(
+            "mesh,order,alpha_deg,layout,hemisphere_res,sampling_radius,k_count,radius,k,"
+        ),
+        "{header}"
+    );
+    assert!(header.contains("occ_rel_l2_mean") && header.contains("vis_rel_l2_mean"));
+    assert_eq!(lines.count(), 5);
+}
+
+#[test]
+fn bad_probe_input_fails_cleanly() {
+    let base = [
+        "probe",
+        "--mesh",
+        "sphere",
+        "--order",
+        "4",
+        "--alpha-deg",
+        "45",
+    ];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        base.iter().copied().chain(extra.iter().copied()).collect()
+    };
+    fails(&with(&["--layout", "hex:3"]), "layout");
+    fails(&with(&["--sampling-radius", "0.5"]), "sampling-radius");
+    fails(&with(&["--radii", "1,-2"]), "radii");
+    fails(&with(&["--radii", "1,x"]), "radii");
+    fails(&with(&["--k-count", "1"]), "k-count");
+    fails(&with(&["--hemisphere-res", "0"]), "hemisphere-res");
+    fails(
+        &[
+            "probe",
+            "--mesh",
+            "sphere",
+            "--order",
+            "4",
+            "--alpha-deg",
+            "90",
+        ],
+        "alpha",
+    );
+    fails(
+        &[
+            "probe",
+            "--mesh",
+            "sphere",
+            "--order",
+            "0",
+            "--alpha-deg",
+            "45",
+        ],
+        "order",
+    );
+    fails(
+        &[
+            "probe",
+            "--mesh",
+            "nothing_here",
+            "--order",
+            "4",
+            "--alpha-deg",
+            "45",
+        ],
+        "nothing_here",
+    );
+}
