@@ -161,11 +161,115 @@ fn frame_cost(c: &mut Criterion) {
     g.finish();
 }
 
+/// Per-receiver visibility on a 160×160 receiver plane under the bunny: extrapolated (N = 4,
+/// latlong:12x20, K = 40), full field (16 shells), and ray-traced truth (2·16² rays, a subset).
+fn receivers(c: &mut Criterion) {
+    use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
+    use shscale_field::extrapolate::Extrapolator;
+    use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
+    let mesh = bundled::load("bunny").unwrap();
+    let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    let s = bvh.bounding_sphere();
+    let sampler = VisibilitySampler::new(4, 32).unwrap();
+    let layout = Layout::LatLong { rows: 12, cols: 20 };
+    let bsv = Bsv::sample(&bvh, layout, &sampler, 1.0, 0.0).unwrap();
+    let alpha = 0.25 * std::f64::consts::PI;
+    let table = KTable::build(
+        TauFamily::Cone { alpha },
+        Eta::Plain,
+        4,
+        40,
+        0.2,
+        8.0,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    let ex = Extrapolator::new(&bsv, &table);
+    // Plane 2r × 2r, 0.1 r below the bunny's lowest point (y-up mesh).
+    let y0 = mesh.positions.iter().map(|p| p.y).fold(f64::MAX, f64::min) - 0.1 * s.radius;
+    let grid = |i: usize| 2.0 * s.radius * ((i % 160) as f64 / 159.0 - 0.5);
+    let recv: Vec<DVec3> = (0..160 * 160)
+        .map(|i| DVec3::new(s.center.x + grid(i), y0, s.center.z + grid(i / 160)))
+        .collect();
+    let p2 = pool(2);
+    let mut g = c.benchmark_group("receivers_160x160_bunny_n4");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(recv.len() as u64));
+    g.bench_function("extrapolated_2_threads", |b| {
+        b.iter(|| {
+            p2.install(|| {
+                let init = || (ScalingMatrix::identity(4).unwrap(), vec![0.0; 16]);
+                recv.par_iter()
+                    .map_init(init, |(m, out), p| {
+                        ex.eval(*p, m, out);
+                        out[0]
+                    })
+                    .sum::<f64>()
+            })
+        })
+    });
+    let full = FullField::build(&bvh, layout, &sampler, 16, 1.0, 8.0).unwrap();
+    g.bench_function("full_field_eval_2_threads", |b| {
+        b.iter(|| {
+            p2.install(|| {
+                recv.par_iter()
+                    .map_init(
+                        || vec![0.0; 16],
+                        |out, p| {
+                            full.eval(*p, out);
+                            out[0]
+                        },
+                    )
+                    .sum::<f64>()
+            })
+        })
+    });
+    g.finish();
+    let mut g = c.benchmark_group("receivers_bunny_n4_per_frame_costs");
+    g.sample_size(10);
+    let sub: Vec<DVec3> = recv.iter().step_by(64).copied().collect();
+    g.throughput(Throughput::Elements(sub.len() as u64));
+    let rt_sampler = VisibilitySampler::new(4, 16).unwrap();
+    let rt = RayTraced {
+        occ: &bvh,
+        sampler: &rt_sampler,
+    };
+    g.bench_function("raytraced_h16_2_threads_400_receivers", |b| {
+        b.iter(|| {
+            p2.install(|| {
+                sub.par_iter()
+                    .map_init(
+                        || vec![0.0; 16],
+                        |out, p| {
+                            rt.eval(*p, out);
+                            out[0]
+                        },
+                    )
+                    .sum::<f64>()
+            })
+        })
+    });
+    g.bench_function("full_field_rebuild_16_shells", |b| {
+        b.iter(|| {
+            p2.install(|| {
+                black_box(
+                    FullField::build(&bvh, layout, &sampler, 16, 1.0, 8.0)
+                        .unwrap()
+                        .rays,
+                )
+            })
+        })
+    });
+    g.finish();
+}
+
 criterion_group!(
     benches,
     bvh_build_refit,
     occlusion_rays,
     bsv_sampling,
-    frame_cost
+    frame_cost,
+    receivers
 );
 criterion_main!(benches);

@@ -6,6 +6,7 @@
 
 pub mod bsv;
 pub mod delaunay;
+pub mod evaluator;
 pub mod extrapolate;
 pub mod frame;
 pub mod metrics;

@@ -212,3 +212,60 @@ fn sphere_on_surface_error_matches_the_closed_form_prediction() {
     assert!(inside.rows[0].occ_rel_l2_mean.is_none());
     let _ = occ_rel_l2;
 }
+
+#[test]
+fn full_field_converges_to_the_truth_as_shells_and_samples_increase() {
+    use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
+    use shscale_field::probe::sphere_truth;
+    let order = 4;
+    let sphere = AnalyticSphere::unit();
+    let sampler = VisibilitySampler::new(order, 32).unwrap();
+    let basis = ShBasis::<f64>::new(order).unwrap();
+    // Query points off the shells and off the sample directions.
+    let pts: Vec<DVec3> = shscale_sh::DirectionSet::fibonacci_sphere(37)
+        .dirs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| DVec3::from_array(*d) * (1.15 + 5.0 * ((i * 7919) % 37) as f64 / 37.0))
+        .collect();
+    let mean_err = |f: &dyn VisibilityField| {
+        let mut out = vec![0.0; order * order];
+        pts.iter()
+            .map(|p| {
+                f.eval(*p, &mut out);
+                l2_diff(&out, &sphere_truth(&basis, &sphere.sphere, *p).unwrap())
+            })
+            .sum::<f64>()
+            / pts.len() as f64
+    };
+    let coarse =
+        FullField::build(&sphere, Layout::Fibonacci { p: 30 }, &sampler, 4, 1.0, 8.0).unwrap();
+    let medium =
+        FullField::build(&sphere, Layout::Fibonacci { p: 120 }, &sampler, 8, 1.0, 8.0).unwrap();
+    let fine = FullField::build(
+        &sphere,
+        Layout::Fibonacci { p: 480 },
+        &sampler,
+        16,
+        1.0,
+        8.0,
+    )
+    .unwrap();
+    let (ec, em, ef) = (mean_err(&coarse), mean_err(&medium), mean_err(&fine));
+    let rt = mean_err(&RayTraced {
+        occ: &sphere,
+        sampler: &sampler,
+    });
+    println!("full field mean ‖err‖: 4×30 {ec:.3e}, 8×120 {em:.3e}, 16×480 {ef:.3e}; ray traced {rt:.3e}");
+    assert!(em < ec && ef < em, "no convergence: {ec} {em} {ef}");
+    // The fine full field approaches the ray tracer's own quadrature error.
+    assert!(
+        ef < 4.0 * rt.max(1e-3),
+        "fine field {ef} vs ray traced {rt}"
+    );
+    // Beyond the outermost shell: unoccluded.
+    let mut out = vec![0.0; order * order];
+    fine.eval(DVec3::new(0.0, 0.0, 9.0), &mut out);
+    assert!((out[0] - (4.0 * PI).sqrt()).abs() < 1e-15 && out[1..].iter().all(|v| *v == 0.0));
+    assert_eq!(fine.shells(), 16);
+}
