@@ -12,6 +12,7 @@ pub mod frame;
 pub mod metrics;
 pub mod probe;
 pub mod radiance;
+pub mod shading;
 pub mod truth;
 pub mod visibility;
 
