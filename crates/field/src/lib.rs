@@ -10,6 +10,7 @@ pub mod evaluator;
 pub mod extrapolate;
 pub mod frame;
 pub mod metrics;
+pub mod midrange;
 pub mod probe;
 pub mod radiance;
 pub mod shading;

@@ -102,3 +102,47 @@ fn shadowed_receiver_against_ray_traced_irradiance() {
     assert!(brute < 0.9 * unshadowed, "the sphere must cast a shadow");
     assert!(rel < 0.05, "{rel}");
 }
+
+#[test]
+fn midrange_scaling_beats_the_distant_assumption_against_ray_traced_truth() {
+    // Environment sphere of radius 1 with a sky and a strong sun; irradiance at points inside.
+    // Truth: hemisphere quadrature of L_c(u(ω)), u the direction from the centre to where the ray
+    // from q leaves the sphere. Scaled: ⟨lobe(n), M_k L_c⟩. Distant: ⟨lobe(n), L_c⟩.
+    let order = 8;
+    let env = EnvLight::sky(order, 0.2, 0.8, DVec3::Z, 8.0, DVec3::new(0.6, 0.0, 0.8), 0.35).unwrap();
+    let lobe = ClampedCosine::<f64>::new(order).unwrap();
+    let basis = shscale_sh::ShBasis::<f64>::new(order).unwrap();
+    let set = shscale_sh::DirectionSet::gauss_sphere(200, 400);
+    let mut y = vec![0.0; order * order];
+    let mut worse = 0;
+    for (q, n) in [
+        (DVec3::new(0.5, 0.0, 0.0), DVec3::Z),
+        (DVec3::new(0.0, 0.0, 0.6), DVec3::new(1.0, 0.0, 0.3).normalize()),
+        (DVec3::new(-0.3, 0.4, -0.2), DVec3::new(0.2, -0.5, 0.8).normalize()),
+    ] {
+        let mut truth = 0.0;
+        for (d, w) in set.dirs.iter().zip(&set.weights) {
+            let dir = DVec3::from_array(*d);
+            let c = dir.dot(n);
+            if c <= 0.0 {
+                continue;
+            }
+            // Exit point of q + t·dir on the unit sphere.
+            let b = q.dot(dir);
+            let t = -b + (b * b - (q.length_squared() - 1.0)).sqrt();
+            basis.eval((q + t * dir).to_array(), &mut y);
+            let l: f64 = env.rgb[0].iter().zip(&y).map(|(a, b)| a * b).sum();
+            truth += w * l * c;
+        }
+        let scaled_light = shscale_field::midrange::light_at(&env, q, 1.0).unwrap();
+        let scaled = lobe.irradiance(&scaled_light.rgb[0], n.to_array()).unwrap();
+        let distant = lobe.irradiance(&env.rgb[0], n.to_array()).unwrap();
+        println!("q={q} n={n}: truth {truth:.4}, scaled {scaled:.4} (err {:.2e}), distant {distant:.4} (err {:.2e})", (scaled - truth).abs(), (distant - truth).abs());
+        assert!((scaled - truth).abs() < 0.05 * truth, "scaled too far from truth");
+        if (scaled - truth).abs() >= (distant - truth).abs() {
+            worse += 1;
+        }
+    }
+    assert_eq!(worse, 0, "scaling must beat the distant assumption at every probe");
+    assert!(shscale_field::midrange::light_at(&env, DVec3::new(1.2, 0.0, 0.0), 1.0).is_err());
+}
