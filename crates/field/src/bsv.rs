@@ -198,6 +198,27 @@ impl Bsv {
         })
     }
 
+    /// Assemble from precomputed samples (e.g. radiance samples of a light); builds the
+    /// triangulation of the sample directions.
+    pub fn from_samples(
+        layout: Layout,
+        sphere: Sphere,
+        sampling_radius: f64,
+        samples: Vec<BsvSample>,
+        rays: usize,
+    ) -> Result<Self, FieldError> {
+        let dirs: Vec<DVec3> = samples.iter().map(|s| s.dir).collect();
+        let tri = SphericalTriangulation::new(&dirs).map_err(FieldError::Spec)?;
+        Ok(Self {
+            layout,
+            sphere,
+            sampling_radius,
+            samples,
+            rays,
+            tri,
+        })
+    }
+
     /// Interpolated coefficients (entity frame) at the unit direction `q` from the centre.
     pub fn interpolate(&self, q: DVec3, out: &mut [f64]) {
         out.iter_mut().for_each(|o| *o = 0.0);

@@ -26,11 +26,21 @@ pub enum ExtrapolationKind {
     Unoccluded,
 }
 
+/// What a field is beyond the table's `k_max` (DESIGN.md §3.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Beyond {
+    /// An occluder: visibility 1.
+    Unoccluded,
+    /// A light: radiance 0.
+    Dark,
+}
+
 /// Extrapolates one entity's BSV with a k-table.
 pub struct Extrapolator<'a> {
     pub bsv: &'a Bsv,
     pub table: &'a KTable,
     rot: EulerRotator<f64>,
+    beyond: Beyond,
 }
 
 impl<'a> Extrapolator<'a> {
@@ -45,6 +55,15 @@ impl<'a> Extrapolator<'a> {
             bsv,
             table,
             rot: EulerRotator::new(table.order()).expect("valid order"),
+            beyond: Beyond::Unoccluded,
+        }
+    }
+
+    /// The same, for a light's radiance samples (dark beyond `k_max`).
+    pub fn for_light(bsv: &'a Bsv, table: &'a KTable) -> Self {
+        Self {
+            beyond: Beyond::Dark,
+            ..Self::new(bsv, table)
         }
     }
 
@@ -60,7 +79,9 @@ impl<'a> Extrapolator<'a> {
             .expect("k is finite and > 0 for p ≠ c");
         if let KLookup::AboveMax { .. } = status {
             out.iter_mut().for_each(|o| *o = 0.0);
-            out[0] = (4.0 * std::f64::consts::PI).sqrt();
+            if self.beyond == Beyond::Unoccluded {
+                out[0] = (4.0 * std::f64::consts::PI).sqrt();
+            }
             return ExtrapolationKind::Unoccluded;
         }
         let dir = (p - c) / d;

@@ -14,7 +14,9 @@
 
 use crate::evaluator::VisibilityField;
 use glam::DVec3;
-use shscale_sh::{cap_zonal, clamped_cosine_zonal, rotate_zonal, ClampedCosine, GauntTensor, ShBasis};
+use shscale_sh::{
+    cap_zonal, clamped_cosine_zonal, rotate_zonal, ClampedCosine, GauntTensor, ShBasis,
+};
 
 /// An environment light: RGB radiance as SH coefficients (entity/world frame).
 #[derive(Clone, Debug, PartialEq)]
@@ -30,16 +32,35 @@ impl EnvLight {
 
     /// Project a lat-long map (`width × height` RGB texels, row 0 at θ = 0, i.e. +z; texel
     /// centres; weights the exact texel solid angles) to order N.
-    pub fn from_latlong(order: usize, width: usize, height: usize, rgb: &[[f32; 3]]) -> Result<Self, crate::FieldError> {
+    pub fn from_latlong(
+        order: usize,
+        width: usize,
+        height: usize,
+        rgb: &[[f32; 3]],
+    ) -> Result<Self, crate::FieldError> {
         if rgb.len() != width * height || width == 0 || height == 0 {
-            return Err(crate::FieldError::Spec(format!("lat-long map: {} texels for {width}×{height}", rgb.len())));
+            return Err(crate::FieldError::Spec(format!(
+                "lat-long map: {} texels for {width}×{height}",
+                rgb.len()
+            )));
         }
-        if let Some(i) = rgb.iter().position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0)) {
-            return Err(crate::FieldError::Spec(format!("lat-long map: texel {i} (row {}, column {}) is negative or not finite", i / width, i % width)));
+        if let Some(i) = rgb
+            .iter()
+            .position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0))
+        {
+            return Err(crate::FieldError::Spec(format!(
+                "lat-long map: texel {i} (row {}, column {}) is negative or not finite",
+                i / width,
+                i % width
+            )));
         }
         let basis = ShBasis::<f64>::new(order)?;
         let set = shscale_sh::DirectionSet::latlong(height, width);
-        let mut out = [vec![0.0; order * order], vec![0.0; order * order], vec![0.0; order * order]];
+        let mut out = [
+            vec![0.0; order * order],
+            vec![0.0; order * order],
+            vec![0.0; order * order],
+        ];
         let mut y = vec![0.0; order * order];
         for ((d, &w), t) in set.dirs.iter().zip(&set.weights).zip(rgb) {
             basis.eval(*d, &mut y);
@@ -54,16 +75,36 @@ impl EnvLight {
     /// A procedural sky in closed form: `L(ω) = a + b·max(0, ω·up) + sun·[ω within `sun_radius` of
     /// `sun_dir`]`, grey (equal channels). Each term's SH is exact: constant, clamped-cosine lobe,
     /// and a cap.
-    pub fn sky(order: usize, a: f64, b: f64, up: DVec3, sun: f64, sun_dir: DVec3, sun_radius: f64) -> Result<Self, crate::FieldError> {
+    pub fn sky(
+        order: usize,
+        a: f64,
+        b: f64,
+        up: DVec3,
+        sun: f64,
+        sun_dir: DVec3,
+        sun_radius: f64,
+    ) -> Result<Self, crate::FieldError> {
         let basis = ShBasis::<f64>::new(order)?;
         let mut l = vec![0.0; order * order];
         l[0] = a * (4.0 * std::f64::consts::PI).sqrt();
         let mut tmp = vec![0.0; order * order];
-        rotate_zonal(&basis, &clamped_cosine_zonal(order), up.normalize().to_array(), &mut tmp)?;
+        rotate_zonal(
+            &basis,
+            &clamped_cosine_zonal(order),
+            up.normalize().to_array(),
+            &mut tmp,
+        )?;
         l.iter_mut().zip(&tmp).for_each(|(o, v)| *o += b * v);
-        rotate_zonal(&basis, &cap_zonal(order, sun_radius)?, sun_dir.normalize().to_array(), &mut tmp)?;
+        rotate_zonal(
+            &basis,
+            &cap_zonal(order, sun_radius)?,
+            sun_dir.normalize().to_array(),
+            &mut tmp,
+        )?;
         l.iter_mut().zip(&tmp).for_each(|(o, v)| *o += sun * v);
-        Ok(Self { rgb: [l.clone(), l.clone(), l] })
+        Ok(Self {
+            rgb: [l.clone(), l.clone(), l],
+        })
     }
 }
 
@@ -77,17 +118,25 @@ pub struct Shader {
 impl Shader {
     /// Tables for order N (≤ 32, the Gaunt tensor's limit).
     pub fn new(order: usize) -> Result<Self, crate::FieldError> {
-        Ok(Self { order, gaunt: GauntTensor::new(order)?, lobe: ClampedCosine::new(order)? })
+        Ok(Self {
+            order,
+            gaunt: GauntTensor::new(order)?,
+            lobe: ClampedCosine::new(order)?,
+        })
     }
 
     /// `T(n) = P_N(L · max(0, n·ω))` per channel, for unit normal `n`.
     pub fn transfer(&self, light: &EnvLight, n: DVec3) -> [Vec<f64>; 3] {
         let nn = self.order * self.order;
         let mut lobe = vec![0.0; nn];
-        self.lobe.lobe(n.to_array(), &mut lobe).expect("lengths agree");
+        self.lobe
+            .lobe(n.to_array(), &mut lobe)
+            .expect("lengths agree");
         let mut out = [vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]];
         for c in 0..3 {
-            self.gaunt.product(&light.rgb[c], &lobe, &mut out[c]).expect("lengths agree");
+            self.gaunt
+                .product(&light.rgb[c], &lobe, &mut out[c])
+                .expect("lengths agree");
         }
         out
     }
@@ -95,10 +144,19 @@ impl Shader {
     /// Combined visibility at `p` of `fields`, multiplied near to far (by distance from `p` to each
     /// field's `centers` entry); fields that return the unoccluded constant are skipped.
     /// Returns the product and how many products were computed.
-    pub fn combined_visibility(&self, fields: &[&dyn VisibilityField], centers: &[DVec3], p: DVec3) -> (Vec<f64>, usize) {
+    pub fn combined_visibility(
+        &self,
+        fields: &[&dyn VisibilityField],
+        centers: &[DVec3],
+        p: DVec3,
+    ) -> (Vec<f64>, usize) {
         let nn = self.order * self.order;
         let mut order: Vec<usize> = (0..fields.len()).collect();
-        order.sort_by(|&a, &b| (centers[a] - p).length().total_cmp(&(centers[b] - p).length()));
+        order.sort_by(|&a, &b| {
+            (centers[a] - p)
+                .length()
+                .total_cmp(&(centers[b] - p).length())
+        });
         let mut acc = vec![0.0; nn];
         acc[0] = (4.0 * std::f64::consts::PI).sqrt();
         let mut v = vec![0.0; nn];
@@ -114,7 +172,9 @@ impl Shader {
                 acc.copy_from_slice(&v);
                 first = false;
             } else {
-                self.gaunt.product(&acc, &v, &mut tmp).expect("lengths agree");
+                self.gaunt
+                    .product(&acc, &v, &mut tmp)
+                    .expect("lengths agree");
                 std::mem::swap(&mut acc, &mut tmp);
                 products += 1;
             }
@@ -138,7 +198,13 @@ pub fn shade_rmse_rel(e: &[f64], truth: &[f64], unshadowed: &[f64]) -> Option<f6
     if e.is_empty() || e.len() != truth.len() || e.len() != unshadowed.len() {
         return None;
     }
-    let rmse = (e.iter().zip(truth).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / e.len() as f64).sqrt();
+    let rmse = (e
+        .iter()
+        .zip(truth)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        / e.len() as f64)
+        .sqrt();
     let mean = unshadowed.iter().sum::<f64>() / unshadowed.len() as f64;
     (mean > 0.0).then(|| rmse / mean)
 }

@@ -1,0 +1,161 @@
+//! Source radiance fields of local lights (SHS §3.1, TR §4.1 / Appendix A; DESIGN.md §4): the
+//! light's radiance sampled on its bounding sphere and extrapolated with the plain and with the
+//! energy-preserving scaling matrix, both compared with ray-traced radiance truth, so the
+//! framework reports which variant matches (the papers prescribe energy preservation).
+
+use crate::bsv::{Bsv, BsvSample, Layout};
+use crate::extrapolate::Extrapolator;
+use crate::metrics::l2_diff;
+use crate::radiance::Emitter;
+use crate::visibility::{Frame, VisibilitySampler};
+use crate::FieldError;
+use glam::DVec3;
+use rayon::prelude::*;
+use shscale_geometry::Occluder;
+use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
+
+/// Per radius: mean relative L2 error of each η variant against ray-traced radiance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SrfRow {
+    pub radius: f64,
+    pub plain_rel_l2: f64,
+    pub energy_rel_l2: f64,
+    pub probes: usize,
+}
+
+impl SrfRow {
+    /// `"plain"` or `"energy"`: the variant with the smaller error.
+    pub fn better(&self) -> &'static str {
+        if self.plain_rel_l2 <= self.energy_rel_l2 {
+            "plain"
+        } else {
+            "energy"
+        }
+    }
+}
+
+/// Sample the light's radiance on its bounding sphere (facing hemisphere, `H²` rays per sample).
+pub fn radiance_bsv(
+    e: &Emitter,
+    layout: Layout,
+    sampler: &VisibilitySampler,
+    inflate: f64,
+) -> Result<Bsv, FieldError> {
+    let sphere = e.bvh.bounding_sphere();
+    let rs = inflate * sphere.radius;
+    let samples: Vec<BsvSample> = layout
+        .directions()
+        .par_iter()
+        .map(|&dir| {
+            let pos = sphere.center + rs * dir;
+            let (coeffs, _) = sampler.radiance_facing(e, pos, Frame::Entity);
+            BsvSample {
+                dir,
+                pos,
+                coeffs,
+                on_surface: false,
+            }
+        })
+        .collect();
+    let rays = samples.len() * sampler.rays_per_hemisphere();
+    Bsv::from_samples(layout, sphere, rs, samples, rays)
+}
+
+/// Compare both η variants at `radii` (multiples of r, ≥ the sampling radius factor) along every
+/// sample direction whose truth is not dark.
+pub fn compare(
+    e: &Emitter,
+    layout: Layout,
+    order: usize,
+    h: usize,
+    alpha: f64,
+    inflate: f64,
+    radii: &[f64],
+) -> Result<Vec<SrfRow>, FieldError> {
+    let sampler = VisibilitySampler::new(order, h)?;
+    let bsv = radiance_bsv(e, layout, &sampler, inflate)?;
+    let (kmin, kmax) = radii.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+        (a.min(r / inflate), b.max(r / inflate))
+    });
+    let (kmin, kmax) = if kmax / kmin < 1.0 + 1e-9 {
+        (kmin / 2.0, kmax * 2.0)
+    } else {
+        (kmin, kmax)
+    };
+    let table = |eta| {
+        KTable::build(
+            TauFamily::Cone { alpha },
+            eta,
+            order,
+            40,
+            kmin,
+            kmax,
+            Spacing::Exp,
+            Interp::Cubic,
+        )
+        .map_err(|x| FieldError::Spec(x.to_string()))
+    };
+    let (tp, te) = (table(Eta::Plain)?, table(Eta::Energy)?);
+    let (xp, xe) = (
+        Extrapolator::for_light(&bsv, &tp),
+        Extrapolator::for_light(&bsv, &te),
+    );
+    let s = bsv.sphere;
+    let mut rows = Vec::new();
+    for &rho in radii {
+        let errs: Vec<(f64, f64)> = bsv
+            .samples
+            .par_iter()
+            .filter_map(|smp| {
+                let p = s.center + rho * s.radius * smp.dir;
+                let (truth, _) = sampler.radiance_full_sphere(e, p, Frame::Entity);
+                let norm = crate::metrics::l2(&truth);
+                if norm < 1e-12 {
+                    return None;
+                }
+                let mut m = ScalingMatrix::identity(order).expect("valid order");
+                let (mut a, mut b) = (vec![0.0; order * order], vec![0.0; order * order]);
+                xp.eval(p, &mut m, &mut a);
+                xe.eval(p, &mut m, &mut b);
+                Some((l2_diff(&a, &truth) / norm, l2_diff(&b, &truth) / norm))
+            })
+            .collect();
+        let n = errs.len().max(1) as f64;
+        rows.push(SrfRow {
+            radius: rho,
+            plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
+            energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
+            probes: errs.len(),
+        });
+    }
+    Ok(rows)
+}
+
+/// The papers' deformable light: a red and a green planar emitter (squares of side `size`) joined
+/// at a hinge along the y axis, opened to `hinge` radians between them, both emitting on the
+/// inside of the hinge. Returns the mesh and per-triangle (red, green) radiance.
+pub fn hinged_light(size: f64, hinge: f64) -> (shscale_geometry::Mesh, Vec<[f64; 3]>) {
+    let half = 0.5 * hinge;
+    let (s, c) = half.sin_cos();
+    // Panel directions in the x–z plane, symmetric about +z.
+    let a = DVec3::new(-s, 0.0, c) * size;
+    let b = DVec3::new(s, 0.0, c) * size;
+    let (y0, y1) = (
+        DVec3::new(0.0, -0.5 * size, 0.0),
+        DVec3::new(0.0, 0.5 * size, 0.0),
+    );
+    let p = vec![y0, y1, y0 + a, y1 + a, y0 + b, y1 + b];
+    // Winding so normals face into the opening (toward +z between the panels).
+    let t = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+    let mesh = shscale_geometry::Mesh::new(&format!("hinged_light({size},{hinge})"), p, t, false)
+        .expect("valid by construction");
+    (
+        mesh,
+        vec![
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ],
+    )
+}
