@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "shscale",
     version,
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
-    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45"
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -36,6 +36,28 @@ pub enum Command {
     /// Extrapolated vs ray-traced visibility at the papers' probe radii (Fig. 5), with metrics.
     /// Example: shscale probe --mesh bunny --order 4 --alpha-deg 45
     Probe(ProbeArgs),
+    /// Render a scene's receiver plane (irradiance) to EXR + PNG with one visibility method.
+    /// Example: shscale render --scene configs/scene_sphere.toml --method extrapolated --out results/sphere.exr
+    Render(RenderArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    Extrapolated,
+    FullField,
+    Raytraced,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (TOML; see crates/lab/src/scene.rs for the schema).
+    #[arg(long)]
+    pub scene: std::path::PathBuf,
+    #[arg(long, value_enum, default_value_t = MethodArg::Extrapolated)]
+    pub method: MethodArg,
+    /// Output EXR path; a PNG preview is written beside it.
+    #[arg(long)]
+    pub out: std::path::PathBuf,
 }
 
 #[derive(Args, Debug)]

@@ -9,6 +9,7 @@ mod geometry_cmd;
 mod matrix_cmd;
 mod output;
 mod probe_cmd;
+mod render_cmd;
 mod sh_cmd;
 
 use args::{Cli, Command};
@@ -45,6 +46,7 @@ fn main() -> ExitCode {
         Command::Inspect(cmd) => geometry_cmd::inspect(cmd),
         Command::Visibility(cmd) => geometry_cmd::visibility(cmd),
         Command::Probe(cmd) => probe_cmd::run(cmd),
+        Command::Render(cmd) => render_cmd::run(cmd),
     };
     match result {
         Ok(code) => code,

@@ -150,6 +150,17 @@ impl Shader {
         centers: &[DVec3],
         p: DVec3,
     ) -> (Vec<f64>, usize) {
+        let (v, products, _) = self.combined_visibility_counted(fields, centers, p);
+        (v, products)
+    }
+
+    /// As [`Shader::combined_visibility`], also counting the fields skipped as unoccluded.
+    pub fn combined_visibility_counted(
+        &self,
+        fields: &[&dyn VisibilityField],
+        centers: &[DVec3],
+        p: DVec3,
+    ) -> (Vec<f64>, usize, usize) {
         let nn = self.order * self.order;
         let mut order: Vec<usize> = (0..fields.len()).collect();
         order.sort_by(|&a, &b| {
@@ -163,9 +174,11 @@ impl Shader {
         let mut tmp = vec![0.0; nn];
         let mut first = true;
         let mut products = 0;
+        let mut skipped = 0;
         for j in order {
             fields[j].eval(p, &mut v);
             if v[1..].iter().all(|x| *x == 0.0) && (v[0] - acc_one()).abs() == 0.0 {
+                skipped += 1;
                 continue; // unoccluded: nothing to multiply
             }
             if first {
@@ -179,7 +192,7 @@ impl Shader {
                 products += 1;
             }
         }
-        (acc, products)
+        (acc, products, skipped)
     }
 
     /// `E = ⟨T, V⟩` per channel.

@@ -1,0 +1,53 @@
+//! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
+
+use crate::args::{MethodArg, RenderArgs};
+use anyhow::{bail, Context};
+use shscale_lab::render::{render, Method};
+use shscale_lab::scene::Scene;
+use std::process::ExitCode;
+
+pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
+    if a.out.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!("--out: {} must end in .exr", a.out.display());
+    }
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!("--out: directory {} does not exist", dir.display());
+        }
+    }
+    let scene = Scene::load(&a.scene)?;
+    let method = match a.method {
+        MethodArg::Extrapolated => Method::Extrapolated,
+        MethodArg::FullField => Method::FullField,
+        MethodArg::Raytraced => Method::RayTraced,
+    };
+    let t0 = std::time::Instant::now();
+    let img = render(&scene, method)?;
+    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
+    let png = a.out.with_extension("png");
+    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
+        .context("--out (PNG preview)")?;
+    println!(
+        "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
+        a.scene.display(),
+        img.width,
+        img.height,
+        scene.occluders.len(),
+        a.method,
+        rayon::current_num_threads()
+    );
+    for (stage, s) in &img.stages {
+        println!("  {stage:<18} {:>10.3} ms", s * 1e3);
+    }
+    println!(
+        "  {:<18} {:>10.3} ms",
+        "total",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    println!(
+        "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
+        img.products, img.skipped
+    );
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,21 @@
+//! The lab: what touches files and configs. Scene files (TOML, raw → resolved, every error naming
+//! the file, line and field), rendering a scene's receiver plane with any of the visibility
+//! evaluators, and image outputs (EXR with a PNG preview) written atomically (temporary file, then
+//! rename). The numerical crates stay free of files and configs.
+
+pub mod io;
+pub mod render;
+pub mod scene;
+
+/// Errors of the lab.
+#[derive(Debug, thiserror::Error)]
+pub enum LabError {
+    #[error("{0}")]
+    Config(String),
+    #[error("{path}: {reason}")]
+    Io { path: String, reason: String },
+    #[error(transparent)]
+    Geometry(#[from] shscale_geometry::GeometryError),
+    #[error(transparent)]
+    Field(#[from] shscale_field::FieldError),
+}
