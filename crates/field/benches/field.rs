@@ -209,6 +209,38 @@ fn receivers(c: &mut Criterion) {
             })
         })
     });
+    // The cached fast path: per frame three 16-dot products per receiver (grey sky, normal +z).
+    let light = shscale_field::shading::EnvLight::sky(
+        4,
+        0.3,
+        1.0,
+        DVec3::Z,
+        20.0,
+        DVec3::new(0.2, 0.1, 1.0),
+        0.1,
+    )
+    .unwrap();
+    let transfer = shscale_field::shading::Shader::new(4)
+        .unwrap()
+        .transfer(&light, DVec3::Z);
+    let cache = shscale_field::receivers::ReceiverCache::build(&bsv, &table, &transfer, &recv);
+    let mut shaded = vec![[0.0; 3]; recv.len()];
+    for threads in [1usize, 2] {
+        let p = pool(threads);
+        g.bench_function(format!("cached_shading_per_frame_{threads}_threads"), |b| {
+            b.iter(|| p.install(|| cache.shade(&bsv, &mut shaded)))
+        });
+    }
+    g.bench_function("cache_build_2_threads", |b| {
+        b.iter(|| {
+            p2.install(|| {
+                black_box(
+                    shscale_field::receivers::ReceiverCache::build(&bsv, &table, &transfer, &recv)
+                        .len(),
+                )
+            })
+        })
+    });
     let full = FullField::build(&bvh, layout, &sampler, 16, 1.0, 8.0).unwrap();
     g.bench_function("full_field_eval_2_threads", |b| {
         b.iter(|| {

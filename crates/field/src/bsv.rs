@@ -160,6 +160,43 @@ impl Bsv {
         Self::sample_dirs(occ, layout, layout.directions(), sampler, inflate, eps)
     }
 
+    /// As [`Bsv::sample`] on a given sampling sphere (e.g. fixed over a deforming sequence so that
+    /// per-receiver caches stay valid). The sphere must enclose the entity's current bounding
+    /// sphere — otherwise the closed-form back hemisphere would be wrong — and the error says so.
+    pub fn sample_on(
+        occ: &dyn Occluder,
+        layout: Layout,
+        sampler: &VisibilitySampler,
+        sampling: Sphere,
+        eps: f64,
+    ) -> Result<Self, FieldError> {
+        let b = occ.bounding_sphere();
+        if (b.center - sampling.center).length() + b.radius > sampling.radius * (1.0 + 1e-9) {
+            return Err(FieldError::Spec(format!(
+                "sampling sphere (centre {}, radius {}) does not enclose the entity's bounding sphere (centre {}, radius {})",
+                sampling.center, sampling.radius, b.center, b.radius
+            )));
+        }
+        let dirs = layout.directions();
+        let samples: Vec<BsvSample> = dirs
+            .par_iter()
+            .map(|&dir| {
+                let pos = sampling.center + sampling.radius * dir;
+                let (coeffs, _) =
+                    sampler.facing_hemisphere(occ, pos, sampling.center, Frame::Entity);
+                let on_surface = eps > 0.0 && occ.distance_to_surface(pos) < eps * b.radius;
+                BsvSample {
+                    dir,
+                    pos,
+                    coeffs,
+                    on_surface,
+                }
+            })
+            .collect();
+        let rays = samples.len() * sampler.rays_per_hemisphere();
+        Self::from_samples(layout, sampling, sampling.radius, samples, rays)
+    }
+
     /// As [`Bsv::sample`] with explicit sample directions (unit vectors); `layout` is recorded.
     pub fn sample_dirs(
         occ: &dyn Occluder,
@@ -217,6 +254,11 @@ impl Bsv {
             rays,
             tri,
         })
+    }
+
+    /// Interpolation weights `(sample, weight)` at the unit direction `q` from the centre.
+    pub fn locate(&self, q: DVec3) -> [(u32, f64); 3] {
+        self.tri.locate(q)
     }
 
     /// Interpolated coefficients (entity frame) at the unit direction `q` from the centre.

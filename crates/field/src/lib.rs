@@ -13,6 +13,7 @@ pub mod metrics;
 pub mod midrange;
 pub mod probe;
 pub mod radiance;
+pub mod receivers;
 pub mod shading;
 pub mod srf;
 pub mod truth;

@@ -281,3 +281,104 @@ fn source_radiance_fields_plain_versus_energy_preserving() {
         assert_eq!(rows[2].better(), "plain", "{name}: {rows:?}");
     }
 }
+
+#[test]
+fn receiver_cache_equals_the_direct_extrapolated_shading_across_deforming_frames() {
+    use shscale_field::extrapolate::Extrapolator;
+    use shscale_field::receivers::ReceiverCache;
+    use shscale_field::{Bsv, Layout};
+    use shscale_geometry::{deform, ray::UpdateStrategy, shapes, MeshBvh};
+    use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
+    let order = 4;
+    let rest = shapes::bird();
+    let s0 = rest.bounding_sphere();
+    // One sampling sphere for the whole flap cycle: generous enough to enclose every pose.
+    let sampling = Sphere {
+        center: s0.center,
+        radius: 1.5 * s0.radius,
+    };
+    let light = EnvLight::sky(
+        order,
+        0.3,
+        1.0,
+        DVec3::Z,
+        20.0,
+        DVec3::new(0.2, 0.1, 1.0),
+        0.1,
+    )
+    .unwrap();
+    let shader = Shader::new(order).unwrap();
+    let transfer = shader.transfer(&light, DVec3::Z);
+    let receivers: Vec<DVec3> = (0..400)
+        .map(|i| {
+            DVec3::new(
+                -3.0 + 6.0 * (i % 20) as f64 / 19.0,
+                -3.0 + 6.0 * (i / 20) as f64 / 19.0,
+                -1.0,
+            )
+        })
+        .collect();
+    let sampler = VisibilitySampler::new(order, 16).unwrap();
+    let layout = Layout::Fibonacci { p: 120 };
+    let table = KTable::build(
+        TauFamily::Cone {
+            alpha: 45f64.to_radians(),
+        },
+        Eta::Plain,
+        order,
+        30,
+        0.3,
+        3.0,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    let mut mesh = rest.clone();
+    let mut bvh = MeshBvh::build(&rest, UpdateStrategy::Refit);
+    let mut cache: Option<ReceiverCache> = None;
+    let mut shaded_differently = false;
+    let mut previous: Option<Vec<[f64; 3]>> = None;
+    for t in [0.0, 0.15, 0.3] {
+        deform::flap(&rest, &mut mesh, 0.3, 0.8, t);
+        bvh.update(&mesh);
+        let bsv = Bsv::sample_on(&bvh, layout, &sampler, sampling, 0.0).unwrap();
+        let c =
+            cache.get_or_insert_with(|| ReceiverCache::build(&bsv, &table, &transfer, &receivers));
+        assert!(c.matches(&bsv));
+        let mut fast = vec![[0.0; 3]; receivers.len()];
+        c.shade(&bsv, &mut fast);
+        let ex = Extrapolator::new(&bsv, &table);
+        let mut m = ScalingMatrix::identity(order).unwrap();
+        let mut v = vec![0.0; order * order];
+        let mut worst = 0.0f64;
+        for (p, f) in receivers.iter().zip(&fast) {
+            ex.eval(*p, &mut m, &mut v);
+            let e = Shader::shade(&transfer, &v)[0];
+            worst = worst.max((e - f[0]).abs() / e.abs().max(1e-12));
+        }
+        println!("flap t={t}: max relative difference cache vs direct {worst:.2e}");
+        // The cache stores U in f32 (unit roundoff 6e-8); 16-term dot products of O(1) terms.
+        const F32_TOL: f64 = 2e-6;
+        assert!(worst < F32_TOL, "t={t}: {worst:e}");
+        if let Some(prev) = &previous {
+            shaded_differently |= prev
+                .iter()
+                .zip(&fast)
+                .any(|(a, b)| (a[0] - b[0]).abs() > 1e-6);
+        }
+        previous = Some(fast);
+    }
+    assert!(
+        shaded_differently,
+        "the flapping wings must change the shading"
+    );
+    // A sampling sphere that does not enclose the entity is rejected.
+    let small = Sphere {
+        center: s0.center,
+        radius: 0.5 * s0.radius,
+    };
+    assert!(Bsv::sample_on(&bvh, layout, &sampler, small, 0.0)
+        .unwrap_err()
+        .to_string()
+        .contains("enclose"));
+}
