@@ -46,6 +46,8 @@ pub enum MethodArg {
     Extrapolated,
     FullField,
     Raytraced,
+    /// Full-frequency truth (direct quadrature with exact visibility).
+    RaytracedFull,
 }
 
 #[derive(Args, Debug)]

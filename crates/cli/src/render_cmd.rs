@@ -20,6 +20,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         MethodArg::Extrapolated => Method::Extrapolated,
         MethodArg::FullField => Method::FullField,
         MethodArg::Raytraced => Method::RayTraced,
+        MethodArg::RaytracedFull => Method::FullFrequency,
     };
     let t0 = std::time::Instant::now();
     let img = render(&scene, method)?;

@@ -221,3 +221,40 @@ pub fn shade_rmse_rel(e: &[f64], truth: &[f64], unshadowed: &[f64]) -> Option<f6
     let mean = unshadowed.iter().sum::<f64>() / unshadowed.len() as f64;
     (mean > 0.0).then(|| rmse / mean)
 }
+
+/// Full-frequency irradiance truth: `E = ∫ L(ω) Πⱼ Vⱼ(ω) max(0, n·ω) dω` by Gauss–Legendre
+/// quadrature over the hemisphere about the unit normal `n` (`h × h` rays), with the exact
+/// (ray-cast, not band-limited) visibility of every occluder and the light's SH evaluated per
+/// direction. What a path tracer would see with this light; the reference for `shade_rmse_rel`
+/// against full-frequency truth (DESIGN.md §6).
+pub fn irradiance_full_frequency(
+    light: &EnvLight,
+    occs: &[&dyn shscale_geometry::Occluder],
+    p: DVec3,
+    n: DVec3,
+    h: usize,
+) -> [f64; 3] {
+    let order = light.order();
+    let basis = ShBasis::<f64>::new(order).expect("valid order");
+    let set = shscale_sh::DirectionSet::gauss_hemisphere(h.max(1));
+    let f = crate::frame::LocalFrame::from_z(n.normalize());
+    let mut y = vec![0.0; order * order];
+    let mut e = [0.0; 3];
+    for (d, &w) in set.dirs.iter().zip(&set.weights) {
+        let local = DVec3::from_array(*d);
+        let dir = f.to_world(local);
+        let blocked = occs.iter().any(|o| {
+            let tmin = shscale_geometry::RAY_EPS * o.bounding_sphere().radius;
+            o.occluded(p, dir, tmin, f64::INFINITY)
+        });
+        if blocked {
+            continue;
+        }
+        basis.eval(dir.to_array(), &mut y);
+        for c in 0..3 {
+            let l: f64 = light.rgb[c].iter().zip(&y).map(|(a, b)| a * b).sum();
+            e[c] += w * l * local.z;
+        }
+    }
+    e
+}

@@ -21,7 +21,11 @@ use std::time::Instant;
 pub enum Method {
     Extrapolated,
     FullField,
+    /// Band-limited ray-traced visibility, shaded through SH like the others.
     RayTraced,
+    /// Full-frequency truth: direct quadrature of `∫ L Π V cos⁺` with exact ray-cast visibility
+    /// (`(2H)²` rays per receiver).
+    FullFrequency,
 }
 
 /// A rendered receiver plane.
@@ -169,7 +173,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             }
             stages.push(("full_field_build".to_string(), t.elapsed().as_secs_f64()));
         }
-        Method::RayTraced => {}
+        Method::RayTraced | Method::FullFrequency => {}
     }
     let exs: Vec<Extrapolator> = bsvs
         .iter()
@@ -190,8 +194,38 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         Method::Extrapolated => exs.iter().map(|e| e as &dyn VisibilityField).collect(),
         Method::FullField => fulls.iter().map(|f| f as &dyn VisibilityField).collect(),
         Method::RayTraced => rts.iter().map(|r| r as &dyn VisibilityField).collect(),
+        Method::FullFrequency => Vec::new(),
     };
     let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
+    if method == Method::FullFrequency {
+        let t = Instant::now();
+        let refs: Vec<&dyn Occluder> = occs.iter().map(|o| o.as_ref()).collect();
+        let pixels: Vec<[f32; 3]> = recv
+            .par_iter()
+            .map(|p| {
+                shscale_field::shading::irradiance_full_frequency(
+                    &light,
+                    &refs,
+                    *p,
+                    DVec3::Z,
+                    2 * scene.hemisphere_res,
+                )
+                .map(|x| x as f32)
+            })
+            .collect();
+        stages.push((
+            "full_frequency_truth".to_string(),
+            t.elapsed().as_secs_f64(),
+        ));
+        return Ok(RenderOutput {
+            width: w,
+            height: h,
+            pixels,
+            stages,
+            products: 0,
+            skipped: 0,
+        });
+    }
     let t = Instant::now();
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
