@@ -60,6 +60,10 @@ pub struct RenderArgs {
     /// Output EXR path; a PNG preview is written beside it.
     #[arg(long)]
     pub out: std::path::PathBuf,
+    /// Animate the scene's deformers over this many frames (t = f/frames; extrapolated method
+    /// only) and print per-frame stage times; the image is the last frame.
+    #[arg(long)]
+    pub frames: Option<usize>,
 }
 
 #[derive(Args, Debug)]

@@ -2,7 +2,7 @@
 
 use crate::args::{MethodArg, RenderArgs};
 use anyhow::{bail, Context};
-use shscale_lab::render::{render, Method};
+use shscale_lab::render::{render, render_sequence, Method};
 use shscale_lab::scene::Scene;
 use std::process::ExitCode;
 
@@ -22,6 +22,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         MethodArg::Raytraced => Method::RayTraced,
         MethodArg::RaytracedFull => Method::FullFrequency,
     };
+    if let Some(frames) = a.frames {
+        return sequence(&a, &scene, method, frames);
+    }
     let t0 = std::time::Instant::now();
     let img = render(&scene, method)?;
     shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
@@ -49,6 +52,61 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
         img.products, img.skipped
     );
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn sequence(
+    a: &RenderArgs,
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+) -> anyhow::Result<ExitCode> {
+    if method != Method::Extrapolated {
+        bail!("--frames: sequences are rendered with --method extrapolated only");
+    }
+    if frames == 0 || frames > 10_000 {
+        bail!("--frames: {frames} is outside 1..=10000");
+    }
+    let (img, stats) = render_sequence(scene, frames)?;
+    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
+    let png = a.out.with_extension("png");
+    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
+        .context("--out (PNG preview)")?;
+    println!(
+        "sequence {} ({}×{} receivers, {} occluder(s), {frames} frames, {} threads)",
+        a.scene.display(),
+        img.width,
+        img.height,
+        scene.occluders.len(),
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:>5} {:>6} {:>10} {:>10} {:>10} {:>10} {:>9} {:>6}",
+        "frame", "t", "deform_ms", "bvh_ms", "bsv_ms", "shade_ms", "resampled", "reused"
+    );
+    for s in &stats {
+        println!(
+            "{:>5} {:>6.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>9} {:>6}",
+            s.frame,
+            s.t,
+            s.deform_seconds * 1e3,
+            s.bvh_update_seconds * 1e3,
+            s.bsv_sampling_seconds * 1e3,
+            s.shading_seconds * 1e3,
+            s.resampled,
+            s.reused
+        );
+    }
+    let n = stats.len() as f64;
+    let total: f64 = stats
+        .iter()
+        .map(|s| {
+            s.deform_seconds + s.bvh_update_seconds + s.bsv_sampling_seconds + s.shading_seconds
+        })
+        .sum::<f64>()
+        / n;
+    println!("mean frame {:.3} ms ({:.1} FPS)", total * 1e3, 1.0 / total);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
 }

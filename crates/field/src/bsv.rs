@@ -161,8 +161,8 @@ impl Bsv {
     }
 
     /// As [`Bsv::sample`] on a given sampling sphere (e.g. fixed over a deforming sequence so that
-    /// per-receiver caches stay valid). The sphere must enclose the entity's current bounding
-    /// sphere — otherwise the closed-form back hemisphere would be wrong — and the error says so.
+    /// per-receiver caches stay valid). The sphere must enclose the entity — otherwise the
+    /// closed-form back hemisphere would be wrong — and the error says so.
     pub fn sample_on(
         occ: &dyn Occluder,
         layout: Layout,
@@ -171,10 +171,11 @@ impl Bsv {
         eps: f64,
     ) -> Result<Self, FieldError> {
         let b = occ.bounding_sphere();
-        if (b.center - sampling.center).length() + b.radius > sampling.radius * (1.0 + 1e-9) {
+        let far = occ.farthest_distance(sampling.center);
+        if far > sampling.radius * (1.0 + 1e-9) {
             return Err(FieldError::Spec(format!(
-                "sampling sphere (centre {}, radius {}) does not enclose the entity's bounding sphere (centre {}, radius {})",
-                sampling.center, sampling.radius, b.center, b.radius
+                "sampling sphere (centre {}, radius {}) does not enclose the entity (farthest point at distance {far})",
+                sampling.center, sampling.radius
             )));
         }
         let dirs = layout.directions();

@@ -35,6 +35,9 @@ pub trait Occluder: Send + Sync {
     fn bounding_sphere(&self) -> Sphere;
     /// Euclidean distance from `p` to the surface.
     fn distance_to_surface(&self, p: DVec3) -> f64;
+    /// Distance from `p` to the farthest point of the entity (a ball about `p` of this radius
+    /// contains it).
+    fn farthest_distance(&self, p: DVec3) -> f64;
 }
 
 /// How [`MeshBvh::update`] follows a deforming mesh.
@@ -172,6 +175,12 @@ impl Occluder for MeshBvh {
     fn distance_to_surface(&self, p: DVec3) -> f64 {
         mesh_distance(&self.positions, &self.mesh_tris, p)
     }
+    fn farthest_distance(&self, p: DVec3) -> f64 {
+        self.positions
+            .iter()
+            .map(|v| (*v - p).length())
+            .fold(0.0, f64::max)
+    }
 }
 
 impl MeshBvh {
@@ -273,6 +282,13 @@ impl Occluder for BruteForce {
     fn distance_to_surface(&self, p: DVec3) -> f64 {
         mesh_distance(&self.mesh.positions, &self.mesh.triangles, p)
     }
+    fn farthest_distance(&self, p: DVec3) -> f64 {
+        self.mesh
+            .positions
+            .iter()
+            .map(|v| (*v - p).length())
+            .fold(0.0, f64::max)
+    }
 }
 
 /// Closest point on triangle `abc` to `p` (Ericson, *Real-Time Collision Detection*, §5.1.5).
@@ -371,5 +387,8 @@ impl Occluder for AnalyticSphere {
     }
     fn distance_to_surface(&self, p: DVec3) -> f64 {
         ((p - self.sphere.center).length() - self.sphere.radius).abs()
+    }
+    fn farthest_distance(&self, p: DVec3) -> f64 {
+        (p - self.sphere.center).length() + self.sphere.radius
     }
 }

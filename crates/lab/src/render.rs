@@ -12,7 +12,7 @@ use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{bundled, AnalyticSphere, MeshBvh, Occluder, Sphere};
+use shscale_geometry::{bundled, deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use std::time::Instant;
 
@@ -53,14 +53,38 @@ pub fn build_occluder(
     if mesh == "sphere" {
         return Ok(Box::new(AnalyticSphere { sphere: target }));
     }
-    let mut m = bundled::resolve(mesh)?;
-    if up_is_y {
-        for p in &mut m.positions {
-            *p = DVec3::new(p.x, -p.z, p.y);
+    Ok(Box::new(MeshBvh::build(
+        &placed_mesh(mesh, center, radius, up_is_y)?,
+        UpdateStrategy::Rebuild,
+    )))
+}
+
+/// A mesh by name — procedural (`bird`, `egg`, `sponge`, `plane`), bundled, or a path — rotated
+/// to z-up (bundled/path meshes with `up_is_y`), scaled and moved so its minimal bounding sphere
+/// is `(center, radius)`.
+pub fn placed_mesh(
+    mesh: &str,
+    center: DVec3,
+    radius: f64,
+    up_is_y: bool,
+) -> Result<Mesh, LabError> {
+    let mut m = match mesh {
+        "bird" => shapes::bird(),
+        "egg" => shapes::egg(1.0, 0.5, 22, 24),
+        "sponge" => shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 37),
+        "plane" => shapes::plane(2.0, 2.0, 92, 92),
+        _ => {
+            let mut m = bundled::resolve(mesh)?;
+            if up_is_y {
+                for p in &mut m.positions {
+                    *p = DVec3::new(p.x, -p.z, p.y);
+                }
+            }
+            m
         }
-    }
-    m.fit_to(&target);
-    Ok(Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)))
+    };
+    m.fit_to(&Sphere { center, radius });
+    Ok(m)
 }
 
 fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
@@ -249,4 +273,229 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
     })
+}
+
+/// Timings of one frame of a sequence.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    pub frame: usize,
+    pub t: f64,
+    pub deform_seconds: f64,
+    pub bvh_update_seconds: f64,
+    pub bsv_sampling_seconds: f64,
+    pub shading_seconds: f64,
+    /// Occluders whose BSV was resampled / reused because their shape did not change.
+    pub resampled: usize,
+    pub reused: usize,
+}
+
+/// Render `frames ≥ 1` frames of a deforming scene with the extrapolated method (t = f/frames).
+///
+/// What is computed only when needed: the sampling sphere of each occluder is fixed for the
+/// sequence (the minimal sphere enclosing all of its poses, found once up front), so the k-table
+/// and — for a single occluder — the per-receiver cache ([`shscale_field::receivers`]) are built
+/// once; per frame, only deforming occluders are deformed, their BVH updated (rebuild or refit as
+/// [`deform::DeformerKind::preferred_update`] prescribes) and their BSV resampled; static occluders
+/// reuse their BSV. Returns the last frame's image and per-frame statistics.
+pub fn render_sequence(
+    scene: &Scene,
+    frames: usize,
+) -> Result<(RenderOutput, Vec<FrameStats>), LabError> {
+    let frames = frames.max(1);
+    let light = light_of(scene)?;
+    let [w, h] = scene.resolution;
+    let [sx, sy] = scene.receiver_size;
+    let c = scene.receiver_center;
+    let recv: Vec<DVec3> = (0..w * h)
+        .map(|k| {
+            let (i, j) = (k % w, k / w);
+            DVec3::new(
+                c.x + sx * (i as f64 / (w - 1) as f64 - 0.5),
+                c.y + sy * (0.5 - j as f64 / (h - 1) as f64),
+                c.z,
+            )
+        })
+        .collect();
+    let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
+    let pose =
+        |rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh| match kind {
+            deform::DeformerKind::Flap => {
+                let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
+                deform::flap(rest, out, y0, amount, t)
+            }
+            deform::DeformerKind::Bend => {
+                deform::bend(rest, out, amount / rest.bounding_sphere().radius, t)
+            }
+            deform::DeformerKind::Twist => deform::twist(rest, out, amount, t),
+            deform::DeformerKind::Morph => {
+                let s = rest.bounding_sphere();
+                let mut sphere = shapes::uv_sphere(1.0, 22, 24);
+                sphere.fit_to(&s);
+                deform::morph(rest, &sphere, out, t)
+            }
+        };
+    struct Entity {
+        rest: Option<Mesh>,
+        posed: Option<Mesh>,
+        occ: Box<dyn Occluder>,
+        bvh: Option<MeshBvh>,
+        deformer: Option<(deform::DeformerKind, f64)>,
+        sampling: Sphere,
+        bsv: Option<Bsv>,
+    }
+    let mut ents = Vec::new();
+    for o in &scene.occluders {
+        if o.mesh == "sphere" {
+            let occ = build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?;
+            let sampling = Sphere {
+                center: o.center,
+                radius: o.radius * scene.sampling_radius,
+            };
+            ents.push(Entity {
+                rest: None,
+                posed: None,
+                occ,
+                bvh: None,
+                deformer: None,
+                sampling,
+                bsv: None,
+            });
+            continue;
+        }
+        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+        // The sampling sphere: enclose every pose of the sequence.
+        let mut all = rest.positions.clone();
+        if let Some((kind, amount)) = o.deformer {
+            let mut p = rest.clone();
+            for f in 0..frames {
+                pose(&rest, kind, amount, f as f64 / frames as f64, &mut p);
+                all.extend_from_slice(&p.positions);
+            }
+        }
+        let s = shscale_geometry::min_enclosing_sphere(&all);
+        let sampling = Sphere {
+            center: s.center,
+            radius: s.radius * scene.sampling_radius,
+        };
+        let strategy = o
+            .deformer
+            .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+        let bvh = MeshBvh::build(&rest, strategy);
+        ents.push(Entity {
+            posed: Some(rest.clone()),
+            rest: Some(rest),
+            occ: Box::new(AnalyticSphere { sphere: s }),
+            bvh: Some(bvh),
+            deformer: o.deformer,
+            sampling,
+            bsv: None,
+        });
+    }
+    // Tables: one per occluder over the receivers' k range.
+    let tables: Vec<KTable> = ents
+        .iter()
+        .map(|e| {
+            let ks = recv
+                .iter()
+                .map(|p| (*p - e.sampling.center).length() / e.sampling.radius);
+            let (lo, hi) = ks.fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
+            let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
+            KTable::build(
+                TauFamily::Cone { alpha: scene.alpha },
+                Eta::Plain,
+                scene.order,
+                scene.k_count,
+                lo,
+                hi,
+                Spacing::Exp,
+                Interp::Linear,
+            )
+            .map_err(|e| LabError::Config(format!("{}: k-table: {e}", scene.file)))
+        })
+        .collect::<Result<_, _>>()?;
+    let shader = Shader::new(scene.order)?;
+    let transfer = shader.transfer(&light, DVec3::Z);
+    let mut cache: Option<shscale_field::receivers::ReceiverCache> = None;
+    let mut stats = Vec::new();
+    let mut pixels = vec![[0f32; 3]; recv.len()];
+    let (mut products, mut skipped) = (0, 0);
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let mut st = FrameStats {
+            frame: f,
+            t,
+            ..Default::default()
+        };
+        for e in ents.iter_mut() {
+            let changed = e.deformer.is_some() || e.bsv.is_none();
+            if let (Some((kind, amount)), Some(rest), Some(posed)) =
+                (e.deformer, e.rest.as_ref(), e.posed.as_mut())
+            {
+                let t0 = Instant::now();
+                pose(rest, kind, amount, t, posed);
+                st.deform_seconds += t0.elapsed().as_secs_f64();
+                let t0 = Instant::now();
+                e.bvh.as_mut().expect("meshes have a BVH").update(posed);
+                st.bvh_update_seconds += t0.elapsed().as_secs_f64();
+            }
+            if !changed {
+                st.reused += 1;
+                continue;
+            }
+            let t0 = Instant::now();
+            let occ: &dyn Occluder = match &e.bvh {
+                Some(b) => b,
+                None => e.occ.as_ref(),
+            };
+            e.bsv = Some(Bsv::sample_on(
+                occ,
+                scene.layout,
+                &sampler,
+                e.sampling,
+                0.0,
+            )?);
+            st.bsv_sampling_seconds += t0.elapsed().as_secs_f64();
+            st.resampled += 1;
+        }
+        let t0 = Instant::now();
+        if ents.len() == 1 {
+            let bsv = ents[0].bsv.as_ref().expect("sampled");
+            let c = cache.get_or_insert_with(|| {
+                shscale_field::receivers::ReceiverCache::build(bsv, &tables[0], &transfer, &recv)
+            });
+            let mut out = vec![[0.0; 3]; recv.len()];
+            c.shade(bsv, &mut out);
+            pixels = out.iter().map(|e| e.map(|x| x as f32)).collect();
+        } else {
+            let exs: Vec<Extrapolator> = ents
+                .iter()
+                .zip(&tables)
+                .map(|(e, t)| Extrapolator::new(e.bsv.as_ref().expect("sampled"), t))
+                .collect();
+            let fields: Vec<&dyn VisibilityField> =
+                exs.iter().map(|e| e as &dyn VisibilityField).collect();
+            let centers: Vec<DVec3> = ents.iter().map(|e| e.sampling.center).collect();
+            let shaded: Vec<([f32; 3], usize, usize)> = recv
+                .par_iter()
+                .map(|p| {
+                    let (v, pr, sk) = shader.combined_visibility_counted(&fields, &centers, *p);
+                    (Shader::shade(&transfer, &v).map(|x| x as f32), pr, sk)
+                })
+                .collect();
+            pixels = shaded.iter().map(|s| s.0).collect();
+            products = shaded.iter().map(|s| s.1).sum();
+            skipped = shaded.iter().map(|s| s.2).sum();
+        }
+        st.shading_seconds = t0.elapsed().as_secs_f64();
+        stats.push(st);
+    }
+    let out = RenderOutput {
+        width: w,
+        height: h,
+        pixels,
+        stages: Vec::new(),
+        products,
+        skipped,
+    };
+    Ok((out, stats))
 }

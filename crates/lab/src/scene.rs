@@ -11,10 +11,13 @@
 //! sampling_radius = 1.0     # s ≥ 1
 //!
 //! [[occluder]]
-//! mesh = "bunny"            # bundled name, .obj/.ply path, or "sphere" (analytic)
+//! mesh = "bunny"            # bundled name, .obj/.ply path, "sphere" (analytic), or a
+//!                           # procedural shape: "bird", "egg", "sponge", "plane"
 //! center = [0, 0, 1]        # where the bounding-sphere centre goes
 //! radius = 1.0              # the bounding radius after scaling
 //! up = "y"                  # the mesh's up axis ("y" or "z"); mapped to +z
+//! deformer = "flap"         # optional: flap | bend | twist | morph, animated over the frames
+//! amount = 0.8              #   its strength
 //!
 //! [receiver]
 //! center = [0, 0, 0]        # plane z = center.z, normal +z
@@ -61,6 +64,11 @@ pub struct RawOccluder {
     pub center: [f64; 3],
     pub radius: f64,
     pub up: Option<String>,
+    /// "flap" (bird), "bend" / "twist" (sponge, plane, any mesh), "morph" (egg → sphere).
+    pub deformer: Option<String>,
+    /// Strength: flap amplitude (rad, default 0.8), bend curvature (default 1.2), twist turns
+    /// (default 0.25), morph egg parameter (default 0.5).
+    pub amount: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -91,6 +99,7 @@ pub struct OccluderSpec {
     pub center: DVec3,
     pub radius: f64,
     pub up_is_y: bool,
+    pub deformer: Option<(shscale_geometry::deform::DeformerKind, f64)>,
 }
 
 /// The light as resolved.
@@ -227,11 +236,47 @@ impl Scene {
                     ))
                 }
             };
+            use shscale_geometry::deform::DeformerKind as K;
+            let deformer = match o.deformer.as_deref() {
+                None => None,
+                Some(name) => {
+                    let (kind, default) = match name {
+                        "flap" => (K::Flap, 0.8),
+                        "bend" => (K::Bend, 1.2),
+                        "twist" => (K::Twist, 0.25),
+                        "morph" => (K::Morph, 0.5),
+                        other => {
+                            return Err(err(
+                                "deformer",
+                                format!(
+                                    "occluder {}: {other:?} is not flap, bend, twist or morph",
+                                    i + 1
+                                ),
+                            ))
+                        }
+                    };
+                    if o.mesh == "sphere" {
+                        return Err(err(
+                            "deformer",
+                            format!("occluder {}: the analytic sphere cannot deform", i + 1),
+                        ));
+                    }
+                    let amount = o.amount.unwrap_or(default);
+                    if !amount.is_finite() {
+                        return Err(err(
+                            "amount",
+                            format!("occluder {}: {amount} is not finite", i + 1),
+                        ));
+                    }
+                    Some((kind, amount))
+                }
+            };
             occluders.push(OccluderSpec {
                 mesh: o.mesh.clone(),
                 center: DVec3::from_array(o.center),
                 radius: o.radius,
                 up_is_y,
+                deformer,
             });
         }
         let r = &raw.receiver;

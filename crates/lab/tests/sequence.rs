@@ -1,0 +1,78 @@
+//! Sequences: the cached single-occluder path equals the direct render; deforming occluders are
+//! resampled every frame and static ones reused.
+
+use shscale_lab::render::{render, render_sequence, Method};
+use shscale_lab::scene::Scene;
+use std::path::Path;
+
+fn scene(occluders: &str) -> Scene {
+    let text = format!(
+        r#"
+order = 4
+layout = "fib:60"
+hemisphere_res = 12
+{occluders}
+[receiver]
+center = [0, 0, 0]
+size = [5, 5]
+resolution = [20, 20]
+
+[light]
+kind = "sky"
+"#
+    );
+    Scene::parse("test.toml", &text, Path::new(".")).unwrap()
+}
+
+#[test]
+fn one_frame_sequence_equals_the_direct_render() {
+    let s = scene("[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.2]\nradius = 1.0\n");
+    let direct = render(&s, Method::Extrapolated).unwrap();
+    let (seq, stats) = render_sequence(&s, 1).unwrap();
+    assert_eq!(stats.len(), 1);
+    let worst = direct
+        .pixels
+        .iter()
+        .zip(&seq.pixels)
+        .map(|(a, b)| ((a[0] - b[0]) / a[0].max(1e-6)).abs())
+        .fold(0.0f32, f32::max);
+    // The cached path stores U in f32 and the image is f32: agreement to ~1e-6.
+    assert!(worst < 1e-5, "cached sequence vs direct render: {worst:e}");
+}
+
+#[test]
+fn deforming_occluders_are_resampled_and_static_ones_reused() {
+    let s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [2, 0, 1.0]\nradius = 0.5\n",
+    );
+    let (img, stats) = render_sequence(&s, 3).unwrap();
+    assert_eq!(stats.len(), 3);
+    assert_eq!((stats[0].resampled, stats[0].reused), (2, 0));
+    for st in &stats[1..] {
+        assert_eq!((st.resampled, st.reused), (1, 1), "{st:?}");
+        assert!(st.bsv_sampling_seconds > 0.0 && st.shading_seconds > 0.0);
+    }
+    assert!(img.pixels.iter().all(|p| p[0].is_finite() && p[0] > 0.0));
+    // The flapping changes the image between frames.
+    let (a, _) = render_sequence(&s, 1).unwrap();
+    assert!(a
+        .pixels
+        .iter()
+        .zip(&img.pixels)
+        .any(|(x, y)| (x[0] - y[0]).abs() > 1e-4));
+}
+
+#[test]
+fn bad_deformers_are_named() {
+    let e = Scene::parse("d.toml", "[[occluder]]\nmesh = \"bird\"\ncenter = [0,0,1]\nradius = 1\ndeformer = \"wobble\"\n[receiver]\ncenter = [0,0,0]\nsize = [1,1]\nresolution = [4,4]\n[light]\nkind = \"sky\"\n", Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("d.toml:5") && e.contains("deformer") && e.contains("wobble"),
+        "{e}"
+    );
+    let e = Scene::parse("s.toml", "[[occluder]]\nmesh = \"sphere\"\ncenter = [0,0,1]\nradius = 1\ndeformer = \"flap\"\n[receiver]\ncenter = [0,0,0]\nsize = [1,1]\nresolution = [4,4]\n[light]\nkind = \"sky\"\n", Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cannot deform"), "{e}");
+}
