@@ -14,6 +14,7 @@ pub mod midrange;
 pub mod probe;
 pub mod radiance;
 pub mod receivers;
+pub mod selfshadow;
 pub mod shading;
 pub mod srf;
 pub mod truth;
