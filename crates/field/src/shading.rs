@@ -14,6 +14,7 @@
 
 use crate::evaluator::VisibilityField;
 use glam::DVec3;
+use shscale_geometry::Occluder;
 use shscale_sh::{
     cap_zonal, clamped_cosine_zonal, rotate_zonal, ClampedCosine, GauntTensor, ShBasis,
 };
@@ -195,6 +196,20 @@ impl Shader {
         (acc, products, skipped)
     }
 
+    /// Irradiance from one channel of a local light with radiance SH `l` at a receiver with normal
+    /// `n` and visibility `v`: `⟨P_N(l · lobe(n)), v⟩` (a triple product per receiver: the light
+    /// varies from receiver to receiver).
+    pub fn shade_local(&self, l: &[f64], n: DVec3, v: &[f64]) -> f64 {
+        let nn = self.order * self.order;
+        let mut lobe = vec![0.0; nn];
+        self.lobe
+            .lobe(n.to_array(), &mut lobe)
+            .expect("lengths agree");
+        let mut t = vec![0.0; nn];
+        self.gaunt.product(l, &lobe, &mut t).expect("lengths agree");
+        t.iter().zip(v).map(|(a, b)| a * b).sum()
+    }
+
     /// `E = ⟨T, V⟩` per channel.
     pub fn shade(t: &[Vec<f64>; 3], v: &[f64]) -> [f64; 3] {
         [0, 1, 2].map(|c| t[c].iter().zip(v).map(|(a, b)| a * b).sum())
@@ -234,20 +249,52 @@ pub fn irradiance_full_frequency(
     n: DVec3,
     h: usize,
 ) -> [f64; 3] {
+    irradiance_full_frequency_with(light, occs, &[], p, n, h)
+}
+
+/// As [`irradiance_full_frequency`], plus local lights (one optional emitter per channel per
+/// light): a ray adds an emitter's radiance when it reaches the emitter before any occluder.
+/// Emitters do not block the environment (as in the SH methods, where lights cast no shadows).
+pub fn irradiance_full_frequency_with(
+    light: &EnvLight,
+    occs: &[&dyn shscale_geometry::Occluder],
+    emitters: &[[Option<&crate::radiance::Emitter>; 3]],
+    p: DVec3,
+    n: DVec3,
+    h: usize,
+) -> [f64; 3] {
     let order = light.order();
     let basis = ShBasis::<f64>::new(order).expect("valid order");
     let set = shscale_sh::DirectionSet::gauss_hemisphere(h.max(1));
     let f = crate::frame::LocalFrame::from_z(n.normalize());
     let mut y = vec![0.0; order * order];
     let mut e = [0.0; 3];
+    let mut e_local = [0.0; 3];
     for (d, &w) in set.dirs.iter().zip(&set.weights) {
         let local = DVec3::from_array(*d);
         let dir = f.to_world(local);
-        let blocked = occs.iter().any(|o| {
-            let tmin = shscale_geometry::RAY_EPS * o.bounding_sphere().radius;
-            o.occluded(p, dir, tmin, f64::INFINITY)
-        });
-        if blocked {
+        let t_occ = occs
+            .iter()
+            .filter_map(|o| {
+                o.closest_hit(
+                    p,
+                    dir,
+                    shscale_geometry::RAY_EPS * o.bounding_sphere().radius,
+                    f64::INFINITY,
+                )
+            })
+            .fold(f64::INFINITY, f64::min);
+        for em in emitters {
+            for (c, slot) in em.iter().enumerate() {
+                if let Some(e) = slot {
+                    let tmin = shscale_geometry::RAY_EPS * e.bvh.bounding_sphere().radius;
+                    if e.bvh.closest_hit(p, dir, tmin, t_occ).is_some() {
+                        e_acc_add(&mut e_local, c, w * e.radiance_along(p, dir) * local.z);
+                    }
+                }
+            }
+        }
+        if t_occ < f64::INFINITY {
             continue;
         }
         basis.eval(dir.to_array(), &mut y);
@@ -256,5 +303,10 @@ pub fn irradiance_full_frequency(
             e[c] += w * l * local.z;
         }
     }
-    e
+    [0, 1, 2].map(|c| e[c] + e_local[c])
+}
+
+#[inline]
+fn e_acc_add(e: &mut [f64; 3], c: usize, v: f64) {
+    e[c] += v;
 }

@@ -146,7 +146,7 @@ pub fn hinged_light(size: f64, hinge: f64) -> (shscale_geometry::Mesh, Vec<[f64;
     );
     let p = vec![y0, y1, y0 + a, y1 + a, y0 + b, y1 + b];
     // Winding so normals face into the opening (toward +z between the panels).
-    let t = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+    let t = vec![[0, 3, 2], [0, 1, 3], [0, 5, 1], [0, 4, 5]];
     let mesh = shscale_geometry::Mesh::new(&format!("hinged_light({size},{hinge})"), p, t, false)
         .expect("valid by construction");
     (
@@ -158,4 +158,25 @@ pub fn hinged_light(size: f64, hinge: f64) -> (shscale_geometry::Mesh, Vec<[f64;
             [0.0, 1.0, 0.0],
         ],
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hinged_panels_face_into_the_opening() {
+        let (m, _) = hinged_light(1.0, 100f64.to_radians());
+        // The opening is the region above the hinge line between the panels: a point on the +z
+        // axis must be on the front side of every triangle.
+        let q = DVec3::new(0.0, 0.0, 0.5);
+        for f in 0..m.triangles.len() {
+            let [a, b, c] = m.corners(f);
+            let n = (b - a).cross(c - a);
+            assert!(
+                n.dot(q - a) > 0.0,
+                "triangle {f} faces away from the opening"
+            );
+        }
+    }
 }

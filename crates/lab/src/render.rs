@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
-use shscale_field::{Bsv, VisibilitySampler};
+use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{bundled, deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
@@ -221,15 +221,25 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         Method::FullFrequency => Vec::new(),
     };
     let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
+    let t = Instant::now();
+    let emitters = build_emitters(scene)?;
+    if !emitters.is_empty() {
+        stages.push(("light_sources_build".to_string(), t.elapsed().as_secs_f64()));
+    }
     if method == Method::FullFrequency {
         let t = Instant::now();
         let refs: Vec<&dyn Occluder> = occs.iter().map(|o| o.as_ref()).collect();
+        let ems: Vec<[Option<&Emitter>; 3]> = emitters
+            .iter()
+            .map(|e| [0, 1, 2].map(|c| e.channels[c].as_ref()))
+            .collect();
         let pixels: Vec<[f32; 3]> = recv
             .par_iter()
             .map(|p| {
-                shscale_field::shading::irradiance_full_frequency(
+                shscale_field::shading::irradiance_full_frequency_with(
                     &light,
                     &refs,
+                    &ems,
                     *p,
                     DVec3::Z,
                     2 * scene.hemisphere_res,
@@ -250,18 +260,93 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             skipped: 0,
         });
     }
+    // Source radiance fields of the local lights (DESIGN.md §4).
+    let t = Instant::now();
+    let mut light_fields: Vec<LightField> = Vec::new();
+    if !emitters.is_empty() {
+        if method == Method::FullField {
+            return Err(LabError::Config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
+        }
+        for e in &emitters {
+            let mut lf = LightField {
+                bsvs: [None, None, None],
+                table: None,
+            };
+            for c in 0..3 {
+                if let (Some(em), Method::Extrapolated) = (&e.channels[c], method) {
+                    lf.bsvs[c] = Some(shscale_field::srf::radiance_bsv(
+                        em,
+                        scene.layout,
+                        &sampler,
+                        1.0,
+                    )?);
+                }
+            }
+            if method == Method::Extrapolated {
+                let s = e.sphere;
+                let ks = recv.iter().map(|p| (*p - s.center).length() / s.radius);
+                let (lo, hi) = ks.fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
+                let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
+                let eta = if e.energy { Eta::Energy } else { Eta::Plain };
+                lf.table = Some(
+                    KTable::build(
+                        TauFamily::Cone { alpha: scene.alpha },
+                        eta,
+                        scene.order,
+                        scene.k_count,
+                        lo,
+                        hi,
+                        Spacing::Exp,
+                        Interp::Linear,
+                    )
+                    .map_err(|x| LabError::Config(format!("{}: light k-table: {x}", scene.file)))?,
+                );
+            }
+            light_fields.push(lf);
+        }
+        stages.push(("light_fields".to_string(), t.elapsed().as_secs_f64()));
+    }
     let t = Instant::now();
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
+    let extrapolators: Vec<[Option<Extrapolator>; 3]> = light_fields
+        .iter()
+        .map(|lf| {
+            [0, 1, 2].map(|c| {
+                lf.bsvs[c].as_ref().map(|b| {
+                    Extrapolator::for_light(b, lf.table.as_ref().expect("table with BSVs"))
+                })
+            })
+        })
+        .collect();
+    let nn = scene.order * scene.order;
     let shaded: Vec<([f32; 3], usize, usize)> = recv
         .par_iter()
         .map(|p| {
             let (v, products, skipped) = shader.combined_visibility_counted(&fields, &centers, *p);
-            (
-                Shader::shade(&transfer, &v).map(|x| x as f32),
-                products,
-                skipped,
-            )
+            let mut e = Shader::shade(&transfer, &v);
+            // Local lights: radiance at p (extrapolated or ray traced), contracted with the lobe.
+            let mut l = vec![0.0; nn];
+            let mut m = shscale_scaling::ScalingMatrix::identity(scene.order).expect("valid order");
+            for (k, em) in emitters.iter().enumerate() {
+                for c in 0..3 {
+                    let Some(emitter) = &em.channels[c] else {
+                        continue;
+                    };
+                    match &extrapolators.get(k).and_then(|x| x[c].as_ref()) {
+                        Some(x) => {
+                            x.eval(*p, &mut m, &mut l);
+                        }
+                        None => l.copy_from_slice(
+                            &sampler
+                                .radiance_full_sphere(emitter, *p, shscale_field::Frame::Entity)
+                                .0,
+                        ),
+                    }
+                    e[c] += shader.shade_local(&l, DVec3::Z, &v);
+                }
+            }
+            (e.map(|x| x as f32), products, skipped)
         })
         .collect();
     stages.push(("shading".to_string(), t.elapsed().as_secs_f64()));
@@ -273,6 +358,69 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
     })
+}
+
+/// A local light: one emitter per non-black channel (radiance per triangle) and its bounds.
+pub struct LightSource {
+    pub channels: [Option<Emitter>; 3],
+    pub sphere: Sphere,
+    pub energy: bool,
+}
+
+struct LightField {
+    bsvs: [Option<Bsv>; 3],
+    table: Option<KTable>,
+}
+
+/// Build the scene's local lights, emitting toward −z from their centres.
+pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, LabError> {
+    let mut out = Vec::new();
+    for l in &scene.light_sources {
+        let (mut mesh, rgb) = if l.hinge {
+            shscale_field::srf::hinged_light(l.size, l.hinge_angle)
+        } else {
+            let h = 0.5 * l.size;
+            let p = vec![
+                DVec3::new(-h, -h, 0.0),
+                DVec3::new(h, -h, 0.0),
+                DVec3::new(h, h, 0.0),
+                DVec3::new(-h, h, 0.0),
+            ];
+            // Winding with normal −z: the square emits downward.
+            (
+                Mesh::new("quad_light", p, vec![[0, 2, 1], [0, 3, 2]], false)?,
+                vec![[1.0; 3]; 2],
+            )
+        };
+        if l.hinge {
+            // The hinge opens toward +z: turn it 180° about x so it emits downward.
+            for p in &mut mesh.positions {
+                *p = DVec3::new(p.x, -p.y, -p.z);
+            }
+        }
+        let centre = mesh.bounding_sphere().center;
+        for p in &mut mesh.positions {
+            *p += l.center - centre;
+        }
+        let mut channels: [Option<Emitter>; 3] = [None, None, None];
+        for (c, slot) in channels.iter_mut().enumerate() {
+            let rad: Vec<f64> = rgb.iter().map(|t| t[c] * l.radiance[c]).collect();
+            if rad.iter().all(|r| *r == 0.0) {
+                continue; // compute only what the scene requires
+            }
+            *slot = Some(Emitter::new(
+                &mesh,
+                MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
+                rad,
+            )?);
+        }
+        out.push(LightSource {
+            channels,
+            sphere: mesh.bounding_sphere(),
+            energy: l.energy,
+        });
+    }
+    Ok(out)
 }
 
 /// Timings of one frame of a sequence.

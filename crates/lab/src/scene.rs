@@ -33,6 +33,14 @@
 //! sun_radius_deg = 5
 //! # path = "envmaps/city.exr"  (exr; relative to the scene file)
 //! # intensity = 1.0
+//!
+//! [[light_source]]          # optional local area lights, emitting toward −z
+//! kind = "hinge"            # "quad" (one-sided square) or "hinge" (red + green panels)
+//! center = [0, 0, 3]
+//! size = 1.0
+//! hinge_deg = 100
+//! intensity = 5.0           # scales `radiance` (quad, default [1, 1, 1]) or red/green (hinge)
+//! eta = "plain"             # source-radiance-field scaling: "plain" or "energy"
 //! ```
 
 use crate::LabError;
@@ -55,6 +63,23 @@ pub struct RawScene {
     pub occluder: Vec<RawOccluder>,
     pub receiver: RawReceiver,
     pub light: RawLight,
+    #[serde(default)]
+    pub light_source: Vec<RawLightSource>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLightSource {
+    /// "quad" (one-sided square) or "hinge" (the papers' red/green hinged light).
+    pub kind: String,
+    pub center: [f64; 3],
+    pub size: Option<f64>,
+    pub hinge_deg: Option<f64>,
+    /// Linear RGB radiance of a quad; the hinge is red and green scaled by `intensity`.
+    pub radiance: Option<[f64; 3]>,
+    pub intensity: Option<f64>,
+    /// "plain" (default; radiance is invariant along rays) or "energy" (the papers' prescription).
+    pub eta: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -133,6 +158,18 @@ pub struct Scene {
     pub receiver_size: [f64; 2],
     pub resolution: [usize; 2],
     pub light: LightSpec,
+    pub light_sources: Vec<LightSourceSpec>,
+}
+
+/// A local area light, emitting downward (toward −z) from `center`.
+#[derive(Clone, Debug)]
+pub struct LightSourceSpec {
+    pub hinge: bool,
+    pub center: DVec3,
+    pub size: f64,
+    pub hinge_angle: f64,
+    pub radiance: [f64; 3],
+    pub energy: bool,
 }
 
 /// 1-based line of byte `offset` in `text`.
@@ -348,6 +385,78 @@ impl Scene {
                 ))
             }
         };
+        let mut light_sources = Vec::new();
+        for (i, l) in raw.light_source.iter().enumerate() {
+            let hinge = match l.kind.as_str() {
+                "quad" => false,
+                "hinge" => true,
+                other => {
+                    return Err(err(
+                        "kind",
+                        format!(
+                            "light_source {}: {other:?} is not \"quad\" or \"hinge\"",
+                            i + 1
+                        ),
+                    ))
+                }
+            };
+            if !finite3(l.center) {
+                return Err(err(
+                    "center",
+                    format!(
+                        "light_source {}: center {:?} is not finite",
+                        i + 1,
+                        l.center
+                    ),
+                ));
+            }
+            let size = l.size.unwrap_or(1.0);
+            if !(size.is_finite() && size > 0.0) {
+                return Err(err(
+                    "size",
+                    format!("light_source {}: size {size} must be > 0", i + 1),
+                ));
+            }
+            let hinge_deg = l.hinge_deg.unwrap_or(100.0);
+            if !(hinge_deg > 0.0 && hinge_deg < 180.0) {
+                return Err(err(
+                    "hinge_deg",
+                    format!("light_source {}: {hinge_deg} is outside (0, 180)", i + 1),
+                ));
+            }
+            let intensity = l.intensity.unwrap_or(1.0);
+            let radiance = l.radiance.unwrap_or([1.0, 1.0, 1.0]).map(|v| v * intensity);
+            if radiance.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(err(
+                    "radiance",
+                    format!(
+                        "light_source {}: {radiance:?} must be finite and ≥ 0",
+                        i + 1
+                    ),
+                ));
+            }
+            let energy = match l.eta.as_deref().unwrap_or("plain") {
+                "plain" => false,
+                "energy" => true,
+                other => {
+                    return Err(err(
+                        "eta",
+                        format!(
+                            "light_source {}: {other:?} is not \"plain\" or \"energy\"",
+                            i + 1
+                        ),
+                    ))
+                }
+            };
+            light_sources.push(LightSourceSpec {
+                hinge,
+                center: DVec3::from_array(l.center),
+                size,
+                hinge_angle: hinge_deg.to_radians(),
+                radiance,
+                energy,
+            });
+        }
         Ok(Self {
             file: file.into(),
             order,
@@ -361,6 +470,7 @@ impl Scene {
             receiver_size: r.size,
             resolution: r.resolution,
             light,
+            light_sources,
         })
     }
 }
