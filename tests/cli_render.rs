@@ -88,6 +88,24 @@ fn render_all_methods_to_exr_and_png() {
         bl_full < 0.2 && bl_full < ex_full,
         "band-limited {bl_full} vs extrapolated {ex_full}"
     );
+    // --reference prints shade_rmse_rel against the chosen truth.
+    let out = d.join("ref.exr");
+    let r = shscale(&[
+        "render",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--reference",
+        "raytraced",
+    ]);
+    let text = String::from_utf8_lossy(&r.stdout).to_string();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("shade_rmse_rel vs"))
+        .unwrap_or_else(|| panic!("{text}"));
+    let v: f64 = line.split_whitespace().nth(3).unwrap().parse().unwrap();
+    assert!(v > 0.0 && v < 0.5, "{line}");
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -64,6 +64,10 @@ pub struct RenderArgs {
     /// only) and print per-frame stage times; the image is the last frame.
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Also render this reference on the same scene and print `shade_rmse_rel` against it
+    /// (DESIGN.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
+    #[arg(long, value_enum)]
+    pub reference: Option<MethodArg>,
 }
 
 #[derive(Args, Debug)]

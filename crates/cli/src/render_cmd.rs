@@ -16,12 +16,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let scene = Scene::load(&a.scene)?;
-    let method = match a.method {
-        MethodArg::Extrapolated => Method::Extrapolated,
-        MethodArg::FullField => Method::FullField,
-        MethodArg::Raytraced => Method::RayTraced,
-        MethodArg::RaytracedFull => Method::FullFrequency,
-    };
+    let method = to_method(a.method);
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
     }
@@ -52,8 +47,40 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
         img.products, img.skipped
     );
+    if let Some(r) = a.reference {
+        let reference = to_method(r);
+        let t = std::time::Instant::now();
+        let truth = render(&scene, reference)?;
+        // Unshadowed irradiance: the same scene without occluders (DESIGN.md §6 denominator).
+        let mut open = scene.clone();
+        open.occluders.clear();
+        let unshadowed = render(&open, Method::RayTraced)?;
+        let flat = |img: &shscale_lab::render::RenderOutput| {
+            img.pixels
+                .iter()
+                .flat_map(|p| p.map(f64::from))
+                .collect::<Vec<f64>>()
+        };
+        let rel =
+            shscale_field::shading::shade_rmse_rel(&flat(&img), &flat(&truth), &flat(&unshadowed))
+                .context("shade_rmse_rel: the unshadowed image is black")?;
+        println!(
+            "shade_rmse_rel vs {:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
+            r,
+            t.elapsed().as_secs_f64() * 1e3
+        );
+    }
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
+}
+
+fn to_method(m: MethodArg) -> Method {
+    match m {
+        MethodArg::Extrapolated => Method::Extrapolated,
+        MethodArg::FullField => Method::FullField,
+        MethodArg::Raytraced => Method::RayTraced,
+        MethodArg::RaytracedFull => Method::FullFrequency,
+    }
 }
 
 fn sequence(

@@ -106,9 +106,19 @@ fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
         )?,
         LightSpec::Exr { path, intensity } => {
             let (w, h, px) = crate::io::read_exr(path)?;
+            if let Some(i) = px.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+                return Err(LabError::Config(format!(
+                    "{}: texel {i} (row {}, column {}) is not finite",
+                    path.display(),
+                    i / w,
+                    i % w
+                )));
+            }
+            // Lossy EXR compression (DWAB, as in the bundled maps) leaves small negative values;
+            // radiance cannot be negative, so they are clamped to 0.
             let px: Vec<[f32; 3]> = px
                 .into_iter()
-                .map(|p| p.map(|v| v * *intensity as f32))
+                .map(|p| p.map(|v| v.max(0.0) * *intensity as f32))
                 .collect();
             EnvLight::from_latlong(scene.order, w, h, &px)?
         }
