@@ -138,25 +138,39 @@ impl ReceiverCache {
         );
         let nn = self.nn;
         let stride = self.channels * nn;
+        // One contiguous copy of this frame's sample coefficients (30 KB at 240 samples, N = 4):
+        // no pointer chasing through each sample's own allocation in the hot loop.
+        let flat: Vec<f64> = bsv
+            .samples
+            .iter()
+            .flat_map(|s| s.coeffs[..nn].iter().copied())
+            .collect();
         out.par_iter_mut()
             .enumerate()
-            .with_min_len(256)
+            .with_min_len(1024)
             .for_each(|(r, o)| {
                 if let Some(e) = self.constant[r] {
                     *o = e;
                     return;
                 }
                 let u = &self.u[r * stride..(r + 1) * stride];
-                let [i0, i1, i2] = self.idx[r].map(|i| &bsv.samples[i as usize].coeffs[..nn]);
+                let [i0, i1, i2] =
+                    self.idx[r].map(|i| &flat[i as usize * nn..(i as usize + 1) * nn]);
                 let [w0, w1, w2] = self.w[r];
                 let mut e = [0.0; 3];
                 for ch in 0..self.channels {
                     let uc = &u[ch * nn..(ch + 1) * nn];
                     // Four independent accumulators: the sum is latency-bound otherwise.
                     let mut acc = [0.0f64; 4];
-                    for j in 0..nn {
-                        let b = w0 * i0[j] + w1 * i1[j] + w2 * i2[j];
-                        acc[j & 3] += uc[j] as f64 * b;
+                    let (full, rest) = (nn / 4 * 4, nn % 4);
+                    for j in (0..full).step_by(4) {
+                        for q in 0..4 {
+                            let b = w0 * i0[j + q] + w1 * i1[j + q] + w2 * i2[j + q];
+                            acc[q] += uc[j + q] as f64 * b;
+                        }
+                    }
+                    for j in full..full + rest {
+                        acc[0] += uc[j] as f64 * (w0 * i0[j] + w1 * i1[j] + w2 * i2[j]);
                     }
                     e[ch] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
                 }
