@@ -139,18 +139,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         .collect::<Result<_, _>>()?;
     stages.push(("bvh_build".to_string(), t.elapsed().as_secs_f64()));
     let [w, h] = scene.resolution;
-    let [sx, sy] = scene.receiver_size;
-    let c = scene.receiver_center;
-    let recv: Vec<DVec3> = (0..w * h)
-        .map(|k| {
-            let (i, j) = (k % w, k / w);
-            DVec3::new(
-                c.x + sx * (i as f64 / (w - 1) as f64 - 0.5),
-                c.y + sy * (0.5 - j as f64 / (h - 1) as f64),
-                c.z,
-            )
-        })
-        .collect();
+    let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
     let mut bsvs = Vec::new();
@@ -171,25 +160,11 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             stages.push(("bsv_sampling".to_string(), t.elapsed().as_secs_f64()));
             let t = Instant::now();
             for (o, b) in occs.iter().zip(&bsvs) {
-                let s = o.bounding_sphere();
-                let ks = recv
-                    .iter()
-                    .map(|p| (*p - s.center).length() / b.sampling_radius);
-                let (lo, hi) = ks.fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
-                let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
-                tables.push(
-                    KTable::build(
-                        TauFamily::Cone { alpha: scene.alpha },
-                        Eta::Plain,
-                        scene.order,
-                        scene.k_count,
-                        lo,
-                        hi,
-                        Spacing::Exp,
-                        Interp::Linear,
-                    )
-                    .map_err(|e| LabError::Config(format!("{}: k-table: {e}", scene.file)))?,
-                );
+                let s = Sphere {
+                    center: o.bounding_sphere().center,
+                    radius: b.sampling_radius,
+                };
+                tables.push(table_for(scene, s, &recv, Eta::Plain)?);
             }
             stages.push(("table_build".to_string(), t.elapsed().as_secs_f64()));
         }
@@ -293,24 +268,8 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
                 }
             }
             if method == Method::Extrapolated {
-                let s = e.sphere;
-                let ks = recv.iter().map(|p| (*p - s.center).length() / s.radius);
-                let (lo, hi) = ks.fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
-                let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
                 let eta = if e.energy { Eta::Energy } else { Eta::Plain };
-                lf.table = Some(
-                    KTable::build(
-                        TauFamily::Cone { alpha: scene.alpha },
-                        eta,
-                        scene.order,
-                        scene.k_count,
-                        lo,
-                        hi,
-                        Spacing::Exp,
-                        Interp::Linear,
-                    )
-                    .map_err(|x| LabError::Config(format!("{}: light k-table: {x}", scene.file)))?,
-                );
+                lf.table = Some(table_for(scene, e.sphere, &recv, eta)?);
             }
             light_fields.push(lf);
         }
@@ -368,6 +327,48 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
     })
+}
+
+/// The receiver plane's points (normal +z), row-major, row 0 at +y.
+pub fn receiver_grid(scene: &Scene) -> Vec<DVec3> {
+    let [w, h] = scene.resolution;
+    let [sx, sy] = scene.receiver_size;
+    let c = scene.receiver_center;
+    (0..w * h)
+        .map(|k| {
+            let (i, j) = (k % w, k / w);
+            DVec3::new(
+                c.x + sx * (i as f64 / (w - 1) as f64 - 0.5),
+                c.y + sy * (0.5 - j as f64 / (h - 1) as f64),
+                c.z,
+            )
+        })
+        .collect()
+}
+
+/// The cone k-table covering every receiver's `k = |p − c| / r_s` for a sampling sphere.
+fn table_for(
+    scene: &Scene,
+    sampling: Sphere,
+    recv: &[DVec3],
+    eta: Eta,
+) -> Result<KTable, LabError> {
+    let (lo, hi) = recv
+        .iter()
+        .map(|p| (*p - sampling.center).length() / sampling.radius)
+        .fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
+    let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
+    KTable::build(
+        TauFamily::Cone { alpha: scene.alpha },
+        eta,
+        scene.order,
+        scene.k_count,
+        lo,
+        hi,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .map_err(|e| LabError::Config(format!("{}: k-table: {e}", scene.file)))
 }
 
 /// A local light: one emitter per non-black channel (radiance per triangle) and its bounds.
@@ -462,18 +463,7 @@ pub fn render_sequence(
     let frames = frames.max(1);
     let light = light_of(scene)?;
     let [w, h] = scene.resolution;
-    let [sx, sy] = scene.receiver_size;
-    let c = scene.receiver_center;
-    let recv: Vec<DVec3> = (0..w * h)
-        .map(|k| {
-            let (i, j) = (k % w, k / w);
-            DVec3::new(
-                c.x + sx * (i as f64 / (w - 1) as f64 - 0.5),
-                c.y + sy * (0.5 - j as f64 / (h - 1) as f64),
-                c.z,
-            )
-        })
-        .collect();
+    let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
     let pose =
         |rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh| match kind {
@@ -552,24 +542,7 @@ pub fn render_sequence(
     // Tables: one per occluder over the receivers' k range.
     let tables: Vec<KTable> = ents
         .iter()
-        .map(|e| {
-            let ks = recv
-                .iter()
-                .map(|p| (*p - e.sampling.center).length() / e.sampling.radius);
-            let (lo, hi) = ks.fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
-            let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
-            KTable::build(
-                TauFamily::Cone { alpha: scene.alpha },
-                Eta::Plain,
-                scene.order,
-                scene.k_count,
-                lo,
-                hi,
-                Spacing::Exp,
-                Interp::Linear,
-            )
-            .map_err(|e| LabError::Config(format!("{}: k-table: {e}", scene.file)))
-        })
+        .map(|e| table_for(scene, e.sampling, &recv, Eta::Plain))
         .collect::<Result<_, _>>()?;
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
