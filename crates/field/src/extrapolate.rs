@@ -71,12 +71,21 @@ impl<'a> Extrapolator<'a> {
     /// matrix of the table's order.
     pub fn eval(&self, p: DVec3, m: &mut ScalingMatrix<f64>, out: &mut [f64]) -> ExtrapolationKind {
         let c = self.bsv.sphere.center;
+        // At (or numerically at) the centre the direction and the local frame are undefined and
+        // k = 0 lies below any table: use the +z direction with the table's smallest k (reported
+        // as ClampedBelow) instead of failing.
+        let tiny = 1e-12 * self.bsv.sampling_radius;
+        let p = if (p - c).length() < tiny {
+            c + tiny * DVec3::Z
+        } else {
+            p
+        };
         let d = (p - c).length();
         let k = d / self.bsv.sampling_radius;
         let status = self
             .table
             .lookup(k, m)
-            .expect("k is finite and > 0 for p ≠ c");
+            .expect("k is finite and > 0 after the centre guard");
         if let KLookup::AboveMax { .. } = status {
             out.iter_mut().for_each(|o| *o = 0.0);
             if self.beyond == Beyond::Unoccluded {

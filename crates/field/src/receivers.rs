@@ -61,6 +61,13 @@ impl ReceiverCache {
             .map_init(
                 || ScalingMatrix::identity(order).expect("valid order"),
                 |m, &p| {
+                    // A receiver at the centre has no direction: nudge it as the extrapolator does.
+                    let tiny = 1e-12 * bsv.sampling_radius;
+                    let p = if (p - c).length() < tiny {
+                        c + tiny * DVec3::Z
+                    } else {
+                        p
+                    };
                     let d = p - c;
                     let k = d.length() / bsv.sampling_radius;
                     let status = table.lookup(k, m).expect("finite k > 0");

@@ -269,3 +269,35 @@ fn full_field_converges_to_the_truth_as_shells_and_samples_increase() {
     assert!((out[0] - (4.0 * PI).sqrt()).abs() < 1e-15 && out[1..].iter().all(|v| *v == 0.0));
     assert_eq!(fine.shells(), 16);
 }
+
+#[test]
+fn queries_at_the_centre_are_clamped_not_panicking() {
+    let order = 3;
+    let sphere = AnalyticSphere::unit();
+    let sampler = VisibilitySampler::new(order, 8).unwrap();
+    let bsv = Bsv::sample(&sphere, Layout::Fibonacci { p: 30 }, &sampler, 1.2, 0.0).unwrap();
+    let table = KTable::build(
+        TauFamily::Cone { alpha: 0.7 },
+        Eta::Plain,
+        order,
+        5,
+        0.5,
+        2.0,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    let ex = Extrapolator::new(&bsv, &table);
+    let mut m = ScalingMatrix::identity(order).unwrap();
+    let mut out = vec![0.0; order * order];
+    assert_eq!(
+        ex.eval(DVec3::ZERO, &mut m, &mut out),
+        ExtrapolationKind::ClampedBelow
+    );
+    assert!(out.iter().all(|v| v.is_finite()));
+    assert_eq!(
+        ex.eval(DVec3::new(0.0, 0.0, 1e-300), &mut m, &mut out),
+        ExtrapolationKind::ClampedBelow
+    );
+    assert!(out.iter().all(|v| v.is_finite()));
+}
