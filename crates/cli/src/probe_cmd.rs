@@ -28,6 +28,9 @@ struct RowOut {
     occ_rel_l2_on_surface_max: Option<f64>,
     extrapolation_seconds: f64,
     truth_seconds: f64,
+    /// DESIGN.md §6: times carry the device they were measured on.
+    device: &'static str,
+    threads: usize,
 }
 
 impl From<&ProbeRow> for RowOut {
@@ -49,6 +52,8 @@ impl From<&ProbeRow> for RowOut {
             occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
             extrapolation_seconds: r.extrapolation_seconds,
             truth_seconds: r.truth_seconds,
+            device: "cpu",
+            threads: rayon_threads(),
         }
     }
 }
