@@ -162,12 +162,10 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
             for r in rows {
                 let cells: Vec<String> = keys
                     .iter()
-                    .map(|k| {
-                        if r[k].is_null() {
-                            String::new()
-                        } else {
-                            r[k].to_string()
-                        }
+                    .map(|k| match &r[k] {
+                        serde_json::Value::Null => String::new(),
+                        serde_json::Value::String(x) => x.clone(),
+                        v => v.to_string(),
                     })
                     .collect();
                 println!(
