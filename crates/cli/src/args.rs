@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "shscale",
     version,
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
-    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr"
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr\n  shscale run configs/probe_alpha_sweep.toml"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -39,6 +39,21 @@ pub enum Command {
     /// Render a scene's receiver plane (irradiance) to EXR + PNG with one visibility method.
     /// Example: shscale render --scene configs/scene_sphere.toml --method extrapolated --out results/sphere.exr
     Render(RenderArgs),
+    /// Run an experiment config (sweeps → runs.csv + manifest.toml; resumable, shardable).
+    /// Example: shscale run configs/probe_alpha_sweep.toml
+    Run(RunArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Experiment config (TOML; schema in crates/lab/src/experiment.rs).
+    pub config: Option<std::path::PathBuf>,
+    /// Run only shard I of N (runs whose index ≡ I mod N), e.g. 0/4.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Root of the outputs: <out-dir>/<experiment>/<name>/.
+    #[arg(long, default_value = "results")]
+    pub out_dir: std::path::PathBuf,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -10,6 +10,7 @@ mod matrix_cmd;
 mod output;
 mod probe_cmd;
 mod render_cmd;
+mod run_cmd;
 mod sh_cmd;
 
 use args::{Cli, Command};
@@ -47,6 +48,7 @@ fn main() -> ExitCode {
         Command::Visibility(cmd) => geometry_cmd::visibility(cmd),
         Command::Probe(cmd) => probe_cmd::run(cmd),
         Command::Render(cmd) => render_cmd::run(cmd),
+        Command::Run(cmd) => run_cmd::run(cmd),
     };
     match result {
         Ok(code) => code,

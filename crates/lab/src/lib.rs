@@ -3,8 +3,10 @@
 //! evaluators, and image outputs (EXR with a PNG preview) written atomically (temporary file, then
 //! rename). The numerical crates stay free of files and configs.
 
+pub mod experiment;
 pub mod io;
 pub mod render;
+pub mod runner;
 pub mod scene;
 
 /// Errors of the lab.

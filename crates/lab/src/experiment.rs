@@ -1,0 +1,240 @@
+//! Experiment configs (TOML), raw → resolved plan (STYLE.md §5): fixed parameters at the top
+//! level, sweep axes under `[sweep]`, expanded into a deterministic list of runs, each with a run
+//! id hashed from its resolved parameters. Every error names the file, the line and the field.
+//!
+//! ```toml
+//! experiment = "probe"        # the experiment kind (probe: extrapolated vs truth at radii)
+//! name = "alpha_sweep"        # results/<experiment>/<name>/ (default: the file stem)
+//! mesh = "bunny"              # bundled name, path, or "sphere"
+//! order = 4
+//! alpha_deg = 45
+//! layout = "latlong:12x20"
+//! hemisphere_res = 32
+//! sampling_radius = 1.0
+//! k_count = 40
+//! radii = [0.5, 0.7, 0.9, 1.3, 2.0]
+//!
+//! [sweep]                     # any of the scalar parameters above, as lists
+//! alpha_deg = [15, 30, 45, 60, 75]
+//! order = [2, 4, 8]
+//! ```
+
+use crate::LabError;
+use serde::Deserialize;
+use shscale_field::Layout;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawExperiment {
+    pub experiment: String,
+    pub name: Option<String>,
+    pub mesh: Option<String>,
+    pub order: Option<usize>,
+    pub alpha_deg: Option<f64>,
+    pub layout: Option<String>,
+    pub hemisphere_res: Option<usize>,
+    pub sampling_radius: Option<f64>,
+    pub k_count: Option<usize>,
+    pub on_surface_eps: Option<f64>,
+    pub radii: Option<Vec<f64>>,
+    #[serde(default)]
+    pub sweep: BTreeMap<String, toml::Value>,
+}
+
+/// One run's resolved parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeParams {
+    pub mesh: String,
+    pub order: usize,
+    pub alpha_deg: f64,
+    pub layout: Layout,
+    pub hemisphere_res: usize,
+    pub sampling_radius: f64,
+    pub k_count: usize,
+    pub on_surface_eps: f64,
+    pub radii: Vec<f64>,
+}
+
+impl ProbeParams {
+    /// Canonical `key=value;…` form (fixed key order), the input of the run id.
+    pub fn canonical(&self) -> String {
+        format!(
+            "mesh={};order={};alpha_deg={};layout={};hemisphere_res={};sampling_radius={};k_count={};on_surface_eps={};radii={:?}",
+            self.mesh,
+            self.order,
+            self.alpha_deg,
+            self.layout.name(),
+            self.hemisphere_res,
+            self.sampling_radius,
+            self.k_count,
+            self.on_surface_eps,
+            self.radii
+        )
+    }
+
+    /// Deterministic run id: FNV-1a (64 bit) of [`ProbeParams::canonical`], hex.
+    pub fn run_id(&self) -> String {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in self.canonical().bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        format!("{h:016x}")
+    }
+}
+
+/// A resolved experiment: its kind, name and the expanded runs.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub file: String,
+    pub experiment: String,
+    pub name: String,
+    pub runs: Vec<ProbeParams>,
+    /// The config text, recorded in the manifest.
+    pub text: String,
+}
+
+fn line_of_key(text: &str, key: &str) -> usize {
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.starts_with(&format!("{key} ")) || t.starts_with(&format!("{key}="))
+        })
+        .map_or(0, |i| i + 1)
+}
+
+impl Plan {
+    /// Read and resolve a config file.
+    pub fn load(path: &Path) -> Result<Self, LabError> {
+        let text = std::fs::read_to_string(path).map_err(|e| LabError::Io {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "experiment".into());
+        Self::parse(&path.display().to_string(), &stem, &text)
+    }
+
+    /// Resolve config text (`file` names it in errors; `stem` is the default name).
+    pub fn parse(file: &str, stem: &str, text: &str) -> Result<Self, LabError> {
+        let raw: RawExperiment = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(0, |s| {
+                text[..s.start.min(text.len())].matches('\n').count() + 1
+            });
+            LabError::Config(format!("{file}:{line}: {}", e.message().trim()))
+        })?;
+        let err = |key: &str, msg: String| {
+            LabError::Config(format!("{file}:{}: {key}: {msg}", line_of_key(text, key)))
+        };
+        if raw.experiment != "probe" {
+            return Err(err(
+                "experiment",
+                format!(
+                    "{:?} is not a known experiment kind (known: probe)",
+                    raw.experiment
+                ),
+            ));
+        }
+        let base = ProbeParams {
+            mesh: raw.mesh.clone().unwrap_or_else(|| "sphere".into()),
+            order: raw.order.unwrap_or(4),
+            alpha_deg: raw.alpha_deg.unwrap_or(45.0),
+            layout: Layout::parse(raw.layout.as_deref().unwrap_or("latlong:12x20"))
+                .map_err(|e| err("layout", e.to_string()))?,
+            hemisphere_res: raw.hemisphere_res.unwrap_or(32),
+            sampling_radius: raw.sampling_radius.unwrap_or(1.0),
+            k_count: raw.k_count.unwrap_or(40),
+            on_surface_eps: raw.on_surface_eps.unwrap_or(1e-3),
+            radii: raw
+                .radii
+                .clone()
+                .unwrap_or_else(|| vec![0.5, 0.7, 0.9, 1.3, 2.0]),
+        };
+        // Expand the sweep: the cartesian product in key order (BTreeMap: alphabetical).
+        let mut runs = vec![base];
+        for (key, value) in &raw.sweep {
+            let items = value
+                .as_array()
+                .ok_or_else(|| err(key, "a sweep axis must be a list".into()))?;
+            if items.is_empty() {
+                return Err(err(key, "a sweep axis must not be empty".into()));
+            }
+            let mut next = Vec::with_capacity(runs.len() * items.len());
+            for run in &runs {
+                for item in items {
+                    let mut r = run.clone();
+                    let num = || {
+                        item.as_float()
+                            .or_else(|| item.as_integer().map(|i| i as f64))
+                    };
+                    let bad = || err(key, format!("sweep value {item} has the wrong type"));
+                    match key.as_str() {
+                        "mesh" => r.mesh = item.as_str().ok_or_else(bad)?.to_string(),
+                        "layout" => r.layout = Layout::parse(item.as_str().ok_or_else(bad)?).map_err(|e| err(key, e.to_string()))?,
+                        "order" => r.order = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
+                        "hemisphere_res" => r.hemisphere_res = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
+                        "k_count" => r.k_count = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
+                        "alpha_deg" => r.alpha_deg = num().ok_or_else(bad)?,
+                        "sampling_radius" => r.sampling_radius = num().ok_or_else(bad)?,
+                        "on_surface_eps" => r.on_surface_eps = num().ok_or_else(bad)?,
+                        other => return Err(err(other, "is not a sweepable parameter (mesh, layout, order, hemisphere_res, k_count, alpha_deg, sampling_radius, on_surface_eps)".into())),
+                    }
+                    next.push(r);
+                }
+            }
+            runs = next;
+        }
+        for r in &runs {
+            let key_err =
+                |key: &str, msg: String| err(key, format!("{msg} (run {})", r.canonical()));
+            if !(1..=16).contains(&r.order) {
+                return Err(key_err("order", format!("{} is outside 1..=16", r.order)));
+            }
+            if !(r.alpha_deg > 0.0 && r.alpha_deg < 90.0) {
+                return Err(key_err(
+                    "alpha_deg",
+                    format!("{} is outside (0, 90)", r.alpha_deg),
+                ));
+            }
+            if !(1..=256).contains(&r.hemisphere_res) {
+                return Err(key_err(
+                    "hemisphere_res",
+                    format!("{} is outside 1..=256", r.hemisphere_res),
+                ));
+            }
+            if !(r.sampling_radius.is_finite() && r.sampling_radius >= 1.0) {
+                return Err(key_err(
+                    "sampling_radius",
+                    format!("{} must be ≥ 1", r.sampling_radius),
+                ));
+            }
+            if r.k_count < 2 {
+                return Err(key_err("k_count", format!("{} must be ≥ 2", r.k_count)));
+            }
+            if !(r.on_surface_eps.is_finite() && r.on_surface_eps >= 0.0) {
+                return Err(key_err(
+                    "on_surface_eps",
+                    format!("{} must be ≥ 0", r.on_surface_eps),
+                ));
+            }
+            if r.radii.is_empty() || r.radii.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(key_err(
+                    "radii",
+                    format!("{:?} must be non-empty, finite and > 0", r.radii),
+                ));
+            }
+        }
+        Ok(Self {
+            file: file.into(),
+            experiment: raw.experiment,
+            name: raw.name.unwrap_or_else(|| stem.to_string()),
+            runs,
+            text: text.to_string(),
+        })
+    }
+}

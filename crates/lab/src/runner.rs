@@ -1,0 +1,270 @@
+//! The experiment runner: executes a [`Plan`]'s runs and writes one tidy CSV row per run and
+//! probe radius to `<out>/<experiment>/<name>/runs.csv`, plus `manifest.toml` (the config text,
+//! machine, date, revision).
+//!
+//! Resumable and crash-safe: finished runs are recognised by their run id in the existing CSV and
+//! skipped; after every run the whole CSV is rewritten to a temporary file and renamed into place,
+//! so a process killed at any moment (SIGKILL included) leaves either the previous or the new file
+//! — never a partial row. `shard = (i, n)` runs the runs whose index ≡ i (mod n), deterministically,
+//! into `runs.shard-i-of-n.csv`.
+
+use crate::experiment::{Plan, ProbeParams};
+use crate::LabError;
+use shscale_field::probe::{probe, ProbeSpec};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{bundled, AnalyticSphere, MeshBvh, Occluder, Sphere};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// CSV columns (DESIGN.md §6 metric names).
+pub const COLUMNS: &[&str] = &[
+    "run_id",
+    "experiment",
+    "mesh",
+    "order",
+    "alpha_deg",
+    "layout",
+    "hemisphere_res",
+    "sampling_radius",
+    "k_count",
+    "on_surface_eps",
+    "radius",
+    "k",
+    "probes",
+    "inside_count",
+    "unoccluded_truth_count",
+    "clamped_count",
+    "vis_rel_l2_mean",
+    "vis_rel_l2_max",
+    "occ_rel_l2_mean",
+    "occ_rel_l2_max",
+    "on_surface_count",
+    "vis_rel_l2_on_surface_mean",
+    "occ_rel_l2_on_surface_mean",
+    "occ_rel_l2_on_surface_max",
+    "bsv_sampling_seconds",
+    "table_build_seconds",
+    "extrapolation_seconds",
+    "truth_seconds",
+    "device",
+    "threads",
+    "git_revision",
+];
+
+/// What a runner invocation did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSummary {
+    pub dir: PathBuf,
+    pub csv: PathBuf,
+    pub in_shard: usize,
+    pub already_done: usize,
+    pub ran: usize,
+}
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> LabError {
+    LabError::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    }
+}
+
+/// Write `text` to `path` through a temporary file and a rename.
+pub fn write_atomic(path: &Path, text: &str) -> Result<(), LabError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    std::fs::write(&tmp, text).map_err(|e| io_err(path, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+}
+
+fn git_revision() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn occluder_for(mesh: &str) -> Result<(Box<dyn Occluder>, Option<Sphere>), LabError> {
+    if mesh == "sphere" {
+        let s = AnalyticSphere::unit();
+        return Ok((Box::new(s), Some(s.sphere)));
+    }
+    let m = bundled::resolve(mesh)?;
+    Ok((Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)), None))
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map(|x| x.to_string()).unwrap_or_default()
+}
+
+fn run_rows(p: &ProbeParams, experiment: &str, rev: &str) -> Result<Vec<String>, LabError> {
+    let (occ, analytic) = occluder_for(&p.mesh)?;
+    let spec = ProbeSpec {
+        order: p.order,
+        alpha: p.alpha_deg.to_radians(),
+        layout: p.layout,
+        hemisphere_res: p.hemisphere_res,
+        sampling_radius: p.sampling_radius,
+        radii: p.radii.clone(),
+        k_count: p.k_count,
+        on_surface_eps: p.on_surface_eps,
+    };
+    let res = probe(occ.as_ref(), analytic, &spec)?;
+    let threads = rayon::current_num_threads();
+    Ok(res
+        .rows
+        .iter()
+        .map(|r| {
+            [
+                p.run_id(),
+                experiment.to_string(),
+                p.mesh.clone(),
+                p.order.to_string(),
+                p.alpha_deg.to_string(),
+                p.layout.name(),
+                p.hemisphere_res.to_string(),
+                p.sampling_radius.to_string(),
+                p.k_count.to_string(),
+                p.on_surface_eps.to_string(),
+                r.radius.to_string(),
+                r.k.to_string(),
+                r.probes.to_string(),
+                r.inside_count.to_string(),
+                r.unoccluded_truth_count.to_string(),
+                r.clamped_count.to_string(),
+                fmt_opt(r.vis_rel_l2_mean),
+                fmt_opt(r.vis_rel_l2_max),
+                fmt_opt(r.occ_rel_l2_mean),
+                fmt_opt(r.occ_rel_l2_max),
+                r.on_surface_count.to_string(),
+                fmt_opt(r.vis_rel_l2_on_surface_mean),
+                fmt_opt(r.occ_rel_l2_on_surface_mean),
+                fmt_opt(r.occ_rel_l2_on_surface_max),
+                res.bsv_sampling_seconds.to_string(),
+                res.table_build_seconds.to_string(),
+                r.extrapolation_seconds.to_string(),
+                r.truth_seconds.to_string(),
+                "cpu".to_string(),
+                threads.to_string(),
+                rev.to_string(),
+            ]
+            .into_iter()
+            .map(|c| {
+                if c.contains(',') || c.contains('"') {
+                    format!("\"{}\"", c.replace('"', "\"\""))
+                } else {
+                    c
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(",")
+        })
+        .collect())
+}
+
+/// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` gets a line per run.
+pub fn run_plan(
+    plan: &Plan,
+    out_root: &Path,
+    shard: Option<(usize, usize)>,
+    mut progress: impl FnMut(&str),
+) -> Result<RunSummary, LabError> {
+    if let Some((i, n)) = shard {
+        if n == 0 || i >= n {
+            return Err(LabError::Config(format!("--shard {i}/{n}: need 0 ≤ I < N")));
+        }
+    }
+    let dir = out_root.join(&plan.experiment).join(&plan.name);
+    std::fs::create_dir_all(&dir).map_err(|e| io_err(&dir, e))?;
+    let csv = match shard {
+        Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
+        None => dir.join("runs.csv"),
+    };
+    let rev = git_revision();
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    let manifest = format!(
+        "# shscale run manifest\nconfig_file = {:?}\nexperiment = {:?}\nname = {:?}\nruns = {}\ngit_revision = {:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\n\n[config]\ntext = '''\n{}'''\n",
+        plan.file,
+        plan.experiment,
+        plan.name,
+        plan.runs.len(),
+        rev,
+        std::env::consts::OS,
+        std::env::consts::ARCH,
+        rayon::current_num_threads(),
+        plan.text
+    );
+    write_atomic(&dir.join("manifest.toml"), &manifest)?;
+    let header = COLUMNS.join(",");
+    let mut lines: Vec<String> = Vec::new();
+    if csv.exists() {
+        let text = std::fs::read_to_string(&csv).map_err(|e| io_err(&csv, e))?;
+        let mut it = text.lines();
+        if it.next() != Some(header.as_str()) {
+            return Err(LabError::Io {
+                path: csv.display().to_string(),
+                reason: "existing CSV has different columns; refusing to overwrite it".into(),
+            });
+        }
+        lines.extend(it.map(String::from));
+    }
+    let done: HashSet<String> = lines
+        .iter()
+        .filter_map(|l| l.split(',').next())
+        .map(String::from)
+        .collect();
+    let mine: Vec<&ProbeParams> = plan
+        .runs
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| shard.is_none_or(|(s, n)| i % n == s))
+        .map(|(_, r)| r)
+        .collect();
+    let mut summary = RunSummary {
+        dir: dir.clone(),
+        csv: csv.clone(),
+        in_shard: mine.len(),
+        already_done: 0,
+        ran: 0,
+    };
+    for (k, run) in mine.iter().enumerate() {
+        let id = run.run_id();
+        if done.contains(&id) {
+            summary.already_done += 1;
+            progress(&format!(
+                "[{}/{}] {id} already done, skipped",
+                k + 1,
+                mine.len()
+            ));
+            continue;
+        }
+        let t0 = Instant::now();
+        let rows = run_rows(run, &plan.experiment, &rev)?;
+        lines.extend(rows);
+        let mut text = header.clone();
+        text.push('\n');
+        for l in &lines {
+            text.push_str(l);
+            text.push('\n');
+        }
+        write_atomic(&csv, &text)?;
+        summary.ran += 1;
+        progress(&format!(
+            "[{}/{}] {id} {} in {:.2} s",
+            k + 1,
+            mine.len(),
+            run.canonical(),
+            t0.elapsed().as_secs_f64()
+        ));
+    }
+    Ok(summary)
+}
