@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "shscale",
     version,
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
-    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr\n  shscale run configs/probe_alpha_sweep.toml"
+    after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr\n  shscale run configs/probe_alpha_sweep.toml\n  shscale slurm configs/probe_alpha_sweep.toml --tasks 8 > sweep.sh"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -42,6 +42,32 @@ pub enum Command {
     /// Run an experiment config (sweeps → runs.csv + manifest.toml; resumable, shardable).
     /// Example: shscale run configs/probe_alpha_sweep.toml
     Run(RunArgs),
+    /// Merge shard outputs (runs*.csv) into <first dir>/runs.csv.
+    /// Example: shscale merge results/probe/probe_alpha_sweep
+    Merge(MergeArgs),
+    /// Write a Slurm job-array script running CONFIG in N shards, then the merge.
+    /// Example: shscale slurm configs/probe_alpha_sweep.toml --tasks 8 > sweep.sh
+    Slurm(SlurmArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Directories holding runs*.csv (the merged file goes into the first).
+    #[arg(required = true)]
+    pub dirs: Vec<std::path::PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct SlurmArgs {
+    pub config: std::path::PathBuf,
+    /// Number of array tasks (shards).
+    #[arg(long)]
+    pub tasks: usize,
+    /// Path of the shscale binary on the cluster.
+    #[arg(long, default_value = "shscale")]
+    pub binary: String,
+    #[arg(long, default_value = "results")]
+    pub out_dir: std::path::PathBuf,
 }
 
 #[derive(Args, Debug)]

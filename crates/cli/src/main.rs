@@ -49,6 +49,8 @@ fn main() -> ExitCode {
         Command::Probe(cmd) => probe_cmd::run(cmd),
         Command::Render(cmd) => render_cmd::run(cmd),
         Command::Run(cmd) => run_cmd::run(cmd),
+        Command::Merge(cmd) => run_cmd::merge(cmd),
+        Command::Slurm(cmd) => run_cmd::slurm(cmd),
     };
     match result {
         Ok(code) => code,

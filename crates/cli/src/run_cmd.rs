@@ -1,6 +1,6 @@
 //! `shscale run`: execute an experiment config.
 
-use crate::args::RunArgs;
+use crate::args::{MergeArgs, RunArgs, SlurmArgs};
 use anyhow::{bail, Context};
 use shscale_lab::experiment::Plan;
 use shscale_lab::runner::run_plan;
@@ -44,6 +44,24 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         s.already_done,
         s.in_shard,
         s.csv.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
+    let (files, rows) = shscale_lab::runner::merge(&a.dirs)?;
+    println!(
+        "merged {files} file(s), {rows} row(s) → {}",
+        a.dirs[0].join("runs.csv").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
+    let plan = Plan::load(&a.config)?;
+    print!(
+        "{}",
+        shscale_lab::runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir)?
     );
     Ok(ExitCode::SUCCESS)
 }
