@@ -29,6 +29,14 @@ fn run_writes_csv_and_manifest_and_resumes() {
     assert_eq!(csv.lines().count(), 3);
     assert!(csv.lines().next().unwrap().contains("occ_rel_l2_mean"));
     assert!(out.join("probe/tiny/manifest.toml").exists());
+    assert!(
+        out.join("probe/tiny/occ_rel_l2_vs_alpha_deg.png").exists()
+            && out.join("probe/tiny/pareto_time_vs_error.svg").exists()
+    );
+    assert!(
+        text.contains("occ_rel_l2_mean"),
+        "summary table missing: {text}"
+    );
     let again = String::from_utf8_lossy(&shscale(&args).stdout).to_string();
     assert!(again.contains("ran 0, skipped 2"), "{again}");
     let shard = shscale(&[

@@ -45,6 +45,27 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         s.in_shard,
         s.csv.display()
     );
+    if shard.is_none() {
+        // Plot against the first sweep axis that is numeric, else against the probe radius.
+        let numeric = [
+            "order",
+            "hemisphere_res",
+            "k_count",
+            "alpha_deg",
+            "sampling_radius",
+            "on_surface_eps",
+        ];
+        let param = plan
+            .swept
+            .iter()
+            .find(|k| numeric.contains(&k.as_str()))
+            .map(String::as_str)
+            .unwrap_or("radius");
+        for f in shscale_lab::plots::probe_plots(&s.dir, param)? {
+            println!("  plot {}", f.display());
+        }
+        summary_table(&s.csv)?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -64,4 +85,24 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         shscale_lab::runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir)?
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Mean occ_rel_l2 per run and radius, as a small table on stdout.
+fn summary_table(csv: &std::path::Path) -> anyhow::Result<()> {
+    let t = shscale_lab::plots::Table::read(csv)?;
+    println!(
+        "  {:<18} {:>10} {:>8} {:>8} {:>16}",
+        "run_id", "alpha_deg", "order", "radius", "occ_rel_l2_mean"
+    );
+    for r in 0..t.rows.len() {
+        println!(
+            "  {:<18} {:>10} {:>8} {:>8} {:>16.4}",
+            t.rows[r][0],
+            t.num(r, "alpha_deg"),
+            t.num(r, "order"),
+            t.num(r, "radius"),
+            t.num(r, "occ_rel_l2_mean")
+        );
+    }
+    Ok(())
 }

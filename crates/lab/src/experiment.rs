@@ -95,6 +95,8 @@ pub struct Plan {
     pub runs: Vec<ProbeParams>,
     /// The config text, recorded in the manifest.
     pub text: String,
+    /// The sweep axes, in expansion order.
+    pub swept: Vec<String>,
 }
 
 fn line_of_key(text: &str, key: &str) -> usize {
@@ -229,12 +231,14 @@ impl Plan {
                 ));
             }
         }
+        let swept = raw.sweep.keys().cloned().collect();
         Ok(Self {
             file: file.into(),
             experiment: raw.experiment,
             name: raw.name.unwrap_or_else(|| stem.to_string()),
             runs,
             text: text.to_string(),
+            swept,
         })
     }
 }

@@ -5,6 +5,7 @@
 
 pub mod experiment;
 pub mod io;
+pub mod plots;
 pub mod render;
 pub mod runner;
 pub mod scene;

@@ -151,3 +151,29 @@ fn runs_resume_after_interruption_and_shards_partition() {
     std::fs::remove_dir_all(&d).ok();
     std::fs::remove_dir_all(&d2).ok();
 }
+
+#[test]
+fn plots_are_written_as_png_and_svg_with_labelled_axes() {
+    let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
+    let d = tmp("plots");
+    let s = run_plan(&plan, &d, None, |_| {}).unwrap();
+    let files = shscale_lab::plots::probe_plots(&s.dir, "alpha_deg").unwrap();
+    assert_eq!(files.len(), 4);
+    for f in &files {
+        let len = std::fs::metadata(f).unwrap().len();
+        assert!(len > 2000, "{} is only {len} bytes", f.display());
+    }
+    let svg = std::fs::read_to_string(s.dir.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
+    assert!(
+        svg.contains("alpha_deg") && svg.contains("occ_rel_l2"),
+        "axis labels missing"
+    );
+    let png = std::fs::read(s.dir.join("pareto_time_vs_error.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    assert!(std::fs::read_dir(&s.dir).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .contains(".tmp-")));
+    std::fs::remove_dir_all(&d).ok();
+}

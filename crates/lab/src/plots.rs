@@ -1,0 +1,274 @@
+//! Plots of a run directory's `runs.csv` (plotters; PNG and SVG, written to a temporary name and
+//! renamed): the error against the swept parameter with one series per probe radius, and the
+//! speed/accuracy scatter of all runs with its Pareto front. Text uses the bundled DejaVu Sans
+//! (assets/fonts, Bitstream Vera licence), so nothing is needed from the system at run time.
+
+use crate::LabError;
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+static FONT: std::sync::Once = std::sync::Once::new();
+
+fn ensure_font() {
+    FONT.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+        // Registration fails only for a malformed font, which the tests would catch.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+    });
+}
+
+/// A parsed `runs.csv`: column name → values per row (empty cells become NaN).
+pub struct Table {
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    /// Read a CSV written by the runner (no quoted commas in numeric columns).
+    pub fn read(path: &Path) -> Result<Self, LabError> {
+        let text = std::fs::read_to_string(path).map_err(|e| LabError::Io {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        let mut lines = text.lines();
+        let columns: Vec<String> = lines
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .map(String::from)
+            .collect();
+        let rows = lines
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect();
+        Ok(Self { columns, rows })
+    }
+
+    fn col(&self, name: &str) -> Option<usize> {
+        self.columns.iter().position(|c| c == name)
+    }
+
+    /// Numeric value of `name` in row `r` (NaN when empty or not a number).
+    pub fn num(&self, r: usize, name: &str) -> f64 {
+        self.col(name)
+            .and_then(|c| self.rows[r].get(c))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(f64::NAN)
+    }
+}
+
+fn err(path: &Path, e: impl std::fmt::Display) -> LabError {
+    LabError::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    }
+}
+
+fn finish(tmp: &Path, path: &Path) -> Result<(), LabError> {
+    std::fs::rename(tmp, path).map_err(|e| err(path, e))
+}
+
+/// Title and axis labels (with units) of a plot.
+struct Labels<'a> {
+    title: &'a str,
+    x: &'a str,
+    y: &'a str,
+}
+
+/// Draw `series` (name → points) as lines with markers; x and y labelled with units.
+fn line_plot<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter_only: bool,
+    front: &[(f64, f64)],
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE).map_err(|e| e.to_string())?;
+    let pts: Vec<(f64, f64)> = series
+        .values()
+        .flatten()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    if pts.is_empty() {
+        return Err("no finite data to plot".into());
+    }
+    let (mut x0, mut x1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut y0, mut y1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if x1 <= x0 {
+        x0 -= 0.5;
+        x1 += 0.5;
+    }
+    if y1 <= y0 {
+        y0 -= 0.5;
+        y1 += 0.5;
+    }
+    let pad = 0.05 * (y1 - y0);
+    let mut chart = ChartBuilder::on(&area)
+        .caption(labels.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0..x1, (y0 - pad).max(0.0)..(y1 + pad))
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(labels.x)
+        .y_desc(labels.y)
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (i, (name, points)) in series.iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        let mut pts: Vec<(f64, f64)> = points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if !scatter_only {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(name.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+        }
+        let s = chart
+            .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
+            .map_err(|e| e.to_string())?;
+        if scatter_only {
+            s.label(name.clone())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+        }
+    }
+    if !front.is_empty() {
+        chart
+            .draw_series(LineSeries::new(front.to_vec(), BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?
+            .label("Pareto front")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(1)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// Write `stem.png` and `stem.svg` in `dir`.
+fn write_both(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter: bool,
+    front: &[(f64, f64)],
+) -> Result<Vec<PathBuf>, LabError> {
+    ensure_font();
+    let pid = std::process::id();
+    let png = dir.join(format!("{stem}.png"));
+    let tmp_png = dir.join(format!(".{stem}.tmp-{pid}.png"));
+    line_plot(
+        BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
+        labels,
+        series,
+        scatter,
+        front,
+    )
+    .map_err(|e| err(&png, e))?;
+    finish(&tmp_png, &png)?;
+    let svg = dir.join(format!("{stem}.svg"));
+    let tmp_svg = dir.join(format!(".{stem}.tmp-{pid}.svg"));
+    line_plot(
+        SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
+        labels,
+        series,
+        scatter,
+        front,
+    )
+    .map_err(|e| err(&svg, e))?;
+    finish(&tmp_svg, &svg)?;
+    Ok(vec![png, svg])
+}
+
+/// Plots of a probe run directory: `occ_rel_l2` against `param` (one series per probe radius) and
+/// the speed/accuracy scatter with its Pareto front. Returns the files written.
+pub fn probe_plots(dir: &Path, param: &str) -> Result<Vec<PathBuf>, LabError> {
+    let t = Table::read(&dir.join("runs.csv"))?;
+    let mut by_radius: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        by_radius
+            .entry(format!("ρ = {} r", t.num(r, "radius")))
+            .or_default()
+            .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
+    }
+    let title = format!("occ_rel_l2 (mean over samples) vs {param}");
+    let labels = Labels {
+        title: &title,
+        x: param,
+        y: "occ_rel_l2 (relative L2, 1)",
+    };
+    let mut files = write_both(
+        dir,
+        &format!("occ_rel_l2_vs_{param}"),
+        &labels,
+        &by_radius,
+        false,
+        &[],
+    )?;
+    // Per run: total time of the extrapolation path vs its error averaged over radii.
+    let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        let id = t.rows[r][0].clone();
+        let time = t.num(r, "bsv_sampling_seconds") + t.num(r, "table_build_seconds");
+        let e = runs.entry(id).or_insert((time, 0.0, 0));
+        let v = t.num(r, "occ_rel_l2_mean");
+        if v.is_finite() {
+            e.1 += v;
+            e.2 += 1;
+        }
+        e.0 += t.num(r, "extrapolation_seconds");
+    }
+    let pts: Vec<(f64, f64)> = runs
+        .values()
+        .filter(|v| v.2 > 0)
+        .map(|v| (v.0 * 1e3, v.1 / v.2 as f64))
+        .collect();
+    let mut sorted = pts.clone();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for p in sorted {
+        if p.1 < best {
+            best = p.1;
+            front.push(p);
+        }
+    }
+    let mut series = BTreeMap::new();
+    series.insert("runs".to_string(), pts);
+    files.extend(write_both(
+        dir,
+        "pareto_time_vs_error",
+        &Labels {
+            title: "speed / accuracy",
+            x: "time per run (ms: BSV + table + extrapolation)",
+            y: "mean occ_rel_l2 (1)",
+        },
+        &series,
+        true,
+        &front,
+    )?);
+    Ok(files)
+}
