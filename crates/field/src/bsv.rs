@@ -178,22 +178,14 @@ impl Bsv {
                 sampling.center, sampling.radius
             )));
         }
-        let dirs = layout.directions();
-        let samples: Vec<BsvSample> = dirs
-            .par_iter()
-            .map(|&dir| {
-                let pos = sampling.center + sampling.radius * dir;
-                let (coeffs, _) =
-                    sampler.facing_hemisphere(occ, pos, sampling.center, Frame::Entity);
-                let on_surface = eps > 0.0 && occ.distance_to_surface(pos) < eps * b.radius;
-                BsvSample {
-                    dir,
-                    pos,
-                    coeffs,
-                    on_surface,
-                }
-            })
-            .collect();
+        let samples = sample_points(
+            occ,
+            &layout.directions(),
+            sampler,
+            sampling.center,
+            sampling.radius,
+            eps * b.radius,
+        );
         let rays = samples.len() * sampler.rays_per_hemisphere();
         Self::from_samples(layout, sampling, sampling.radius, samples, rays)
     }
@@ -209,31 +201,9 @@ impl Bsv {
     ) -> Result<Self, FieldError> {
         let sphere = occ.bounding_sphere();
         let rs = inflate * sphere.radius;
-        let samples: Vec<BsvSample> = dirs
-            .par_iter()
-            .map(|&dir| {
-                let pos = sphere.center + rs * dir;
-                let (coeffs, _) = sampler.facing_hemisphere(occ, pos, sphere.center, Frame::Entity);
-                // eps = 0 can flag nothing (distances are ≥ 0): skip the distance query.
-                let on_surface = eps > 0.0 && occ.distance_to_surface(pos) < eps * sphere.radius;
-                BsvSample {
-                    dir,
-                    pos,
-                    coeffs,
-                    on_surface,
-                }
-            })
-            .collect();
-        let tri = SphericalTriangulation::new(&dirs).map_err(FieldError::Spec)?;
+        let samples = sample_points(occ, &dirs, sampler, sphere.center, rs, eps * sphere.radius);
         let rays = samples.len() * sampler.rays_per_hemisphere();
-        Ok(Self {
-            layout,
-            sphere,
-            sampling_radius: rs,
-            samples,
-            rays,
-            tri,
-        })
+        Self::from_samples(layout, sphere, rs, samples, rays)
     }
 
     /// Assemble from precomputed samples (e.g. radiance samples of a light); builds the
@@ -276,6 +246,32 @@ impl Bsv {
     pub fn on_surface_count(&self) -> usize {
         self.samples.iter().filter(|s| s.on_surface).count()
     }
+}
+
+/// Visibility samples at `center + radius·dir` for every direction (rayon-parallel), each over the
+/// hemisphere facing `center`, flagged on-surface when closer than `flag_distance` to the surface
+/// (0 flags nothing and skips the distance query).
+fn sample_points(
+    occ: &dyn Occluder,
+    dirs: &[DVec3],
+    sampler: &VisibilitySampler,
+    center: DVec3,
+    radius: f64,
+    flag_distance: f64,
+) -> Vec<BsvSample> {
+    dirs.par_iter()
+        .map(|&dir| {
+            let pos = center + radius * dir;
+            let (coeffs, _) = sampler.facing_hemisphere(occ, pos, center, Frame::Entity);
+            let on_surface = flag_distance > 0.0 && occ.distance_to_surface(pos) < flag_distance;
+            BsvSample {
+                dir,
+                pos,
+                coeffs,
+                on_surface,
+            }
+        })
+        .collect()
 }
 
 /// Solid angle of the cap subtended by a sphere of radius `r` seen from distance `d > r`:
