@@ -62,6 +62,9 @@ pub struct ProbeRow {
 #[derive(Clone, Debug)]
 pub struct ProbeResult {
     pub rows: Vec<ProbeRow>,
+    /// Per radius, one probe for images (the papers' Fig. 5): the first sample direction whose
+    /// truth exists and is partly occluded.
+    pub examples: Vec<ProbeExample>,
     pub samples: usize,
     pub on_surface_samples: usize,
     pub bsv_rays: usize,
@@ -69,6 +72,14 @@ pub struct ProbeResult {
     pub k_max: f64,
     pub bsv_sampling_seconds: f64,
     pub table_build_seconds: f64,
+}
+
+/// One probe point kept for images: its position and the extrapolated SH visibility.
+#[derive(Clone, Debug)]
+pub struct ProbeExample {
+    pub radius: f64,
+    pub point: DVec3,
+    pub extrapolated: Vec<f64>,
 }
 
 /// Closed-form visibility of a solid sphere seen from `p` (entity frame), `None` inside it.
@@ -138,6 +149,7 @@ pub fn probe(
     let s = bsv.sphere;
     let nn = spec.order * spec.order;
     let mut rows = Vec::new();
+    let mut examples = Vec::new();
     for (&rho, &k) in spec.radii.iter().zip(&ks) {
         let points: Vec<(DVec3, bool)> = bsv
             .samples
@@ -177,6 +189,17 @@ pub fn probe(
             truth_seconds,
             ..Default::default()
         };
+        if let Some(i) = truth
+            .iter()
+            .zip(&ext)
+            .position(|(t, (e, _))| t.as_ref().is_some_and(|t| occ_rel_l2(e, t).is_some()))
+        {
+            examples.push(ProbeExample {
+                radius: rho,
+                point: points[i].0,
+                extrapolated: ext[i].0.clone(),
+            });
+        }
         let mut per: Vec<(bool, Option<f64>, Option<f64>)> = Vec::new();
         for ((e, kind), (t, (_, on))) in ext.iter().zip(truth.iter().zip(&points)) {
             if *kind == ExtrapolationKind::ClampedBelow {
@@ -205,6 +228,7 @@ pub fn probe(
     }
     Ok(ProbeResult {
         rows,
+        examples,
         samples: bsv.samples.len(),
         on_surface_samples: bsv.on_surface_count(),
         bsv_rays: bsv.rays,

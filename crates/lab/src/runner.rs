@@ -2,6 +2,9 @@
 //! probe radius to `<out>/<experiment>/<name>/runs.csv`, plus `manifest.toml` (the config text,
 //! machine, date, revision).
 //!
+//! Each run also writes `visibility_<run_id>.exr/.png`: truth vs extrapolated visibility at one
+//! probe per radius (the papers' Fig. 5).
+//!
 //! Resumable and crash-safe: finished runs are recognised by their run id in the existing CSV and
 //! skipped; after every run the whole CSV is rewritten to a temporary file and renamed into place,
 //! so a process killed at any moment (SIGKILL included) leaves either the previous or the new file
@@ -103,7 +106,50 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map(|x| x.to_string()).unwrap_or_default()
 }
 
-fn run_rows(p: &ProbeParams, experiment: &str, rev: &str) -> Result<Vec<String>, LabError> {
+/// The papers' Fig. 5 for one run: per probe radius (rows), the ray-traced full-frequency
+/// visibility (left) and the extrapolated band-limited visibility (right) at one probe point,
+/// lat-long maps in the entity frame (row 0 = +z), written as EXR + PNG.
+pub fn visibility_figure(
+    dir: &Path,
+    run_id: &str,
+    order: usize,
+    occ: &dyn Occluder,
+    examples: &[shscale_field::probe::ProbeExample],
+) -> Result<(), LabError> {
+    const W: usize = 128;
+    const H: usize = 64;
+    if examples.is_empty() {
+        return Ok(());
+    }
+    let basis =
+        shscale_sh::ShBasis::<f64>::new(order).map_err(|e| LabError::Config(e.to_string()))?;
+    let set = shscale_sh::DirectionSet::latlong(H, W);
+    let mut px = vec![[0f32; 3]; 2 * W * H * examples.len()];
+    let mut y = vec![0.0; order * order];
+    for (row, ex) in examples.iter().enumerate() {
+        let truth = shscale_field::truth::visibility_map(occ, ex.point, W, H);
+        for j in 0..H {
+            for i in 0..W {
+                let base = (row * H + j) * 2 * W;
+                let t = truth[j * W + i];
+                px[base + i] = [t; 3];
+                basis.eval(set.dirs[j * W + i], &mut y);
+                let v: f64 = ex.extrapolated.iter().zip(&y).map(|(a, b)| a * b).sum();
+                px[base + W + i] = [v as f32; 3];
+            }
+        }
+    }
+    let exr = dir.join(format!("visibility_{run_id}.exr"));
+    crate::io::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
+    crate::io::write_png_preview(&exr.with_extension("png"), 2 * W, H * examples.len(), &px)
+}
+
+fn run_rows(
+    p: &ProbeParams,
+    experiment: &str,
+    rev: &str,
+    dir: &Path,
+) -> Result<Vec<String>, LabError> {
     let (occ, analytic) = occluder_for(&p.mesh)?;
     let spec = ProbeSpec {
         order: p.order,
@@ -116,6 +162,7 @@ fn run_rows(p: &ProbeParams, experiment: &str, rev: &str) -> Result<Vec<String>,
         on_surface_eps: p.on_surface_eps,
     };
     let res = probe(occ.as_ref(), analytic, &spec)?;
+    visibility_figure(dir, &p.run_id(), p.order, occ.as_ref(), &res.examples)?;
     let threads = rayon::current_num_threads();
     Ok(res
         .rows
@@ -248,7 +295,7 @@ pub fn run_plan(
             continue;
         }
         let t0 = Instant::now();
-        let rows = run_rows(run, &plan.experiment, &rev)?;
+        let rows = run_rows(run, &plan.experiment, &rev, &dir)?;
         lines.extend(rows);
         let mut text = header.clone();
         text.push('\n');

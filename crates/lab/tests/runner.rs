@@ -109,6 +109,26 @@ fn runs_resume_after_interruption_and_shards_partition() {
     let ids = ids_in(&s.csv);
     assert_eq!(ids.len(), 12, "two radii per run");
     assert!(s.dir.join("manifest.toml").exists());
+    // The Fig. 5 image of every run: truth | extrapolated, one row per radius (2 × 64 px high).
+    for r in &plan.runs {
+        let exr = s.dir.join(format!("visibility_{}.exr", r.run_id()));
+        let (w, h, px) = shscale_lab::io::read_exr(&exr).unwrap();
+        assert_eq!((w, h), (256, 128));
+        // Left half is a 0/1 ray-traced map with both values present (the sphere is seen).
+        let left: Vec<f32> = (0..h)
+            .flat_map(|j| (0..w / 2).map(move |i| (j, i)))
+            .map(|(j, i)| px[j * w + i][0])
+            .collect();
+        assert!(
+            left.iter().all(|v| *v == 0.0 || *v == 1.0)
+                && left.contains(&0.0)
+                && left.contains(&1.0)
+        );
+        assert!(s
+            .dir
+            .join(format!("visibility_{}.png", r.run_id()))
+            .exists());
+    }
     // Rerun: nothing to do.
     let again = run_plan(&plan, &d, None, |_| {}).unwrap();
     assert_eq!((again.ran, again.already_done), (0, 6));
