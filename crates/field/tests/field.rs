@@ -215,18 +215,7 @@ fn layouts_parse_and_reject_bad_specs() {
 fn radiance_of_a_one_sided_square_matches_its_solid_angle() {
     // A square emitter [−1, 1]² at z = 0 facing +z, radiance 2. Seen from (0, 0, h) its solid angle
     // is Ω = 4 asin(1/(1 + h²)), so c_0 = 2 Ω / √(4π); from below it is dark (one-sided).
-    let quad = shscale_geometry::Mesh::new(
-        "quad",
-        vec![
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(1.0, 1.0, 0.0),
-            DVec3::new(-1.0, 1.0, 0.0),
-        ],
-        vec![[0, 1, 2], [0, 2, 3]],
-        false,
-    )
-    .unwrap();
+    let quad = shscale_geometry::shapes::quad(2.0, true);
     let e = Emitter::new(
         &quad,
         MeshBvh::build(&quad, UpdateStrategy::Rebuild),

@@ -229,19 +229,8 @@ fn source_radiance_fields_plain_versus_energy_preserving() {
     // radiance and expect plain to win; the numbers go in docs/math.md.
     use shscale_field::srf::{compare, hinged_light};
     use shscale_field::{Emitter, Layout};
-    use shscale_geometry::{ray::UpdateStrategy, Mesh, MeshBvh};
-    let quad = Mesh::new(
-        "quad",
-        vec![
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(1.0, 1.0, 0.0),
-            DVec3::new(-1.0, 1.0, 0.0),
-        ],
-        vec![[0, 1, 2], [0, 2, 3]],
-        false,
-    )
-    .unwrap();
+    use shscale_geometry::{ray::UpdateStrategy, MeshBvh};
+    let quad = shscale_geometry::shapes::quad(2.0, true);
     let (hinge, rgb) = hinged_light(1.0, 100f64.to_radians());
     let red: Vec<f64> = rgb.iter().map(|c| c[0]).collect();
     for (name, mesh, radiance) in [

@@ -73,6 +73,24 @@ pub fn plane(sx: f64, sy: f64, nx: usize, ny: usize) -> Mesh {
     Mesh::new(&format!("plane({sx}x{sy},{nx}x{ny})"), p, t, false).expect("valid by construction")
 }
 
+/// A single square `[−s/2, s/2]²` in z = 0 (two triangles), with normal +z (`up`) or −z — e.g. a
+/// one-sided area light, which emits toward its normal.
+pub fn quad(size: f64, up: bool) -> Mesh {
+    let h = 0.5 * size;
+    let p = vec![
+        DVec3::new(-h, -h, 0.0),
+        DVec3::new(h, -h, 0.0),
+        DVec3::new(h, h, 0.0),
+        DVec3::new(-h, h, 0.0),
+    ];
+    let t = if up {
+        vec![[0, 1, 2], [0, 2, 3]]
+    } else {
+        vec![[0, 2, 1], [0, 3, 2]]
+    };
+    Mesh::new(&format!("quad({size})"), p, t, false).expect("valid by construction")
+}
+
 /// A closed box `[−h, h]` (half-extents `h`) whose faces are `n × n` quads each, welded at the
 /// edges (the "sponge block"; n = 37 gives ≈ 8.4k vertices as the papers' bending sponge).
 pub fn box_block(h: DVec3, n: usize) -> Mesh {

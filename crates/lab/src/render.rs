@@ -390,18 +390,8 @@ pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, LabError> {
         let (mut mesh, rgb) = if l.hinge {
             shscale_field::srf::hinged_light(l.size, l.hinge_angle)
         } else {
-            let h = 0.5 * l.size;
-            let p = vec![
-                DVec3::new(-h, -h, 0.0),
-                DVec3::new(h, -h, 0.0),
-                DVec3::new(h, h, 0.0),
-                DVec3::new(-h, h, 0.0),
-            ];
-            // Winding with normal −z: the square emits downward.
-            (
-                Mesh::new("quad_light", p, vec![[0, 2, 1], [0, 3, 2]], false)?,
-                vec![[1.0; 3]; 2],
-            )
+            // Normal −z: the square emits downward.
+            (shapes::quad(l.size, false), vec![[1.0; 3]; 2])
         };
         if l.hinge {
             // The hinge opens toward +z: turn it 180° about x so it emits downward.
