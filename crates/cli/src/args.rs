@@ -48,6 +48,51 @@ pub enum Command {
     /// Write a Slurm job-array script running CONFIG in N shards, then the merge.
     /// Example: shscale slurm configs/probe_alpha_sweep.toml --tasks 8 > sweep.sh
     Slurm(SlurmArgs),
+    /// Table 1: per-stage times and FPS of the deforming sequences, CPU and GPU side by side.
+    /// Example: shscale bench --gpu --scene all --frames 16 --format markdown
+    Bench(BenchArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchScene {
+    Bird,
+    Egg,
+    Sponge,
+    All,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchFormat {
+    Markdown,
+    Csv,
+    Json,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Also run the GPU path (without an adapter: a one-line notice, the CPU path goes on).
+    #[arg(long)]
+    pub gpu: bool,
+    /// With --gpu: fail (exit 2) when no adapter exists instead of going on with the CPU.
+    #[arg(long, requires = "gpu")]
+    pub require_gpu: bool,
+    /// Skip the CPU path (with --gpu).
+    #[arg(long, requires = "gpu")]
+    pub no_cpu: bool,
+    /// The sequence(s): the flying bird, the morphing egg, the bending sponge (configs/bench/).
+    #[arg(long, value_enum, default_value_t = BenchScene::All)]
+    pub scene: BenchScene,
+    /// Measured frames per scene and path (medians over them).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(1..=100000))]
+    pub frames: u64,
+    /// Warm-up frames, run and dropped before measuring.
+    #[arg(long, default_value_t = 3)]
+    pub warmup: usize,
+    #[arg(long, value_enum, default_value_t = BenchFormat::Markdown)]
+    pub format: BenchFormat,
+    /// Also write the rows as CSV to this file (atomically).
+    #[arg(long)]
+    pub csv: Option<std::path::PathBuf>,
 }
 
 #[derive(Args, Debug)]

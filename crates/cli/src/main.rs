@@ -4,6 +4,7 @@
 //! user input.
 
 mod args;
+mod bench_cmd;
 mod demo;
 mod geometry_cmd;
 mod matrix_cmd;
@@ -51,6 +52,7 @@ fn main() -> ExitCode {
         Command::Run(cmd) => run_cmd::run(cmd),
         Command::Merge(cmd) => run_cmd::merge(cmd),
         Command::Slurm(cmd) => run_cmd::slurm(cmd),
+        Command::Bench(cmd) => bench_cmd::run(cmd),
     };
     match result {
         Ok(code) => code,

@@ -137,6 +137,19 @@ impl ReceiverCache {
         self.idx.is_empty()
     }
 
+    /// Channels cached per receiver: 1 for a grey light, else 3.
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The cached rows, for other evaluators of the same identity (the GPU path): per receiver
+    /// the three sample indices and weights, `channels × N²` values of `U` (f32, zero for
+    /// unshadowed receivers) and the constant irradiance of receivers beyond `k_max`.
+    #[allow(clippy::type_complexity)]
+    pub fn rows(&self) -> (&[[u32; 3]], &[[f64; 3]], &[f32], &[Option<[f64; 3]>]) {
+        (&self.idx, &self.w, &self.u, &self.constant)
+    }
+
     /// Irradiance of every receiver for this frame's BSV (`matches(bsv)` must hold).
     pub fn shade(&self, bsv: &Bsv, out: &mut [[f64; 3]]) {
         assert!(

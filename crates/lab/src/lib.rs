@@ -3,7 +3,9 @@
 //! evaluators, and image outputs (EXR with a PNG preview) written atomically (temporary file, then
 //! rename). The numerical crates stay free of files and configs.
 
+pub mod bench;
 pub mod experiment;
+pub mod gpu_path;
 pub mod io;
 pub mod plots;
 pub mod render;
@@ -21,4 +23,6 @@ pub enum LabError {
     Geometry(#[from] shscale_geometry::GeometryError),
     #[error(transparent)]
     Field(#[from] shscale_field::FieldError),
+    #[error(transparent)]
+    Gpu(#[from] shscale_gpu::GpuError),
 }

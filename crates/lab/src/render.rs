@@ -87,7 +87,7 @@ pub fn placed_mesh(
     Ok(m)
 }
 
-fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
+pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
     Ok(match &scene.light {
         LightSpec::Sky {
             ambient,
@@ -347,7 +347,7 @@ pub fn receiver_grid(scene: &Scene) -> Vec<DVec3> {
 }
 
 /// The cone k-table covering every receiver's `k = |p − c| / r_s` for a sampling sphere.
-fn table_for(
+pub(crate) fn table_for(
     scene: &Scene,
     sampling: Sphere,
     recv: &[DVec3],
@@ -438,6 +438,45 @@ pub struct FrameStats {
     pub reused: usize,
 }
 
+/// Pose `rest` at time `t ∈ [0, 1)` of its deformer (strength `amount`) into `out`.
+pub fn pose_mesh(rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh) {
+    match kind {
+        deform::DeformerKind::Flap => {
+            let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
+            deform::flap(rest, out, y0, amount, t)
+        }
+        deform::DeformerKind::Bend => {
+            deform::bend(rest, out, amount / rest.bounding_sphere().radius, t)
+        }
+        deform::DeformerKind::Twist => deform::twist(rest, out, amount, t),
+        deform::DeformerKind::Morph => {
+            let s = rest.bounding_sphere();
+            let mut sphere = shapes::uv_sphere(1.0, 22, 24);
+            sphere.fit_to(&s);
+            deform::morph(rest, &sphere, out, t)
+        }
+    }
+}
+
+/// The minimal sphere enclosing every pose `t = f/frames` of a sequence (the rest pose alone
+/// without a deformer): a sampling sphere fixed for the whole sequence keeps per-receiver caches
+/// valid.
+pub fn sequence_sphere(
+    rest: &Mesh,
+    deformer: Option<(deform::DeformerKind, f64)>,
+    frames: usize,
+) -> Sphere {
+    let mut all = rest.positions.clone();
+    if let Some((kind, amount)) = deformer {
+        let mut p = rest.clone();
+        for f in 0..frames {
+            pose_mesh(rest, kind, amount, f as f64 / frames as f64, &mut p);
+            all.extend_from_slice(&p.positions);
+        }
+    }
+    shscale_geometry::min_enclosing_sphere(&all)
+}
+
 /// Render `frames ≥ 1` frames of a deforming scene with the extrapolated method (t = f/frames).
 ///
 /// What is computed only when needed: the sampling sphere of each occluder is fixed for the
@@ -455,23 +494,6 @@ pub fn render_sequence(
     let [w, h] = scene.resolution;
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
-    let pose =
-        |rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh| match kind {
-            deform::DeformerKind::Flap => {
-                let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
-                deform::flap(rest, out, y0, amount, t)
-            }
-            deform::DeformerKind::Bend => {
-                deform::bend(rest, out, amount / rest.bounding_sphere().radius, t)
-            }
-            deform::DeformerKind::Twist => deform::twist(rest, out, amount, t),
-            deform::DeformerKind::Morph => {
-                let s = rest.bounding_sphere();
-                let mut sphere = shapes::uv_sphere(1.0, 22, 24);
-                sphere.fit_to(&s);
-                deform::morph(rest, &sphere, out, t)
-            }
-        };
     struct Entity {
         rest: Option<Mesh>,
         posed: Option<Mesh>,
@@ -501,16 +523,7 @@ pub fn render_sequence(
             continue;
         }
         let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
-        // The sampling sphere: enclose every pose of the sequence.
-        let mut all = rest.positions.clone();
-        if let Some((kind, amount)) = o.deformer {
-            let mut p = rest.clone();
-            for f in 0..frames {
-                pose(&rest, kind, amount, f as f64 / frames as f64, &mut p);
-                all.extend_from_slice(&p.positions);
-            }
-        }
-        let s = shscale_geometry::min_enclosing_sphere(&all);
+        let s = sequence_sphere(&rest, o.deformer, frames);
         let sampling = Sphere {
             center: s.center,
             radius: s.radius * scene.sampling_radius,
@@ -553,7 +566,7 @@ pub fn render_sequence(
                 (e.deformer, e.rest.as_ref(), e.posed.as_mut())
             {
                 let t0 = Instant::now();
-                pose(rest, kind, amount, t, posed);
+                pose_mesh(rest, kind, amount, t, posed);
                 st.deform_seconds += t0.elapsed().as_secs_f64();
                 let t0 = Instant::now();
                 e.bvh.as_mut().expect("meshes have a BVH").update(posed);

@@ -1,0 +1,57 @@
+//! `shscale bench`: the Table 1 reproduction (crates/lab/src/bench.rs) printed as Markdown, CSV
+//! or JSON, with the machine in a header line.
+
+use crate::args::{BenchArgs, BenchFormat, BenchScene};
+use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
+use shscale_lab::gpu_path::{open_gpu, GpuMode};
+use std::process::ExitCode;
+
+pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
+    let mode = match (a.gpu, a.require_gpu) {
+        (false, _) => GpuMode::Off,
+        (true, false) => GpuMode::Auto,
+        (true, true) => GpuMode::Required,
+    };
+    let ctx = open_gpu(mode)?;
+    let cpu = !a.no_cpu || ctx.is_none();
+    let scenes: &[&str] = match a.scene {
+        BenchScene::Bird => &["bird"],
+        BenchScene::Egg => &["egg"],
+        BenchScene::Sponge => &["sponge"],
+        BenchScene::All => &["bird", "egg", "sponge"],
+    };
+    let mut rows = Vec::new();
+    for s in scenes {
+        eprintln!("bench: {s} ({} + {} frames)…", a.warmup, a.frames);
+        rows.extend(bench_scene(
+            s,
+            a.frames as usize,
+            a.warmup,
+            cpu,
+            ctx.as_ref(),
+        )?);
+    }
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+        }
+        shscale_lab::runner::write_atomic(path, &to_csv(&rows))?;
+    }
+    match a.format {
+        BenchFormat::Markdown => {
+            println!(
+                "Table 1 reproduction — medians of {} frames after {} warm-up; {} {}, {} rayon threads",
+                a.frames,
+                a.warmup,
+                std::env::consts::OS,
+                std::env::consts::ARCH,
+                rayon::current_num_threads()
+            );
+            println!();
+            print!("{}", to_markdown(&rows));
+        }
+        BenchFormat::Csv => print!("{}", to_csv(&rows)),
+        BenchFormat::Json => println!("{}", serde_json::to_string_pretty(&rows)?),
+    }
+    Ok(ExitCode::SUCCESS)
+}

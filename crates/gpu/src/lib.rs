@@ -1,0 +1,49 @@
+//! The wgpu real-time path (DESIGN.md §9, `crates/gpu`): per frame, a deforming entity's BSV is
+//! sampled by ray casting a flattened BVH on the GPU, projected to SH on the GPU, and every
+//! receiver of the plane is shaded on the GPU from those coefficients — the three stages of the
+//! papers' Table 1 (BSV sampling, SH conversion, shadowing), each timed by timestamp queries.
+//!
+//! The stages mirror the CPU path one to one so their results can be compared (parity tests):
+//! - [`sampling`] ↔ `shscale_field::VisibilitySampler::facing_hemisphere` over every base-sphere
+//!   sample (same Gauss hemisphere directions, same local frames, same ray offset);
+//! - [`sampling`] projection ↔ the quadrature sum of the same routine, plus the closed-form back
+//!   hemisphere;
+//! - [`shading`] ↔ `shscale_field::receivers::ReceiverCache::shade`.
+//!
+//! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
+//! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
+//! `N²` accumulators per invocation and reduces them through 16 KiB of workgroup memory.
+//!
+//! This crate never decides what to do without an adapter: [`GpuContext::new`] returns
+//! [`GpuError::NoAdapter`] and the caller (the lab or the CLI) prints the notice and goes on with
+//! the CPU path, or fails when a GPU is required.
+
+pub mod bvh;
+pub mod context;
+pub mod layout;
+pub mod sampling;
+pub mod sequence;
+pub mod shading;
+pub mod timing;
+
+pub use context::{require_gpu_from_env, GpuContext};
+pub use sequence::{GpuSequence, GpuStageTimes};
+
+/// Highest SH order the GPU kernels support (`N² ≤ 64` accumulators).
+pub const MAX_GPU_ORDER: usize = 8;
+
+/// Errors of the GPU path.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter: no GPU and no software device (install `mesa-vulkan-drivers` for lavapipe).
+    #[error(
+        "no GPU adapter found (install mesa-vulkan-drivers for the lavapipe software device): {0}"
+    )]
+    NoAdapter(String),
+    #[error("GPU device request failed: {0}")]
+    Device(String),
+    #[error("GPU input: {0}")]
+    Input(String),
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}

@@ -1,0 +1,243 @@
+//! One deforming entity over a receiver plane, frame by frame on the GPU: host BVH update
+//! (obvhs rebuild or refit, flattened), upload, then three compute passes — ray casting, SH
+//! projection, receiver shading — in one submission, each pass timed by timestamps (or, without
+//! them, submitted alone and timed by the synchronised wall clock).
+
+use crate::bvh::FlatBvh;
+use crate::sampling::GpuSampler;
+use crate::shading::GpuShader;
+use crate::timing::StageTimer;
+use crate::{GpuContext, GpuError};
+use glam::DVec3;
+use shscale_field::receivers::ReceiverCache;
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{Mesh, Sphere, RAY_EPS};
+use std::time::Instant;
+
+/// Timings of one GPU frame, in seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuStageTimes {
+    /// Host: BVH rebuild/refit and flattening.
+    pub bvh_seconds: f64,
+    /// Host → device: nodes, triangles, parameters.
+    pub upload_seconds: f64,
+    /// Device: ray casting at every base-sphere sample ("BSV sampling").
+    pub sampling_seconds: f64,
+    /// Device: projection to SH ("SH conversion").
+    pub projection_seconds: f64,
+    /// Device: every receiver ("shadowing").
+    pub shading_seconds: f64,
+    /// Wall clock of the whole frame, BVH update to completion.
+    pub frame_seconds: f64,
+    /// Device stages from timestamp queries (else the wall clock).
+    pub timestamps: bool,
+}
+
+/// The GPU pipeline of one deforming entity.
+pub struct GpuSequence {
+    bvh: FlatBvh,
+    sampler: GpuSampler,
+    shader: GpuShader,
+    timer: StageTimer,
+}
+
+impl GpuSequence {
+    /// Set up for `mesh` (any pose of the sequence: same topology throughout) sampled on the fixed
+    /// `sampling` sphere along unit `dirs`, order `N ≤ 8`, `H × H` rays per sample, shading the
+    /// receivers of `cache` (built for the same sphere, layout and order).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        mesh: &Mesh,
+        strategy: UpdateStrategy,
+        order: usize,
+        h: usize,
+        sampling: Sphere,
+        dirs: &[DVec3],
+        cache: &ReceiverCache,
+    ) -> Result<Self, GpuError> {
+        let bvh = FlatBvh::build(mesh, strategy)?;
+        let ntris = mesh.triangles.len();
+        let mut sampler = GpuSampler::new(
+            ctx,
+            order,
+            h,
+            sampling.center,
+            sampling.radius,
+            dirs,
+            (2 * ntris, ntris),
+        )?;
+        let shader = GpuShader::new(
+            ctx,
+            cache,
+            &sampler.params_buf,
+            &mut sampler.params,
+            &sampler.coeffs_buf,
+        )?;
+        let timer = StageTimer::new(ctx, 3);
+        Ok(Self {
+            bvh,
+            sampler,
+            shader,
+            timer,
+        })
+    }
+
+    /// Render one frame for the posed `mesh`.
+    pub fn frame(&mut self, ctx: &GpuContext, mesh: &Mesh) -> Result<GpuStageTimes, GpuError> {
+        let t0 = Instant::now();
+        self.bvh.update(mesh)?;
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        // The CPU's ray offset rule: RAY_EPS times the occluder's bounding radius this frame.
+        let tmin = RAY_EPS * mesh.bounding_sphere().radius;
+        self.sampler.upload(ctx, &self.bvh, tmin)?;
+        let upload_seconds = t1.elapsed().as_secs_f64();
+        let mut times = GpuStageTimes {
+            bvh_seconds,
+            upload_seconds,
+            timestamps: self.timer.uses_timestamps(),
+            ..Default::default()
+        };
+        let stage = |i: u32, enc: &mut wgpu::CommandEncoder| {
+            let labels = ["bsv sampling", "sh conversion", "shadowing"];
+            let mut pass = enc.begin_compute_pass(&self.timer.pass(labels[i as usize], i));
+            match i {
+                0 => self.sampler.record_cast(&mut pass),
+                1 => self.sampler.record_project(&mut pass),
+                _ => self.shader.record(&mut pass),
+            }
+        };
+        if self.timer.uses_timestamps() {
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            for i in 0..3 {
+                stage(i, &mut enc);
+            }
+            self.timer.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            ctx.wait()?;
+            times.frame_seconds = t0.elapsed().as_secs_f64();
+            let s = self.timer.read(ctx)?.expect("timestamps enabled");
+            times.sampling_seconds = s[0];
+            times.projection_seconds = s[1];
+            times.shading_seconds = s[2];
+        } else {
+            let mut wall = [0.0; 3];
+            for i in 0..3 {
+                let t = Instant::now();
+                let mut enc = ctx
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                stage(i, &mut enc);
+                ctx.queue.submit([enc.finish()]);
+                ctx.wait()?;
+                wall[i as usize] = t.elapsed().as_secs_f64();
+            }
+            times.frame_seconds = t0.elapsed().as_secs_f64();
+            [
+                times.sampling_seconds,
+                times.projection_seconds,
+                times.shading_seconds,
+            ] = wall;
+        }
+        Ok(times)
+    }
+
+    /// This frame's BSV coefficients (`samples × N²`).
+    pub fn read_coeffs(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        self.sampler.read_coeffs(ctx)
+    }
+
+    /// This frame's per-ray visibilities.
+    pub fn read_visibility(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+        self.sampler.read_visibility(ctx)
+    }
+
+    /// This frame's receiver irradiance (RGB).
+    pub fn read_image(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
+        self.shader.read_image(ctx)
+    }
+
+    /// The sampler (tests).
+    pub fn sampler(&self) -> &GpuSampler {
+        &self.sampler
+    }
+
+    /// Run only the shading pass on the coefficients now in the sampler's buffer (tests).
+    pub fn shade_only(&self, ctx: &GpuContext) -> Result<(), GpuError> {
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            self.shader.record(&mut pass);
+        }
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()
+    }
+}
+
+/// Median device times `(BSV sampling, SH conversion)` of one mesh sampled on `sampling` along
+/// unit `dirs`, over `repeats` frames after one warm-up (wall clock between synchronisations
+/// where the adapter has no timestamps).
+pub fn time_bsv(
+    ctx: &GpuContext,
+    mesh: &Mesh,
+    order: usize,
+    h: usize,
+    sampling: Sphere,
+    dirs: &[DVec3],
+    repeats: usize,
+) -> Result<(f64, f64), GpuError> {
+    let bvh = FlatBvh::build(mesh, UpdateStrategy::Rebuild)?;
+    let mut sampler = GpuSampler::new(
+        ctx,
+        order,
+        h,
+        sampling.center,
+        sampling.radius,
+        dirs,
+        (bvh.nodes.len(), bvh.gpu_tris.len()),
+    )?;
+    sampler.upload(ctx, &bvh, RAY_EPS * mesh.bounding_sphere().radius)?;
+    let timer = StageTimer::new(ctx, 2);
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for rep in 0..=repeats {
+        let mut wall = [0.0; 2];
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        for i in 0..2u32 {
+            let t = Instant::now();
+            {
+                let mut pass = enc.begin_compute_pass(&timer.pass("bsv", i));
+                if i == 0 {
+                    sampler.record_cast(&mut pass);
+                } else {
+                    sampler.record_project(&mut pass);
+                }
+            }
+            if !timer.uses_timestamps() {
+                let done = std::mem::replace(
+                    &mut enc,
+                    ctx.device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None }),
+                );
+                ctx.queue.submit([done.finish()]);
+                ctx.wait()?;
+                wall[i as usize] = t.elapsed().as_secs_f64();
+            }
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        let s = timer.read(ctx)?.map_or(wall, |s| [s[0], s[1]]);
+        if rep > 0 {
+            a.push(s[0]);
+            b.push(s[1]);
+        }
+    }
+    Ok((crate::timing::median(&a), crate::timing::median(&b)))
+}

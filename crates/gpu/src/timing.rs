@@ -1,0 +1,117 @@
+//! One timing procedure for GPU stages (STYLE.md §10): timestamp queries at the beginning and end
+//! of every compute pass where the adapter supports `TIMESTAMP_QUERY`; otherwise each stage is
+//! submitted on its own and timed by the wall clock between synchronisations. Warm-up, repeats and
+//! medians are the caller's ([`crate::sequence`]).
+
+use crate::{GpuContext, GpuError};
+
+/// Timestamp slots for `stages` compute passes.
+pub struct StageTimer {
+    stages: u32,
+    queries: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+}
+
+impl StageTimer {
+    /// A timer for `stages` passes; timestamp-based when the context has them.
+    pub fn new(ctx: &GpuContext, stages: u32) -> Self {
+        let queries = ctx.timestamps.then(|| {
+            let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("stage timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * stages,
+            });
+            let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp resolve"),
+                size: 16 * stages as u64,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, buf)
+        });
+        Self { stages, queries }
+    }
+
+    /// Whether stages are timed by timestamps (else by the wall clock).
+    pub fn uses_timestamps(&self) -> bool {
+        self.queries.is_some()
+    }
+
+    /// The pass descriptor of stage `i`, with its timestamp writes when available.
+    pub fn pass<'a>(&'a self, label: &'a str, i: u32) -> wgpu::ComputePassDescriptor<'a> {
+        wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: self.queries.as_ref().map(|(set, _)| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(2 * i),
+                    end_of_pass_write_index: Some(2 * i + 1),
+                }
+            }),
+        }
+    }
+
+    /// Record the resolve of all timestamps (after the last pass).
+    pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
+        if let Some((set, buf)) = &self.queries {
+            enc.resolve_query_set(set, 0..2 * self.stages, buf, 0);
+        }
+    }
+
+    /// Seconds per stage from the resolved timestamps (after the submission has completed), or
+    /// `None` without timestamps.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Option<Vec<f64>>, GpuError> {
+        let Some((_, buf)) = &self.queries else {
+            return Ok(None);
+        };
+        let bytes = ctx.read_buffer(buf)?;
+        let ticks: &[u64] = bytemuck::cast_slice(&bytes);
+        let period_ns = ctx.queue.get_timestamp_period() as f64;
+        Ok(Some(
+            (0..self.stages as usize)
+                .map(|i| ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-9)
+                .collect(),
+        ))
+    }
+}
+
+/// Workgroup counts `(x, y)` covering `n` invocations of a 64-wide workgroup within the 65 535
+/// per-dimension limit; kernels index `(wg.y · nwg.x + wg.x) · 64 + local`.
+pub fn grid_64(n: u32) -> (u32, u32) {
+    let groups = n.div_ceil(64).max(1);
+    let x = groups.min(65_535);
+    (x, groups.div_ceil(x))
+}
+
+/// Median of a non-empty list.
+pub fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_covers_every_invocation_and_respects_the_limit() {
+        for n in [1u32, 63, 64, 65, 4_194_240, 4_194_304, 10_000_000] {
+            let (x, y) = grid_64(n);
+            assert!(x <= 65_535 && y <= 65_535, "{n}: {x}×{y}");
+            assert!(x as u64 * y as u64 * 64 >= n as u64, "{n}: {x}×{y}");
+            // No more than one partial row of workgroups beyond what is needed.
+            assert!((x as u64 * (y as u64 - 1)) * 64 < n as u64, "{n}: {x}×{y}");
+        }
+    }
+
+    #[test]
+    fn median_of_odd_and_even_lists() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+    }
+}

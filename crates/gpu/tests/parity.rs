@@ -1,0 +1,284 @@
+//! Parity of every GPU stage with its CPU twin on the same inputs (f32 on the GPU, f64 / obvhs
+//! f32 on the CPU). Each test needs an adapter: without one it prints a notice and returns, unless
+//! `SHSCALE_REQUIRE_GPU=1` (CI, with Mesa lavapipe), where it fails.
+//!
+//! Tolerances (named below) are set by f32 rounding: one ulp of f32 is 6e-8 relative; sums of
+//! up to 1024 terms and recurrences up to l = 7 lose a few more digits. Visibility bits may differ
+//! only for rays grazing an edge, where the GPU's f32 direction (frame applied in f32) and the
+//! CPU's (f64, then rounded) disagree in the last bit.
+
+use glam::DVec3;
+use shscale_field::receivers::ReceiverCache;
+use shscale_field::{Bsv, Layout, LocalFrame, VisibilitySampler};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{
+    deform, min_enclosing_sphere, shapes, Mesh, MeshBvh, Occluder, Sphere, RAY_EPS,
+};
+use shscale_gpu::sampling::{sh_eval_gpu, GpuSampler};
+use shscale_gpu::{require_gpu_from_env, GpuContext, GpuSequence};
+use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
+use shscale_sh::{DirectionSet, ShBasis};
+
+/// SH values: absolute error of f32 recurrences up to l = 7 (values ≤ 1.6).
+const SH_TOL: f64 = 2e-6;
+/// Projection: relative to the largest coefficient (sums of ≤ 1024 f32 terms).
+const PROJ_TOL: f64 = 2e-6;
+/// Fraction of rays whose visibility may differ (grazing rays).
+const VIS_MISMATCH_TOL: f64 = 2e-3;
+/// Shading: relative to the brightest receiver (f32 cache and coefficients).
+const SHADE_TOL: f64 = 1e-5;
+
+fn ctx() -> Option<GpuContext> {
+    match GpuContext::new() {
+        Ok(c) => {
+            eprintln!("GPU adapter: {}", c.describe());
+            Some(c)
+        }
+        Err(e) if require_gpu_from_env() => panic!("SHSCALE_REQUIRE_GPU=1 but {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED (no GPU adapter: {e}); set SHSCALE_REQUIRE_GPU=1 to fail instead");
+            None
+        }
+    }
+}
+
+#[test]
+fn sh_evaluation_matches_the_cpu_basis() {
+    let Some(ctx) = ctx() else { return };
+    // Poles, equator, axes and a Fibonacci spread.
+    let mut dirs: Vec<DVec3> = vec![DVec3::Z, -DVec3::Z, DVec3::X, DVec3::Y, -DVec3::X];
+    let n = 300;
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let a = i as f64 * 2.399963229728653;
+        let s = (1.0 - z * z).sqrt();
+        dirs.push(DVec3::new(s * a.cos(), s * a.sin(), z));
+    }
+    let d32: Vec<[f32; 3]> = dirs.iter().map(|d| d.as_vec3().to_array()).collect();
+    for order in 1..=8 {
+        let got = sh_eval_gpu(&ctx, order, &d32).unwrap();
+        let basis = ShBasis::<f64>::new(order).unwrap();
+        let nn = order * order;
+        let mut worst: f64 = 0.0;
+        for (j, d) in d32.iter().enumerate() {
+            // The CPU at the same (f32-rounded) direction, renormalised in f64.
+            let dd = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64).normalize();
+            let want = basis.values(dd.to_array());
+            for i in 0..nn {
+                worst = worst.max((got[j * nn + i] as f64 - want[i]).abs());
+            }
+        }
+        println!("order {order}: max |Y_gpu − Y_cpu| = {worst:.2e} (tol {SH_TOL:.0e})");
+        assert!(worst < SH_TOL, "order {order}: {worst:.2e}");
+    }
+}
+
+/// A flapping bird's pose, its fixed sampling sphere and a base-sphere layout.
+fn bird_scene(t: f64) -> (Mesh, Sphere, Vec<DVec3>) {
+    let rest = shapes::bird();
+    let mut posed = rest.clone();
+    let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
+    deform::flap(&rest, &mut posed, y0, 0.8, t);
+    let mut all = rest.positions.clone();
+    let mut p = rest.clone();
+    for f in 0..8 {
+        deform::flap(&rest, &mut p, y0, 0.8, f as f64 / 8.0);
+        all.extend_from_slice(&p.positions);
+    }
+    let sphere = min_enclosing_sphere(&all);
+    let dirs = Layout::parse("cube:4").unwrap().directions();
+    (posed, sphere, dirs)
+}
+
+/// The CPU's ray directions for sample `pos`: the Gauss hemisphere in the frame toward `c`.
+fn cpu_visibility(occ: &MeshBvh, pos: DVec3, c: DVec3, hemi: &DirectionSet) -> Vec<u32> {
+    let f = LocalFrame::toward(pos, c);
+    let tmin = RAY_EPS * occ.bounding_sphere().radius;
+    hemi.dirs
+        .iter()
+        .map(|d| {
+            let w = f.to_world(DVec3::new(d[0], d[1], d[2]));
+            u32::from(!occ.occluded(pos, w, tmin, f64::INFINITY))
+        })
+        .collect()
+}
+
+#[test]
+fn ray_casting_and_projection_match_the_cpu_bsv() {
+    let Some(ctx) = ctx() else { return };
+    let (order, h) = (4, 16);
+    for t in [0.1, 0.25] {
+        let (mesh, sphere, dirs) = bird_scene(t);
+        let cpu_occ = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+        let sampler = VisibilitySampler::new(order, h).unwrap();
+        let layout = Layout::parse("cube:4").unwrap();
+        let cpu = Bsv::sample_on(&cpu_occ, layout, &sampler, sphere, 0.0).unwrap();
+        let nn = order * order;
+        let scale = cpu
+            .samples
+            .iter()
+            .flat_map(|s| s.coeffs.iter())
+            .fold(0f64, |a, c| a.max(c.abs()));
+
+        let tris = mesh.triangles.len();
+        let mut gpu = GpuSampler::new(
+            &ctx,
+            order,
+            h,
+            sphere.center,
+            sphere.radius,
+            &dirs,
+            (2 * tris, tris),
+        )
+        .unwrap();
+        let bvh = shscale_gpu::bvh::FlatBvh::build(&mesh, UpdateStrategy::Refit).unwrap();
+        gpu.upload(&ctx, &bvh, RAY_EPS * mesh.bounding_sphere().radius)
+            .unwrap();
+
+        // (a) ray casting: the GPU's bits against the CPU's on the same rays.
+        gpu.run(&ctx, false).unwrap();
+        let gv = gpu.read_visibility(&ctx).unwrap();
+        let hemi = DirectionSet::gauss_hemisphere(h);
+        let mut cv = Vec::new();
+        for d in &dirs {
+            cv.extend(cpu_visibility(
+                &cpu_occ,
+                sphere.center + sphere.radius * *d,
+                sphere.center,
+                &hemi,
+            ));
+        }
+        let mismatched = gv.iter().zip(&cv).filter(|(a, b)| a != b).count();
+        let occluded = cv.iter().filter(|v| **v == 0).count();
+        let frac = mismatched as f64 / cv.len() as f64;
+        println!(
+            "t = {t}: {mismatched} of {} rays differ ({frac:.1e}, tol {VIS_MISMATCH_TOL:.0e}); {occluded} occluded",
+            cv.len()
+        );
+        assert!(occluded > cv.len() / 20, "the scene must occlude something");
+        assert!(frac <= VIS_MISMATCH_TOL, "t = {t}: {frac:.2e}");
+
+        // (b) projection of the CPU's own bits: must reproduce the CPU BSV to f32 rounding.
+        gpu.write_visibility(&ctx, &cv).unwrap();
+        gpu.run(&ctx, true).unwrap();
+        let gc = gpu.read_coeffs(&ctx).unwrap();
+        let mut worst: f64 = 0.0;
+        for (s, sample) in cpu.samples.iter().enumerate() {
+            for i in 0..nn {
+                worst = worst.max((gc[s * nn + i] as f64 - sample.coeffs[i]).abs());
+            }
+        }
+        println!("t = {t}: projection max error {:.2e} of max |c| {scale:.2} (tol {PROJ_TOL:.0e} relative)", worst);
+        assert!(worst <= PROJ_TOL * scale, "t = {t}: {worst:.2e}");
+    }
+}
+
+fn cache_for(bsv: &Bsv, order: usize, receivers: &[DVec3]) -> (KTable, ReceiverCache) {
+    let c = bsv.sphere.center;
+    let ks: Vec<f64> = receivers
+        .iter()
+        .map(|p| (*p - c).length() / bsv.sampling_radius)
+        .collect();
+    let lo = ks.iter().cloned().fold(f64::MAX, f64::min);
+    let hi = ks.iter().cloned().fold(0.0, f64::max);
+    let table = KTable::build(
+        TauFamily::Cone {
+            alpha: 45f64.to_radians(),
+        },
+        Eta::Plain,
+        order,
+        20,
+        lo,
+        0.8 * hi, // some receivers beyond k_max: the constant branch is exercised too
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .unwrap();
+    // A coloured transfer vector: three distinct channels.
+    let nn = order * order;
+    let t: [Vec<f64>; 3] = [0, 1, 2].map(|ch| {
+        (0..nn)
+            .map(|i| ((i * 7 + ch * 3) % 11) as f64 / 11.0 - 0.3 + if i == 0 { 1.0 } else { 0.0 })
+            .collect()
+    });
+    let cache = ReceiverCache::build(bsv, &table, &t, receivers);
+    (table, cache)
+}
+
+fn plane(n: usize, z: f64, half: f64) -> Vec<DVec3> {
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f64 + 0.5, (i / n) as f64 + 0.5);
+            DVec3::new(
+                -half + 2.0 * half * x / n as f64,
+                half - 2.0 * half * y / n as f64,
+                z,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
+    let Some(ctx) = ctx() else { return };
+    let (order, h) = (4, 16);
+    let (mesh, sphere, dirs) = bird_scene(0.2);
+    let layout = Layout::parse("cube:4").unwrap();
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    let cpu_occ = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    let bsv = Bsv::sample_on(&cpu_occ, layout, &sampler, sphere, 0.0).unwrap();
+    let receivers = plane(48, sphere.center.z - 1.6, 2.5);
+    let (_table, cache) = cache_for(&bsv, order, &receivers);
+    assert_eq!(cache.channels(), 3);
+    let mut want = vec![[0.0; 3]; receivers.len()];
+    cache.shade(&bsv, &mut want);
+    let bright = want.iter().flatten().fold(0f64, |a, e| a.max(e.abs()));
+
+    let mut seq = GpuSequence::new(
+        &ctx,
+        &mesh,
+        UpdateStrategy::Refit,
+        order,
+        h,
+        sphere,
+        &dirs,
+        &cache,
+    )
+    .unwrap();
+    // (c) shading alone, on the CPU's coefficients.
+    let flat: Vec<f32> = bsv
+        .samples
+        .iter()
+        .flat_map(|s| s.coeffs.iter().map(|c| *c as f32))
+        .collect();
+    seq.sampler().write_coeffs(&ctx, &flat).unwrap();
+    seq.shade_only(&ctx).unwrap();
+    let got = seq.read_image(&ctx).unwrap();
+    let worst = got
+        .iter()
+        .zip(&want)
+        .flat_map(|(g, w)| (0..3).map(move |c| (g[c] as f64 - w[c]).abs()))
+        .fold(0f64, f64::max);
+    println!("shading: max error {worst:.2e} of max E {bright:.3} (tol {SHADE_TOL:.0e} relative)");
+    assert!(worst <= SHADE_TOL * bright, "{worst:.2e}");
+    let constants = cache.rows().3.iter().filter(|c| c.is_some()).count();
+    assert!(
+        constants > 0 && constants < receivers.len(),
+        "both branches exercised: {constants}"
+    );
+
+    // End to end: the full GPU frame against the CPU frame; differences come only from the few
+    // grazing rays, so the image RMSE is bounded by their share.
+    let times = seq.frame(&ctx, &mesh).unwrap();
+    let got = seq.read_image(&ctx).unwrap();
+    let rmse = (got
+        .iter()
+        .zip(&want)
+        .flat_map(|(g, w)| (0..3).map(move |c| (g[c] as f64 - w[c]).powi(2)))
+        .sum::<f64>()
+        / (3 * got.len()) as f64)
+        .sqrt();
+    println!("end to end: image RMSE {rmse:.2e} of max E {bright:.3}; {times:?}");
+    assert!(rmse <= 1e-3 * bright, "{rmse:.2e}");
+    assert!(times.frame_seconds > 0.0 && times.sampling_seconds > 0.0);
+}

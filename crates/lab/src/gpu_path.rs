@@ -1,0 +1,229 @@
+//! The GPU path as the lab uses it: the `gpu = "auto" | "off" | "required"` setting of scenes and
+//! experiments, opening the adapter (a one-line notice and the CPU path when there is none, an
+//! error when one is required), rendering a deforming single-mesh sequence on the GPU, and timing
+//! GPU BSV sampling for experiment runs.
+
+use crate::render::{
+    light_of, placed_mesh, pose_mesh, receiver_grid, sequence_sphere, table_for, RenderOutput,
+};
+use crate::scene::Scene;
+use crate::LabError;
+use glam::DVec3;
+use shscale_field::receivers::ReceiverCache;
+use shscale_field::shading::Shader;
+use shscale_field::{Bsv, BsvSample, Layout};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{Mesh, Sphere};
+use shscale_gpu::{GpuContext, GpuSequence, GpuStageTimes};
+use shscale_scaling::Eta;
+use std::time::Instant;
+
+/// Whether to use the GPU path.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GpuMode {
+    /// Use a GPU when an adapter exists; otherwise print a notice and go on with the CPU.
+    #[default]
+    Auto,
+    Off,
+    /// Fail (exit status 2) without an adapter.
+    Required,
+}
+
+impl GpuMode {
+    /// `"auto"`, `"off"` or `"required"`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "off" => Ok(Self::Off),
+            "required" => Ok(Self::Required),
+            _ => Err(format!(
+                "{s:?} is not one of \"auto\", \"off\", \"required\""
+            )),
+        }
+    }
+
+    /// The config spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Off => "off",
+            Self::Required => "required",
+        }
+    }
+}
+
+/// Open the adapter as `mode` says: `Ok(None)` for `off`, and for `auto` without an adapter
+/// (after a one-line notice on stderr); an error for `required` without one.
+pub fn open_gpu(mode: GpuMode) -> Result<Option<GpuContext>, LabError> {
+    match mode {
+        GpuMode::Off => Ok(None),
+        GpuMode::Auto => match GpuContext::new() {
+            Ok(c) => Ok(Some(c)),
+            Err(e) => {
+                eprintln!("notice: no GPU adapter ({e}); continuing with the CPU path");
+                Ok(None)
+            }
+        },
+        GpuMode::Required => GpuContext::new()
+            .map(Some)
+            .map_err(|e| LabError::Config(format!("gpu = \"required\": {e}"))),
+    }
+}
+
+/// Per-frame statistics of the GPU sequence.
+#[derive(Clone, Debug, Default)]
+pub struct GpuFrameStats {
+    pub frame: usize,
+    /// Host deformation (as the CPU path).
+    pub deform_seconds: f64,
+    pub gpu: GpuStageTimes,
+}
+
+/// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
+fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, LabError> {
+    match scene.occluders.as_slice() {
+        [o] if o.mesh != "sphere" => {
+            if scene.order > shscale_gpu::MAX_GPU_ORDER {
+                return Err(LabError::Config(format!(
+                    "{}: order {} exceeds the GPU path's {}",
+                    scene.file,
+                    scene.order,
+                    shscale_gpu::MAX_GPU_ORDER
+                )));
+            }
+            Ok(o)
+        }
+        _ => Err(LabError::Config(format!(
+            "{}: the GPU path renders scenes with exactly one mesh occluder (the analytic sphere has no triangles)",
+            scene.file
+        ))),
+    }
+}
+
+/// A BSV carrying only the layout's directions on `sphere` (zero coefficients): enough for a
+/// [`ReceiverCache`], which needs the triangulation and the sphere, never the coefficients.
+fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, LabError> {
+    let samples = layout
+        .directions()
+        .into_iter()
+        .map(|dir| BsvSample {
+            dir,
+            pos: sphere.center + sphere.radius * dir,
+            coeffs: Vec::new(),
+            on_surface: false,
+        })
+        .collect();
+    Ok(Bsv::from_samples(
+        layout,
+        sphere,
+        sphere.radius,
+        samples,
+        0,
+    )?)
+}
+
+/// Render `frames ≥ 1` frames of a deforming single-mesh scene with the extrapolated method on
+/// the GPU — the twin of [`crate::render::render_sequence`] for one occluder (same fixed sampling
+/// sphere, k-table, receiver cache and poses). Returns the last frame's image, per-frame
+/// statistics and the one-off setup time (table, cache, buffers, pipelines) in seconds.
+pub fn render_sequence_gpu(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+) -> Result<(RenderOutput, Vec<GpuFrameStats>, f64), LabError> {
+    let t_setup = Instant::now();
+    let frames = frames.max(1);
+    let o = single_mesh(scene)?;
+    let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let s = sequence_sphere(&rest, o.deformer, frames);
+    let sampling = Sphere {
+        center: s.center,
+        radius: s.radius * scene.sampling_radius,
+    };
+    let recv = receiver_grid(scene);
+    let table = table_for(scene, sampling, &recv, Eta::Plain)?;
+    let light = light_of(scene)?;
+    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+    let cache = ReceiverCache::build(
+        &layout_only_bsv(scene.layout, sampling)?,
+        &table,
+        &transfer,
+        &recv,
+    );
+    let strategy = o
+        .deformer
+        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let dirs = scene.layout.directions();
+    let mut seq = GpuSequence::new(
+        ctx,
+        &rest,
+        strategy,
+        scene.order,
+        scene.hemisphere_res,
+        sampling,
+        &dirs,
+        &cache,
+    )?;
+    let setup = t_setup.elapsed().as_secs_f64();
+    let mut posed: Mesh = rest.clone();
+    let mut stats = Vec::with_capacity(frames);
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let t0 = Instant::now();
+        if let Some((kind, amount)) = o.deformer {
+            pose_mesh(&rest, kind, amount, t, &mut posed);
+        }
+        let deform_seconds = t0.elapsed().as_secs_f64();
+        let gpu = seq.frame(ctx, &posed)?;
+        stats.push(GpuFrameStats {
+            frame: f,
+            deform_seconds,
+            gpu,
+        });
+    }
+    let [w, h] = scene.resolution;
+    let out = RenderOutput {
+        width: w,
+        height: h,
+        pixels: seq.read_image(ctx)?,
+        stages: Vec::new(),
+        products: 0,
+        skipped: 0,
+    };
+    Ok((out, stats, setup))
+}
+
+/// Median GPU times of BSV sampling and SH conversion for one mesh, layout, order and `H` on a
+/// sampling sphere (`repeats` frames after one warm-up), for experiment rows.
+#[derive(Clone, Debug)]
+pub struct GpuBsvTiming {
+    pub sampling_seconds: f64,
+    pub conversion_seconds: f64,
+    pub device: String,
+}
+
+/// Time GPU BSV sampling of `mesh` (see [`GpuBsvTiming`]).
+pub fn time_gpu_bsv(
+    ctx: &GpuContext,
+    mesh: &Mesh,
+    layout: Layout,
+    order: usize,
+    h: usize,
+    sampling: Sphere,
+    repeats: usize,
+) -> Result<GpuBsvTiming, LabError> {
+    let (a, b) = shscale_gpu::sequence::time_bsv(
+        ctx,
+        mesh,
+        order,
+        h,
+        sampling,
+        &layout.directions(),
+        repeats.max(1),
+    )?;
+    Ok(GpuBsvTiming {
+        sampling_seconds: a,
+        conversion_seconds: b,
+        device: ctx.describe(),
+    })
+}
