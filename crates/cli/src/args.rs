@@ -154,6 +154,10 @@ pub struct RenderArgs {
     /// (DESIGN.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
     #[arg(long, value_enum)]
     pub reference: Option<MethodArg>,
+    /// With --frames: render the sequence on the GPU (wgpu; one mesh occluder, N ≤ 8) and print
+    /// the GPU stage times; the image is the GPU's last frame. Exit 2 without an adapter.
+    #[arg(long, requires = "frames")]
+    pub gpu: bool,
 }
 
 #[derive(Args, Debug)]

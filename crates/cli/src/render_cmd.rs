@@ -95,6 +95,9 @@ fn sequence(
     if frames == 0 || frames > 10_000 {
         bail!("--frames: {frames} is outside 1..=10000");
     }
+    if a.gpu {
+        return gpu_sequence(a, scene, frames);
+    }
     let (img, stats) = render_sequence(scene, frames)?;
     shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
     let png = a.out.with_extension("png");
@@ -134,6 +137,51 @@ fn sequence(
         .sum::<f64>()
         / n;
     println!("mean frame {:.3} ms ({:.1} FPS)", total * 1e3, 1.0 / total);
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+    use shscale_lab::gpu_path::{open_gpu, render_sequence_gpu, GpuMode};
+    let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
+    let (img, stats, setup) = render_sequence_gpu(scene, frames, &ctx)?;
+    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
+    let png = a.out.with_extension("png");
+    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
+        .context("--out (PNG preview)")?;
+    println!(
+        "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms, stage clock: {})",
+        a.scene.display(),
+        img.width,
+        img.height,
+        ctx.describe(),
+        setup * 1e3,
+        if ctx.timestamps { "timestamps" } else { "wall" }
+    );
+    println!(
+        "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "frame", "deform_ms", "bvh_ms", "upload_ms", "bsv_ms", "sh_ms", "shade_ms", "frame_ms"
+    );
+    for s in &stats {
+        let g = &s.gpu;
+        println!(
+            "{:>5} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3}",
+            s.frame,
+            s.deform_seconds * 1e3,
+            g.bvh_seconds * 1e3,
+            g.upload_seconds * 1e3,
+            g.sampling_seconds * 1e3,
+            g.projection_seconds * 1e3,
+            g.shading_seconds * 1e3,
+            (s.deform_seconds + g.frame_seconds) * 1e3
+        );
+    }
+    let mean = stats
+        .iter()
+        .map(|s| s.deform_seconds + s.gpu.frame_seconds)
+        .sum::<f64>()
+        / stats.len() as f64;
+    println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -13,6 +13,7 @@
 //! sampling_radius = 1.0
 //! k_count = 40
 //! radii = [0.5, 0.7, 0.9, 1.3, 2.0]
+//! gpu = "auto"                # also time GPU BSV sampling: auto | off | required
 //!
 //! [sweep]                     # any of the scalar parameters above, as lists
 //! alpha_deg = [15, 30, 45, 60, 75]
@@ -40,6 +41,7 @@ pub struct RawExperiment {
     pub k_count: Option<usize>,
     pub on_surface_eps: Option<f64>,
     pub radii: Option<Vec<f64>>,
+    pub gpu: Option<String>,
     #[serde(default)]
     pub sweep: BTreeMap<String, toml::Value>,
 }
@@ -97,6 +99,9 @@ pub struct Plan {
     pub text: String,
     /// The sweep axes, in expansion order.
     pub swept: Vec<String>,
+    /// `gpu = "auto" | "off" | "required"`: time GPU BSV sampling in every run where an adapter
+    /// exists (not part of the run ids: it adds timing columns, never changes a metric).
+    pub gpu: crate::gpu_path::GpuMode,
 }
 
 fn line_of_key(text: &str, key: &str) -> usize {
@@ -231,6 +236,10 @@ impl Plan {
                 ));
             }
         }
+        let gpu = match raw.gpu.as_deref() {
+            None => crate::gpu_path::GpuMode::Auto,
+            Some(g) => crate::gpu_path::GpuMode::parse(g).map_err(|e| err("gpu", e))?,
+        };
         let swept = raw.sweep.keys().cloned().collect();
         Ok(Self {
             file: file.into(),
@@ -239,6 +248,7 @@ impl Plan {
             runs,
             text: text.to_string(),
             swept,
+            gpu,
         })
     }
 }

@@ -52,6 +52,9 @@ pub const COLUMNS: &[&str] = &[
     "truth_seconds",
     "device",
     "threads",
+    "gpu_bsv_sampling_seconds",
+    "gpu_sh_conversion_seconds",
+    "gpu_device",
     "git_revision",
 ];
 
@@ -93,13 +96,50 @@ fn git_revision() -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
-fn occluder_for(mesh: &str) -> Result<(Box<dyn Occluder>, Option<Sphere>), LabError> {
+/// The occluder of a run, its closed-form sphere (analytic) or its mesh.
+type RunOccluder = (
+    Box<dyn Occluder>,
+    Option<Sphere>,
+    Option<shscale_geometry::Mesh>,
+);
+
+fn occluder_for(mesh: &str) -> Result<RunOccluder, LabError> {
     if mesh == "sphere" {
         let s = AnalyticSphere::unit();
-        return Ok((Box::new(s), Some(s.sphere)));
+        return Ok((Box::new(s), Some(s.sphere), None));
     }
     let m = bundled::resolve(mesh)?;
-    Ok((Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)), None))
+    Ok((
+        Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
+        None,
+        Some(m),
+    ))
+}
+
+/// GPU BSV timing of a run (median of 5 frames), where the GPU path applies: a mesh (the
+/// analytic sphere has no triangles) and `N ≤ 8`; empty cells otherwise.
+fn gpu_columns(
+    gpu: Option<&shscale_gpu::GpuContext>,
+    p: &ProbeParams,
+    mesh: Option<&shscale_geometry::Mesh>,
+) -> Result<[String; 3], LabError> {
+    let (Some(ctx), Some(m)) = (gpu, mesh) else {
+        return Ok(Default::default());
+    };
+    if p.order > shscale_gpu::MAX_GPU_ORDER {
+        return Ok(Default::default());
+    }
+    let b = m.bounding_sphere();
+    let sphere = Sphere {
+        center: b.center,
+        radius: b.radius * p.sampling_radius,
+    };
+    let t = crate::gpu_path::time_gpu_bsv(ctx, m, p.layout, p.order, p.hemisphere_res, sphere, 5)?;
+    Ok([
+        t.sampling_seconds.to_string(),
+        t.conversion_seconds.to_string(),
+        t.device,
+    ])
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -149,8 +189,9 @@ fn run_rows(
     experiment: &str,
     rev: &str,
     dir: &Path,
+    gpu: Option<&shscale_gpu::GpuContext>,
 ) -> Result<Vec<String>, LabError> {
-    let (occ, analytic) = occluder_for(&p.mesh)?;
+    let (occ, analytic, mesh) = occluder_for(&p.mesh)?;
     let spec = ProbeSpec {
         order: p.order,
         alpha: p.alpha_deg.to_radians(),
@@ -164,6 +205,7 @@ fn run_rows(
     let res = probe(occ.as_ref(), analytic, &spec)?;
     visibility_figure(dir, &p.run_id(), p.order, occ.as_ref(), &res.examples)?;
     let threads = rayon::current_num_threads();
+    let [gpu_sampling, gpu_conversion, gpu_device] = gpu_columns(gpu, p, mesh.as_ref())?;
     Ok(res
         .rows
         .iter()
@@ -199,6 +241,9 @@ fn run_rows(
                 r.truth_seconds.to_string(),
                 "cpu".to_string(),
                 threads.to_string(),
+                gpu_sampling.clone(),
+                gpu_conversion.clone(),
+                gpu_device.clone(),
                 rev.to_string(),
             ]
             .into_iter()
@@ -238,8 +283,10 @@ pub fn run_plan(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())
         .unwrap_or(0);
+    let gpu = crate::gpu_path::open_gpu(plan.gpu)?;
+    let gpu_device = gpu.as_ref().map_or("none".to_string(), |c| c.describe());
     let manifest = format!(
-        "# shscale run manifest\nconfig_file = {:?}\nexperiment = {:?}\nname = {:?}\nruns = {}\ngit_revision = {:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\n\n[config]\ntext = '''\n{}'''\n",
+        "# shscale run manifest\nconfig_file = {:?}\nexperiment = {:?}\nname = {:?}\nruns = {}\ngit_revision = {:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\ngpu = {:?}\ngpu_device = {gpu_device:?}\n\n[config]\ntext = '''\n{}'''\n",
         plan.file,
         plan.experiment,
         plan.name,
@@ -248,6 +295,7 @@ pub fn run_plan(
         std::env::consts::OS,
         std::env::consts::ARCH,
         rayon::current_num_threads(),
+        plan.gpu.name(),
         plan.text
     );
     write_atomic(&dir.join("manifest.toml"), &manifest)?;
@@ -295,7 +343,7 @@ pub fn run_plan(
             continue;
         }
         let t0 = Instant::now();
-        let rows = run_rows(run, &plan.experiment, &rev, &dir)?;
+        let rows = run_rows(run, &plan.experiment, &rev, &dir, gpu.as_ref())?;
         lines.extend(rows);
         let mut text = header.clone();
         text.push('\n');

@@ -1,0 +1,266 @@
+//! End-to-end tests of `shscale bench` (Table 1) and of the GPU settings: CSV/JSON rows with the
+//! declared columns, the GPU path beside the CPU path where an adapter exists, and the no-adapter
+//! behaviour (notice and CPU path for `auto`, exit 2 for `required`). "No adapter" is forced with
+//! `WGPU_BACKEND=dx12`, a backend that does not exist on Linux.
+
+mod common;
+use std::process::{Command, Output};
+
+fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_shscale"));
+    c.args(args);
+    for (k, v) in envs {
+        c.env(k, v);
+    }
+    c.output().expect("binary runs")
+}
+
+fn require_gpu() -> bool {
+    std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+const NO_ADAPTER: (&str, &str) = ("WGPU_BACKEND", "dx12");
+
+#[test]
+fn cpu_bench_prints_csv_rows_with_the_declared_columns() {
+    let out = run(
+        &[
+            "bench", "--scene", "egg", "--frames", "2", "--warmup", "0", "--format", "csv",
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.join(","), shscale_lab::bench::CSV_COLUMNS);
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 1, "{text}");
+    // The device cell is quoted and contains no comma for the CPU.
+    let cells: Vec<&str> = rows[0].split(',').collect();
+    assert_eq!(cells.len(), header.len(), "{}", rows[0]);
+    let col = |name: &str| cells[header.iter().position(|h| *h == name).unwrap()];
+    assert_eq!(col("scene"), "egg");
+    assert_eq!(col("path"), "cpu");
+    assert_eq!(col("receivers"), "25600");
+    assert_eq!(col("samples"), "384");
+    assert_eq!(
+        col("sh_conversion_ms"),
+        "",
+        "inside BSV sampling on the CPU"
+    );
+    let fps: f64 = col("fps").parse().unwrap();
+    let frame: f64 = col("frame_ms").parse().unwrap();
+    assert!(
+        fps > 0.0 && (fps * frame / 1e3 - 1.0).abs() < 1e-2,
+        "fps {fps}, frame {frame} ms"
+    );
+}
+
+#[test]
+fn gpu_bench_runs_beside_the_cpu_or_explains_why_not() {
+    let out = run(
+        &[
+            "bench", "--gpu", "--scene", "bird", "--frames", "2", "--warmup", "1", "--format",
+            "json",
+        ],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    if err.contains("notice: no GPU adapter") {
+        assert!(!require_gpu(), "SHSCALE_REQUIRE_GPU=1 but: {err}");
+        eprintln!("SKIPPED GPU half (no adapter)");
+        assert_eq!(rows.len(), 1);
+        return;
+    }
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    let gpu = &rows[1];
+    assert_eq!(gpu["path"], "gpu");
+    assert!(!gpu["device"].as_str().unwrap().is_empty());
+    for key in [
+        "bsv_sampling_ms",
+        "sh_conversion_ms",
+        "shadowing_ms",
+        "frame_ms",
+        "fps",
+    ] {
+        let v = gpu[key].as_f64().unwrap_or_else(|| panic!("{key}: {gpu}"));
+        assert!(v > 0.0, "{key} = {v}");
+    }
+    // Same scene description on both rows.
+    for key in [
+        "vertices",
+        "triangles",
+        "samples",
+        "rays_per_sample",
+        "receivers",
+    ] {
+        assert_eq!(rows[0][key], gpu[key], "{key}");
+    }
+}
+
+#[test]
+fn without_an_adapter_auto_goes_on_and_required_fails() {
+    let out = run(
+        &[
+            "bench", "--gpu", "--scene", "egg", "--frames", "1", "--warmup", "0", "--format", "csv",
+        ],
+        &[NO_ADAPTER],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let notices: Vec<&str> = err.lines().filter(|l| l.starts_with("notice:")).collect();
+    assert_eq!(notices.len(), 1, "{err}");
+    assert!(notices[0].contains("no GPU adapter"), "{err}");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).lines().count(),
+        2,
+        "header + CPU row"
+    );
+
+    let out = run(
+        &[
+            "bench",
+            "--gpu",
+            "--require-gpu",
+            "--scene",
+            "egg",
+            "--frames",
+            "1",
+        ],
+        &[NO_ADAPTER],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("error: gpu = \"required\": no GPU adapter"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn experiment_gpu_setting_is_validated_and_enforced() {
+    let dir = std::env::temp_dir().join(format!("shscale-gpu-cfg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = "experiment = \"probe\"\nmesh = \"duck\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\n";
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, format!("{base}gpu = \"sometimes\"\n")).unwrap();
+    common::fails(
+        &["run", bad.to_str().unwrap()],
+        "bad.toml:8: gpu: \"sometimes\" is not one of",
+    );
+
+    let req = dir.join("req.toml");
+    std::fs::write(&req, format!("{base}gpu = \"required\"\n")).unwrap();
+    let out = run(
+        &[
+            "run",
+            req.to_str().unwrap(),
+            "--out-dir",
+            dir.join("out").to_str().unwrap(),
+        ],
+        &[NO_ADAPTER],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("gpu = \"required\": no GPU adapter"), "{err}");
+
+    // With an adapter (lavapipe in CI) the run records GPU timings and the device.
+    let auto = dir.join("auto.toml");
+    std::fs::write(&auto, base).unwrap();
+    let out = run(
+        &[
+            "run",
+            auto.to_str().unwrap(),
+            "--out-dir",
+            dir.join("out").to_str().unwrap(),
+        ],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let csv = std::fs::read_to_string(dir.join("out/probe/auto/runs.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let row = lines.next().unwrap();
+    let i = header
+        .iter()
+        .position(|h| *h == "gpu_bsv_sampling_seconds")
+        .unwrap();
+    let cell = row.split(',').nth(i).unwrap();
+    if err.contains("notice: no GPU adapter") {
+        assert!(!require_gpu(), "SHSCALE_REQUIRE_GPU=1 but: {err}");
+        assert_eq!(cell, "");
+    } else {
+        let t: f64 = cell.parse().unwrap_or_else(|_| panic!("{row}"));
+        assert!(t > 0.0, "{row}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn gpu_sequence_image_matches_the_cpu_sequence() {
+    let dir = std::env::temp_dir().join(format!("shscale-gpu-img-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../configs/scene_bird.toml");
+    let (cpu, gpu) = (dir.join("cpu.exr"), dir.join("gpu.exr"));
+    let out = run(
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--frames",
+            "3",
+            "--out",
+            cpu.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run(
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--frames",
+            "3",
+            "--gpu",
+            "--out",
+            gpu.to_str().unwrap(),
+        ],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() && err.contains("no GPU adapter") && !require_gpu() {
+        eprintln!("SKIPPED (no GPU adapter)");
+        return;
+    }
+    assert!(out.status.success(), "{err}");
+    let (w, h, a) = shscale_lab::io::read_exr(&cpu).unwrap();
+    let (w2, h2, b) = shscale_lab::io::read_exr(&gpu).unwrap();
+    assert_eq!((w, h), (w2, h2));
+    let max = a.iter().flatten().fold(0f32, |m, v| m.max(*v)) as f64;
+    let rmse = (a
+        .iter()
+        .zip(&b)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] as f64 - q[c] as f64).powi(2)))
+        .sum::<f64>()
+        / (3 * a.len()) as f64)
+        .sqrt();
+    // Differences come only from grazing rays and f32 rounding (see crates/gpu/tests/parity.rs).
+    println!("GPU vs CPU sequence image: RMSE {rmse:.2e}, max irradiance {max:.3}");
+    assert!(rmse <= 1e-3 * max, "RMSE {rmse:.2e} vs max {max:.3}");
+    std::fs::remove_dir_all(&dir).ok();
+}
