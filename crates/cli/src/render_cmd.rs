@@ -144,25 +144,27 @@ fn sequence(
 fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
     use shscale_lab::gpu_path::{open_gpu, render_sequence_gpu, GpuMode};
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
-    let (img, stats, setup) = render_sequence_gpu(scene, frames, &ctx)?;
+    let run = render_sequence_gpu(scene, frames, &ctx)?;
+    let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
     shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
     let png = a.out.with_extension("png");
     shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
         .context("--out (PNG preview)")?;
     println!(
-        "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms, stage clock: {})",
+        "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),
         img.width,
         img.height,
         ctx.describe(),
         setup * 1e3,
+        run.receiver_setup_seconds * 1e3,
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
     println!(
         "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "frame", "deform_ms", "bvh_ms", "upload_ms", "bsv_ms", "sh_ms", "shade_ms", "frame_ms"
     );
-    for s in &stats {
+    for s in stats {
         let g = &s.gpu;
         println!(
             "{:>5} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3}",

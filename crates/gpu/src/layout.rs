@@ -90,6 +90,24 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of the receiver-cache kernel (a uniform).
+    GpuCacheParams [48] {
+        /// Sampling-sphere centre (xyz) and radius (w).
+        center: [f32; 4] => "vec4<f32>",
+        receivers: u32 => "u32",
+        order: u32 => "u32",
+        nn: u32 => "u32",
+        channels: u32 => "u32",
+        /// Tabulated k values and quadrature points.
+        k_count: u32 => "u32",
+        quad: u32 => "u32",
+        /// 1: the table interpolates in ln k.
+        log_k: u32 => "u32",
+        pad: u32 => "u32",
+    }
+}
+
 /// Every struct's WGSL declaration, prepended to each shader.
 pub fn wgsl_structs() -> String {
     [
@@ -98,6 +116,7 @@ pub fn wgsl_structs() -> String {
         GpuSample::WGSL,
         GpuParams::WGSL,
         GpuReceiver::WGSL,
+        GpuCacheParams::WGSL,
     ]
     .concat()
 }
@@ -140,6 +159,7 @@ mod tests {
             ("projection", crate::sampling::project_source()),
             ("sh_eval", crate::sampling::sh_test_source()),
             ("shading", crate::shading::source()),
+            ("cache", crate::shading::cache_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&src)
                 .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));

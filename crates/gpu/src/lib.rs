@@ -8,7 +8,10 @@
 //!   sample (same Gauss hemisphere directions, same local frames, same ray offset);
 //! - [`sampling`] projection ↔ the quadrature sum of the same routine, plus the closed-form back
 //!   hemisphere;
-//! - [`shading`] ↔ `shscale_field::receivers::ReceiverCache::shade`.
+//! - [`shading`] ↔ `shscale_field::receivers::ReceiverCache::shade`, and its setup
+//!   (`U = R M_kᵀ Rᵀ T` per receiver: k-table scaling and both rotations) ↔
+//!   `ReceiverCache::build` — only the point location in the spherical triangulation stays on the
+//!   host.
 //!
 //! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
 //! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
@@ -27,7 +30,8 @@ pub mod shading;
 pub mod timing;
 
 pub use context::{require_gpu_from_env, GpuContext};
-pub use sequence::{GpuSequence, GpuStageTimes};
+pub use sequence::{GpuSequence, GpuStageTimes, Receivers};
+pub use shading::ReceiverSetup;
 
 /// Highest SH order the GPU kernels support (`N² ≤ 64` accumulators).
 pub const MAX_GPU_ORDER: usize = 8;

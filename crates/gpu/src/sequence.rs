@@ -5,7 +5,7 @@
 
 use crate::bvh::FlatBvh;
 use crate::sampling::GpuSampler;
-use crate::shading::GpuShader;
+use crate::shading::{GpuShader, ReceiverSetup};
 use crate::timing::StageTimer;
 use crate::{GpuContext, GpuError};
 use glam::DVec3;
@@ -33,18 +33,28 @@ pub struct GpuStageTimes {
     pub timestamps: bool,
 }
 
+/// Where a sequence's per-receiver data comes from.
+pub enum Receivers<'a> {
+    /// A cache built on the CPU (`ReceiverCache::build`), uploaded.
+    Cache(&'a ReceiverCache),
+    /// Built on the GPU (k-table scaling and rotations per receiver; location on the host).
+    Build(ReceiverSetup<'a>),
+}
+
 /// The GPU pipeline of one deforming entity.
 pub struct GpuSequence {
     bvh: FlatBvh,
     sampler: GpuSampler,
     shader: GpuShader,
     timer: StageTimer,
+    /// Device seconds of the GPU receiver setup (0 for an uploaded cache).
+    pub receiver_setup_seconds: f64,
 }
 
 impl GpuSequence {
     /// Set up for `mesh` (any pose of the sequence: same topology throughout) sampled on the fixed
     /// `sampling` sphere along unit `dirs`, order `N ≤ 8`, `H × H` rays per sample, shading the
-    /// receivers of `cache` (built for the same sphere, layout and order).
+    /// receivers given (for the same sphere, layout and order).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &GpuContext,
@@ -54,7 +64,7 @@ impl GpuSequence {
         h: usize,
         sampling: Sphere,
         dirs: &[DVec3],
-        cache: &ReceiverCache,
+        receivers: Receivers<'_>,
     ) -> Result<Self, GpuError> {
         let bvh = FlatBvh::build(mesh, strategy)?;
         let ntris = mesh.triangles.len();
@@ -67,19 +77,32 @@ impl GpuSequence {
             dirs,
             (2 * ntris, ntris),
         )?;
-        let shader = GpuShader::new(
-            ctx,
-            cache,
-            &sampler.params_buf,
-            &mut sampler.params,
-            &sampler.coeffs_buf,
-        )?;
+        let (shader, receiver_setup_seconds) = match receivers {
+            Receivers::Cache(cache) => (
+                GpuShader::new(
+                    ctx,
+                    cache,
+                    &sampler.params_buf,
+                    &mut sampler.params,
+                    &sampler.coeffs_buf,
+                )?,
+                0.0,
+            ),
+            Receivers::Build(setup) => GpuShader::build_on_gpu(
+                ctx,
+                &setup,
+                &sampler.params_buf,
+                &mut sampler.params,
+                &sampler.coeffs_buf,
+            )?,
+        };
         let timer = StageTimer::new(ctx, 3);
         Ok(Self {
             bvh,
             sampler,
             shader,
             timer,
+            receiver_setup_seconds,
         })
     }
 
@@ -158,6 +181,11 @@ impl GpuSequence {
     /// This frame's receiver irradiance (RGB).
     pub fn read_image(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
         self.shader.read_image(ctx)
+    }
+
+    /// The shader (tests).
+    pub fn shader(&self) -> &GpuShader {
+        &self.shader
     }
 
     /// The sampler (tests).

@@ -3,16 +3,40 @@
 //! host between stages. The cache (indices, weights, `U = R M_kᵀ Rᵀ T`) is uploaded once per
 //! sequence; per frame only the coefficients change.
 
-use crate::layout::{shader, GpuReceiver};
+use crate::layout::{shader, GpuCacheParams, GpuParams, GpuReceiver, SH_WGSL};
 use crate::timing::grid_64;
 use crate::{GpuContext, GpuError};
+use glam::DVec3;
 use shscale_field::receivers::ReceiverCache;
+use shscale_geometry::Sphere;
+use shscale_scaling::{Interp, KTable};
+use shscale_sh::DirectionSet;
 
 const SHADING_WGSL: &str = include_str!("shading.wgsl");
+const CACHE_WGSL: &str = include_str!("cache.wgsl");
 
 /// The shading shader.
 pub fn source() -> String {
     shader(&[SHADING_WGSL])
+}
+
+/// The receiver-setup shader.
+pub fn cache_source() -> String {
+    shader(&[SH_WGSL, CACHE_WGSL])
+}
+
+/// Everything the GPU receiver setup needs besides the sample location, which stays on the host
+/// (spherical Delaunay point location, `Bsv::locate`).
+pub struct ReceiverSetup<'a> {
+    /// The k-table (linear interpolation; ln k or k as it was built).
+    pub table: &'a KTable,
+    /// Per-channel transfer vector `T` of the shared normal (grey: identical channels).
+    pub transfer: &'a [Vec<f64>; 3],
+    pub receivers: &'a [DVec3],
+    /// Per receiver: the three sample indices and weights.
+    pub locations: &'a [[(u32, f64); 3]],
+    /// The sampling sphere the BSV is taken on.
+    pub sampling: Sphere,
 }
 
 /// Receiver rows of a cache in GPU layout.
@@ -37,16 +61,198 @@ pub struct GpuShader {
     pub(crate) image_buf: wgpu::Buffer,
     pipe: wgpu::ComputePipeline,
     bind: wgpu::BindGroup,
+    /// Receiver rows and `U` (kept for readback).
+    _cache: [wgpu::Buffer; 2],
 }
 
 impl GpuShader {
+    /// Build the receiver cache on the GPU (k-table scaling and both rotations per receiver;
+    /// see cache.wgsl) and set up shading from it. Returns the shader and the device time of the
+    /// setup in seconds (timestamps where available, else the synchronised wall clock).
+    pub fn build_on_gpu(
+        ctx: &GpuContext,
+        setup: &ReceiverSetup<'_>,
+        params_buf: &wgpu::Buffer,
+        params: &mut GpuParams,
+        coeffs_buf: &wgpu::Buffer,
+    ) -> Result<(Self, f64), GpuError> {
+        let table = setup.table;
+        let (_, _, spacing, interp) = table.spec();
+        if interp != Interp::Linear {
+            return Err(GpuError::Input(
+                "the GPU receiver setup interpolates k-tables linearly; this table is cubic".into(),
+            ));
+        }
+        let order = table.order();
+        crate::sampling::check_gpu_order(order)?;
+        let nn = order * order;
+        if params.nn as usize != nn {
+            return Err(GpuError::Input(format!(
+                "k-table of order {order} for a sampler of N² = {}",
+                params.nn
+            )));
+        }
+        let n = setup.receivers.len();
+        if n == 0 || setup.locations.len() != n {
+            return Err(GpuError::Input(format!(
+                "{n} receivers with {} locations",
+                setup.locations.len()
+            )));
+        }
+        let t = setup.transfer;
+        let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
+        let log_k = !matches!(spacing, shscale_scaling::Spacing::Uniform);
+        let xs: Vec<f32> = table
+            .ks()
+            .iter()
+            .map(|&k| if log_k { k.ln() as f32 } else { k as f32 })
+            .collect();
+        let mut mats = Vec::with_capacity(xs.len() * nn * nn);
+        for m in table.matrices() {
+            for row in m.to_dense() {
+                mats.extend(row.iter().map(|&v| v as f32));
+            }
+        }
+        let transfer: Vec<f32> = t[..channels]
+            .iter()
+            .flat_map(|c| c.iter().map(|&v| v as f32))
+            .collect();
+        let q = DirectionSet::gauss_sphere_for_order(order);
+        let quad: Vec<[f32; 4]> = q
+            .dirs
+            .iter()
+            .zip(&q.weights)
+            .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
+            .collect();
+        let points: Vec<[f32; 4]> = setup
+            .receivers
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        let rows: Vec<GpuReceiver> = setup
+            .locations
+            .iter()
+            .map(|l| GpuReceiver {
+                idx: l.map(|x| x.0),
+                flag: 0,
+                w: [l[0].1 as f32, l[1].1 as f32, l[2].1 as f32, 0.0],
+                constant: [0.0; 4],
+            })
+            .collect();
+        let c = setup.sampling.center;
+        let cp = GpuCacheParams {
+            center: [
+                c.x as f32,
+                c.y as f32,
+                c.z as f32,
+                setup.sampling.radius as f32,
+            ],
+            receivers: n as u32,
+            order: order as u32,
+            nn: nn as u32,
+            channels: channels as u32,
+            k_count: xs.len() as u32,
+            quad: quad.len() as u32,
+            log_k: u32::from(log_k),
+            pad: 0,
+        };
+        use wgpu::util::DeviceExt;
+        let cp_buf = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cache params"),
+                contents: bytemuck::bytes_of(&cp),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&rows));
+        let u_buf = ctx.storage("u", 4 * (n * channels * nn) as u64);
+        let pipe = ctx.pipeline("build_cache", &cache_source(), "build_cache");
+        let bind = ctx.bind(
+            &pipe,
+            &[
+                &cp_buf,
+                &ctx.storage_init("points", bytemuck::cast_slice(&points)),
+                &ctx.storage_init("xs", bytemuck::cast_slice(&xs)),
+                &ctx.storage_init("mats", bytemuck::cast_slice(&mats)),
+                &ctx.storage_init("transfer", bytemuck::cast_slice(&transfer)),
+                &ctx.storage_init("quad", bytemuck::cast_slice(&quad)),
+                &ctx.storage_init(
+                    "knorm",
+                    bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
+                ),
+                &rec_buf,
+                &u_buf,
+            ],
+        );
+        let timer = crate::timing::StageTimer::new(ctx, 1);
+        let t0 = std::time::Instant::now();
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = enc.begin_compute_pass(&timer.pass("receiver setup", 0));
+            let (x, y) = grid_64(n as u32);
+            pass.set_pipeline(&pipe);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        let wall = t0.elapsed().as_secs_f64();
+        let seconds = timer.read(ctx)?.map_or(wall, |s| s[0]);
+        let shader = Self::from_buffers(
+            ctx, rec_buf, u_buf, n, channels, params_buf, params, coeffs_buf,
+        );
+        Ok((shader, seconds))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn from_buffers(
+        ctx: &GpuContext,
+        rec_buf: wgpu::Buffer,
+        u_buf: wgpu::Buffer,
+        receivers: usize,
+        channels: usize,
+        params_buf: &wgpu::Buffer,
+        params: &mut GpuParams,
+        coeffs_buf: &wgpu::Buffer,
+    ) -> Self {
+        params.receivers = receivers as u32;
+        params.channels = channels as u32;
+        ctx.queue
+            .write_buffer(params_buf, 0, bytemuck::bytes_of(&*params));
+        let image_buf = ctx.storage("image", 16 * receivers as u64);
+        let pipe = ctx.pipeline("shade", &source(), "shade");
+        let bind = ctx.bind(
+            &pipe,
+            &[params_buf, &rec_buf, &u_buf, coeffs_buf, &image_buf],
+        );
+        Self {
+            receivers,
+            channels,
+            image_buf,
+            pipe,
+            bind,
+            _cache: [rec_buf, u_buf],
+        }
+    }
+
+    /// The receiver rows and `U` values as the GPU holds them (tests).
+    pub fn read_cache(&self, ctx: &GpuContext) -> Result<(Vec<GpuReceiver>, Vec<f32>), GpuError> {
+        Ok((
+            bytemuck::cast_slice(&ctx.read_buffer(&self._cache[0])?).to_vec(),
+            bytemuck::cast_slice(&ctx.read_buffer(&self._cache[1])?).to_vec(),
+        ))
+    }
+
     /// Upload `cache` for coefficients in `coeffs_buf` (samples × N², f32), with the shared
     /// parameter uniform (`receivers` and `channels` are written into it here).
     pub fn new(
         ctx: &GpuContext,
         cache: &ReceiverCache,
         params_buf: &wgpu::Buffer,
-        params: &mut crate::layout::GpuParams,
+        params: &mut GpuParams,
         coeffs_buf: &wgpu::Buffer,
     ) -> Result<Self, GpuError> {
         if cache.is_empty() {
@@ -61,25 +267,18 @@ impl GpuShader {
                 u.len() / (rows.len() * cache.channels())
             )));
         }
-        params.receivers = rows.len() as u32;
-        params.channels = cache.channels() as u32;
-        ctx.queue
-            .write_buffer(params_buf, 0, bytemuck::bytes_of(&*params));
         let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&rows));
         let u_buf = ctx.storage_init("u", bytemuck::cast_slice(u));
-        let image_buf = ctx.storage("image", 16 * rows.len() as u64);
-        let pipe = ctx.pipeline("shade", &source(), "shade");
-        let bind = ctx.bind(
-            &pipe,
-            &[params_buf, &rec_buf, &u_buf, coeffs_buf, &image_buf],
-        );
-        Ok(Self {
-            receivers: rows.len(),
-            channels: cache.channels(),
-            image_buf,
-            pipe,
-            bind,
-        })
+        Ok(Self::from_buffers(
+            ctx,
+            rec_buf,
+            u_buf,
+            rows.len(),
+            cache.channels(),
+            params_buf,
+            params,
+            coeffs_buf,
+        ))
     }
 
     /// Record the shading pass.

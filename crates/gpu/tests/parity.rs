@@ -15,7 +15,7 @@ use shscale_geometry::{
     deform, min_enclosing_sphere, shapes, Mesh, MeshBvh, Occluder, Sphere, RAY_EPS,
 };
 use shscale_gpu::sampling::{sh_eval_gpu, GpuSampler};
-use shscale_gpu::{require_gpu_from_env, GpuContext, GpuSequence};
+use shscale_gpu::{require_gpu_from_env, GpuContext, GpuSequence, ReceiverSetup, Receivers};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use shscale_sh::{DirectionSet, ShBasis};
 
@@ -173,6 +173,15 @@ fn ray_casting_and_projection_match_the_cpu_bsv() {
     }
 }
 
+fn transfer_rgb(order: usize) -> [Vec<f64>; 3] {
+    let nn = order * order;
+    [0, 1, 2].map(|ch| {
+        (0..nn)
+            .map(|i| ((i * 7 + ch * 3) % 11) as f64 / 11.0 - 0.3 + if i == 0 { 1.0 } else { 0.0 })
+            .collect()
+    })
+}
+
 fn cache_for(bsv: &Bsv, order: usize, receivers: &[DVec3]) -> (KTable, ReceiverCache) {
     let c = bsv.sphere.center;
     let ks: Vec<f64> = receivers
@@ -195,13 +204,7 @@ fn cache_for(bsv: &Bsv, order: usize, receivers: &[DVec3]) -> (KTable, ReceiverC
     )
     .unwrap();
     // A coloured transfer vector: three distinct channels.
-    let nn = order * order;
-    let t: [Vec<f64>; 3] = [0, 1, 2].map(|ch| {
-        (0..nn)
-            .map(|i| ((i * 7 + ch * 3) % 11) as f64 / 11.0 - 0.3 + if i == 0 { 1.0 } else { 0.0 })
-            .collect()
-    });
-    let cache = ReceiverCache::build(bsv, &table, &t, receivers);
+    let cache = ReceiverCache::build(bsv, &table, &transfer_rgb(order), receivers);
     (table, cache)
 }
 
@@ -242,7 +245,7 @@ fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
         h,
         sphere,
         &dirs,
-        &cache,
+        Receivers::Cache(&cache),
     )
     .unwrap();
     // (c) shading alone, on the CPU's coefficients.
@@ -281,4 +284,116 @@ fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
     println!("end to end: image RMSE {rmse:.2e} of max E {bright:.3}; {times:?}");
     assert!(rmse <= 1e-3 * bright, "{rmse:.2e}");
     assert!(times.frame_seconds > 0.0 && times.sampling_seconds > 0.0);
+}
+
+/// `U = R M_kᵀ Rᵀ T` built on the GPU (k-table lookup and rotations by re-projection) against
+/// `ReceiverCache::build` (Ivanic–Ruedenberg rotations in f64), for RGB and grey transfers, a
+/// receiver plane below the entity and receivers around it on every side (every frame
+/// orientation, the z = ±1 branch of the basis included) — then shading from it.
+#[test]
+fn receiver_setup_on_the_gpu_matches_the_cpu_cache() {
+    /// Relative to max |U|: f32 quadrature of ≤ 2N² points, two rotations, one matvec.
+    const U_TOL: f64 = 2e-5;
+    let Some(ctx) = ctx() else { return };
+    let (order, h) = (4, 8);
+    let (mesh, sphere, dirs) = bird_scene(0.2);
+    let layout = Layout::parse("cube:4").unwrap();
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    let bsv = Bsv::sample_on(
+        &MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
+        layout,
+        &sampler,
+        sphere,
+        0.0,
+    )
+    .unwrap();
+    let mut receivers = plane(24, sphere.center.z - 1.6, 2.5);
+    let n = 200;
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let a = i as f64 * 2.399963229728653;
+        let s = (1.0 - z * z).sqrt();
+        let rho = sphere.radius * (1.05 + 2.0 * (i % 7) as f64 / 7.0);
+        receivers.push(sphere.center + rho * DVec3::new(s * a.cos(), s * a.sin(), z));
+    }
+    receivers.push(sphere.center + 2.0 * sphere.radius * DVec3::Z);
+    receivers.push(sphere.center - 2.0 * sphere.radius * DVec3::Z);
+    let grey = {
+        let t = transfer_rgb(order);
+        [t[0].clone(), t[0].clone(), t[0].clone()]
+    };
+    for (name, transfer) in [("rgb", transfer_rgb(order)), ("grey", grey)] {
+        let (table, _) = cache_for(&bsv, order, &receivers);
+        let cpu = ReceiverCache::build(&bsv, &table, &transfer, &receivers);
+        let locations: Vec<[(u32, f64); 3]> = receivers
+            .iter()
+            .map(|p| bsv.locate((*p - sphere.center).normalize()))
+            .collect();
+        let setup = ReceiverSetup {
+            table: &table,
+            transfer: &transfer,
+            receivers: &receivers,
+            locations: &locations,
+            sampling: sphere,
+        };
+        let seq = GpuSequence::new(
+            &ctx,
+            &mesh,
+            UpdateStrategy::Refit,
+            order,
+            h,
+            sphere,
+            &dirs,
+            Receivers::Build(setup),
+        )
+        .unwrap();
+        let (rows, u) = seq.shader().read_cache(&ctx).unwrap();
+        let (_, _, cu, cconst) = cpu.rows();
+        assert_eq!(u.len(), cu.len(), "{name}");
+        let flags_differ = rows
+            .iter()
+            .zip(cconst)
+            .filter(|(r, c)| (r.flag == 1) != c.is_some())
+            .count();
+        assert_eq!(flags_differ, 0, "{name}: beyond-k_max flags");
+        let scale = cu.iter().fold(0f64, |a, v| a.max(v.abs() as f64));
+        let worst = u
+            .iter()
+            .zip(cu)
+            .fold(0f64, |a, (g, c)| a.max((*g as f64 - *c as f64).abs()));
+        let beyond = cconst.iter().filter(|c| c.is_some()).count();
+        println!("{name}: GPU U vs CPU U max error {worst:.2e} of max |U| {scale:.3} (tol {U_TOL:.0e} relative); {beyond} receivers beyond k_max; setup {:.2} ms", 1e3 * seq.receiver_setup_seconds);
+        assert!(worst <= U_TOL * scale, "{name}: {worst:.2e}");
+        assert!(beyond > 0, "the constant branch must be exercised");
+        for (r, c) in rows.iter().zip(cconst) {
+            if let Some(e) = c {
+                for ch in 0..3 {
+                    assert!(
+                        (r.constant[ch] as f64 - e[ch]).abs() <= 1e-6 * e[ch].abs().max(1.0),
+                        "{name}: constant {:?} vs {e:?}",
+                        r.constant
+                    );
+                }
+            }
+        }
+        // Shading from the GPU-built cache equals shading from the CPU cache.
+        let flat: Vec<f32> = bsv
+            .samples
+            .iter()
+            .flat_map(|s| s.coeffs.iter().map(|c| *c as f32))
+            .collect();
+        seq.sampler().write_coeffs(&ctx, &flat).unwrap();
+        seq.shade_only(&ctx).unwrap();
+        let got = seq.read_image(&ctx).unwrap();
+        let mut want = vec![[0.0; 3]; receivers.len()];
+        cpu.shade(&bsv, &mut want);
+        let bright = want.iter().flatten().fold(0f64, |a, e| a.max(e.abs()));
+        let worst = got
+            .iter()
+            .zip(&want)
+            .flat_map(|(g, w)| (0..3).map(move |c| (g[c] as f64 - w[c]).abs()))
+            .fold(0f64, f64::max);
+        println!("{name}: shading from the GPU cache, max error {worst:.2e} of {bright:.3}");
+        assert!(worst <= U_TOL * bright, "{name}: {worst:.2e}");
+    }
 }

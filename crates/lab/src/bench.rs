@@ -130,7 +130,8 @@ pub fn bench_scene(
         });
     }
     if let Some(ctx) = gpu {
-        let (_, stats, setup) = render_sequence_gpu(&sc, total, ctx)?;
+        let run = render_sequence_gpu(&sc, total, ctx)?;
+        let (stats, setup) = (&run.frames, run.setup_seconds);
         let st = &stats[warmup.min(stats.len() - 1)..];
         let frame_ms = ms(st
             .iter()
