@@ -22,10 +22,17 @@ impl GpuContext {
     /// The default adapter (`WGPU_BACKEND=vulkan|gl|…` selects a backend, as wgpu reads it).
     /// Without one: [`GpuError::NoAdapter`], never a panic.
     pub fn new() -> Result<Self, GpuError> {
-        pollster::block_on(Self::new_async())
+        pollster::block_on(Self::new_async(true))
     }
 
-    async fn new_async() -> Result<Self, GpuError> {
+    /// As [`GpuContext::new`], with timestamp queries left off even where the adapter has them
+    /// (stages are then timed by the synchronised wall clock — the fallback path, testable on
+    /// any adapter).
+    pub fn without_timestamps() -> Result<Self, GpuError> {
+        pollster::block_on(Self::new_async(false))
+    }
+
+    async fn new_async(want_timestamps: bool) -> Result<Self, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = instance
@@ -36,7 +43,8 @@ impl GpuContext {
             .await
             .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
-        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let timestamps =
+            want_timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let required_features = if timestamps {
             wgpu::Features::TIMESTAMP_QUERY
         } else {

@@ -397,3 +397,60 @@ fn receiver_setup_on_the_gpu_matches_the_cpu_cache() {
         assert!(worst <= U_TOL * bright, "{name}: {worst:.2e}");
     }
 }
+
+/// The wall-clock fallback (no timestamp queries) times every stage and renders the same frame.
+#[test]
+fn wall_clock_fallback_times_every_stage_and_renders_the_same_frame() {
+    let Some(ctx) = ctx() else { return };
+    let plain = GpuContext::without_timestamps().expect("the same adapter again");
+    assert!(!plain.timestamps);
+    let (order, h) = (3, 8);
+    let (mesh, sphere, dirs) = bird_scene(0.3);
+    let layout = Layout::parse("cube:4").unwrap();
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    let bsv = Bsv::sample_on(
+        &MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
+        layout,
+        &sampler,
+        sphere,
+        0.0,
+    )
+    .unwrap();
+    let receivers = plane(16, sphere.center.z - 1.6, 2.5);
+    let (_, cache) = cache_for(&bsv, order, &receivers);
+    let mut images = Vec::new();
+    for c in [&ctx, &plain] {
+        let mut seq = GpuSequence::new(
+            c,
+            &mesh,
+            UpdateStrategy::Refit,
+            order,
+            h,
+            sphere,
+            &dirs,
+            Receivers::Cache(&cache),
+        )
+        .unwrap();
+        let t = seq.frame(c, &mesh).unwrap();
+        println!("timestamps {}: {t:?}", c.timestamps);
+        assert_eq!(t.timestamps, c.timestamps);
+        for v in [
+            t.sampling_seconds,
+            t.projection_seconds,
+            t.shading_seconds,
+            t.frame_seconds,
+        ] {
+            assert!(v > 0.0 && v.is_finite(), "{t:?}");
+        }
+        assert!(
+            t.sampling_seconds + t.projection_seconds + t.shading_seconds
+                <= t.frame_seconds * 1.05 + 1e-3,
+            "{t:?}"
+        );
+        images.push(seq.read_image(c).unwrap());
+    }
+    assert_eq!(
+        images[0], images[1],
+        "same inputs, same device: bit-identical frames"
+    );
+}
