@@ -46,25 +46,10 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         s.csv.display()
     );
     if shard.is_none() {
-        // Plot against the first sweep axis that is numeric, else against the probe radius.
-        let numeric = [
-            "order",
-            "hemisphere_res",
-            "k_count",
-            "alpha_deg",
-            "sampling_radius",
-            "on_surface_eps",
-        ];
-        let param = plan
-            .swept
-            .iter()
-            .find(|k| numeric.contains(&k.as_str()))
-            .map(String::as_str)
-            .unwrap_or("radius");
-        for f in shscale_lab::plots::probe_plots(&s.dir, param)? {
+        for f in shscale_lab::plots::probe_plots(&s.dir, &plan.swept)? {
             println!("  plot {}", f.display());
         }
-        summary_table(&s.csv)?;
+        summary_table(&s.csv, &plan.swept)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -87,22 +72,52 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Mean occ_rel_l2 per run and radius, as a small table on stdout.
-fn summary_table(csv: &std::path::Path) -> anyhow::Result<()> {
+/// One line per run: its swept parameters, the mean `occ_rel_l2` at each probe radius and the
+/// run's time (BSV + table + extrapolation), on stdout.
+fn summary_table(csv: &std::path::Path, swept: &[String]) -> anyhow::Result<()> {
     let t = shscale_lab::plots::Table::read(csv)?;
-    println!(
-        "  {:<18} {:>10} {:>8} {:>8} {:>16}",
-        "run_id", "alpha_deg", "order", "radius", "occ_rel_l2_mean"
-    );
-    for r in 0..t.rows.len() {
-        println!(
-            "  {:<18} {:>10} {:>8} {:>8} {:>16.4}",
-            t.rows[r][0],
-            t.num(r, "alpha_deg"),
-            t.num(r, "order"),
-            t.num(r, "radius"),
-            t.num(r, "occ_rel_l2_mean")
-        );
+    let col = |name: &str| t.columns.iter().position(|c| c == name);
+    let mut radii: Vec<f64> = (0..t.rows.len()).map(|r| t.num(r, "radius")).collect();
+    radii.sort_by(f64::total_cmp);
+    radii.dedup();
+    let mut runs: Vec<String> = Vec::new();
+    for r in &t.rows {
+        if !runs.contains(&r[0]) {
+            runs.push(r[0].clone());
+        }
+    }
+    let mut head = format!("  {:<17}", "run_id");
+    for k in swept {
+        head.push_str(&format!(" {k:>15}"));
+    }
+    for rho in &radii {
+        head.push_str(&format!(" {:>9}", format!("occ@{rho}r")));
+    }
+    head.push_str(&format!(" {:>9}", "time_ms"));
+    println!("  occ_rel_l2 (mean over base-sphere samples) per probe radius:");
+    println!("{head}");
+    for id in &runs {
+        let rows: Vec<usize> = (0..t.rows.len()).filter(|&r| &t.rows[r][0] == id).collect();
+        let mut line = format!("  {id:<17}");
+        for k in swept {
+            let v = col(k).map_or(String::new(), |c| t.rows[rows[0]][c].clone());
+            line.push_str(&format!(" {v:>15}"));
+        }
+        for rho in &radii {
+            let v = rows
+                .iter()
+                .find(|&&r| t.num(r, "radius") == *rho)
+                .map_or(f64::NAN, |&r| t.num(r, "occ_rel_l2_mean"));
+            line.push_str(&format!(" {v:>9.4}"));
+        }
+        let time: f64 = t.num(rows[0], "bsv_sampling_seconds")
+            + t.num(rows[0], "table_build_seconds")
+            + rows
+                .iter()
+                .map(|&r| t.num(r, "extrapolation_seconds"))
+                .sum::<f64>();
+        line.push_str(&format!(" {:>9.1}", time * 1e3));
+        println!("{line}");
     }
     Ok(())
 }

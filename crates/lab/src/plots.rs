@@ -203,31 +203,100 @@ fn write_both(
     Ok(vec![png, svg])
 }
 
-/// Plots of a probe run directory: `occ_rel_l2` against `param` (one series per probe radius) and
-/// the speed/accuracy scatter with its Pareto front. Returns the files written.
-pub fn probe_plots(dir: &Path, param: &str) -> Result<Vec<PathBuf>, LabError> {
+/// The numeric parameters a probe sweep can plot against.
+pub const NUMERIC_PARAMS: &[&str] = &[
+    "order",
+    "hemisphere_res",
+    "k_count",
+    "alpha_deg",
+    "sampling_radius",
+    "on_surface_eps",
+];
+
+/// Plots of a probe run directory: for every numeric swept parameter P, `occ_rel_l2` against P —
+/// one series per value of another swept parameter (averaged over the probe radii) when there is
+/// one, else one series per probe radius (against the radius when nothing numeric is swept) —
+/// and the speed/accuracy scatter with its Pareto front. Returns the files written.
+pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabError> {
     let t = Table::read(&dir.join("runs.csv"))?;
-    let mut by_radius: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    for r in 0..t.rows.len() {
-        by_radius
-            .entry(format!("ρ = {} r", t.num(r, "radius")))
-            .or_default()
-            .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
-    }
-    let title = format!("occ_rel_l2 (mean over samples) vs {param}");
-    let labels = Labels {
-        title: &title,
-        x: param,
-        y: "occ_rel_l2 (relative L2, 1)",
+    let numeric: Vec<&str> = swept
+        .iter()
+        .map(String::as_str)
+        .filter(|k| NUMERIC_PARAMS.contains(k))
+        .collect();
+    let params: Vec<&str> = if numeric.is_empty() {
+        vec!["radius"]
+    } else {
+        numeric.clone()
     };
-    let mut files = write_both(
-        dir,
-        &format!("occ_rel_l2_vs_{param}"),
-        &labels,
-        &by_radius,
-        false,
-        &[],
-    )?;
+    let mut files = Vec::new();
+    for &param in &params {
+        // The other swept parameter (numeric or not, e.g. layout or mesh), if any.
+        let other = swept.iter().map(String::as_str).find(|k| *k != param);
+        let col = |name: &str| t.columns.iter().position(|h| h == name);
+        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        let y_desc;
+        match other.and_then(|o| col(o).map(|c| (o, c))) {
+            Some((o, c)) => {
+                // Mean over the probe radii per (param, other) cell.
+                let mut cells: BTreeMap<(String, u64), (f64, usize)> = BTreeMap::new();
+                for r in 0..t.rows.len() {
+                    let v = t.num(r, "occ_rel_l2_mean");
+                    if !v.is_finite() {
+                        continue;
+                    }
+                    let e = cells
+                        .entry((t.rows[r][c].clone(), t.num(r, param).to_bits()))
+                        .or_insert((0.0, 0));
+                    e.0 += v;
+                    e.1 += 1;
+                }
+                for ((ov, x), (sum, n)) in cells {
+                    series
+                        .entry(format!("{o} = {ov}"))
+                        .or_default()
+                        .push((f64::from_bits(x), sum / n as f64));
+                }
+                y_desc = "occ_rel_l2, mean over probe radii (1)";
+            }
+            None => {
+                for r in 0..t.rows.len() {
+                    let key = if param == "radius" {
+                        "all runs".to_string()
+                    } else {
+                        format!("ρ = {} r", t.num(r, "radius"))
+                    };
+                    series
+                        .entry(key)
+                        .or_default()
+                        .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
+                }
+                y_desc = "occ_rel_l2, mean over samples (1)";
+            }
+        }
+        let unit = match param {
+            "alpha_deg" => "α (degrees)",
+            "order" => "SH order N",
+            "hemisphere_res" => "hemisphere resolution H (H² rays per sample)",
+            "k_count" => "tabulated k values K",
+            "sampling_radius" => "sampling radius s (× bounding radius)",
+            "on_surface_eps" => "on-surface threshold ε (× r)",
+            _ => "probe radius ρ (× r)",
+        };
+        let title = format!("occ_rel_l2 vs {param}");
+        files.extend(write_both(
+            dir,
+            &format!("occ_rel_l2_vs_{param}"),
+            &Labels {
+                title: &title,
+                x: unit,
+                y: y_desc,
+            },
+            &series,
+            false,
+            &[],
+        )?);
+    }
     // Per run: total time of the extrapolation path vs its error averaged over radii.
     let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
     for r in 0..t.rows.len() {

@@ -177,8 +177,12 @@ fn plots_are_written_as_png_and_svg_with_labelled_axes() {
     let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
     let d = tmp("plots");
     let s = run_plan(&plan, &d, None, |_| {}).unwrap();
-    let files = shscale_lab::plots::probe_plots(&s.dir, "alpha_deg").unwrap();
-    assert_eq!(files.len(), 4);
+    let files = shscale_lab::plots::probe_plots(&s.dir, &plan.swept).unwrap();
+    assert_eq!(
+        files.len(),
+        6,
+        "two numeric axes (α, order) + the Pareto plot, PNG and SVG each"
+    );
     for f in &files {
         let len = std::fs::metadata(f).unwrap().len();
         assert!(len > 2000, "{} is only {len} bytes", f.display());
