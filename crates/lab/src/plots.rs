@@ -235,8 +235,7 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
         let other = swept.iter().map(String::as_str).find(|k| *k != param);
         let col = |name: &str| t.columns.iter().position(|h| h == name);
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        let y_desc;
-        match other.and_then(|o| col(o).map(|c| (o, c))) {
+        let y_desc = match other.and_then(|o| col(o).map(|c| (o, c))) {
             Some((o, c)) => {
                 // Mean over the probe radii per (param, other) cell.
                 let mut cells: BTreeMap<(String, u64), (f64, usize)> = BTreeMap::new();
@@ -257,7 +256,7 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
                         .or_default()
                         .push((f64::from_bits(x), sum / n as f64));
                 }
-                y_desc = "occ_rel_l2, mean over probe radii (1)";
+                "occ_rel_l2, mean over probe radii (1)"
             }
             None => {
                 for r in 0..t.rows.len() {
@@ -271,9 +270,9 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
                         .or_default()
                         .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
                 }
-                y_desc = "occ_rel_l2, mean over samples (1)";
+                "occ_rel_l2, mean over samples (1)"
             }
-        }
+        };
         let unit = match param {
             "alpha_deg" => "α (degrees)",
             "order" => "SH order N",
