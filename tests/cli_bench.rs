@@ -47,7 +47,7 @@ fn cpu_bench_prints_csv_rows_with_the_declared_columns() {
     assert_eq!(col("scene"), "egg");
     assert_eq!(col("path"), "cpu");
     assert_eq!(col("receivers"), "25600");
-    assert_eq!(col("samples"), "384");
+    assert_eq!(col("samples"), "240", "12×20 lat-long, as the TR");
     assert_eq!(
         col("sh_conversion_ms"),
         "",

@@ -51,6 +51,22 @@ pub enum Command {
     /// Table 1: per-stage times and FPS of the deforming sequences, CPU and GPU side by side.
     /// Example: shscale bench --gpu --scene all --frames 16 --format markdown
     Bench(BenchArgs),
+    /// Regenerate the papers' figures (paper-figs/) from configs/paper/*.toml, with an index.
+    /// Example: shscale figs
+    Figs(FigsArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct FigsArgs {
+    /// Folder of figure configs.
+    #[arg(long, default_value = "configs/paper")]
+    pub configs: std::path::PathBuf,
+    /// Output folder (created); its README.md is rewritten as the index.
+    #[arg(long, default_value = "paper-figs")]
+    pub out: std::path::PathBuf,
+    /// GPU rows of Table 1: auto (when an adapter exists), off, required.
+    #[arg(long, default_value = "auto")]
+    pub gpu: String,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -1,7 +1,8 @@
 //! `shscale bench`: the Table 1 reproduction (crates/lab/src/bench.rs) printed as Markdown, CSV
-//! or JSON, with the machine in a header line.
+//! or JSON, with the machine in a header line; `shscale figs`: the papers' figures
+//! (experiments/).
 
-use crate::args::{BenchArgs, BenchFormat, BenchScene};
+use crate::args::{BenchArgs, BenchFormat, BenchScene, FigsArgs};
 use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
 use shscale_lab::gpu_path::{open_gpu, GpuMode};
 use std::process::ExitCode;
@@ -53,5 +54,18 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchFormat::Csv => print!("{}", to_csv(&rows)),
         BenchFormat::Json => println!("{}", serde_json::to_string_pretty(&rows)?),
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
+    let mode = GpuMode::parse(&a.gpu).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?;
+    let ctx = open_gpu(mode)?;
+    let files =
+        shscale_experiments::regenerate(&a.configs, &a.out, ctx.as_ref(), |l| println!("  {l}"))?;
+    println!(
+        "wrote {} file(s); index {}",
+        files.len(),
+        a.out.join("README.md").display()
+    );
     Ok(ExitCode::SUCCESS)
 }

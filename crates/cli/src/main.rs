@@ -53,6 +53,7 @@ fn main() -> ExitCode {
         Command::Merge(cmd) => run_cmd::merge(cmd),
         Command::Slurm(cmd) => run_cmd::slurm(cmd),
         Command::Bench(cmd) => bench_cmd::run(cmd),
+        Command::Figs(cmd) => bench_cmd::figs(cmd),
     };
     match result {
         Ok(code) => code,

@@ -62,8 +62,8 @@ pub struct ProbeRow {
 #[derive(Clone, Debug)]
 pub struct ProbeResult {
     pub rows: Vec<ProbeRow>,
-    /// Per radius, one probe for images (the papers' Fig. 5): the first sample direction whose
-    /// truth exists and is partly occluded.
+    /// Per radius, one probe for images (the papers' Fig. 5): one sample direction for all radii,
+    /// the most occluded one at the first radius.
     pub examples: Vec<ProbeExample>,
     pub samples: usize,
     pub on_surface_samples: usize,
@@ -150,6 +150,7 @@ pub fn probe(
     let nn = spec.order * spec.order;
     let mut rows = Vec::new();
     let mut examples = Vec::new();
+    let mut example_index: Option<usize> = None;
     for (&rho, &k) in spec.radii.iter().zip(&ks) {
         let points: Vec<(DVec3, bool)> = bsv
             .samples
@@ -189,11 +190,22 @@ pub fn probe(
             truth_seconds,
             ..Default::default()
         };
-        if let Some(i) = truth
-            .iter()
-            .zip(&ext)
-            .position(|(t, (e, _))| t.as_ref().is_some_and(|t| occ_rel_l2(e, t).is_some()))
-        {
+        // The example direction (the papers' Fig. 5 shows one direction at every radius): the
+        // sample whose truth is most occluded at the first radius (smallest visible integral
+        // v₀), kept for the other radii wherever the truth exists there.
+        if example_index.is_none() {
+            example_index = truth
+                .iter()
+                .zip(&ext)
+                .enumerate()
+                .filter_map(|(i, (t, (e, _)))| {
+                    let t = t.as_ref()?;
+                    occ_rel_l2(e, t).map(|_| (i, t[0]))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i);
+        }
+        if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
             examples.push(ProbeExample {
                 radius: rho,
                 point: points[i].0,

@@ -37,6 +37,27 @@ pub fn write_exr(
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }
 
+/// Write an 8-bit PNG of values in [0, 1] mapped linearly (clamped) — for visibility, where 1 must
+/// read as white. Atomic like [`write_exr`].
+pub fn write_png_unit(
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[[f32; 3]],
+) -> Result<(), LabError> {
+    // Exposure 1 with the identity tone map: the preview writer with a pre-scaled copy would
+    // renormalise, so encode directly.
+    write_png_bytes(
+        path,
+        width,
+        height,
+        pixels
+            .iter()
+            .flat_map(|p| p.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8))
+            .collect(),
+    )
+}
+
 /// Write an 8-bit sRGB-ish PNG preview: exposure normalised to the mean luminance, Reinhard
 /// `x/(1+x)`, gamma 1/2.2. Atomic like [`write_exr`].
 pub fn write_png_preview(
@@ -62,16 +83,7 @@ pub fn write_png_preview(
             })
         })
         .collect();
-    let tmp = tmp_path(path);
-    {
-        let file = std::fs::File::create(&tmp).map_err(|e| io_err(path, e))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|e| io_err(path, e))?;
-        w.write_image_data(&data).map_err(|e| io_err(path, e))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+    write_png_bytes(path, width, height, data)
 }
 
 /// Read the first RGBA layer of an EXR as `(width, height, rgb)`, row 0 at the top.
@@ -92,4 +104,22 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), LabError> 
     )
     .map_err(|e| io_err(path, e))?;
     Ok(img.layer_data.channel_data.pixels)
+}
+
+fn write_png_bytes(
+    path: &Path,
+    width: usize,
+    height: usize,
+    data: Vec<u8>,
+) -> Result<(), LabError> {
+    let tmp = tmp_path(path);
+    {
+        let file = std::fs::File::create(&tmp).map_err(|e| io_err(path, e))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(|e| io_err(path, e))?;
+        w.write_image_data(&data).map_err(|e| io_err(path, e))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }

@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 
 static FONT: std::sync::Once = std::sync::Once::new();
 
-fn ensure_font() {
+/// Register the bundled DejaVu Sans as `sans-serif` (once); every plot calls it.
+pub fn ensure_font() {
     FONT.call_once(|| {
         let bytes: &'static [u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
         // Registration fails only for a malformed font, which the tests would catch.
@@ -69,10 +70,10 @@ fn finish(tmp: &Path, path: &Path) -> Result<(), LabError> {
 }
 
 /// Title and axis labels (with units) of a plot.
-struct Labels<'a> {
-    title: &'a str,
-    x: &'a str,
-    y: &'a str,
+pub struct Labels<'a> {
+    pub title: &'a str,
+    pub x: &'a str,
+    pub y: &'a str,
 }
 
 /// Draw `series` (name → points) as lines with markers; x and y labelled with units.
@@ -167,8 +168,9 @@ where
     area.present().map_err(|e| e.to_string())
 }
 
-/// Write `stem.png` and `stem.svg` in `dir`.
-fn write_both(
+/// Write `stem.png` and `stem.svg` in `dir` (each to a temporary file, then renamed): one line
+/// (or, with `scatter`, marker) series per entry of `series`, plus an optional black `front`.
+pub fn write_both(
     dir: &Path,
     stem: &str,
     labels: &Labels,

@@ -156,8 +156,8 @@ pub fn visibility_figure(
     occ: &dyn Occluder,
     examples: &[shscale_field::probe::ProbeExample],
 ) -> Result<(), LabError> {
-    const W: usize = 128;
-    const H: usize = 64;
+    const W: usize = 256;
+    const H: usize = 128;
     if examples.is_empty() {
         return Ok(());
     }
@@ -181,7 +181,7 @@ pub fn visibility_figure(
     }
     let exr = dir.join(format!("visibility_{run_id}.exr"));
     crate::io::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
-    crate::io::write_png_preview(&exr.with_extension("png"), 2 * W, H * examples.len(), &px)
+    crate::io::write_png_unit(&exr.with_extension("png"), 2 * W, H * examples.len(), &px)
 }
 
 fn run_rows(

@@ -1,0 +1,135 @@
+//! End-to-end tests of `shscale figs`: figure configs run into an output folder with an index
+//! whose numbers come from the run, and bad figure configs fail naming the file, line and field.
+
+mod common;
+use std::path::PathBuf;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shscale-figs-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&d).ok();
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn figures_and_their_index_are_regenerated() {
+    let d = tmp("ok");
+    let cfg = d.join("configs");
+    std::fs::create_dir_all(&cfg).unwrap();
+    std::fs::write(
+        cfg.join("a_sparsity.toml"),
+        "figure = \"sparsity\"\ntitle = \"Fig. 2 test\"\nclaim = \"44 non-zeros\"\norder = 4\nalpha_deg = [30]\nk = [0.5, 3.0]\nmidrange_k = [0.4]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        cfg.join("b_elements.toml"),
+        "figure = \"m_elements\"\ntitle = \"Fig. 3 test\"\nclaim = \"smooth\"\norder = 3\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 2], [3, 3]]\ncurve_points = 12\n",
+    )
+    .unwrap();
+    std::fs::write(
+        cfg.join("c_visibility.toml"),
+        "figure = \"visibility\"\ntitle = \"Fig. 5 test\"\nclaim = \"resembles\"\nmesh = \"bird\"\norder = 3\nalpha_deg = 45\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 8\nradii = [0.7, 1.3]\n",
+    )
+    .unwrap();
+    let out = d.join("figs");
+    let o = common::shscale(&[
+        "figs",
+        "--configs",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--gpu",
+        "off",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "a_sparsity.png",
+        "a_sparsity.svg",
+        "a_sparsity.txt",
+        "b_elements.png",
+        "b_elements.csv",
+        "c_visibility.png",
+        "c_visibility.exr",
+        "README.md",
+    ] {
+        let len = std::fs::metadata(out.join(f))
+            .unwrap_or_else(|_| panic!("{f} missing"))
+            .len();
+        assert!(len > 100, "{f}: {len} bytes");
+    }
+    let index = std::fs::read_to_string(out.join("README.md")).unwrap();
+    for needle in [
+        "## Fig. 2 test",
+        "## Fig. 3 test",
+        "## Fig. 5 test",
+        "has 44 positions; N(2N²+1)/3 = 44",
+        "Confirmed where it matters",
+        "![Fig. 5 test](c_visibility.png)",
+    ] {
+        assert!(index.contains(needle), "index lacks {needle:?}:\n{index}");
+    }
+    // The pattern text: 16 rows of 16, 41 non-zeros for the plain matrix at N = 4.
+    let txt = std::fs::read_to_string(out.join("a_sparsity.txt")).unwrap();
+    assert_eq!(txt.lines().count(), 16);
+    assert_eq!(txt.matches('X').count(), 41);
+    assert_eq!(txt.matches('o').count(), 3);
+    // The element CSV: header + 12 points, direct and table columns per element.
+    let csv = std::fs::read_to_string(out.join("b_elements.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 13);
+    assert_eq!(
+        csv.lines().next().unwrap(),
+        "k,M_2_2_direct,M_2_2_table,M_3_3_direct,M_3_3_table"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn bad_figure_configs_name_file_line_and_field() {
+    let d = tmp("bad");
+    let cases = [
+        (
+            "figure = \"sparsity\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nalpha_deg = [30]\nk = [2.0]\ncolour = \"red\"\n",
+            ":7: unknown field `colour`",
+        ),
+        (
+            "figure = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = \"four\"\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 2]]\ncurve_points = 12\n",
+            ":4: order: invalid type: string \"four\", expected usize",
+        ),
+        (
+            "figure = \"histogram\"\ntitle = \"t\"\nclaim = \"c\"\n",
+            "figure: unknown kind \"histogram\"",
+        ),
+        (
+            "figure = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 3]]\ncurve_points = 12\n",
+            "elements: [2, 3] is not a structural non-zero",
+        ),
+    ];
+    for (i, (text, needle)) in cases.iter().enumerate() {
+        let cfg = d.join(format!("c{i}"));
+        std::fs::create_dir_all(&cfg).unwrap();
+        std::fs::write(cfg.join("fig.toml"), text).unwrap();
+        common::fails(
+            &[
+                "figs",
+                "--configs",
+                cfg.to_str().unwrap(),
+                "--out",
+                d.join("out").to_str().unwrap(),
+                "--gpu",
+                "off",
+            ],
+            needle,
+        );
+    }
+    common::fails(
+        &[
+            "figs",
+            "--configs",
+            d.join("nothing").to_str().unwrap(),
+            "--gpu",
+            "off",
+        ],
+        "nothing",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
