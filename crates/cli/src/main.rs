@@ -18,7 +18,27 @@ use args::{Cli, Command};
 use clap::Parser;
 use std::process::ExitCode;
 
+/// Mesa's software Vulkan device prints `XDG_RUNTIME_DIR is invalid or not set` on every adapter
+/// request when the variable is unset; give it a private directory (mode 0700) first. Runs
+/// before any thread exists, so setting the environment is sound.
+fn quiet_mesa() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let dir = std::env::temp_dir().join("shscale-xdg-runtime");
+    if std::fs::create_dir_all(&dir).is_ok() {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+        }
+        // SAFETY (edition 2021: a safe fn): single-threaded at this point.
+        std::env::set_var("XDG_RUNTIME_DIR", &dir);
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_mesa();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -3,7 +3,7 @@
 use crate::args::{MergeArgs, RunArgs, SlurmArgs};
 use anyhow::{bail, Context};
 use shscale_lab::experiment::Plan;
-use shscale_lab::runner::run_plan;
+use shscale_lab::runner::{run_plan, RunEvent};
 use std::process::ExitCode;
 
 pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
@@ -37,7 +37,45 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
             .map(|(i, n)| format!(", shard {i}/{n}"))
             .unwrap_or_default()
     );
-    let s = run_plan(&plan, &a.out_dir, shard, |line| println!("  {line}"))?;
+    // A progress bar with ETA over the pending runs (drawn on stderr only when it is a
+    // terminal); every finished run is also logged as a line on stdout.
+    let bar: std::sync::OnceLock<indicatif::ProgressBar> = std::sync::OnceLock::new();
+    let log = |line: &str| match bar.get() {
+        Some(b) if !b.is_hidden() => b.println(format!("  {line}")),
+        _ => println!("  {line}"),
+    };
+    let s = run_plan(&plan, &a.out_dir, shard, &|ev| match ev {
+        RunEvent::Begin { total, pending } => {
+            log(&format!(
+                "{} of {total} run(s) to do, {} already done",
+                pending,
+                total - pending
+            ));
+            let b = indicatif::ProgressBar::new(pending as u64);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "  [{elapsed_precise}] {bar:30} {pos}/{len} runs, ETA {eta} {msg}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            let _ = bar.set(b);
+        }
+        RunEvent::Shared(what) => {
+            if let Some(b) = bar.get() {
+                b.set_message(what.chars().take(60).collect::<String>());
+            }
+            log(what);
+        }
+        RunEvent::Done(line) => {
+            log(line);
+            if let Some(b) = bar.get() {
+                b.inc(1);
+            }
+        }
+    })?;
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
+    }
     println!(
         "ran {}, skipped {} already done, of {} in this shard → {}",
         s.ran,

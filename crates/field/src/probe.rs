@@ -97,12 +97,39 @@ pub fn sphere_truth(basis: &ShBasis<f64>, s: &Sphere, p: DVec3) -> Option<Vec<f6
     Some(v)
 }
 
-/// Run the probe experiment on `occ`; `analytic` selects the closed-form truth of a solid sphere.
-pub fn probe(
+/// The part of a probe run that depends only on the occluder and its sampling — not on α or K:
+/// the BSV and the truth at every probe point (one entry per radius and base-sphere sample;
+/// `None` inside the entity). Runs that differ only in α or K share one ([`probe_with`]).
+pub struct ProbeBase {
+    pub bsv: Bsv,
+    /// `truth[radius][sample]`, entity frame.
+    pub truth: Vec<Vec<Option<Vec<f64>>>>,
+    pub truth_seconds: Vec<f64>,
+    pub bsv_sampling_seconds: f64,
+    /// The sharing key: order, layout, H, sampling radius, ε and radii of the spec it was built for.
+    pub key: String,
+}
+
+/// The fields of a spec a [`ProbeBase`] depends on, as a key.
+pub fn base_key(spec: &ProbeSpec) -> String {
+    format!(
+        "order={};layout={};h={};s={};eps={};radii={:?}",
+        spec.order,
+        spec.layout.name(),
+        spec.hemisphere_res,
+        spec.sampling_radius,
+        spec.on_surface_eps,
+        spec.radii
+    )
+}
+
+/// Sample the BSV of `occ` and compute the truth at every probe point (`analytic`: closed-form
+/// truth of a solid sphere; otherwise ray-traced, `2H²` rays, projected to order N).
+pub fn probe_base(
     occ: &dyn Occluder,
     analytic: Option<Sphere>,
     spec: &ProbeSpec,
-) -> Result<ProbeResult, FieldError> {
+) -> Result<ProbeBase, FieldError> {
     if spec.radii.is_empty() || spec.radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(FieldError::Spec(format!(
             "radii {:?} must be finite and > 0",
@@ -119,6 +146,58 @@ pub fn probe(
         spec.on_surface_eps,
     )?;
     let bsv_sampling_seconds = t0.elapsed().as_secs_f64();
+    let basis = ShBasis::<f64>::new(spec.order)?;
+    let s = bsv.sphere;
+    let (mut truth, mut truth_seconds) = (Vec::new(), Vec::new());
+    for &rho in &spec.radii {
+        let t = Instant::now();
+        let per: Vec<Option<Vec<f64>>> = bsv
+            .samples
+            .par_iter()
+            .map(|smp| {
+                let p = s.center + rho * s.radius * smp.dir;
+                match analytic {
+                    Some(sph) => sphere_truth(&basis, &sph, p),
+                    None => {
+                        let (v, _) = sampler.full_sphere(occ, p, Frame::Entity);
+                        (v[0] > 1e-9).then_some(v)
+                    }
+                }
+            })
+            .collect();
+        truth.push(per);
+        truth_seconds.push(t.elapsed().as_secs_f64());
+    }
+    Ok(ProbeBase {
+        bsv,
+        truth,
+        truth_seconds,
+        bsv_sampling_seconds,
+        key: base_key(spec),
+    })
+}
+
+/// Run the probe experiment on `occ`; `analytic` selects the closed-form truth of a solid sphere.
+pub fn probe(
+    occ: &dyn Occluder,
+    analytic: Option<Sphere>,
+    spec: &ProbeSpec,
+) -> Result<ProbeResult, FieldError> {
+    probe_with(&probe_base(occ, analytic, spec)?, spec)
+}
+
+/// The α- and K-dependent part of a probe run on a shared [`ProbeBase`] (built for a spec with the
+/// same [`base_key`]; otherwise an error).
+pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, FieldError> {
+    if base.key != base_key(spec) {
+        return Err(FieldError::Spec(format!(
+            "probe base built for {} used for {}",
+            base.key,
+            base_key(spec)
+        )));
+    }
+    let bsv = &base.bsv;
+    let bsv_sampling_seconds = base.bsv_sampling_seconds;
     let ks: Vec<f64> = spec
         .radii
         .iter()
@@ -144,14 +223,13 @@ pub fn probe(
     )
     .map_err(|e| FieldError::Spec(e.to_string()))?;
     let table_build_seconds = t1.elapsed().as_secs_f64();
-    let ex = Extrapolator::new(&bsv, &table);
-    let basis = ShBasis::<f64>::new(spec.order)?;
+    let ex = Extrapolator::new(bsv, &table);
     let s = bsv.sphere;
     let nn = spec.order * spec.order;
     let mut rows = Vec::new();
     let mut examples = Vec::new();
     let mut example_index: Option<usize> = None;
-    for (&rho, &k) in spec.radii.iter().zip(&ks) {
+    for (ri, (&rho, &k)) in spec.radii.iter().zip(&ks).enumerate() {
         let points: Vec<(DVec3, bool)> = bsv
             .samples
             .iter()
@@ -170,18 +248,8 @@ pub fn probe(
             )
             .collect();
         let extrapolation_seconds = t2.elapsed().as_secs_f64();
-        let t3 = Instant::now();
-        let truth: Vec<Option<Vec<f64>>> = points
-            .par_iter()
-            .map(|(p, _)| match analytic {
-                Some(sph) => sphere_truth(&basis, &sph, *p),
-                None => {
-                    let (v, _) = sampler.full_sphere(occ, *p, Frame::Entity);
-                    (v[0] > 1e-9).then_some(v)
-                }
-            })
-            .collect();
-        let truth_seconds = t3.elapsed().as_secs_f64();
+        let truth = &base.truth[ri];
+        let truth_seconds = base.truth_seconds[ri];
         let mut row = ProbeRow {
             radius: rho,
             k,

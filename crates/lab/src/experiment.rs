@@ -14,6 +14,7 @@
 //! k_count = 40
 //! radii = [0.5, 0.7, 0.9, 1.3, 2.0]
 //! gpu = "auto"                # also time GPU BSV sampling: auto | off | required
+//! parallel_runs = true        # runs sharing a BSV run in parallel (false: one at a time)
 //!
 //! [sweep]                     # any of the scalar parameters above, as lists
 //! alpha_deg = [15, 30, 45, 60, 75]
@@ -42,6 +43,7 @@ pub struct RawExperiment {
     pub on_surface_eps: Option<f64>,
     pub radii: Option<Vec<f64>>,
     pub gpu: Option<String>,
+    pub parallel_runs: Option<bool>,
     #[serde(default)]
     pub sweep: BTreeMap<String, toml::Value>,
 }
@@ -102,6 +104,9 @@ pub struct Plan {
     /// `gpu = "auto" | "off" | "required"`: time GPU BSV sampling in every run where an adapter
     /// exists (not part of the run ids: it adds timing columns, never changes a metric).
     pub gpu: crate::gpu_path::GpuMode,
+    /// Run the runs of a group in parallel (default true); `false` when per-run times must not
+    /// share the cores with other runs.
+    pub parallel_runs: bool,
 }
 
 fn line_of_key(text: &str, key: &str) -> usize {
@@ -249,6 +254,7 @@ impl Plan {
             text: text.to_string(),
             swept,
             gpu,
+            parallel_runs: raw.parallel_runs.unwrap_or(true),
         })
     }
 }

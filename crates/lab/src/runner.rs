@@ -13,10 +13,11 @@
 
 use crate::experiment::{Plan, ProbeParams};
 use crate::LabError;
-use shscale_field::probe::{probe, ProbeSpec};
+use rayon::prelude::*;
+use shscale_field::probe::{base_key, probe_base, probe_with, ProbeBase, ProbeSpec};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{bundled, AnalyticSphere, MeshBvh, Occluder, Sphere};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -57,6 +58,17 @@ pub const COLUMNS: &[&str] = &[
     "gpu_device",
     "git_revision",
 ];
+
+/// Progress of [`run_plan`], for a progress bar or a log.
+#[derive(Clone, Copy, Debug)]
+pub enum RunEvent<'a> {
+    /// Runs in this shard, and how many of them still have to run.
+    Begin { total: usize, pending: usize },
+    /// A shared computation (BSV and truth of a group of runs) starts.
+    Shared(&'a str),
+    /// A run finished (its rows are on disk).
+    Done(&'a str),
+}
 
 /// What a runner invocation did.
 #[derive(Clone, Debug, PartialEq)]
@@ -184,15 +196,8 @@ pub fn visibility_figure(
     crate::io::write_png_unit(&exr.with_extension("png"), 2 * W, H * examples.len(), &px)
 }
 
-fn run_rows(
-    p: &ProbeParams,
-    experiment: &str,
-    rev: &str,
-    dir: &Path,
-    gpu: Option<&shscale_gpu::GpuContext>,
-) -> Result<Vec<String>, LabError> {
-    let (occ, analytic, mesh) = occluder_for(&p.mesh)?;
-    let spec = ProbeSpec {
+fn spec_of(p: &ProbeParams) -> ProbeSpec {
+    ProbeSpec {
         order: p.order,
         alpha: p.alpha_deg.to_radians(),
         layout: p.layout,
@@ -201,11 +206,34 @@ fn run_rows(
         radii: p.radii.clone(),
         k_count: p.k_count,
         on_surface_eps: p.on_surface_eps,
-    };
-    let res = probe(occ.as_ref(), analytic, &spec)?;
-    visibility_figure(dir, &p.run_id(), p.order, occ.as_ref(), &res.examples)?;
+    }
+}
+
+/// What runs sharing a mesh and a [`base_key`] share: the occluder, the BSV and truth, and the
+/// GPU BSV timing (which depends on the same parameters).
+struct Shared {
+    occ: Box<dyn Occluder>,
+    base: ProbeBase,
+    gpu: [String; 3],
+}
+
+fn run_rows(
+    p: &ProbeParams,
+    experiment: &str,
+    rev: &str,
+    dir: &Path,
+    shared: &Shared,
+) -> Result<Vec<String>, LabError> {
+    let res = probe_with(&shared.base, &spec_of(p))?;
+    visibility_figure(
+        dir,
+        &p.run_id(),
+        p.order,
+        shared.occ.as_ref(),
+        &res.examples,
+    )?;
     let threads = rayon::current_num_threads();
-    let [gpu_sampling, gpu_conversion, gpu_device] = gpu_columns(gpu, p, mesh.as_ref())?;
+    let [gpu_sampling, gpu_conversion, gpu_device] = &shared.gpu;
     Ok(res
         .rows
         .iter()
@@ -260,12 +288,12 @@ fn run_rows(
         .collect())
 }
 
-/// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` gets a line per run.
+/// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` hears of every step.
 pub fn run_plan(
     plan: &Plan,
     out_root: &Path,
     shard: Option<(usize, usize)>,
-    mut progress: impl FnMut(&str),
+    progress: &(dyn Fn(RunEvent) + Sync),
 ) -> Result<RunSummary, LabError> {
     if let Some((i, n)) = shard {
         if n == 0 || i >= n {
@@ -286,7 +314,7 @@ pub fn run_plan(
     let gpu = crate::gpu_path::open_gpu(plan.gpu)?;
     let gpu_device = gpu.as_ref().map_or("none".to_string(), |c| c.describe());
     let manifest = format!(
-        "# shscale run manifest\nconfig_file = {:?}\nexperiment = {:?}\nname = {:?}\nruns = {}\ngit_revision = {:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\ngpu = {:?}\ngpu_device = {gpu_device:?}\n\n[config]\ntext = '''\n{}'''\n",
+        "# shscale run manifest\nconfig_file = {:?}\nexperiment = {:?}\nname = {:?}\nruns = {}\ngit_revision = {:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\nparallel_runs = {}\ngpu = {:?}\ngpu_device = {gpu_device:?}\n\n[config]\ntext = '''\n{}'''\n",
         plan.file,
         plan.experiment,
         plan.name,
@@ -295,6 +323,7 @@ pub fn run_plan(
         std::env::consts::OS,
         std::env::consts::ARCH,
         rayon::current_num_threads(),
+        plan.parallel_runs,
         plan.gpu.name(),
         plan.text
     );
@@ -331,36 +360,93 @@ pub fn run_plan(
         already_done: 0,
         ran: 0,
     };
-    for (k, run) in mine.iter().enumerate() {
-        let id = run.run_id();
-        if done.contains(&id) {
-            summary.already_done += 1;
-            progress(&format!(
-                "[{}/{}] {id} already done, skipped",
-                k + 1,
-                mine.len()
-            ));
-            continue;
+    // Runs already in the CSV are skipped; the rest are grouped by what they can share (mesh and
+    // base key: BSV, truth, GPU timing), each group's shared part computed once, then its runs
+    // executed in parallel on rayon's one pool (their own inner parallel loops join the same
+    // pool, so nothing is oversubscribed). Every finished run rewrites the CSV atomically, rows
+    // in plan order, so a kill at any moment loses no finished run and leaves no partial row.
+    let order: HashMap<String, usize> = plan
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (r.run_id(), i))
+        .collect();
+    let pending: Vec<&ProbeParams> = mine
+        .iter()
+        .copied()
+        .filter(|r| !done.contains(&r.run_id()))
+        .collect();
+    summary.already_done = mine.len() - pending.len();
+    progress(RunEvent::Begin {
+        total: mine.len(),
+        pending: pending.len(),
+    });
+    let mut groups: Vec<(String, Vec<&ProbeParams>)> = Vec::new();
+    for r in &pending {
+        let key = format!("mesh={};{}", r.mesh, base_key(&spec_of(r)));
+        match groups.iter_mut().find(|g| g.0 == key) {
+            Some(g) => g.1.push(r),
+            None => groups.push((key, vec![r])),
         }
-        let t0 = Instant::now();
-        let rows = run_rows(run, &plan.experiment, &rev, &dir, gpu.as_ref())?;
-        lines.extend(rows);
+    }
+    let state = std::sync::Mutex::new((lines, 0usize));
+    let write = |rows: Vec<String>| -> Result<(), LabError> {
+        let mut st = state.lock().unwrap_or_else(|e| e.into_inner());
+        st.0.extend(rows);
+        let rank = |l: &String| {
+            l.split(',')
+                .next()
+                .and_then(|id| order.get(id))
+                .copied()
+                .unwrap_or(usize::MAX)
+        };
+        // Stable: rows of one run keep their radius order.
+        st.0.sort_by_key(rank);
         let mut text = header.clone();
         text.push('\n');
-        for l in &lines {
+        for l in &st.0 {
             text.push_str(l);
             text.push('\n');
         }
         write_atomic(&csv, &text)?;
-        summary.ran += 1;
-        progress(&format!(
-            "[{}/{}] {id} {} in {:.2} s",
-            k + 1,
-            mine.len(),
-            run.canonical(),
-            t0.elapsed().as_secs_f64()
-        ));
+        st.1 += 1;
+        Ok(())
+    };
+    for (_, runs) in &groups {
+        let first = runs[0];
+        progress(RunEvent::Shared(&format!(
+            "BSV + truth for {} run(s) sharing mesh {} {}",
+            runs.len(),
+            first.mesh,
+            base_key(&spec_of(first))
+        )));
+        let (occ, analytic, mesh) = occluder_for(&first.mesh)?;
+        let base = probe_base(occ.as_ref(), analytic, &spec_of(first))?;
+        let gpu_cols = gpu_columns(gpu.as_ref(), first, mesh.as_ref())?;
+        let shared = Shared {
+            occ,
+            base,
+            gpu: gpu_cols,
+        };
+        let run_one = |run: &&ProbeParams| -> Result<(), LabError> {
+            let t0 = Instant::now();
+            let rows = run_rows(run, &plan.experiment, &rev, &dir, &shared)?;
+            write(rows)?;
+            progress(RunEvent::Done(&format!(
+                "{} {} in {:.2} s",
+                run.run_id(),
+                run.canonical(),
+                t0.elapsed().as_secs_f64()
+            )));
+            Ok(())
+        };
+        if plan.parallel_runs {
+            runs.par_iter().try_for_each(run_one)?;
+        } else {
+            runs.iter().try_for_each(run_one)?;
+        }
     }
+    summary.ran = state.lock().unwrap_or_else(|e| e.into_inner()).1;
     Ok(summary)
 }
 

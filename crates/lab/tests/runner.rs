@@ -104,7 +104,7 @@ fn config_errors_name_file_line_and_field() {
 fn runs_resume_after_interruption_and_shards_partition() {
     let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
     let d = tmp("resume");
-    let s = run_plan(&plan, &d, None, |_| {}).unwrap();
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
     assert_eq!((s.ran, s.already_done), (6, 0));
     let ids = ids_in(&s.csv);
     assert_eq!(ids.len(), 12, "two radii per run");
@@ -113,7 +113,7 @@ fn runs_resume_after_interruption_and_shards_partition() {
     for r in &plan.runs {
         let exr = s.dir.join(format!("visibility_{}.exr", r.run_id()));
         let (w, h, px) = shscale_lab::io::read_exr(&exr).unwrap();
-        assert_eq!((w, h), (256, 128));
+        assert_eq!((w, h), (512, 256), "2 × 256 wide, 128 per radius");
         // Left half is a 0/1 ray-traced map with both values present (the sphere is seen).
         let left: Vec<f32> = (0..h)
             .flat_map(|j| (0..w / 2).map(move |i| (j, i)))
@@ -130,14 +130,14 @@ fn runs_resume_after_interruption_and_shards_partition() {
             .exists());
     }
     // Rerun: nothing to do.
-    let again = run_plan(&plan, &d, None, |_| {}).unwrap();
+    let again = run_plan(&plan, &d, None, &|_| {}).unwrap();
     assert_eq!((again.ran, again.already_done), (0, 6));
     // Simulate a kill before the last run finished: drop its rows; the rerun redoes exactly it.
     let text = std::fs::read_to_string(&s.csv).unwrap();
     let last = plan.runs[5].run_id();
     let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with(&last)).collect();
     std::fs::write(&s.csv, kept.join("\n") + "\n").unwrap();
-    let resumed = run_plan(&plan, &d, None, |_| {}).unwrap();
+    let resumed = run_plan(&plan, &d, None, &|_| {}).unwrap();
     assert_eq!((resumed.ran, resumed.already_done), (1, 5));
     assert_eq!(ids_in(&s.csv).len(), 12);
     // No temporary files are left behind.
@@ -148,8 +148,8 @@ fn runs_resume_after_interruption_and_shards_partition() {
         .contains(".tmp-")));
     // Shards: disjoint, together everything.
     let d2 = tmp("shards");
-    let a = run_plan(&plan, &d2, Some((0, 2)), |_| {}).unwrap();
-    let b = run_plan(&plan, &d2, Some((1, 2)), |_| {}).unwrap();
+    let a = run_plan(&plan, &d2, Some((0, 2)), &|_| {}).unwrap();
+    let b = run_plan(&plan, &d2, Some((1, 2)), &|_| {}).unwrap();
     let (ia, ib): (HashSet<String>, HashSet<String>) = (
         ids_in(&a.csv).into_iter().collect(),
         ids_in(&b.csv).into_iter().collect(),
@@ -157,10 +157,10 @@ fn runs_resume_after_interruption_and_shards_partition() {
     assert!(ia.is_disjoint(&ib));
     let all: HashSet<String> = plan.runs.iter().map(|r| r.run_id()).collect();
     assert_eq!(ia.union(&ib).cloned().collect::<HashSet<_>>(), all);
-    assert!(run_plan(&plan, &d2, Some((2, 2)), |_| {}).is_err());
+    assert!(run_plan(&plan, &d2, Some((2, 2)), &|_| {}).is_err());
     // A CSV with other columns is never overwritten.
     std::fs::write(&s.csv, "something,else\n1,2\n").unwrap();
-    assert!(run_plan(&plan, &d, None, |_| {})
+    assert!(run_plan(&plan, &d, None, &|_| {})
         .unwrap_err()
         .to_string()
         .contains("different columns"));
@@ -176,7 +176,7 @@ fn runs_resume_after_interruption_and_shards_partition() {
 fn plots_are_written_as_png_and_svg_with_labelled_axes() {
     let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
     let d = tmp("plots");
-    let s = run_plan(&plan, &d, None, |_| {}).unwrap();
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
     let files = shscale_lab::plots::probe_plots(&s.dir, &plan.swept).unwrap();
     assert_eq!(
         files.len(),
