@@ -301,3 +301,54 @@ fn queries_at_the_centre_are_clamped_not_panicking() {
     );
     assert!(out.iter().all(|v| v.is_finite()));
 }
+
+/// Sharing the BSV and truth across runs (the runner's groups) changes no number: a run on a
+/// shared base equals a run from scratch, for several α and K on one base; a base built for other
+/// sampling parameters is refused.
+#[test]
+fn probe_on_a_shared_base_equals_a_fresh_probe() {
+    use shscale_field::probe::{probe_base, probe_with};
+    let mesh = shscale_geometry::bundled::load("duck").unwrap();
+    let occ =
+        shscale_geometry::MeshBvh::build(&mesh, shscale_geometry::ray::UpdateStrategy::Rebuild);
+    let spec = |alpha_deg: f64, k_count: usize| ProbeSpec {
+        order: 3,
+        alpha: alpha_deg.to_radians(),
+        layout: Layout::parse("fib:30").unwrap(),
+        hemisphere_res: 8,
+        sampling_radius: 1.1,
+        radii: vec![0.8, 1.6],
+        k_count,
+        on_surface_eps: 1e-3,
+    };
+    let base = probe_base(&occ, None, &spec(30.0, 10)).unwrap();
+    for (a, k) in [(30.0, 10), (60.0, 10), (45.0, 25)] {
+        let shared = probe_with(&base, &spec(a, k)).unwrap();
+        let fresh = shscale_field::probe::probe(&occ, None, &spec(a, k)).unwrap();
+        for (s, f) in shared.rows.iter().zip(&fresh.rows) {
+            assert_eq!(
+                (
+                    s.vis_rel_l2_mean,
+                    s.occ_rel_l2_mean,
+                    s.occ_rel_l2_max,
+                    s.inside_count
+                ),
+                (
+                    f.vis_rel_l2_mean,
+                    f.occ_rel_l2_mean,
+                    f.occ_rel_l2_max,
+                    f.inside_count
+                ),
+                "α = {a}, K = {k}, radius {}",
+                s.radius
+            );
+        }
+        assert_eq!(shared.examples.len(), fresh.examples.len());
+    }
+    let mut other = spec(30.0, 10);
+    other.hemisphere_res = 9;
+    assert!(
+        probe_with(&base, &other).is_err(),
+        "a base for H = 8 used for H = 9"
+    );
+}

@@ -109,6 +109,14 @@ pub struct Plan {
     pub parallel_runs: bool,
 }
 
+/// Whether a run's mesh can be built: the analytic sphere, a procedural shape, a bundled name or
+/// an existing file.
+fn mesh_exists(mesh: &str) -> bool {
+    matches!(mesh, "sphere" | "bird" | "egg" | "sponge" | "plane")
+        || shscale_geometry::bundled::names().contains(&mesh)
+        || Path::new(mesh).is_file()
+}
+
 fn line_of_key(text: &str, key: &str) -> usize {
     text.lines()
         .position(|l| {
@@ -138,7 +146,18 @@ impl Plan {
             let line = e.span().map_or(0, |s| {
                 text[..s.start.min(text.len())].matches('\n').count() + 1
             });
-            LabError::Config(format!("{file}:{line}: {}", e.message().trim()))
+            let msg = e.message().trim();
+            // Name the field written on that line when the message does not.
+            let key = text
+                .lines()
+                .nth(line.saturating_sub(1))
+                .and_then(|l| l.split_once('='))
+                .map(|(k, _)| k.trim())
+                .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
+            match key {
+                Some(k) => LabError::Config(format!("{file}:{line}: {k}: {msg}")),
+                None => LabError::Config(format!("{file}:{line}: {msg}")),
+            }
         })?;
         let err = |key: &str, msg: String| {
             LabError::Config(format!("{file}:{}: {key}: {msg}", line_of_key(text, key)))
@@ -204,6 +223,16 @@ impl Plan {
         for r in &runs {
             let key_err =
                 |key: &str, msg: String| err(key, format!("{msg} (run {})", r.canonical()));
+            if !mesh_exists(&r.mesh) {
+                return Err(key_err(
+                    "mesh",
+                    format!(
+                        "{:?} is neither \"sphere\", a procedural shape (bird, egg, sponge, plane), a bundled mesh ({}) nor an existing .obj/.ply file",
+                        r.mesh,
+                        shscale_geometry::bundled::names().join(", ")
+                    ),
+                ));
+            }
             if !(1..=16).contains(&r.order) {
                 return Err(key_err("order", format!("{} is outside 1..=16", r.order)));
             }

@@ -16,7 +16,7 @@ use crate::LabError;
 use rayon::prelude::*;
 use shscale_field::probe::{base_key, probe_base, probe_with, ProbeBase, ProbeSpec};
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{bundled, AnalyticSphere, MeshBvh, Occluder, Sphere};
+use shscale_geometry::{AnalyticSphere, MeshBvh, Occluder, Sphere};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -120,7 +120,8 @@ fn occluder_for(mesh: &str) -> Result<RunOccluder, LabError> {
         let s = AnalyticSphere::unit();
         return Ok((Box::new(s), Some(s.sphere), None));
     }
-    let m = bundled::resolve(mesh)?;
+    // Procedural, bundled or a file; placed in the unit sphere (results are in units of r).
+    let m = crate::render::placed_mesh(mesh, glam::DVec3::ZERO, 1.0, false)?;
     Ok((
         Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
         None,
@@ -329,6 +330,8 @@ pub fn run_plan(
     );
     write_atomic(&dir.join("manifest.toml"), &manifest)?;
     let header = COLUMNS.join(",");
+    // A run killed mid-write leaves at most a `.runs….tmp-PID` file beside the CSV, never a
+    // partial row; it is not removed here, since a concurrent shard may own it.
     let mut lines: Vec<String> = Vec::new();
     if csv.exists() {
         let text = std::fs::read_to_string(&csv).map_err(|e| io_err(&csv, e))?;
