@@ -77,7 +77,7 @@ impl GpuShader {
         coeffs_buf: &wgpu::Buffer,
     ) -> Result<(Self, f64), GpuError> {
         let table = setup.table;
-        let (_, _, spacing, interp) = table.spec();
+        let (_, _, _, interp) = table.spec();
         if interp != Interp::Linear {
             return Err(GpuError::Input(
                 "the GPU receiver setup interpolates k-tables linearly; this table is cubic".into(),
@@ -101,7 +101,7 @@ impl GpuShader {
         }
         let t = setup.transfer;
         let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
-        let log_k = !matches!(spacing, shscale_scaling::Spacing::Uniform);
+        let log_k = table.log_k();
         let xs: Vec<f32> = table
             .ks()
             .iter()

@@ -183,6 +183,15 @@ fn transfer_rgb(order: usize) -> [Vec<f64>; 3] {
 }
 
 fn cache_for(bsv: &Bsv, order: usize, receivers: &[DVec3]) -> (KTable, ReceiverCache) {
+    cache_for_spacing(bsv, order, receivers, Spacing::Exp)
+}
+
+fn cache_for_spacing(
+    bsv: &Bsv,
+    order: usize,
+    receivers: &[DVec3],
+    spacing: Spacing,
+) -> (KTable, ReceiverCache) {
     let c = bsv.sphere.center;
     let ks: Vec<f64> = receivers
         .iter()
@@ -199,7 +208,7 @@ fn cache_for(bsv: &Bsv, order: usize, receivers: &[DVec3]) -> (KTable, ReceiverC
         20,
         lo,
         0.8 * hi, // some receivers beyond k_max: the constant branch is exercised too
-        Spacing::Exp,
+        spacing,
         Interp::Linear,
     )
     .unwrap();
@@ -322,8 +331,12 @@ fn receiver_setup_on_the_gpu_matches_the_cpu_cache() {
         let t = transfer_rgb(order);
         [t[0].clone(), t[0].clone(), t[0].clone()]
     };
-    for (name, transfer) in [("rgb", transfer_rgb(order)), ("grey", grey)] {
-        let (table, _) = cache_for(&bsv, order, &receivers);
+    // RGB on an exponential table, grey on a uniform one (both interpolate in ln k).
+    for (name, transfer, spacing) in [
+        ("rgb", transfer_rgb(order), Spacing::Exp),
+        ("grey", grey, Spacing::Uniform),
+    ] {
+        let (table, _) = cache_for_spacing(&bsv, order, &receivers, spacing);
         let cpu = ReceiverCache::build(&bsv, &table, &transfer, &receivers);
         let locations: Vec<[(u32, f64); 3]> = receivers
             .iter()

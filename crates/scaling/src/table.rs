@@ -201,6 +201,11 @@ impl KTable {
         &self.mats
     }
 
+    /// Whether the table interpolates in ln k (every table with `k_min > 0`) rather than in k.
+    pub fn log_k(&self) -> bool {
+        self.log
+    }
+
     /// The order N.
     pub fn order(&self) -> usize {
         self.order
