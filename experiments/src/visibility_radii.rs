@@ -73,6 +73,8 @@ pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput,
         sampling_radius: 1.0,
         radii: s.radii.clone(),
         k_count: s.k_count,
+        k_spacing: shscale_scaling::Spacing::Exp,
+        k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: 1e-3,
     };
     let res = probe(&occ, None, &spec)?;

@@ -116,6 +116,8 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
         sampling_radius: a.sampling_radius,
         radii,
         k_count: a.k_count,
+        k_spacing: shscale_scaling::Spacing::Exp,
+        k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: a.on_surface_eps,
     };
     let res = probe(occ.as_ref(), analytic, &spec)?;

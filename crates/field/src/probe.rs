@@ -33,6 +33,9 @@ pub struct ProbeSpec {
     /// Probe radii as multiples of the bounding radius r.
     pub radii: Vec<f64>,
     pub k_count: usize,
+    /// Placement of the K tabulated k values and interpolation between them.
+    pub k_spacing: Spacing,
+    pub k_interp: Interp,
     /// On-surface threshold ε (distance < ε·r).
     pub on_surface_eps: f64,
 }
@@ -218,8 +221,8 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         spec.k_count,
         k_min,
         k_max,
-        Spacing::Exp,
-        Interp::Linear,
+        spec.k_spacing,
+        spec.k_interp,
     )
     .map_err(|e| FieldError::Spec(e.to_string()))?;
     let table_build_seconds = t1.elapsed().as_secs_f64();

@@ -135,6 +135,8 @@ fn sphere_on_surface_error_matches_the_closed_form_prediction() {
         sampling_radius: 1.0,
         radii: vec![1.3, 2.0],
         k_count: 40,
+        k_spacing: shscale_scaling::Spacing::Exp,
+        k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: 1e-6,
     };
     let sphere = AnalyticSphere::unit();
@@ -319,6 +321,8 @@ fn probe_on_a_shared_base_equals_a_fresh_probe() {
         sampling_radius: 1.1,
         radii: vec![0.8, 1.6],
         k_count,
+        k_spacing: shscale_scaling::Spacing::Exp,
+        k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: 1e-3,
     };
     let base = probe_base(&occ, None, &spec(30.0, 10)).unwrap();

@@ -12,6 +12,8 @@
 //! hemisphere_res = 32
 //! sampling_radius = 1.0
 //! k_count = 40
+//! k_spacing = "exp"           # exp | uniform | chebyshev
+//! k_interp = "linear"         # linear | cubic (in ln k)
 //! radii = [0.5, 0.7, 0.9, 1.3, 2.0]
 //! gpu = "auto"                # also time GPU BSV sampling: auto | off | required
 //! parallel_runs = true        # runs sharing a BSV run in parallel (false: one at a time)
@@ -24,6 +26,7 @@
 use crate::LabError;
 use serde::Deserialize;
 use shscale_field::Layout;
+use shscale_scaling::{Interp, Spacing};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -40,6 +43,8 @@ pub struct RawExperiment {
     pub hemisphere_res: Option<usize>,
     pub sampling_radius: Option<f64>,
     pub k_count: Option<usize>,
+    pub k_spacing: Option<String>,
+    pub k_interp: Option<String>,
     pub on_surface_eps: Option<f64>,
     pub radii: Option<Vec<f64>>,
     pub gpu: Option<String>,
@@ -58,15 +63,62 @@ pub struct ProbeParams {
     pub hemisphere_res: usize,
     pub sampling_radius: f64,
     pub k_count: usize,
+    pub k_spacing: Spacing,
+    pub k_interp: Interp,
     pub on_surface_eps: f64,
     pub radii: Vec<f64>,
 }
 
+/// `"exp" | "uniform" | "chebyshev"`.
+pub fn parse_spacing(s: &str) -> Result<Spacing, String> {
+    match s {
+        "exp" => Ok(Spacing::Exp),
+        "uniform" => Ok(Spacing::Uniform),
+        "chebyshev" => Ok(Spacing::Chebyshev),
+        _ => Err(format!(
+            "{s:?} is not one of \"exp\", \"uniform\", \"chebyshev\""
+        )),
+    }
+}
+
+/// `"linear" | "cubic"`.
+pub fn parse_interp(s: &str) -> Result<Interp, String> {
+    match s {
+        "linear" => Ok(Interp::Linear),
+        "cubic" => Ok(Interp::Cubic),
+        _ => Err(format!("{s:?} is not one of \"linear\", \"cubic\"")),
+    }
+}
+
+fn spacing_name(s: Spacing) -> &'static str {
+    match s {
+        Spacing::Exp => "exp",
+        Spacing::Uniform => "uniform",
+        Spacing::Chebyshev => "chebyshev",
+    }
+}
+
+fn interp_name(i: Interp) -> &'static str {
+    match i {
+        Interp::Linear => "linear",
+        Interp::Cubic => "cubic",
+    }
+}
+
 impl ProbeParams {
-    /// Canonical `key=value;…` form (fixed key order), the input of the run id.
+    /// Canonical `key=value;…` form (fixed key order), the input of the run id. The k-table's
+    /// spacing and interpolation appear only when they differ from the default (exp, linear), so
+    /// run ids of configs that never set them are unchanged.
     pub fn canonical(&self) -> String {
+        let mut table = String::new();
+        if self.k_spacing != Spacing::Exp {
+            table.push_str(&format!(";k_spacing={}", spacing_name(self.k_spacing)));
+        }
+        if self.k_interp != Interp::Linear {
+            table.push_str(&format!(";k_interp={}", interp_name(self.k_interp)));
+        }
         format!(
-            "mesh={};order={};alpha_deg={};layout={};hemisphere_res={};sampling_radius={};k_count={};on_surface_eps={};radii={:?}",
+            "mesh={};order={};alpha_deg={};layout={};hemisphere_res={};sampling_radius={};k_count={}{table};on_surface_eps={};radii={:?}",
             self.mesh,
             self.order,
             self.alpha_deg,
@@ -77,6 +129,16 @@ impl ProbeParams {
             self.on_surface_eps,
             self.radii
         )
+    }
+
+    /// The spacing's config spelling.
+    pub fn k_spacing_name(&self) -> &'static str {
+        spacing_name(self.k_spacing)
+    }
+
+    /// The interpolation's config spelling.
+    pub fn k_interp_name(&self) -> &'static str {
+        interp_name(self.k_interp)
     }
 
     /// Deterministic run id: FNV-1a (64 bit) of [`ProbeParams::canonical`], hex.
@@ -180,6 +242,10 @@ impl Plan {
             hemisphere_res: raw.hemisphere_res.unwrap_or(32),
             sampling_radius: raw.sampling_radius.unwrap_or(1.0),
             k_count: raw.k_count.unwrap_or(40),
+            k_spacing: parse_spacing(raw.k_spacing.as_deref().unwrap_or("exp"))
+                .map_err(|e| err("k_spacing", e))?,
+            k_interp: parse_interp(raw.k_interp.as_deref().unwrap_or("linear"))
+                .map_err(|e| err("k_interp", e))?,
             on_surface_eps: raw.on_surface_eps.unwrap_or(1e-3),
             radii: raw
                 .radii
@@ -210,10 +276,12 @@ impl Plan {
                         "order" => r.order = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
                         "hemisphere_res" => r.hemisphere_res = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
                         "k_count" => r.k_count = item.as_integer().filter(|v| *v > 0).ok_or_else(bad)? as usize,
+                        "k_spacing" => r.k_spacing = parse_spacing(item.as_str().ok_or_else(bad)?).map_err(|e| err(key, e))?,
+                        "k_interp" => r.k_interp = parse_interp(item.as_str().ok_or_else(bad)?).map_err(|e| err(key, e))?,
                         "alpha_deg" => r.alpha_deg = num().ok_or_else(bad)?,
                         "sampling_radius" => r.sampling_radius = num().ok_or_else(bad)?,
                         "on_surface_eps" => r.on_surface_eps = num().ok_or_else(bad)?,
-                        other => return Err(err(other, "is not a sweepable parameter (mesh, layout, order, hemisphere_res, k_count, alpha_deg, sampling_radius, on_surface_eps)".into())),
+                        other => return Err(err(other, "is not a sweepable parameter (mesh, layout, order, hemisphere_res, k_count, k_spacing, k_interp, alpha_deg, sampling_radius, on_surface_eps)".into())),
                     }
                     next.push(r);
                 }
@@ -254,8 +322,11 @@ impl Plan {
                     format!("{} must be ≥ 1", r.sampling_radius),
                 ));
             }
-            if r.k_count < 2 {
-                return Err(key_err("k_count", format!("{} must be ≥ 2", r.k_count)));
+            if r.k_count < 2 || (r.k_interp == Interp::Cubic && r.k_count < 4) {
+                return Err(key_err(
+                    "k_count",
+                    format!("{} must be ≥ 2 (≥ 4 for cubic interpolation)", r.k_count),
+                ));
             }
             if !(r.on_surface_eps.is_finite() && r.on_surface_eps >= 0.0) {
                 return Err(key_err(

@@ -216,8 +216,8 @@ pub const NUMERIC_PARAMS: &[&str] = &[
 ];
 
 /// Plots of a probe run directory: for every numeric swept parameter P, `occ_rel_l2` against P —
-/// one series per value of another swept parameter (averaged over the probe radii) when there is
-/// one, else one series per probe radius (against the radius when nothing numeric is swept) —
+/// one series per value of another swept parameter (averaged over the probe radii and any further
+/// swept parameters) when there is one, else one series per probe radius (against the radius when nothing numeric is swept) —
 /// and the speed/accuracy scatter with its Pareto front. Returns the files written.
 pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabError> {
     let t = Table::read(&dir.join("runs.csv"))?;

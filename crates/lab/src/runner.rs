@@ -32,6 +32,8 @@ pub const COLUMNS: &[&str] = &[
     "hemisphere_res",
     "sampling_radius",
     "k_count",
+    "k_spacing",
+    "k_interp",
     "on_surface_eps",
     "radius",
     "k",
@@ -206,6 +208,8 @@ fn spec_of(p: &ProbeParams) -> ProbeSpec {
         sampling_radius: p.sampling_radius,
         radii: p.radii.clone(),
         k_count: p.k_count,
+        k_spacing: p.k_spacing,
+        k_interp: p.k_interp,
         on_surface_eps: p.on_surface_eps,
     }
 }
@@ -249,6 +253,8 @@ fn run_rows(
                 p.hemisphere_res.to_string(),
                 p.sampling_radius.to_string(),
                 p.k_count.to_string(),
+                p.k_spacing_name().to_string(),
+                p.k_interp_name().to_string(),
                 p.on_surface_eps.to_string(),
                 r.radius.to_string(),
                 r.k.to_string(),
