@@ -17,9 +17,12 @@
 //! writes its index `README.md` with, per figure, the config, the paper's claim, our numbers and
 //! the comparison — generated from the numbers, so the text never goes stale.
 
+pub mod extremes;
 pub mod m_elements;
+pub mod midrange;
 pub mod shadows;
 pub mod sparsity;
+pub mod srf;
 pub mod timing;
 pub mod visibility_radii;
 
@@ -43,6 +46,9 @@ pub enum RawFigure {
     Visibility(visibility_radii::Spec),
     Shadows(shadows::Spec),
     Timing(timing::Spec),
+    MidRange(midrange::Spec),
+    Srf(srf::Spec),
+    Extremes(extremes::Spec),
 }
 
 /// Title and the paper's claim, common to every figure.
@@ -60,7 +66,16 @@ fn line_of(text: &str, offset: usize) -> usize {
 }
 
 /// The figure kinds, as spelled in `figure = "…"`.
-pub const KINDS: &[&str] = &["sparsity", "m_elements", "visibility", "shadows", "timing"];
+pub const KINDS: &[&str] = &[
+    "sparsity",
+    "m_elements",
+    "visibility",
+    "shadows",
+    "timing",
+    "midrange",
+    "srf",
+    "extremes",
+];
 
 /// Parse a figure config; errors name the file, the line and the field.
 pub fn parse(file: &str, text: &str) -> Result<RawFigure, LabError> {
@@ -82,9 +97,14 @@ pub fn parse(file: &str, text: &str) -> Result<RawFigure, LabError> {
     let table: toml::Table = toml::from_str(text).map_err(wrap)?;
     let line_of_figure = text
         .lines()
-        .position(|l| l.trim_start().starts_with("figure"))
+        .position(|l| {
+            let t = l.trim_start();
+            t.starts_with("figure") || t.starts_with("experiment")
+        })
         .map_or(0, |i| i + 1);
-    let kind = match table.get("figure") {
+    // Figures say `figure = …`; the same kinds run as experiments (`shscale run`) say
+    // `experiment = …`.
+    let kind = match table.get("figure").or_else(|| table.get("experiment")) {
         Some(toml::Value::String(k)) => k.as_str(),
         Some(other) => {
             return Err(LabError::Config(format!(
@@ -104,6 +124,9 @@ pub fn parse(file: &str, text: &str) -> Result<RawFigure, LabError> {
         "visibility" => RawFigure::Visibility(toml::from_str(text).map_err(wrap)?),
         "shadows" => RawFigure::Shadows(toml::from_str(text).map_err(wrap)?),
         "timing" => RawFigure::Timing(toml::from_str(text).map_err(wrap)?),
+        "midrange" => RawFigure::MidRange(toml::from_str(text).map_err(wrap)?),
+        "srf" => RawFigure::Srf(toml::from_str(text).map_err(wrap)?),
+        "extremes" => RawFigure::Extremes(toml::from_str(text).map_err(wrap)?),
         other => {
             return Err(LabError::Config(format!(
                 "{file}:{line_of_figure}: figure: unknown kind {other:?} (one of {})",
@@ -139,6 +162,9 @@ pub fn run_figure(
         RawFigure::Visibility(s) => Ok((s.header(), visibility_radii::run(&file, &s, out, &stem)?)),
         RawFigure::Shadows(s) => Ok((s.header(), shadows::run(&file, &s, base, out, &stem)?)),
         RawFigure::Timing(s) => Ok((s.header(), timing::run(&file, &s, out, &stem, gpu)?)),
+        RawFigure::MidRange(s) => Ok((s.header(), midrange::run(&file, &s, out, &stem)?)),
+        RawFigure::Srf(s) => Ok((s.header(), srf::run(&file, &s, out, &stem)?)),
+        RawFigure::Extremes(s) => Ok((s.header(), extremes::run(&file, &s, out, &stem)?)),
     }
 }
 
@@ -206,6 +232,63 @@ pub fn regenerate(
     shscale_lab::runner::write_atomic(&readme, &index)?;
     all.push(readme);
     Ok(all)
+}
+
+/// Run a study config (`experiment = "midrange" | "srf" | "extremes" | …`, any kind of
+/// [`KINDS`]) the way `shscale run` does for sweeps: into `out_root/<kind>/<config stem>/`, with
+/// `summary.md` (the claim, our numbers, the comparison) and `manifest.toml` (the config, the
+/// machine, the date). Studies sweep their own lists in one go (seconds), so they are neither
+/// sharded nor resumed: a rerun recomputes and atomically replaces every file.
+pub fn run_study(
+    path: &Path,
+    out_root: &Path,
+    gpu: Option<&shscale_gpu::GpuContext>,
+) -> Result<(PathBuf, String), LabError> {
+    let text = std::fs::read_to_string(path).map_err(|e| LabError::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let kind = match parse(&path.display().to_string(), &text)? {
+        RawFigure::Sparsity(_) => "sparsity",
+        RawFigure::MElements(_) => "m_elements",
+        RawFigure::Visibility(_) => "visibility",
+        RawFigure::Shadows(_) => "shadows",
+        RawFigure::Timing(_) => "timing",
+        RawFigure::MidRange(_) => "midrange",
+        RawFigure::Srf(_) => "srf",
+        RawFigure::Extremes(_) => "extremes",
+    };
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| kind.to_string());
+    let out = out_root.join(kind).join(&stem);
+    let (h, f) = run_figure(path, &out, gpu)?;
+    let summary = format!(
+        "# {}\n\nConfig: `{}`\n\n**Question / claim.** {}\n\n{}\n",
+        h.title,
+        path.display(),
+        h.claim.trim(),
+        f.markdown.trim_end()
+    );
+    write_text(&out, "summary.md", &summary)?;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let manifest = format!(
+        "# shscale study manifest\nconfig_file = {:?}\nexperiment = {kind:?}\nunix_time = {now}\nos = {:?}\narch = {:?}\nthreads = {}\nfiles = {:?}\n\n[config]\ntext = '''\n{}'''\n",
+        path.display().to_string(),
+        std::env::consts::OS,
+        std::env::consts::ARCH,
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        f.files
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().to_string()))
+            .collect::<Vec<_>>(),
+        text
+    );
+    write_text(&out, "manifest.toml", &manifest)?;
+    Ok((out, summary))
 }
 
 /// Write `text` to `out/name` atomically and return the path.

@@ -20,6 +20,7 @@ use std::path::Path;
 #[serde(deny_unknown_fields)]
 pub struct Spec {
     /// The kind (checked by [`crate::parse`]).
+    #[serde(alias = "experiment")]
     pub figure: String,
     pub title: String,
     pub claim: String,

@@ -27,6 +27,18 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
             Some((i, n))
         }
     };
+    // Studies (experiment kinds of the experiments crate) run whole; sweeps go to the runner.
+    if let Some(kind) = study_kind(&config) {
+        if shard.is_some() {
+            bail!("--shard: {kind} studies run whole (seconds); only probe sweeps shard");
+        }
+        let ctx = shscale_lab::gpu_path::open_gpu(shscale_lab::gpu_path::GpuMode::Auto)?;
+        println!("{}: study {kind:?}", config.display());
+        let (dir, summary) = shscale_experiments::run_study(&config, &a.out_dir, ctx.as_ref())?;
+        println!("{summary}");
+        println!("wrote {}", dir.display());
+        return Ok(ExitCode::SUCCESS);
+    }
     let plan = Plan::load(&config)?;
     println!(
         "{}: experiment {:?}, {} run(s){}",
@@ -90,6 +102,14 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         summary_table(&s.csv, &plan.swept)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The experiment kind of a config when it is a study of the experiments crate (not `probe`).
+fn study_kind(config: &std::path::Path) -> Option<String> {
+    let text = std::fs::read_to_string(config).ok()?;
+    let table: toml::Table = toml::from_str(&text).ok()?;
+    let kind = table.get("experiment")?.as_str()?;
+    (kind != "probe" && shscale_experiments::KINDS.contains(&kind)).then(|| kind.to_string())
 }
 
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {

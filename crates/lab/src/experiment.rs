@@ -228,7 +228,7 @@ impl Plan {
             return Err(err(
                 "experiment",
                 format!(
-                    "{:?} is not a known experiment kind (known: probe)",
+                    "{:?} is not a known experiment kind (sweeps: probe; studies: midrange, srf, extremes and the figure kinds)",
                     raw.experiment
                 ),
             ));
