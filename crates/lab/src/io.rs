@@ -20,7 +20,8 @@ fn io_err(path: &Path, e: impl std::fmt::Display) -> LabError {
     }
 }
 
-/// Write `pixels` (row-major, row 0 at the top) as a float RGB EXR, atomically.
+/// Write `pixels` (row-major, row 0 at the top) as a float RGB EXR, atomically. Compressed on one
+/// thread so the bytes are reproducible (parallel compression writes chunks in completion order).
 pub fn write_exr(
     path: &Path,
     width: usize,
@@ -29,11 +30,16 @@ pub fn write_exr(
 ) -> Result<(), LabError> {
     assert_eq!(pixels.len(), width * height);
     let tmp = tmp_path(path);
-    exr::prelude::write_rgb_file(&tmp, width, height, |x, y| {
-        let p = pixels[y * width + x];
+    use exr::prelude::*;
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let p = pixels[pos.y() * width + pos.x()];
         (p[0], p[1], p[2])
-    })
-    .map_err(|e| io_err(path, e))?;
+    });
+    Image::from_channels((width, height), channels)
+        .write()
+        .non_parallel()
+        .to_file(&tmp)
+        .map_err(|e| io_err(path, e))?;
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }
 
