@@ -504,11 +504,16 @@ pub fn merge(dirs: &[PathBuf]) -> Result<(usize, usize), LabError> {
                 reason: "columns differ from this version's runs.csv".into(),
             });
         }
+        // Rows are keyed by (run id, probe radius); the radius column is found by name.
+        let radius_col = COLUMNS
+            .iter()
+            .position(|c| *c == "radius")
+            .expect("runs.csv has a radius column");
         for l in it {
-            let mut cells = l.split(',');
+            let cells: Vec<&str> = l.split(',').collect();
             let key = (
-                cells.next().unwrap_or("").to_string(),
-                cells.nth(9).unwrap_or("").to_string(),
+                cells.first().copied().unwrap_or("").to_string(),
+                cells.get(radius_col).copied().unwrap_or("").to_string(),
             );
             if seen.insert(key) {
                 rows.push(l.to_string());
