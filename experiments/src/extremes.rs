@@ -9,7 +9,7 @@
 //! and τ′ are finite at θ ∈ {0, 10⁻¹², 10⁻⁶, π/2, π − 10⁻⁶, π − 10⁻¹², π} and the round trip
 //! |τ⁻¹(τ(θ)) − θ| (τ⁻¹ is computed by its own formula or bisection, not by inverting τ's code).
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use serde::Deserialize;
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
@@ -32,14 +32,7 @@ pub struct Spec {
     pub midrange_k: Vec<f64>,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 /// The invariant defect of `m` for `eta` (0 in exact arithmetic).
 fn invariant_defect(m: &ScalingMatrix<f64>, eta: Eta) -> f64 {

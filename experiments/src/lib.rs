@@ -51,6 +51,24 @@ pub enum RawFigure {
     Extremes(extremes::Spec),
 }
 
+/// `header()` of a figure spec (every spec carries `title` and `claim`; serde cannot flatten them
+/// into a struct that rejects unknown fields, so each spec declares them and this implements the
+/// accessor once).
+macro_rules! impl_header {
+    ($spec:ty) => {
+        impl $spec {
+            /// Title and claim.
+            pub fn header(&self) -> $crate::Header {
+                $crate::Header {
+                    title: self.title.clone(),
+                    claim: self.claim.clone(),
+                }
+            }
+        }
+    };
+}
+pub(crate) use impl_header;
+
 /// Title and the paper's claim, common to every figure.
 #[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
@@ -59,10 +77,6 @@ pub struct Header {
     pub title: String,
     /// The paper's claim, quoted or paraphrased with its section.
     pub claim: String,
-}
-
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
 }
 
 /// The figure kinds, as spelled in `figure = "…"`.
@@ -79,21 +93,7 @@ pub const KINDS: &[&str] = &[
 
 /// Parse a figure config; errors name the file, the line and the field.
 pub fn parse(file: &str, text: &str) -> Result<RawFigure, LabError> {
-    let wrap = |e: toml::de::Error| {
-        let line = e.span().map_or(0, |s| line_of(text, s.start));
-        let msg = e.message().trim();
-        // Name the field written on that line when the message does not.
-        let key = text
-            .lines()
-            .nth(line.saturating_sub(1))
-            .and_then(|l| l.split_once('='))
-            .map(|(k, _)| k.trim())
-            .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
-        match key {
-            Some(k) => LabError::Config(format!("{file}:{line}: {k}: {msg}")),
-            None => LabError::Config(format!("{file}:{line}: {msg}")),
-        }
-    };
+    let wrap = |e: toml::de::Error| shscale_lab::toml_error(file, text, &e);
     let table: toml::Table = toml::from_str(text).map_err(wrap)?;
     let line_of_figure = text
         .lines()

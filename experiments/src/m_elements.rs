@@ -5,7 +5,7 @@
 //! the k-table the paper recommends, and reports the interpolation error of those elements and of
 //! the whole matrix (`KTable::max_interp_error`).
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use serde::Deserialize;
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
@@ -35,14 +35,7 @@ pub struct Spec {
     pub curve_points: usize,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 fn cfg(file: &str, field: &str, msg: String) -> LabError {
     LabError::Config(format!("{file}: {field}: {msg}"))

@@ -9,7 +9,7 @@
 //! ⟨lobe(n), L_c⟩ (distant). Per k: mean and max relative irradiance error over a Fibonacci set
 //! of point directions × normals.
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use glam::DVec3;
 use serde::Deserialize;
 use shscale_field::shading::EnvLight;
@@ -39,14 +39,7 @@ pub struct Spec {
     pub sun_radius_deg: f64,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 fn fib(n: usize) -> Vec<DVec3> {
     (0..n)
@@ -83,7 +76,6 @@ pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput,
     let lobe = ClampedCosine::<f64>::new(s.order).map_err(|e| cfg("order", e.to_string()))?;
     let basis = ShBasis::<f64>::new(s.order).map_err(|e| cfg("order", e.to_string()))?;
     let quad = DirectionSet::gauss_sphere(96, 192);
-    let mut y = vec![0.0; s.order * s.order];
     let mut csv = String::from("k,scaled_rel_err_mean,scaled_rel_err_max,distant_rel_err_mean,distant_rel_err_max,scaled_better_fraction,seconds\n");
     let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     let mut rows = Vec::new();
@@ -94,19 +86,9 @@ pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput,
             let q = k * v;
             let light = shscale_field::midrange::light_at(&env, q, 1.0)?;
             for n in fib(s.normals) {
-                let mut truth = 0.0;
-                for (d, w) in quad.dirs.iter().zip(&quad.weights) {
-                    let dir = DVec3::from_array(*d);
-                    let c = dir.dot(n);
-                    if c <= 0.0 {
-                        continue;
-                    }
-                    let b = q.dot(dir);
-                    let t = -b + (b * b - (q.length_squared() - 1.0)).sqrt();
-                    basis.eval((q + t * dir).to_array(), &mut y);
-                    let l: f64 = env.rgb[0].iter().zip(&y).map(|(a, b)| a * b).sum();
-                    truth += w * l * c;
-                }
+                let truth = shscale_field::midrange::irradiance_by_ray_exit(
+                    &env, 0, q, 1.0, n, &quad, &basis,
+                );
                 let scaled = lobe
                     .irradiance(&light.rgb[0], n.to_array())
                     .map_err(|e| cfg("order", e.to_string()))?;

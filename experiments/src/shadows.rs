@@ -7,7 +7,7 @@
 //! and reports `shade_rmse_rel` (DESIGN.md §6) of every method against both truths with the
 //! render times.
 
-use crate::{FigureOutput, Header};
+use crate::FigureOutput;
 use serde::Deserialize;
 use shscale_field::shading::shade_rmse_rel;
 use shscale_lab::render::{render, Method, RenderOutput};
@@ -28,14 +28,7 @@ pub struct Spec {
     pub scene: String,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()

@@ -6,7 +6,7 @@
 //! they all lie in the structural pattern (same m, l, l′ ≥ |m|: `N(2N²+1)/3` positions) and that
 //! every τ has the same numerical pattern, and draws the pattern.
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use plotters::prelude::*;
 use serde::Deserialize;
 use shscale_lab::LabError;
@@ -32,14 +32,7 @@ pub struct Spec {
     pub midrange_k: Vec<f64>,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 /// Relative threshold below which an element counts as zero.
 const ZERO_REL: f64 = 1e-12;

@@ -6,7 +6,7 @@
 //! both panels emitting 1; per hinge angle and α, `srf::compare` reports the mean relative L2
 //! error of each η variant against ray-traced radiance at every probe radius.
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use serde::Deserialize;
 use shscale_field::{Emitter, Layout};
 use shscale_geometry::ray::UpdateStrategy;
@@ -33,14 +33,7 @@ pub struct Spec {
     pub radii: Vec<f64>,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 /// Run the study.
 pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput, LabError> {

@@ -4,7 +4,7 @@
 //! Runs the Table 1 bench (`shscale_lab::bench`) on the configured sequences and writes the table
 //! as Markdown and CSV beside the figures, with the paper's rows for comparison.
 
-use crate::{write_text, FigureOutput, Header};
+use crate::{write_text, FigureOutput};
 use serde::Deserialize;
 use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
 use shscale_lab::LabError;
@@ -25,14 +25,7 @@ pub struct Spec {
     pub warmup: usize,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 /// Run the table.
 pub fn run(

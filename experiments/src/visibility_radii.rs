@@ -5,7 +5,7 @@
 //! sample direction to each radius, ray-traced truth there) and draws, for one probe per radius,
 //! the actual visibility (lat-long, full frequency) beside the extrapolated one (order N).
 
-use crate::{FigureOutput, Header};
+use crate::FigureOutput;
 use glam::DVec3;
 use serde::Deserialize;
 use shscale_field::probe::{probe, ProbeSpec};
@@ -34,14 +34,7 @@ pub struct Spec {
     pub radii: Vec<f64>,
 }
 
-impl Spec {
-    pub fn header(&self) -> Header {
-        Header {
-            title: self.title.clone(),
-            claim: self.claim.clone(),
-        }
-    }
-}
+crate::impl_header!(Spec);
 
 fn cfg(file: &str, field: &str, msg: String) -> LabError {
     LabError::Config(format!("{file}: {field}: {msg}"))

@@ -42,3 +42,37 @@ pub fn light_at(env: &EnvLight, offset: DVec3, radius: f64) -> Result<EnvLight, 
     }
     Ok(EnvLight { rgb: out })
 }
+
+/// The reference for [`light_at`]: irradiance at `q` (|q − c| < `radius`, c the origin here) with
+/// normal `n`, `E = ∫ L_c(u(ω)) max(0, n·ω) dω`, where u(ω) is the direction from the centre to
+/// the point where the ray from q in direction ω leaves the environment sphere (radiance is
+/// constant along rays). Quadrature over `quad` (a full-sphere rule, e.g.
+/// `DirectionSet::gauss_sphere(96, 192)`); `basis` evaluates channel `ch` of `env`. Independent of
+/// the scaling matrices, so it tests them.
+pub fn irradiance_by_ray_exit(
+    env: &EnvLight,
+    ch: usize,
+    q: DVec3,
+    radius: f64,
+    n: DVec3,
+    quad: &shscale_sh::DirectionSet,
+    basis: &shscale_sh::ShBasis<f64>,
+) -> f64 {
+    let mut y = vec![0.0; basis.len()];
+    let mut e = 0.0;
+    for (d, w) in quad.dirs.iter().zip(&quad.weights) {
+        let dir = DVec3::from_array(*d);
+        let c = dir.dot(n);
+        if c <= 0.0 {
+            continue;
+        }
+        // Exit of q + t·dir from the sphere |x| = radius (t > 0: q is inside).
+        let b = q.dot(dir);
+        let t = -b + (b * b - (q.length_squared() - radius * radius)).sqrt();
+        let exit = (q + t * dir) / radius;
+        basis.eval(exit.to_array(), &mut y);
+        let l: f64 = env.rgb[ch].iter().zip(&y).map(|(a, b)| a * b).sum();
+        e += w * l * c;
+    }
+    e
+}

@@ -174,7 +174,6 @@ fn midrange_scaling_beats_the_distant_assumption_against_ray_traced_truth() {
     let lobe = ClampedCosine::<f64>::new(order).unwrap();
     let basis = shscale_sh::ShBasis::<f64>::new(order).unwrap();
     let set = shscale_sh::DirectionSet::gauss_sphere(200, 400);
-    let mut y = vec![0.0; order * order];
     let mut worse = 0;
     for (q, n) in [
         (DVec3::new(0.5, 0.0, 0.0), DVec3::Z),
@@ -187,20 +186,8 @@ fn midrange_scaling_beats_the_distant_assumption_against_ray_traced_truth() {
             DVec3::new(0.2, -0.5, 0.8).normalize(),
         ),
     ] {
-        let mut truth = 0.0;
-        for (d, w) in set.dirs.iter().zip(&set.weights) {
-            let dir = DVec3::from_array(*d);
-            let c = dir.dot(n);
-            if c <= 0.0 {
-                continue;
-            }
-            // Exit point of q + t·dir on the unit sphere.
-            let b = q.dot(dir);
-            let t = -b + (b * b - (q.length_squared() - 1.0)).sqrt();
-            basis.eval((q + t * dir).to_array(), &mut y);
-            let l: f64 = env.rgb[0].iter().zip(&y).map(|(a, b)| a * b).sum();
-            truth += w * l * c;
-        }
+        let truth =
+            shscale_field::midrange::irradiance_by_ray_exit(&env, 0, q, 1.0, n, &set, &basis);
         let scaled_light = shscale_field::midrange::light_at(&env, q, 1.0).unwrap();
         let scaled = lobe.irradiance(&scaled_light.rgb[0], n.to_array()).unwrap();
         let distant = lobe.irradiance(&env.rgb[0], n.to_array()).unwrap();

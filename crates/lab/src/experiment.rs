@@ -204,23 +204,8 @@ impl Plan {
 
     /// Resolve config text (`file` names it in errors; `stem` is the default name).
     pub fn parse(file: &str, stem: &str, text: &str) -> Result<Self, LabError> {
-        let raw: RawExperiment = toml::from_str(text).map_err(|e| {
-            let line = e.span().map_or(0, |s| {
-                text[..s.start.min(text.len())].matches('\n').count() + 1
-            });
-            let msg = e.message().trim();
-            // Name the field written on that line when the message does not.
-            let key = text
-                .lines()
-                .nth(line.saturating_sub(1))
-                .and_then(|l| l.split_once('='))
-                .map(|(k, _)| k.trim())
-                .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
-            match key {
-                Some(k) => LabError::Config(format!("{file}:{line}: {k}: {msg}")),
-                None => LabError::Config(format!("{file}:{line}: {msg}")),
-            }
-        })?;
+        let raw: RawExperiment =
+            toml::from_str(text).map_err(|e| crate::toml_error(file, text, &e))?;
         let err = |key: &str, msg: String| {
             LabError::Config(format!("{file}:{}: {key}: {msg}", line_of_key(text, key)))
         };

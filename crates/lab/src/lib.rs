@@ -13,6 +13,25 @@ pub mod runner;
 pub mod scene;
 
 /// Errors of the lab.
+/// A TOML parse error of `file` (whose text is `text`) as a [`LabError::Config`] naming the file,
+/// the line and — when the message does not already — the field written on that line.
+pub fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> LabError {
+    let line = e.span().map_or(0, |s| {
+        text[..s.start.min(text.len())].matches('\n').count() + 1
+    });
+    let msg = e.message().trim();
+    let key = text
+        .lines()
+        .nth(line.saturating_sub(1))
+        .and_then(|l| l.split_once('='))
+        .map(|(k, _)| k.trim())
+        .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
+    match key {
+        Some(k) => LabError::Config(format!("{file}:{line}: {k}: {msg}")),
+        None => LabError::Config(format!("{file}:{line}: {msg}")),
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum LabError {
     #[error("{0}")]

@@ -172,15 +172,6 @@ pub struct LightSourceSpec {
     pub energy: bool,
 }
 
-/// 1-based line of byte `offset` in `text`.
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())]
-        .bytes()
-        .filter(|b| *b == b'\n')
-        .count()
-        + 1
-}
-
 /// Line of the first occurrence of `key =` (or the table header) in the text, for semantic errors.
 fn line_of_key(text: &str, key: &str) -> usize {
     text.lines()
@@ -210,10 +201,7 @@ impl Scene {
 
     /// Resolve scene text; `file` names it in errors and `base` anchors relative paths.
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, LabError> {
-        let raw: RawScene = toml::from_str(text).map_err(|e| {
-            let line = e.span().map_or(0, |s| line_of(text, s.start));
-            LabError::Config(format!("{file}:{line}: {}", e.message().trim()))
-        })?;
+        let raw: RawScene = toml::from_str(text).map_err(|e| crate::toml_error(file, text, &e))?;
         let err = |key: &str, msg: String| {
             LabError::Config(format!(
                 "{file}:{}: {key}: {msg}",
