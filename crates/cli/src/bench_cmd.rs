@@ -22,8 +22,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchScene::All => &["bird", "egg", "sponge"],
     };
     let mut rows = Vec::new();
+    let bar = progress_bar(scenes.len(), "scenes");
     for s in scenes {
-        eprintln!("bench: {s} ({} + {} frames)…", a.warmup, a.frames);
+        bar.set_message(format!("{s} ({} + {} frames)", a.warmup, a.frames));
         rows.extend(bench_scene(
             s,
             a.frames as usize,
@@ -31,7 +32,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
             cpu,
             ctx.as_ref(),
         )?);
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
@@ -60,12 +63,39 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
 pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
     let mode = GpuMode::parse(&a.gpu).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?;
     let ctx = open_gpu(mode)?;
-    let files =
-        shscale_experiments::regenerate(&a.configs, &a.out, ctx.as_ref(), |l| println!("  {l}"))?;
+    let count = std::fs::read_dir(&a.configs)
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.path().extension().is_some_and(|x| x == "toml"))
+                .count()
+        })
+        .unwrap_or(0);
+    let bar = progress_bar(count, "figures");
+    let files = shscale_experiments::regenerate(&a.configs, &a.out, ctx.as_ref(), |l| {
+        if bar.is_hidden() {
+            println!("  {l}");
+        } else {
+            bar.println(format!("  {l}"));
+        }
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
     println!(
         "wrote {} file(s); index {}",
         files.len(),
         a.out.join("README.md").display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// A progress bar with ETA on stderr (hidden when stderr is not a terminal).
+fn progress_bar(len: usize, what: &str) -> indicatif::ProgressBar {
+    let b = indicatif::ProgressBar::new(len as u64);
+    b.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "  [{{elapsed_precise}}] {{bar:30}} {{pos}}/{{len}} {what}, ETA {{eta}} {{msg}}"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    b
 }
