@@ -103,73 +103,98 @@ fn cpu_visibility(occ: &MeshBvh, pos: DVec3, c: DVec3, hemi: &DirectionSet) -> V
         .collect()
 }
 
+/// Ray casting and projection of the bird at pose `t`, order `order`, `h × h` rays, against the
+/// CPU on the same rays; returns the number of occluded rays.
+fn check_bsv(ctx: &GpuContext, order: usize, h: usize, t: f64) -> (usize, usize) {
+    let (mesh, sphere, dirs) = bird_scene(t);
+    let cpu_occ = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    let layout = Layout::parse("cube:4").unwrap();
+    let cpu = Bsv::sample_on(&cpu_occ, layout, &sampler, sphere, 0.0).unwrap();
+    let nn = order * order;
+    let scale = cpu
+        .samples
+        .iter()
+        .flat_map(|s| s.coeffs.iter())
+        .fold(0f64, |a, c| a.max(c.abs()));
+    let tris = mesh.triangles.len();
+    let mut gpu = GpuSampler::new(
+        ctx,
+        order,
+        h,
+        sphere.center,
+        sphere.radius,
+        &dirs,
+        (2 * tris, tris),
+    )
+    .unwrap();
+    let bvh = shscale_gpu::bvh::FlatBvh::build(&mesh, UpdateStrategy::Refit).unwrap();
+    gpu.upload(ctx, &bvh, RAY_EPS * mesh.bounding_sphere().radius)
+        .unwrap();
+    let tag = format!("N = {order}, H = {h}, t = {t}");
+
+    // (a) ray casting: the GPU's bits against the CPU's on the same rays.
+    gpu.run(ctx, false).unwrap();
+    let gv = gpu.read_visibility(ctx).unwrap();
+    let hemi = DirectionSet::gauss_hemisphere(h);
+    let mut cv = Vec::new();
+    for d in &dirs {
+        cv.extend(cpu_visibility(
+            &cpu_occ,
+            sphere.center + sphere.radius * *d,
+            sphere.center,
+            &hemi,
+        ));
+    }
+    let mismatched = gv.iter().zip(&cv).filter(|(a, b)| a != b).count();
+    let occluded = cv.iter().filter(|v| **v == 0).count();
+    let frac = mismatched as f64 / cv.len() as f64;
+    println!(
+        "{tag}: {mismatched} of {} rays differ ({frac:.1e}, tol {VIS_MISMATCH_TOL:.0e}); {occluded} occluded",
+        cv.len()
+    );
+    assert!(frac <= VIS_MISMATCH_TOL, "{tag}: {frac:.2e}");
+
+    // (b) projection of the CPU's own bits: must reproduce the CPU BSV to f32 rounding.
+    gpu.write_visibility(ctx, &cv).unwrap();
+    gpu.run(ctx, true).unwrap();
+    let gc = gpu.read_coeffs(ctx).unwrap();
+    let mut worst: f64 = 0.0;
+    for (s, sample) in cpu.samples.iter().enumerate() {
+        for i in 0..nn {
+            worst = worst.max((gc[s * nn + i] as f64 - sample.coeffs[i]).abs());
+        }
+    }
+    println!("{tag}: projection max error {worst:.2e} of max |c| {scale:.2} (tol {PROJ_TOL:.0e} relative)");
+    assert!(worst <= PROJ_TOL * scale, "{tag}: {worst:.2e}");
+    (occluded, cv.len())
+}
+
 #[test]
 fn ray_casting_and_projection_match_the_cpu_bsv() {
     let Some(ctx) = ctx() else { return };
-    let (order, h) = (4, 16);
     for t in [0.1, 0.25] {
-        let (mesh, sphere, dirs) = bird_scene(t);
-        let cpu_occ = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
-        let sampler = VisibilitySampler::new(order, h).unwrap();
-        let layout = Layout::parse("cube:4").unwrap();
-        let cpu = Bsv::sample_on(&cpu_occ, layout, &sampler, sphere, 0.0).unwrap();
-        let nn = order * order;
-        let scale = cpu
-            .samples
-            .iter()
-            .flat_map(|s| s.coeffs.iter())
-            .fold(0f64, |a, c| a.max(c.abs()));
+        let (occluded, rays) = check_bsv(&ctx, 4, 16, t);
+        assert!(occluded > rays / 20, "the scene must occlude something");
+    }
+}
 
-        let tris = mesh.triangles.len();
-        let mut gpu = GpuSampler::new(
-            &ctx,
-            order,
-            h,
-            sphere.center,
-            sphere.radius,
-            &dirs,
-            (2 * tris, tris),
-        )
-        .unwrap();
-        let bvh = shscale_gpu::bvh::FlatBvh::build(&mesh, UpdateStrategy::Refit).unwrap();
-        gpu.upload(&ctx, &bvh, RAY_EPS * mesh.bounding_sphere().radius)
-            .unwrap();
-
-        // (a) ray casting: the GPU's bits against the CPU's on the same rays.
-        gpu.run(&ctx, false).unwrap();
-        let gv = gpu.read_visibility(&ctx).unwrap();
-        let hemi = DirectionSet::gauss_hemisphere(h);
-        let mut cv = Vec::new();
-        for d in &dirs {
-            cv.extend(cpu_visibility(
-                &cpu_occ,
-                sphere.center + sphere.radius * *d,
-                sphere.center,
-                &hemi,
-            ));
-        }
-        let mismatched = gv.iter().zip(&cv).filter(|(a, b)| a != b).count();
-        let occluded = cv.iter().filter(|v| **v == 0).count();
-        let frac = mismatched as f64 / cv.len() as f64;
-        println!(
-            "t = {t}: {mismatched} of {} rays differ ({frac:.1e}, tol {VIS_MISMATCH_TOL:.0e}); {occluded} occluded",
-            cv.len()
-        );
-        assert!(occluded > cv.len() / 20, "the scene must occlude something");
-        assert!(frac <= VIS_MISMATCH_TOL, "t = {t}: {frac:.2e}");
-
-        // (b) projection of the CPU's own bits: must reproduce the CPU BSV to f32 rounding.
-        gpu.write_visibility(&ctx, &cv).unwrap();
-        gpu.run(&ctx, true).unwrap();
-        let gc = gpu.read_coeffs(&ctx).unwrap();
-        let mut worst: f64 = 0.0;
-        for (s, sample) in cpu.samples.iter().enumerate() {
-            for i in 0..nn {
-                worst = worst.max((gc[s * nn + i] as f64 - sample.coeffs[i]).abs());
-            }
-        }
-        println!("t = {t}: projection max error {:.2e} of max |c| {scale:.2} (tol {PROJ_TOL:.0e} relative)", worst);
-        assert!(worst <= PROJ_TOL * scale, "t = {t}: {worst:.2e}");
+/// The edges of the GPU sampler's domain: order 1 (one coefficient) and the largest order 8
+/// (64 accumulators, 16 KiB of workgroup memory); H = 1 (one ray per sample: fewer rays than
+/// invocations in the projection workgroup) and H = 40 (1600 rays, more than 16 per invocation).
+#[test]
+fn sampler_edges_match_the_cpu() {
+    let Some(ctx) = ctx() else { return };
+    for (order, h) in [(1, 1), (1, 40), (8, 1), (8, 40), (5, 3)] {
+        check_bsv(&ctx, order, h, 0.3);
+    }
+    // Outside the domain: clear errors, no panic.
+    let dirs = [DVec3::Z, DVec3::X, -DVec3::Z, DVec3::Y];
+    for (order, h) in [(0, 4), (9, 4), (4, 0)] {
+        let e = GpuSampler::new(&ctx, order, h, DVec3::ZERO, 1.0, &dirs, (8, 4))
+            .err()
+            .unwrap_or_else(|| panic!("N = {order}, H = {h} accepted"));
+        println!("N = {order}, H = {h}: {e}");
     }
 }
 
