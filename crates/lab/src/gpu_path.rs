@@ -59,7 +59,7 @@ pub fn open_gpu(mode: GpuMode) -> Result<Option<GpuContext>, LabError> {
         GpuMode::Auto => match GpuContext::new() {
             Ok(c) => Ok(Some(c)),
             Err(e) => {
-                eprintln!("notice: no GPU adapter ({e}); continuing with the CPU path");
+                eprintln!("notice: {e}; continuing with the CPU path");
                 Ok(None)
             }
         },
