@@ -90,6 +90,20 @@ fn bird_scene(t: f64) -> (Mesh, Sphere, Vec<DVec3>) {
     (posed, sphere, dirs)
 }
 
+/// The CPU's BSV of `mesh` on `sphere` (cube:4 layout, the layout of [`bird_scene`]).
+fn cpu_bsv(mesh: &Mesh, sphere: Sphere, order: usize, h: usize) -> Bsv {
+    let sampler = VisibilitySampler::new(order, h).unwrap();
+    let occ = MeshBvh::build(mesh, UpdateStrategy::Rebuild);
+    Bsv::sample_on(
+        &occ,
+        Layout::parse("cube:4").unwrap(),
+        &sampler,
+        sphere,
+        0.0,
+    )
+    .unwrap()
+}
+
 /// The CPU's ray directions for sample `pos`: the Gauss hemisphere in the frame toward `c`.
 fn cpu_visibility(occ: &MeshBvh, pos: DVec3, c: DVec3, hemi: &DirectionSet) -> Vec<u32> {
     let f = LocalFrame::toward(pos, c);
@@ -260,10 +274,7 @@ fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
     let Some(ctx) = ctx() else { return };
     let (order, h) = (4, 16);
     let (mesh, sphere, dirs) = bird_scene(0.2);
-    let layout = Layout::parse("cube:4").unwrap();
-    let sampler = VisibilitySampler::new(order, h).unwrap();
-    let cpu_occ = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
-    let bsv = Bsv::sample_on(&cpu_occ, layout, &sampler, sphere, 0.0).unwrap();
+    let bsv = cpu_bsv(&mesh, sphere, order, h);
     let receivers = plane(48, sphere.center.z - 1.6, 2.5);
     let (_table, cache) = cache_for(&bsv, order, &receivers);
     assert_eq!(cache.channels(), 3);
@@ -331,16 +342,7 @@ fn receiver_setup_on_the_gpu_matches_the_cpu_cache() {
     let Some(ctx) = ctx() else { return };
     let (order, h) = (4, 8);
     let (mesh, sphere, dirs) = bird_scene(0.2);
-    let layout = Layout::parse("cube:4").unwrap();
-    let sampler = VisibilitySampler::new(order, h).unwrap();
-    let bsv = Bsv::sample_on(
-        &MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
-        layout,
-        &sampler,
-        sphere,
-        0.0,
-    )
-    .unwrap();
+    let bsv = cpu_bsv(&mesh, sphere, order, h);
     let mut receivers = plane(24, sphere.center.z - 1.6, 2.5);
     let n = 200;
     for i in 0..n {
@@ -444,16 +446,7 @@ fn wall_clock_fallback_times_every_stage_and_renders_the_same_frame() {
     assert!(!plain.timestamps);
     let (order, h) = (3, 8);
     let (mesh, sphere, dirs) = bird_scene(0.3);
-    let layout = Layout::parse("cube:4").unwrap();
-    let sampler = VisibilitySampler::new(order, h).unwrap();
-    let bsv = Bsv::sample_on(
-        &MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
-        layout,
-        &sampler,
-        sphere,
-        0.0,
-    )
-    .unwrap();
+    let bsv = cpu_bsv(&mesh, sphere, order, h);
     let receivers = plane(16, sphere.center.z - 1.6, 2.5);
     let (_, cache) = cache_for(&bsv, order, &receivers);
     let mut images = Vec::new();
