@@ -27,7 +27,16 @@ pub mod timing;
 pub mod visibility_radii;
 
 use serde::Deserialize;
+use shscale_lab::exp::{DynKind, Erased};
 use shscale_lab::LabError;
+
+static PROBE: Erased<shscale_lab::exp::probe::Probe> = Erased::new();
+
+/// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
+/// file implementing `shscale_lab::exp::Kind` plus one line here.
+pub fn registry() -> Vec<&'static dyn DynKind> {
+    vec![&PROBE]
+}
 use std::path::{Path, PathBuf};
 
 /// What a figure produced: its files and its section of the index.

@@ -113,9 +113,13 @@ pub struct BenchArgs {
 
 #[derive(Args, Debug)]
 pub struct MergeArgs {
-    /// Directories holding runs*.csv (the merged file goes into the first).
+    /// Directories holding runs*.csv (shard files and/or runs.csv), all of one experiment kind.
     #[arg(required = true)]
     pub dirs: Vec<std::path::PathBuf>,
+    /// Output directory (new; default <first DIR>/merged): runs.csv, manifest.toml, summary and
+    /// plots. An existing runs.csv there is never overwritten.
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -129,18 +133,63 @@ pub struct SlurmArgs {
     pub binary: String,
     #[arg(long, default_value = "results")]
     pub out_dir: std::path::PathBuf,
+    /// Overrides passed to every shard, as for `shscale run`.
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
+    /// sbatch --time (e.g. 02:00:00).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// sbatch --mem (e.g. 8G).
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// sbatch --partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// sbatch --cpus-per-task.
+    #[arg(long)]
+    pub cpus_per_task: Option<usize>,
+    /// sbatch --account.
+    #[arg(long)]
+    pub account: Option<String>,
+}
+
+/// Command-line overrides of an experiment config (Hydra style).
+#[derive(Args, Debug, Default, Clone)]
+pub struct OverrideArgs {
+    /// Set a key (dotted for nested keys): `--set order=6`, `--set light.sun=2.5`; repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE", allow_hyphen_values = true)]
+    pub set: Vec<String>,
+    /// Add or replace a sweep axis: `--sweep alpha_deg=15,30,45`; repeatable.
+    #[arg(
+        long = "sweep",
+        value_name = "KEY=V1,V2,...",
+        allow_hyphen_values = true
+    )]
+    pub sweep: Vec<String>,
+    /// The results name (letters, digits, '.', '_', '-'): <out-dir>/<experiment>/<NAME>/.
+    #[arg(long)]
+    pub name: Option<String>,
 }
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// Experiment config (TOML; schema in crates/lab/src/experiment.rs).
+    /// Experiment config (TOML; keys in docs/experiments.md).
     pub config: Option<std::path::PathBuf>,
     /// Run only shard I of N (runs whose index ≡ I mod N), e.g. 0/4.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// Root of the outputs: <out-dir>/<experiment>/<name>/.
     #[arg(long, default_value = "results")]
     pub out_dir: std::path::PathBuf,
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
+    /// Print the resolved plan (runs, shared groups, estimated rays, memory, time) and write
+    /// nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Run plans beyond the limits (10^10 rays, 8 GiB per group).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -5,21 +5,17 @@ use crate::output::{print_coeffs, print_json};
 use anyhow::{bail, Context};
 use serde::Serialize;
 use shscale_field::{Frame, VisibilitySampler};
-use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{bundled, AnalyticSphere, DVec3, MeshBvh, Occluder};
+use shscale_geometry::{DVec3, Occluder};
 use std::process::ExitCode;
 use std::time::Instant;
 
 /// Largest hemisphere resolution accepted (2H² rays; 1024 gives 2M rays).
 const MAX_H: usize = 1024;
 
-/// The analytic unit sphere, or a mesh (bundled name or path) behind a BVH.
+/// The analytic unit sphere, or a mesh (procedural, bundled or a path) behind a BVH, in its own
+/// coordinates — the one vocabulary of `shscale_lab::vocab`.
 pub fn occluder(spec: &str) -> anyhow::Result<Box<dyn Occluder>> {
-    if spec == "sphere" {
-        return Ok(Box::new(AnalyticSphere::unit()));
-    }
-    let mesh = bundled::resolve(spec)?;
-    Ok(Box::new(MeshBvh::build(&mesh, UpdateStrategy::Rebuild)))
+    Ok(shscale_lab::vocab::occluder(spec)?)
 }
 
 #[derive(Serialize)]
@@ -58,7 +54,7 @@ pub fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
             unreferenced_vertices: 0,
         }
     } else {
-        let mesh = bundled::resolve(&a.mesh)?;
+        let mesh = shscale_lab::vocab::mesh(&a.mesh)?;
         let r = mesh.inspect();
         InspectOut {
             mesh: a.mesh.clone(),

@@ -1,36 +1,57 @@
-//! `shscale run`: execute an experiment config.
+//! `shscale run`, `merge`, `slurm`: experiments through the one runner (`shscale_lab::exp`).
 
-use crate::args::{MergeArgs, RunArgs, SlurmArgs};
+use crate::args::{MergeArgs, OverrideArgs, RunArgs, SlurmArgs};
 use anyhow::{bail, Context};
-use shscale_lab::experiment::Plan;
-use shscale_lab::runner::{run_plan, RunEvent};
+use shscale_lab::exp::config::Overrides;
+use shscale_lab::exp::runner::{self, run_plan, Plan, RunEvent, SlurmOptions};
 use std::process::ExitCode;
+
+fn overrides(o: &OverrideArgs) -> Overrides {
+    Overrides {
+        set: o.set.clone(),
+        sweep: o.sweep.clone(),
+        name: o.name.clone(),
+    }
+}
+
+fn parse_shard(s: &str) -> anyhow::Result<(usize, usize)> {
+    let (i, n) = s
+        .split_once('/')
+        .with_context(|| format!("--shard {s}: expected I/N, e.g. 0/4"))?;
+    let (i, n): (usize, usize) = (
+        i.trim()
+            .parse()
+            .with_context(|| format!("--shard {s}: I = {i:?} is not a whole number ≥ 0"))?,
+        n.trim()
+            .parse()
+            .with_context(|| format!("--shard {s}: N = {n:?} is not a whole number ≥ 1"))?,
+    );
+    if n == 0 || i >= n || n > 100_000 {
+        bail!("--shard {s}: needs 0 ≤ I < N ≤ 100000");
+    }
+    Ok((i, n))
+}
 
 pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     let Some(config) = a.config else {
-        eprintln!("shscale run CONFIG: give an experiment config, e.g. `shscale run configs/probe_alpha_sweep.toml` (see configs/README.md)");
+        eprintln!("error: shscale run CONFIG: give an experiment config, e.g. `shscale run configs/quickstart.toml` (see configs/README.md)");
         return Ok(ExitCode::from(2));
     };
-    let shard = match a.shard.as_deref() {
-        None => None,
-        Some(s) => {
-            let (i, n) = s
-                .split_once('/')
-                .context("--shard: expected I/N, e.g. 0/4")?;
-            let (i, n): (usize, usize) = (
-                i.trim().parse().context("--shard: I is not a number")?,
-                n.trim().parse().context("--shard: N is not a number")?,
-            );
-            if n == 0 || i >= n {
-                bail!("--shard: {i}/{n} needs 0 ≤ I < N");
-            }
-            Some((i, n))
-        }
-    };
-    // Studies (experiment kinds of the experiments crate) run whole; sweeps go to the runner.
-    if let Some(kind) = study_kind(&config) {
-        if shard.is_some() {
-            bail!("--shard: {kind} studies run whole (seconds); only probe sweeps shard");
+    let shard = a.shard.as_deref().map(parse_shard).transpose()?;
+    let registry = shscale_experiments::registry();
+    let text = std::fs::read_to_string(&config)
+        .with_context(|| format!("{}: cannot read", config.display()))?;
+    // Studies not yet converted to kinds run whole, through their own code.
+    if let Some(kind) = runner::kind_of(&text)
+        .filter(|k| !registry.iter().any(|r| r.name() == k))
+        .filter(|k| shscale_experiments::KINDS.contains(&k.as_str()))
+    {
+        if shard.is_some()
+            || a.dry_run
+            || !a.overrides.set.is_empty()
+            || !a.overrides.sweep.is_empty()
+        {
+            bail!("--shard/--dry-run/--set/--sweep: the {kind} study is not yet an experiment kind of the runner; it runs whole");
         }
         let ctx = shscale_lab::gpu_path::open_gpu(shscale_lab::gpu_path::GpuMode::Auto)?;
         println!("{}: study {kind:?}", config.display());
@@ -39,11 +60,17 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         println!("wrote {}", dir.display());
         return Ok(ExitCode::SUCCESS);
     }
-    let plan = Plan::load(&config)?;
+    let plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
+    if a.dry_run {
+        print!("{}", plan.describe(shard));
+        plan.check_limits(a.allow_large)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    plan.check_limits(a.allow_large)?;
     println!(
         "{}: experiment {:?}, {} run(s){}",
         config.display(),
-        plan.experiment,
+        plan.kind.name(),
         plan.runs.len(),
         shard
             .map(|(i, n)| format!(", shard {i}/{n}"))
@@ -84,98 +111,58 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
                 b.inc(1);
             }
         }
+        RunEvent::Warn(line) => eprintln!("warning: {line}"),
     })?;
     if let Some(b) = bar.get() {
         b.finish_and_clear();
     }
     println!(
-        "ran {}, skipped {} already done, of {} in this shard → {}",
+        "ran {}, skipped {} already done ({} redone after invalid rows), of {} in this shard → {}",
         s.ran,
         s.already_done,
+        s.redone,
         s.in_shard,
         s.csv.display()
     );
     if shard.is_none() {
-        for f in shscale_lab::plots::probe_plots(&s.dir, &plan.swept)? {
-            println!("  plot {}", f.display());
+        let r = runner::report(plan.kind, &s.dir)?;
+        for f in &r.files {
+            println!("  wrote {}", f.display());
         }
-        summary_table(&s.csv, &plan.swept)?;
+        println!("{}", r.summary);
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The experiment kind of a config when it is a study of the experiments crate (not `probe`).
-fn study_kind(config: &std::path::Path) -> Option<String> {
-    let text = std::fs::read_to_string(config).ok()?;
-    let table: toml::Table = toml::from_str(&text).ok()?;
-    let kind = table.get("experiment")?.as_str()?;
-    (kind != "probe" && shscale_experiments::KINDS.contains(&kind)).then(|| kind.to_string())
-}
-
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
-    let (files, rows) = shscale_lab::runner::merge(&a.dirs)?;
+    let registry = shscale_experiments::registry();
+    let m = runner::merge(&a.dirs, a.out.as_deref(), &registry)?;
     println!(
-        "merged {files} file(s), {rows} row(s) → {}",
-        a.dirs[0].join("runs.csv").display()
+        "merged {} file(s), {} row(s) → {}",
+        m.files,
+        m.rows,
+        m.out.join("runs.csv").display()
     );
+    let r = runner::report(m.kind, &m.out)?;
+    for f in &r.files {
+        println!("  wrote {}", f.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 
 pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
-    let plan = Plan::load(&a.config)?;
+    let registry = shscale_experiments::registry();
+    let plan = Plan::load(&a.config, &overrides(&a.overrides), &registry)?;
+    let opts = SlurmOptions {
+        time: a.time,
+        mem: a.mem,
+        partition: a.partition,
+        cpus_per_task: a.cpus_per_task,
+        account: a.account,
+    };
     print!(
         "{}",
-        shscale_lab::runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir)?
+        runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir, &opts)?
     );
     Ok(ExitCode::SUCCESS)
-}
-
-/// One line per run: its swept parameters, the mean `occ_rel_l2` at each probe radius and the
-/// run's time (BSV + table + extrapolation), on stdout.
-fn summary_table(csv: &std::path::Path, swept: &[String]) -> anyhow::Result<()> {
-    let t = shscale_lab::plots::Table::read(csv)?;
-    let col = |name: &str| t.columns.iter().position(|c| c == name);
-    let mut radii: Vec<f64> = (0..t.rows.len()).map(|r| t.num(r, "radius")).collect();
-    radii.sort_by(f64::total_cmp);
-    radii.dedup();
-    let mut runs: Vec<String> = Vec::new();
-    for r in &t.rows {
-        if !runs.contains(&r[0]) {
-            runs.push(r[0].clone());
-        }
-    }
-    let mut head = format!("  {:<17}", "run_id");
-    for k in swept {
-        head.push_str(&format!(" {k:>15}"));
-    }
-    for rho in &radii {
-        head.push_str(&format!(" {:>9}", format!("occ@{rho}r")));
-    }
-    head.push_str(&format!(" {:>9}", "time_ms"));
-    println!("  occ_rel_l2 (mean over base-sphere samples) per probe radius:");
-    println!("{head}");
-    for id in &runs {
-        let rows: Vec<usize> = (0..t.rows.len()).filter(|&r| &t.rows[r][0] == id).collect();
-        let mut line = format!("  {id:<17}");
-        for k in swept {
-            let v = col(k).map_or(String::new(), |c| t.rows[rows[0]][c].clone());
-            line.push_str(&format!(" {v:>15}"));
-        }
-        for rho in &radii {
-            let v = rows
-                .iter()
-                .find(|&&r| t.num(r, "radius") == *rho)
-                .map_or(f64::NAN, |&r| t.num(r, "occ_rel_l2_mean"));
-            line.push_str(&format!(" {v:>9.4}"));
-        }
-        let time: f64 = t.num(rows[0], "bsv_sampling_seconds")
-            + t.num(rows[0], "table_build_seconds")
-            + rows
-                .iter()
-                .map(|&r| t.num(r, "extrapolation_seconds"))
-                .sum::<f64>();
-        line.push_str(&format!(" {:>9.1}", time * 1e3));
-        println!("{line}");
-    }
-    Ok(())
 }

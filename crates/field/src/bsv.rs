@@ -57,12 +57,33 @@ impl Layout {
             "fib" => Layout::Fibonacci { p: num(arg)? },
             _ => return Err(bad()),
         };
-        if l.directions().len() < 4 {
+        let count = l.sample_count();
+        if count.is_none_or(|c| c > Self::MAX_SAMPLES) {
+            return Err(FieldError::Spec(format!(
+                "layout {s:?} has {} samples, more than the limit {}",
+                count.map_or("too many".to_string(), |c| c.to_string()),
+                Self::MAX_SAMPLES
+            )));
+        }
+        if count.is_some_and(|c| c < 4) {
             return Err(FieldError::Spec(format!(
                 "layout {s:?} has fewer than 4 samples"
             )));
         }
         Ok(l)
+    }
+
+    /// The most base-sphere samples a layout may have (checked by [`Layout::parse`] before any
+    /// allocation): 10⁶, about 4000× the TR's 12×20.
+    pub const MAX_SAMPLES: usize = 1_000_000;
+
+    /// The number of samples, without building them (`None` on overflow).
+    pub fn sample_count(&self) -> Option<usize> {
+        match *self {
+            Layout::LatLong { rows, cols } => rows.checked_mul(cols),
+            Layout::Cube { n } => n.checked_mul(n)?.checked_mul(6),
+            Layout::Fibonacci { p } => Some(p),
+        }
     }
 
     /// Unit directions (from the centre) of the samples.

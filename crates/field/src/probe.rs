@@ -126,6 +126,21 @@ pub fn base_key(spec: &ProbeSpec) -> String {
     )
 }
 
+/// The k range a k-table needs for probe radii `radii` (× r) sampled at radius `s` (× r):
+/// `[min ρ/s, max ρ/s]`, widened ×2 both ways when it is a single value. The one definition,
+/// used by probes, the runner and the figures.
+pub fn k_range(radii: &[f64], sampling_radius: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = radii
+        .iter()
+        .map(|r| r / sampling_radius)
+        .fold((f64::MAX, f64::MIN), |(a, b), k| (a.min(k), b.max(k)));
+    if hi / lo < 1.0 + 1e-9 {
+        lo /= 2.0;
+        hi *= 2.0;
+    }
+    (lo, hi)
+}
+
 /// Sample the BSV of `occ` and compute the truth at every probe point (`analytic`: closed-form
 /// truth of a solid sphere; otherwise ray-traced, `2H²` rays, projected to order N).
 pub fn probe_base(
@@ -139,16 +154,39 @@ pub fn probe_base(
             spec.radii
         )));
     }
-    let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
     let t0 = Instant::now();
-    let bsv = Bsv::sample(
+    let bsv = sample_bsv(occ, spec)?;
+    let bsv_sampling_seconds = t0.elapsed().as_secs_f64();
+    probe_base_on(bsv, bsv_sampling_seconds, occ, analytic, spec)
+}
+
+/// The BSV of a probe spec (what [`probe_base`] samples first).
+pub fn sample_bsv(occ: &dyn Occluder, spec: &ProbeSpec) -> Result<Bsv, FieldError> {
+    let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
+    Bsv::sample(
         occ,
         spec.layout,
         &sampler,
         spec.sampling_radius,
         spec.on_surface_eps,
-    )?;
-    let bsv_sampling_seconds = t0.elapsed().as_secs_f64();
+    )
+}
+
+/// [`probe_base`] on a BSV sampled (and timed) by the caller: the truth at every probe point.
+pub fn probe_base_on(
+    bsv: Bsv,
+    bsv_sampling_seconds: f64,
+    occ: &dyn Occluder,
+    analytic: Option<Sphere>,
+    spec: &ProbeSpec,
+) -> Result<ProbeBase, FieldError> {
+    if spec.radii.is_empty() || spec.radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(FieldError::Spec(format!(
+            "radii {:?} must be finite and > 0",
+            spec.radii
+        )));
+    }
+    let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
     let basis = ShBasis::<f64>::new(spec.order)?;
     let s = bsv.sphere;
     let (mut truth, mut truth_seconds) = (Vec::new(), Vec::new());
@@ -206,13 +244,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         .iter()
         .map(|r| r / spec.sampling_radius)
         .collect();
-    let (mut k_min, mut k_max) = ks
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), &k| (a.min(k), b.max(k)));
-    if k_max / k_min < 1.0 + 1e-9 {
-        k_min /= 2.0;
-        k_max *= 2.0;
-    }
+    let (k_min, k_max) = k_range(&spec.radii, spec.sampling_radius);
     let t1 = Instant::now();
     let table = KTable::build(
         TauFamily::Cone { alpha: spec.alpha },

@@ -4,13 +4,14 @@
 //! rename). The numerical crates stay free of files and configs.
 
 pub mod bench;
-pub mod experiment;
+pub mod exp;
 pub mod gpu_path;
 pub mod io;
 pub mod plots;
 pub mod render;
 pub mod runner;
 pub mod scene;
+pub mod vocab;
 
 /// Errors of the lab.
 /// A TOML parse error of `file` (whose text is `text`) as a [`LabError::Config`] naming the file,

@@ -19,44 +19,8 @@ pub fn ensure_font() {
     });
 }
 
-/// A parsed `runs.csv`: column name → values per row (empty cells become NaN).
-pub struct Table {
-    pub columns: Vec<String>,
-    pub rows: Vec<Vec<String>>,
-}
-
-impl Table {
-    /// Read a CSV written by the runner (no quoted commas in numeric columns).
-    pub fn read(path: &Path) -> Result<Self, LabError> {
-        let text = std::fs::read_to_string(path).map_err(|e| LabError::Io {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })?;
-        let mut lines = text.lines();
-        let columns: Vec<String> = lines
-            .next()
-            .unwrap_or("")
-            .split(',')
-            .map(String::from)
-            .collect();
-        let rows = lines
-            .map(|l| l.split(',').map(String::from).collect())
-            .collect();
-        Ok(Self { columns, rows })
-    }
-
-    fn col(&self, name: &str) -> Option<usize> {
-        self.columns.iter().position(|c| c == name)
-    }
-
-    /// Numeric value of `name` in row `r` (NaN when empty or not a number).
-    pub fn num(&self, r: usize, name: &str) -> f64 {
-        self.col(name)
-            .and_then(|c| self.rows[r].get(c))
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(f64::NAN)
-    }
-}
+/// A results CSV (read through the `csv` crate).
+pub type Table = crate::exp::records::Results;
 
 fn err(path: &Path, e: impl std::fmt::Display) -> LabError {
     LabError::Io {
@@ -215,13 +179,13 @@ pub const NUMERIC_PARAMS: &[&str] = &[
     "on_surface_eps",
 ];
 
-/// Plots of a probe run directory: for every numeric swept parameter P, `occ_rel_l2` against P —
-/// one series per value of another swept parameter (averaged over the probe radii and any further
-/// swept parameters) when there is one, else one series per probe radius (against the radius when nothing numeric is swept) —
-/// and the speed/accuracy scatter with its Pareto front. Returns the files written.
-pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabError> {
-    let t = Table::read(&dir.join("runs.csv"))?;
-    let numeric: Vec<&str> = swept
+/// Plots of a probe results directory: for every numeric parameter P that varies in the CSV,
+/// `occ_rel_l2` against P — one series per combination of the other varying parameters
+/// (averaged over the probe radii), or one series per probe radius when nothing else varies —
+/// and the speed/accuracy scatter with its Pareto front (rows timed concurrently with other
+/// runs are left out of it). Returns the files written.
+pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, LabError> {
+    let numeric: Vec<&str> = varying
         .iter()
         .map(String::as_str)
         .filter(|k| NUMERIC_PARAMS.contains(k))
@@ -233,47 +197,51 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
     };
     let mut files = Vec::new();
     for &param in &params {
-        // The other swept parameter (numeric or not, e.g. layout or mesh), if any.
-        let other = swept.iter().map(String::as_str).find(|k| *k != param);
-        let col = |name: &str| t.columns.iter().position(|h| h == name);
+        let others: Vec<&str> = varying
+            .iter()
+            .map(String::as_str)
+            .filter(|k| *k != param)
+            .collect();
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        let y_desc = match other.and_then(|o| col(o).map(|c| (o, c))) {
-            Some((o, c)) => {
-                // Mean over the probe radii per (param, other) cell.
-                let mut cells: BTreeMap<(String, u64), (f64, usize)> = BTreeMap::new();
-                for r in 0..t.rows.len() {
-                    let v = t.num(r, "occ_rel_l2_mean");
-                    if !v.is_finite() {
-                        continue;
-                    }
-                    let e = cells
-                        .entry((t.rows[r][c].clone(), t.num(r, param).to_bits()))
-                        .or_insert((0.0, 0));
-                    e.0 += v;
-                    e.1 += 1;
+        let y_desc = if !others.is_empty() {
+            // Mean over the probe radii per (param, other parameters) cell.
+            let mut cells: BTreeMap<(String, u64), (f64, usize)> = BTreeMap::new();
+            for r in 0..t.rows.len() {
+                let v = t.num(r, "occ_rel_l2_mean");
+                if !v.is_finite() {
+                    continue;
                 }
-                for ((ov, x), (sum, n)) in cells {
-                    series
-                        .entry(format!("{o} = {ov}"))
-                        .or_default()
-                        .push((f64::from_bits(x), sum / n as f64));
-                }
-                "occ_rel_l2, mean over probe radii (1)"
+                let label = others
+                    .iter()
+                    .map(|o| format!("{o} = {}", t.cell(r, o)))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let e = cells
+                    .entry((label, t.num(r, param).to_bits()))
+                    .or_insert((0.0, 0));
+                e.0 += v;
+                e.1 += 1;
             }
-            None => {
-                for r in 0..t.rows.len() {
-                    let key = if param == "radius" {
-                        "all runs".to_string()
-                    } else {
-                        format!("ρ = {} r", t.num(r, "radius"))
-                    };
-                    series
-                        .entry(key)
-                        .or_default()
-                        .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
-                }
-                "occ_rel_l2, mean over samples (1)"
+            for ((label, x), (sum, n)) in cells {
+                series
+                    .entry(label)
+                    .or_default()
+                    .push((f64::from_bits(x), sum / n as f64));
             }
+            "occ_rel_l2, mean over probe radii (1)"
+        } else {
+            for r in 0..t.rows.len() {
+                let key = if param == "radius" {
+                    "all runs".to_string()
+                } else {
+                    format!("ρ = {} r", t.num(r, "radius"))
+                };
+                series
+                    .entry(key)
+                    .or_default()
+                    .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
+            }
+            "occ_rel_l2, mean over samples (1)"
         };
         let unit = match param {
             "alpha_deg" => "α (degrees)",
@@ -301,6 +269,9 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
     // Per run: total time of the extrapolation path vs its error averaged over radii.
     let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
     for r in 0..t.rows.len() {
+        if t.cell(r, "timing_concurrent") == "true" {
+            continue;
+        }
         let id = t.rows[r][0].clone();
         let time = t.num(r, "bsv_sampling_seconds") + t.num(r, "table_build_seconds");
         let e = runs.entry(id).or_insert((time, 0.0, 0));
@@ -325,6 +296,10 @@ pub fn probe_plots(dir: &Path, swept: &[String]) -> Result<Vec<PathBuf>, LabErro
             best = p.1;
             front.push(p);
         }
+    }
+    if pts.is_empty() {
+        // Every run was timed alongside others (parallel_runs = true): no comparable times.
+        return Ok(files);
     }
     let mut series = BTreeMap::new();
     series.insert("runs".to_string(), pts);

@@ -12,7 +12,7 @@ use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{bundled, deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+use shscale_geometry::{deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use std::time::Instant;
 
@@ -68,21 +68,12 @@ pub fn placed_mesh(
     radius: f64,
     up_is_y: bool,
 ) -> Result<Mesh, LabError> {
-    let mut m = match mesh {
-        "bird" => shapes::bird(),
-        "egg" => shapes::egg(1.0, 0.5, 22, 24),
-        "sponge" => shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 37),
-        "plane" => shapes::plane(2.0, 2.0, 92, 92),
-        _ => {
-            let mut m = bundled::resolve(mesh)?;
-            if up_is_y {
-                for p in &mut m.positions {
-                    *p = DVec3::new(p.x, -p.z, p.y);
-                }
-            }
-            m
+    let mut m = crate::vocab::mesh(mesh)?;
+    if up_is_y && !crate::vocab::PROCEDURAL.contains(&mesh) {
+        for p in &mut m.positions {
+            *p = DVec3::new(p.x, -p.z, p.y);
         }
-    };
+    }
     m.fit_to(&Sphere { center, radius });
     Ok(m)
 }

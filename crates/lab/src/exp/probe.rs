@@ -1,0 +1,423 @@
+//! The `probe` kind (SHS Fig. 5 / TR Fig. 1): extrapolated vs ray-traced visibility at probe
+//! radii along every base-sphere sample, one row per run and radius. Runs sharing mesh, order,
+//! layout, H, sampling radius, ε and radii share the BSV and the truth (computed once); α and
+//! the k-table vary per run.
+
+use super::records::{list, Results};
+use super::{Cost, Ctx, KeyError, Kind};
+use crate::exp::timing::{Timing, CPU_RAYS_PER_SECOND};
+use crate::LabError;
+use serde::{Deserialize, Serialize};
+use shscale_field::probe::{probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeSpec};
+use shscale_field::Layout;
+use shscale_scaling::{Interp, Spacing};
+use std::path::{Path, PathBuf};
+
+/// The most probe radii a run may have.
+pub const MAX_RADII: usize = 64;
+/// The largest SH order of a probe run.
+pub const MAX_ORDER: usize = 16;
+/// The largest hemisphere resolution H (H² rays per BSV sample, 2H² per truth probe).
+pub const MAX_HEMISPHERE_RES: usize = 256;
+/// The most tabulated k values.
+pub const MAX_K_COUNT: usize = 10_000;
+
+/// Parameters of one probe run (config keys; every one can be swept).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProbeParams {
+    /// `sphere`, a procedural shape, a bundled mesh or a path.
+    pub mesh: String,
+    pub order: usize,
+    /// Cone half-angle α in degrees, in (0, 90).
+    pub alpha_deg: f64,
+    /// `latlong:RxC`, `cube:N` or `fib:P` (at most 10⁶ samples).
+    pub layout: String,
+    pub hemisphere_res: usize,
+    /// Sampling sphere radius as a multiple of the bounding radius, ≥ 1.
+    pub sampling_radius: f64,
+    pub k_count: usize,
+    /// `exp | uniform | chebyshev`.
+    pub k_spacing: String,
+    /// `linear | cubic` (in ln k).
+    pub k_interp: String,
+    /// On-surface threshold ε (× r).
+    pub on_surface_eps: f64,
+    /// Probe radii (× r).
+    #[serde(with = "list")]
+    pub radii: Vec<f64>,
+}
+
+impl Default for ProbeParams {
+    fn default() -> Self {
+        Self {
+            mesh: "sphere".into(),
+            order: 4,
+            alpha_deg: 45.0,
+            layout: "latlong:12x20".into(),
+            hemisphere_res: 32,
+            sampling_radius: 1.0,
+            k_count: 40,
+            k_spacing: "exp".into(),
+            k_interp: "linear".into(),
+            on_surface_eps: 1e-3,
+            radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
+        }
+    }
+}
+
+/// `"exp" | "uniform" | "chebyshev"`.
+pub fn parse_spacing(s: &str) -> Result<Spacing, String> {
+    match s {
+        "exp" => Ok(Spacing::Exp),
+        "uniform" => Ok(Spacing::Uniform),
+        "chebyshev" => Ok(Spacing::Chebyshev),
+        _ => Err(format!(
+            "{s:?} is not one of \"exp\", \"uniform\", \"chebyshev\""
+        )),
+    }
+}
+
+/// `"linear" | "cubic"`.
+pub fn parse_interp(s: &str) -> Result<Interp, String> {
+    match s {
+        "linear" => Ok(Interp::Linear),
+        "cubic" => Ok(Interp::Cubic),
+        _ => Err(format!("{s:?} is not one of \"linear\", \"cubic\"")),
+    }
+}
+
+impl ProbeParams {
+    /// The field crate's spec (parameters already validated).
+    pub fn spec(&self) -> Result<ProbeSpec, LabError> {
+        let c = |m: String| LabError::Config(m);
+        Ok(ProbeSpec {
+            order: self.order,
+            alpha: self.alpha_deg.to_radians(),
+            layout: Layout::parse(&self.layout)?,
+            hemisphere_res: self.hemisphere_res,
+            sampling_radius: self.sampling_radius,
+            radii: self.radii.clone(),
+            k_count: self.k_count,
+            k_spacing: parse_spacing(&self.k_spacing).map_err(c)?,
+            k_interp: parse_interp(&self.k_interp).map_err(c)?,
+            on_surface_eps: self.on_surface_eps,
+        })
+    }
+}
+
+/// One row: a run at one probe radius (metric names of docs/conventions.md).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct ProbeRow {
+    pub radius: f64,
+    pub k: f64,
+    pub probes: usize,
+    pub inside_count: usize,
+    pub unoccluded_truth_count: usize,
+    pub clamped_count: usize,
+    pub vis_rel_l2_mean: Option<f64>,
+    pub vis_rel_l2_max: Option<f64>,
+    pub occ_rel_l2_mean: Option<f64>,
+    pub occ_rel_l2_max: Option<f64>,
+    pub on_surface_count: usize,
+    pub vis_rel_l2_on_surface_mean: Option<f64>,
+    pub occ_rel_l2_on_surface_mean: Option<f64>,
+    pub occ_rel_l2_on_surface_max: Option<f64>,
+    pub bsv_rays: usize,
+    /// Median over the timing procedure; `*_spread` = (max − min) / median.
+    pub bsv_sampling_seconds: f64,
+    pub bsv_sampling_spread: f64,
+    pub table_build_seconds: f64,
+    pub table_build_spread: f64,
+    pub extrapolation_seconds: f64,
+    pub extrapolation_spread: f64,
+    /// The truth at this radius, measured once (it is the reference, not a method under test).
+    pub truth_seconds: f64,
+    pub gpu_bsv_sampling_seconds: Option<f64>,
+    pub gpu_sh_conversion_seconds: Option<f64>,
+    pub gpu_device: String,
+}
+
+/// What runs of a group share.
+pub struct ProbeShared {
+    occ: Box<dyn shscale_geometry::Occluder>,
+    base: ProbeBase,
+    bsv_timing: Timing,
+    gpu: (Option<f64>, Option<f64>, String),
+}
+
+/// The kind.
+pub struct Probe;
+
+fn base_key(p: &ProbeParams) -> String {
+    format!(
+        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};radii={:?}",
+        p.mesh, p.order, p.layout, p.hemisphere_res, p.sampling_radius, p.on_surface_eps, p.radii
+    )
+}
+
+impl Kind for Probe {
+    const NAME: &'static str = "probe";
+    const QUESTION: &'static str = "How close is SH-scaling extrapolation of a base-sphere visibility field to ray-traced visibility at probe radii (occ_rel_l2 per radius, on-surface samples separately), and at what cost?";
+    type Params = ProbeParams;
+    type Shared = ProbeShared;
+    type Row = ProbeRow;
+
+    fn validate(p: &ProbeParams) -> Result<(), KeyError> {
+        if !crate::vocab::mesh_exists(&p.mesh) {
+            return Err(KeyError::new(
+                "mesh",
+                format!(
+                    "{:?} is neither {} nor an existing .obj/.ply file",
+                    p.mesh,
+                    crate::vocab::mesh_names()
+                ),
+            ));
+        }
+        if !(1..=MAX_ORDER).contains(&p.order) {
+            return Err(KeyError::new(
+                "order",
+                format!("{} is outside 1..={MAX_ORDER}", p.order),
+            ));
+        }
+        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
+            return Err(KeyError::new(
+                "alpha_deg",
+                format!("{} is outside (0, 90)", p.alpha_deg),
+            ));
+        }
+        Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        if !(1..=MAX_HEMISPHERE_RES).contains(&p.hemisphere_res) {
+            return Err(KeyError::new(
+                "hemisphere_res",
+                format!("{} is outside 1..={MAX_HEMISPHERE_RES}", p.hemisphere_res),
+            ));
+        }
+        if !(p.sampling_radius.is_finite() && (1.0..=1e3).contains(&p.sampling_radius)) {
+            return Err(KeyError::new(
+                "sampling_radius",
+                format!("{} is outside [1, 1000]", p.sampling_radius),
+            ));
+        }
+        let interp = parse_interp(&p.k_interp).map_err(|m| KeyError::new("k_interp", m))?;
+        parse_spacing(&p.k_spacing).map_err(|m| KeyError::new("k_spacing", m))?;
+        let min_k = if interp == Interp::Cubic { 4 } else { 2 };
+        if !(min_k..=MAX_K_COUNT).contains(&p.k_count) {
+            return Err(KeyError::new(
+                "k_count",
+                format!(
+                    "{} is outside {min_k}..={MAX_K_COUNT} (≥ 4 for cubic)",
+                    p.k_count
+                ),
+            ));
+        }
+        if !(p.on_surface_eps.is_finite() && (0.0..1.0).contains(&p.on_surface_eps)) {
+            return Err(KeyError::new(
+                "on_surface_eps",
+                format!("{} is outside [0, 1)", p.on_surface_eps),
+            ));
+        }
+        if p.radii.is_empty() || p.radii.len() > MAX_RADII {
+            return Err(KeyError::new(
+                "radii",
+                format!("{} radii: give 1 to {MAX_RADII}", p.radii.len()),
+            ));
+        }
+        if let Some(r) = p
+            .radii
+            .iter()
+            .find(|r| !(r.is_finite() && **r > 0.0 && **r <= 1e6))
+        {
+            return Err(KeyError::new("radii", format!("{r} is outside (0, 1e6]")));
+        }
+        for (i, r) in p.radii.iter().enumerate() {
+            if p.radii[..i].contains(r) {
+                return Err(KeyError::new(
+                    &format!("radii[{i}]"),
+                    format!("radius {r} appears twice"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn group_key(p: &ProbeParams) -> String {
+        base_key(p)
+    }
+
+    fn cost(p: &ProbeParams) -> (Cost, Cost) {
+        let samples = Layout::parse(&p.layout)
+            .ok()
+            .and_then(|l| l.sample_count())
+            .unwrap_or(0) as f64;
+        let h2 = (p.hemisphere_res * p.hemisphere_res) as f64;
+        let nn = (p.order * p.order) as f64;
+        let radii = p.radii.len() as f64;
+        let truth_rays = if p.mesh == "sphere" {
+            0.0
+        } else {
+            radii * samples * 2.0 * h2
+        };
+        let bsv_rays = samples * h2;
+        let rays = bsv_rays + truth_rays;
+        let shared = Cost {
+            rays,
+            bytes: (1.0 + radii) * samples * nn * 8.0 + 64e6,
+            seconds: rays / CPU_RAYS_PER_SECOND,
+            drivers: format!(
+                "mesh {} with layout = {:?} ({samples} samples) × hemisphere_res = {} ({h2} rays per BSV sample, {} per truth probe) × {} radii → {rays:.3e} rays",
+                p.mesh,
+                p.layout,
+                p.hemisphere_res,
+                2.0 * h2,
+                p.radii.len()
+            ),
+        };
+        let table = p.k_count as f64 * nn * nn * 8.0;
+        let run = Cost {
+            rays: 0.0,
+            bytes: table + radii * samples * nn * 8.0,
+            // Table build ≈ 70 ns per k and element pair at N = 4 (2.7 ms for K = 40),
+            // extrapolation ≈ 10 ns per probe and element.
+            seconds: p.k_count as f64 * nn * nn * 2.6e-7 + radii * samples * nn * 1e-8,
+            drivers: format!("k_count = {} × order² = {nn}", p.k_count),
+        };
+        (shared, run)
+    }
+
+    fn rows_per_run(p: &ProbeParams) -> usize {
+        p.radii.len()
+    }
+
+    fn shared(p: &ProbeParams, ctx: &Ctx) -> Result<ProbeShared, LabError> {
+        let spec = p.spec()?;
+        let u = crate::vocab::unit_occluder(&p.mesh)?;
+        let (bsv, bsv_timing) = ctx.timing.measure(|| sample_bsv(u.occ.as_ref(), &spec))?;
+        let base = probe_base_on(bsv, bsv_timing.median, u.occ.as_ref(), u.analytic, &spec)?;
+        let gpu = match (ctx.gpu, u.mesh.as_ref()) {
+            (Some(g), Some(m)) if p.order <= shscale_gpu::MAX_GPU_ORDER => {
+                let b = m.bounding_sphere();
+                let sphere = shscale_geometry::Sphere {
+                    center: b.center,
+                    radius: b.radius * p.sampling_radius,
+                };
+                let t = crate::gpu_path::time_gpu_bsv(
+                    g,
+                    m,
+                    spec.layout,
+                    p.order,
+                    p.hemisphere_res,
+                    sphere,
+                    ctx.timing.repeats.max(5),
+                )?;
+                (
+                    Some(t.sampling_seconds),
+                    Some(t.conversion_seconds),
+                    t.device,
+                )
+            }
+            _ => (None, None, String::new()),
+        };
+        Ok(ProbeShared {
+            occ: u.occ,
+            base,
+            bsv_timing,
+            gpu,
+        })
+    }
+
+    fn run(
+        p: &ProbeParams,
+        run_id: &str,
+        sh: &ProbeShared,
+        ctx: &Ctx,
+    ) -> Result<Vec<ProbeRow>, LabError> {
+        let spec = p.spec()?;
+        // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
+        // extrapolation at each radius.
+        let mut results = Vec::new();
+        for i in 0..ctx.timing.warmup + ctx.timing.repeats.max(1) {
+            let r = probe_with(&sh.base, &spec)?;
+            if i >= ctx.timing.warmup {
+                results.push(r);
+            }
+        }
+        let table = Timing::of(
+            &results
+                .iter()
+                .map(|r| r.table_build_seconds)
+                .collect::<Vec<_>>(),
+        );
+        let res = results.pop().expect("one repeat at least");
+        crate::runner::visibility_figure(ctx.dir, run_id, p.order, sh.occ.as_ref(), &res.examples)?;
+        Ok(res
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(ri, r)| {
+                let mut ext: Vec<f64> = results
+                    .iter()
+                    .map(|x| x.rows[ri].extrapolation_seconds)
+                    .collect();
+                ext.push(r.extrapolation_seconds);
+                let ext = Timing::of(&ext);
+                ProbeRow {
+                    radius: r.radius,
+                    k: r.k,
+                    probes: r.probes,
+                    inside_count: r.inside_count,
+                    unoccluded_truth_count: r.unoccluded_truth_count,
+                    clamped_count: r.clamped_count,
+                    vis_rel_l2_mean: r.vis_rel_l2_mean,
+                    vis_rel_l2_max: r.vis_rel_l2_max,
+                    occ_rel_l2_mean: r.occ_rel_l2_mean,
+                    occ_rel_l2_max: r.occ_rel_l2_max,
+                    on_surface_count: r.on_surface_count,
+                    vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
+                    occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
+                    occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
+                    bsv_rays: res.bsv_rays,
+                    bsv_sampling_seconds: sh.bsv_timing.median,
+                    bsv_sampling_spread: sh.bsv_timing.spread(),
+                    table_build_seconds: table.median,
+                    table_build_spread: table.spread(),
+                    extrapolation_seconds: ext.median,
+                    extrapolation_spread: ext.spread(),
+                    truth_seconds: r.truth_seconds,
+                    gpu_bsv_sampling_seconds: sh.gpu.0,
+                    gpu_sh_conversion_seconds: sh.gpu.1,
+                    gpu_device: sh.gpu.2.clone(),
+                }
+            })
+            .collect())
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &[
+            "bsv_sampling_seconds",
+            "bsv_sampling_spread",
+            "table_build_seconds",
+            "table_build_spread",
+            "extrapolation_seconds",
+            "extrapolation_spread",
+            "truth_seconds",
+            "gpu_bsv_sampling_seconds",
+            "gpu_sh_conversion_seconds",
+        ]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "radius",
+            "occ_rel_l2_mean",
+            "occ_rel_l2_on_surface_mean",
+            "table_build_seconds",
+        ]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+        let params = super::Erased::<Probe>::new();
+        let varying = t.varying(&super::DynKind::param_columns(&params));
+        crate::plots::probe_plots(dir, t, &varying)
+    }
+}

@@ -1,0 +1,147 @@
+//! The one timing procedure of every time column of an experiment: `warmup` untimed calls, then
+//! `repeats` timed calls; the median is the column, the relative spread `(max − min) / median` is
+//! recorded beside it. Work that runs on the GPU is synchronised inside the timed closure (the
+//! GPU path's timers wait for the queue). Times taken while other runs of the same process ran
+//! concurrently are marked (`timing_concurrent = true` in every row) and left out of Pareto plots.
+//!
+//! Also the cost model of `--dry-run`: rates measured on the development VM (AMD EPYC, 2 vCPUs,
+//! release build) with `shscale run configs/quickstart.toml` and `shscale bench`, see
+//! docs/BENCHMARKS.md. They only size plans; they never appear in results.
+
+use std::time::Instant;
+
+/// Warm-up and repeat counts (config keys `timing_warmup`, `timing_repeats`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Procedure {
+    pub warmup: usize,
+    pub repeats: usize,
+}
+
+impl Default for Procedure {
+    fn default() -> Self {
+        Self {
+            warmup: 1,
+            repeats: 3,
+        }
+    }
+}
+
+/// The most repeats (and warm-up calls) a config may ask for.
+pub const MAX_REPEATS: usize = 100;
+
+/// A measured time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timing {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    pub repeats: usize,
+}
+
+impl Timing {
+    /// `(max − min) / median` (0 for a single repeat).
+    pub fn spread(&self) -> f64 {
+        if self.median > 0.0 {
+            (self.max - self.min) / self.median
+        } else {
+            0.0
+        }
+    }
+
+    /// Median, min and max of samples (seconds).
+    pub fn of(samples: &[f64]) -> Self {
+        let mut s = samples.to_vec();
+        s.sort_by(f64::total_cmp);
+        let n = s.len();
+        if n == 0 {
+            return Self::default();
+        }
+        let median = if n % 2 == 1 {
+            s[n / 2]
+        } else {
+            0.5 * (s[n / 2 - 1] + s[n / 2])
+        };
+        Self {
+            median,
+            min: s[0],
+            max: s[n - 1],
+            repeats: n,
+        }
+    }
+}
+
+impl Procedure {
+    /// Run `f` `warmup + repeats` times; the last result and the timing of the repeats.
+    pub fn measure<T, E>(&self, mut f: impl FnMut() -> Result<T, E>) -> Result<(T, Timing), E> {
+        for _ in 0..self.warmup {
+            f()?;
+        }
+        let mut samples = Vec::with_capacity(self.repeats.max(1));
+        let mut last = None;
+        for _ in 0..self.repeats.max(1) {
+            let t0 = Instant::now();
+            let v = f()?;
+            samples.push(t0.elapsed().as_secs_f64());
+            last = Some(v);
+        }
+        let v = last.expect("at least one repeat ran");
+        Ok((v, Timing::of(&samples)))
+    }
+
+    /// Run `f` once per (warm-up + repeat) where each call yields several named times; the
+    /// median etc. per name.
+    pub fn measure_parts<T, E, const P: usize>(
+        &self,
+        mut f: impl FnMut() -> Result<(T, [f64; P]), E>,
+    ) -> Result<(T, [Timing; P]), E> {
+        for _ in 0..self.warmup {
+            f()?;
+        }
+        let mut samples: [Vec<f64>; P] = std::array::from_fn(|_| Vec::new());
+        let mut last = None;
+        for _ in 0..self.repeats.max(1) {
+            let (v, t) = f()?;
+            for (s, x) in samples.iter_mut().zip(t) {
+                s.push(x);
+            }
+            last = Some(v);
+        }
+        let v = last.expect("at least one repeat ran");
+        Ok((v, std::array::from_fn(|i| Timing::of(&samples[i]))))
+    }
+}
+
+/// Occlusion rays per second of the CPU path on this machine (2 threads, bunny BSV workload:
+/// 12×20 × 32² rays in ≈ 29 ms, docs/BENCHMARKS.md).
+pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
+
+/// The most rays a plan may trace without `--allow-large`.
+pub const MAX_PLAN_RAYS: f64 = 1e10;
+
+/// The most bytes a plan's largest group may hold without `--allow-large` (8 GiB).
+pub const MAX_PLAN_BYTES: f64 = 8.0 * 1024.0 * 1024.0 * 1024.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_and_spread() {
+        let t = Timing::of(&[3.0, 1.0, 2.0]);
+        assert_eq!((t.median, t.min, t.max, t.repeats), (2.0, 1.0, 3.0, 3));
+        assert_eq!(t.spread(), 1.0);
+        assert_eq!(Timing::of(&[1.0, 3.0]).median, 2.0);
+        let mut calls = 0;
+        let p = Procedure {
+            warmup: 2,
+            repeats: 5,
+        };
+        let (v, t) = p
+            .measure(|| {
+                calls += 1;
+                Ok::<_, ()>(calls)
+            })
+            .unwrap();
+        assert_eq!((v, calls, t.repeats), (7, 7, 5));
+    }
+}

@@ -1,0 +1,86 @@
+//! One vocabulary for every command, the runner and the figures: what a mesh name means
+//! (`sphere`, the procedural shapes, the bundled meshes, a file path) and the k range a set of
+//! probe radii needs. Resolved here only.
+
+use crate::LabError;
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{bundled, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+
+/// The procedural shapes, by name.
+pub const PROCEDURAL: &[&str] = &["bird", "egg", "sponge", "plane"];
+
+/// Every name a mesh key accepts besides a file path, for messages.
+pub fn mesh_names() -> String {
+    format!(
+        "\"sphere\" (analytic), the procedural {} or the bundled {}",
+        PROCEDURAL.join(", "),
+        bundled::names().join(", ")
+    )
+}
+
+/// Whether `name` names a mesh: the analytic sphere, a procedural shape, a bundled mesh or an
+/// existing file.
+pub fn mesh_exists(name: &str) -> bool {
+    name == "sphere"
+        || PROCEDURAL.contains(&name)
+        || bundled::names().contains(&name)
+        || std::path::Path::new(name).is_file()
+}
+
+/// The mesh of a name as built or stored (not moved or scaled); not for `sphere`.
+pub fn mesh(name: &str) -> Result<Mesh, LabError> {
+    Ok(match name {
+        "bird" => shapes::bird(),
+        "egg" => shapes::egg(1.0, 0.5, 22, 24),
+        "sponge" => shapes::box_block(glam::DVec3::new(1.0, 0.5, 0.3), 37),
+        "plane" => shapes::plane(2.0, 2.0, 92, 92),
+        "sphere" => {
+            return Err(LabError::Config(
+                "mesh \"sphere\" is the analytic sphere, not a triangle mesh".into(),
+            ))
+        }
+        _ => bundled::resolve(name)?,
+    })
+}
+
+/// An occluder by name in its own coordinates: the analytic unit sphere or a mesh behind a BVH.
+pub fn occluder(name: &str) -> Result<Box<dyn Occluder>, LabError> {
+    if name == "sphere" {
+        return Ok(Box::new(AnalyticSphere::unit()));
+    }
+    Ok(Box::new(MeshBvh::build(
+        &mesh(name)?,
+        UpdateStrategy::Rebuild,
+    )))
+}
+
+/// An occluder placed in the unit sphere (its minimal bounding sphere centred at the origin with
+/// radius 1), as experiments use it (results are in units of r): the occluder, the closed-form
+/// sphere when analytic, and the mesh otherwise.
+pub struct UnitOccluder {
+    pub occ: Box<dyn Occluder>,
+    pub analytic: Option<Sphere>,
+    pub mesh: Option<Mesh>,
+}
+
+/// See [`UnitOccluder`].
+pub fn unit_occluder(name: &str) -> Result<UnitOccluder, LabError> {
+    if name == "sphere" {
+        let s = AnalyticSphere::unit();
+        return Ok(UnitOccluder {
+            occ: Box::new(s),
+            analytic: Some(s.sphere),
+            mesh: None,
+        });
+    }
+    let m = crate::render::placed_mesh(name, glam::DVec3::ZERO, 1.0, false)?;
+    Ok(UnitOccluder {
+        occ: Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
+        analytic: None,
+        mesh: Some(m),
+    })
+}
+
+/// The k range a k-table needs for probe radii (× r) sampled at radius `s` (× r):
+/// [`shscale_field::probe::k_range`], re-exported so every caller finds it here.
+pub use shscale_field::probe::k_range;
