@@ -1,8 +1,16 @@
-//! The experiment runner: sweep expansion, config errors, resumption, shards, atomic CSVs.
+//! The experiment runner: sweep expansion, config errors at their place, validated resume,
+//! shards, atomic CSVs, the manifest of config versions, limits.
 
-use shscale_lab::experiment::Plan;
-use shscale_lab::runner::{run_plan, COLUMNS};
+use shscale_lab::exp::config::Overrides;
+use shscale_lab::exp::runner::{header, load_rows, run_plan, Manifest, Plan};
+use shscale_lab::exp::{DynKind, Erased};
 use std::collections::HashSet;
+
+static PROBE: Erased<shscale_lab::exp::probe::Probe> = Erased::new();
+
+fn registry() -> Vec<&'static dyn DynKind> {
+    vec![&PROBE]
+}
 
 const CONFIG: &str = r#"
 experiment = "probe"
@@ -12,11 +20,17 @@ layout = "fib:30"
 hemisphere_res = 6
 k_count = 8
 radii = [1.3, 2.0]
+timing_repeats = 1
+timing_warmup = 0
 
 [sweep]
 alpha_deg = [30, 45, 60]
 order = [2, 3]
 "#;
+
+fn parse(text: &str) -> Result<Plan, String> {
+    Plan::parse("c.toml", "c", text, &Overrides::default(), &registry()).map_err(|e| e.to_string())
+}
 
 fn tmp(tag: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("shscale-runner-{tag}-{}", std::process::id()));
@@ -26,126 +40,209 @@ fn tmp(tag: &str) -> std::path::PathBuf {
 }
 
 fn ids_in(csv: &std::path::Path) -> Vec<String> {
-    let text = std::fs::read_to_string(csv).unwrap();
-    let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(COLUMNS.join(",").as_str()));
-    lines
-        .map(|l| {
-            assert_eq!(
-                l.split(',').count(),
-                COLUMNS.len(),
-                "partial or malformed row: {l}"
-            );
-            l.split(',').next().unwrap().to_string()
-        })
-        .collect()
+    let l = load_rows(&PROBE, csv).unwrap();
+    assert!(l.rejected.is_empty(), "invalid rows: {:?}", l.rejected);
+    l.rows.iter().map(|r| r[0].clone()).collect()
 }
 
 #[test]
 fn sweeps_expand_deterministically() {
-    let a = Plan::parse("c.toml", "c", CONFIG).unwrap();
-    let b = Plan::parse("c.toml", "c", CONFIG).unwrap();
+    let a = parse(CONFIG).unwrap();
+    let b = parse(CONFIG).unwrap();
     assert_eq!(a.runs.len(), 6);
-    let ids: Vec<String> = a.runs.iter().map(|r| r.run_id()).collect();
-    assert_eq!(ids, b.runs.iter().map(|r| r.run_id()).collect::<Vec<_>>());
+    let ids: Vec<&str> = a.runs.iter().map(|r| r.id.as_str()).collect();
+    assert_eq!(
+        ids,
+        b.runs.iter().map(|r| r.id.as_str()).collect::<Vec<_>>()
+    );
     assert_eq!(
         ids.iter().collect::<HashSet<_>>().len(),
         6,
-        "run ids must be unique"
+        "unique run ids"
     );
     assert_eq!(a.name, "c");
-    assert!(a.runs.iter().any(|r| r.order == 2 && r.alpha_deg == 60.0));
+    assert!(a
+        .runs
+        .iter()
+        .any(|r| r.canonical.contains("order=2;alpha_deg=60.0")));
+    // Every parameter is a column, swept or not.
+    let h = header(&PROBE);
+    for k in [
+        "mesh",
+        "order",
+        "alpha_deg",
+        "layout",
+        "on_surface_eps",
+        "radii",
+        "radius",
+    ] {
+        assert!(h.iter().any(|c| c == k), "{k} missing from {h:?}");
+    }
 }
 
 #[test]
 fn config_errors_name_file_line_and_field() {
-    let e = Plan::parse(
-        "a.toml",
-        "a",
-        &CONFIG.replace("k_count = 8", "k_count = 8\nbogus = 1"),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("a.toml:8") && e.contains("bogus"), "{e}");
-    let e = Plan::parse(
-        "b.toml",
-        "b",
-        &CONFIG.replace("order = [2, 3]", "colour = [2, 3]"),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("b.toml:12") && e.contains("colour"), "{e}");
-    let e = Plan::parse(
-        "c.toml",
-        "c",
-        &CONFIG.replace("alpha_deg = [30, 45, 60]", "alpha_deg = [30, 95]"),
-    )
-    .unwrap_err()
-    .to_string();
+    let cases = [
+        (
+            CONFIG.replace("k_count = 8", "k_count = 8\nbogus = 1"),
+            "c.toml:8: bogus: unknown field",
+        ),
+        (
+            CONFIG.replace("order = [2, 3]", "colour = [2, 3]"),
+            "c.toml:14: colour: unknown field",
+        ),
+        (
+            CONFIG.replace("alpha_deg = [30, 45, 60]", "alpha_deg = [\n 30,\n 95,\n]"),
+            "c.toml:15: alpha_deg: 95 is outside (0, 90)",
+        ),
+        (
+            CONFIG.replace("alpha_deg = [30, 45, 60]", "alpha_deg = []"),
+            "c.toml:13: sweep.alpha_deg: a sweep axis must not be empty",
+        ),
+        (
+            CONFIG.replace("alpha_deg = [30, 45, 60]", "alpha_deg = [30, 45, 30]"),
+            "sweep.alpha_deg: value 30 appears twice",
+        ),
+        (
+            CONFIG.replace("\"probe\"", "\"paint\""),
+            "c.toml:2: experiment: \"paint\" is not a known experiment kind",
+        ),
+        (
+            CONFIG.replace("radii = [1.3, 2.0]", "radii = [1.3, 2.0, 1.3]"),
+            "c.toml:8: radii[2]: radius 1.3 appears twice",
+        ),
+        (
+            CONFIG.replace("hemisphere_res = 6", "hemisphere_res = \"six\""),
+            "c.toml:6: hemisphere_res: invalid type",
+        ),
+        (
+            CONFIG.replace("k_count = 8", "k_count = 1000000000"),
+            "k_count: 1000000000 is outside 2..=10000",
+        ),
+        (
+            CONFIG.replace("fib:30", "fib:1000000000"),
+            "layout: layout \"fib:1000000000\" has 1000000000 samples, more than the limit 1000000",
+        ),
+        (
+            CONFIG.replace("fib:30", "cube:5000000000"),
+            "more than the limit",
+        ),
+        (
+            format!("name = \"../x\"\n{CONFIG}"),
+            "c.toml:1: name: \"../x\" contains '/'",
+        ),
+    ];
+    for (text, needle) in cases {
+        let e = parse(&text).err().expect("must be refused");
+        println!("{e}");
+        assert!(e.contains(needle), "{e}\n  does not contain\n{needle}");
+    }
+    // An override names its flag.
+    let ov = Overrides {
+        set: vec!["hemisphere_res=0".into()],
+        ..Default::default()
+    };
+    let e = Plan::parse("c.toml", "c", CONFIG, &ov, &registry())
+        .err()
+        .unwrap()
+        .to_string();
     assert!(
-        e.contains("c.toml:11") && e.contains("alpha_deg") && e.contains("95"),
+        e.starts_with("--set hemisphere_res=0: hemisphere_res: 0 is outside"),
         "{e}"
     );
-    let e = Plan::parse(
-        "d.toml",
-        "d",
-        &CONFIG.replace("alpha_deg = [30, 45, 60]", "alpha_deg = []"),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("empty"), "{e}");
-    let e = Plan::parse("e.toml", "e", &CONFIG.replace("\"probe\"", "\"paint\""))
-        .unwrap_err()
+    let ov = Overrides {
+        sweep: vec!["on_surface_eps=0.1,x".into()],
+        ..Default::default()
+    };
+    let e = Plan::parse("c.toml", "c", CONFIG, &ov, &registry())
+        .err()
+        .unwrap()
         .to_string();
-    assert!(e.contains("e.toml:2") && e.contains("paint"), "{e}");
+    assert!(
+        e.starts_with("--sweep on_surface_eps=0.1,x: on_surface_eps: invalid type"),
+        "{e}"
+    );
 }
 
 #[test]
-fn runs_resume_after_interruption_and_shards_partition() {
-    let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
+fn limits_refuse_huge_plans_with_the_estimate() {
+    let big = CONFIG
+        .replace("mesh = \"sphere\"", "mesh = \"bunny\"")
+        .replace("hemisphere_res = 6", "hemisphere_res = 256")
+        .replace("fib:30", "fib:100000");
+    let p = parse(&big).unwrap();
+    let e = p.check_limits(false).unwrap_err().to_string();
+    assert!(
+        e.contains("rays") && e.contains("hemisphere_res = 256") && e.contains("--allow-large"),
+        "{e}"
+    );
+    assert!(p.check_limits(true).is_ok());
+    assert!(parse(CONFIG).unwrap().check_limits(false).is_ok());
+    let d = p.describe(None);
+    assert!(
+        d.contains("6 run(s) in 2 group(s)") && d.contains("nothing written"),
+        "{d}"
+    );
+}
+
+#[test]
+fn runs_resume_validate_rows_and_shards_partition() {
+    let plan = parse(CONFIG).unwrap();
     let d = tmp("resume");
     let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
     assert_eq!((s.ran, s.already_done), (6, 0));
-    let ids = ids_in(&s.csv);
-    assert_eq!(ids.len(), 12, "two radii per run");
-    assert!(s.dir.join("manifest.toml").exists());
-    // The Fig. 5 image of every run: truth | extrapolated, one row per radius (2 × 64 px high).
+    assert_eq!(ids_in(&s.csv).len(), 12, "two radii per run");
+    let m = Manifest::read(&s.dir).unwrap().unwrap();
+    assert_eq!(m.versions.len(), 1);
+    assert!(!m.versions[0].provenance.cpu_model.is_empty());
+    // The Fig. 5 image of every run: truth | extrapolated, one row per radius.
     for r in &plan.runs {
-        let exr = s.dir.join(format!("visibility_{}.exr", r.run_id()));
-        let (w, h, px) = shscale_lab::io::read_exr(&exr).unwrap();
-        assert_eq!((w, h), (512, 256), "2 × 256 wide, 128 per radius");
-        // Left half is a 0/1 ray-traced map with both values present (the sphere is seen).
-        let left: Vec<f32> = (0..h)
-            .flat_map(|j| (0..w / 2).map(move |i| (j, i)))
-            .map(|(j, i)| px[j * w + i][0])
-            .collect();
-        assert!(
-            left.iter().all(|v| *v == 0.0 || *v == 1.0)
-                && left.contains(&0.0)
-                && left.contains(&1.0)
-        );
-        assert!(s
-            .dir
-            .join(format!("visibility_{}.png", r.run_id()))
-            .exists());
+        let exr = s.dir.join(format!("visibility_{}.exr", r.id));
+        let (w, h, _) = shscale_lab::io::read_exr(&exr).unwrap();
+        assert_eq!((w, h), (512, 256));
     }
-    // Rerun: nothing to do.
     let again = run_plan(&plan, &d, None, &|_| {}).unwrap();
     assert_eq!((again.ran, again.already_done), (0, 6));
-    // Simulate a kill before the last run finished: drop its rows; the rerun redoes exactly it.
+    // A truncated last row and a garbage row: both set aside (kept in runs.csv.rejected), the
+    // truncated run redone.
     let text = std::fs::read_to_string(&s.csv).unwrap();
-    let last = plan.runs[5].run_id();
-    let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with(&last)).collect();
-    std::fs::write(&s.csv, kept.join("\n") + "\n").unwrap();
-    let resumed = run_plan(&plan, &d, None, &|_| {}).unwrap();
-    assert_eq!((resumed.ran, resumed.already_done), (1, 5));
+    let cut = &text[..text.len() - 20];
+    std::fs::write(&s.csv, format!("{cut}\nnot,a,row\n")).unwrap();
+    let warns = std::sync::Mutex::new(Vec::new());
+    let resumed = run_plan(&plan, &d, None, &|ev| {
+        if let shscale_lab::exp::runner::RunEvent::Warn(w) = ev {
+            warns.lock().unwrap().push(w.to_string());
+        }
+    })
+    .unwrap();
+    assert_eq!(
+        (resumed.ran, resumed.already_done, resumed.redone),
+        (1, 5, 1)
+    );
+    let warns = warns.into_inner().unwrap();
+    println!("{warns:#?}");
+    assert!(warns.iter().any(|w| w.contains("cells, the header has")));
+    assert!(warns.iter().any(|w| w.contains("partial")));
     assert_eq!(ids_in(&s.csv).len(), 12);
-    // No temporary files are left behind.
+    let rejected = std::fs::read_to_string(s.dir.join("runs.csv.rejected")).unwrap();
+    assert!(rejected.contains("not,a,row"));
     assert!(std::fs::read_dir(&s.dir).unwrap().all(|e| !e
         .unwrap()
         .file_name()
         .to_string_lossy()
         .contains(".tmp-")));
+    // A row whose run id does not match its parameters is set aside too.
+    let text = std::fs::read_to_string(&s.csv).unwrap();
+    let forged = text.replacen(",0.001,", ",0.002,", 1);
+    std::fs::write(&s.csv, &forged).unwrap();
+    let l = load_rows(&PROBE, &s.csv).unwrap();
+    assert!(
+        l.rejected
+            .iter()
+            .any(|(_, why, _)| why.contains("does not match its parameters")),
+        "{:?}",
+        l.rejected
+    );
     // Shards: disjoint, together everything.
     let d2 = tmp("shards");
     let a = run_plan(&plan, &d2, Some((0, 2)), &|_| {}).unwrap();
@@ -155,15 +252,13 @@ fn runs_resume_after_interruption_and_shards_partition() {
         ids_in(&b.csv).into_iter().collect(),
     );
     assert!(ia.is_disjoint(&ib));
-    let all: HashSet<String> = plan.runs.iter().map(|r| r.run_id()).collect();
+    let all: HashSet<String> = plan.runs.iter().map(|r| r.id.clone()).collect();
     assert_eq!(ia.union(&ib).cloned().collect::<HashSet<_>>(), all);
     assert!(run_plan(&plan, &d2, Some((2, 2)), &|_| {}).is_err());
     // A CSV with other columns is never overwritten.
     std::fs::write(&s.csv, "something,else\n1,2\n").unwrap();
-    assert!(run_plan(&plan, &d, None, &|_| {})
-        .unwrap_err()
-        .to_string()
-        .contains("different columns"));
+    let e = run_plan(&plan, &d, None, &|_| {}).unwrap_err().to_string();
+    assert!(e.contains("left untouched"), "{e}");
     assert_eq!(
         std::fs::read_to_string(&s.csv).unwrap(),
         "something,else\n1,2\n"
@@ -174,30 +269,34 @@ fn runs_resume_after_interruption_and_shards_partition() {
 
 #[test]
 fn plots_are_written_as_png_and_svg_with_labelled_axes() {
-    let plan = Plan::parse("c.toml", "c", CONFIG).unwrap();
+    let plan = parse(&CONFIG.replace("[sweep]", "parallel_runs = false\n[sweep]")).unwrap();
     let d = tmp("plots");
     let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
-    let files = shscale_lab::plots::probe_plots(&s.dir, &plan.swept).unwrap();
+    let r = shscale_lab::exp::runner::report(&PROBE, &s.dir).unwrap();
+    let pngs: Vec<_> = r
+        .files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "png"))
+        .collect();
     assert_eq!(
-        files.len(),
-        6,
-        "two numeric axes (α, order) + the Pareto plot, PNG and SVG each"
+        pngs.len(),
+        3,
+        "two numeric axes (α, order) + the Pareto plot: {:?}",
+        r.files
     );
-    for f in &files {
+    for f in &r.files {
         let len = std::fs::metadata(f).unwrap().len();
-        assert!(len > 2000, "{} is only {len} bytes", f.display());
+        assert!(len > 1000, "{} is only {len} bytes", f.display());
     }
     let svg = std::fs::read_to_string(s.dir.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
     assert!(
-        svg.contains("alpha_deg") && svg.contains("occ_rel_l2"),
-        "axis labels missing"
+        svg.contains("alpha_deg") && svg.contains("order = 2"),
+        "axis label or series missing"
     );
-    let png = std::fs::read(s.dir.join("pareto_time_vs_error.png")).unwrap();
-    assert_eq!(&png[1..4], b"PNG");
-    assert!(std::fs::read_dir(&s.dir).unwrap().all(|e| !e
-        .unwrap()
-        .file_name()
-        .to_string_lossy()
-        .contains(".tmp-")));
+    assert!(
+        r.summary.contains("parameters that vary: order, alpha_deg"),
+        "{}",
+        r.summary
+    );
     std::fs::remove_dir_all(&d).ok();
 }
