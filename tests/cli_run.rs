@@ -9,7 +9,7 @@ fn run_writes_csv_and_manifest_and_resumes() {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     let cfg = d.join("tiny.toml");
-    std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\n[sweep]\nalpha_deg = [30, 60]\n").unwrap();
+    std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [30, 60]\n").unwrap();
     let out = d.join("out");
     let args = [
         "run",
@@ -34,9 +34,10 @@ fn run_writes_csv_and_manifest_and_resumes() {
             && out.join("probe/tiny/pareto_time_vs_error.svg").exists()
     );
     assert!(
-        text.contains("occ@2r") && text.contains("time_ms"),
+        text.contains("| run_id | alpha_deg | radius | occ_rel_l2_mean"),
         "summary table missing: {text}"
     );
+    assert!(out.join("probe/tiny/summary.md").exists());
     let again = String::from_utf8_lossy(&shscale(&args).stdout).to_string();
     assert!(again.contains("ran 0, skipped 2"), "{again}");
     let shard = shscale(&[
@@ -68,27 +69,23 @@ fn run_writes_csv_and_manifest_and_resumes() {
         "{}",
         String::from_utf8_lossy(&m.stdout)
     );
-    let mut a: Vec<String> = std::fs::read_to_string(sharded.join("probe/tiny/runs.csv"))
-        .unwrap()
-        .lines()
-        .map(|l| l.split(',').take(11).collect::<Vec<_>>().join(","))
-        .collect();
-    let mut b: Vec<String> = csv
-        .lines()
-        .map(|l| l.split(',').take(11).collect::<Vec<_>>().join(","))
-        .collect();
-    a.sort();
-    b.sort();
+    let a = comparable(&sharded.join("probe/tiny/merged/runs.csv"));
+    let b = comparable(&out.join("probe/tiny/runs.csv"));
     assert_eq!(a, b);
+    // Merge never overwrites: a second merge into the same place is refused.
+    fails(
+        &["merge", sharded.join("probe/tiny").to_str().unwrap()],
+        "merge never overwrites",
+    );
     fails(&["merge", "/nonexistent/dir"], "/nonexistent/dir");
     // Slurm: an array over the shards and a dependent merge.
     let sl = shscale(&["slurm", cfg.to_str().unwrap(), "--tasks", "4"]);
     let script = String::from_utf8_lossy(&sl.stdout).to_string();
     assert!(
         script.contains("--array=0-3")
-            && script.contains("--shard \\$SLURM_ARRAY_TASK_ID/4")
+            && script.contains("--shard \"$SLURM_ARRAY_TASK_ID\"/4")
             && script.contains("afterok")
-            && script.contains("merge \\\"$DIR"),
+            && script.contains("merge"),
         "{script}"
     );
     fails(&["slurm", cfg.to_str().unwrap(), "--tasks", "0"], "tasks");
@@ -125,7 +122,8 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let cfg = d.join("tiny.toml");
     std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\n[sweep]\nalpha_deg = [20, 40, 60]\n").unwrap();
-    let out = d.join("out");
+    // A path with a space, a quote and shell syntax: every value in the script is quoted.
+    let out = d.join("out dir 'q' $(touch INJECTED)");
     let gen = shscale(&[
         "slurm",
         cfg.to_str().unwrap(),
@@ -154,7 +152,11 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
         String::from_utf8_lossy(&r.stdout),
         String::from_utf8_lossy(&r.stderr)
     );
-    let merged = std::fs::read_to_string(out.join("probe/tiny/runs.csv")).unwrap();
+    let merged = std::fs::read_to_string(out.join("probe/tiny/merged/runs.csv")).unwrap();
+    assert!(
+        out.join("probe/tiny/merged/summary.md").exists(),
+        "the merge job writes the report"
+    );
     assert_eq!(
         merged.lines().count(),
         4,
@@ -164,30 +166,64 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
         out.join("probe/tiny/runs.shard-0-of-2.csv").exists()
             && out.join("probe/tiny/runs.shard-1-of-2.csv").exists()
     );
+    assert!(!std::path::Path::new("INJECTED").exists() && !d.join("INJECTED").exists());
+    // Pass-through sbatch options, quoted.
+    let gen = shscale(&[
+        "slurm",
+        cfg.to_str().unwrap(),
+        "--tasks",
+        "2",
+        "--time",
+        "01:00:00",
+        "--mem",
+        "8G",
+        "--partition",
+        "gpu",
+        "--cpus-per-task",
+        "4",
+        "--account",
+        "lab's",
+        "--set",
+        "order=3",
+    ]);
+    let text = String::from_utf8_lossy(&gen.stdout).to_string();
+    for needle in [
+        "--time='01:00:00'",
+        "--mem='8G'",
+        "--partition='gpu'",
+        "--cpus-per-task=4",
+        "--account='lab'\\''s'",
+        "--set",
+    ] {
+        assert!(text.contains(needle), "{needle} missing:\n{text}");
+    }
     std::fs::remove_dir_all(&d).ok();
 }
 
-/// The cells of a runs.csv, without the columns that legitimately differ between two executions
-/// of the same runs (times, thread count, GPU device and timings, revision).
+/// The cells of a runs.csv (read with the csv crate), without the columns that legitimately
+/// differ between two executions of the same runs (times and their spreads, threads, GPU
+/// timings, revision, whether timed concurrently), sorted.
 fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
-    let text = std::fs::read_to_string(csv).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut r = ::csv::Reader::from_path(csv).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
     let keep: Vec<usize> = header
         .iter()
         .enumerate()
         .filter(|(_, h)| {
             !(h.ends_with("_seconds")
-                || **h == "threads"
+                || h.ends_with("_spread")
+                || h.starts_with("timing_")
+                || *h == "threads"
                 || h.starts_with("gpu_")
-                || **h == "git_revision")
+                || h.starts_with("git_"))
         })
         .map(|(i, _)| i)
         .collect();
-    let mut rows: Vec<Vec<String>> = lines
-        .map(|l| {
-            let cells: Vec<&str> = l.split(',').collect();
-            keep.iter().map(|&i| cells[i].to_string()).collect()
+    let mut rows: Vec<Vec<String>> = r
+        .records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            keep.iter().map(|&i| rec[i].to_string()).collect()
         })
         .collect();
     rows.sort();
@@ -229,7 +265,7 @@ fn merged_shards_equal_the_unsharded_run() {
     let r = shscale(&["merge", sdir.to_str().unwrap()]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let a = comparable(&full.join("probe/sweep/runs.csv"));
-    let b = comparable(&sdir.join("runs.csv"));
+    let b = comparable(&sdir.join("merged/runs.csv"));
     assert_eq!(a.len(), 12, "6 runs × 2 radii");
     assert_eq!(a, b, "merged shards differ from the unsharded run");
     std::fs::remove_dir_all(&d).ok();
@@ -310,7 +346,7 @@ fn config_errors_name_the_field_and_line() {
     let cases = [
         (
             SWEEP.replace("k_count = 6", "k_count = 6\nbrightness = 2"),
-            "sweep.toml:7: unknown field `brightness`",
+            "sweep.toml:7: brightness: unknown field `brightness`",
         ),
         (
             SWEEP.replace("order = 3", "order = \"three\""),
@@ -318,7 +354,7 @@ fn config_errors_name_the_field_and_line() {
         ),
         (
             SWEEP.replace("alpha_deg = [20, 40, 60]", "alpha_deg = [20, 95]"),
-            "alpha_deg: 95 is outside (0, 90)",
+            "sweep.toml:10: alpha_deg: 95 is outside (0, 90)",
         ),
         (
             SWEEP.replace("mesh = \"duck\"", "mesh = \"unicorn\""),
@@ -338,5 +374,201 @@ fn config_errors_name_the_field_and_line() {
             needle,
         );
     }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+fn tiny(d: &std::path::Path, body: &str) -> std::path::PathBuf {
+    let cfg = d.join("tiny.toml");
+    std::fs::write(
+        &cfg,
+        format!("experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [1.5, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\n{body}"),
+    )
+    .unwrap();
+    cfg
+}
+
+fn ok(args: &[&str]) -> String {
+    let r = shscale(args);
+    assert!(
+        r.status.success(),
+        "{args:?}: {} {}",
+        String::from_utf8_lossy(&r.stdout),
+        String::from_utf8_lossy(&r.stderr)
+    );
+    String::from_utf8_lossy(&r.stdout).to_string()
+}
+
+fn column(csv: &std::path::Path, name: &str) -> Vec<String> {
+    let mut r = ::csv::Reader::from_path(csv).unwrap();
+    let i = r.headers().unwrap().iter().position(|h| h == name).unwrap();
+    r.records().map(|x| x.unwrap()[i].to_string()).collect()
+}
+
+#[test]
+fn any_parameter_sweeps_from_the_command_line_and_dry_run_writes_nothing() {
+    let d = dir("generic");
+    let cfg = tiny(&d, "");
+    let out = d.join("out");
+    let (c, o) = (cfg.to_str().unwrap(), out.to_str().unwrap());
+    // on_surface_eps has no code of its own anywhere in the runner.
+    let plan = ok(&[
+        "run",
+        c,
+        "--out-dir",
+        o,
+        "--sweep",
+        "on_surface_eps=0,0.01,0.3",
+        "--dry-run",
+    ]);
+    assert!(
+        plan.contains("3 run(s)")
+            && plan.contains("swept: on_surface_eps")
+            && plan.contains("rays"),
+        "{plan}"
+    );
+    assert!(!out.exists(), "--dry-run wrote {}", out.display());
+    ok(&[
+        "run",
+        c,
+        "--out-dir",
+        o,
+        "--sweep",
+        "on_surface_eps=0,0.01,0.3",
+    ]);
+    let mut eps = column(&out.join("probe/tiny/runs.csv"), "on_surface_eps");
+    eps.dedup();
+    assert_eq!(eps, ["0.0", "0.01", "0.3"]);
+    // A huge plan is refused with its estimate, even as a dry run, unless --allow-large.
+    fails(
+        &[
+            "run",
+            c,
+            "--out-dir",
+            o,
+            "--set",
+            "mesh=bunny",
+            "--set",
+            "hemisphere_res=256",
+            "--set",
+            "layout=fib:100000",
+            "--dry-run",
+        ],
+        "--allow-large",
+    );
+    fails(
+        &["run", c, "--out-dir", o, "--name", "../x"],
+        "name: \"../x\" contains '/'",
+    );
+    fails(
+        &["run", c, "--out-dir", o, "--set", "order=0"],
+        "--set order=0: order: 0 is outside 1..=16",
+    );
+    fails(
+        &["run", c, "--out-dir", o, "--sweep", "alpha_deg=10,10"],
+        "--sweep alpha_deg=10,10: sweep.alpha_deg: value 10 appears twice",
+    );
+    fails(
+        &["run", c, "--out-dir", o, "--shard", "-1/4"],
+        "--shard -1/4",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn an_edited_fixed_key_never_mixes_silently() {
+    let d = dir("mix");
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    let cfg = tiny(&d, "[sweep]\nalpha_deg = [30, 60]\n");
+    ok(&["run", cfg.to_str().unwrap(), "--out-dir", o]);
+    // Edit a fixed key and rerun under the same name.
+    let text = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .replace("order = 2", "order = 3");
+    std::fs::write(&cfg, text).unwrap();
+    let second = ok(&["run", cfg.to_str().unwrap(), "--out-dir", o]);
+    assert!(second.contains("ran 2, skipped 0"), "{second}");
+    let dirp = out.join("probe/tiny");
+    let orders = column(&dirp.join("runs.csv"), "order");
+    assert_eq!(
+        orders,
+        ["2", "2", "2", "2", "3", "3", "3", "3"],
+        "every row carries its order"
+    );
+    assert!(
+        second.contains("parameters that vary: order, alpha_deg"),
+        "{second}"
+    );
+    let svg = std::fs::read_to_string(dirp.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
+    assert!(
+        svg.contains("order = 2") && svg.contains("order = 3"),
+        "plot series not split by order"
+    );
+    let manifest = std::fs::read_to_string(dirp.join("manifest.toml")).unwrap();
+    assert_eq!(manifest.matches("[[versions]]").count(), 2, "{manifest}");
+    assert!(manifest.contains("order = 2") && manifest.contains("order = 3"));
+    assert!(
+        manifest.contains("cpu_model")
+            && manifest.contains("git_dirty")
+            && manifest.contains("shscale_version")
+    );
+    // A garbage row appended by hand: set aside with a warning, no panic, nothing lost.
+    let csv = dirp.join("runs.csv");
+    let mut t = std::fs::read_to_string(&csv).unwrap();
+    t.push_str("garbage,\"unterminated\n");
+    std::fs::write(&csv, t).unwrap();
+    let r = shscale(&["run", cfg.to_str().unwrap(), "--out-dir", o]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        r.status.success() && err.contains("set aside") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(std::fs::read_to_string(dirp.join("runs.csv.rejected"))
+        .unwrap()
+        .contains("garbage"));
+    assert_eq!(column(&csv, "order").len(), 8);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn two_processes_on_one_directory_keep_every_row() {
+    use std::process::{Command, Stdio};
+    let d = dir("concurrent");
+    let out = d.join("out");
+    // Serial runs with a finer hemisphere so the two processes overlap in time.
+    let cfg = tiny(&d, "parallel_runs = false\n")
+        .to_str()
+        .unwrap()
+        .to_string();
+    let spawn = |alphas: &str| {
+        Command::new(env!("CARGO_BIN_EXE_shscale"))
+            .args([
+                "run",
+                &cfg,
+                "--out-dir",
+                out.to_str().unwrap(),
+                "--set",
+                "mesh=duck",
+                "--set",
+                "hemisphere_res=12",
+                "--sweep",
+                alphas,
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let a = spawn("alpha_deg=10,20,30,40");
+    let b = spawn("alpha_deg=50,60,70,80");
+    for c in [a, b] {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let mut alphas = column(&out.join("probe/tiny/runs.csv"), "alpha_deg");
+    alphas.sort_by(|x, y| x.parse::<f64>().unwrap().total_cmp(&y.parse().unwrap()));
+    alphas.dedup();
+    assert_eq!(alphas.len(), 8, "the union of both sweeps: {alphas:?}");
+    assert_eq!(column(&out.join("probe/tiny/runs.csv"), "radius").len(), 16);
     std::fs::remove_dir_all(&d).ok();
 }

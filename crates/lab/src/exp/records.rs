@@ -98,6 +98,16 @@ pub mod list {
                 }
                 Ok(out)
             }
+            // A one-element list in a CSV cell reads as a number.
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<Vec<T>, E> {
                 if s.trim().is_empty() {
                     return Ok(Vec::new());
@@ -242,6 +252,13 @@ mod tests {
             s: "x,\"y\"".into(),
             l: vec![0.5, 1e-7, 2.0],
         };
+        // A one-element list is a plain number in its cell.
+        let one = P {
+            l: vec![2.0],
+            ..Default::default()
+        };
+        let (h1, c1) = to_cells(&one).unwrap();
+        assert_eq!(from_cells::<P>(&h1, &c1).unwrap(), one);
         let (h, c) = to_cells(&p).unwrap();
         assert_eq!(h, ["a", "b", "c", "s", "l"]);
         assert_eq!(c[2], "");

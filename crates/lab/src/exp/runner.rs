@@ -692,6 +692,11 @@ pub fn run_plan(
                 csv.display()
             )));
         }
+        if !l.rejected.is_empty() {
+            // Keep what was set aside, then leave only valid rows in the CSV.
+            keep_rejected(&csv, &l.rejected)?;
+            write_atomic(&csv, &records::write_text(&header(kind), &l.rows)?)?;
+        }
         l
     };
     let gpu = crate::gpu_path::open_gpu(plan.gpu)?;
@@ -752,7 +757,6 @@ pub fn run_plan(
         .map(|(i, r)| (r.id.as_str(), i))
         .collect();
     let ran = std::sync::Mutex::new(0usize);
-    let first_write = std::sync::Mutex::new(Some(loaded.rejected));
     let concurrent_of = |group_len: usize| plan.parallel_runs && group_len > 1;
     let threads = rayon::current_num_threads();
     let write_run = |r: &Resolved, rows: RowCells, concurrent: bool| -> Result<(), LabError> {
@@ -760,12 +764,6 @@ pub fn run_plan(
         let _lock = DirLock::acquire(&dir, &waiting)?;
         // Re-read under the lock: another process may have added rows.
         let mut cur = load_rows(kind, &csv)?;
-        let set_aside = first_write
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .take()
-            .unwrap_or_default();
-        keep_rejected(&csv, &set_aside)?;
         if !cur.complete.contains(&r.id) {
             let prov = RowProvenance {
                 threads,
