@@ -203,7 +203,7 @@ fn studies_run_through_shscale_run() {
             "--out-dir",
             out.to_str().unwrap(),
         ],
-        "only probe sweeps shard",
+        "not yet an experiment kind of the runner",
     );
     std::fs::write(&ext, "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\nk = [1.0]\nalpha_deg = [45.0]\norders = [4]\nmidrange_k = []\nspeed = 3\n").unwrap();
     common::fails(

@@ -1,5 +1,5 @@
 //! The papers' figures and tables, one module per figure, each answering one question
-//! (DESIGN.md §8):
+//! (docs/conventions.md §8):
 //!
 //! - [`sparsity`] — Fig. 2: where are the non-zeros of a scaling matrix, and is the pattern
 //!   really independent of τ?

@@ -4,7 +4,7 @@
 //!
 //! Renders the scene's receiver plane with the full field, the extrapolated field, band-limited
 //! ray tracing and full-frequency ray tracing, writes the first, second and last side by side,
-//! and reports `shade_rmse_rel` (DESIGN.md §6) of every method against both truths with the
+//! and reports `shade_rmse_rel` (docs/conventions.md §6) of every method against both truths with the
 //! render times.
 
 use crate::FigureOutput;

@@ -130,7 +130,7 @@ pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput,
     let markdown = format!(
         "**Ours.** Model `{}` ({} vertices), N = {}, α = {}°, BSV on `{}` × {}² rays, K = {}. Image: one probe direction per radius (rows \
 {}), actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated order-{} visibility (right); EXR in `{stem}.exr`. \
-Mean errors over all {} sample directions per radius (DESIGN.md §6; `occ_rel_l2` is relative to the occluded part):\n\n\
+Mean errors over all {} sample directions per radius (docs/conventions.md §6; `occ_rel_l2` is relative to the occluded part):\n\n\
 | radius (× r) | k | probes | vis_rel_l2 | occ_rel_l2 | inside the mesh |\n|---:|---:|---:|---:|---:|---:|\n{}\n\n\
 **Comparison.** The paper shows the extrapolated visibility \"closely resembling\" the actual one at these radii for its bird. Ours \
 follows the actual occlusion where occ_rel_l2 < {FOLLOWS} — at {} — and departs from it elsewhere — at {}: best at {}r (occ_rel_l2 {:.3}), \

@@ -173,7 +173,7 @@ pub struct OverrideArgs {
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// Experiment config (TOML; keys in docs/experiments.md).
+    /// Experiment config (TOML; keys and overrides in experiments/README.md).
     pub config: Option<std::path::PathBuf>,
     /// Run only shard I of N (runs whose index ≡ I mod N), e.g. 0/4.
     #[arg(long, allow_hyphen_values = true)]
@@ -216,7 +216,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub frames: Option<usize>,
     /// Also render this reference on the same scene and print `shade_rmse_rel` against it
-    /// (DESIGN.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
+    /// (docs/conventions.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
     #[arg(long, value_enum)]
     pub reference: Option<MethodArg>,
     /// With --frames: render the sequence on the GPU (wgpu; one mesh occluder, N ≤ 8) and print

@@ -4,7 +4,7 @@
 //!
 //! 1. Operator accuracy: scaling the cap `θ ≤ A` with `M_k` must give the cap `θ ≤ τ_k⁻¹(A)` —
 //!    exact in function space, so the error is band-limiting alone (table over k and N).
-//! 2. The on-surface failure case (DESIGN.md §7): a solid sphere whose bounding sphere is itself;
+//! 2. The on-surface failure case (docs/conventions.md §7): a solid sphere whose bounding sphere is itself;
 //!    every sample sees exactly half the sphere occluded, the truth at distance `d = k·r` is the
 //!    cap of half-angle `asin(1/k)`. The cone model predicts `τ_k⁻¹(90°)`; the table shows both
 //!    angles and `occ_rel_l2` at order 4.

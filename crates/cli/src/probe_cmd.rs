@@ -28,7 +28,7 @@ struct RowOut {
     occ_rel_l2_on_surface_max: Option<f64>,
     extrapolation_seconds: f64,
     truth_seconds: f64,
-    /// DESIGN.md §6: times carry the device they were measured on.
+    /// docs/conventions.md §6: times carry the device they were measured on.
     device: &'static str,
     threads: usize,
 }

@@ -51,7 +51,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         let reference = to_method(r);
         let t = std::time::Instant::now();
         let truth = render(&scene, reference)?;
-        // Unshadowed irradiance: the same scene without occluders (DESIGN.md §6 denominator).
+        // Unshadowed irradiance: the same scene without occluders (docs/conventions.md §6 denominator).
         let mut open = scene.clone();
         open.occluders.clear();
         let unshadowed = render(&open, Method::RayTraced)?;

@@ -1,4 +1,4 @@
-//! Base-sphere visibility (BSV, DESIGN.md §4): visibility sampled at P points on the entity's
+//! Base-sphere visibility (BSV, docs/conventions.md §4): visibility sampled at P points on the entity's
 //! bounding sphere (optionally inflated by `s ≥ 1`), over the hemisphere facing the centre at
 //! `H × H` directions, projected to order N in the entity frame; on-surface flags (§7); and
 //! interpolation at any direction from the centre.
@@ -142,7 +142,7 @@ pub struct BsvSample {
     pub pos: DVec3,
     /// Visibility coefficients (entity frame), order N.
     pub coeffs: Vec<f64>,
-    /// Distance from the sample to the surface is below `ε·r` (DESIGN.md §7).
+    /// Distance from the sample to the surface is below `ε·r` (docs/conventions.md §7).
     pub on_surface: bool,
 }
 

@@ -1,4 +1,4 @@
-//! Visibility evaluators compared side by side (DESIGN.md §4; STYLE.md §2 — a real seam): the
+//! Visibility evaluators compared side by side (docs/conventions.md §4; docs/ARCHITECTURE.md (habit 2) — a real seam): the
 //! extrapolated field, the fully sampled field of Zhou et al. 2005, and ray-traced truth. Each
 //! returns visibility as SH coefficients in the entity frame at any point.
 

@@ -1,11 +1,11 @@
-//! The extrapolated field (DESIGN.md §4; SHS §3.1): visibility at a point p from the base-sphere
+//! The extrapolated field (docs/conventions.md §4; SHS §3.1): visibility at a point p from the base-sphere
 //! samples — interpolate the BSV at p's direction from the centre, rotate into p's local frame
 //! (z toward the centre), scale with `M_k`, `k = |p − c| / (s·r)` (distance over the sampling
-//! radius), and rotate back to the entity frame. Out of the table's range (DESIGN.md §3.3): above
+//! radius), and rotate back to the entity frame. Out of the table's range (docs/conventions.md §3.3): above
 //! `k_max` the entity does not occlude (visibility 1); below `k_min` the matrix at `k_min` is used
 //! and the result says so.
 //!
-//! Interpolation frame: BSVs are stored in the entity frame and interpolated there (DESIGN.md §2
+//! Interpolation frame: BSVs are stored in the entity frame and interpolated there (docs/conventions.md §2
 //! allows either; the entity frame needs no per-sample frame bookkeeping and is what a rotation of
 //! the whole entity would carry).
 
@@ -26,7 +26,7 @@ pub enum ExtrapolationKind {
     Unoccluded,
 }
 
-/// What a field is beyond the table's `k_max` (DESIGN.md §3.3).
+/// What a field is beyond the table's `k_max` (docs/conventions.md §3.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Beyond {
     /// An occluder: visibility 1.

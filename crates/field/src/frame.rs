@@ -1,4 +1,4 @@
-//! Local frames (DESIGN.md §2): for a point p ≠ c the local z axis points from p toward c. The
+//! Local frames (docs/conventions.md §2): for a point p ≠ c the local z axis points from p toward c. The
 //! x/y axes complete it by the branchless construction of Duff et al. 2017 ("Building an
 //! orthonormal basis, revisited", JCGT 6(1)); rotations about z commute with scaling, so this
 //! choice does not change scaled results, only the stored coefficients.

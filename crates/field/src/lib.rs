@@ -2,7 +2,7 @@
 //! hemisphere facing the entity), base-sphere visibility (BSV) on layouts of the bounding sphere
 //! with spherical-Delaunay interpolation, and ray-traced truth (band-limited SH and full-frequency
 //! maps). Built on the SH core and the geometry crate's [`Occluder`]; knows nothing of configs,
-//! files or GPUs. Conventions: DESIGN.md §2 (frames), §4 (fields), §7 (on-surface samples).
+//! files or GPUs. Conventions: docs/conventions.md §2 (frames), §4 (fields), §7 (on-surface samples).
 
 pub mod bsv;
 pub mod delaunay;

@@ -1,4 +1,4 @@
-//! Accuracy metrics, named as in DESIGN.md §6 (CSV headers use these names).
+//! Accuracy metrics, named as in docs/conventions.md §6 (CSV headers use these names).
 //!
 //! * `vis_rel_l2 = ‖S_ext − S_true‖ / ‖S_true‖` over coefficients — by Parseval the relative L2
 //!   error of the band-limited visibility functions;

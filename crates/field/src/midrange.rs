@@ -1,4 +1,4 @@
-//! Mid-range environment lighting (SHS §3.2, Eq. 7; DESIGN.md §3.2): the environment is a sphere
+//! Mid-range environment lighting (SHS §3.2, Eq. 7; docs/conventions.md §3.2): the environment is a sphere
 //! of radius R around `c` whose radiance `L_c(u)` is captured once, at the centre. At a point
 //! `q = c + d·v` inside it, the ray in direction ω hits the sphere at the direction `u = τ_k(ω)`
 //! from the centre (polar angles measured from v), `k = d/R`, so in the frame with z along v,

@@ -1,7 +1,7 @@
 //! The probe experiment (SHS Fig. 5 / TR Fig. 1): for every base-sphere sample direction u, put a
 //! probe at `c + ρ·r·u` for each radius factor ρ (default 0.5, 0.7, 0.9, 1.3, 2), compare the
 //! extrapolated visibility with the band-limited truth, and summarise per radius — overall and for
-//! the on-surface samples (DESIGN.md §7) separately.
+//! the on-surface samples (docs/conventions.md §7) separately.
 //!
 //! Truth: ray traced over the full sphere (`2H²` rays), or, for the analytic sphere, the
 //! closed-form cap `√(4π)e₀ − cap(asin(R/d))` about the direction to the centre (exact up to

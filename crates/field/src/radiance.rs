@@ -1,8 +1,8 @@
-//! Radiance sampling for emissive meshes (lights; DESIGN.md §4 "source radiance fields"):
+//! Radiance sampling for emissive meshes (lights; docs/conventions.md §4 "source radiance fields"):
 //! `L(ω)` is the emitted radiance of the first surface a ray hits — per-triangle radiance,
 //! one-sided (a triangle emits toward the side its counter-clockwise normal faces; a ray hitting
 //! its back sees 0) — and 0 on a miss. Sampled like visibility; for a point on or outside the
-//! bounding sphere the back hemisphere is exactly 0 (DESIGN.md §4), so only the facing hemisphere
+//! bounding sphere the back hemisphere is exactly 0 (docs/conventions.md §4), so only the facing hemisphere
 //! is traced.
 
 use crate::frame::LocalFrame;

@@ -1,4 +1,4 @@
-//! Self-shadowing receivers: the object's own vertices as receivers (DESIGN.md §4; SHS §3.1 "ratios
+//! Self-shadowing receivers: the object's own vertices as receivers (docs/conventions.md §4; SHS §3.1 "ratios
 //! k < 1 expand the original visibility function"). A vertex lies inside the bounding sphere, so
 //! its visibility is extrapolated with `k = |v − c|/(s r) < 1` (expansion); shading uses the
 //! area-weighted vertex normal. Truth: rays from the vertex (offset rule of the geometry crate),

@@ -1,4 +1,4 @@
-//! Diffuse shading with SH visibility (DESIGN.md §5; Zhou et al. 2005 §5):
+//! Diffuse shading with SH visibility (docs/conventions.md §5; Zhou et al. 2005 §5):
 //! `E(p) = ∫ L(ω) Πⱼ Vⱼ(ω) max(0, n·ω) dω`.
 //!
 //! Per normal n, the light is contracted with the clamped-cosine lobe once,
@@ -221,7 +221,7 @@ fn acc_one() -> f64 {
     (4.0 * std::f64::consts::PI).sqrt()
 }
 
-/// `shade_rmse_rel` (DESIGN.md §6): RMSE of `E` over receivers divided by the mean unshadowed `E`.
+/// `shade_rmse_rel` (docs/conventions.md §6): RMSE of `E` over receivers divided by the mean unshadowed `E`.
 pub fn shade_rmse_rel(e: &[f64], truth: &[f64], unshadowed: &[f64]) -> Option<f64> {
     if e.is_empty() || e.len() != truth.len() || e.len() != unshadowed.len() {
         return None;
@@ -241,7 +241,7 @@ pub fn shade_rmse_rel(e: &[f64], truth: &[f64], unshadowed: &[f64]) -> Option<f6
 /// quadrature over the hemisphere about the unit normal `n` (`h × h` rays), with the exact
 /// (ray-cast, not band-limited) visibility of every occluder and the light's SH evaluated per
 /// direction. What a path tracer would see with this light; the reference for `shade_rmse_rel`
-/// against full-frequency truth (DESIGN.md §6).
+/// against full-frequency truth (docs/conventions.md §6).
 pub fn irradiance_full_frequency(
     light: &EnvLight,
     occs: &[&dyn shscale_geometry::Occluder],

@@ -1,4 +1,4 @@
-//! Source radiance fields of local lights (SHS §3.1, TR §4.1 / Appendix A; DESIGN.md §4): the
+//! Source radiance fields of local lights (SHS §3.1, TR §4.1 / Appendix A; docs/conventions.md §4): the
 //! light's radiance sampled on its bounding sphere and extrapolated with the plain and with the
 //! energy-preserving scaling matrix, both compared with ray-traced radiance truth, so the
 //! framework reports which variant matches (the papers prescribe energy preservation).

@@ -1,4 +1,4 @@
-//! Ray-traced truth at any point (DESIGN.md §4): the visibility over the full sphere projected to
+//! Ray-traced truth at any point (docs/conventions.md §4): the visibility over the full sphere projected to
 //! order N (band-limited truth, which isolates the extrapolation error), and a full-resolution
 //! lat-long visibility map (for full-frequency shading truth and for images).
 

@@ -20,7 +20,7 @@ use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
 pub enum Frame {
     /// The entity's (world) axes, no rotation.
     Entity,
-    /// The point's local frame: z toward the entity centre (DESIGN.md §2).
+    /// The point's local frame: z toward the entity centre (docs/conventions.md §2).
     Local,
 }
 

@@ -42,7 +42,7 @@ fn complement_cap(basis: &ShBasis<f64>, angle: f64, axis: DVec3) -> Vec<f64> {
 fn cone_model_is_exact_for_a_disc_seen_along_its_axis() {
     // A disc of radius a centred at c, seen from its axis: the rim is the silhouette from every
     // distance, and it lies on the cone of half-angle α = 90° about the axis through c (the flat
-    // disc limit tanθ_r = k tanθ_d of DESIGN.md §3.1). So with α → 90° scaling is exact in
+    // disc limit tanθ_r = k tanθ_d of docs/conventions.md §3.1). So with α → 90° scaling is exact in
     // function space, and the extrapolated visibility differs from the truth only by (1) the
     // band-limiting of the sampled input (closed-form prediction below) and (2) the BSV quadrature.
     let order = 6;

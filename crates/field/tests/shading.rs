@@ -364,7 +364,7 @@ fn self_shadowing_on_a_convex_egg_and_on_the_bunny() {
     // A convex object cannot shadow itself within a vertex's upper hemisphere: the ray-traced
     // truth must equal the unshadowed irradiance (up to the polygonal normal vs facets), and the
     // extrapolated field (k < 1, expansion) is measured against it. On the bunny both are
-    // measured; DESIGN.md §7 predicts large errors (every vertex is "on the surface").
+    // measured; docs/conventions.md §7 predicts large errors (every vertex is "on the surface").
     use shscale_field::evaluator::{RayTraced, VisibilityField};
     use shscale_field::extrapolate::Extrapolator;
     use shscale_field::selfshadow::{shade_vertices, vertex_normals};

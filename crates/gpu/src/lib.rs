@@ -1,4 +1,4 @@
-//! The wgpu real-time path (DESIGN.md §9, `crates/gpu`): per frame, a deforming entity's BSV is
+//! The wgpu real-time path (docs/conventions.md §9, `crates/gpu`): per frame, a deforming entity's BSV is
 //! sampled by ray casting a flattened BVH on the GPU, projected to SH on the GPU, and every
 //! receiver of the plane is shaded on the GPU from those coefficients — the three stages of the
 //! papers' Table 1 (BSV sampling, SH conversion, shadowing), each timed by timestamp queries.

@@ -1,4 +1,4 @@
-//! One timing procedure for GPU stages (STYLE.md §10): timestamp queries at the beginning and end
+//! One timing procedure for GPU stages (docs/ARCHITECTURE.md (habit 10)): timestamp queries at the beginning and end
 //! of every compute pass where the adapter supports `TIMESTAMP_QUERY`; otherwise each stage is
 //! submitted on its own and timed by the wall clock between synchronisations. Warm-up, repeats and
 //! medians are the caller's ([`crate::sequence`]).

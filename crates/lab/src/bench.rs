@@ -1,7 +1,7 @@
 //! The papers' Table 1 reproduced: per-stage times and frames per second of the deforming
 //! sequences (flying bird ~1.1k vertices, egg ~0.5k, bending sponge ~8.4k, each over a 160×160
 //! receiver plane; N = 4, 12×20 base-sphere samples × 32² rays as in the TR), CPU path and GPU
-//! path side by side. One timing procedure (STYLE.md §10):
+//! path side by side. One timing procedure (docs/ARCHITECTURE.md (habit 10)):
 //! warm-up frames are run and dropped, then every stage's median over the measured frames;
 //! the device is synchronised before each clock read (GPU stages by timestamp queries where the
 //! adapter has them).

@@ -1,5 +1,5 @@
 //! Rendering a scene's receiver plane (normal +z) with one of the three visibility evaluators
-//! (DESIGN.md §4–5): extrapolated (BSV + k-table), full field (16 shells over [s, 8s]·r) or
+//! (docs/conventions.md §4–5): extrapolated (BSV + k-table), full field (16 shells over [s, 8s]·r) or
 //! ray-traced truth (2H² rays per receiver per occluder). Irradiance per pixel in linear RGB.
 //! Stage times are reported so methods can be compared on the same scene.
 
@@ -236,7 +236,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             skipped: 0,
         });
     }
-    // Source radiance fields of the local lights (DESIGN.md §4).
+    // Source radiance fields of the local lights (docs/conventions.md §4).
     let t = Instant::now();
     let mut light_fields: Vec<LightField> = Vec::new();
     if !emitters.is_empty() {

@@ -1,4 +1,4 @@
-//! Scene files (TOML). Two stages (STYLE.md §5): [`RawScene`] mirrors the file exactly and rejects
+//! Scene files (TOML). Two stages (docs/ARCHITECTURE.md (habit 5)): [`RawScene`] mirrors the file exactly and rejects
 //! unknown fields; [`Scene::load`] resolves it — validates every range and names the file, the
 //! line and the field in every error.
 //!

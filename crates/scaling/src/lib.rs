@@ -1,4 +1,4 @@
-//! SH scaling (Wang et al., "Spherical Harmonics Scaling", Sec. 2; DESIGN.md §3): angular scaling
+//! SH scaling (Wang et al., "Spherical Harmonics Scaling", Sec. 2; docs/conventions.md §3): angular scaling
 //! functions τ, the sparse scaling matrices `M` they induce on SH coefficient vectors, and tables
 //! of `M_k` over the scale parameter `k` with interpolation.
 //!

@@ -1,4 +1,4 @@
-//! The SH scaling matrix `M` (paper Eq. 5–6, Appendix; DESIGN.md §3) in its sparse block form.
+//! The SH scaling matrix `M` (paper Eq. 5–6, Appendix; docs/conventions.md §3) in its sparse block form.
 //!
 //! With `Y_l^m = S_m(φ) P̄_l^{|m|}(cosθ)` and `∫₀^{2π} S_m S_{m'} dφ = 2π δ_{mm'}`,
 //!
@@ -18,7 +18,7 @@
 //! docs/math.md.
 //!
 //! The energy-preserving matrix is integrated after the substitution `u = τ(θ)`:
-//! `M_energy(τ)_{ij} = 2π ∫ P̄_j(cos u) P̄_i(cos τ⁻¹(u)) sin u du = M_plain(τ⁻¹)_{ji}` (DESIGN.md
+//! `M_energy(τ)_{ij} = 2π ∫ P̄_j(cos u) P̄_i(cos τ⁻¹(u)) sin u du = M_plain(τ⁻¹)_{ji}` (docs/conventions.md
 //! §3.1). In θ the weight `sin τ · τ′` has peaks of height up to `1/(k sin²α)` and width
 //! `k sin²α` — below the spacing of doubles near π for a needle cone (α = 1e-4°, k = 1e-3) — while
 //! in `u` the integrand is bounded by the Legendre values. The direct θ form is kept

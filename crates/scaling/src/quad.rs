@@ -9,7 +9,7 @@
 //! size ~ε·τ′ (θ itself is only known to ε), which a per-panel `tol·width` test would chase down
 //! to the spacing of doubles. Panels narrower than `4ε·|θ|` are frozen; if their bounds alone
 //! exceed `tol` the report says so. Integrating in θ (not cosθ) is deliberate: τ makes the
-//! integrand non-polynomial in cosθ with endpoint singularities of τ′ (DESIGN.md §3.1).
+//! integrand non-polynomial in cosθ with endpoint singularities of τ′ (docs/conventions.md §3.1).
 
 use shscale_sh::GaussLegendre;
 use std::cmp::Ordering;

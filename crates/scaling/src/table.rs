@@ -1,5 +1,5 @@
 //! Tables of scaling matrices over the scale parameter k (paper Sec. 2.3: "numerically compute
-//! M_k for sampled values of k, and then linearly interpolate"; DESIGN.md §3.3).
+//! M_k for sampled values of k, and then linearly interpolate"; docs/conventions.md §3.3).
 //!
 //! * Spacing of the K samples over `[k_min, k_max]`: exponential (geometric, the paper's choice,
 //!   default K = 40), uniform, or Chebyshev–Lobatto (`cos(jπ/(K−1))` mapped onto the range, so
@@ -7,7 +7,7 @@
 //! * Interpolation coordinate `x = ln k` when `k_min > 0` (always for the cone), else `x = k`
 //!   (mid-range tables with signed k). Linear (default) or cubic (4-point Lagrange on the nearest
 //!   samples in x; needs K ≥ 4).
-//! * Out of range (DESIGN.md §3.3), reported to the caller by [`KLookup`]: below `k_min` the nearest
+//! * Out of range (docs/conventions.md §3.3), reported to the caller by [`KLookup`]: below `k_min` the nearest
 //!   sample is used; above `k_max` the matrix at `k_max` is returned but the rule is that the
 //!   entity does not occlude (visibility 1) — the field layer applies that, not this table.
 
@@ -70,7 +70,7 @@ pub enum KLookup {
     /// `k < k_min`: the matrix at `k_min` was used (say so in output).
     BelowMin { k_min: f64 },
     /// `k > k_max`: the matrix at `k_max` was written, but the entity should be treated as not
-    /// occluding (visibility 1) — DESIGN.md §3.3.
+    /// occluding (visibility 1) — docs/conventions.md §3.3.
     AboveMax { k_max: f64 },
 }
 

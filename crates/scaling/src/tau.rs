@@ -1,5 +1,5 @@
 //! Angular scaling functions τ: the backward map from a polar angle seen at the receiver to the
-//! polar angle seen at the sample, `F_d(θ, φ) = F_r(τ(θ), φ)` (paper Eq. 1; DESIGN.md §3).
+//! polar angle seen at the sample, `F_d(θ, φ) = F_r(τ(θ), φ)` (paper Eq. 1; docs/conventions.md §3).
 //!
 //! Every τ here is a strictly increasing bijection of `[0, π]` with `τ(0) = 0`, `τ(π) = π`, and
 //! `τ′ > 0`; the matrix integrator relies on this (it partitions θ at preimages `τ⁻¹(u)`).
@@ -49,7 +49,7 @@ impl AngularScaling for Identity {
     }
 }
 
-/// The cone model of the silhouette with half-angle α (paper Sec. 3.1 generalised, DESIGN.md
+/// The cone model of the silhouette with half-angle α (paper Sec. 3.1 generalised, docs/conventions.md
 /// §3.1). With `k = d/r` (receiver distance over bounding-sphere radius) and `a = tan α`,
 /// `tan θ_r = k·a·tan θ_d / (a + (1−k)·tan θ_d)`, evaluated in the branch-free form
 ///
@@ -154,13 +154,13 @@ impl AngularScaling for Cone {
     }
 }
 
-/// Mid-range environment lighting (paper Sec. 3.2, Eq. 7; DESIGN.md §3.2): an environment sphere
+/// Mid-range environment lighting (paper Sec. 3.2, Eq. 7; docs/conventions.md §3.2): an environment sphere
 /// of radius R centred at the sample, the receiver displaced by `d` along the local +z axis,
 /// `k = d/R ∈ (−1, 1)`. Exactly, `τ(θ) = θ − asin(k sinθ)` (law of sines in the triangle centre,
 /// receiver, hit point). Evaluated without cancellation as
 ///
 /// ```text
-/// τ(θ) = 2·atan2((1−k)·sinθ, √(1−k²sin²θ) + cosθ)     for cosθ ≥ 0   (DESIGN.md §3.2)
+/// τ(θ) = 2·atan2((1−k)·sinθ, √(1−k²sin²θ) + cosθ)     for cosθ ≥ 0   (docs/conventions.md §3.2)
 /// τ(θ) = 2·atan2(√(1−k²sin²θ) − cosθ, (1+k)·sinθ)     for cosθ < 0
 /// ```
 ///

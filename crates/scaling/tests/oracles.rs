@@ -328,7 +328,7 @@ fn group_law_of_matrices_is_broken_by_band_limiting() {
         }
         assert!(row.iter().all(|v| v.is_finite()));
     }
-    // Far more than rounding at low order: the claim of DESIGN.md §3.1.
+    // Far more than rounding at low order: the claim of docs/conventions.md §3.1.
     assert!(first > 1e-3, "group-law defect at N=2 is only {first:e}");
 }
 

@@ -11,7 +11,7 @@
 //! Y_l^-m = √2 · Q_l^m(z) · Im (x+iy)^m      (m > 0)
 //! ```
 //!
-//! (DESIGN.md §1; the papers' appendix; the Cartesian trick as in sphericart, Bigi et al. 2023.)
+//! (docs/conventions.md §1; the papers' appendix; the Cartesian trick as in sphericart, Bigi et al. 2023.)
 //! Domain: unit directions (callers with raw vectors use [`ShBasis::eval_dir`], which normalises
 //! and rejects zero or non-finite input), any order up to [`crate::MAX_ORDER`].
 

@@ -1,4 +1,4 @@
-//! Coefficient indexing: `i = l·l + l + m` for band `l` and `m = -l..=l` (DESIGN.md §1).
+//! Coefficient indexing: `i = l·l + l + m` for band `l` and `m = -l..=l` (docs/conventions.md §1).
 
 use crate::ShError;
 

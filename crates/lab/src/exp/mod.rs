@@ -140,7 +140,7 @@ pub trait DynKind: Send + Sync {
     ) -> Result<Resolved, config::ConfigError>;
     /// Re-resolve a run from its CSV cells (`headers` and `cells` of the parameter columns),
     /// for validating rows on resume and merge. Errors are reasons, in words.
-    fn from_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String>;
+    fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String>;
     /// Check that row cells have the row struct's types.
     fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String>;
     /// Run a group: the shared work once, then every run (in parallel when `parallel`);
@@ -227,7 +227,7 @@ impl<K: Kind> DynKind for Erased<K> {
         self.resolved(p)
             .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
     }
-    fn from_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
+    fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
         let p: K::Params = records::from_cells(headers, cells)?;
         K::validate(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
         self.resolved(p)

@@ -179,8 +179,11 @@ impl Results {
     }
 }
 
+/// One CSV record with its line number.
+pub type CsvLine = (u64, Vec<String>);
+
 /// Header and records with their line numbers (records of any length).
-pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<(u64, Vec<String>)>), LabError> {
+pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<CsvLine>), LabError> {
     let io = |e: &dyn std::fmt::Display| LabError::Io {
         path: path.display().to_string(),
         reason: e.to_string(),

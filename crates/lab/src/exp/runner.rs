@@ -546,14 +546,14 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, LabError> {
         &want[2 + np + nr..],
     );
     let mut out = Loaded::default();
-    let mut by_run: Vec<(String, usize, Vec<(u64, Vec<String>)>)> = Vec::new();
+    let mut by_run: Vec<(String, usize, Vec<records::CsvLine>)> = Vec::new();
     for (line, r) in raw {
         let reason = if r.len() != want.len() {
             Some(format!("{} cells, the header has {}", r.len(), want.len()))
         } else if r[1] != kind.name() {
             Some(format!("experiment {:?} is not {:?}", r[1], kind.name()))
         } else {
-            match kind.from_cells(ph, &r[2..2 + np]) {
+            match kind.resolve_cells(ph, &r[2..2 + np]) {
                 Err(m) => Some(format!("parameters: {m}")),
                 Ok(res) if res.id != r[0] => Some(format!(
                     "run id {} does not match its parameters (they hash to {})",
