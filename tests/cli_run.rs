@@ -572,3 +572,70 @@ fn two_processes_on_one_directory_keep_every_row() {
     assert_eq!(column(&out.join("probe/tiny/runs.csv"), "radius").len(), 16);
     std::fs::remove_dir_all(&d).ok();
 }
+
+const STUDY: &str = "experiment = \"midrange\"\norder = 6\npoints = 30\nnormals = 8\nparallel_runs = false\ntiming_warmup = 0\ntiming_repeats = 1\n[sweep]\nk = [0.0, 0.3, 0.5, 0.7, 0.8, 0.9]\n";
+
+#[test]
+fn a_study_kind_resumes_after_sigkill_and_its_shards_merge_to_the_unsharded_run() {
+    use std::process::{Command, Stdio};
+    let d = dir("study");
+    let cfg = d.join("mid.toml");
+    std::fs::write(&cfg, STUDY).unwrap();
+    let c = cfg.to_str().unwrap();
+    let (clean, killed, sharded) = (d.join("clean"), d.join("killed"), d.join("sharded"));
+    ok(&["run", c, "--out-dir", clean.to_str().unwrap()]);
+    let reference = comparable(&clean.join("midrange/mid/runs.csv"));
+    assert_eq!(reference.len(), 6);
+    // SIGKILL once a row is on disk.
+    let csv = killed.join("midrange/mid/runs.csv");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+        .args(["run", c, "--out-dir", killed.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs_f64() < 20.0 {
+        if std::fs::read_to_string(&csv).is_ok_and(|t| t.lines().count() > 1) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let partial = std::fs::read_to_string(&csv)
+        .map(|t| t.lines().count() - 1)
+        .unwrap_or(0);
+    println!("killed after {partial} of 6 runs");
+    let text = ok(&["run", c, "--out-dir", killed.to_str().unwrap()]);
+    assert!(
+        text.contains(&format!("skipped {partial} already done")),
+        "{text}"
+    );
+    assert_eq!(
+        comparable(&csv),
+        reference,
+        "resumed study differs from the uninterrupted one"
+    );
+    // Shards 0/3, 1/3, 2/3 merged equal the unsharded run.
+    for s in ["0/3", "1/3", "2/3"] {
+        ok(&[
+            "run",
+            c,
+            "--out-dir",
+            sharded.to_str().unwrap(),
+            "--shard",
+            s,
+        ]);
+    }
+    let m = ok(&["merge", sharded.join("midrange/mid").to_str().unwrap()]);
+    assert!(m.contains("3 file(s), 6 row(s)"), "{m}");
+    assert_eq!(
+        comparable(&sharded.join("midrange/mid/merged/runs.csv")),
+        reference
+    );
+    assert!(sharded
+        .join("midrange/mid/merged/midrange_error_vs_k.svg")
+        .exists());
+    std::fs::remove_dir_all(&d).ok();
+}

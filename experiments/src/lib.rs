@@ -31,11 +31,12 @@ use shscale_lab::exp::{DynKind, Erased};
 use shscale_lab::LabError;
 
 static PROBE: Erased<shscale_lab::exp::probe::Probe> = Erased::new();
+static MIDRANGE: Erased<midrange::MidRange> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
 /// file implementing `shscale_lab::exp::Kind` plus one line here.
 pub fn registry() -> Vec<&'static dyn DynKind> {
-    vec![&PROBE]
+    vec![&PROBE, &MIDRANGE]
 }
 use std::path::{Path, PathBuf};
 
@@ -55,7 +56,6 @@ pub enum RawFigure {
     Visibility(visibility_radii::Spec),
     Shadows(shadows::Spec),
     Timing(timing::Spec),
-    MidRange(midrange::Spec),
     Srf(srf::Spec),
     Extremes(extremes::Spec),
 }
@@ -95,7 +95,6 @@ pub const KINDS: &[&str] = &[
     "visibility",
     "shadows",
     "timing",
-    "midrange",
     "srf",
     "extremes",
 ];
@@ -133,7 +132,6 @@ pub fn parse(file: &str, text: &str) -> Result<RawFigure, LabError> {
         "visibility" => RawFigure::Visibility(toml::from_str(text).map_err(wrap)?),
         "shadows" => RawFigure::Shadows(toml::from_str(text).map_err(wrap)?),
         "timing" => RawFigure::Timing(toml::from_str(text).map_err(wrap)?),
-        "midrange" => RawFigure::MidRange(toml::from_str(text).map_err(wrap)?),
         "srf" => RawFigure::Srf(toml::from_str(text).map_err(wrap)?),
         "extremes" => RawFigure::Extremes(toml::from_str(text).map_err(wrap)?),
         other => {
@@ -171,7 +169,6 @@ pub fn run_figure(
         RawFigure::Visibility(s) => Ok((s.header(), visibility_radii::run(&file, &s, out, &stem)?)),
         RawFigure::Shadows(s) => Ok((s.header(), shadows::run(&file, &s, base, out, &stem)?)),
         RawFigure::Timing(s) => Ok((s.header(), timing::run(&file, &s, out, &stem, gpu)?)),
-        RawFigure::MidRange(s) => Ok((s.header(), midrange::run(&file, &s, out, &stem)?)),
         RawFigure::Srf(s) => Ok((s.header(), srf::run(&file, &s, out, &stem)?)),
         RawFigure::Extremes(s) => Ok((s.header(), extremes::run(&file, &s, out, &stem)?)),
     }
@@ -263,7 +260,6 @@ pub fn run_study(
         RawFigure::Visibility(_) => "visibility",
         RawFigure::Shadows(_) => "shadows",
         RawFigure::Timing(_) => "timing",
-        RawFigure::MidRange(_) => "midrange",
         RawFigure::Srf(_) => "srf",
         RawFigure::Extremes(_) => "extremes",
     };

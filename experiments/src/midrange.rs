@@ -9,37 +9,68 @@
 //! ⟨lobe(n), L_c⟩ (distant). Per k: mean and max relative irradiance error over a Fibonacci set
 //! of point directions × normals.
 
-use crate::{write_text, FigureOutput};
 use glam::DVec3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use shscale_field::shading::EnvLight;
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
 use shscale_sh::{ClampedCosine, DirectionSet, ShBasis};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the study.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
+/// Parameters of one run (one k); sweep `k` (and anything else) in the config.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
     pub order: usize,
-    /// k = d/R values in [0, 1).
-    pub k: Vec<f64>,
-    /// Point directions (Fibonacci) per k; each with `normals` normals.
+    /// k = d/R in [0, 1).
+    pub k: f64,
+    /// Point directions (Fibonacci) at distance k; each with `normals` normals.
     pub points: usize,
     pub normals: usize,
-    /// Sun strength, direction and angular radius (degrees) of the sky.
+    /// Sun strength, direction (normalised here) and angular radius (degrees) of the sky.
     pub sun: f64,
-    pub sun_dir: [f64; 3],
+    #[serde(with = "shscale_lab::exp::records::list")]
+    pub sun_dir: Vec<f64>,
     pub sun_radius_deg: f64,
 }
 
-crate::impl_header!(Spec);
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            order: 8,
+            k: 0.5,
+            points: 12,
+            normals: 6,
+            sun: 8.0,
+            sun_dir: vec![0.6, 0.0, 0.8],
+            sun_radius_deg: 20.0,
+        }
+    }
+}
+
+/// One row per run.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    pub scaled_rel_err_mean: f64,
+    pub scaled_rel_err_max: f64,
+    pub distant_rel_err_mean: f64,
+    pub distant_rel_err_max: f64,
+    /// Fraction of (point, normal) pairs where scaling is at least as close as the distant
+    /// assumption.
+    pub scaled_better_fraction: f64,
+    /// Median over the timing procedure of the whole evaluation of this k.
+    pub evaluation_seconds: f64,
+    pub evaluation_spread: f64,
+}
+
+/// The kind `midrange`.
+pub struct MidRange;
+
+/// The truth quadrature: a 96 × 192 Gauss rule of the exact ray exit.
+const QUAD: (usize, usize) = (96, 192);
 
 fn fib(n: usize) -> Vec<DVec3> {
     (0..n)
@@ -52,135 +83,186 @@ fn fib(n: usize) -> Vec<DVec3> {
         .collect()
 }
 
-/// Run the study.
-pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput, LabError> {
-    let cfg = |f: &str, m: String| LabError::Config(format!("{file}: {f}: {m}"));
-    if !(1..=16).contains(&s.order) {
-        return Err(cfg("order", format!("{} is outside 1..=16", s.order)));
-    }
-    if s.k.is_empty() || s.k.iter().any(|k| !(0.0..1.0).contains(k)) {
-        return Err(cfg("k", format!("{:?}: every k must be in [0, 1)", s.k)));
-    }
-    if s.points == 0 || s.normals == 0 {
-        return Err(cfg("points", "points and normals must be ≥ 1".into()));
-    }
+fn evaluate(p: &Params) -> Result<Row, LabError> {
+    let cfg = |m: String| LabError::Config(m);
     let env = EnvLight::sky(
-        s.order,
+        p.order,
         0.2,
         0.8,
         DVec3::Z,
-        s.sun,
-        DVec3::from_array(s.sun_dir),
-        s.sun_radius_deg.to_radians(),
+        p.sun,
+        DVec3::new(p.sun_dir[0], p.sun_dir[1], p.sun_dir[2]),
+        p.sun_radius_deg.to_radians(),
     )?;
-    let lobe = ClampedCosine::<f64>::new(s.order).map_err(|e| cfg("order", e.to_string()))?;
-    let basis = ShBasis::<f64>::new(s.order).map_err(|e| cfg("order", e.to_string()))?;
-    let quad = DirectionSet::gauss_sphere(96, 192);
-    let mut csv = String::from("k,scaled_rel_err_mean,scaled_rel_err_max,distant_rel_err_mean,distant_rel_err_max,scaled_better_fraction,seconds\n");
-    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let mut rows = Vec::new();
-    for &k in &s.k {
-        let t0 = std::time::Instant::now();
-        let (mut sc, mut di, mut better) = (Vec::new(), Vec::new(), 0usize);
-        for v in fib(s.points) {
-            let q = k * v;
-            let light = shscale_field::midrange::light_at(&env, q, 1.0)?;
-            for n in fib(s.normals) {
-                let truth = shscale_field::midrange::irradiance_by_ray_exit(
-                    &env, 0, q, 1.0, n, &quad, &basis,
-                );
-                let scaled = lobe
-                    .irradiance(&light.rgb[0], n.to_array())
-                    .map_err(|e| cfg("order", e.to_string()))?;
-                let distant = lobe
-                    .irradiance(&env.rgb[0], n.to_array())
-                    .map_err(|e| cfg("order", e.to_string()))?;
-                let (es, ed) = (
-                    (scaled - truth).abs() / truth,
-                    (distant - truth).abs() / truth,
-                );
-                better += usize::from(es <= ed);
-                sc.push(es);
-                di.push(ed);
+    let lobe = ClampedCosine::<f64>::new(p.order).map_err(|e| cfg(e.to_string()))?;
+    let basis = ShBasis::<f64>::new(p.order).map_err(|e| cfg(e.to_string()))?;
+    let quad = DirectionSet::gauss_sphere(QUAD.0, QUAD.1);
+    let (mut sc, mut di, mut better) = (Vec::new(), Vec::new(), 0usize);
+    for v in fib(p.points) {
+        let q = p.k * v;
+        let light = shscale_field::midrange::light_at(&env, q, 1.0)?;
+        for n in fib(p.normals) {
+            let truth =
+                shscale_field::midrange::irradiance_by_ray_exit(&env, 0, q, 1.0, n, &quad, &basis);
+            let scaled = lobe
+                .irradiance(&light.rgb[0], n.to_array())
+                .map_err(|e| cfg(e.to_string()))?;
+            let distant = lobe
+                .irradiance(&env.rgb[0], n.to_array())
+                .map_err(|e| cfg(e.to_string()))?;
+            let (es, ed) = (
+                (scaled - truth).abs() / truth,
+                (distant - truth).abs() / truth,
+            );
+            better += usize::from(es <= ed);
+            sc.push(es);
+            di.push(ed);
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+    Ok(Row {
+        scaled_rel_err_mean: mean(&sc),
+        scaled_rel_err_max: max(&sc),
+        distant_rel_err_mean: mean(&di),
+        distant_rel_err_max: max(&di),
+        scaled_better_fraction: better as f64 / sc.len() as f64,
+        evaluation_seconds: 0.0,
+        evaluation_spread: 0.0,
+    })
+}
+
+/// The most point directions and normals per run.
+pub const MAX_POINTS: usize = 10_000;
+
+impl Kind for MidRange {
+    const NAME: &'static str = "midrange";
+    const QUESTION: &'static str = "SHS §3.2: with the irradiance sampled only at the centre of an environment sphere, how much closer to the exact irradiance is SH scaling with the mid-range τ (Eq. 7) than the distant-lighting assumption, as the receiver moves to k = d/R?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if !(1..=16).contains(&p.order) {
+            return Err(KeyError::new(
+                "order",
+                format!("{} is outside 1..=16", p.order),
+            ));
+        }
+        if !(0.0..1.0).contains(&p.k) {
+            return Err(KeyError::new("k", format!("{} is outside [0, 1)", p.k)));
+        }
+        for (key, v) in [("points", p.points), ("normals", p.normals)] {
+            if !(1..=MAX_POINTS).contains(&v) {
+                return Err(KeyError::new(
+                    key,
+                    format!("{v} is outside 1..={MAX_POINTS}"),
+                ));
             }
         }
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
-        let frac = better as f64 / sc.len() as f64;
-        let secs = t0.elapsed().as_secs_f64();
-        csv.push_str(&format!(
-            "{k},{},{},{},{},{frac},{secs}\n",
-            mean(&sc),
-            max(&sc),
-            mean(&di),
-            max(&di)
-        ));
-        series
-            .entry("SH scaling (mid-range τ)".into())
-            .or_default()
-            .push((k, mean(&sc)));
-        series
-            .entry("distant assumption".into())
-            .or_default()
-            .push((k, mean(&di)));
-        rows.push(format!(
-            "| {k} | {:.4} | {:.4} | {:.4} | {:.4} | {:.0} % |",
-            mean(&sc),
-            max(&sc),
-            mean(&di),
-            max(&di),
-            100.0 * frac
-        ));
+        if !(p.sun.is_finite() && p.sun >= 0.0 && p.sun <= 1e6) {
+            return Err(KeyError::new(
+                "sun",
+                format!("{} is outside [0, 1e6]", p.sun),
+            ));
+        }
+        let len = p.sun_dir.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if p.sun_dir.len() != 3 || !(len.is_finite() && len > 0.0) {
+            return Err(KeyError::new(
+                "sun_dir",
+                format!("{:?} must be three finite numbers, not all 0", p.sun_dir),
+            ));
+        }
+        if !(p.sun_radius_deg > 0.0 && p.sun_radius_deg <= 90.0) {
+            return Err(KeyError::new(
+                "sun_radius_deg",
+                format!("{} is outside (0, 90]", p.sun_radius_deg),
+            ));
+        }
+        Ok(())
     }
-    let pairs: Vec<(f64, f64, f64)> = series["SH scaling (mid-range τ)"]
-        .iter()
-        .zip(&series["distant assumption"])
-        .filter(|(a, _)| a.0 > 0.0)
-        .map(|(a, b)| (a.0, a.1, b.1))
-        .collect();
-    let verdict = if pairs.is_empty() {
-        "no k > 0 was measured".to_string()
-    } else if pairs.iter().all(|p| p.1 < p.2) {
-        let ratio = |p: &(f64, f64, f64)| p.2 / p.1.max(1e-300);
-        let (lo, hi) = pairs
-            .iter()
-            .map(ratio)
-            .fold((f64::MAX, 0f64), |(a, b), r| (a.min(r), b.max(r)));
-        format!(
-            "at every k > 0 mid-range scaling has the lower mean error, by a factor {lo:.0}–{hi:.0}; the distant assumption's error grows to {:.2} at k = {}, scaling's stays ≤ {:.4} (order-{} band-limiting and quadrature are what remain)",
-            pairs.last().map_or(0.0, |p| p.2),
-            pairs.last().map_or(0.0, |p| p.0),
-            pairs.iter().map(|p| p.1).fold(0.0, f64::max),
-            s.order
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        let pairs = (p.points * p.normals) as f64;
+        let quad = (QUAD.0 * QUAD.1) as f64;
+        (
+            Cost::default(),
+            Cost {
+                rays: 0.0,
+                bytes: quad * 8.0 * (p.order * p.order) as f64,
+                // ≈ 20 ns per quadrature point and pair (measured: 12 × 6 pairs ≈ 30 ms).
+                seconds: pairs * quad * 2e-8,
+                drivers: format!("points × normals = {pairs} pairs × {quad} quadrature points"),
+            },
         )
-    } else {
-        "mid-range scaling does NOT have the lower mean error at every k — see the table"
-            .to_string()
-    };
-    let mut files = write_both(
-        out,
-        stem,
-        &Labels {
-            title: "mid-range lighting: irradiance error vs k = d/R",
-            x: "k = d / R (1)",
-            y: "mean relative irradiance error (1)",
-        },
-        &series,
-        false,
-        &[],
-    )?;
-    files.push(write_text(out, &format!("{stem}.csv"), &csv)?);
-    let markdown = format!(
-        "**Ours.** Sky (ambient 0.2, zenith 0.8, sun {} of radius {}°) on an environment sphere R = 1, order {}; per k, {} point \
-directions × {} normals; truth by a 96 × 192 Gauss rule of the exact ray exit.\n\n| k | scaled mean | scaled max | distant mean | distant max | scaled better |\n|---:|---:|---:|---:|---:|---:|\n{}\n\n\
-**Comparison.** The paper shows images only. Measured: {}.",
-        s.sun,
-        s.sun_radius_deg,
-        s.order,
-        s.points,
-        s.normals,
-        rows.join("\n"),
-        verdict
-    );
-    Ok(FigureOutput { files, markdown })
+    }
+
+    fn rows_per_run(_: &Params) -> usize {
+        1
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+        Ok(())
+    }
+
+    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+        let (mut row, t) = ctx.timing.measure(|| evaluate(p))?;
+        row.evaluation_seconds = t.median;
+        row.evaluation_spread = t.spread();
+        Ok(vec![row])
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &["evaluation_seconds", "evaluation_spread"]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "k",
+            "scaled_rel_err_mean",
+            "distant_rel_err_mean",
+            "scaled_better_fraction",
+        ]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+        // Error against k: per combination of the other varying parameters, scaled and distant.
+        let params = shscale_lab::exp::Erased::<MidRange>::new();
+        let others: Vec<String> = t
+            .varying(&shscale_lab::exp::DynKind::param_columns(&params))
+            .into_iter()
+            .filter(|c| c != "k")
+            .collect();
+        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for r in 0..t.rows.len() {
+            let label = others
+                .iter()
+                .map(|o| format!(", {o} = {}", t.cell(r, o)))
+                .collect::<String>();
+            for (name, col) in [
+                ("SH scaling (mid-range τ)", "scaled_rel_err_mean"),
+                ("distant assumption", "distant_rel_err_mean"),
+            ] {
+                series
+                    .entry(format!("{name}{label}"))
+                    .or_default()
+                    .push((t.num(r, "k"), t.num(r, col)));
+            }
+        }
+        for v in series.values_mut() {
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        write_both(
+            dir,
+            "midrange_error_vs_k",
+            &Labels {
+                title: "mid-range lighting: irradiance error vs k = d/R",
+                x: "k = d / R (1)",
+                y: "mean relative irradiance error (1)",
+            },
+            &series,
+            false,
+            &[],
+        )
+    }
 }

@@ -863,10 +863,14 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
             varying.join(", ")
         }
     );
-    let cols: Vec<String> = std::iter::once("run_id".to_string())
+    let mut cols: Vec<String> = std::iter::once("run_id".to_string())
         .chain(varying.iter().cloned())
-        .chain(kind.summary_columns().iter().map(|c| c.to_string()))
         .collect();
+    for c in kind.summary_columns() {
+        if !cols.iter().any(|x| x == c) {
+            cols.push(c.to_string());
+        }
+    }
     s.push_str(&format!("| {} |\n", cols.join(" | ")));
     s.push_str(&format!("|{}\n", "---|".repeat(cols.len())));
     for r in 0..t.rows.len() {
@@ -875,6 +879,9 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
             .map(|c| {
                 let v = t.cell(r, c);
                 match v.parse::<f64>() {
+                    Ok(x) if (v.contains('.') || v.contains('e')) && x != 0.0 && x.abs() < 1e-3 => {
+                        format!("{x:.3e}")
+                    }
                     Ok(x) if v.contains('.') || v.contains('e') => format!("{x:.4}"),
                     _ => v.to_string(),
                 }
