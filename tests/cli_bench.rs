@@ -35,15 +35,14 @@ fn cpu_bench_prints_csv_rows_with_the_declared_columns() {
         String::from_utf8_lossy(&out.stderr)
     );
     let text = String::from_utf8_lossy(&out.stdout);
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut reader = ::csv::Reader::from_reader(text.as_bytes());
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(header.join(","), shscale_lab::bench::CSV_COLUMNS);
-    let rows: Vec<&str> = lines.collect();
+    let rows: Vec<::csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), 1, "{text}");
-    // The device cell is quoted and contains no comma for the CPU.
-    let cells: Vec<&str> = rows[0].split(',').collect();
-    assert_eq!(cells.len(), header.len(), "{}", rows[0]);
-    let col = |name: &str| cells[header.iter().position(|h| *h == name).unwrap()];
+    let cells: Vec<String> = rows[0].iter().map(String::from).collect();
+    assert_eq!(cells.len(), header.len(), "{cells:?}");
+    let col = |name: &str| cells[header.iter().position(|h| h == name).unwrap()].as_str();
     assert_eq!(col("scene"), "egg");
     assert_eq!(col("path"), "cpu");
     assert_eq!(col("receivers"), "25600");
@@ -188,20 +187,20 @@ fn experiment_gpu_setting_is_validated_and_enforced() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     let csv = std::fs::read_to_string(dir.join("out/probe/auto/runs.csv")).unwrap();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let row = lines.next().unwrap();
+    let mut reader = ::csv::Reader::from_reader(csv.as_bytes());
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    let row = reader.records().next().unwrap().unwrap();
     let i = header
         .iter()
-        .position(|h| *h == "gpu_bsv_sampling_seconds")
+        .position(|h| h == "gpu_bsv_sampling_seconds")
         .unwrap();
-    let cell = row.split(',').nth(i).unwrap();
+    let cell = &row[i];
     if err.contains("notice: no GPU adapter") {
         assert!(!require_gpu(), "SHSCALE_REQUIRE_GPU=1 but: {err}");
         assert_eq!(cell, "");
     } else {
-        let t: f64 = cell.parse().unwrap_or_else(|_| panic!("{row}"));
-        assert!(t > 0.0, "{row}");
+        let t: f64 = cell.parse().unwrap_or_else(|_| panic!("{row:?}"));
+        assert!(t > 0.0, "{row:?}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -141,6 +141,16 @@ pub fn k_range(radii: &[f64], sampling_radius: f64) -> (f64, f64) {
     (lo, hi)
 }
 
+fn check_radii(spec: &ProbeSpec) -> Result<(), FieldError> {
+    if spec.radii.is_empty() || spec.radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(FieldError::Spec(format!(
+            "radii {:?} must be finite and > 0",
+            spec.radii
+        )));
+    }
+    Ok(())
+}
+
 /// Sample the BSV of `occ` and compute the truth at every probe point (`analytic`: closed-form
 /// truth of a solid sphere; otherwise ray-traced, `2H²` rays, projected to order N).
 pub fn probe_base(
@@ -148,12 +158,7 @@ pub fn probe_base(
     analytic: Option<Sphere>,
     spec: &ProbeSpec,
 ) -> Result<ProbeBase, FieldError> {
-    if spec.radii.is_empty() || spec.radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
-        return Err(FieldError::Spec(format!(
-            "radii {:?} must be finite and > 0",
-            spec.radii
-        )));
-    }
+    check_radii(spec)?;
     let t0 = Instant::now();
     let bsv = sample_bsv(occ, spec)?;
     let bsv_sampling_seconds = t0.elapsed().as_secs_f64();
@@ -180,12 +185,7 @@ pub fn probe_base_on(
     analytic: Option<Sphere>,
     spec: &ProbeSpec,
 ) -> Result<ProbeBase, FieldError> {
-    if spec.radii.is_empty() || spec.radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
-        return Err(FieldError::Spec(format!(
-            "radii {:?} must be finite and > 0",
-            spec.radii
-        )));
-    }
+    check_radii(spec)?;
     let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
     let basis = ShBasis::<f64>::new(spec.order)?;
     let s = bsv.sphere;
