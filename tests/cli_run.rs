@@ -232,6 +232,22 @@ fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
 
 const SWEEP: &str = "experiment = \"probe\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 6\nradii = [0.8, 1.5]\ngpu = \"off\"\n[sweep]\nalpha_deg = [20, 40, 60]\nsampling_radius = [1.0, 1.2]\n";
 
+/// SIGKILL `child` once `csv` holds a data row (or after 20 s); the rows then on disk.
+fn kill_after_first_row(mut child: std::process::Child, csv: &std::path::Path) -> usize {
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs_f64() < 20.0 {
+        if std::fs::read_to_string(csv).is_ok_and(|t| t.lines().count() > 1) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    std::fs::read_to_string(csv)
+        .map(|t| t.lines().count() - 1)
+        .unwrap_or(0)
+}
+
 fn dir(tag: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("shscale-cli-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -294,7 +310,7 @@ fn a_sweep_killed_mid_run_resumes_to_the_same_rows() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let csv = killed.join("probe/sweep/runs.csv");
     // Kill with SIGKILL once at least one run is on disk (or after a deadline, wherever it is).
-    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+    let child = Command::new(env!("CARGO_BIN_EXE_shscale"))
         .args([
             "run",
             cfg.to_str().unwrap(),
@@ -305,18 +321,7 @@ fn a_sweep_killed_mid_run_resumes_to_the_same_rows() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let t0 = std::time::Instant::now();
-    while t0.elapsed().as_secs_f64() < 20.0 {
-        if std::fs::read_to_string(&csv).is_ok_and(|t| t.lines().count() > 1) {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    }
-    child.kill().unwrap(); // SIGKILL on Unix
-    child.wait().unwrap();
-    let partial = std::fs::read_to_string(&csv)
-        .map(|t| t.lines().count() - 1)
-        .unwrap_or(0);
+    let partial = kill_after_first_row(child, &csv);
     println!("killed after {partial} row(s) of 12 were written");
     // Whatever was on disk is whole rows of whole runs (2 radii each).
     assert_eq!(partial % 2, 0, "a partial run was written");
@@ -588,24 +593,13 @@ fn a_study_kind_resumes_after_sigkill_and_its_shards_merge_to_the_unsharded_run(
     assert_eq!(reference.len(), 6);
     // SIGKILL once a row is on disk.
     let csv = killed.join("midrange/mid/runs.csv");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+    let child = Command::new(env!("CARGO_BIN_EXE_shscale"))
         .args(["run", c, "--out-dir", killed.to_str().unwrap()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let t0 = std::time::Instant::now();
-    while t0.elapsed().as_secs_f64() < 20.0 {
-        if std::fs::read_to_string(&csv).is_ok_and(|t| t.lines().count() > 1) {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(2));
-    }
-    child.kill().unwrap();
-    child.wait().unwrap();
-    let partial = std::fs::read_to_string(&csv)
-        .map(|t| t.lines().count() - 1)
-        .unwrap_or(0);
+    let partial = kill_after_first_row(child, &csv);
     println!("killed after {partial} of 6 runs");
     let text = ok(&["run", c, "--out-dir", killed.to_str().unwrap()]);
     assert!(

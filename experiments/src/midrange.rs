@@ -190,8 +190,9 @@ impl Kind for MidRange {
             Cost {
                 rays: 0.0,
                 bytes: quad * 8.0 * (p.order * p.order) as f64,
-                // ≈ 20 ns per quadrature point and pair (measured: 12 × 6 pairs ≈ 30 ms).
-                seconds: pairs * quad * 2e-8,
+                // ≈ 70 ns per quadrature point and pair: `shscale run configs/experiments/
+                // midrange.toml` (12 × 6 pairs, 6 k × 4 timed calls) took 2.1 s here.
+                seconds: pairs * quad * 7e-8,
                 drivers: format!("points × normals = {pairs} pairs × {quad} quadrature points"),
             },
         )
