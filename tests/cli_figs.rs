@@ -18,38 +18,47 @@ fn figures_and_their_index_are_regenerated() {
     std::fs::create_dir_all(&cfg).unwrap();
     std::fs::write(
         cfg.join("a_sparsity.toml"),
-        "figure = \"sparsity\"\ntitle = \"Fig. 2 test\"\nclaim = \"44 non-zeros\"\norder = 4\nalpha_deg = [30]\nk = [0.5, 3.0]\nmidrange_k = [0.4]\n",
+        "experiment = \"sparsity\"\ntitle = \"Fig. 2 test\"\nclaim = \"44 non-zeros\"\norder = 4\n[[sweep]]\ntau = [\"cone\"]\nalpha_deg = [30]\nk = [0.5, 3.0]\n[[sweep]]\ntau = [\"midrange\"]\nk = [0.4]\n",
     )
     .unwrap();
     std::fs::write(
         cfg.join("b_elements.toml"),
-        "figure = \"m_elements\"\ntitle = \"Fig. 3 test\"\nclaim = \"smooth\"\norder = 3\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 2], [3, 3]]\ncurve_points = 12\n",
+        "experiment = \"m_elements\"\ntitle = \"Fig. 3 test\"\nclaim = \"smooth\"\norder = 3\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\ncurve_points = 12\n[sweep.zip]\nrow = [2, 3]\ncol = [2, 3]\n",
     )
     .unwrap();
     std::fs::write(
         cfg.join("c_visibility.toml"),
-        "figure = \"visibility\"\ntitle = \"Fig. 5 test\"\nclaim = \"resembles\"\nmesh = \"bird\"\norder = 3\nalpha_deg = 45\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 8\nradii = [0.7, 1.3]\n",
+        "experiment = \"probe\"\ntitle = \"Fig. 5 test\"\nclaim = \"resembles\"\nmesh = \"bird\"\norder = 3\nalpha_deg = 45\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 8\nradii = [0.7, 1.3]\n",
     )
     .unwrap();
     let out = d.join("figs");
-    let o = common::shscale(&[
-        "figs",
-        "--configs",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--gpu",
-        "off",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let runs = d.join("runs");
+    let figs = |extra: &[&str]| {
+        let mut args = vec![
+            "figs",
+            "--configs",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--gpu",
+            "off",
+        ];
+        args.extend(extra);
+        let o = common::shscale(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let first = figs(&["--runs", runs.to_str().unwrap()]);
     for f in [
         "a_sparsity.png",
         "a_sparsity.svg",
         "a_sparsity.txt",
+        "a_sparsity.csv",
         "b_elements.png",
         "b_elements.csv",
         "c_visibility.png",
         "c_visibility.exr",
+        "c_visibility.csv",
         "README.md",
     ] {
         let len = std::fs::metadata(out.join(f))
@@ -62,9 +71,12 @@ fn figures_and_their_index_are_regenerated() {
         "## Fig. 2 test",
         "## Fig. 3 test",
         "## Fig. 5 test",
+        "**Paper.** 44 non-zeros",
         "has 44 positions; N(2N²+1)/3 = 44",
+        "Over 6 matrices (3 τ × plain and energy η)",
         "Confirmed where it matters",
         "![Fig. 5 test](c_visibility.png)",
+        "| 0.7 |",
     ] {
         assert!(index.contains(needle), "index lacks {needle:?}:\n{index}");
     }
@@ -73,13 +85,26 @@ fn figures_and_their_index_are_regenerated() {
     assert_eq!(txt.lines().count(), 16);
     assert_eq!(txt.matches('X').count(), 41);
     assert_eq!(txt.matches('o').count(), 3);
-    // The element CSV: header + 12 points, direct and table columns per element.
-    let csv = std::fs::read_to_string(out.join("b_elements.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 13);
-    assert_eq!(
-        csv.lines().next().unwrap(),
-        "k,M_2_2_direct,M_2_2_table,M_3_3_direct,M_3_3_table"
-    );
+    // The rows behind Fig. 3: two elements × 12 curve points, every parameter a column.
+    let mut r = ::csv::Reader::from_path(out.join("b_elements.csv")).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    for c in ["run_id", "row", "col", "k", "direct", "table", "abs_err", "k_count"] {
+        assert!(h.iter().any(|x| x == c), "{c} not in {h:?}");
+    }
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    assert_eq!(rows.len(), 24);
+    // Linear interpolation reproduces the table's own nodes: at k_min the element is exact.
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+    let e0: f64 = rows[0][col("abs_err")].parse().unwrap();
+    assert!(e0 < 1e-12, "abs_err at k_min = {e0}");
+    // The runs were kept under --runs; a second figs resumes them (nothing recomputed), and the
+    // default (no --runs) recomputes in a temporary folder it removes.
+    assert!(runs.join("m_elements/b_elements/runs.csv").exists());
+    assert!(first.contains("(2 run(s), 0 already done)"), "{first}");
+    let again = figs(&["--runs", runs.to_str().unwrap()]);
+    assert!(again.contains("(0 run(s), 2 already done)"), "{again}");
+    let fresh = figs(&[]);
+    assert!(fresh.contains("(2 run(s), 0 already done)"), "{fresh}");
     std::fs::remove_dir_all(&d).ok();
 }
 
@@ -88,25 +113,31 @@ fn bad_figure_configs_name_file_line_and_field() {
     let d = tmp("bad");
     let cases = [
         (
-            "figure = \"sparsity\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nalpha_deg = [30]\nk = [2.0]\ncolour = \"red\"\n",
-            ":7: unknown field `colour`",
+            "experiment = \"sparsity\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nalpha_deg = 30\nk = 2.0\ncolour = \"red\"\n",
+            ":7: colour: unknown field `colour`",
         ),
         (
-            "figure = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = \"four\"\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 2]]\ncurve_points = 12\n",
+            "experiment = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = \"four\"\n",
             ":4: order: invalid type: string \"four\", expected usize",
         ),
         (
-            "figure = \"histogram\"\ntitle = \"t\"\nclaim = \"c\"\n",
-            "figure: unknown kind \"histogram\"",
+            "experiment = \"histogram\"\ntitle = \"t\"\nclaim = \"c\"\n",
+            "\"histogram\" is not a known experiment kind",
         ),
         (
-            "figure = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nalpha_deg = 45\nk_min = 0.5\nk_max = 4.0\nk_count = 10\nelements = [[2, 3]]\ncurve_points = 12\n",
-            "elements: [2, 3] is not a structural non-zero",
+            "experiment = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nrow = 2\ncol = 3\n",
+            ":6: col: (2, 3) is not a structural non-zero",
         ),
     ];
     for (i, (text, needle)) in cases.iter().enumerate() {
         let cfg = d.join(format!("c{i}"));
         std::fs::create_dir_all(&cfg).unwrap();
+        // A good config sorted first: nothing is run or written while another is bad.
+        std::fs::write(
+            cfg.join("a_good.toml"),
+            "experiment = \"sparsity\"\norder = 2\n",
+        )
+        .unwrap();
         std::fs::write(cfg.join("fig.toml"), text).unwrap();
         common::fails(
             &[
@@ -120,6 +151,7 @@ fn bad_figure_configs_name_file_line_and_field() {
             ],
             needle,
         );
+        assert!(!d.join("out").exists(), "case {i}: output written");
     }
     common::fails(
         &[
@@ -137,7 +169,7 @@ fn bad_figure_configs_name_file_line_and_field() {
 /// Studies (`experiment = "midrange" | "srf" | "extremes"`) run through `shscale run` into
 /// results/<kind>/<stem>/ with a summary, a manifest, a CSV and a plot; their verdicts come from
 /// the numbers (mid-range scaling beats the distant assumption — checked against a ray-exit
-/// quadrature truth; the extremes study finds no failing case).
+/// quadrature truth; the extremes study finds no failing case). They shard like every kind.
 #[test]
 fn studies_run_through_shscale_run() {
     let d = tmp("studies");
@@ -150,13 +182,13 @@ fn studies_run_through_shscale_run() {
     let ext = d.join("ext.toml");
     std::fs::write(
         &ext,
-        "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\nk = [1e-6, 1.0, 1e6]\nalpha_deg = [1e-4, 45.0, 89.9999]\norders = [4]\nmidrange_k = [-0.999, 0.999999999]\n",
+        "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\n[[sweep]]\ntau = [\"cone\"]\nk = [1e-6, 1.0, 1e6]\nalpha_deg = [1e-4, 45.0, 89.9999]\n[[sweep]]\ntau = [\"midrange\"]\nk = [-0.999, 0.999999999]\n",
     )
     .unwrap();
     let srf = d.join("srf.toml");
     std::fs::write(
         &srf,
-        "experiment = \"srf\"\ntitle = \"s\"\nclaim = \"c\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 8\nalpha_deg = [45]\nhinge_deg = [100]\nradii = [1.5, 2.5]\n",
+        "experiment = \"srf\"\ntitle = \"s\"\nclaim = \"c\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 8\nalpha_deg = 45\nhinge_deg = 100\nradii = [1.5, 2.5]\n",
     )
     .unwrap();
     let out = d.join("results");
@@ -204,8 +236,8 @@ fn studies_run_through_shscale_run() {
         assert!(k == 0.0 || s < d, "k = {k}: scaled {s} ≥ distant {d}");
     }
     for (cfg, kind, stem, needle) in [
-        (&ext, "extremes", "ext", "0 failed (non-finite"),
-        (&srf, "srf", "srf", "| 100° | 45° | 1.5 |"),
+        (&ext, "extremes", "ext", "22 matrices"),
+        (&srf, "srf", "srf", "| 100.0° | 45.0° | 1.5 |"),
     ] {
         let o = common::shscale(&[
             "run",
@@ -221,28 +253,36 @@ fn studies_run_through_shscale_run() {
         );
         assert!(text.contains(needle), "{kind}: {needle:?} not in\n{text}");
         let dir = out.join(kind).join(stem);
-        for f in [
-            "summary.md",
-            "manifest.toml",
-            &format!("{stem}.csv"),
-            &format!("{stem}.png"),
-        ] {
+        for f in ["summary.md", "manifest.toml", "runs.csv"] {
             assert!(dir.join(f).exists(), "{kind}: {f} missing");
         }
     }
-    // Studies are not sharded, and their configs are checked like every other.
-    common::fails(
-        &[
+    // Every extremes case passes (its own verdict), and the summary says so.
+    let summary = std::fs::read_to_string(out.join("extremes/ext/summary.md")).unwrap();
+    assert!(summary.contains("0 failed"), "{summary}");
+    assert!(summary.contains("**Claim.** c"), "{summary}");
+    // Studies shard like every kind: two shards cover the 11 runs.
+    for i in 0..2 {
+        let o = common::shscale(&[
             "run",
             ext.to_str().unwrap(),
             "--shard",
-            "0/2",
+            &format!("{i}/2"),
+            "--name",
+            "ext_sharded",
             "--out-dir",
             out.to_str().unwrap(),
-        ],
-        "not yet an experiment kind of the runner",
-    );
-    std::fs::write(&ext, "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\nk = [1.0]\nalpha_deg = [45.0]\norders = [4]\nmidrange_k = []\nspeed = 3\n").unwrap();
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let rows = |f: &str| {
+        ::csv::Reader::from_path(out.join("extremes/ext_sharded").join(f))
+            .unwrap()
+            .records()
+            .count()
+    };
+    assert_eq!(rows("runs.shard-0-of-2.csv") + rows("runs.shard-1-of-2.csv"), 22);
+    std::fs::write(&ext, "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\nk = 1.0\nalpha_deg = 45.0\norder = 4\ntau = \"cone\"\nspeed = 3\n").unwrap();
     common::fails(
         &[
             "run",
@@ -250,7 +290,7 @@ fn studies_run_through_shscale_run() {
             "--out-dir",
             out.to_str().unwrap(),
         ],
-        "ext.toml:8: unknown field `speed`",
+        "ext.toml:8: speed: unknown field `speed`",
     );
     std::fs::remove_dir_all(&d).ok();
 }

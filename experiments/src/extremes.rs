@@ -8,31 +8,100 @@
 //! preserved): |M₀₀ − 1| plus the largest other entry of that column/row. Per τ case: whether τ
 //! and τ′ are finite at θ ∈ {0, 10⁻¹², 10⁻⁶, π/2, π − 10⁻⁶, π − 10⁻¹², π} and the round trip
 //! |τ⁻¹(τ(θ)) − θ| (τ⁻¹ is computed by its own formula or bisection, not by inverting τ's code).
+//!
+//! One run is one τ (cone at k and α, or mid-range at k) at one order: two rows, one per η, with
+//! the τ checks of that τ on both. Sweep with `[[sweep]]` blocks (cone over k × α × N, mid-range
+//! over its k).
 
-use crate::{write_text, FigureOutput};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
 use shscale_scaling::{AngularScaling, Cone, Eta, MidRange, QuadOptions, ScalingMatrix};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the study.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
-    pub k: Vec<f64>,
-    pub alpha_deg: Vec<f64>,
-    pub orders: Vec<usize>,
-    pub midrange_k: Vec<f64>,
+/// Parameters of one run (one τ at one order).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// `cone` (k > 0 and α) or `midrange` (k in (−1, 1); α unused).
+    pub tau: String,
+    pub k: f64,
+    pub alpha_deg: f64,
+    pub order: usize,
 }
 
-crate::impl_header!(Spec);
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            tau: "cone".into(),
+            k: 1.0,
+            alpha_deg: 45.0,
+            order: 4,
+        }
+    }
+}
+
+/// One row per η.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    /// `plain` or `energy`.
+    pub eta: String,
+    /// The adaptive quadrature's panels, integrand evaluations, error bound and convergence.
+    pub panels: usize,
+    pub evaluations: usize,
+    pub error_bound: f64,
+    pub converged: bool,
+    /// Every matrix element finite.
+    pub finite: bool,
+    /// |M₀₀ − 1| plus the largest other entry of column 0 (plain) or row 0 (energy).
+    pub invariant_defect: f64,
+    /// τ at θ ∈ {0, 1e-12, 1e-6, π/2, π − 1e-6, π − 1e-12, π}: evaluations that are non-finite,
+    /// outside [0, π] or fail the round trip, and the worst round-trip error among those judged
+    /// on θ.
+    pub tau_pole_failures: usize,
+    pub tau_round_trip_max: f64,
+    /// Finite, converged, defect ≤ 1e-8 and no τ failure.
+    pub ok: bool,
+}
+
+/// The kind `extremes`.
+pub struct Extremes;
+
+/// The largest order of the study (the matrices' own limit).
+pub const MAX_ORDER: usize = 32;
+
+/// The invariant defect bound of a passing case.
+const DEFECT_OK: f64 = 1e-8;
+
+fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, String> {
+    Ok(match p.tau.as_str() {
+        "cone" => Box::new(Cone::new(p.k, p.alpha_deg.to_radians()).map_err(|e| e.to_string())?),
+        _ => Box::new(MidRange::new(p.k).map_err(|e| e.to_string())?),
+    })
+}
+
+/// τ at the poles: failures and the worst round trip.
+fn tau_checks(tau: &dyn AngularScaling) -> (usize, f64) {
+    let thetas = [0.0, 1e-12, 1e-6, PI / 2.0, PI - 1e-6, PI - 1e-12, PI];
+    let (mut bad, mut worst) = (0usize, 0f64);
+    for &t in &thetas {
+        let (v, dv) = (tau.tau(t), tau.dtau(t));
+        let finite = v.is_finite() && dv.is_finite() && (0.0..=PI).contains(&v);
+        let trip = (tau.inverse(v) - t).abs();
+        // Where τ is flat to rounding (|τ′| tiny), τ⁻¹ is ill-conditioned: the round trip is
+        // then judged on τ(τ⁻¹(τ(θ))) = τ(θ) instead.
+        let trip_ok = trip < 1e-6 || (tau.tau(tau.inverse(v)) - v).abs() < 1e-9;
+        if trip_ok && trip < 1e-6 {
+            worst = worst.max(trip);
+        }
+        bad += usize::from(!finite || !trip_ok);
+    }
+    (bad, worst)
+}
 
 /// The invariant defect of `m` for `eta` (0 in exact arithmetic).
 fn invariant_defect(m: &ScalingMatrix<f64>, eta: Eta) -> f64 {
@@ -48,137 +117,190 @@ fn invariant_defect(m: &ScalingMatrix<f64>, eta: Eta) -> f64 {
     e
 }
 
-/// Run the study.
-pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput, LabError> {
-    let cfg = |f: &str, m: String| LabError::Config(format!("{file}: {f}: {m}"));
-    let mut csv = String::from("tau,k,alpha_deg,order,eta,panels,evaluations,error_bound,converged,finite,invariant_defect,seconds\n");
-    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let (mut cases, mut bad, mut worst_defect) = (0usize, Vec::new(), 0f64);
-    let mut run_case = |name: String,
-                        tau: &dyn AngularScaling,
-                        k: f64,
-                        a: f64,
-                        order: usize,
-                        csv: &mut String|
-     -> Result<(), LabError> {
-        for eta in [Eta::Plain, Eta::Energy] {
-            let t0 = std::time::Instant::now();
-            let (m, rep) =
-                ScalingMatrix::<f64>::compute_with(tau, eta, order, &QuadOptions::default())
-                    .map_err(|e| cfg("k", e.to_string()))?;
-            let secs = t0.elapsed().as_secs_f64();
-            let finite = m.values().iter().all(|v| v.is_finite());
-            let defect = invariant_defect(&m, eta);
-            cases += 1;
-            worst_defect = worst_defect.max(defect);
-            if !finite || !rep.converged || defect > 1e-8 {
-                bad.push(format!("{name} k={k} α={a}° N={order} {eta:?}"));
-            }
-            csv.push_str(&format!(
-                "{name},{k},{a},{order},{eta:?},{},{},{:e},{},{finite},{defect:e},{secs}\n",
-                rep.panels, rep.evaluations, rep.error_bound, rep.converged
+impl Kind for Extremes {
+    const NAME: &'static str = "extremes";
+    const QUESTION: &'static str = "Do the scaling matrices and τ stay finite, converged and invariant-preserving at extreme k (1e-6 … 1e6), α (1e-4° … 90° − 1e-4°), N (to 32) and at the poles?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if !(1..=MAX_ORDER).contains(&p.order) {
+            return Err(KeyError::new(
+                "order",
+                format!("{} is outside 1..={MAX_ORDER}", p.order),
             ));
-            if name == "cone" && eta == Eta::Plain && order == s.orders[0] {
-                series
-                    .entry(format!("α = {a}°"))
-                    .or_default()
-                    .push((k.log10(), rep.panels as f64));
+        }
+        match p.tau.as_str() {
+            "cone" if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) => {
+                return Err(KeyError::new(
+                    "alpha_deg",
+                    format!("{} is outside (0, 90)", p.alpha_deg),
+                ))
+            }
+            "cone" | "midrange" => {}
+            other => {
+                return Err(KeyError::new(
+                    "tau",
+                    format!("{other:?} is not cone or midrange"),
+                ))
             }
         }
+        tau_of(p).map(|_| ()).map_err(|m| KeyError::new("k", m))
+    }
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        let nn = (p.order * p.order) as f64;
+        (
+            Cost::default(),
+            Cost {
+                bytes: nn * nn * 8.0 * 4.0,
+                // Adaptive quadrature: ≈ 1e-6 s per element and panel; extreme k need more panels.
+                seconds: 2.0 * 2e-4 * nn * nn,
+                drivers: format!("order = {} → 2 matrices of {nn}² elements", p.order),
+                ..Cost::default()
+            },
+        )
+    }
+
+    fn rows_per_run(_: &Params) -> usize {
+        2
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
         Ok(())
-    };
-    for &a in &s.alpha_deg {
-        if !(a > 0.0 && a < 90.0) {
-            return Err(cfg("alpha_deg", format!("{a} is outside (0, 90)")));
+    }
+
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+        let tau = tau_of(p).map_err(|m| LabError::Config(format!("k: {m}")))?;
+        let (tau_bad, trip) = tau_checks(tau.as_ref());
+        [Eta::Plain, Eta::Energy]
+            .into_iter()
+            .map(|eta| {
+                let (m, rep) = ScalingMatrix::<f64>::compute_with(
+                    tau.as_ref(),
+                    eta,
+                    p.order,
+                    &QuadOptions::default(),
+                )
+                .map_err(|e| LabError::Config(format!("k: {e}")))?;
+                let finite = m.values().iter().all(|v| v.is_finite());
+                let defect = invariant_defect(&m, eta);
+                Ok(Row {
+                    eta: match eta {
+                        Eta::Plain => "plain".into(),
+                        Eta::Energy => "energy".into(),
+                    },
+                    panels: rep.panels,
+                    evaluations: rep.evaluations,
+                    error_bound: rep.error_bound,
+                    converged: rep.converged,
+                    finite,
+                    invariant_defect: defect,
+                    tau_pole_failures: tau_bad,
+                    tau_round_trip_max: trip,
+                    ok: finite && rep.converged && defect <= DEFECT_OK && tau_bad == 0,
+                })
+            })
+            .collect()
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &["eta", "panels", "converged", "invariant_defect", "tau_pole_failures", "ok"]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+        Self::figure(dir, t, dir, "extremes_panels_vs_k")
+    }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        if t.rows.is_empty() {
+            return Ok(String::new());
         }
-        for &k in &s.k {
-            let tau = Cone::new(k, a.to_radians()).map_err(|e| cfg("k", e.to_string()))?;
-            for &n in &s.orders {
-                if !(1..=32).contains(&n) {
-                    return Err(cfg("orders", format!("{n} is outside 1..=32")));
+        let label = |r: usize| match t.cell(r, "tau") {
+            "cone" => format!(
+                "cone k={} α={}° N={} {}",
+                t.cell(r, "k"),
+                t.cell(r, "alpha_deg"),
+                t.cell(r, "order"),
+                t.cell(r, "eta")
+            ),
+            _ => format!(
+                "mid-range k={} N={} {}",
+                t.cell(r, "k"),
+                t.cell(r, "order"),
+                t.cell(r, "eta")
+            ),
+        };
+        let bad: Vec<String> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, "ok") != "true")
+            .map(label)
+            .collect();
+        let worst = (0..t.rows.len())
+            .map(|r| t.num(r, "invariant_defect"))
+            .fold(0f64, f64::max);
+        let set = |c: &str| {
+            let mut v: Vec<String> = Vec::new();
+            for r in 0..t.rows.len() {
+                let x = t.cell(r, c).to_string();
+                if !v.contains(&x) {
+                    v.push(x);
                 }
-                run_case("cone".into(), &tau, k, a, n, &mut csv)?;
             }
-        }
-    }
-    for &k in &s.midrange_k {
-        let tau = MidRange::new(k).map_err(|e| cfg("midrange_k", e.to_string()))?;
-        run_case("midrange".into(), &tau, k, f64::NAN, s.orders[0], &mut csv)?;
-    }
-    // τ at the poles.
-    let thetas = [0.0, 1e-12, 1e-6, PI / 2.0, PI - 1e-6, PI - 1e-12, PI];
-    let mut tcsv = String::from("tau,k,alpha_deg,theta,tau_value,dtau,finite,round_trip_error\n");
-    let (mut tcases, mut tbad, mut worst_trip) = (0usize, Vec::new(), 0f64);
-    let mut taus: Vec<(String, f64, f64, Box<dyn AngularScaling>)> = Vec::new();
-    for &a in &s.alpha_deg {
-        for &k in &s.k {
-            taus.push((
-                "cone".into(),
-                k,
-                a,
-                Box::new(Cone::new(k, a.to_radians()).map_err(|e| cfg("k", e.to_string()))?),
-            ));
-        }
-    }
-    for &k in &s.midrange_k {
-        taus.push((
-            "midrange".into(),
-            k,
-            f64::NAN,
-            Box::new(MidRange::new(k).map_err(|e| cfg("midrange_k", e.to_string()))?),
-        ));
-    }
-    for (name, k, a, tau) in &taus {
-        for &t in &thetas {
-            let (v, dv) = (tau.tau(t), tau.dtau(t));
-            let finite = v.is_finite() && dv.is_finite() && (0.0..=PI).contains(&v);
-            let trip = (tau.inverse(v) - t).abs();
-            tcases += 1;
-            // Where τ is flat to rounding (|τ′| tiny), τ⁻¹ is ill-conditioned: the round trip is
-            // then judged on τ(τ⁻¹(τ(θ))) = τ(θ) instead.
-            let trip_ok = trip < 1e-6 || (tau.tau(tau.inverse(v)) - v).abs() < 1e-9;
-            worst_trip = worst_trip.max(if trip_ok { 0.0 } else { trip });
-            if !finite || !trip_ok {
-                tbad.push(format!(
-                    "{name} k={k} α={a} θ={t}: τ={v} τ′={dv} trip {trip:e}"
-                ));
+            v.join(", ")
+        };
+        Ok(format!(
+            "**Ours.** {} matrices (τ ∈ {{{}}}, k ∈ {{{}}}, α ∈ {{{}}}°, N ∈ {{{}}}; both η), each with τ checked at 7 polar angles from 0 to π: \
+{} failed (non-finite, not converged, invariant defect > {DEFECT_OK:.0e}, or a τ failure){}; worst invariant defect {worst:.1e}.\n\n\
+**Comparison.** The papers do not discuss the extremes; this is the project's own stability claim: {}.",
+            t.rows.len(),
+            set("tau"),
+            set("k"),
+            set("alpha_deg"),
+            set("order"),
+            bad.len(),
+            if bad.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", bad.join("; "))
+            },
+            if bad.is_empty() {
+                "it holds on every case tried"
+            } else {
+                "it does NOT hold on the cases listed"
             }
-            tcsv.push_str(&format!("{name},{k},{a},{t},{v},{dv},{finite},{trip:e}\n"));
-        }
+        ))
     }
-    let mut files = write_both(
-        out,
-        stem,
-        &Labels {
-            title: "quadrature panels of M (cone, plain η) vs k",
-            x: "log10 k",
-            y: "adaptive quadrature panels",
-        },
-        &series,
-        false,
-        &[],
-    )?;
-    files.push(write_text(out, &format!("{stem}.csv"), &csv)?);
-    files.push(write_text(out, &format!("{stem}_tau.csv"), &tcsv)?);
-    let markdown = format!(
-        "**Ours.** {cases} matrices (cone at k ∈ {:?} × α ∈ {:?}° × N ∈ {:?}, mid-range at k ∈ {:?}; both η): {} failed \
-(non-finite, not converged, or invariant defect > 1e-8){}; worst invariant defect {worst_defect:.1e}. {tcases} τ evaluations at the poles \
-and in between: {} failed{}. Details: `{stem}.csv`, `{stem}_tau.csv`; the plot shows how many quadrature panels the extreme k cost.\n\n\
-**Comparison.** The papers do not discuss the extremes; this is the project's own stability claim (issue \"SH scaling\"): \
-{}.",
-        s.k,
-        s.alpha_deg,
-        s.orders,
-        s.midrange_k,
-        bad.len(),
-        if bad.is_empty() { String::new() } else { format!(": {}", bad.join("; ")) },
-        tbad.len(),
-        if tbad.is_empty() { String::new() } else { format!(": {}", tbad.join("; ")) },
-        if bad.is_empty() && tbad.is_empty() {
-            "it holds on every case tried"
-        } else {
-            "it does NOT hold on the cases listed"
+
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        // Quadrature panels of the plain cone matrix against log10 k, per α and order.
+        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for r in (0..t.rows.len())
+            .filter(|&r| t.cell(r, "tau") == "cone" && t.cell(r, "eta") == "plain")
+        {
+            series
+                .entry(format!(
+                    "α = {}°, N = {}",
+                    t.cell(r, "alpha_deg"),
+                    t.cell(r, "order")
+                ))
+                .or_default()
+                .push((t.num(r, "k").log10(), t.num(r, "panels")));
         }
-    );
-    Ok(FigureOutput { files, markdown })
+        for v in series.values_mut() {
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        write_both(
+            out,
+            stem,
+            &Labels {
+                title: "quadrature panels of M (cone, plain η) vs k",
+                x: "log10 k",
+                y: "adaptive quadrature panels",
+            },
+            &series,
+            false,
+            &[],
+        )
+    }
 }

@@ -2,118 +2,282 @@
 //! sampled shadow field (Zhou et al. 2005) on the same scene — and how far is each from ray-traced
 //! truth, band-limited and full-frequency?
 //!
-//! Renders the scene's receiver plane with the full field, the extrapolated field, band-limited
-//! ray tracing and full-frequency ray tracing, writes the first, second and last side by side,
-//! and reports `shade_rmse_rel` (docs/conventions.md §6) of every method against both truths with the
-//! render times.
+//! One run is one scene (optionally with its order, α, layout or hemisphere resolution
+//! overridden — each a sweepable parameter): the receiver plane rendered with the full field, the
+//! extrapolated field, band-limited ray tracing and full-frequency ray tracing, one row per method
+//! with `shade_rmse_rel` (docs/conventions.md §6) against both truths and the render time (the
+//! timing procedure of the config). The run writes `shadows_<run id>.exr/.png`: full field |
+//! extrapolated | full-frequency truth, side by side.
 
-use crate::FigureOutput;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
+use shscale_field::Layout;
+use shscale_lab::exp::probe::{MAX_HEMISPHERE_RES, MAX_ORDER};
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::render::{render, Method, RenderOutput};
 use shscale_lab::scene::Scene;
 use shscale_lab::LabError;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the figure.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    /// The kind (checked by [`crate::parse`]).
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
-    /// Scene file, relative to the config.
+/// Parameters of one run (one scene).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Scene file, relative to the config's folder.
     pub scene: String,
+    /// Overrides of the scene's own values (empty: the scene's).
+    pub order: Option<usize>,
+    pub alpha_deg: Option<f64>,
+    pub layout: Option<String>,
+    pub hemisphere_res: Option<usize>,
 }
 
-crate::impl_header!(Spec);
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            scene: "../scene_bunny.toml".into(),
+            order: None,
+            alpha_deg: None,
+            layout: None,
+            hemisphere_res: None,
+        }
+    }
+}
+
+/// One row per method.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    /// `full_field`, `extrapolated`, `ray_traced` (band-limited) or `full_frequency`.
+    pub method: String,
+    pub rmse_vs_band_limited: f64,
+    pub rmse_vs_full_frequency: f64,
+    pub render_seconds: f64,
+    pub render_spread: f64,
+    /// The scene as rendered (after overrides).
+    pub scene_order: usize,
+    pub scene_alpha_deg: f64,
+    pub scene_layout: String,
+    pub scene_hemisphere_res: usize,
+    pub receivers: usize,
+}
+
+/// The kind `shadows`.
+pub struct Shadows;
+
+const METHODS: [(Method, &str); 4] = [
+    (Method::FullField, "full_field"),
+    (Method::Extrapolated, "extrapolated"),
+    (Method::RayTraced, "ray_traced"),
+    (Method::FullFrequency, "full_frequency"),
+];
 
 fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
-/// Run the figure.
-pub fn run(
-    file: &str,
-    s: &Spec,
-    base: &Path,
-    out: &Path,
-    stem: &str,
-) -> Result<FigureOutput, LabError> {
-    let scene = Scene::load(&base.join(&s.scene))?;
-    let mut imgs = Vec::new();
-    for m in [
-        Method::FullField,
-        Method::Extrapolated,
-        Method::RayTraced,
-        Method::FullFrequency,
-    ] {
-        let t = std::time::Instant::now();
-        let img = render(&scene, m)?;
-        imgs.push((m, img, t.elapsed().as_secs_f64()));
+fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, LabError> {
+    let mut s = Scene::load(&config_dir.join(&p.scene))?;
+    if let Some(n) = p.order {
+        s.order = n;
     }
-    let mut open = scene.clone();
-    open.occluders.clear();
-    let unshadowed = flat(&render(&open, Method::RayTraced)?);
-    let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
-    let err = |img: &RenderOutput, truth: &[f64]| {
-        shade_rmse_rel(&flat(img), truth, &unshadowed).ok_or_else(|| {
-            LabError::Config(format!("{file}: scene: the unshadowed image is black"))
-        })
-    };
-    let mut rows = Vec::new();
-    let mut rel = Vec::new();
-    for (m, img, secs) in &imgs {
-        let (b, f) = (err(img, &band)?, err(img, &full)?);
-        rel.push((b, f));
-        rows.push(format!("| {m:?} | {b:.4} | {f:.4} | {:.0} |", secs * 1e3));
+    if let Some(a) = p.alpha_deg {
+        s.alpha = a.to_radians();
     }
-    // Side by side: full field | extrapolated | full-frequency truth.
-    let (w, h) = (imgs[0].1.width, imgs[0].1.height);
-    let mut px = vec![[0f32; 3]; 3 * w * h];
-    for (slot, idx) in [0usize, 1, 3].into_iter().enumerate() {
-        for y in 0..h {
-            for x in 0..w {
-                px[y * 3 * w + slot * w + x] = imgs[idx].1.pixels[y * w + x];
+    if let Some(l) = &p.layout {
+        s.layout = Layout::parse(l)?;
+    }
+    if let Some(h) = p.hemisphere_res {
+        s.hemisphere_res = h;
+    }
+    Ok(s)
+}
+
+impl Kind for Shadows {
+    const NAME: &'static str = "shadows";
+    const QUESTION: &'static str = "SHS §4, Fig. 7: how far are the shadows of the extrapolated field and of a fully sampled shadow field from band-limited and from full-frequency ray-traced truth, and at what render cost?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if p.scene.trim().is_empty() {
+            return Err(KeyError::new("scene", "give a scene file"));
+        }
+        if let Some(n) = p.order {
+            if !(1..=MAX_ORDER).contains(&n) {
+                return Err(KeyError::new(
+                    "order",
+                    format!("{n} is outside 1..={MAX_ORDER}"),
+                ));
             }
         }
+        if let Some(a) = p.alpha_deg {
+            if !(a > 0.0 && a < 90.0) {
+                return Err(KeyError::new("alpha_deg", format!("{a} is outside (0, 90)")));
+            }
+        }
+        if let Some(l) = &p.layout {
+            Layout::parse(l).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        }
+        if let Some(h) = p.hemisphere_res {
+            if !(1..=MAX_HEMISPHERE_RES).contains(&h) {
+                return Err(KeyError::new(
+                    "hemisphere_res",
+                    format!("{h} is outside 1..={MAX_HEMISPHERE_RES}"),
+                ));
+            }
+        }
+        Ok(())
     }
-    let exr = out.join(format!("{stem}.exr"));
-    shscale_lab::io::write_exr(&exr, 3 * w, h, &px)?;
-    let png = exr.with_extension("png");
-    shscale_lab::io::write_png_preview(&png, 3 * w, h, &px)?;
-    let (ff, ex) = (rel[0], rel[1]);
-    let markdown = format!(
-        "**Ours.** Scene `{}` ({}×{} receivers, N = {}, α = {}°, layout {}, H = {}). Image, left to right: fully sampled shadow field \
-(16 shells), SH-scaling extrapolation, full-frequency ray-traced truth (linear radiance, EXR in `{stem}.exr`). `shade_rmse_rel` = RMSE of \
-irradiance over receivers / mean unshadowed irradiance:\n\n| method | vs band-limited truth | vs full-frequency truth | render (ms) |\n|---|---:|---:|---:|\n{}\n\n\
-**Comparison.** The paper shows the two side by side as visually consistent and gives no numbers. Measured, the {} is the \
-closer to band-limited truth: against it the full field errs {:.4} and the extrapolation {:.4} ({}); against full-frequency truth {:.4} and {:.4}. \
-Both shadows sit in the same place with the same softness (image), the extrapolation's error being the price of sampling one sphere per \
-frame instead of 16 shells (render times above: the full field's figure excludes its per-frame resampling, docs/BENCHMARKS.md).",
-        s.scene,
-        w,
-        h,
-        scene.order,
-        scene.alpha.to_degrees(),
-        scene.layout.name(),
-        scene.hemisphere_res,
-        rows.join("\n"),
-        if ff.0 <= ex.0 { "fully sampled field" } else { "extrapolation" },
-        ff.0,
-        ex.0,
-        if ex.0 <= ff.0 {
-            "the extrapolation is the closer of the two".to_string()
-        } else {
-            format!("{:.1}× the full field's", ex.0 / ff.0.max(1e-300))
-        },
-        ff.1,
-        ex.1,
-    );
-    Ok(FigureOutput {
-        files: vec![png, exr],
-        markdown,
-    })
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        (
+            Cost::default(),
+            Cost {
+                drivers: format!(
+                    "scene {} (its receivers × (2H)² rays for the full-frequency truth; not estimated before the scene is read)",
+                    p.scene
+                ),
+                ..Cost::default()
+            },
+        )
+    }
+
+    fn rows_per_run(_: &Params) -> usize {
+        METHODS.len()
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+        Ok(())
+    }
+
+    fn run(p: &Params, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+        let scene = scene_of(p, ctx.config_dir)?;
+        let mut imgs = Vec::new();
+        for (m, name) in METHODS {
+            let (img, t) = ctx.timing.measure(|| render(&scene, m))?;
+            imgs.push((name, img, t));
+        }
+        let mut open = scene.clone();
+        open.occluders.clear();
+        let unshadowed = flat(&render(&open, Method::RayTraced)?);
+        let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
+        let err = |img: &RenderOutput, truth: &[f64]| {
+            shade_rmse_rel(&flat(img), truth, &unshadowed).ok_or_else(|| {
+                LabError::Config(format!("scene: {}: the unshadowed image is black", p.scene))
+            })
+        };
+        // Side by side: full field | extrapolated | full-frequency truth.
+        let (w, h) = (imgs[0].1.width, imgs[0].1.height);
+        let mut px = vec![[0f32; 3]; 3 * w * h];
+        for (slot, idx) in [0usize, 1, 3].into_iter().enumerate() {
+            for y in 0..h {
+                for x in 0..w {
+                    px[y * 3 * w + slot * w + x] = imgs[idx].1.pixels[y * w + x];
+                }
+            }
+        }
+        let exr = ctx.dir.join(format!("shadows_{run_id}.exr"));
+        shscale_lab::io::write_exr(&exr, 3 * w, h, &px)?;
+        shscale_lab::io::write_png_preview(&exr.with_extension("png"), 3 * w, h, &px)?;
+        imgs.iter()
+            .map(|(name, img, t)| {
+                Ok(Row {
+                    method: name.to_string(),
+                    rmse_vs_band_limited: err(img, &band)?,
+                    rmse_vs_full_frequency: err(img, &full)?,
+                    render_seconds: t.median,
+                    render_spread: t.spread(),
+                    scene_order: scene.order,
+                    scene_alpha_deg: scene.alpha.to_degrees(),
+                    scene_layout: scene.layout.name(),
+                    scene_hemisphere_res: scene.hemisphere_res,
+                    receivers: w * h,
+                })
+            })
+            .collect()
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &["render_seconds", "render_spread"]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "method",
+            "rmse_vs_band_limited",
+            "rmse_vs_full_frequency",
+            "render_seconds",
+        ]
+    }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        let mut out = String::new();
+        let mut runs: Vec<String> = Vec::new();
+        for r in 0..t.rows.len() {
+            let id = t.cell(r, "run_id").to_string();
+            if !runs.contains(&id) {
+                runs.push(id);
+            }
+        }
+        for id in &runs {
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "run_id") == id)
+                .collect();
+            let of = |m: &str| rows.iter().copied().find(|&r| t.cell(r, "method") == m);
+            let (Some(ff), Some(ex)) = (of("full_field"), of("extrapolated")) else {
+                continue;
+            };
+            let r0 = rows[0];
+            let table: String = rows
+                .iter()
+                .map(|&r| {
+                    format!(
+                        "| {} | {:.4} | {:.4} | {:.0} |\n",
+                        t.cell(r, "method"),
+                        t.num(r, "rmse_vs_band_limited"),
+                        t.num(r, "rmse_vs_full_frequency"),
+                        t.num(r, "render_seconds") * 1e3
+                    )
+                })
+                .collect();
+            let (fb, eb) = (
+                t.num(ff, "rmse_vs_band_limited"),
+                t.num(ex, "rmse_vs_band_limited"),
+            );
+            out.push_str(&format!(
+                "**Ours.** Scene `{}` ({} receivers, N = {}, α = {}°, layout {}, H = {}; run `{id}`). Image, left to right: fully sampled shadow field \
+(16 shells), SH-scaling extrapolation, full-frequency ray-traced truth (linear radiance in the EXR). `shade_rmse_rel` = RMSE of \
+irradiance over receivers / mean unshadowed irradiance; render times are the median of the config's timing procedure:\n\n\
+| method | vs band-limited truth | vs full-frequency truth | render (ms) |\n|---|---:|---:|---:|\n{table}\n\
+**Comparison.** The paper shows the two side by side as visually consistent and gives no numbers. Measured, the {} is the closer to \
+band-limited truth: the full field errs {fb:.4} and the extrapolation {eb:.4} ({}); against full-frequency truth {:.4} and {:.4}. The \
+extrapolation's error is the price of sampling one sphere per frame instead of 16 shells (the full field's render time excludes its \
+per-frame resampling, docs/BENCHMARKS.md).\n\n",
+                t.cell(r0, "scene"),
+                t.cell(r0, "receivers"),
+                t.cell(r0, "scene_order"),
+                t.cell(r0, "scene_alpha_deg"),
+                t.cell(r0, "scene_layout"),
+                t.cell(r0, "scene_hemisphere_res"),
+                if fb <= eb { "fully sampled field" } else { "extrapolation" },
+                if eb <= fb {
+                    "the extrapolation is the closer of the two".to_string()
+                } else {
+                    format!("{:.1}× the full field's", eb / fb.max(1e-300))
+                },
+                t.num(ff, "rmse_vs_full_frequency"),
+                t.num(ex, "rmse_vs_full_frequency"),
+            ));
+        }
+        Ok(out)
+    }
+
+    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        let Some(r) = (0..t.rows.len()).next() else {
+            return Ok(Vec::new());
+        };
+        shscale_lab::exp::probe::copy_image(dir, &format!("shadows_{}", t.cell(r, "run_id")), out, stem)
+    }
 }

@@ -1,177 +1,292 @@
 //! Fig. 2 (SHS §2.2 and Appendix): where are the non-zero elements of a scaling matrix, how many
 //! are there, and is the pattern independent of the angular scaling function τ?
 //!
-//! Computes `M` for every τ of the config (cone at several α and k, mid-range at several k, both
-//! η), finds each matrix's numerically non-zero elements (|M_ij| > 1e-12 · max|M|), checks that
-//! they all lie in the structural pattern (same m, l, l′ ≥ |m|: `N(2N²+1)/3` positions) and that
-//! every τ has the same numerical pattern, and draws the pattern.
+//! One run computes `M` for one τ (cone at α and k, or mid-range at k) with both η, finds its
+//! numerically non-zero elements (|M_ij| > 1e-12 · max|M|) and checks that they all lie in the
+//! structural pattern (same m, l, l′ ≥ |m|: `N(2N²+1)/3` positions). The discussion compares the
+//! patterns across every τ of the results; the figure draws the plain pattern of the first run.
+//! Sweep τ with `[[sweep]]` blocks (cone over α × k, mid-range over its own k).
 
-use crate::{write_text, FigureOutput};
 use plotters::prelude::*;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::LabError;
 use shscale_scaling::{AngularScaling, Cone, Eta, MidRange, ScalingMatrix};
 use shscale_sh::sh_lm;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the figure.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    /// The kind (checked by [`crate::parse`]).
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
+/// Parameters of one run (one τ).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
     pub order: usize,
-    /// Cone angles α (degrees) × ks.
-    pub alpha_deg: Vec<f64>,
-    pub k: Vec<f64>,
-    /// Mid-range k values in (−1, 1).
-    #[serde(default)]
-    pub midrange_k: Vec<f64>,
+    /// `cone` (k = d/r > 0 and α) or `midrange` (k = d/R in (−1, 1); α unused).
+    pub tau: String,
+    pub k: f64,
+    pub alpha_deg: f64,
 }
 
-crate::impl_header!(Spec);
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            order: 4,
+            tau: "cone".into(),
+            k: 2.0,
+            alpha_deg: 45.0,
+        }
+    }
+}
+
+/// One row per η of a run.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    /// `plain` (visibility) or `energy` (radiance).
+    pub eta: String,
+    /// Numerically non-zero elements.
+    pub nonzeros: usize,
+    /// Positions of the structural pattern, and the paper's count N(2N²+1)/3.
+    pub structural: usize,
+    pub formula: usize,
+    /// Numerically non-zero elements outside the structural pattern (0 if the paper is right).
+    pub outside_pattern: usize,
+    /// Structural positions that are numerically zero, as `(row, column)` pairs.
+    pub structural_zeros: String,
+    pub max_abs: f64,
+}
+
+/// The kind `sparsity`.
+pub struct Sparsity;
 
 /// Relative threshold below which an element counts as zero.
 const ZERO_REL: f64 = 1e-12;
 
-fn cfg(file: &str, field: &str, msg: String) -> LabError {
-    LabError::Config(format!("{file}: {field}: {msg}"))
+fn structural(i: usize, j: usize) -> bool {
+    let ((li, mi), (lj, mj)) = (sh_lm(i), sh_lm(j));
+    mi == mj && li as i64 >= mi.abs() && lj as i64 >= mj.abs()
 }
 
-/// Run the figure.
-pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput, LabError> {
-    if !(1..=16).contains(&s.order) {
-        return Err(cfg(file, "order", format!("{} is outside 1..=16", s.order)));
+fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, String> {
+    Ok(match p.tau.as_str() {
+        "cone" => Box::new(Cone::new(p.k, p.alpha_deg.to_radians()).map_err(|e| e.to_string())?),
+        _ => Box::new(MidRange::new(p.k).map_err(|e| e.to_string())?),
+    })
+}
+
+/// The numerical non-zero pattern (row-major, N² × N²) and max |M|.
+fn pattern(p: &Params, eta: Eta) -> Result<(Vec<bool>, f64), LabError> {
+    let tau = tau_of(p).map_err(LabError::Config)?;
+    let m = ScalingMatrix::<f64>::compute(tau.as_ref(), eta, p.order)
+        .map_err(|e| LabError::Config(format!("order: {e}")))?;
+    let d = m.to_dense();
+    let nn = p.order * p.order;
+    let max = d.iter().flatten().fold(0f64, |a, v| a.max(v.abs()));
+    Ok((
+        (0..nn * nn)
+            .map(|x| d[x / nn][x % nn].abs() > ZERO_REL * max)
+            .collect(),
+        max,
+    ))
+}
+
+/// τ of a row, in words.
+fn label(t: &Results, r: usize) -> String {
+    match t.cell(r, "tau") {
+        "cone" => format!("cone α={}° k={}", t.cell(r, "alpha_deg"), t.cell(r, "k")),
+        _ => format!("mid-range k={}", t.cell(r, "k")),
     }
-    let n = s.order;
-    let nn = n * n;
-    let mut taus: Vec<(String, Box<dyn AngularScaling>)> = Vec::new();
-    for &a in &s.alpha_deg {
-        for &k in &s.k {
-            let t = Cone::new(k, a.to_radians())
-                .map_err(|e| cfg(file, "alpha_deg/k", e.to_string()))?;
-            taus.push((format!("cone α={a}° k={k}"), Box::new(t)));
+}
+
+impl Kind for Sparsity {
+    const NAME: &'static str = "sparsity";
+    const QUESTION: &'static str = "SHS §2.2: are exactly N(2N²+1)/3 of the N⁴ elements of a scaling matrix non-zero, at positions independent of τ?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if !(1..=16).contains(&p.order) {
+            return Err(KeyError::new("order", format!("{} is outside 1..=16", p.order)));
         }
-    }
-    for &k in &s.midrange_k {
-        let t = MidRange::new(k).map_err(|e| cfg(file, "midrange_k", e.to_string()))?;
-        taus.push((format!("mid-range k={k}"), Box::new(t)));
-    }
-    if taus.is_empty() {
-        return Err(cfg(file, "alpha_deg", "no τ to compute".into()));
-    }
-    let structural = |i: usize, j: usize| {
-        let ((li, mi), (lj, mj)) = (sh_lm(i), sh_lm(j));
-        mi == mj && li as i64 >= mi.abs() && lj as i64 >= mj.abs()
-    };
-    let structural_count = (0..nn)
-        .flat_map(|i| (0..nn).map(move |j| (i, j)))
-        .filter(|&(i, j)| structural(i, j))
-        .count();
-    // One pattern per η (plain for visibility, energy for radiance), compared across τ.
-    let mut patterns: [Option<Vec<bool>>; 2] = [None, None];
-    let mut same = [true, true];
-    // Per η: distinct sets of structural-but-zero positions, with the τ that give them.
-    let mut groups: [Vec<(Vec<usize>, Vec<String>)>; 2] = [Vec::new(), Vec::new()];
-    let mut outside = 0usize;
-    let mut lines = Vec::new();
-    for (name, tau) in &taus {
-        for (e, eta) in [Eta::Plain, Eta::Energy].into_iter().enumerate() {
-            let m = ScalingMatrix::<f64>::compute(tau.as_ref(), eta, n)
-                .map_err(|e| cfg(file, "order", e.to_string()))?;
-            let d = m.to_dense();
-            let max = d.iter().flatten().fold(0f64, |a, v| a.max(v.abs()));
-            let p: Vec<bool> = (0..nn * nn)
-                .map(|x| d[x / nn][x % nn].abs() > ZERO_REL * max)
-                .collect();
-            outside += p
-                .iter()
-                .enumerate()
-                .filter(|(x, nz)| **nz && !structural(x / nn, x % nn))
-                .count();
-            let count = p.iter().filter(|x| **x).count();
-            lines.push(format!("| {name} | {eta:?} | {count} |"));
-            let z: Vec<usize> = (0..nn * nn)
-                .filter(|&x| structural(x / nn, x % nn) && !p[x])
-                .collect();
-            match groups[e].iter_mut().find(|g| g.0 == z) {
-                Some(g) => g.1.push(name.clone()),
-                None => groups[e].push((z, vec![name.clone()])),
+        match p.tau.as_str() {
+            "cone" => {
+                if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
+                    return Err(KeyError::new(
+                        "alpha_deg",
+                        format!("{} is outside (0, 90)", p.alpha_deg),
+                    ));
+                }
             }
-            match &patterns[e] {
-                None => patterns[e] = Some(p),
-                Some(q) => same[e] &= *q == p,
+            "midrange" => {}
+            other => {
+                return Err(KeyError::new(
+                    "tau",
+                    format!("{other:?} is not cone or midrange"),
+                ))
             }
         }
+        tau_of(p).map(|_| ()).map_err(|m| KeyError::new("k", m))
     }
-    let [plain, _] = patterns.map(|p| p.expect("at least one τ"));
-    let count = |p: &[bool]| p.iter().filter(|x| **x).count();
-    // The plain pattern (visibility) as text and as a picture.
-    let mut txt = String::new();
-    for i in 0..nn {
-        for j in 0..nn {
-            txt.push(if plain[i * nn + j] {
-                'X'
-            } else if structural(i, j) {
-                'o'
-            } else {
-                '.'
-            });
-        }
-        txt.push('\n');
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        let nn = (p.order * p.order) as f64;
+        (
+            Cost::default(),
+            Cost {
+                bytes: nn * nn * 8.0 * 4.0,
+                // Two matrices by adaptive quadrature: ≈ 3 ms each at N = 4 here.
+                seconds: 2.0 * 2e-4 * nn * nn,
+                drivers: format!("order = {} → 2 matrices of {nn}² elements", p.order),
+                ..Cost::default()
+            },
+        )
     }
-    let mut files = vec![write_text(out, &format!("{stem}.txt"), &txt)?];
-    files.extend(draw(out, stem, n, &plain, &structural)?);
-    let formula = n * (2 * n * n + 1) / 3;
-    let describe = |g: &[(Vec<usize>, Vec<String>)]| -> String {
-        g.iter()
-            .map(|(z, names)| {
-                let pos: Vec<String> = z
-                    .iter()
+
+    fn rows_per_run(_: &Params) -> usize {
+        2
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+        Ok(())
+    }
+
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+        let nn = p.order * p.order;
+        let count = (0..nn * nn).filter(|&x| structural(x / nn, x % nn)).count();
+        [Eta::Plain, Eta::Energy]
+            .into_iter()
+            .map(|eta| {
+                let (pat, max) = pattern(p, eta)?;
+                let zeros: Vec<String> = (0..nn * nn)
+                    .filter(|&x| structural(x / nn, x % nn) && !pat[x])
                     .map(|x| format!("({}, {})", x / nn, x % nn))
                     .collect();
-                format!(
-                    "{} structural zeros {} for {}",
-                    z.len(),
-                    if pos.is_empty() {
-                        "(none)".to_string()
-                    } else {
-                        pos.join(" ")
+                Ok(Row {
+                    eta: match eta {
+                        Eta::Plain => "plain".into(),
+                        Eta::Energy => "energy".into(),
                     },
-                    names.join("; ")
-                )
+                    nonzeros: pat.iter().filter(|x| **x).count(),
+                    structural: count,
+                    formula: p.order * (2 * p.order * p.order + 1) / 3,
+                    outside_pattern: (0..nn * nn)
+                        .filter(|&x| pat[x] && !structural(x / nn, x % nn))
+                        .count(),
+                    structural_zeros: zeros.join(" "),
+                    max_abs: max,
+                })
             })
-            .collect::<Vec<_>>()
-            .join(" — ")
-    };
-    let markdown = format!(
-        "**Ours.** N = {n}: the structural pattern (same m, l, l′ ≥ |m|) has {structural_count} positions; N(2N²+1)/3 = {formula}. \
-Over {} matrices ({} τ × plain and energy η), {outside} numerically non-zero elements (|M_ij| > {ZERO_REL:.0e}·max|M|) lie outside it. \
-Plain η (visibility): {} non-zeros for the first τ; pattern {} across τ: {}. \
-Energy η (radiance): pattern {} across τ: {}. Column 0 of the plain matrix is e₀ (a constant stays constant); row 0 of the energy matrix is e₀ \
-(the integral, the l = 0 coefficient, is preserved). \
-Picture and `{stem}.txt`: the plain pattern of the first τ, X non-zero, grey/o structural but zero, white/. zero.\n\n\
-**Comparison.** {}\n\n| τ | η | non-zeros |\n|---|---|---:|\n{}",
-        2 * taus.len(),
-        taus.len(),
-        count(&plain),
-        if same[0] { "identical" } else { "not identical" },
-        describe(&groups[0]),
-        if same[1] { "identical" } else { "not identical" },
-        describe(&groups[1]),
-        if outside == 0 && structural_count == formula {
+            .collect()
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &["eta", "nonzeros", "structural", "outside_pattern", "structural_zeros"]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+        Self::figure(dir, t, dir, "sparsity_pattern")
+    }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        if t.rows.is_empty() {
+            return Ok(String::new());
+        }
+        let orders: std::collections::BTreeSet<&str> =
+            (0..t.rows.len()).map(|r| t.cell(r, "order")).collect();
+        if orders.len() > 1 {
+            return Ok(format!(
+                "The results hold several orders ({}); the patterns are compared per order in the table above.",
+                orders.into_iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let n = t.cell(0, "order");
+        let structural_count = t.num(0, "structural") as usize;
+        let formula = t.num(0, "formula") as usize;
+        let outside: usize = (0..t.rows.len())
+            .map(|r| t.num(r, "outside_pattern") as usize)
+            .sum();
+        let taus = t.rows.len() / 2;
+        // Per η: the groups of τ with the same structural zeros.
+        let mut text = Vec::new();
+        let mut plain_zeros = 0usize;
+        for eta in ["plain", "energy"] {
+            let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+            for r in (0..t.rows.len()).filter(|&r| t.cell(r, "eta") == eta) {
+                let z = t.cell(r, "structural_zeros").to_string();
+                match groups.iter_mut().find(|g| g.0 == z) {
+                    Some(g) => g.1.push(label(t, r)),
+                    None => groups.push((z, vec![label(t, r)])),
+                }
+            }
+            if eta == "plain" {
+                plain_zeros = groups
+                    .first()
+                    .map_or(0, |g| g.0.split(") (").filter(|s| !s.is_empty()).count());
+            }
+            text.push(format!(
+                "{} η ({}): pattern {} across τ: {}",
+                if eta == "plain" { "Plain" } else { "Energy" },
+                if eta == "plain" { "visibility" } else { "radiance" },
+                if groups.len() == 1 { "identical" } else { "not identical" },
+                groups
+                    .iter()
+                    .map(|(z, names)| format!(
+                        "{} structural zeros {} for {}",
+                        if z.is_empty() { 0 } else { z.split(") (").count() },
+                        if z.is_empty() { "(none)" } else { z.as_str() },
+                        names.join("; ")
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(" — ")
+            ));
+        }
+        let verdict = if outside == 0 && structural_count == formula {
             format!("Confirmed where it matters: no τ has a non-zero outside the paper's {formula} positions, so the sparse product over those positions is exact for every τ. \
-The paper counts all {formula} as non-zero; numerically {} of them vanish identically for the plain matrix (and, for the energy matrix, the groups above — mid-range τ loses one more), \
-so \"exactly N(2N²+1)/3 non-zero\" is an upper bound met by the structure, not by the values.", structural_count - count(&plain))
+The paper counts all {formula} as non-zero; numerically {plain_zeros} of them vanish identically for the plain matrix (and, for the energy matrix, the groups above), \
+so \"exactly N(2N²+1)/3 non-zero\" is an upper bound met by the structure, not by the values.")
         } else {
             "NOT confirmed — elements outside the structural pattern are non-zero; see the table.".to_string()
-        },
-        lines.join("\n")
-    );
-    Ok(FigureOutput { files, markdown })
+        };
+        Ok(format!(
+            "**Ours.** N = {n}: the structural pattern (same m, l, l′ ≥ |m|) has {structural_count} positions; N(2N²+1)/3 = {formula}. \
+Over {} matrices ({taus} τ × plain and energy η), {outside} numerically non-zero elements (|M_ij| > {ZERO_REL:.0e}·max|M|) lie outside it. {}. \
+Column 0 of the plain matrix is e₀ (a constant stays constant); row 0 of the energy matrix is e₀ (the integral, the l = 0 coefficient, is preserved). \
+Picture and its `.txt`: the plain pattern of the first τ, X non-zero, grey/o structural but zero, white/. zero.\n\n**Comparison.** {verdict}",
+            t.rows.len(),
+            text.join(". ")
+        ))
+    }
+
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        if t.rows.is_empty() {
+            return Ok(Vec::new());
+        }
+        // The plain pattern of the first run, recomputed from its own parameter cells.
+        let p = Params {
+            order: t.num(0, "order") as usize,
+            tau: t.cell(0, "tau").to_string(),
+            k: t.num(0, "k"),
+            alpha_deg: t.num(0, "alpha_deg"),
+        };
+        let (plain, _) = pattern(&p, Eta::Plain)?;
+        let (n, nn) = (p.order, p.order * p.order);
+        let mut txt = String::new();
+        for i in 0..nn {
+            for j in 0..nn {
+                txt.push(if plain[i * nn + j] {
+                    'X'
+                } else if structural(i, j) {
+                    'o'
+                } else {
+                    '.'
+                });
+            }
+            txt.push('\n');
+        }
+        let mut files = vec![crate::write_text(out, &format!("{stem}.txt"), &txt)?];
+        files.extend(draw(out, stem, n, &plain, &structural)?);
+        Ok(files)
+    }
 }
 
 fn draw(

@@ -3,142 +3,257 @@
 //! the plain matrix or the energy-preserving one the papers prescribe?
 //!
 //! The papers' deformable light (two square panels joined at a hinge, `srf::hinged_light`),
-//! both panels emitting 1; per hinge angle and α, `srf::compare` reports the mean relative L2
-//! error of each η variant against ray-traced radiance at every probe radius.
+//! both panels emitting 1. One run is one hinge angle and α; `srf::compare` gives, per probe
+//! radius (one row each), the mean relative L2 error of each η variant against ray-traced radiance.
 
-use crate::{write_text, FigureOutput};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use shscale_field::{Emitter, Layout};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::MeshBvh;
+use shscale_lab::exp::probe::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the study.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
+/// Parameters of one run (one light and α).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
     pub order: usize,
     pub layout: String,
     pub hemisphere_res: usize,
-    pub alpha_deg: Vec<f64>,
-    pub hinge_deg: Vec<f64>,
-    /// Probe radii (× r, ≥ 1).
+    pub alpha_deg: f64,
+    /// Angle between the two panels (degrees, in (0, 360)).
+    pub hinge_deg: f64,
+    /// Probe radii (× the bounding radius r, ≥ 1, distinct).
+    #[serde(with = "shscale_lab::exp::records::list")]
     pub radii: Vec<f64>,
 }
 
-crate::impl_header!(Spec);
-
-/// Run the study.
-pub fn run(file: &str, s: &Spec, out: &Path, stem: &str) -> Result<FigureOutput, LabError> {
-    let cfg = |f: &str, m: String| LabError::Config(format!("{file}: {f}: {m}"));
-    let layout = Layout::parse(&s.layout).map_err(|e| cfg("layout", e.to_string()))?;
-    if s.radii.is_empty() || s.radii.iter().any(|r| !(r.is_finite() && *r >= 1.0)) {
-        return Err(cfg(
-            "radii",
-            format!("{:?}: every radius must be ≥ 1", s.radii),
-        ));
-    }
-    let mut csv = String::from(
-        "hinge_deg,alpha_deg,radius,plain_rel_l2,energy_rel_l2,probes,better,seconds\n",
-    );
-    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let (mut energy_wins, mut total) = (0usize, 0usize);
-    let mut rows = Vec::new();
-    for &hinge in &s.hinge_deg {
-        if !(hinge > 0.0 && hinge < 360.0) {
-            return Err(cfg("hinge_deg", format!("{hinge} is outside (0, 360)")));
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            order: 4,
+            layout: "latlong:12x20".into(),
+            hemisphere_res: 16,
+            alpha_deg: 45.0,
+            hinge_deg: 100.0,
+            radii: vec![1.3, 2.0, 3.0],
         }
-        let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, hinge.to_radians());
+    }
+}
+
+/// One row per probe radius.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    pub radius: f64,
+    pub plain_rel_l2: f64,
+    pub energy_rel_l2: f64,
+    /// Sample directions whose truth is lit (the errors' denominator).
+    pub probes: usize,
+    /// `plain` or `energy`: the closer variant.
+    pub better: String,
+}
+
+/// The kind `srf`.
+pub struct Srf;
+
+impl Kind for Srf {
+    const NAME: &'static str = "srf";
+    const QUESTION: &'static str = "TR §4.1, SHS §3.1: is a light's radiance, extrapolated from its bounding sphere, closer to ray-traced radiance with the energy-preserving scaling matrix (η = sin τ · τ′) than with the plain one?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if !(1..=MAX_ORDER).contains(&p.order) {
+            return Err(KeyError::new(
+                "order",
+                format!("{} is outside 1..={MAX_ORDER}", p.order),
+            ));
+        }
+        Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        if !(1..=MAX_HEMISPHERE_RES).contains(&p.hemisphere_res) {
+            return Err(KeyError::new(
+                "hemisphere_res",
+                format!("{} is outside 1..={MAX_HEMISPHERE_RES}", p.hemisphere_res),
+            ));
+        }
+        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
+            return Err(KeyError::new(
+                "alpha_deg",
+                format!("{} is outside (0, 90)", p.alpha_deg),
+            ));
+        }
+        if !(p.hinge_deg > 0.0 && p.hinge_deg < 360.0) {
+            return Err(KeyError::new(
+                "hinge_deg",
+                format!("{} is outside (0, 360)", p.hinge_deg),
+            ));
+        }
+        if p.radii.is_empty() || p.radii.len() > MAX_RADII {
+            return Err(KeyError::new(
+                "radii",
+                format!("{} radii: give 1 to {MAX_RADII}", p.radii.len()),
+            ));
+        }
+        for (i, r) in p.radii.iter().enumerate() {
+            if !(r.is_finite() && (1.0..=1e6).contains(r)) {
+                return Err(KeyError::new(
+                    "radii",
+                    format!("{r} is outside [1, 1e6] (× the bounding radius)"),
+                ));
+            }
+            if p.radii[..i].contains(r) {
+                return Err(KeyError::new("radii", format!("{r} appears twice")));
+            }
+        }
+        Ok(())
+    }
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        let samples = Layout::parse(&p.layout)
+            .ok()
+            .and_then(|l| l.sample_count())
+            .unwrap_or(0) as f64;
+        let h = p.hemisphere_res as f64;
+        // The BSV on the bounding sphere plus the ray-traced truth at every radius.
+        let rays = samples * h * h * (1.0 + p.radii.len() as f64);
+        (
+            Cost::default(),
+            Cost {
+                rays,
+                bytes: samples * (p.order * p.order) as f64 * 8.0 * 2.0,
+                seconds: rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND,
+                drivers: format!(
+                    "layout {} × hemisphere_res {}² × (1 + {} radii)",
+                    p.layout,
+                    p.hemisphere_res,
+                    p.radii.len()
+                ),
+            },
+        )
+    }
+
+    fn rows_per_run(p: &Params) -> usize {
+        p.radii.len()
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+        Ok(())
+    }
+
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+        let layout = Layout::parse(&p.layout)?;
+        let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, p.hinge_deg.to_radians());
         let radiance: Vec<f64> = rgb.iter().map(|c| c[0] + c[1] + c[2]).collect();
         let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
         let e = Emitter::new(&mesh, bvh, radiance)?;
-        for &a in &s.alpha_deg {
-            if !(a > 0.0 && a < 90.0) {
-                return Err(cfg("alpha_deg", format!("{a} is outside (0, 90)")));
-            }
-            let t0 = std::time::Instant::now();
-            let res = shscale_field::srf::compare(
-                &e,
-                layout,
-                s.order,
-                s.hemisphere_res,
-                a.to_radians(),
-                1.0,
-                &s.radii,
-            )?;
-            let secs = t0.elapsed().as_secs_f64();
-            for r in &res {
-                total += 1;
-                energy_wins += usize::from(r.better() == "energy");
-                csv.push_str(&format!(
-                    "{hinge},{a},{},{},{},{},{},{secs}\n",
-                    r.radius,
-                    r.plain_rel_l2,
-                    r.energy_rel_l2,
-                    r.probes,
-                    r.better()
-                ));
-                rows.push(format!(
-                    "| {hinge}° | {a}° | {} | {:.4} | {:.4} | {} |",
-                    r.radius,
-                    r.plain_rel_l2,
-                    r.energy_rel_l2,
-                    r.better()
-                ));
-                if (a - s.alpha_deg[0]).abs() < 1e-12 {
-                    series
-                        .entry(format!("plain η, hinge {hinge}°"))
-                        .or_default()
-                        .push((r.radius, r.plain_rel_l2));
-                    series
-                        .entry(format!("energy η, hinge {hinge}°"))
-                        .or_default()
-                        .push((r.radius, r.energy_rel_l2));
-                }
+        let res = shscale_field::srf::compare(
+            &e,
+            layout,
+            p.order,
+            p.hemisphere_res,
+            p.alpha_deg.to_radians(),
+            1.0,
+            &p.radii,
+        )?;
+        Ok(res
+            .iter()
+            .map(|r| Row {
+                radius: r.radius,
+                plain_rel_l2: r.plain_rel_l2,
+                energy_rel_l2: r.energy_rel_l2,
+                probes: r.probes,
+                better: r.better().into(),
+            })
+            .collect())
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &["radius", "plain_rel_l2", "energy_rel_l2", "better"]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+        Self::figure(dir, t, dir, "srf_error_vs_radius")
+    }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        if t.rows.is_empty() {
+            return Ok(String::new());
+        }
+        let total = t.rows.len();
+        let energy = (0..total)
+            .filter(|&r| t.cell(r, "better") == "energy")
+            .count();
+        let verdict = if energy == total {
+            "the energy-preserving matrix is the closer one in every case — as the papers prescribe"
+                .to_string()
+        } else if energy == 0 {
+            "the plain matrix is the closer one in every case — contrary to the papers' prescription"
+                .to_string()
+        } else {
+            format!("the energy-preserving matrix is closer in {energy} of {total} cases and the plain one in the rest — neither uniformly, contrary to the papers' unconditional prescription")
+        };
+        let rows: Vec<String> = (0..total)
+            .map(|r| {
+                format!(
+                    "| {}° | {}° | {} | {:.4} | {:.4} | {} |",
+                    t.cell(r, "hinge_deg"),
+                    t.cell(r, "alpha_deg"),
+                    t.cell(r, "radius"),
+                    t.num(r, "plain_rel_l2"),
+                    t.num(r, "energy_rel_l2"),
+                    t.cell(r, "better")
+                )
+            })
+            .collect();
+        Ok(format!(
+            "**Ours.** The hinged two-panel light (side 1, both panels radiance 1), BSV sampled on its bounding sphere; mean relative L2 \
+error of the extrapolated radiance against ray-traced radiance over the sample directions whose truth is lit.\n\n\
+| hinge | α | radius | plain η | energy η | closer |\n|---|---|---:|---:|---:|---|\n{}\n\n**Comparison.** Across these cases {verdict}.",
+            rows.join("\n")
+        ))
+    }
+
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        // Error against radius: one series per η and per combination of the varying parameters.
+        let params = shscale_lab::exp::Erased::<Srf>::new();
+        let varying: Vec<String> = t
+            .varying(&shscale_lab::exp::DynKind::param_columns(&params))
+            .into_iter()
+            .filter(|c| c != "radii")
+            .collect();
+        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for r in 0..t.rows.len() {
+            let label = varying
+                .iter()
+                .map(|o| format!(", {o} = {}", t.cell(r, o)))
+                .collect::<String>();
+            for (name, col) in [("plain η", "plain_rel_l2"), ("energy η", "energy_rel_l2")] {
+                series
+                    .entry(format!("{name}{label}"))
+                    .or_default()
+                    .push((t.num(r, "radius"), t.num(r, col)));
             }
         }
+        for v in series.values_mut() {
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        write_both(
+            out,
+            stem,
+            &Labels {
+                title: "light extrapolation error vs radius",
+                x: "probe radius (× bounding radius r)",
+                y: "mean relative L2 error vs ray-traced radiance (1)",
+            },
+            &series,
+            false,
+            &[],
+        )
     }
-    let title = format!(
-        "light extrapolation error vs radius (α = {}°)",
-        s.alpha_deg[0]
-    );
-    let mut files = write_both(
-        out,
-        stem,
-        &Labels {
-            title: &title,
-            x: "probe radius (× bounding radius r)",
-            y: "mean relative L2 error vs ray-traced radiance (1)",
-        },
-        &series,
-        false,
-        &[],
-    )?;
-    files.push(write_text(out, &format!("{stem}.csv"), &csv)?);
-    let verdict = if energy_wins == total {
-        "the energy-preserving matrix is the closer one in every case — as the papers prescribe"
-            .to_string()
-    } else if energy_wins == 0 {
-        "the plain matrix is the closer one in every case — contrary to the papers' prescription"
-            .to_string()
-    } else {
-        format!("the energy-preserving matrix is closer in {energy_wins} of {total} cases and the plain one in the rest — neither uniformly, contrary to the papers' unconditional prescription")
-    };
-    let markdown = format!(
-        "**Ours.** The hinged two-panel light (side 1, both panels radiance 1), order {}, BSV on `{}` × {}² rays, sampled on its bounding \
-sphere; mean relative L2 error of the extrapolated radiance against ray-traced radiance over the sample directions whose truth is lit.\n\n\
-| hinge | α | radius | plain η | energy η | closer |\n|---|---|---:|---:|---:|---|\n{}\n\n**Comparison.** Across these cases {verdict}.",
-        s.order,
-        s.layout,
-        s.hemisphere_res,
-        rows.join("\n")
-    );
-    Ok(FigureOutput { files, markdown })
 }

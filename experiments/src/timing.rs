@@ -1,93 +1,257 @@
 //! Table 1 (SHS Table 1, TR Table 1): how fast is a frame of a deforming entity — BSV sampling,
 //! SH conversion, shadowing and FPS — on the CPU path and, where an adapter exists, the GPU path?
 //!
-//! Runs the Table 1 bench (`shscale_lab::bench`) on the configured sequences and writes the table
-//! as Markdown and CSV beside the figures, with the paper's rows for comparison.
+//! One run is one bench sequence (`bird`, `egg`, `sponge`) on one path (`cpu` or `gpu`), measured
+//! by the Table 1 bench (`shscale_lab::bench`): per-stage medians over `frames` frames after
+//! `warmup` frames — the timing procedure of this kind, the frames being its repeats. A `gpu` run
+//! without an adapter writes no row (it says so in the summary, and a later run with an adapter
+//! fills it in). Time columns are only comparable when runs do not overlap: the configs of this
+//! kind set `parallel_runs = false`.
 
-use crate::{write_text, FigureOutput};
-use serde::Deserialize;
-use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
+use serde::{Deserialize, Serialize};
+use shscale_lab::bench::bench_scene;
+use shscale_lab::exp::records::Results;
+use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::LabError;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Config of the table.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spec {
-    /// The kind (checked by [`crate::parse`]).
-    #[serde(alias = "experiment")]
-    pub figure: String,
-    pub title: String,
-    pub claim: String,
-    /// Bench sequences: bird, egg, sponge.
-    pub scenes: Vec<String>,
+/// Parameters of one run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// `bird`, `egg` or `sponge`.
+    pub scene: String,
+    /// `cpu` or `gpu`.
+    pub path: String,
     pub frames: usize,
     pub warmup: usize,
 }
 
-crate::impl_header!(Spec);
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            scene: "bird".into(),
+            path: "cpu".into(),
+            frames: 16,
+            warmup: 3,
+        }
+    }
+}
 
-/// Run the table.
-pub fn run(
-    file: &str,
-    s: &Spec,
-    out: &Path,
-    stem: &str,
-    gpu: Option<&shscale_gpu::GpuContext>,
-) -> Result<FigureOutput, LabError> {
-    if s.frames == 0 {
-        return Err(LabError::Config(format!("{file}: frames: must be ≥ 1")));
+/// One row per run (none for a `gpu` run without an adapter).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    /// CPU: `cpu (N threads)`; GPU: the adapter's name, backend and driver.
+    pub device: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub samples: usize,
+    pub rays_per_sample: usize,
+    pub receivers: usize,
+    /// GPU stage times from timestamp queries (else wall clock).
+    pub timestamps: bool,
+    pub setup_ms: Option<f64>,
+    pub deform_ms: f64,
+    pub bvh_update_ms: f64,
+    pub upload_ms: Option<f64>,
+    pub bsv_sampling_ms: f64,
+    /// Empty where it is inside `bsv_sampling_ms` (the CPU path).
+    pub sh_conversion_ms: Option<f64>,
+    pub shadowing_ms: f64,
+    pub frame_ms: f64,
+    pub fps: f64,
+}
+
+/// The kind `timing`.
+pub struct Timing;
+
+/// The most frames (and warm-up frames) of a run.
+pub const MAX_FRAMES: usize = 10_000;
+
+impl Kind for Timing {
+    const NAME: &'static str = "timing";
+    const QUESTION: &'static str = "SHS / TR Table 1: how long do BSV sampling, SH conversion and shadowing of a deforming entity take per frame, and at what FPS, on the CPU and the GPU path?";
+    type Params = Params;
+    type Shared = ();
+    type Row = Row;
+
+    fn validate(p: &Params) -> Result<(), KeyError> {
+        if !matches!(p.scene.as_str(), "bird" | "egg" | "sponge") {
+            return Err(KeyError::new(
+                "scene",
+                format!("{:?} is not one of bird, egg, sponge", p.scene),
+            ));
+        }
+        if !matches!(p.path.as_str(), "cpu" | "gpu") {
+            return Err(KeyError::new(
+                "path",
+                format!("{:?} is not cpu or gpu", p.path),
+            ));
+        }
+        if !(1..=MAX_FRAMES).contains(&p.frames) {
+            return Err(KeyError::new(
+                "frames",
+                format!("{} is outside 1..={MAX_FRAMES}", p.frames),
+            ));
+        }
+        if p.warmup > MAX_FRAMES {
+            return Err(KeyError::new(
+                "warmup",
+                format!("{} is more than the limit {MAX_FRAMES}", p.warmup),
+            ));
+        }
+        Ok(())
     }
-    let mut rows = Vec::new();
-    for sc in &s.scenes {
-        rows.extend(
-            bench_scene(sc, s.frames, s.warmup, true, gpu)
-                .map_err(|e| LabError::Config(format!("{file}: scenes: {e}")))?,
-        );
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        // Bench scenes: 240 samples × 32² rays per frame.
+        let rays = (p.frames + p.warmup) as f64 * 240.0 * 1024.0;
+        (
+            Cost::default(),
+            Cost {
+                rays,
+                bytes: 256e6,
+                seconds: rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND,
+                drivers: format!("(frames {} + warmup {}) × 240 × 32² rays", p.frames, p.warmup),
+            },
+        )
     }
-    let table = to_markdown(&rows);
-    let files = vec![
-        write_text(out, &format!("{stem}.md"), &table)?,
-        write_text(out, &format!("{stem}.csv"), &to_csv(&rows))?,
-    ];
-    let cpu: Vec<&shscale_lab::bench::BenchRow> = rows.iter().filter(|r| r.path == "cpu").collect();
-    let gpu_rows: Vec<&shscale_lab::bench::BenchRow> =
-        rows.iter().filter(|r| r.path == "gpu").collect();
-    let fps = |v: &[&shscale_lab::bench::BenchRow]| {
-        v.iter()
-            .map(|r| format!("{} {:.1}", r.scene, r.fps))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let markdown = format!(
-        "**Ours.** Medians of {} frames after {} warm-up, {} rayon threads; GPU: {}.\n\n{}\n\
+
+    fn rows_per_run(_: &Params) -> usize {
+        1
+    }
+
+    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+        Ok(())
+    }
+
+    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+        let gpu = if p.path == "gpu" {
+            match ctx.gpu {
+                Some(g) => Some(g),
+                None => return Ok(Vec::new()),
+            }
+        } else {
+            None
+        };
+        let rows = bench_scene(&p.scene, p.frames, p.warmup, p.path == "cpu", gpu)?;
+        Ok(rows
+            .into_iter()
+            .filter(|r| r.path == p.path)
+            .map(|r| Row {
+                device: r.device,
+                vertices: r.vertices,
+                triangles: r.triangles,
+                samples: r.samples,
+                rays_per_sample: r.rays_per_sample,
+                receivers: r.receivers,
+                timestamps: r.timestamps,
+                setup_ms: r.setup_ms,
+                deform_ms: r.deform_ms,
+                bvh_update_ms: r.bvh_update_ms,
+                upload_ms: r.upload_ms,
+                bsv_sampling_ms: r.bsv_sampling_ms,
+                sh_conversion_ms: r.sh_conversion_ms,
+                shadowing_ms: r.shadowing_ms,
+                frame_ms: r.frame_ms,
+                fps: r.fps,
+            })
+            .collect())
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &[
+            "setup_ms",
+            "deform_ms",
+            "bvh_update_ms",
+            "upload_ms",
+            "bsv_sampling_ms",
+            "sh_conversion_ms",
+            "shadowing_ms",
+            "frame_ms",
+            "fps",
+        ]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &["device", "bsv_sampling_ms", "shadowing_ms", "frame_ms", "fps"]
+    }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        if t.rows.is_empty() {
+            return Ok("No rows: no run has finished (a gpu run without an adapter writes none).".into());
+        }
+        let table = table(t);
+        let fps = |path: &str| {
+            (0..t.rows.len())
+                .filter(|&r| t.cell(r, "path") == path)
+                .map(|r| format!("{} {:.1}", t.cell(r, "scene"), t.num(r, "fps")))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let gpu: Vec<usize> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, "path") == "gpu")
+            .collect();
+        let device = gpu.first().map(|&r| t.cell(r, "device").to_string());
+        Ok(format!(
+            "**Ours.** Per-stage medians of {} frames after {} warm-up frames, {} rayon threads; GPU: {}.\n\n{table}\n\
 **Comparison.** TR Table 1 (GeForce 6800-era GPU for sampling, CPU for shadowing): dragon 1151 vertices 11.0 / 5.0 / 37.7 ms, 21.3 FPS; egg 482 \
 vertices 7.4 / 5.0 / 36.7 ms, 22.5 FPS; plane 8382 vertices 72.4 / 5.0 / 47.9 ms, 13.5 FPS (BSV sampling / SH conversion / shadowing). \
-SHS Table 1: dragon 35.4, egg 14.2, sponge 13.4 FPS. Our CPU path: {}. {} Shadowing the 25 600 receivers costs us well under a \
-millisecond per frame (a cached three-term dot product per receiver, `crates/field/src/receivers.rs`) against the papers' ~37–48 ms \
-(1.41 µs per vertex), so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, which the papers did by rasterisation on the GPU.",
-        s.frames,
-        s.warmup,
-        rows.first().map_or(0, |r| r.threads),
-        gpu_rows
-            .first()
-            .map_or("no adapter (CPU rows only)".to_string(), |r| r.device.clone()),
-        table,
-        fps(&cpu),
-        if gpu_rows.is_empty() {
-            "No GPU rows: no adapter was available.".to_string()
-        } else {
-            format!(
-                "Our GPU path on `{}`: {}{}.",
-                gpu_rows[0].device,
-                fps(&gpu_rows),
-                if gpu_rows[0].device.contains("llvmpipe") {
-                    " — lavapipe is a software device on the same CPU cores, a correctness device slower than the CPU path; no real GPU was measured here"
-                } else {
-                    ""
-                }
-            )
-        },
+SHS Table 1: dragon 35.4, egg 14.2, sponge 13.4 FPS. Our CPU path: {}. {} Shadowing the receivers costs us well under a \
+millisecond per frame (a cached three-term dot product per receiver, `crates/field/src/receivers.rs`) against the papers' ~37–48 ms, \
+so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, which the papers did by rasterisation on the GPU.",
+            t.cell(0, "frames"),
+            t.cell(0, "warmup"),
+            t.cell(0, "threads"),
+            device.clone().unwrap_or_else(|| "no adapter (CPU rows only)".into()),
+            fps("cpu"),
+            match device {
+                None => "No GPU rows: no adapter was available.".to_string(),
+                Some(d) => format!(
+                    "Our GPU path on `{d}`: {}{}.",
+                    fps("gpu"),
+                    if d.contains("llvmpipe") {
+                        " — lavapipe is a software device on the same CPU cores, a correctness device slower than the CPU path; no real GPU was measured here"
+                    } else {
+                        ""
+                    }
+                ),
+            },
+        ))
+    }
+
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        Ok(vec![crate::write_text(out, &format!("{stem}.md"), &table(t))?])
+    }
+}
+
+/// The table as Markdown.
+fn table(t: &Results) -> String {
+    let mut s = String::from(
+        "| scene | vertices | path | device | BSV sampling (ms) | SH conversion (ms) | shadowing (ms) | deform + BVH + upload (ms) | frame (ms) | FPS |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|\n",
     );
-    Ok(FigureOutput { files, markdown })
+    for r in 0..t.rows.len() {
+        let upload = t.num(r, "upload_ms");
+        let host = t.num(r, "deform_ms")
+            + t.num(r, "bvh_update_ms")
+            + if upload.is_finite() { upload } else { 0.0 };
+        let sh = t.num(r, "sh_conversion_ms");
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {:.3} | {} | {:.3} | {host:.3} | {:.3} | {:.1} |\n",
+            t.cell(r, "scene"),
+            t.cell(r, "vertices"),
+            t.cell(r, "path"),
+            t.cell(r, "device"),
+            t.num(r, "bsv_sampling_ms"),
+            if sh.is_finite() {
+                format!("{sh:.3}")
+            } else {
+                "(in sampling)".into()
+            },
+            t.num(r, "shadowing_ms"),
+            t.num(r, "frame_ms"),
+            t.num(r, "fps"),
+        ));
+    }
+    s
 }

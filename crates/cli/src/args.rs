@@ -67,6 +67,11 @@ pub struct FigsArgs {
     /// GPU rows of Table 1: auto (when an adapter exists), off, required.
     #[arg(long, default_value = "auto")]
     pub gpu: String,
+    /// Keep the figures' runs (runs.csv, manifest, per-run images) under this folder, resumed
+    /// when already there. Default: a fresh temporary folder, removed afterwards, so every
+    /// figure is recomputed by this binary.
+    #[arg(long, value_name = "DIR")]
+    pub runs: Option<std::path::PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

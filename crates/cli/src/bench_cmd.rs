@@ -62,7 +62,6 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
 
 pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
     let mode = GpuMode::parse(&a.gpu).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?;
-    let ctx = open_gpu(mode)?;
     let count = std::fs::read_dir(&a.configs)
         .map(|d| {
             d.flatten()
@@ -70,14 +69,31 @@ pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
                 .count()
         })
         .unwrap_or(0);
+    // The runs go to --runs, or to a fresh temporary folder removed afterwards (also on error).
+    struct TempDir(std::path::PathBuf);
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let (runs, _temp) = match &a.runs {
+        Some(d) => (d.clone(), None),
+        None => {
+            let d = std::env::temp_dir().join(format!("shscale-figs-{}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&d);
+            (d.clone(), Some(TempDir(d)))
+        }
+    };
     let bar = progress_bar(count, "figures");
-    let files = shscale_experiments::regenerate(&a.configs, &a.out, ctx.as_ref(), |l| {
+    let files = shscale_experiments::regenerate(&a.configs, &a.out, &runs, Some(mode), |l| {
         if bar.is_hidden() {
             println!("  {l}");
         } else {
             bar.println(format!("  {l}"));
         }
-        bar.inc(1);
+        if !l.starts_with("warning:") {
+            bar.inc(1);
+        }
     })?;
     bar.finish_and_clear();
     println!(

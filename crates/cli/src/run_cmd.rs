@@ -39,27 +39,6 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
     let registry = shscale_experiments::registry();
-    let text = std::fs::read_to_string(&config)
-        .with_context(|| format!("{}: cannot read", config.display()))?;
-    // Studies not yet converted to kinds run whole, through their own code.
-    if let Some(kind) = runner::kind_of(&text)
-        .filter(|k| !registry.iter().any(|r| r.name() == k))
-        .filter(|k| shscale_experiments::KINDS.contains(&k.as_str()))
-    {
-        if shard.is_some()
-            || a.dry_run
-            || !a.overrides.set.is_empty()
-            || !a.overrides.sweep.is_empty()
-        {
-            bail!("--shard/--dry-run/--set/--sweep: the {kind} study is not yet an experiment kind of the runner; it runs whole");
-        }
-        let ctx = shscale_lab::gpu_path::open_gpu(shscale_lab::gpu_path::GpuMode::Auto)?;
-        println!("{}: study {kind:?}", config.display());
-        let (dir, summary) = shscale_experiments::run_study(&config, &a.out_dir, ctx.as_ref())?;
-        println!("{summary}");
-        println!("wrote {}", dir.display());
-        return Ok(ExitCode::SUCCESS);
-    }
     let plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
     if a.dry_run {
         print!("{}", plan.describe(shard));

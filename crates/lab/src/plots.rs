@@ -75,13 +75,13 @@ where
         y0 -= 0.5;
         y1 += 0.5;
     }
-    let pad = 0.05 * (y1 - y0);
+    let (ylo, yhi) = y_range(y0, y1);
     let mut chart = ChartBuilder::on(&area)
         .caption(labels.title, ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(64)
-        .build_cartesian_2d(x0..x1, (y0 - pad).max(0.0)..(y1 + pad))
+        .build_cartesian_2d(x0..x1, ylo..yhi)
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
@@ -130,6 +130,15 @@ where
         .draw()
         .map_err(|e| e.to_string())?;
     area.present().map_err(|e| e.to_string())
+}
+
+/// The drawn y range of data spanning `[y0, y1]` (`y0 < y1`): 5 % padding each side, the lower
+/// end not below 0 when the data are non-negative (errors start at the axis) — and never above
+/// the smallest value, so negative data are drawn where they are.
+pub fn y_range(y0: f64, y1: f64) -> (f64, f64) {
+    let pad = 0.05 * (y1 - y0);
+    let lo = if y0 >= 0.0 { (y0 - pad).max(0.0) } else { y0 - pad };
+    (lo, y1 + pad)
 }
 
 /// Write `stem.png` and `stem.svg` in `dir` (each to a temporary file, then renamed): one line
@@ -316,4 +325,24 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
         &front,
     )?);
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::y_range;
+
+    /// A series reaching −0.76 (an element of M_k, Fig. 3) stays inside the drawn range; data
+    /// that are non-negative keep their axis at or above 0.
+    #[test]
+    fn negative_values_stay_inside_the_drawn_range() {
+        for (y0, y1) in [(-0.76, 1.09), (-3.0, -1.0), (0.0, 2.0), (0.2, 0.3), (1e-9, 1e-8)] {
+            let (lo, hi) = y_range(y0, y1);
+            println!("data [{y0}, {y1}] → drawn [{lo}, {hi}]");
+            assert!(lo < y0 || (lo == 0.0 && y0 == 0.0), "{y0} below the drawn {lo}");
+            assert!(hi > y1, "{y1} above the drawn {hi}");
+            if y0 >= 0.0 {
+                assert!(lo >= 0.0, "non-negative data drawn from {lo}");
+            }
+        }
+    }
 }

@@ -3,7 +3,7 @@
 //! list, an array of tables, a nested table) or the command-line flag that set it.
 //!
 //! A config is one TOML table. The runner's keys (`experiment`, `name`, `gpu`, `parallel_runs`,
-//! `timing_warmup`, `timing_repeats`, `sweep`) are taken out; everything else is the kind's, and
+//! `timing_warmup`, `timing_repeats`, `title`, `claim`, `sweep`) are taken out; everything else is the kind's, and
 //! is deserialised into the kind's parameter struct once per combination of the sweep axes, so
 //! serde checks every value's type and no axis needs code of its own.
 //!
@@ -14,6 +14,20 @@
 //! [sweep.zip]                   # lists of equal length, varied together (one axis)
 //! order = [2, 4, 8]
 //! hemisphere_res = [8, 16, 32]
+//! ```
+//!
+//! Several products are united with `[[sweep]]` blocks (each one a `[sweep]` table as above, its
+//! runs added to the others'; a run in two blocks is an error), e.g. cone τ over k × α and the
+//! mid-range τ over its own k:
+//!
+//! ```toml
+//! [[sweep]]
+//! tau = ["cone"]
+//! k = [0.5, 2.0]
+//! alpha_deg = [20, 45]
+//! [[sweep]]
+//! tau = ["midrange"]
+//! k = [-0.5, 0.5]
 //! ```
 
 use std::collections::BTreeMap;
@@ -252,6 +266,10 @@ pub struct RunnerKeys {
     pub parallel_runs: Option<bool>,
     pub timing_warmup: Option<usize>,
     pub timing_repeats: Option<usize>,
+    /// The results' title and the claim (a paper's, or the question) they test, in words: the
+    /// heading of `summary.md` and of a figure's section in `paper-figs/README.md`.
+    pub title: Option<String>,
+    pub claim: Option<String>,
 }
 
 /// The runner's keys (everything else belongs to the kind).
@@ -262,6 +280,8 @@ pub const RUNNER_KEYS: &[&str] = &[
     "parallel_runs",
     "timing_warmup",
     "timing_repeats",
+    "title",
+    "claim",
     "sweep",
 ];
 
@@ -370,15 +390,26 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             key: s.clone(),
             message: "expected key=v1,v2,…".into(),
         })?;
-        let mut path = vec![Seg::Key("sweep".into())];
-        path.extend(parse_path(k.trim()));
-        let values = split_top(v).iter().map(|x| cli_value(x)).collect();
-        set_path(&mut doc, &path, toml::Value::Array(values)).map_err(|m| ConfigError {
-            place: flag.clone(),
-            key: k.trim().into(),
-            message: m,
-        })?;
-        sweep_flag_places.push((path, flag));
+        let values: Vec<toml::Value> = split_top(v).iter().map(|x| cli_value(x)).collect();
+        // With `[[sweep]]` blocks the axis is added to (or replaced in) every block.
+        let roots: Vec<KeyPath> = match doc.get("sweep") {
+            Some(toml::Value::Array(list)) => (0..list.len())
+                .map(|i| vec![Seg::Key("sweep".into()), Seg::Index(i)])
+                .collect(),
+            _ => vec![vec![Seg::Key("sweep".into())]],
+        };
+        for root in roots {
+            let mut path = root;
+            path.extend(parse_path(k.trim()));
+            set_path(&mut doc, &path, toml::Value::Array(values.clone())).map_err(|m| {
+                ConfigError {
+                    place: flag.clone(),
+                    key: k.trim().into(),
+                    message: m,
+                }
+            })?;
+            sweep_flag_places.push((path, flag.clone()));
+        }
     }
     if let Some(n) = &ov.name {
         doc.insert("name".into(), toml::Value::String(n.clone()));
@@ -426,21 +457,14 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
         keys: Vec<(KeyPath, KeyPath)>,
         values: Vec<Vec<toml::Value>>,
     }
-    let mut axes: Vec<Axis> = Vec::new();
-    if let Some(sweep) = sweep {
-        let toml::Value::Table(sweep) = sweep else {
-            let p = vec![Seg::Key("sweep".into())];
-            return Err(ConfigError {
-                place: place_in_sweep(&p),
-                key: "sweep".into(),
-                message: "must be a table of lists".into(),
-            });
-        };
+    // One block (the `[sweep]` table, or one `[[sweep]]` table of several): its axes.
+    let block_axes = |sweep: &toml::Table, root: &KeyPath| -> Result<Vec<Axis>, ConfigError> {
         let mut leaves: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
         let mut zip: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
         fn walk(
             t: &toml::Table,
             prefix: &KeyPath,
+            root_len: usize,
             out: &mut Vec<(KeyPath, Vec<toml::Value>)>,
             zip: Option<&mut Vec<(KeyPath, Vec<toml::Value>)>>,
         ) -> Result<(), (KeyPath, String)> {
@@ -450,12 +474,12 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
                 p.push(Seg::Key(k.clone()));
                 match v {
                     toml::Value::Array(a) => out.push((p, a.clone())),
-                    toml::Value::Table(sub) if k == "zip" && prefix.len() == 1 => {
+                    toml::Value::Table(sub) if k == "zip" && prefix.len() == root_len => {
                         if let Some(z) = zip.as_deref_mut() {
-                            walk(sub, &p, z, None)?;
+                            walk(sub, &p, root_len, z, None)?;
                         }
                     }
-                    toml::Value::Table(sub) => walk(sub, &p, out, None)?,
+                    toml::Value::Table(sub) => walk(sub, &p, root_len, out, None)?,
                     other => {
                         return Err((
                             p,
@@ -466,13 +490,14 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             }
             Ok(())
         }
-        let root = vec![Seg::Key("sweep".into())];
-        walk(&sweep, &root, &mut leaves, Some(&mut zip)).map_err(|(p, m)| ConfigError {
-            place: place_in_sweep(&p),
-            key: path_name(&p),
-            message: m,
+        walk(sweep, root, root.len(), &mut leaves, Some(&mut zip)).map_err(|(p, m)| {
+            ConfigError {
+                place: place_in_sweep(&p),
+                key: path_name(&p),
+                message: m,
+            }
         })?;
-        // Every list: not empty, no duplicates.
+        // Every list: not empty; no duplicate values (zipped lists: no duplicate tuples).
         for (p, vals) in leaves.iter().chain(&zip) {
             if vals.is_empty() {
                 return Err(ConfigError {
@@ -481,6 +506,26 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
                     message: "a sweep axis must not be empty".into(),
                 });
             }
+        }
+        if let Some((p, _)) = zip.first() {
+            let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
+            for i in 0..n {
+                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j]))) {
+                    let mut ep = p.clone();
+                    ep.push(Seg::Index(i));
+                    return Err(ConfigError {
+                        place: place_in_sweep(&ep),
+                        key: path_name(p),
+                        message: format!(
+                            "the zipped values of items {} and {} are the same: each run would be done twice",
+                            j + 1,
+                            i + 1
+                        ),
+                    });
+                }
+            }
+        }
+        for (p, vals) in &leaves {
             for (i, v) in vals.iter().enumerate() {
                 if let Some(j) = vals[..i].iter().position(|w| same_value(v, w)) {
                     let mut ep = p.clone();
@@ -498,13 +543,16 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             }
         }
         let rel = |p: &KeyPath| -> KeyPath {
-            let skip = if p.get(1) == Some(&Seg::Key("zip".into())) && p.len() > 2 {
-                2
+            let skip = if p.get(root.len()) == Some(&Seg::Key("zip".into()))
+                && p.len() > root.len() + 1
+            {
+                root.len() + 1
             } else {
-                1
+                root.len()
             };
             p[skip..].to_vec()
         };
+        let mut axes = Vec::new();
         for (p, vals) in &leaves {
             axes.push(Axis {
                 keys: vec![(rel(p), p.clone())],
@@ -549,10 +597,42 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
                 }
             }
         }
-    }
-    let total = axes
-        .iter()
-        .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()));
+        Ok(axes)
+    };
+    // The blocks: `[sweep]` is one; `[[sweep]]` tables are several, whose runs are united.
+    let sweep_root = vec![Seg::Key("sweep".into())];
+    let blocks: Vec<Vec<Axis>> = match sweep {
+        None => vec![Vec::new()],
+        Some(toml::Value::Table(t)) => vec![block_axes(&t, &sweep_root)?],
+        Some(toml::Value::Array(list)) if !list.is_empty() => {
+            let mut v = Vec::new();
+            for (i, b) in list.iter().enumerate() {
+                let mut root = sweep_root.clone();
+                root.push(Seg::Index(i));
+                let toml::Value::Table(t) = b else {
+                    return Err(ConfigError {
+                        place: place_in_sweep(&root),
+                        key: path_name(&root),
+                        message: "each [[sweep]] block must be a table of lists".into(),
+                    });
+                };
+                v.push(block_axes(t, &root)?);
+            }
+            v
+        }
+        Some(_) => {
+            return Err(ConfigError {
+                place: place_in_sweep(&sweep_root),
+                key: "sweep".into(),
+                message: "must be a table of lists ([sweep]) or blocks of them ([[sweep]])".into(),
+            })
+        }
+    };
+    let total = blocks.iter().try_fold(0usize, |sum, axes| {
+        axes.iter()
+            .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
+            .and_then(|n| sum.checked_add(n))
+    });
     if total.is_none_or(|t| t > MAX_COMBINATIONS) {
         return Err(ConfigError {
             place: Place::File(file.into()),
@@ -563,38 +643,48 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             ),
         });
     }
-    let mut combinations = vec![Combination {
-        table: doc,
-        swept: Vec::new(),
-    }];
-    for a in &axes {
-        let mut next = Vec::with_capacity(combinations.len() * a.values.len());
-        for c in &combinations {
-            for (i, vals) in a.values.iter().enumerate() {
-                let mut c2 = c.clone();
-                for ((rel, full), v) in a.keys.iter().zip(vals) {
-                    set_path(&mut c2.table, rel, v.clone()).map_err(|m| ConfigError {
-                        place: place_in_sweep(full),
-                        key: path_name(full),
-                        message: m,
-                    })?;
-                    let mut ep = full.clone();
-                    ep.push(Seg::Index(i));
-                    c2.swept.push((rel.clone(), place_in_sweep(&ep)));
+    let mut combinations = Vec::new();
+    let mut axis_names: Vec<String> = Vec::new();
+    for axes in &blocks {
+        let mut block = vec![Combination {
+            table: doc.clone(),
+            swept: Vec::new(),
+        }];
+        for a in axes {
+            let mut next = Vec::with_capacity(block.len() * a.values.len());
+            for c in &block {
+                for (i, vals) in a.values.iter().enumerate() {
+                    let mut c2 = c.clone();
+                    for ((rel, full), v) in a.keys.iter().zip(vals) {
+                        set_path(&mut c2.table, rel, v.clone()).map_err(|m| ConfigError {
+                            place: place_in_sweep(full),
+                            key: path_name(full),
+                            message: m,
+                        })?;
+                        let mut ep = full.clone();
+                        ep.push(Seg::Index(i));
+                        c2.swept.push((rel.clone(), place_in_sweep(&ep)));
+                    }
+                    next.push(c2);
                 }
-                next.push(c2);
+            }
+            block = next;
+        }
+        for a in axes {
+            for (k, _) in &a.keys {
+                let n = path_name(k);
+                if !axis_names.contains(&n) {
+                    axis_names.push(n);
+                }
             }
         }
-        combinations = next;
+        combinations.extend(block);
     }
     Ok(Expanded {
         source,
         runner,
         set_places,
-        axes: axes
-            .iter()
-            .flat_map(|a| a.keys.iter().map(|(k, _)| path_name(k)))
-            .collect(),
+        axes: axis_names,
         combinations,
     })
 }
@@ -682,6 +772,42 @@ mod tests {
         let bad = "experiment = \"x\"\n[sweep.zip]\nb = [1, 2, 3]\nc = [1, 2]\n";
         let e = expand("c.toml", bad, &Overrides::default()).err().unwrap();
         assert!(e.message.contains("equal length"), "{e}");
+    }
+
+    #[test]
+    fn sweep_blocks_unite_their_products() {
+        let text = "experiment = \"x\"\nk = 1\n[[sweep]]\ntau = [\"cone\"]\nk = [0.5, 2.0]\nalpha_deg = [20, 45]\n[[sweep]]\ntau = [\"midrange\"]\nk = [\n  -0.5,\n  0.5,\n]\n";
+        let ex = expand("c.toml", text, &Overrides::default()).unwrap();
+        assert_eq!(ex.combinations.len(), 4 + 2);
+        let taus: Vec<&str> = ex
+            .combinations
+            .iter()
+            .map(|c| c.table["tau"].as_str().unwrap())
+            .collect();
+        assert_eq!(taus, ["cone", "cone", "cone", "cone", "midrange", "midrange"]);
+        assert!(ex.combinations[5].table.get("alpha_deg").is_none());
+        // The second block's second k sits on line 11 of the file.
+        assert_eq!(
+            ex.place_of(&ex.combinations[5], &parse_path("k")),
+            Place::Line {
+                file: "c.toml".into(),
+                line: 11
+            }
+        );
+        assert_eq!(ex.axes, ["alpha_deg", "k", "tau"]);
+        // --sweep adds the axis to every block.
+        let ov = Overrides {
+            sweep: vec!["order=2,4".into()],
+            ..Overrides::default()
+        };
+        assert_eq!(expand("c.toml", text, &ov).unwrap().combinations.len(), 12);
+        // A duplicate inside a block is named at its element.
+        let dup = "experiment = \"x\"\n[[sweep]]\nk = [1]\n[[sweep]]\nk = [2,\n 2]\n";
+        let Err(e) = expand("c.toml", dup, &Overrides::default()) else {
+            panic!("a duplicate in a block must be refused")
+        };
+        assert!(e.to_string().contains("c.toml:6"), "{e}");
+        assert!(e.to_string().contains("sweep[1].k"), "{e}");
     }
 
     #[test]

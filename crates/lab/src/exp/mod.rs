@@ -54,6 +54,8 @@ pub struct Cost {
 pub struct Ctx<'a> {
     /// The results directory (per-run images go here).
     pub dir: &'a Path,
+    /// The folder of the config file: paths in parameters (scenes, meshes) are relative to it.
+    pub config_dir: &'a Path,
     /// The GPU, when the config's `gpu` setting opened one.
     pub gpu: Option<&'a shscale_gpu::GpuContext>,
     /// The timing procedure every time column uses.
@@ -102,6 +104,24 @@ pub trait Kind: Send + Sync + 'static {
     /// Plots and images of a results directory beyond the summary; the files written.
     fn report(dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, LabError> {
         let _ = (dir, table);
+        Ok(Vec::new())
+    }
+    /// Our numbers against the claim the results test, in words (Markdown, computed from the
+    /// rows so it never goes stale): appended to `summary.md`, and a figure's section of
+    /// `paper-figs/README.md`. Default: nothing.
+    fn discussion(table: &records::Results) -> Result<String, LabError> {
+        let _ = table;
+        Ok(String::new())
+    }
+    /// The paper figure of the results in `dir`: files written to `out`, named `<stem>.*`
+    /// (`shscale figs`). Default: none.
+    fn figure(
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, LabError> {
+        let _ = (dir, table, out, stem);
         Ok(Vec::new())
     }
 }
@@ -153,6 +173,14 @@ pub trait DynKind: Send + Sync {
         sink: &(dyn Fn(&Resolved, RowCells, f64) -> Result<(), LabError> + Sync),
     ) -> Result<(), LabError>;
     fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, LabError>;
+    fn discussion(&self, table: &records::Results) -> Result<String, LabError>;
+    fn figure(
+        &self,
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, LabError>;
 }
 
 /// The [`DynKind`] of a [`Kind`].
@@ -265,5 +293,17 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, LabError> {
         K::report(dir, table)
+    }
+    fn discussion(&self, table: &records::Results) -> Result<String, LabError> {
+        K::discussion(table)
+    }
+    fn figure(
+        &self,
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, LabError> {
+        K::figure(dir, table, out, stem)
     }
 }

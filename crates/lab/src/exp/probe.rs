@@ -420,4 +420,137 @@ impl Kind for Probe {
         let varying = t.varying(&super::DynKind::param_columns(&params));
         crate::plots::probe_plots(dir, t, &varying)
     }
+
+    fn discussion(t: &Results) -> Result<String, LabError> {
+        // Per run: the radii where the extrapolation follows the actual occlusion.
+        let mut runs: Vec<(String, Vec<usize>)> = Vec::new();
+        for r in 0..t.rows.len() {
+            let id = t.cell(r, "run_id").to_string();
+            match runs.iter_mut().find(|x| x.0 == id) {
+                Some(x) => x.1.push(r),
+                None => runs.push((id, vec![r])),
+            }
+        }
+        let params = super::Erased::<Probe>::new();
+        let varying = t.varying(&super::DynKind::param_columns(&params));
+        let occ = |r: usize| t.num(r, "occ_rel_l2_mean");
+        let fmt = |v: f64| {
+            if v.is_finite() {
+                format!("{v:.3}")
+            } else {
+                "—".into()
+            }
+        };
+        let mut out = String::new();
+        if let [(_, rows)] = runs.as_slice() {
+            let r0 = rows[0];
+            out.push_str(&format!(
+                "**Ours.** Mesh `{}`, N = {}, α = {}°, BSV on `{}` × {}² rays, K = {} ({} k, {} interpolation). Mean errors over all \
+sample directions per radius (docs/conventions.md §6; `occ_rel_l2` is relative to the occluded part; both compare coefficients with the \
+truth projected to order N, so they measure the extrapolation alone, not band-limiting). Image: one probe direction per radius (rows), \
+actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated visibility (right).\n\n\
+| radius (× r) | k | probes | vis_rel_l2 | occ_rel_l2 | inside the mesh |\n|---:|---:|---:|---:|---:|---:|\n",
+                t.cell(r0, "mesh"),
+                t.cell(r0, "order"),
+                t.cell(r0, "alpha_deg"),
+                t.cell(r0, "layout"),
+                t.cell(r0, "hemisphere_res"),
+                t.cell(r0, "k_count"),
+                t.cell(r0, "k_spacing"),
+                t.cell(r0, "k_interp"),
+            ));
+            for &r in rows {
+                out.push_str(&format!(
+                    "| {} | {:.2} | {} | {} | {} | {} |\n",
+                    t.cell(r, "radius"),
+                    t.num(r, "k"),
+                    t.cell(r, "probes"),
+                    fmt(t.num(r, "vis_rel_l2_mean")),
+                    fmt(occ(r)),
+                    t.cell(r, "inside_count")
+                ));
+            }
+            out.push_str("\n**Comparison.** ");
+        }
+        for (id, rows) in &runs {
+            let finite: Vec<usize> = rows.iter().copied().filter(|&r| occ(r).is_finite()).collect();
+            let list = |follows: bool| {
+                let v: Vec<String> = finite
+                    .iter()
+                    .filter(|&&r| (occ(r) < FOLLOWS) == follows)
+                    .map(|&r| format!("{}r", t.cell(r, "radius")))
+                    .collect();
+                if v.is_empty() {
+                    "no radius".to_string()
+                } else {
+                    v.join(", ")
+                }
+            };
+            let best = finite.iter().copied().min_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let worst = finite.iter().copied().max_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let who = if runs.len() == 1 {
+                "The extrapolation".to_string()
+            } else {
+                format!(
+                    "Run `{id}` ({})",
+                    varying
+                        .iter()
+                        .filter(|c| *c != "radii")
+                        .map(|c| format!("{c} = {}", t.cell(rows[0], c)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
+            match (best, worst) {
+                (Some(b), Some(w)) => out.push_str(&format!(
+                    "{who} follows the actual occlusion (occ_rel_l2 < {FOLLOWS}) at {} and departs from it at {}: best at {}r ({:.3}), worst at {}r \
+({:.3}; above 1 is worse than predicting no occlusion).\n",
+                    list(true),
+                    list(false),
+                    t.cell(b, "radius"),
+                    occ(b),
+                    t.cell(w, "radius"),
+                    occ(w)
+                )),
+                _ => out.push_str(&format!("{who}: no radius has a finite occ_rel_l2 (no occluded truth).\n")),
+            }
+        }
+        Ok(out)
+    }
+
+    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+        // The first run's visibility image, under the figure's name.
+        let Some(r) = (0..t.rows.len()).next() else {
+            return Ok(Vec::new());
+        };
+        copy_image(dir, &format!("visibility_{}", t.cell(r, "run_id")), out, stem)
+    }
 }
+
+/// Copy `dir/<from>.png` and `.exr` (those that exist) to `out/<stem>.*`, atomically; the files
+/// written, PNG first.
+pub fn copy_image(dir: &Path, from: &str, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    let mut files = Vec::new();
+    for ext in ["png", "exr"] {
+        let from = dir.join(format!("{from}.{ext}"));
+        if !from.exists() {
+            continue;
+        }
+        let to = out.join(format!("{stem}.{ext}"));
+        let tmp = out.join(format!(".{stem}.tmp-{}.{ext}", std::process::id()));
+        std::fs::copy(&from, &tmp)
+            .and_then(|_| std::fs::rename(&tmp, &to))
+            .map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                LabError::Io {
+                    path: to.display().to_string(),
+                    reason: e.to_string(),
+                }
+            })?;
+        files.push(to);
+    }
+    Ok(files)
+}
+
+/// occ_rel_l2 below which the discussion says the extrapolation follows the actual occlusion.
+pub const FOLLOWS: f64 = 0.5;

@@ -805,8 +805,13 @@ pub fn run_plan(
         *count += 1;
         Ok(())
     };
+    let config_dir = Path::new(&plan.file)
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let ctx = Ctx {
         dir: &dir,
+        config_dir,
         gpu: gpu.as_ref(),
         timing: plan.timing,
     };
@@ -850,11 +855,14 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
     let csv = dir.join("runs.csv");
     let t = Results::read(&csv)?;
     let varying = t.varying(&kind.param_columns());
+    let (title, claim) = title_and_claim(dir);
     let mut s = format!(
-        "# {} — {}\n\n{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
+        "# {}{} — {}\n\n{}{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
+        title.map_or(String::new(), |t| format!("{t}\n\nExperiment ")),
         kind.name(),
         dir.file_name()
             .map_or(String::new(), |n| n.to_string_lossy().to_string()),
+        claim.map_or(String::new(), |c| format!("**Claim.** {}\n\n**Question.** ", c.trim())),
         kind.question(),
         t.rows.len(),
         if varying.is_empty() {
@@ -897,11 +905,32 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
             "\n{concurrent} row(s) were timed while other runs executed (`timing_concurrent`): their times are not comparable and are left out of speed plots.\n"
         ));
     }
+    let discussion = kind.discussion(&t)?;
+    if !discussion.trim().is_empty() {
+        s.push_str(&format!(
+            "\n## Our numbers against the claim\n\n{}\n",
+            discussion.trim_end()
+        ));
+    }
     let p = dir.join("summary.md");
     write_atomic(&p, &s)?;
     let mut files = vec![p];
     files.extend(kind.report(dir, &t)?);
     Ok(Report { summary: s, files })
+}
+
+/// `title` and `claim` of the newest config version in `dir/manifest.toml`.
+pub fn title_and_claim(dir: &Path) -> (Option<String>, Option<String>) {
+    let Some(text) = Manifest::read(dir)
+        .ok()
+        .flatten()
+        .and_then(|m| m.versions.last().map(|v| v.config_text.clone()))
+    else {
+        return (None, None);
+    };
+    let t: toml::Table = toml::from_str(&text).unwrap_or_default();
+    let get = |k: &str| t.get(k).and_then(|v| v.as_str()).map(String::from);
+    (get("title"), get("claim"))
 }
 
 /// What [`merge`] did.
