@@ -88,7 +88,9 @@ fn figures_and_their_index_are_regenerated() {
     // The rows behind Fig. 3: two elements × 12 curve points, every parameter a column.
     let mut r = ::csv::Reader::from_path(out.join("b_elements.csv")).unwrap();
     let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    for c in ["run_id", "row", "col", "k", "direct", "table", "abs_err", "k_count"] {
+    for c in [
+        "run_id", "row", "col", "k", "direct", "table", "abs_err", "k_count",
+    ] {
         assert!(h.iter().any(|x| x == c), "{c} not in {h:?}");
     }
     let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
@@ -281,7 +283,10 @@ fn studies_run_through_shscale_run() {
             .records()
             .count()
     };
-    assert_eq!(rows("runs.shard-0-of-2.csv") + rows("runs.shard-1-of-2.csv"), 22);
+    assert_eq!(
+        rows("runs.shard-0-of-2.csv") + rows("runs.shard-1-of-2.csv"),
+        22
+    );
     std::fs::write(&ext, "experiment = \"extremes\"\ntitle = \"e\"\nclaim = \"c\"\nk = 1.0\nalpha_deg = 45.0\norder = 4\ntau = \"cone\"\nspeed = 3\n").unwrap();
     common::fails(
         &[

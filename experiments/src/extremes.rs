@@ -206,7 +206,14 @@ impl Kind for Extremes {
     }
 
     fn summary_columns() -> &'static [&'static str] {
-        &["eta", "panels", "converged", "invariant_defect", "tau_pole_failures", "ok"]
+        &[
+            "eta",
+            "panels",
+            "converged",
+            "invariant_defect",
+            "tau_pole_failures",
+            "ok",
+        ]
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
@@ -275,8 +282,8 @@ impl Kind for Extremes {
     fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
         // Quadrature panels of the plain cone matrix against log10 k, per α and order.
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        for r in (0..t.rows.len())
-            .filter(|&r| t.cell(r, "tau") == "cone" && t.cell(r, "eta") == "plain")
+        for r in
+            (0..t.rows.len()).filter(|&r| t.cell(r, "tau") == "cone" && t.cell(r, "eta") == "plain")
         {
             series
                 .entry(format!(

@@ -112,7 +112,9 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
         let warn = std::sync::Mutex::new(Vec::new());
         let s = runner::run_plan(plan, runs_root, None, &|ev| {
             if let RunEvent::Warn(w) = ev {
-                warn.lock().unwrap_or_else(|e| e.into_inner()).push(w.to_string());
+                warn.lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .push(w.to_string());
             }
         })?;
         for w in warn.into_inner().unwrap_or_default() {

@@ -114,14 +114,21 @@ impl Kind for MElements {
         }
         for (key, v) in [("k_count", p.k_count), ("curve_points", p.curve_points)] {
             if !(2..=MAX_POINTS).contains(&v) {
-                return Err(KeyError::new(key, format!("{v} is outside 2..={MAX_POINTS}")));
+                return Err(KeyError::new(
+                    key,
+                    format!("{v} is outside 2..={MAX_POINTS}"),
+                ));
             }
         }
         for (key, v) in [("row", p.row), ("col", p.col)] {
             if v >= n * n {
                 return Err(KeyError::new(
                     key,
-                    format!("{v} is outside 0..{} (order {n} has {} coefficients)", n * n, n * n),
+                    format!(
+                        "{v} is outside 0..{} (order {n} has {} coefficients)",
+                        n * n,
+                        n * n
+                    ),
                 ));
             }
         }
@@ -179,7 +186,8 @@ impl Kind for MElements {
     fn run(p: &Params, _: &str, s: &Self::Shared, _: &Ctx) -> Result<Vec<Row>, LabError> {
         let cfg = |k: &str, e: String| LabError::Config(format!("{k}: {e}"));
         let (table, whole, at_k) = s;
-        let mut interp = ScalingMatrix::identity(p.order).map_err(|e| cfg("order", e.to_string()))?;
+        let mut interp =
+            ScalingMatrix::identity(p.order).map_err(|e| cfg("order", e.to_string()))?;
         let (l0, l1) = (p.k_min.ln(), p.k_max.ln());
         (0..p.curve_points)
             .map(|i| {
@@ -239,7 +247,10 @@ impl Kind for MElements {
             (e.0, e.1) = (e.0.min(v), e.1.max(v));
             worst_elem = worst_elem.max(t.num(r, "abs_err"));
         }
-        let (whole, at_k) = (t.num(0, "matrix_table_max_abs_err"), t.num(0, "matrix_worst_k"));
+        let (whole, at_k) = (
+            t.num(0, "matrix_table_max_abs_err"),
+            t.num(0, "matrix_worst_k"),
+        );
         let rows: Vec<String> = order
             .iter()
             .map(|k| {

@@ -114,7 +114,10 @@ impl Kind for Shadows {
         }
         if let Some(a) = p.alpha_deg {
             if !(a > 0.0 && a < 90.0) {
-                return Err(KeyError::new("alpha_deg", format!("{a} is outside (0, 90)")));
+                return Err(KeyError::new(
+                    "alpha_deg",
+                    format!("{a} is outside (0, 90)"),
+                ));
             }
         }
         if let Some(l) = &p.layout {
@@ -278,6 +281,11 @@ per-frame resampling, docs/BENCHMARKS.md).\n\n",
         let Some(r) = (0..t.rows.len()).next() else {
             return Ok(Vec::new());
         };
-        shscale_lab::exp::probe::copy_image(dir, &format!("shadows_{}", t.cell(r, "run_id")), out, stem)
+        shscale_lab::exp::probe::copy_image(
+            dir,
+            &format!("shadows_{}", t.cell(r, "run_id")),
+            out,
+            stem,
+        )
     }
 }

@@ -106,7 +106,10 @@ impl Kind for Sparsity {
 
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !(1..=16).contains(&p.order) {
-            return Err(KeyError::new("order", format!("{} is outside 1..=16", p.order)));
+            return Err(KeyError::new(
+                "order",
+                format!("{} is outside 1..=16", p.order),
+            ));
         }
         match p.tau.as_str() {
             "cone" => {
@@ -180,7 +183,13 @@ impl Kind for Sparsity {
     }
 
     fn summary_columns() -> &'static [&'static str] {
-        &["eta", "nonzeros", "structural", "outside_pattern", "structural_zeros"]
+        &[
+            "eta",
+            "nonzeros",
+            "structural",
+            "outside_pattern",
+            "structural_zeros",
+        ]
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
@@ -226,13 +235,25 @@ impl Kind for Sparsity {
             text.push(format!(
                 "{} η ({}): pattern {} across τ: {}",
                 if eta == "plain" { "Plain" } else { "Energy" },
-                if eta == "plain" { "visibility" } else { "radiance" },
-                if groups.len() == 1 { "identical" } else { "not identical" },
+                if eta == "plain" {
+                    "visibility"
+                } else {
+                    "radiance"
+                },
+                if groups.len() == 1 {
+                    "identical"
+                } else {
+                    "not identical"
+                },
                 groups
                     .iter()
                     .map(|(z, names)| format!(
                         "{} structural zeros {} for {}",
-                        if z.is_empty() { 0 } else { z.split(") (").count() },
+                        if z.is_empty() {
+                            0
+                        } else {
+                            z.split(") (").count()
+                        },
                         if z.is_empty() { "(none)" } else { z.as_str() },
                         names.join("; ")
                     ))
@@ -245,7 +266,8 @@ impl Kind for Sparsity {
 The paper counts all {formula} as non-zero; numerically {plain_zeros} of them vanish identically for the plain matrix (and, for the energy matrix, the groups above), \
 so \"exactly N(2N²+1)/3 non-zero\" is an upper bound met by the structure, not by the values.")
         } else {
-            "NOT confirmed — elements outside the structural pattern are non-zero; see the table.".to_string()
+            "NOT confirmed — elements outside the structural pattern are non-zero; see the table."
+                .to_string()
         };
         Ok(format!(
             "**Ours.** N = {n}: the structural pattern (same m, l, l′ ≥ |m|) has {structural_count} positions; N(2N²+1)/3 = {formula}. \

@@ -112,7 +112,10 @@ impl Kind for Timing {
                 rays,
                 bytes: 256e6,
                 seconds: rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND,
-                drivers: format!("(frames {} + warmup {}) × 240 × 32² rays", p.frames, p.warmup),
+                drivers: format!(
+                    "(frames {} + warmup {}) × 240 × 32² rays",
+                    p.frames, p.warmup
+                ),
             },
         )
     }
@@ -174,12 +177,20 @@ impl Kind for Timing {
     }
 
     fn summary_columns() -> &'static [&'static str] {
-        &["device", "bsv_sampling_ms", "shadowing_ms", "frame_ms", "fps"]
+        &[
+            "device",
+            "bsv_sampling_ms",
+            "shadowing_ms",
+            "frame_ms",
+            "fps",
+        ]
     }
 
     fn discussion(t: &Results) -> Result<String, LabError> {
         if t.rows.is_empty() {
-            return Ok("No rows: no run has finished (a gpu run without an adapter writes none).".into());
+            return Ok(
+                "No rows: no run has finished (a gpu run without an adapter writes none).".into(),
+            );
         }
         let table = table(t);
         let fps = |path: &str| {
@@ -221,7 +232,11 @@ so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, whic
     }
 
     fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
-        Ok(vec![crate::write_text(out, &format!("{stem}.md"), &table(t))?])
+        Ok(vec![crate::write_text(
+            out,
+            &format!("{stem}.md"),
+            &table(t),
+        )?])
     }
 }
 

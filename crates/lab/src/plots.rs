@@ -137,7 +137,11 @@ where
 /// the smallest value, so negative data are drawn where they are.
 pub fn y_range(y0: f64, y1: f64) -> (f64, f64) {
     let pad = 0.05 * (y1 - y0);
-    let lo = if y0 >= 0.0 { (y0 - pad).max(0.0) } else { y0 - pad };
+    let lo = if y0 >= 0.0 {
+        (y0 - pad).max(0.0)
+    } else {
+        y0 - pad
+    };
     (lo, y1 + pad)
 }
 
@@ -335,10 +339,19 @@ mod tests {
     /// that are non-negative keep their axis at or above 0.
     #[test]
     fn negative_values_stay_inside_the_drawn_range() {
-        for (y0, y1) in [(-0.76, 1.09), (-3.0, -1.0), (0.0, 2.0), (0.2, 0.3), (1e-9, 1e-8)] {
+        for (y0, y1) in [
+            (-0.76, 1.09),
+            (-3.0, -1.0),
+            (0.0, 2.0),
+            (0.2, 0.3),
+            (1e-9, 1e-8),
+        ] {
             let (lo, hi) = y_range(y0, y1);
             println!("data [{y0}, {y1}] → drawn [{lo}, {hi}]");
-            assert!(lo < y0 || (lo == 0.0 && y0 == 0.0), "{y0} below the drawn {lo}");
+            assert!(
+                lo < y0 || (lo == 0.0 && y0 == 0.0),
+                "{y0} below the drawn {lo}"
+            );
             assert!(hi > y1, "{y1} above the drawn {hi}");
             if y0 >= 0.0 {
                 assert!(lo >= 0.0, "non-negative data drawn from {lo}");

@@ -510,7 +510,8 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
         if let Some((p, _)) = zip.first() {
             let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
             for i in 0..n {
-                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j]))) {
+                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j])))
+                {
                     let mut ep = p.clone();
                     ep.push(Seg::Index(i));
                     return Err(ConfigError {
@@ -543,13 +544,12 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             }
         }
         let rel = |p: &KeyPath| -> KeyPath {
-            let skip = if p.get(root.len()) == Some(&Seg::Key("zip".into()))
-                && p.len() > root.len() + 1
-            {
-                root.len() + 1
-            } else {
-                root.len()
-            };
+            let skip =
+                if p.get(root.len()) == Some(&Seg::Key("zip".into())) && p.len() > root.len() + 1 {
+                    root.len() + 1
+                } else {
+                    root.len()
+                };
             p[skip..].to_vec()
         };
         let mut axes = Vec::new();
@@ -784,7 +784,10 @@ mod tests {
             .iter()
             .map(|c| c.table["tau"].as_str().unwrap())
             .collect();
-        assert_eq!(taus, ["cone", "cone", "cone", "cone", "midrange", "midrange"]);
+        assert_eq!(
+            taus,
+            ["cone", "cone", "cone", "cone", "midrange", "midrange"]
+        );
         assert!(ex.combinations[5].table.get("alpha_deg").is_none());
         // The second block's second k sits on line 11 of the file.
         assert_eq!(

@@ -473,7 +473,11 @@ actual full-frequency visibility (left, white = visible; lat-long, +z at the top
             out.push_str("\n**Comparison.** ");
         }
         for (id, rows) in &runs {
-            let finite: Vec<usize> = rows.iter().copied().filter(|&r| occ(r).is_finite()).collect();
+            let finite: Vec<usize> = rows
+                .iter()
+                .copied()
+                .filter(|&r| occ(r).is_finite())
+                .collect();
             let list = |follows: bool| {
                 let v: Vec<String> = finite
                     .iter()
@@ -486,8 +490,14 @@ actual full-frequency visibility (left, white = visible; lat-long, +z at the top
                     v.join(", ")
                 }
             };
-            let best = finite.iter().copied().min_by(|&a, &b| occ(a).total_cmp(&occ(b)));
-            let worst = finite.iter().copied().max_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let best = finite
+                .iter()
+                .copied()
+                .min_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let worst = finite
+                .iter()
+                .copied()
+                .max_by(|&a, &b| occ(a).total_cmp(&occ(b)));
             let who = if runs.len() == 1 {
                 "The extrapolation".to_string()
             } else {
@@ -523,13 +533,23 @@ actual full-frequency visibility (left, white = visible; lat-long, +z at the top
         let Some(r) = (0..t.rows.len()).next() else {
             return Ok(Vec::new());
         };
-        copy_image(dir, &format!("visibility_{}", t.cell(r, "run_id")), out, stem)
+        copy_image(
+            dir,
+            &format!("visibility_{}", t.cell(r, "run_id")),
+            out,
+            stem,
+        )
     }
 }
 
 /// Copy `dir/<from>.png` and `.exr` (those that exist) to `out/<stem>.*`, atomically; the files
 /// written, PNG first.
-pub fn copy_image(dir: &Path, from: &str, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+pub fn copy_image(
+    dir: &Path,
+    from: &str,
+    out: &Path,
+    stem: &str,
+) -> Result<Vec<PathBuf>, LabError> {
     let mut files = Vec::new();
     for ext in ["png", "exr"] {
         let from = dir.join(format!("{from}.{ext}"));

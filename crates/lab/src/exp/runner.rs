@@ -862,7 +862,10 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
         kind.name(),
         dir.file_name()
             .map_or(String::new(), |n| n.to_string_lossy().to_string()),
-        claim.map_or(String::new(), |c| format!("**Claim.** {}\n\n**Question.** ", c.trim())),
+        claim.map_or(String::new(), |c| format!(
+            "**Claim.** {}\n\n**Question.** ",
+            c.trim()
+        )),
         kind.question(),
         t.rows.len(),
         if varying.is_empty() {
