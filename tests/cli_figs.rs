@@ -130,6 +130,14 @@ fn bad_figure_configs_name_file_line_and_field() {
             "experiment = \"m_elements\"\ntitle = \"t\"\nclaim = \"c\"\norder = 4\nrow = 2\ncol = 3\n",
             ":6: col: (2, 3) is not a structural non-zero",
         ),
+        (
+            "experiment = \"sparsity\"\norder = 4\n[[sweep]]\ntau = [\"cone\"]\n[[sweep]]\ntau = [\"midrange\"]\nk = [0.5, 1.5]\n",
+            ":7: k: ",
+        ),
+        (
+            "experiment = \"extremes\"\ntau = \"cube\"\n",
+            ":2: tau: \"cube\" is not cone or midrange",
+        ),
     ];
     for (i, (text, needle)) in cases.iter().enumerate() {
         let cfg = d.join(format!("c{i}"));

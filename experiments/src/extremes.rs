@@ -18,7 +18,7 @@ use shscale_lab::exp::records::Results;
 use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::plots::{write_both, Labels};
 use shscale_lab::LabError;
-use shscale_scaling::{AngularScaling, Cone, Eta, MidRange, QuadOptions, ScalingMatrix};
+use shscale_scaling::{AngularScaling, Eta, QuadOptions, ScalingMatrix};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -77,11 +77,8 @@ pub const MAX_ORDER: usize = 32;
 /// The invariant defect bound of a passing case.
 const DEFECT_OK: f64 = 1e-8;
 
-fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, String> {
-    Ok(match p.tau.as_str() {
-        "cone" => Box::new(Cone::new(p.k, p.alpha_deg.to_radians()).map_err(|e| e.to_string())?),
-        _ => Box::new(MidRange::new(p.k).map_err(|e| e.to_string())?),
-    })
+fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, KeyError> {
+    shscale_lab::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
 }
 
 /// τ at the poles: failures and the worst round trip.
@@ -131,22 +128,7 @@ impl Kind for Extremes {
                 format!("{} is outside 1..={MAX_ORDER}", p.order),
             ));
         }
-        match p.tau.as_str() {
-            "cone" if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) => {
-                return Err(KeyError::new(
-                    "alpha_deg",
-                    format!("{} is outside (0, 90)", p.alpha_deg),
-                ))
-            }
-            "cone" | "midrange" => {}
-            other => {
-                return Err(KeyError::new(
-                    "tau",
-                    format!("{other:?} is not cone or midrange"),
-                ))
-            }
-        }
-        tau_of(p).map(|_| ()).map_err(|m| KeyError::new("k", m))
+        tau_of(p).map(|_| ())
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -172,7 +154,7 @@ impl Kind for Extremes {
     }
 
     fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
-        let tau = tau_of(p).map_err(|m| LabError::Config(format!("k: {m}")))?;
+        let tau = tau_of(p).map_err(|e| LabError::Config(format!("{}: {}", e.key, e.message)))?;
         let (tau_bad, trip) = tau_checks(tau.as_ref());
         [Eta::Plain, Eta::Energy]
             .into_iter()
@@ -187,10 +169,7 @@ impl Kind for Extremes {
                 let finite = m.values().iter().all(|v| v.is_finite());
                 let defect = invariant_defect(&m, eta);
                 Ok(Row {
-                    eta: match eta {
-                        Eta::Plain => "plain".into(),
-                        Eta::Energy => "energy".into(),
-                    },
+                    eta: shscale_lab::vocab::eta_name(eta).into(),
                     panels: rep.panels,
                     evaluations: rep.evaluations,
                     error_bound: rep.error_bound,

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use shscale_lab::exp::records::Results;
 use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
 use shscale_lab::LabError;
-use shscale_scaling::{AngularScaling, Cone, Eta, MidRange, ScalingMatrix};
+use shscale_scaling::{AngularScaling, Eta, ScalingMatrix};
 use shscale_sh::sh_lm;
 use std::path::{Path, PathBuf};
 
@@ -66,16 +66,13 @@ fn structural(i: usize, j: usize) -> bool {
     mi == mj && li as i64 >= mi.abs() && lj as i64 >= mj.abs()
 }
 
-fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, String> {
-    Ok(match p.tau.as_str() {
-        "cone" => Box::new(Cone::new(p.k, p.alpha_deg.to_radians()).map_err(|e| e.to_string())?),
-        _ => Box::new(MidRange::new(p.k).map_err(|e| e.to_string())?),
-    })
+fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, KeyError> {
+    shscale_lab::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
 }
 
 /// The numerical non-zero pattern (row-major, N² × N²) and max |M|.
 fn pattern(p: &Params, eta: Eta) -> Result<(Vec<bool>, f64), LabError> {
-    let tau = tau_of(p).map_err(LabError::Config)?;
+    let tau = tau_of(p).map_err(|e| LabError::Config(format!("{}: {}", e.key, e.message)))?;
     let m = ScalingMatrix::<f64>::compute(tau.as_ref(), eta, p.order)
         .map_err(|e| LabError::Config(format!("order: {e}")))?;
     let d = m.to_dense();
@@ -111,24 +108,7 @@ impl Kind for Sparsity {
                 format!("{} is outside 1..=16", p.order),
             ));
         }
-        match p.tau.as_str() {
-            "cone" => {
-                if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
-                    return Err(KeyError::new(
-                        "alpha_deg",
-                        format!("{} is outside (0, 90)", p.alpha_deg),
-                    ));
-                }
-            }
-            "midrange" => {}
-            other => {
-                return Err(KeyError::new(
-                    "tau",
-                    format!("{other:?} is not cone or midrange"),
-                ))
-            }
-        }
-        tau_of(p).map(|_| ()).map_err(|m| KeyError::new("k", m))
+        tau_of(p).map(|_| ())
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -165,10 +145,7 @@ impl Kind for Sparsity {
                     .map(|x| format!("({}, {})", x / nn, x % nn))
                     .collect();
                 Ok(Row {
-                    eta: match eta {
-                        Eta::Plain => "plain".into(),
-                        Eta::Energy => "energy".into(),
-                    },
+                    eta: shscale_lab::vocab::eta_name(eta).into(),
                     nonzeros: pat.iter().filter(|x| **x).count(),
                     structural: count,
                     formula: p.order * (2 * p.order * p.order + 1) / 3,

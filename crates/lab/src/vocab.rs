@@ -1,6 +1,6 @@
 //! One vocabulary for every command, the runner and the figures: what a mesh name means
 //! (`sphere`, the procedural shapes, the bundled meshes, a file path) and the k range a set of
-//! probe radii needs. Resolved here only.
+//! probe radii needs, the angular scaling τ and η by name. Resolved here only.
 
 use crate::LabError;
 use shscale_geometry::ray::UpdateStrategy;
@@ -84,3 +84,42 @@ pub fn unit_occluder(name: &str) -> Result<UnitOccluder, LabError> {
 /// The k range a k-table needs for probe radii (× r) sampled at radius `s` (× r):
 /// [`shscale_field::probe::k_range`], re-exported so every caller finds it here.
 pub use shscale_field::probe::k_range;
+
+/// The angular scaling function τ named in a config (`tau = "cone" | "midrange"`): the cone
+/// approximation at k = d/r > 0 with half-angle `alpha_deg` in (0, 90), or mid-range lighting at
+/// k = d/R in (−1, 1) (α unused). Errors name the key at fault.
+pub fn scaling_tau(
+    tau: &str,
+    k: f64,
+    alpha_deg: f64,
+) -> Result<Box<dyn shscale_scaling::AngularScaling>, crate::exp::KeyError> {
+    use crate::exp::KeyError;
+    match tau {
+        "cone" => {
+            if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
+                return Err(KeyError::new(
+                    "alpha_deg",
+                    format!("{alpha_deg} is outside (0, 90)"),
+                ));
+            }
+            shscale_scaling::Cone::new(k, alpha_deg.to_radians())
+                .map(|t| Box::new(t) as Box<dyn shscale_scaling::AngularScaling>)
+                .map_err(|e| KeyError::new("k", e.to_string()))
+        }
+        "midrange" => shscale_scaling::MidRange::new(k)
+            .map(|t| Box::new(t) as Box<dyn shscale_scaling::AngularScaling>)
+            .map_err(|e| KeyError::new("k", e.to_string())),
+        other => Err(KeyError::new(
+            "tau",
+            format!("{other:?} is not cone or midrange"),
+        )),
+    }
+}
+
+/// `plain` or `energy`: the name of η in configs and CSV columns.
+pub fn eta_name(eta: shscale_scaling::Eta) -> &'static str {
+    match eta {
+        shscale_scaling::Eta::Plain => "plain",
+        shscale_scaling::Eta::Energy => "energy",
+    }
+}
