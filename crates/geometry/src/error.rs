@@ -30,6 +30,9 @@ pub enum GeometryError {
         vertices: usize,
         triangles: usize,
     },
+    /// The mesh as a whole is outside the supported domain (its size).
+    #[error("{file}: {reason}")]
+    Domain { file: String, reason: String },
     /// An unknown bundled name or unsupported extension.
     #[error("{0}")]
     Unknown(String),

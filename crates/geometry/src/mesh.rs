@@ -31,8 +31,18 @@ pub struct MeshReport {
 }
 
 impl Mesh {
-    /// Build and validate: at least one vertex and one triangle, finite coordinates, indices in
-    /// range. Zero-area triangles are an error (`allow_degenerate = false`) or counted by
+    /// The largest |coordinate| of a vertex: squared areas and squared distances (≤ 1e200) stay
+    /// far from f64 overflow; ray tracing maps the mesh to its unit frame.
+    pub const MAX_COORDINATE: f64 = 1e50;
+    /// The smallest extent (largest side of the bounding box) of a mesh: squared areas (≥ 1e-200)
+    /// stay far from f64 underflow.
+    pub const MIN_EXTENT: f64 = 1e-50;
+    /// The most triangles of a mesh (a 2.5 GB vertex and index budget).
+    pub const MAX_TRIANGLES: usize = 50_000_000;
+
+    /// Build and validate: at least one vertex and one triangle, finite coordinates within
+    /// ±[`Mesh::MAX_COORDINATE`], an extent of at least [`Mesh::MIN_EXTENT`], at most
+    /// [`Mesh::MAX_TRIANGLES`] triangles, indices in range. Zero-area triangles are an error (`allow_degenerate = false`) or counted by
     /// [`Mesh::inspect`] (`true`). Errors name `name` and the element.
     pub fn new(
         name: &str,
@@ -53,6 +63,45 @@ impl Mesh {
                 element: "vertex",
                 index: i,
                 reason: format!("non-finite coordinate {:?}", positions[i]),
+            });
+        }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| p.abs().max_element() > Self::MAX_COORDINATE)
+        {
+            return Err(GeometryError::Invalid {
+                file: name.into(),
+                element: "vertex",
+                index: i,
+                reason: format!(
+                    "coordinate {:?} is beyond ±{:e}, the supported range (rescale the mesh)",
+                    positions[i],
+                    Self::MAX_COORDINATE
+                ),
+            });
+        }
+        let (lo, hi) = positions.iter().fold(
+            (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let extent = (hi - lo).max_element();
+        if extent < Self::MIN_EXTENT {
+            return Err(GeometryError::Domain {
+                file: name.into(),
+                reason: format!(
+                    "the mesh spans {extent:e}, below {:e}, the smallest supported size (rescale the mesh)",
+                    Self::MIN_EXTENT
+                ),
+            });
+        }
+        if triangles.len() > Self::MAX_TRIANGLES {
+            return Err(GeometryError::Domain {
+                file: name.into(),
+                reason: format!(
+                    "{} triangles, more than the limit {}",
+                    triangles.len(),
+                    Self::MAX_TRIANGLES
+                ),
             });
         }
         let n = positions.len() as u32;

@@ -10,6 +10,15 @@
 //! The price: geometry closer than `1e-4·r` to the origin is ignored (a contact gap of 0.01 % of
 //! the entity's size), and a grazing ray that leaves a concave surface tangentially may miss a
 //! re-entry closer than that.
+//!
+//! **Scale.** [`MeshBvh`] holds its f32 triangles in the entity's unit frame — `(p − c) / r` for
+//! the bounding sphere (c, r) — and maps every ray into it in f64, so a mesh of size 1e20 or
+//! 1e-20 is traced exactly like one of size 1 (f32 alone would overflow or lose every digit).
+//! A ray whose line misses the bounding ball is answered without traversal, and an origin far
+//! outside it is first advanced in f64 to just before the ball, so queries from up to
+//! [`MAX_QUERY_DISTANCE`]·r away keep the unit-frame precision (the advanced origin carries a
+//! rounding error of ~1e-16 × the distance, 1e-4·r at the limit). Mesh coordinates themselves
+//! are bounded by `Mesh::MAX_COORDINATE` (checked when a mesh is built).
 
 use crate::{Mesh, Sphere};
 use glam::{DVec3, Vec3A};
@@ -24,6 +33,10 @@ use std::time::Duration;
 
 /// Relative ray start offset: queries start at `t = RAY_EPS · bounding radius`.
 pub const RAY_EPS: f64 = 1e-4;
+
+/// The farthest a query point may be from an entity, in bounding radii, for [`MeshBvh`] to keep
+/// its precision (see the module documentation); commands refuse points beyond it.
+pub const MAX_QUERY_DISTANCE: f64 = 1e12;
 
 /// An entity's surface as seen by rays.
 pub trait Occluder: Send + Sync {
@@ -56,7 +69,10 @@ enum Accel {
 
 /// A BVH over a mesh's triangles (obvhs), in f32.
 pub struct MeshBvh {
+    /// Triangles in the unit frame `(p − frame.center) / frame.radius`.
     tris: Vec<Triangle>,
+    /// The unit frame: the bounding sphere (radius 1 when the mesh is a point).
+    frame: Sphere,
     accel: Accel,
     strategy: UpdateStrategy,
     sphere: Sphere,
@@ -64,25 +80,86 @@ pub struct MeshBvh {
     positions: Vec<DVec3>,
 }
 
-fn to_tri(m: &Mesh, f: usize) -> Triangle {
-    let [a, b, c] = m.corners(f);
+fn to_tri(m: &Mesh, f: usize, frame: &Sphere) -> Triangle {
+    let [a, b, c] = m
+        .corners(f)
+        .map(|p| ((p - frame.center) / frame.radius).as_vec3());
     Triangle {
-        v0: Vec3A::from(a.as_vec3()),
-        v1: Vec3A::from(b.as_vec3()),
-        v2: Vec3A::from(c.as_vec3()),
+        v0: Vec3A::from(a),
+        v1: Vec3A::from(b),
+        v2: Vec3A::from(c),
     }
+}
+
+/// The unit frame of a bounding sphere (a zero or non-finite radius falls back to 1).
+fn frame_of(s: Sphere) -> Sphere {
+    Sphere {
+        center: s.center,
+        radius: if s.radius.is_finite() && s.radius > 0.0 {
+            s.radius
+        } else {
+            1.0
+        },
+    }
+}
+
+/// A ray in the unit frame, or `None` when its line misses the bounding ball (radius 1 plus a
+/// margin for the f32 rounding of the vertices) within `[tmin, tmax]`. Returns the f32 ray and
+/// the offset `t0` (unit-frame units) the origin was advanced by.
+fn unit_ray(frame: &Sphere, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(Ray, f64)> {
+    const BALL: f64 = 1.0 + 1e-5;
+    let s = frame.radius;
+    let (o, tmin, tmax) = ((o - frame.center) / s, tmin / s, tmax / s);
+    // |o + t d|² = BALL²: t² + 2 b t + c = 0, with the discriminant b² − c computed as
+    // BALL² − |o − b d|² (the squared distance of the line from the centre), which does not
+    // cancel catastrophically for far origins.
+    let b = o.dot(d);
+    let c = o.length_squared() - BALL * BALL;
+    let disc = BALL * BALL - (o - b * d).length_squared();
+    if c > 0.0 && (b >= 0.0 || disc <= 0.0) {
+        return None; // outside the ball, moving away or passing by
+    }
+    let t_exit = -b + disc.max(0.0).sqrt();
+    if t_exit < tmin {
+        return None;
+    }
+    // Advance a far origin to just before the ball (no geometry before it).
+    let t_enter = -b - disc.max(0.0).sqrt();
+    let t0 = if c > 0.0 && t_enter > 4.0 {
+        t_enter - 2.0
+    } else {
+        0.0
+    };
+    if t_enter > tmax {
+        return None;
+    }
+    let o = o + t0 * d;
+    Some((
+        Ray::new(
+            Vec3A::from(o.as_vec3()),
+            Vec3A::from(d.as_vec3()),
+            (tmin - t0).max(0.0) as f32,
+            (tmax - t0).min(f32::MAX as f64) as f32,
+        ),
+        t0,
+    ))
 }
 
 impl MeshBvh {
     /// Build for `mesh` with the given per-frame update strategy.
     pub fn build(mesh: &Mesh, strategy: UpdateStrategy) -> Self {
-        let tris: Vec<Triangle> = (0..mesh.triangles.len()).map(|f| to_tri(mesh, f)).collect();
+        let sphere = mesh.bounding_sphere();
+        let frame = frame_of(sphere);
+        let tris: Vec<Triangle> = (0..mesh.triangles.len())
+            .map(|f| to_tri(mesh, f, &frame))
+            .collect();
         let accel = Self::make_accel(&tris, strategy);
         Self {
             tris,
+            frame,
             accel,
             strategy,
-            sphere: mesh.bounding_sphere(),
+            sphere,
             mesh_tris: mesh.triangles.clone(),
             positions: mesh.positions.clone(),
         }
@@ -107,8 +184,10 @@ impl MeshBvh {
     /// Follow a deformation of the same mesh (same topology): rebuild or refit.
     pub fn update(&mut self, mesh: &Mesh) {
         assert_eq!(mesh.triangles.len(), self.tris.len(), "topology changed");
+        self.sphere = mesh.bounding_sphere();
+        self.frame = frame_of(self.sphere);
         for f in 0..self.tris.len() {
-            self.tris[f] = to_tri(mesh, f);
+            self.tris[f] = to_tri(mesh, f, &self.frame);
         }
         match &mut self.accel {
             Accel::Wide(_) => self.accel = Self::make_accel(&self.tris, UpdateStrategy::Rebuild),
@@ -131,7 +210,6 @@ impl MeshBvh {
                 b.refit_all();
             }
         }
-        self.sphere = mesh.bounding_sphere();
         self.positions.clone_from(&mesh.positions);
     }
 
@@ -139,21 +217,14 @@ impl MeshBvh {
     pub fn strategy(&self) -> UpdateStrategy {
         self.strategy
     }
-
-    fn ray(o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Ray {
-        Ray::new(
-            Vec3A::from(o.as_vec3()),
-            Vec3A::from(d.as_vec3()),
-            tmin as f32,
-            tmax.min(f32::MAX as f64) as f32,
-        )
-    }
 }
 
 impl Occluder for MeshBvh {
     #[inline]
     fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
-        let ray = Self::ray(o, d, tmin, tmax);
+        let Some((ray, _)) = unit_ray(&self.frame, o, d, tmin, tmax) else {
+            return false;
+        };
         match &self.accel {
             Accel::Wide(b) => !b.ray_traverse_miss(ray, |r, id| {
                 self.tris[b.primitive_indices[id] as usize].intersect(r)
@@ -202,7 +273,7 @@ impl MeshBvh {
         tmin: f64,
         tmax: f64,
     ) -> Option<(f64, usize)> {
-        let ray = Self::ray(o, d, tmin, tmax);
+        let (ray, t0) = unit_ray(&self.frame, o, d, tmin, tmax)?;
         let mut hit = RayHit::none();
         let (found, idx) = match &self.accel {
             Accel::Wide(b) => {
@@ -225,7 +296,7 @@ impl MeshBvh {
             }
         };
         if found {
-            idx.map(|i| (hit.t as f64, i))
+            idx.map(|i| ((hit.t as f64 + t0) * self.frame.radius, i))
         } else {
             None
         }

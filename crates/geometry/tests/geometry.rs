@@ -194,6 +194,85 @@ fn bvh_agrees_with_brute_force_on_random_rays() {
     }
 }
 
+/// The BVH traces in the mesh's unit frame: the bunny scaled by 1e20, 1e-20 and 1e45 agrees with
+/// the f64 brute force exactly as at scale 1 (grazing rays only), and so do rays from 1e11
+/// bounding radii away aimed into the bounding sphere (the far origin is advanced in f64).
+#[test]
+fn bvh_is_scale_invariant_and_far_origins_keep_precision() {
+    let unit = bundled::load("bunny").unwrap();
+    for scale in [1e20, 1e-20, 1e45] {
+        let mesh = Mesh::new(
+            "scaled",
+            unit.positions.iter().map(|p| *p * scale).collect(),
+            unit.triangles.clone(),
+            false,
+        )
+        .unwrap();
+        let s = mesh.bounding_sphere();
+        let brute = BruteForce::new(&mesh);
+        let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+        let mut rng = Rng(11);
+        let (mut disagree, mut hits, mut worst_t) = (0, 0, 0f64);
+        for i in 0..1000 {
+            let far = i % 2 == 1;
+            let o = s.center + s.radius * if far { 1e11 } else { 1.0 } * rng.dir();
+            let target = s.center + 0.8 * s.radius * rng.f() * rng.dir();
+            let d = (target - o).normalize();
+            let tmin = RAY_EPS * s.radius;
+            let (a, b) = (
+                bvh.occluded(o, d, tmin, f64::INFINITY),
+                brute.occluded(o, d, tmin, f64::INFINITY),
+            );
+            if a != b {
+                disagree += 1;
+                let g = grazing_margin(&mesh, o, d);
+                assert!(
+                    g < if far { 1e-3 } else { 1e-5 },
+                    "scale {scale:e}, far {far}: non-grazing disagreement (margin {g:e})"
+                );
+            }
+            if a && b {
+                hits += 1;
+                let (ta, tb) = (
+                    bvh.closest_hit(o, d, tmin, f64::INFINITY).unwrap(),
+                    brute.closest_hit(o, d, tmin, f64::INFINITY).unwrap(),
+                );
+                if grazing_margin(&mesh, o, d) > 1e-3 {
+                    worst_t = worst_t.max((ta - tb).abs() / s.radius);
+                }
+            }
+        }
+        println!(
+            "scale {scale:e}: {disagree} grazing disagreements in 1000 rays, {hits} hits, worst |Δt|/r = {worst_t:.2e}"
+        );
+        assert!(
+            disagree * 50 < 1000,
+            "scale {scale:e}: {disagree} disagreements"
+        );
+        assert!(hits > 200, "scale {scale:e}: only {hits} hits");
+        assert!(worst_t < 5e-4, "scale {scale:e}: |Δt|/r = {worst_t:e}");
+    }
+}
+
+/// Meshes outside the supported domain are refused naming the culprit, at the edges too.
+#[test]
+fn mesh_domain_edges() {
+    let tri = |s: f64| {
+        Mesh::new(
+            "m",
+            vec![DVec3::ZERO, DVec3::X * s, DVec3::Y * s],
+            vec![[0, 1, 2]],
+            false,
+        )
+    };
+    assert!(tri(1e50).is_ok());
+    assert!(tri(1e-50).is_ok());
+    let e = tri(2e50).unwrap_err().to_string();
+    assert!(e.contains("vertex 1") && e.contains("beyond ±1e50"), "{e}");
+    let e = tri(1e-51).unwrap_err().to_string();
+    assert!(e.contains("below 1e-50"), "{e}");
+}
+
 #[test]
 fn refit_follows_deformation_like_a_rebuild() {
     let rest = shapes::box_block(DVec3::new(1.0, 0.3, 0.1), 12);
