@@ -182,8 +182,7 @@ impl Kind for Shadows {
             }
         }
         let exr = ctx.dir.join(format!("shadows_{run_id}.exr"));
-        shscale_lab::io::write_exr(&exr, 3 * w, h, &px)?;
-        shscale_lab::io::write_png_preview(&exr.with_extension("png"), 3 * w, h, &px)?;
+        shscale_lab::io::write_exr_and_png(&exr, 3 * w, h, &px, shscale_lab::io::Png::Preview)?;
         imgs.iter()
             .map(|(name, img, t)| {
                 Ok(Row {

@@ -104,16 +104,19 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value_t = BenchScene::All)]
     pub scene: BenchScene,
     /// Measured frames per scene and path (medians over them).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(1..=100000))]
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(1..=10000))]
     pub frames: u64,
     /// Warm-up frames, run and dropped before measuring.
-    #[arg(long, default_value_t = 3)]
-    pub warmup: usize,
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(0..=10000))]
+    pub warmup: u64,
     #[arg(long, value_enum, default_value_t = BenchFormat::Markdown)]
     pub format: BenchFormat,
     /// Also write the rows as CSV to this file (atomically).
     #[arg(long)]
     pub csv: Option<std::path::PathBuf>,
+    /// Run even when the estimated work exceeds 1e10 rays (docs/limits.md).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Args, Debug)]
@@ -228,6 +231,9 @@ pub struct RenderArgs {
     /// the GPU stage times; the image is the GPU's last frame. Exit 2 without an adapter.
     #[arg(long, requires = "frames")]
     pub gpu: bool,
+    /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Args, Debug)]
@@ -261,6 +267,9 @@ pub struct ProbeArgs {
     pub on_surface_eps: f64,
     #[arg(long, value_enum, default_value_t = Format::Json)]
     pub format: Format,
+    /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Args, Debug)]

@@ -21,6 +21,21 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchScene::Sponge => &["sponge"],
         BenchScene::All => &["bird", "egg", "sponge"],
     };
+    // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
+    let paths = usize::from(cpu) + usize::from(ctx.is_some());
+    let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
+    shscale_lab::limits::check_work(
+        "bench",
+        rays,
+        0.0,
+        &format!(
+            "{} scene(s) × {paths} path(s) × (--frames {} + --warmup {}) × 240 × 32² rays",
+            scenes.len(),
+            a.frames,
+            a.warmup
+        ),
+        a.allow_large,
+    )?;
     let mut rows = Vec::new();
     let bar = progress_bar(scenes.len(), "scenes");
     for s in scenes {
@@ -28,7 +43,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         rows.extend(bench_scene(
             s,
             a.frames as usize,
-            a.warmup,
+            a.warmup as usize,
             cpu,
             ctx.as_ref(),
         )?);

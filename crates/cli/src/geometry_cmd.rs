@@ -115,6 +115,18 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
     }
     let p = DVec3::new(p[0], p[1], p[2]);
     let occ = occluder(&a.mesh)?;
+    let b = occ.bounding_sphere();
+    let far = (p - b.center).length() / b.radius;
+    if !(far <= shscale_geometry::ray::MAX_QUERY_DISTANCE) {
+        bail!(
+            "--point: ({:e}, {:e}, {:e}) is {far:.3e} bounding radii from {}, more than {:e}, the farthest a query keeps its precision",
+            p.x,
+            p.y,
+            p.z,
+            a.mesh,
+            shscale_geometry::ray::MAX_QUERY_DISTANCE
+        );
+    }
     if a.frame == FrameArg::Local && (occ.bounding_sphere().center - p).length() == 0.0 {
         bail!("--point: the local frame is undefined at the bounding-sphere centre {p}");
     }

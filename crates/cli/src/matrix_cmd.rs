@@ -4,6 +4,7 @@ use crate::args::{parse_list, Format, InterpArg, MatrixArgs, SpacingArg, TauArg}
 use crate::output::{print_json, print_matrix};
 use anyhow::{bail, Context};
 use serde::Serialize;
+use shscale_lab::exp::probe::MAX_K_COUNT;
 use shscale_scaling::{
     structural_nonzeros, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily,
 };
@@ -110,6 +111,11 @@ pub fn run(a: MatrixArgs) -> anyhow::Result<ExitCode> {
             }
         }
         (None, Some(count)) => {
+            // The same bound as `k_count` of the experiment kinds: at N = 32 a table of 10⁴
+            // matrices (≈ 0.06 s each here, ×4 with the error check) takes ≈ 40 min and 1.7 GB.
+            if !(2..=MAX_K_COUNT).contains(&count) {
+                bail!("--table: {count} is outside 2..={MAX_K_COUNT}");
+            }
             let range = a
                 .k_range
                 .as_deref()

@@ -3,11 +3,12 @@
 use crate::args::{parse_list, Format, ProbeArgs};
 use crate::geometry_cmd::occluder;
 use crate::output::print_json;
-use anyhow::{bail, Context};
+use anyhow::anyhow;
 use serde::Serialize;
-use shscale_field::probe::{probe, ProbeRow, ProbeSpec};
-use shscale_field::Layout;
+use shscale_field::probe::{probe, ProbeRow};
 use shscale_geometry::AnalyticSphere;
+use shscale_lab::exp::probe::{Probe, ProbeParams};
+use shscale_lab::exp::Kind;
 use std::process::ExitCode;
 
 #[derive(Serialize)]
@@ -79,53 +80,41 @@ struct ProbeOut {
 }
 
 pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
-    shscale_sh::check_order(a.order).context("--order")?;
-    if a.order > 16 {
-        bail!(
-            "--order: {} is above 16, the largest order this command tabulates",
-            a.order
-        );
-    }
-    if !(a.alpha_deg > 0.0 && a.alpha_deg < 90.0) {
-        bail!("--alpha-deg: {} is outside (0, 90)", a.alpha_deg);
-    }
-    let layout = Layout::parse(&a.layout).context("--layout")?;
-    if a.hemisphere_res == 0 || a.hemisphere_res > 256 {
-        bail!("--hemisphere-res: {} is outside 1..=256", a.hemisphere_res);
-    }
-    if !(a.sampling_radius.is_finite() && a.sampling_radius >= 1.0) {
-        bail!("--sampling-radius: {} must be ≥ 1", a.sampling_radius);
-    }
-    let radii = parse_list("radii", &a.radii)?;
-    if let Some(r) = radii.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
-        bail!("--radii: {r} must be finite and > 0");
-    }
-    if a.k_count < 2 {
-        bail!("--k-count: {} must be ≥ 2", a.k_count);
-    }
-    if !(a.on_surface_eps.is_finite() && a.on_surface_eps >= 0.0) {
-        bail!("--on-surface-eps: {} must be ≥ 0", a.on_surface_eps);
-    }
-    let occ = occluder(&a.mesh)?;
-    let analytic = (a.mesh == "sphere").then(|| AnalyticSphere::unit().sphere);
-    let spec = ProbeSpec {
+    // The same parameters, bounds and cost model as `experiment = "probe"` (one vocabulary):
+    // an error names the flag of the key at fault.
+    let params = ProbeParams {
+        mesh: a.mesh.clone(),
         order: a.order,
-        alpha: a.alpha_deg.to_radians(),
-        layout,
+        alpha_deg: a.alpha_deg,
+        layout: a.layout.clone(),
         hemisphere_res: a.hemisphere_res,
         sampling_radius: a.sampling_radius,
-        radii,
         k_count: a.k_count,
-        k_spacing: shscale_scaling::Spacing::Exp,
-        k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: a.on_surface_eps,
+        radii: parse_list("radii", &a.radii)?,
+        ..ProbeParams::default()
     };
+    <Probe as Kind>::validate(&params).map_err(|e| {
+        let key = e.key.split('[').next().unwrap_or(&e.key).replace('_', "-");
+        anyhow!("--{key}: {}", e.message)
+    })?;
+    let (shared, run) = <Probe as Kind>::cost(&params);
+    shscale_lab::limits::check_work(
+        "probe",
+        shared.rays + run.rays,
+        shared.bytes.max(run.bytes),
+        &shared.drivers,
+        a.allow_large,
+    )?;
+    let spec = params.spec()?;
+    let occ = occluder(&a.mesh)?;
+    let analytic = (a.mesh == "sphere").then(|| AnalyticSphere::unit().sphere);
     let res = probe(occ.as_ref(), analytic, &spec)?;
     let out = ProbeOut {
         mesh: a.mesh.clone(),
         order: a.order,
         alpha_deg: a.alpha_deg,
-        layout: layout.name(),
+        layout: spec.layout.name(),
         hemisphere_res: a.hemisphere_res,
         sampling_radius: a.sampling_radius,
         k_count: a.k_count,

@@ -17,15 +17,43 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let scene = Scene::load(&a.scene)?;
     let method = to_method(a.method);
+    // The work limits: the method, the reference (and its unshadowed image), every frame.
+    let frames = a.frames.unwrap_or(1).max(1) as f64;
+    let (mut rays, mut bytes) = shscale_lab::render::estimated_work(&scene, method);
+    rays *= frames;
+    if let Some(r) = a.reference {
+        let (r2, b2) = shscale_lab::render::estimated_work(&scene, to_method(r));
+        let (r3, _) = shscale_lab::render::estimated_work(&scene, Method::RayTraced);
+        rays += r2 + r3;
+        bytes = bytes.max(b2);
+    }
+    shscale_lab::limits::check_work(
+        "render",
+        rays,
+        bytes,
+        &format!(
+            "{}×{} receivers, hemisphere_res {}, layout {}, {} occluder(s), {frames} frame(s)",
+            scene.resolution[0],
+            scene.resolution[1],
+            scene.hemisphere_res,
+            scene.layout.name(),
+            scene.occluders.len()
+        ),
+        a.allow_large,
+    )?;
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
     }
     let t0 = std::time::Instant::now();
     let img = render(&scene, method)?;
-    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
-    let png = a.out.with_extension("png");
-    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
-        .context("--out (PNG preview)")?;
+    let png = shscale_lab::io::write_exr_and_png(
+        &a.out,
+        img.width,
+        img.height,
+        &img.pixels,
+        shscale_lab::io::Png::Preview,
+    )
+    .context("--out")?;
     println!(
         "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
         a.scene.display(),
@@ -99,10 +127,14 @@ fn sequence(
         return gpu_sequence(a, scene, frames);
     }
     let (img, stats) = render_sequence(scene, frames)?;
-    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
-    let png = a.out.with_extension("png");
-    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
-        .context("--out (PNG preview)")?;
+    let png = shscale_lab::io::write_exr_and_png(
+        &a.out,
+        img.width,
+        img.height,
+        &img.pixels,
+        shscale_lab::io::Png::Preview,
+    )
+    .context("--out")?;
     println!(
         "sequence {} ({}×{} receivers, {} occluder(s), {frames} frames, {} threads)",
         a.scene.display(),
@@ -146,10 +178,14 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
     let run = render_sequence_gpu(scene, frames, &ctx)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
-    shscale_lab::io::write_exr(&a.out, img.width, img.height, &img.pixels).context("--out")?;
-    let png = a.out.with_extension("png");
-    shscale_lab::io::write_png_preview(&png, img.width, img.height, &img.pixels)
-        .context("--out (PNG preview)")?;
+    let png = shscale_lab::io::write_exr_and_png(
+        &a.out,
+        img.width,
+        img.height,
+        &img.pixels,
+        shscale_lab::io::Png::Preview,
+    )
+    .context("--out")?;
     println!(
         "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),

@@ -1,6 +1,10 @@
 //! Image files: EXR (linear RGB, f32) and PNG previews, written to a temporary file in the target
 //! directory and renamed into place, so an interrupted run never leaves a partial image under the
-//! final name; and lat-long EXR environment maps read back.
+//! final name; an EXR and its PNG are written as a unit ([`write_exr_and_png`]): both temporaries
+//! first, renamed only when both succeeded, temporaries removed on every error path. Lat-long EXR
+//! environment maps are read back with their header checked before any pixel is allocated
+//! ([`MAX_IMAGE_SIDE`], [`MAX_IMAGE_PIXELS`]) and every pixel checked finite and ≥ 0 (up to
+//! [`NEGATIVE_TOLERANCE`] of ringing, clamped).
 
 use crate::LabError;
 use std::path::{Path, PathBuf};
@@ -20,6 +24,65 @@ fn io_err(path: &Path, e: impl std::fmt::Display) -> LabError {
     }
 }
 
+/// The largest side of an image read or written, in pixels.
+pub const MAX_IMAGE_SIDE: usize = 16_384;
+/// The most pixels of an image read or written (2²⁶: 768 MiB of f32 RGB).
+pub const MAX_IMAGE_PIXELS: usize = 1 << 26;
+
+fn check_dims(path: &Path, width: usize, height: usize) -> Result<(), LabError> {
+    if width == 0
+        || height == 0
+        || width > MAX_IMAGE_SIDE
+        || height > MAX_IMAGE_SIDE
+        || width * height > MAX_IMAGE_PIXELS
+    {
+        return Err(io_err(
+            path,
+            format!(
+                "{width}×{height} pixels: each side must be 1..={MAX_IMAGE_SIDE} and the image at most {MAX_IMAGE_PIXELS} pixels"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuse to write over a directory (renaming onto one fails only after the work is done).
+fn check_target(path: &Path) -> Result<(), LabError> {
+    if path.is_dir() {
+        return Err(io_err(path, "is a directory"));
+    }
+    Ok(())
+}
+
+/// Run `write` on the temporary path of `path`; the temporary is removed if it fails.
+fn to_tmp(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), LabError>,
+) -> Result<PathBuf, LabError> {
+    check_target(path)?;
+    let tmp = tmp_path(path);
+    match write(&tmp) {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+/// Rename finished temporaries onto their targets; on failure remove those not yet renamed.
+fn commit(pairs: &[(PathBuf, &Path)]) -> Result<(), LabError> {
+    for (i, (tmp, path)) in pairs.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            for (t, _) in &pairs[i..] {
+                let _ = std::fs::remove_file(t);
+            }
+            return Err(io_err(path, e));
+        }
+    }
+    Ok(())
+}
+
 /// Write `pixels` (row-major, row 0 at the top) as a float RGB EXR, atomically. Compressed on one
 /// thread so the bytes are reproducible (parallel compression writes chunks in completion order).
 pub fn write_exr(
@@ -28,8 +91,73 @@ pub fn write_exr(
     height: usize,
     pixels: &[[f32; 3]],
 ) -> Result<(), LabError> {
-    assert_eq!(pixels.len(), width * height);
-    let tmp = tmp_path(path);
+    let tmp = to_tmp(path, |tmp| exr_to(tmp, path, width, height, pixels))?;
+    commit(&[(tmp, path)])
+}
+
+/// How the PNG beside an EXR maps values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Png {
+    /// Exposure normalised to the mean, tone mapped ([`write_png_preview`]).
+    Preview,
+    /// Values in [0, 1] linearly ([`write_png_unit`]; visibility).
+    Unit,
+}
+
+/// Write `exr` and the PNG beside it (`exr` with the extension `png`) as a unit: both are
+/// written to temporaries, then renamed; when either fails neither target is touched (a
+/// directory in either place is refused before any work) and no temporary is left. Returns
+/// the PNG's path.
+pub fn write_exr_and_png(
+    exr: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[[f32; 3]],
+    png: Png,
+) -> Result<PathBuf, LabError> {
+    let png_path = exr.with_extension("png");
+    check_target(exr)?;
+    check_target(&png_path)?;
+    let t_exr = to_tmp(exr, |tmp| exr_to(tmp, exr, width, height, pixels))?;
+    let t_png = match to_tmp(&png_path, |tmp| match png {
+        Png::Preview => png_to(tmp, &png_path, width, height, preview_bytes(pixels)),
+        Png::Unit => png_to(tmp, &png_path, width, height, unit_bytes(pixels)),
+    }) {
+        Ok(t) => t,
+        Err(e) => {
+            let _ = std::fs::remove_file(&t_exr);
+            return Err(e);
+        }
+    };
+    commit(&[(t_png, png_path.as_path()), (t_exr, exr)])?;
+    Ok(png_path)
+}
+
+fn exr_to(
+    tmp: &Path,
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[[f32; 3]],
+) -> Result<(), LabError> {
+    check_dims(path, width, height)?;
+    if pixels.len() != width * height {
+        return Err(io_err(
+            path,
+            format!("{} pixels for {width}×{height}", pixels.len()),
+        ));
+    }
+    if let Some(i) = pixels.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+        return Err(io_err(
+            path,
+            format!(
+                "pixel ({}, {}) is {:?}: not written (an input drove the result out of range)",
+                i % width,
+                i / width,
+                pixels[i]
+            ),
+        ));
+    }
     use exr::prelude::*;
     let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
         let p = pixels[pos.y() * width + pos.x()];
@@ -38,9 +166,39 @@ pub fn write_exr(
     Image::from_channels((width, height), channels)
         .write()
         .non_parallel()
-        .to_file(&tmp)
-        .map_err(|e| io_err(path, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+        .to_file(tmp)
+        .map_err(|e| io_err(path, e))
+}
+
+fn unit_bytes(pixels: &[[f32; 3]]) -> Vec<u8> {
+    pixels
+        .iter()
+        .flat_map(|p| p.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8))
+        .collect()
+}
+
+fn preview_bytes(pixels: &[[f32; 3]]) -> Vec<u8> {
+    let mean = pixels
+        .iter()
+        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+        .sum::<f64>()
+        / pixels.len().max(1) as f64;
+    let exposure = if mean > 0.0 && mean.is_finite() {
+        0.5 / mean
+    } else {
+        1.0
+    };
+    pixels
+        .iter()
+        .flat_map(|p| {
+            p.map(|v| {
+                let x = (v.max(0.0) as f64) * exposure;
+                ((x / (1.0 + x)).powf(1.0 / 2.2) * 255.0)
+                    .round()
+                    .clamp(0.0, 255.0) as u8
+            })
+        })
+        .collect()
 }
 
 /// Write an 8-bit PNG of values in [0, 1] mapped linearly (clamped) — for visibility, where 1 must
@@ -51,17 +209,10 @@ pub fn write_png_unit(
     height: usize,
     pixels: &[[f32; 3]],
 ) -> Result<(), LabError> {
-    // Exposure 1 with the identity tone map: the preview writer with a pre-scaled copy would
-    // renormalise, so encode directly.
-    write_png_bytes(
-        path,
-        width,
-        height,
-        pixels
-            .iter()
-            .flat_map(|p| p.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8))
-            .collect(),
-    )
+    let tmp = to_tmp(path, |tmp| {
+        png_to(tmp, path, width, height, unit_bytes(pixels))
+    })?;
+    commit(&[(tmp, path)])
 }
 
 /// Write an 8-bit sRGB-ish PNG preview: exposure normalised to the mean luminance, Reinhard
@@ -72,28 +223,23 @@ pub fn write_png_preview(
     height: usize,
     pixels: &[[f32; 3]],
 ) -> Result<(), LabError> {
-    let mean = pixels
-        .iter()
-        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
-        .sum::<f64>()
-        / pixels.len().max(1) as f64;
-    let exposure = if mean > 0.0 { 0.5 / mean } else { 1.0 };
-    let data: Vec<u8> = pixels
-        .iter()
-        .flat_map(|p| {
-            p.map(|v| {
-                let x = (v.max(0.0) as f64) * exposure;
-                ((x / (1.0 + x)).powf(1.0 / 2.2) * 255.0)
-                    .round()
-                    .clamp(0.0, 255.0) as u8
-            })
-        })
-        .collect();
-    write_png_bytes(path, width, height, data)
+    let tmp = to_tmp(path, |tmp| {
+        png_to(tmp, path, width, height, preview_bytes(pixels))
+    })?;
+    commit(&[(tmp, path)])
 }
 
-/// Read the first RGBA layer of an EXR as `(width, height, rgb)`, row 0 at the top.
+/// Read the first RGBA layer of an EXR as `(width, height, rgb)`, row 0 at the top. The header
+/// is read first: a layer over [`MAX_IMAGE_SIDE`] or [`MAX_IMAGE_PIXELS`] is refused before any
+/// pixel is allocated; then every pixel must be finite, else the error names the first bad one.
 pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), LabError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| io_err(path, e))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| io_err(path, "no layer"))?;
+    let size = header.layer_size;
+    check_dims(path, size.width(), size.height())?;
     let img = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |res, _| {
@@ -109,23 +255,68 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), LabError> 
         },
     )
     .map_err(|e| io_err(path, e))?;
-    Ok(img.layer_data.channel_data.pixels)
+    let (w, h, px) = img.layer_data.channel_data.pixels;
+    let bad = |i: usize, what: &str| {
+        io_err(
+            path,
+            format!("pixel ({}, {}) is {:?}: {what}", i % w, i / w, px[i]),
+        )
+    };
+    if let Some(i) = px.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+        return Err(bad(i, "not finite"));
+    }
+    Ok((w, h, px))
 }
 
-fn write_png_bytes(
+/// [`read_exr`] for radiance (environment maps): additionally every pixel ≥ 0, up to
+/// [`NEGATIVE_TOLERANCE`] of ringing, which is clamped to 0.
+pub fn read_radiance_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), LabError> {
+    let (w, h, mut px) = read_exr(path)?;
+    let bad = |i: usize, what: &str, px: &[[f32; 3]]| {
+        io_err(
+            path,
+            format!("pixel ({}, {}) is {:?}: {what}", i % w, i / w, px[i]),
+        )
+    };
+    // Filtered HDR maps ring slightly below 0 (the bundled courtyard map reaches −1.1e-5 against
+    // a maximum of ~40): values down to −NEGATIVE_TOLERANCE × the largest value are clamped to 0;
+    // anything more negative is not radiance.
+    let max = px.iter().flatten().fold(0f32, |a, v| a.max(*v));
+    if let Some(i) = px
+        .iter()
+        .position(|p| p.iter().any(|v| *v < -NEGATIVE_TOLERANCE * max))
+    {
+        return Err(bad(
+            i,
+            &format!("radiance must be ≥ 0 (down to −{NEGATIVE_TOLERANCE:e} × the maximum {max:e} is clamped)"),
+            &px,
+        ));
+    }
+    for p in &mut px {
+        for v in p.iter_mut() {
+            *v = v.max(0.0);
+        }
+    }
+    Ok((w, h, px))
+}
+
+/// How far below 0 (relative to the largest value) an EXR map's pixels may ring before
+/// [`read_exr`] refuses the map.
+pub const NEGATIVE_TOLERANCE: f32 = 1e-3;
+
+fn png_to(
+    tmp: &Path,
     path: &Path,
     width: usize,
     height: usize,
     data: Vec<u8>,
 ) -> Result<(), LabError> {
-    let tmp = tmp_path(path);
-    {
-        let file = std::fs::File::create(&tmp).map_err(|e| io_err(path, e))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|e| io_err(path, e))?;
-        w.write_image_data(&data).map_err(|e| io_err(path, e))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+    check_dims(path, width, height)?;
+    let file = std::fs::File::create(tmp).map_err(|e| io_err(path, e))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().map_err(|e| io_err(path, e))?;
+    w.write_image_data(&data).map_err(|e| io_err(path, e))?;
+    w.finish().map_err(|e| io_err(path, e))
 }

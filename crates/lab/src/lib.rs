@@ -7,6 +7,7 @@ pub mod bench;
 pub mod exp;
 pub mod gpu_path;
 pub mod io;
+pub mod limits;
 pub mod plots;
 pub mod render;
 pub mod runner;

@@ -96,24 +96,49 @@ pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
             *sun_radius,
         )?,
         LightSpec::Exr { path, intensity } => {
-            let (w, h, px) = crate::io::read_exr(path)?;
-            if let Some(i) = px.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+            // Finite, ≥ 0 (ringing clamped) and within the image bounds: read_radiance_exr.
+            let (w, h, px) = crate::io::read_radiance_exr(path)?;
+            let max = px.iter().flatten().fold(0f32, |a, v| a.max(*v)) as f64;
+            if max * *intensity > crate::scene::MAX_RADIANCE {
                 return Err(LabError::Config(format!(
-                    "{}: texel {i} (row {}, column {}) is not finite",
+                    "light.intensity: {} × the map's largest value {max:e} ({}) exceeds {:e}",
+                    crate::scene::num(*intensity),
                     path.display(),
-                    i / w,
-                    i % w
+                    crate::scene::MAX_RADIANCE
                 )));
             }
-            // Lossy EXR compression (DWAB, as in the bundled maps) leaves small negative values;
-            // radiance cannot be negative, so they are clamped to 0.
             let px: Vec<[f32; 3]> = px
                 .into_iter()
-                .map(|p| p.map(|v| v.max(0.0) * *intensity as f32))
+                .map(|p| p.map(|v| v * *intensity as f32))
                 .collect();
             EnvLight::from_latlong(scene.order, w, h, &px)?
         }
     })
+}
+
+/// Estimated rays and peak bytes of one [`render`] of `scene` with `method` (for the work limits
+/// of `shscale render`): the BSV of every occluder (16 shells for the full field), 2H² rays per
+/// receiver and occluder for band-limited ray tracing, (2H)² per receiver for full-frequency truth.
+pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
+    let samples = scene.layout.sample_count().unwrap_or(usize::MAX) as f64;
+    let h2 = (scene.hemisphere_res * scene.hemisphere_res) as f64;
+    let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
+    let occluders = scene.occluders.len().max(1) as f64;
+    let nn = (scene.order * scene.order) as f64;
+    let bsv = occluders * samples * h2;
+    let rays = match method {
+        Method::Extrapolated => bsv,
+        Method::FullField => 16.0 * bsv,
+        Method::RayTraced => receivers * occluders * 2.0 * h2,
+        Method::FullFrequency => receivers * 4.0 * h2,
+    };
+    let shells = if method == Method::FullField {
+        16.0
+    } else {
+        1.0
+    };
+    let bytes = occluders * shells * samples * nn * 8.0 + receivers * (nn * 8.0 + 16.0);
+    (rays, bytes)
 }
 
 /// Render `scene` with `method`.

@@ -41,6 +41,6 @@ pub fn visibility_figure(
         }
     }
     let exr = dir.join(format!("visibility_{run_id}.exr"));
-    crate::io::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
-    crate::io::write_png_unit(&exr.with_extension("png"), 2 * W, H * examples.len(), &px)
+    crate::io::write_exr_and_png(&exr, 2 * W, H * examples.len(), &px, crate::io::Png::Unit)
+        .map(|_| ())
 }

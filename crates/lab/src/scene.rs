@@ -172,6 +172,26 @@ pub struct LightSourceSpec {
     pub energy: bool,
 }
 
+/// The largest |coordinate| (and size) of anything placed in a scene: occluder centres and
+/// radii, the receiver plane, light sources (docs/limits.md).
+pub const MAX_SCENE_COORDINATE: f64 = 1e6;
+/// The smallest occluder radius, receiver size and light-source size.
+pub const MIN_SCENE_SIZE: f64 = 1e-6;
+/// The largest radiance-like value (sky terms, intensities, light-source radiance): irradiance
+/// sums stay far from f32 overflow in the images.
+pub const MAX_RADIANCE: f64 = 1e12;
+/// The most occluders (and light sources) of a scene.
+pub const MAX_OCCLUDERS: usize = 64;
+
+/// A number for messages: plain where short, scientific where `{}` would print hundreds of digits.
+pub fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Line of the first occurrence of `key =` (or the table header) in the text, for semantic errors.
 fn line_of_key(text: &str, key: &str) -> usize {
     text.lines()
@@ -202,11 +222,44 @@ impl Scene {
     /// Resolve scene text; `file` names it in errors and `base` anchors relative paths.
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, LabError> {
         let raw: RawScene = toml::from_str(text).map_err(|e| crate::toml_error(file, text, &e))?;
+        // Errors name the key as a path (`occluder[1].radius`) at its own line (toml_edit spans;
+        // the table's line when the key is absent, a default).
+        let source = crate::exp::config::Source::new(file, text);
         let err = |key: &str, msg: String| {
-            LabError::Config(format!(
-                "{file}:{}: {key}: {msg}",
-                line_of_key(text, key.split('.').next_back().unwrap_or(key))
-            ))
+            let path = crate::exp::config::parse_path(key);
+            let line = source.line_of(&path).map_or_else(
+                || line_of_key(text, key.split('.').next_back().unwrap_or(key)),
+                |(l, _)| l,
+            );
+            LabError::Config(format!("{file}:{line}: {key}: {msg}"))
+        };
+        // Bounded values: finite and within [lo, hi] (docs/limits.md).
+        let within = |key: &str, v: f64, lo: f64, hi: f64| -> Result<f64, LabError> {
+            if v.is_finite() && v >= lo && v <= hi {
+                Ok(v)
+            } else {
+                Err(err(
+                    key,
+                    format!("{} is outside [{}, {}]", num(v), num(lo), num(hi)),
+                ))
+            }
+        };
+        let coords = |key: &str, v: [f64; 3]| -> Result<DVec3, LabError> {
+            if v.iter()
+                .all(|x| x.is_finite() && x.abs() <= MAX_SCENE_COORDINATE)
+            {
+                Ok(DVec3::from_array(v))
+            } else {
+                Err(err(
+                    key,
+                    format!(
+                        "[{}, {}, {}] must be finite, each within ±{MAX_SCENE_COORDINATE:e}",
+                        num(v[0]),
+                        num(v[1]),
+                        num(v[2])
+                    ),
+                ))
+            }
         };
         let order = raw.order.unwrap_or(4);
         if !(1..=16).contains(&order) {
@@ -226,38 +279,46 @@ impl Scene {
             ));
         }
         let k_count = raw.k_count.unwrap_or(40);
-        if k_count < 2 {
-            return Err(err("k_count", format!("{k_count} must be ≥ 2")));
-        }
-        let sampling_radius = raw.sampling_radius.unwrap_or(1.0);
-        if !(sampling_radius.is_finite() && sampling_radius >= 1.0) {
+        if !(2..=crate::exp::probe::MAX_K_COUNT).contains(&k_count) {
             return Err(err(
-                "sampling_radius",
-                format!("{sampling_radius} must be ≥ 1"),
+                "k_count",
+                format!(
+                    "{k_count} is outside 2..={}",
+                    crate::exp::probe::MAX_K_COUNT
+                ),
             ));
         }
-        let finite3 = |v: [f64; 3]| v.iter().all(|x| x.is_finite());
+        let sampling_radius = within(
+            "sampling_radius",
+            raw.sampling_radius.unwrap_or(1.0),
+            1.0,
+            1e3,
+        )?;
+        if raw.occluder.len() > MAX_OCCLUDERS {
+            return Err(err(
+                "occluder",
+                format!(
+                    "{} occluders, more than the limit {MAX_OCCLUDERS}",
+                    raw.occluder.len()
+                ),
+            ));
+        }
         let mut occluders = Vec::new();
         for (i, o) in raw.occluder.iter().enumerate() {
-            if !finite3(o.center) {
-                return Err(err(
-                    "center",
-                    format!("occluder {}: center {:?} is not finite", i + 1, o.center),
-                ));
-            }
-            if !(o.radius.is_finite() && o.radius > 0.0) {
-                return Err(err(
-                    "radius",
-                    format!("occluder {}: radius {} must be > 0", i + 1, o.radius),
-                ));
-            }
+            let center = coords(&format!("occluder[{i}].center"), o.center)?;
+            within(
+                &format!("occluder[{i}].radius"),
+                o.radius,
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
             let up_is_y = match o.up.as_deref().unwrap_or("y") {
                 "y" => true,
                 "z" => false,
                 other => {
                     return Err(err(
-                        "up",
-                        format!("occluder {}: {other:?} is not \"y\" or \"z\"", i + 1),
+                        &format!("occluder[{i}].up"),
+                        format!("{other:?} is not \"y\" or \"z\""),
                     ))
                 }
             };
@@ -272,81 +333,74 @@ impl Scene {
                         "morph" => (K::Morph, 0.5),
                         other => {
                             return Err(err(
-                                "deformer",
-                                format!(
-                                    "occluder {}: {other:?} is not flap, bend, twist or morph",
-                                    i + 1
-                                ),
+                                &format!("occluder[{i}].deformer"),
+                                format!("{other:?} is not flap, bend, twist or morph"),
                             ))
                         }
                     };
                     if o.mesh == "sphere" {
                         return Err(err(
-                            "deformer",
-                            format!("occluder {}: the analytic sphere cannot deform", i + 1),
+                            &format!("occluder[{i}].deformer"),
+                            "the analytic sphere cannot deform".into(),
                         ));
                     }
-                    let amount = o.amount.unwrap_or(default);
-                    if !amount.is_finite() {
-                        return Err(err(
-                            "amount",
-                            format!("occluder {}: {amount} is not finite", i + 1),
-                        ));
-                    }
+                    let amount = within(
+                        &format!("occluder[{i}].amount"),
+                        o.amount.unwrap_or(default),
+                        -10.0,
+                        10.0,
+                    )?;
                     Some((kind, amount))
                 }
             };
             occluders.push(OccluderSpec {
                 mesh: o.mesh.clone(),
-                center: DVec3::from_array(o.center),
+                center,
                 radius: o.radius,
                 up_is_y,
                 deformer,
             });
         }
         let r = &raw.receiver;
-        if !finite3(r.center) {
-            return Err(err(
-                "center",
-                format!("receiver center {:?} is not finite", r.center),
-            ));
-        }
-        if !(r.size.iter().all(|s| s.is_finite() && *s > 0.0)) {
-            return Err(err(
-                "size",
-                format!("receiver size {:?} must be > 0", r.size),
-            ));
+        let receiver_center = coords("receiver.center", r.center)?;
+        for (j, v) in r.size.iter().enumerate() {
+            within(
+                &format!("receiver.size[{j}]"),
+                *v,
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
         }
         if !(r.resolution.iter().all(|n| (2..=4096).contains(n))) {
             return Err(err(
-                "resolution",
-                format!(
-                    "receiver resolution {:?} must be within 2..=4096",
-                    r.resolution
-                ),
+                "receiver.resolution",
+                format!("{:?} must be within 2..=4096 each", r.resolution),
             ));
         }
         let l = &raw.light;
         let nonneg = |key: &str, v: Option<f64>, default: f64| -> Result<f64, LabError> {
-            let v = v.unwrap_or(default);
-            if v.is_finite() && v >= 0.0 {
-                Ok(v)
-            } else {
-                Err(err(key, format!("{v} must be finite and ≥ 0")))
-            }
+            within(
+                &format!("light.{key}"),
+                v.unwrap_or(default),
+                0.0,
+                MAX_RADIANCE,
+            )
         };
         let light = match l.kind.as_str() {
             "sky" => {
                 let sun_dir = DVec3::from_array(l.sun_dir.unwrap_or([0.3, 0.2, 1.0]));
                 if !(sun_dir.is_finite() && sun_dir.length() > 0.0) {
                     return Err(err(
-                        "sun_dir",
+                        "light.sun_dir",
                         format!("{sun_dir} must be a non-zero vector"),
                     ));
                 }
                 let rad = l.sun_radius_deg.unwrap_or(5.0);
                 if !(rad > 0.0 && rad <= 90.0) {
-                    return Err(err("sun_radius_deg", format!("{rad} is outside (0, 90]")));
+                    return Err(err(
+                        "light.sun_radius_deg",
+                        format!("{rad} is outside (0, 90]"),
+                    ));
                 }
                 LightSpec::Sky {
                     ambient: nonneg("ambient", l.ambient, 0.3)?,
@@ -360,7 +414,7 @@ impl Scene {
                 let p = l
                     .path
                     .as_deref()
-                    .ok_or_else(|| err("path", "light kind \"exr\" needs path".into()))?;
+                    .ok_or_else(|| err("light.path", "light kind \"exr\" needs path".into()))?;
                 LightSpec::Exr {
                     path: base.join(p),
                     intensity: nonneg("intensity", l.intensity, 1.0)?,
@@ -368,58 +422,69 @@ impl Scene {
             }
             other => {
                 return Err(err(
-                    "kind",
-                    format!("light kind {other:?} is not \"sky\" or \"exr\""),
+                    "light.kind",
+                    format!("{other:?} is not \"sky\" or \"exr\""),
                 ))
             }
         };
         let mut light_sources = Vec::new();
+        if raw.light_source.len() > MAX_OCCLUDERS {
+            return Err(err(
+                "light_source",
+                format!(
+                    "{} light sources, more than the limit {MAX_OCCLUDERS}",
+                    raw.light_source.len()
+                ),
+            ));
+        }
         for (i, l) in raw.light_source.iter().enumerate() {
+            let key = |k: &str| format!("light_source[{i}].{k}");
             let hinge = match l.kind.as_str() {
                 "quad" => false,
                 "hinge" => true,
                 other => {
                     return Err(err(
-                        "kind",
-                        format!(
-                            "light_source {}: {other:?} is not \"quad\" or \"hinge\"",
-                            i + 1
-                        ),
+                        &key("kind"),
+                        format!("{other:?} is not \"quad\" or \"hinge\""),
                     ))
                 }
             };
-            if !finite3(l.center) {
-                return Err(err(
-                    "center",
-                    format!(
-                        "light_source {}: center {:?} is not finite",
-                        i + 1,
-                        l.center
-                    ),
-                ));
-            }
-            let size = l.size.unwrap_or(1.0);
-            if !(size.is_finite() && size > 0.0) {
-                return Err(err(
-                    "size",
-                    format!("light_source {}: size {size} must be > 0", i + 1),
-                ));
-            }
+            let center = coords(&key("center"), l.center)?;
+            let size = within(
+                &key("size"),
+                l.size.unwrap_or(1.0),
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
             let hinge_deg = l.hinge_deg.unwrap_or(100.0);
             if !(hinge_deg > 0.0 && hinge_deg < 180.0) {
                 return Err(err(
-                    "hinge_deg",
-                    format!("light_source {}: {hinge_deg} is outside (0, 180)", i + 1),
+                    &key("hinge_deg"),
+                    format!("{hinge_deg} is outside (0, 180)"),
                 ));
             }
-            let intensity = l.intensity.unwrap_or(1.0);
-            let radiance = l.radiance.unwrap_or([1.0, 1.0, 1.0]).map(|v| v * intensity);
-            if radiance.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            let intensity = within(
+                &key("intensity"),
+                l.intensity.unwrap_or(1.0),
+                0.0,
+                MAX_RADIANCE,
+            )?;
+            let base = l.radiance.unwrap_or([1.0, 1.0, 1.0]);
+            for (j, v) in base.iter().enumerate() {
+                within(
+                    &format!("light_source[{i}].radiance[{j}]"),
+                    *v,
+                    0.0,
+                    MAX_RADIANCE,
+                )?;
+            }
+            let radiance = base.map(|v| v * intensity);
+            if radiance.iter().any(|v| *v > MAX_RADIANCE) {
                 return Err(err(
-                    "radiance",
+                    &key("intensity"),
                     format!(
-                        "light_source {}: {radiance:?} must be finite and ≥ 0",
-                        i + 1
+                        "intensity {} × radiance {base:?} exceeds {MAX_RADIANCE:e}",
+                        num(intensity)
                     ),
                 ));
             }
@@ -428,17 +493,14 @@ impl Scene {
                 "energy" => true,
                 other => {
                     return Err(err(
-                        "eta",
-                        format!(
-                            "light_source {}: {other:?} is not \"plain\" or \"energy\"",
-                            i + 1
-                        ),
+                        &key("eta"),
+                        format!("{other:?} is not \"plain\" or \"energy\""),
                     ))
                 }
             };
             light_sources.push(LightSourceSpec {
                 hinge,
-                center: DVec3::from_array(l.center),
+                center,
                 size,
                 hinge_angle: hinge_deg.to_radians(),
                 radiance,
@@ -454,7 +516,7 @@ impl Scene {
             k_count,
             sampling_radius,
             occluders,
-            receiver_center: DVec3::from_array(r.center),
+            receiver_center,
             receiver_size: r.size,
             resolution: r.resolution,
             light,
