@@ -235,7 +235,10 @@ fn bad_matrix_input_gives_one_line_and_status_2() {
     );
     fails(&with(&[]), "--k");
     fails(&with(&["--table", "10"]), "k-range");
-    fails(&with(&["--table", "1", "--k-range", "0.5,2"]), "--table: 1 is outside 2..=10000");
+    fails(
+        &with(&["--table", "1", "--k-range", "0.5,2"]),
+        "--table: 1 is outside 2..=10000",
+    );
     fails(
         &with(&["--table", "100000000", "--k-range", "0.5,2"]),
         "--table: 100000000 is outside 2..=10000",

@@ -117,7 +117,7 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
     let occ = occluder(&a.mesh)?;
     let b = occ.bounding_sphere();
     let far = (p - b.center).length() / b.radius;
-    if !(far <= shscale_geometry::ray::MAX_QUERY_DISTANCE) {
+    if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
         bail!(
             "--point: ({:e}, {:e}, {:e}) is {far:.3e} bounding radii from {}, more than {:e}, the farthest a query keeps its precision",
             p.x,

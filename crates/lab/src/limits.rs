@@ -20,12 +20,12 @@ pub fn check_work(
     if allow_large {
         return Ok(());
     }
-    if !(rays <= MAX_RAYS) {
+    if rays.is_nan() || rays > MAX_RAYS {
         return Err(LabError::Config(format!(
             "{what}: an estimated {rays:.2e} rays, more than the limit {MAX_RAYS:.0e} ({drivers}); pass --allow-large to run it anyway"
         )));
     }
-    if !(bytes <= MAX_BYTES) {
+    if bytes.is_nan() || bytes > MAX_BYTES {
         return Err(LabError::Config(format!(
             "{what}: an estimated {:.1} GiB held at once, more than the limit {:.0} GiB ({drivers}); pass --allow-large to run it anyway",
             bytes / (1u64 << 30) as f64,
