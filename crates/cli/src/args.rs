@@ -104,11 +104,11 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value_t = BenchScene::All)]
     pub scene: BenchScene,
     /// Measured frames per scene and path (medians over them).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(1..=10000))]
-    pub frames: u64,
+    #[arg(long, default_value_t = 16, value_parser = whole)]
+    pub frames: usize,
     /// Warm-up frames, run and dropped before measuring.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(0..=10000))]
-    pub warmup: u64,
+    #[arg(long, default_value_t = 3, value_parser = whole)]
+    pub warmup: usize,
     #[arg(long, value_enum, default_value_t = BenchFormat::Markdown)]
     pub format: BenchFormat,
     /// Also write the rows as CSV to this file (atomically).
@@ -134,7 +134,7 @@ pub struct MergeArgs {
 pub struct SlurmArgs {
     pub config: std::path::PathBuf,
     /// Number of array tasks (shards).
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub tasks: usize,
     /// Path of the shscale binary on the cluster.
     #[arg(long, default_value = "shscale")]
@@ -154,7 +154,7 @@ pub struct SlurmArgs {
     #[arg(long)]
     pub partition: Option<String>,
     /// sbatch --cpus-per-task.
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub cpus_per_task: Option<usize>,
     /// sbatch --account.
     #[arg(long)]
@@ -221,7 +221,7 @@ pub struct RenderArgs {
     pub out: std::path::PathBuf,
     /// Animate the scene's deformers over this many frames (t = f/frames; extrapolated method
     /// only) and print per-frame stage times; the image is the last frame.
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub frames: Option<usize>,
     /// Also render this reference on the same scene and print `shade_rmse_rel` against it
     /// (docs/conventions.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
@@ -242,7 +242,7 @@ pub struct ProbeArgs {
     #[arg(long)]
     pub mesh: String,
     /// SH order N.
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub order: usize,
     /// Cone half-angle α in degrees, inside (0, 90).
     #[arg(long)]
@@ -251,7 +251,7 @@ pub struct ProbeArgs {
     #[arg(long, default_value = "latlong:12x20")]
     pub layout: String,
     /// Rays per hemisphere H×H for the BSV and for the truth (2H²).
-    #[arg(long, default_value_t = 32)]
+    #[arg(value_parser = whole, long, default_value_t = 32)]
     pub hemisphere_res: usize,
     /// Sampling sphere radius as a multiple of the bounding radius (≥ 1; > 1 mitigates on-surface samples).
     #[arg(long, default_value_t = 1.0)]
@@ -260,7 +260,7 @@ pub struct ProbeArgs {
     #[arg(long, default_value = "0.5,0.7,0.9,1.3,2")]
     pub radii: String,
     /// Number of tabulated k values (exponential spacing over the probed k range).
-    #[arg(long, default_value_t = 40)]
+    #[arg(value_parser = whole, long, default_value_t = 40)]
     pub k_count: usize,
     /// On-surface threshold ε: a sample closer than ε·r to the surface is flagged.
     #[arg(long, default_value_t = 1e-3)]
@@ -295,10 +295,10 @@ pub struct VisibilityArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub point: String,
     /// SH order N.
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub order: usize,
     /// Rays per hemisphere H×H (the full sphere uses 2H²).
-    #[arg(long, default_value_t = 32)]
+    #[arg(value_parser = whole, long, default_value_t = 32)]
     pub hemisphere_res: usize,
     /// Frame of the coefficients: the mesh's own axes, or z toward the bounding-sphere centre.
     #[arg(long, value_enum, default_value_t = FrameArg::Entity)]
@@ -321,7 +321,7 @@ pub enum ShCommand {
     /// Example: shscale sh eval --order 3 --dir 1,1,0 --format csv
     Eval {
         /// SH order N (bands 0..N-1).
-        #[arg(long)]
+        #[arg(value_parser = whole, long)]
         order: usize,
         /// Direction X,Y,Z (any non-zero length).
         #[arg(long, allow_hyphen_values = true)]
@@ -332,7 +332,7 @@ pub enum ShCommand {
     /// Analytic coefficients of the cap θ ≤ A about +z.
     /// Example: shscale sh cap --order 4 --angle-deg 30
     Cap {
-        #[arg(long)]
+        #[arg(value_parser = whole, long)]
         order: usize,
         /// Cap half-angle A in degrees, 0..=180.
         #[arg(long, allow_hyphen_values = true)]
@@ -343,7 +343,7 @@ pub enum ShCommand {
     /// Coefficients of the function rotated by R = Rz(A)·Ry(B)·Rz(C): g(ω) = f(R⁻¹ω).
     /// Example: shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0
     Rotate {
-        #[arg(long)]
+        #[arg(value_parser = whole, long)]
         order: usize,
         /// N² coefficients c0,c1,… in index order l·l+l+m.
         #[arg(long, allow_hyphen_values = true)]
@@ -379,7 +379,7 @@ pub enum InterpArg {
 #[derive(Args, Debug)]
 pub struct MatrixArgs {
     /// SH order N (1..=32 for this command).
-    #[arg(long)]
+    #[arg(value_parser = whole, long)]
     pub order: usize,
     /// Angular scaling family.
     #[arg(long, value_enum)]
@@ -394,7 +394,7 @@ pub struct MatrixArgs {
     #[arg(long)]
     pub energy: bool,
     /// Build a k-table with this many samples instead of printing one matrix.
-    #[arg(long, value_name = "K_COUNT")]
+    #[arg(value_parser = whole, long, value_name = "K_COUNT")]
     pub table: Option<usize>,
     /// Table range KMIN,KMAX.
     #[arg(long, allow_hyphen_values = true)]
@@ -410,7 +410,7 @@ pub struct MatrixArgs {
 #[derive(Args, Debug)]
 pub struct DemoArgs {
     /// Largest SH order of the convergence table.
-    #[arg(long, default_value_t = 16)]
+    #[arg(value_parser = whole, long, default_value_t = 16)]
     pub order: usize,
     /// Cone half-angle α in degrees.
     #[arg(long, default_value_t = 45.0)]
@@ -438,4 +438,17 @@ pub fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
             })
         })
         .collect()
+}
+
+/// A whole number ≥ 0 (counts, orders, resolutions): negative values are read as values (the
+/// parser allows negative numbers) and refused naming the flag and the value.
+pub fn whole(s: &str) -> Result<usize, String> {
+    let t = s.trim();
+    t.parse::<usize>().map_err(|_| {
+        if t.starts_with('-') {
+            format!("{t} is negative: a whole number ≥ 0 is expected")
+        } else {
+            format!("{t:?} is not a whole number ≥ 0")
+        }
+    })
 }

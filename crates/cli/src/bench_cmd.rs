@@ -21,6 +21,14 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchScene::Sponge => &["sponge"],
         BenchScene::All => &["bird", "egg", "sponge"],
     };
+    // The same bounds as the timing kind's `frames` and `warmup`.
+    let max = shscale_experiments::timing::MAX_FRAMES;
+    if !(1..=max).contains(&a.frames) {
+        anyhow::bail!("--frames: {} is outside 1..={max}", a.frames);
+    }
+    if a.warmup > max {
+        anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
+    }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
     let paths = usize::from(cpu) + usize::from(ctx.is_some());
     let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
@@ -40,13 +48,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     let bar = progress_bar(scenes.len(), "scenes");
     for s in scenes {
         bar.set_message(format!("{s} ({} + {} frames)", a.warmup, a.frames));
-        rows.extend(bench_scene(
-            s,
-            a.frames as usize,
-            a.warmup as usize,
-            cpu,
-            ctx.as_ref(),
-        )?);
+        rows.extend(bench_scene(s, a.frames, a.warmup, cpu, ctx.as_ref())?);
         bar.inc(1);
     }
     bar.finish_and_clear();

@@ -15,7 +15,6 @@ mod run_cmd;
 mod sh_cmd;
 
 use args::{Cli, Command};
-use clap::Parser;
 use std::process::ExitCode;
 
 /// Mesa's software Vulkan device prints `XDG_RUNTIME_DIR is invalid or not set` on every adapter
@@ -39,7 +38,14 @@ fn quiet_mesa() {
 
 fn main() -> ExitCode {
     quiet_mesa();
-    let cli = match Cli::try_parse() {
+    // Negative numbers are values (`--order -1`, `--radii -1`), refused by the flag's own check.
+    fn negatives(c: clap::Command) -> clap::Command {
+        c.allow_negative_numbers(true).mut_subcommands(negatives)
+    }
+    let parsed = negatives(<Cli as clap::CommandFactory>::command())
+        .try_get_matches()
+        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(c) => c,
         Err(e) => {
             use clap::error::ErrorKind;
@@ -51,13 +57,28 @@ fn main() -> ExitCode {
                 let _ = e.print();
                 return ExitCode::from(2);
             }
-            // One line: clap's first line, which names the argument and the problem.
+            // One line with all of clap's message (the arguments it names, its suggestions),
+            // without the usage block and the pointer to --help.
             let text = e.render().to_string();
-            let line = text
-                .lines()
-                .find(|l| !l.trim().is_empty())
-                .unwrap_or("invalid arguments");
-            eprintln!("{}", line.trim());
+            let mut parts = Vec::new();
+            for l in text.lines().map(str::trim) {
+                if l.is_empty() || l.starts_with("For more information") {
+                    continue;
+                }
+                if l.starts_with("Usage:") {
+                    break;
+                }
+                parts.push(l);
+            }
+            let line = parts.join(" ");
+            eprintln!(
+                "{}",
+                if line.is_empty() {
+                    "error: invalid arguments"
+                } else {
+                    &line
+                }
+            );
             return ExitCode::from(2);
         }
     };

@@ -15,6 +15,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             bail!("--out: directory {} does not exist", dir.display());
         }
     }
+    if let Some(frames) = a.frames {
+        if frames == 0 || frames > 10_000 {
+            bail!("--frames: {frames} is outside 1..=10000");
+        }
+    }
     let scene = Scene::load(&a.scene)?;
     let method = to_method(a.method);
     // The work limits: the method, the reference (and its unshadowed image), every frame.

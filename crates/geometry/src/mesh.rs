@@ -159,10 +159,15 @@ impl Mesh {
     pub fn from_obj_bytes(name: &str, bytes: &[u8]) -> Result<Self, GeometryError> {
         let text = std::str::from_utf8(bytes).map_err(|e| GeometryError::Parse {
             file: name.into(),
-            line: 0,
+            line: bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|b| **b == b'\n')
+                .count()
+                + 1,
             reason: format!("not UTF-8 text: {e}"),
         })?;
-        let mut vcount = 0usize;
+        // Every statement is checked here, so that errors carry their line (tobj's do not).
+        let (mut vcount, mut vtcount, mut vncount) = (0usize, 0usize, 0usize);
         for (i, line) in text.lines().enumerate() {
             let mut it = line.split_whitespace();
             match it.next() {
@@ -186,6 +191,20 @@ impl Mesh {
                             reason: format!("non-finite coordinate {bad}"),
                         });
                     }
+                    if let Some(bad) = nums[..3]
+                        .iter()
+                        .map(|s| s.parse::<f64>().unwrap())
+                        .find(|v| v.abs() > Self::MAX_COORDINATE)
+                    {
+                        return Err(GeometryError::Parse {
+                            file: name.into(),
+                            line: i + 1,
+                            reason: format!(
+                                "coordinate {bad:e} is beyond ±{:e}, the supported range (rescale the mesh)",
+                                Self::MAX_COORDINATE
+                            ),
+                        });
+                    }
                     vcount += 1;
                 }
                 Some("f") => {
@@ -198,10 +217,11 @@ impl Mesh {
                         });
                     }
                     for r in refs {
-                        let idx = r.split('/').next().unwrap_or("");
+                        let mut parts = r.split('/');
+                        let idx = parts.next().unwrap_or("");
                         match idx.parse::<i64>() {
                             Ok(v) if v > 0 && (v as usize) <= vcount => {}
-                            Ok(v) if v < 0 && (-v as usize) <= vcount => {}
+                            Ok(v) if v < 0 && (v.unsigned_abs() as usize) <= vcount => {}
                             _ => {
                                 return Err(GeometryError::Parse {
                                     file: name.into(),
@@ -210,6 +230,52 @@ impl Mesh {
                                 })
                             }
                         }
+                        // Texture and normal references: empty, or in range of those defined.
+                        for (what, count) in [("texture", vtcount), ("normal", vncount)] {
+                            let Some(p) = parts.next().filter(|p| !p.is_empty()) else {
+                                continue;
+                            };
+                            match p.parse::<i64>() {
+                                Ok(v) if v != 0 && (v.unsigned_abs() as usize) <= count => {}
+                                _ => {
+                                    return Err(GeometryError::Parse {
+                                        file: name.into(),
+                                        line: i + 1,
+                                        reason: format!("{what} reference {p:?} in {r:?} is not one of the {count} defined so far"),
+                                    })
+                                }
+                            }
+                        }
+                        if parts.next().is_some() {
+                            return Err(GeometryError::Parse {
+                                file: name.into(),
+                                line: i + 1,
+                                reason: format!("face vertex {r:?} has more than v/vt/vn"),
+                            });
+                        }
+                    }
+                }
+                Some(kind @ ("vn" | "vt")) => {
+                    let need = if kind == "vn" { 3 } else { 1 };
+                    let nums: Vec<&str> = it.collect();
+                    if nums.len() < need
+                        || nums
+                            .iter()
+                            .any(|s| !s.parse::<f64>().is_ok_and(f64::is_finite))
+                    {
+                        return Err(GeometryError::Parse {
+                            file: name.into(),
+                            line: i + 1,
+                            reason: format!(
+                                "bad {} line {line:?}",
+                                if kind == "vn" { "normal" } else { "texture" }
+                            ),
+                        });
+                    }
+                    if kind == "vn" {
+                        vncount += 1;
+                    } else {
+                        vtcount += 1;
                     }
                 }
                 _ => {}

@@ -112,7 +112,18 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
     for (i, l) in lines.iter().enumerate().skip(1) {
         let w: Vec<&str> = l.split_whitespace().collect();
         match w.first().copied() {
-            Some("format") => format = w.get(1).map(|s| s.to_string()),
+            Some("format") => {
+                format = w.get(1).map(|s| s.to_string());
+                if w.get(2) != Some(&"1.0") {
+                    return Err(perr(
+                        i + 1,
+                        format!(
+                            "unsupported PLY version {:?} (only 1.0 exists)",
+                            w.get(2).unwrap_or(&"")
+                        ),
+                    ));
+                }
+            }
             Some("element") => {
                 let count = w
                     .get(2)
