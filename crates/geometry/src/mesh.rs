@@ -302,7 +302,7 @@ impl Mesh {
                 m.mesh
                     .positions
                     .chunks_exact(3)
-                    .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)),
+                    .map(|p| DVec3::new(p[0], p[1], p[2])),
             );
             triangles.extend(
                 m.mesh
