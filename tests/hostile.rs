@@ -354,7 +354,7 @@ fn fixture() -> PathBuf {
         format!("{}\n{},extra\n", lines[0], lines[1]),
         &manifest,
     );
-    damaged("foreign", format!("a,b,c\n1,2,3\n"), &manifest);
+    damaged("foreign", "a,b,c\n1,2,3\n".to_string(), &manifest);
     damaged(
         "badid",
         format!(
