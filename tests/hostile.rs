@@ -1034,3 +1034,218 @@ fn hostile_inputs_are_refused_cleanly() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// The other side of the bounds: values that are extreme but valid work, and give the same
+/// answers as their ordinary counterparts — a mesh scaled by 1e20 or 1e-20 probes exactly like
+/// the unit mesh, a point 1e11 radii away sees an unoccluded sphere, a radiance map that rings
+/// slightly below 0 renders.
+#[test]
+fn extreme_but_valid_inputs_work() {
+    let d = std::env::temp_dir().join(format!("shscale-extreme-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let probe = |scale: f64| -> Vec<f64> {
+        let name = format!("tet{scale:e}.ply");
+        write(&d, &name, ply(&scaled(scale), &TET_F));
+        let v = common::json(&[
+            "probe",
+            "--mesh",
+            d.join(&name).to_str().unwrap(),
+            "--order",
+            "4",
+            "--alpha-deg",
+            "45",
+            "--layout",
+            "fib:60",
+            "--hemisphere-res",
+            "8",
+        ]);
+        v["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["occ_rel_l2_mean"].as_f64().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let unit = probe(1.0);
+    for s in [1e20, 1e-20] {
+        let other = probe(s);
+        let worst = unit
+            .iter()
+            .zip(&other)
+            .map(|(a, b)| (a - b).abs() / a.abs().max(1e-300))
+            .fold(0.0, f64::max);
+        println!("scale {s:e}: occ_rel_l2 per radius {other:?}, worst relative difference to scale 1: {worst:.1e}");
+        assert!(worst < 1e-9, "scale {s:e}: {unit:?} vs {other:?}");
+    }
+    let far = common::json(&[
+        "visibility",
+        "--mesh",
+        "sphere",
+        "--point",
+        "1e11,0,0",
+        "--order",
+        "2",
+    ]);
+    let dc = far["values"][0].as_f64().unwrap();
+    assert!(
+        (dc - 2.0 * std::f64::consts::PI.sqrt()).abs() < 1e-9,
+        "unoccluded DC {dc}"
+    );
+    // A map with ringing of −5e-4 × its maximum renders (clamped), and its image is finite.
+    std::fs::create_dir_all(d.join("e")).unwrap();
+    exr::prelude::write_rgb_file(d.join("e/ring.exr"), 8, 4, |x, _| {
+        if x == 3 {
+            (-0.005, 1.0, 1.0)
+        } else {
+            (10.0, 10.0, 10.0)
+        }
+    })
+    .unwrap();
+    write(&d, "s/ring.toml", exr_scene("../e/ring.exr", ""));
+    let out = d.join("ring.exr");
+    let o = common::shscale(&[
+        "render",
+        "--scene",
+        d.join("s/ring.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, _, px) = shscale_lab::io::read_exr(&out).unwrap();
+    assert!(px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    std::fs::remove_dir_all(&d).ok();
+}
+
+mod vectors {
+    //! Property test over command lines: cheap commands with every flag's value drawn from a
+    //! set of hostile numbers and strings (NaN, ±inf, 1e308, negative, huge integers, empty,
+    //! wrong arity). Every run must end with status 0 or 2 and never panic; a status-2 run
+    //! prints one stderr line. Bounded: 96 cases (a second or two).
+    use proptest::prelude::*;
+
+    fn value() -> impl Strategy<Value = String> {
+        prop::sample::select(vec![
+            "nan",
+            "inf",
+            "-inf",
+            "-1",
+            "0",
+            "1",
+            "2",
+            "4",
+            "17",
+            "33",
+            "1e308",
+            "-1e308",
+            "1e-308",
+            "18446744073709551616",
+            "99999999999",
+            "",
+            "x",
+            "0,0,1",
+            "1,2",
+            "nan,0,1",
+            "0,0,0",
+            "1e308,1e308,1e308",
+            "1,0,1,0",
+            "0,90,0",
+            "0.5,2",
+            "2,0.5",
+            "-0",
+            "cone",
+            "midrange",
+            "0.999999999999",
+            "-0.999999999999",
+            "1e-7",
+            "45",
+            "89.9999999",
+        ])
+        .prop_map(String::from)
+    }
+
+    fn command() -> impl Strategy<Value = Vec<String>> {
+        let v = value;
+        prop_oneof![
+            (v(), v()).prop_map(|(o, d)| vec![
+                "sh".into(),
+                "eval".into(),
+                "--order".into(),
+                o,
+                "--dir".into(),
+                d
+            ]),
+            (v(), v()).prop_map(|(o, a)| vec![
+                "sh".into(),
+                "cap".into(),
+                "--order".into(),
+                o,
+                "--angle-deg".into(),
+                a
+            ]),
+            (v(), v(), v()).prop_map(|(o, c, e)| vec![
+                "sh".into(),
+                "rotate".into(),
+                "--order".into(),
+                o,
+                "--coeffs".into(),
+                c,
+                "--euler-zyz-deg".into(),
+                e
+            ]),
+            (v(), v(), v(), v()).prop_map(|(o, t, a, k)| vec![
+                "matrix".into(),
+                "--order".into(),
+                o,
+                "--tau".into(),
+                t,
+                "--alpha-deg".into(),
+                a,
+                "--k".into(),
+                k
+            ]),
+            (v(), v(), v()).prop_map(|(p, o, h)| vec![
+                "visibility".into(),
+                "--mesh".into(),
+                "sphere".into(),
+                "--point".into(),
+                p,
+                "--order".into(),
+                o,
+                "--hemisphere-res".into(),
+                h
+            ]),
+            (v(), v(), v()).prop_map(|(o, a, r)| vec![
+                "probe".into(),
+                "--mesh".into(),
+                "sphere".into(),
+                "--order".into(),
+                o,
+                "--alpha-deg".into(),
+                a,
+                "--radii".into(),
+                r,
+                "--layout".into(),
+                "fib:12".into(),
+                "--hemisphere-res".into(),
+                "4".into()
+            ]),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+        #[test]
+        fn hostile_command_lines_never_panic(args in command()) {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_shscale")).args(&args).output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            prop_assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+            let code = out.status.code();
+            prop_assert!(code == Some(0) || code == Some(2), "{args:?}: status {code:?}: {err}");
+            if code == Some(2) {
+                prop_assert_eq!(err.lines().filter(|l| !l.trim().is_empty()).count(), 1, "{:?}: {}", args, err);
+            }
+        }
+    }
+}

@@ -278,8 +278,8 @@ pub fn read_radiance_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), L
             format!("pixel ({}, {}) is {:?}: {what}", i % w, i / w, px[i]),
         )
     };
-    // Filtered HDR maps ring slightly below 0 (the bundled courtyard map reaches −1.1e-5 against
-    // a maximum of ~40): values down to −NEGATIVE_TOLERANCE × the largest value are clamped to 0;
+    // Filtered HDR maps ring slightly below 0 (the bundled courtyard map reaches −3.2e-3 against
+    // a maximum of 55.6): values down to −NEGATIVE_TOLERANCE × the largest value are clamped to 0;
     // anything more negative is not radiance.
     let max = px.iter().flatten().fold(0f32, |a, v| a.max(*v));
     if let Some(i) = px
@@ -319,4 +319,89 @@ fn png_to(
     let mut w = enc.write_header().map_err(|e| io_err(path, e))?;
     w.write_image_data(&data).map_err(|e| io_err(path, e))?;
     w.finish().map_err(|e| io_err(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("shscale-io-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// When the PNG cannot be written after the EXR's temporary was, neither target changes
+    /// and no temporary is left; a directory at either target is refused before any work.
+    #[test]
+    fn exr_and_png_are_written_as_a_unit() {
+        let d = dir("unit");
+        let exr = d.join("a.exr");
+        std::fs::write(&exr, b"old exr").unwrap();
+        std::fs::write(d.join("a.png"), b"old png").unwrap();
+        // The PNG's temporary path is taken by a directory: its creation fails mid-way.
+        let blocker = tmp_path(&d.join("a.png"));
+        std::fs::create_dir_all(&blocker).unwrap();
+        let px = [[0.5f32, 1.0, 2.0]; 6];
+        assert!(write_exr_and_png(&exr, 3, 2, &px, Png::Preview).is_err());
+        assert_eq!(std::fs::read(&exr).unwrap(), b"old exr");
+        assert_eq!(std::fs::read(d.join("a.png")).unwrap(), b"old png");
+        std::fs::remove_dir(&blocker).unwrap();
+        assert_eq!(names(&d), ["a.exr", "a.png"]);
+        // Non-finite pixels are not written, naming the pixel.
+        let mut bad = px;
+        bad[4] = [f32::NAN, 0.0, 0.0];
+        let e = write_exr_and_png(&exr, 3, 2, &bad, Png::Unit)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pixel (1, 1)"), "{e}");
+        assert_eq!(names(&d), ["a.exr", "a.png"]);
+        // A directory where the PNG goes: refused, the EXR untouched.
+        std::fs::remove_file(d.join("a.png")).unwrap();
+        std::fs::create_dir(d.join("a.png")).unwrap();
+        let e = write_exr_and_png(&exr, 3, 2, &px, Png::Unit)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.png") && e.contains("directory"), "{e}");
+        assert_eq!(std::fs::read(&exr).unwrap(), b"old exr");
+        // And the success path replaces both.
+        std::fs::remove_dir(d.join("a.png")).unwrap();
+        write_exr_and_png(&exr, 3, 2, &px, Png::Preview).unwrap();
+        let (w, h, back) = read_exr(&exr).unwrap();
+        assert_eq!((w, h), (3, 2));
+        assert_eq!(back[5], [0.5, 1.0, 2.0]);
+        assert_eq!(names(&d), ["a.exr", "a.png"]);
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// Image bounds at their edges, and radiance maps: ringing clamped, real negatives refused.
+    #[test]
+    fn image_bounds_and_radiance_maps() {
+        let d = dir("bounds");
+        assert!(check_dims(&d, MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS / MAX_IMAGE_SIDE).is_ok());
+        assert!(check_dims(&d, MAX_IMAGE_SIDE + 1, 1).is_err());
+        assert!(check_dims(&d, 0, 1).is_err());
+        assert!(check_dims(&d, MAX_IMAGE_SIDE, MAX_IMAGE_SIDE).is_err());
+        let p = d.join("m.exr");
+        write_exr(&p, 2, 1, &[[10.0, 10.0, 10.0], [-0.005, 1.0, 1.0]]).unwrap();
+        let (_, _, px) = read_radiance_exr(&p).unwrap();
+        assert_eq!(px[1][0], 0.0, "ringing of −5e-4 × max is clamped");
+        write_exr(&p, 2, 1, &[[10.0, 10.0, 10.0], [-0.02, 1.0, 1.0]]).unwrap();
+        let e = read_radiance_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("pixel (1, 0)"), "{e}");
+        // read_exr itself keeps negative values (band-limited visibility images have them).
+        assert_eq!(read_exr(&p).unwrap().2[1][0], -0.02);
+        std::fs::remove_dir_all(&d).ok();
+    }
 }
