@@ -300,3 +300,38 @@ fn plots_are_written_as_png_and_svg_with_labelled_axes() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Files written together (rows + manifest) are a unit: when the second cannot be written, the
+/// first keeps its old bytes and no temporary is left behind.
+#[test]
+fn files_written_together_are_a_unit() {
+    use shscale_lab::exp::runner::write_atomic_all;
+    let d = std::env::temp_dir().join(format!("shscale-unit-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let (a, b) = (d.join("runs.csv"), d.join("manifest.toml"));
+    std::fs::write(&a, "old rows").unwrap();
+    std::fs::write(&b, "old manifest").unwrap();
+    // The second file's temporary is blocked by a directory: its write fails.
+    let blocker = d.join(format!(".manifest.toml.tmp-{}", std::process::id()));
+    std::fs::create_dir(&blocker).unwrap();
+    assert!(write_atomic_all(&[(&a, "new rows"), (&b, "new manifest")]).is_err());
+    assert_eq!(std::fs::read_to_string(&a).unwrap(), "old rows");
+    assert_eq!(std::fs::read_to_string(&b).unwrap(), "old manifest");
+    std::fs::remove_dir(&blocker).unwrap();
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "temporaries left: {left:?}");
+    // A directory at a target is refused before anything is written.
+    let e = write_atomic_all(&[(&a, "new rows"), (&d, "x")])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("directory"), "{e}");
+    assert_eq!(std::fs::read_to_string(&a).unwrap(), "old rows");
+    write_atomic_all(&[(&a, "new rows"), (&b, "new manifest")]).unwrap();
+    assert_eq!(std::fs::read_to_string(&b).unwrap(), "new manifest");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -447,15 +447,44 @@ fn io_err(path: &Path, e: impl std::fmt::Display) -> LabError {
 /// Write `text` to `path` through a temporary file and a rename; the temporary is removed when
 /// either step fails.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), LabError> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let r = std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = r {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io_err(path, e));
+    write_atomic_all(&[(path, text)])
+}
+
+/// Write several files as a unit: every text to a temporary beside its target first, then the
+/// renames, in order; when any write fails no target is touched, and every error path removes
+/// the temporaries not yet renamed. A directory at a target is refused before anything is
+/// written.
+pub fn write_atomic_all(files: &[(&Path, &str)]) -> Result<(), LabError> {
+    let tmp_of = |path: &Path| {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
+        path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    };
+    if let Some((p, _)) = files.iter().find(|(p, _)| p.is_dir()) {
+        return Err(io_err(p, "is a directory"));
+    }
+    let mut written: Vec<PathBuf> = Vec::new();
+    let cleanup = |tmps: &[PathBuf]| {
+        for t in tmps {
+            let _ = std::fs::remove_file(t);
+        }
+    };
+    for (path, text) in files {
+        let tmp = tmp_of(path);
+        if let Err(e) = std::fs::write(&tmp, text) {
+            let _ = std::fs::remove_file(&tmp);
+            cleanup(&written);
+            return Err(io_err(path, e));
+        }
+        written.push(tmp);
+    }
+    for (i, (path, _)) in files.iter().enumerate() {
+        if let Err(e) = std::fs::rename(&written[i], path) {
+            cleanup(&written[i..]);
+            return Err(io_err(path, e));
+        }
     }
     Ok(())
 }
@@ -789,7 +818,6 @@ pub fn run_plan(
                 .and_then(|id| order.get(id.as_str()))
                 .map_or(0, |i| i + 1)
         });
-        write_atomic(&csv, &records::write_text(&header(kind), &cur.rows)?)?;
         let mut m = Manifest::read(&dir)?.unwrap_or(Manifest {
             experiment: kind.name().into(),
             name: plan.name.clone(),
@@ -798,10 +826,14 @@ pub fn run_plan(
         let mut v = version.clone();
         v.last_unix_time = unix_now();
         m.add(&v);
-        write_atomic(
-            &dir.join("manifest.toml"),
-            &toml::to_string(&m).map_err(|e| LabError::Config(e.to_string()))?,
-        )?;
+        // The rows and the manifest that describes them, as a unit.
+        write_atomic_all(&[
+            (&csv, &records::write_text(&header(kind), &cur.rows)?),
+            (
+                &dir.join("manifest.toml"),
+                &toml::to_string(&m).map_err(|e| LabError::Config(e.to_string()))?,
+            ),
+        ])?;
         *count += 1;
         Ok(())
     };
@@ -1049,11 +1081,13 @@ pub fn merge(
         seen.extend(ids_here);
     }
     std::fs::create_dir_all(&out).map_err(|e| io_err(&out, e))?;
-    write_atomic(
-        &out.join("manifest.toml"),
-        &toml::to_string(&manifest).map_err(|e| LabError::Config(e.to_string()))?,
-    )?;
-    write_atomic(&target, &records::write_text(&header(kind), &rows)?)?;
+    write_atomic_all(&[
+        (
+            &out.join("manifest.toml"),
+            &toml::to_string(&manifest).map_err(|e| LabError::Config(e.to_string()))?,
+        ),
+        (&target, &records::write_text(&header(kind), &rows)?),
+    ])?;
     Ok(MergeSummary {
         out,
         files: files.len(),
