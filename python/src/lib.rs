@@ -1,0 +1,582 @@
+//! The native part of the `shscale` Python package (PyO3, abi3): thin bindings over the
+//! workspace's crates with the CLI's conventions (docs/conventions.md) — NumPy arrays in and out,
+//! `ValueError` carrying the same messages as the CLI for bad input, the GIL released during long
+//! calls, and no Rust panic crossing into Python (a panic becomes `RuntimeError`). The Python
+//! layer (`shscale/__init__.py`) adds the pandas-facing `run` and `load_results`.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use shscale_field::{Frame, Layout, VisibilitySampler};
+use shscale_geometry::DVec3;
+use shscale_lab::exp::probe::{Probe, ProbeParams};
+use shscale_lab::exp::Kind;
+use shscale_scaling::{Eta, KTable, ScalingMatrix, TauFamily};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// A bad-input error: `ValueError` with the message, prefixed by the parameter it concerns.
+fn bad(param: &str, e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(format!("{param}: {e}"))
+}
+
+/// Run `f`, turning a panic into `RuntimeError` (nothing unwinds into Python).
+fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(PyRuntimeError::new_err(format!(
+                "internal error (please report it): {msg}"
+            )))
+        }
+    }
+}
+
+fn check_order(order: usize, max: usize) -> PyResult<()> {
+    if order == 0 || order > max {
+        return Err(bad("order", format!("{order} is outside 1..={max}")));
+    }
+    Ok(())
+}
+
+/// Rows of an `(P, 3)` array of finite numbers.
+fn rows3(name: &str, a: &PyReadonlyArray2<f64>) -> PyResult<Vec<DVec3>> {
+    let v = a.as_array();
+    if v.ncols() != 3 {
+        return Err(bad(
+            name,
+            format!("expected shape (P, 3), got {:?}", v.shape()),
+        ));
+    }
+    v.rows()
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let p = DVec3::new(r[0], r[1], r[2]);
+            if p.is_finite() {
+                Ok(p)
+            } else {
+                Err(bad(name, format!("row {i}: {p} is not finite")))
+            }
+        })
+        .collect()
+}
+
+/// `(P, N²)` basis values at the directions `dirs` (rows, normalised first).
+#[pyfunction]
+fn sh_eval<'py>(
+    py: Python<'py>,
+    order: usize,
+    dirs: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    guard(|| {
+        check_order(order, shscale_sh::MAX_ORDER)?;
+        let d = rows3("dirs", &dirs)?;
+        let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| bad("order", e))?;
+        let nn = order * order;
+        let mut out = vec![0.0; d.len() * nn];
+        for (i, p) in d.iter().enumerate() {
+            basis
+                .eval_dir(p.to_array(), &mut out[i * nn..(i + 1) * nn])
+                .map_err(|e| bad("dirs", format!("row {i}: {e}")))?;
+        }
+        Ok(Array2::from_shape_vec((d.len(), nn), out)
+            .map_err(|e| bad("dirs", e))?
+            .into_pyarray(py))
+    })
+}
+
+/// The N² coefficients of a spherical cap of half-angle `angle_deg` about +z.
+#[pyfunction]
+fn sh_cap<'py>(
+    py: Python<'py>,
+    order: usize,
+    angle_deg: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    guard(|| {
+        check_order(order, shscale_sh::MAX_ORDER)?;
+        if !(0.0..=180.0).contains(&angle_deg) {
+            return Err(bad("angle_deg", format!("{angle_deg} is outside [0, 180]")));
+        }
+        let v =
+            shscale_sh::cap_coeffs(order, angle_deg.to_radians()).map_err(|e| bad("order", e))?;
+        Ok(v.into_pyarray(py))
+    })
+}
+
+/// `coeffs` rotated by the ZYZ Euler angles (degrees).
+#[pyfunction]
+fn sh_rotate<'py>(
+    py: Python<'py>,
+    order: usize,
+    coeffs: PyReadonlyArray1<'py, f64>,
+    euler_zyz_deg: [f64; 3],
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    guard(|| {
+        check_order(order, shscale_sh::MAX_ORDER)?;
+        let c = coeffs.as_slice().map_err(|e| bad("coeffs", e))?.to_vec();
+        if c.len() != order * order {
+            return Err(bad(
+                "coeffs",
+                format!(
+                    "order {order} needs {} coefficients, got {}",
+                    order * order,
+                    c.len()
+                ),
+            ));
+        }
+        if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+            return Err(bad("coeffs", format!("item {i} ({}) is not finite", c[i])));
+        }
+        if euler_zyz_deg.iter().any(|v| !v.is_finite()) {
+            return Err(bad(
+                "euler_zyz_deg",
+                format!("{euler_zyz_deg:?}: expected 3 finite angles in degrees"),
+            ));
+        }
+        let [a, b, g] = euler_zyz_deg.map(f64::to_radians);
+        let rot = shscale_sh::ShRotation::new(order, &shscale_sh::euler_zyz(a, b, g))
+            .map_err(|e| bad("order", e))?;
+        let mut out = vec![0.0; c.len()];
+        rot.apply(&c, &mut out).map_err(|e| bad("coeffs", e))?;
+        Ok(out.into_pyarray(py))
+    })
+}
+
+fn family(tau: &str, alpha_deg: f64) -> PyResult<TauFamily> {
+    match tau {
+        "cone" => {
+            if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
+                return Err(bad("alpha_deg", format!("{alpha_deg} is outside (0, 90)")));
+            }
+            Ok(TauFamily::Cone {
+                alpha: alpha_deg.to_radians(),
+            })
+        }
+        "midrange" => Ok(TauFamily::MidRange),
+        other => Err(bad(
+            "tau",
+            format!("{other:?} is not \"cone\" or \"midrange\""),
+        )),
+    }
+}
+
+fn eta(energy: bool) -> Eta {
+    if energy {
+        Eta::Energy
+    } else {
+        Eta::Plain
+    }
+}
+
+fn dense<'py>(py: Python<'py>, m: &ScalingMatrix<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let d = m.to_dense();
+    let n = d.len();
+    Ok(
+        Array2::from_shape_vec((n, n), d.into_iter().flatten().collect())
+            .map_err(|e| bad("order", e))?
+            .into_pyarray(py),
+    )
+}
+
+/// The dense `(N², N²)` scaling matrix `M_k` (`energy`: η = sin τ · τ′ for radiance).
+#[pyfunction]
+#[pyo3(signature = (order, tau="cone", alpha_deg=45.0, k=2.0, energy=false))]
+fn scaling_matrix<'py>(
+    py: Python<'py>,
+    order: usize,
+    tau: &str,
+    alpha_deg: f64,
+    k: f64,
+    energy: bool,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    guard(|| {
+        check_order(order, 32)?;
+        let f = family(tau, alpha_deg)?;
+        let t = f.at(k).map_err(|e| bad("k", e))?;
+        let m = py
+            .allow_threads(|| ScalingMatrix::compute(t.as_ref(), eta(energy), order))
+            .map_err(|e| bad("order", e))?;
+        dense(py, &m)
+    })
+}
+
+/// A table of scaling matrices over a k range, interpolated on lookup.
+#[pyclass(module = "shscale._native", frozen)]
+struct KTableHandle(KTable);
+
+#[pymethods]
+impl KTableHandle {
+    /// The interpolated `(N², N²)` matrix at `k`. Outside the table's range a `ValueError`,
+    /// unless `clamp` (then the matrix at the nearer end, as the renderer uses it).
+    #[pyo3(signature = (k, clamp=false))]
+    fn lookup<'py>(
+        &self,
+        py: Python<'py>,
+        k: f64,
+        clamp: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let mut m = ScalingMatrix::identity(self.0.order()).map_err(|e| bad("order", e))?;
+            let at = self.0.lookup(k, &mut m).map_err(|e| bad("k", e))?;
+            if !clamp && at != shscale_scaling::KLookup::Interior {
+                let ks = self.0.ks();
+                return Err(bad(
+                    "k",
+                    format!(
+                        "{k} is outside the table's range [{}, {}] (clamp=True takes the nearer end)",
+                        ks[0],
+                        ks[ks.len() - 1]
+                    ),
+                ));
+            }
+            dense(py, &m)
+        })
+    }
+    /// The tabulated k values.
+    #[getter]
+    fn ks<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.0.ks().to_vec().into_pyarray(py)
+    }
+    #[getter]
+    fn order(&self) -> usize {
+        self.0.order()
+    }
+    #[getter]
+    fn size_bytes(&self) -> usize {
+        self.0.size_bytes()
+    }
+    /// The largest absolute interpolation error over the whole matrix, checked at
+    /// `per_interval` points per interval against direct quadrature, and where: `(error, k)`.
+    #[pyo3(signature = (per_interval=3))]
+    fn max_interp_error(&self, py: Python<'_>, per_interval: usize) -> PyResult<(f64, f64)> {
+        guard(|| {
+            if !(1..=64).contains(&per_interval) {
+                return Err(bad(
+                    "per_interval",
+                    format!("{per_interval} is outside 1..=64"),
+                ));
+            }
+            py.allow_threads(|| self.0.max_interp_error(per_interval))
+                .map_err(|e| bad("k", e))
+        })
+    }
+}
+
+/// Build a k-table (`shscale matrix --table`).
+#[pyfunction]
+#[pyo3(signature = (order, k_min, k_max, count=40, tau="cone", alpha_deg=45.0, energy=false, spacing="exp", interp="linear"))]
+#[allow(clippy::too_many_arguments)]
+fn ktable(
+    py: Python<'_>,
+    order: usize,
+    k_min: f64,
+    k_max: f64,
+    count: usize,
+    tau: &str,
+    alpha_deg: f64,
+    energy: bool,
+    spacing: &str,
+    interp: &str,
+) -> PyResult<KTableHandle> {
+    guard(|| {
+        check_order(order, 32)?;
+        let max = shscale_lab::exp::probe::MAX_K_COUNT;
+        if !(2..=max).contains(&count) {
+            return Err(bad("count", format!("{count} is outside 2..={max}")));
+        }
+        let f = family(tau, alpha_deg)?;
+        let s = shscale_lab::exp::probe::parse_spacing(spacing).map_err(|m| bad("spacing", m))?;
+        let i = shscale_lab::exp::probe::parse_interp(interp).map_err(|m| bad("interp", m))?;
+        let t = py
+            .allow_threads(|| KTable::build(f, eta(energy), order, count, k_min, k_max, s, i))
+            .map_err(|e| bad("k_min/k_max", e))?;
+        Ok(KTableHandle(t))
+    })
+}
+
+const MAX_VISIBILITY_RES: usize = 1024;
+
+/// `(P, N²)` ray-traced visibility (1 = unoccluded) over the full sphere at each point.
+#[pyfunction]
+#[pyo3(signature = (mesh, points, order, hemisphere_res=32, frame="entity"))]
+fn visibility<'py>(
+    py: Python<'py>,
+    mesh: &str,
+    points: PyReadonlyArray2<'py, f64>,
+    order: usize,
+    hemisphere_res: usize,
+    frame: &str,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    guard(|| {
+        check_order(order, shscale_sh::MAX_ORDER)?;
+        if hemisphere_res == 0 || hemisphere_res > MAX_VISIBILITY_RES {
+            return Err(bad(
+                "hemisphere_res",
+                format!("{hemisphere_res} is outside 1..={MAX_VISIBILITY_RES}"),
+            ));
+        }
+        let frame = match frame {
+            "entity" => Frame::Entity,
+            "local" => Frame::Local,
+            other => {
+                return Err(bad(
+                    "frame",
+                    format!("{other:?} is not \"entity\" or \"local\""),
+                ))
+            }
+        };
+        let pts = rows3("points", &points)?;
+        let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
+        let b = occ.bounding_sphere();
+        for (i, p) in pts.iter().enumerate() {
+            let far = (*p - b.center).length() / b.radius;
+            if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
+                return Err(bad(
+                    "points",
+                    format!(
+                        "row {i} is {far:.3e} bounding radii from {mesh}, more than {:e}",
+                        shscale_geometry::ray::MAX_QUERY_DISTANCE
+                    ),
+                ));
+            }
+            if frame == Frame::Local && (*p - b.center).length() == 0.0 {
+                return Err(bad(
+                    "points",
+                    format!("row {i}: the local frame is undefined at the bounding-sphere centre"),
+                ));
+            }
+        }
+        let sampler = VisibilitySampler::new(order, hemisphere_res).map_err(|e| bad("order", e))?;
+        let nn = order * order;
+        let values: Vec<f64> = py.allow_threads(|| {
+            pts.iter()
+                .flat_map(|p| sampler.full_sphere(occ.as_ref(), *p, frame).0)
+                .collect()
+        });
+        Ok(Array2::from_shape_vec((pts.len(), nn), values)
+            .map_err(|e| bad("points", e))?
+            .into_pyarray(py))
+    })
+}
+
+/// Mesh counts, minimal bounding sphere, watertightness and validation findings.
+#[pyfunction]
+fn inspect<'py>(py: Python<'py>, mesh: &str) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let d = PyDict::new(py);
+        if mesh == "sphere" {
+            d.set_item("mesh", "sphere (analytic unit sphere)")?;
+            for k in [
+                "vertices",
+                "triangles",
+                "boundary_edges",
+                "non_manifold_edges",
+                "degenerate_triangles",
+                "unreferenced_vertices",
+            ] {
+                d.set_item(k, 0)?;
+            }
+            d.set_item("center", [0.0; 3])?;
+            d.set_item("radius", 1.0)?;
+            d.set_item("watertight", true)?;
+            return Ok(d);
+        }
+        let m = shscale_lab::vocab::mesh(mesh).map_err(|e| bad("mesh", e))?;
+        let r = py.allow_threads(|| m.inspect());
+        d.set_item("mesh", mesh)?;
+        d.set_item("vertices", r.vertices)?;
+        d.set_item("triangles", r.triangles)?;
+        d.set_item("center", r.bounding_sphere.center.to_array())?;
+        d.set_item("radius", r.bounding_sphere.radius)?;
+        d.set_item("watertight", r.watertight)?;
+        d.set_item("boundary_edges", r.boundary_edges)?;
+        d.set_item("non_manifold_edges", r.non_manifold_edges)?;
+        d.set_item("degenerate_triangles", r.degenerate_triangles)?;
+        d.set_item("unreferenced_vertices", r.unreferenced_vertices)?;
+        Ok(d)
+    })
+}
+
+/// Extrapolated vs ray-traced visibility at probe radii (`shscale probe`): a dict with the run's
+/// scalars and `rows`, a dict of NumPy arrays (one entry per column, one element per radius;
+/// undefined metrics are NaN).
+#[pyfunction]
+#[pyo3(signature = (mesh, order, alpha_deg, layout="latlong:12x20", hemisphere_res=32, sampling_radius=1.0, radii=vec![0.5, 0.7, 0.9, 1.3, 2.0], k_count=40, on_surface_eps=1e-3, allow_large=false))]
+#[allow(clippy::too_many_arguments)]
+fn probe<'py>(
+    py: Python<'py>,
+    mesh: &str,
+    order: usize,
+    alpha_deg: f64,
+    layout: &str,
+    hemisphere_res: usize,
+    sampling_radius: f64,
+    radii: Vec<f64>,
+    k_count: usize,
+    on_surface_eps: f64,
+    allow_large: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        // The probe kind's parameters, bounds and cost model (as `shscale probe`).
+        let params = ProbeParams {
+            mesh: mesh.into(),
+            order,
+            alpha_deg,
+            layout: layout.into(),
+            hemisphere_res,
+            sampling_radius,
+            k_count,
+            on_surface_eps,
+            radii,
+            ..ProbeParams::default()
+        };
+        <Probe as Kind>::validate(&params)
+            .map_err(|e| bad(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
+        let (shared, run) = <Probe as Kind>::cost(&params);
+        shscale_lab::limits::check_work(
+            "probe",
+            shared.rays + run.rays,
+            shared.bytes.max(run.bytes),
+            &shared.drivers,
+            allow_large,
+        )
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let spec = params
+            .spec()
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
+        let analytic = (mesh == "sphere").then(|| shscale_geometry::AnalyticSphere::unit().sphere);
+        let res = py
+            .allow_threads(|| shscale_field::probe::probe(occ.as_ref(), analytic, &spec))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let d = PyDict::new(py);
+        d.set_item("mesh", mesh)?;
+        d.set_item("order", order)?;
+        d.set_item("alpha_deg", alpha_deg)?;
+        d.set_item(
+            "layout",
+            Layout::parse(layout).map(|l| l.name()).unwrap_or_default(),
+        )?;
+        d.set_item("hemisphere_res", hemisphere_res)?;
+        d.set_item("sampling_radius", sampling_radius)?;
+        d.set_item("k_count", k_count)?;
+        d.set_item("k_min", res.k_min)?;
+        d.set_item("k_max", res.k_max)?;
+        d.set_item("samples", res.samples)?;
+        d.set_item("on_surface_samples", res.on_surface_samples)?;
+        d.set_item("bsv_rays", res.bsv_rays)?;
+        d.set_item("bsv_sampling_seconds", res.bsv_sampling_seconds)?;
+        d.set_item("table_build_seconds", res.table_build_seconds)?;
+        let rows = PyDict::new(py);
+        let f = |g: &dyn Fn(&shscale_field::probe::ProbeRow) -> f64| -> Vec<f64> {
+            res.rows.iter().map(g).collect()
+        };
+        let o = |v: Option<f64>| v.unwrap_or(f64::NAN);
+        let cols: Vec<(&str, Vec<f64>)> = vec![
+            ("radius", f(&|r| r.radius)),
+            ("k", f(&|r| r.k)),
+            ("probes", f(&|r| r.probes as f64)),
+            ("inside_count", f(&|r| r.inside_count as f64)),
+            (
+                "unoccluded_truth_count",
+                f(&|r| r.unoccluded_truth_count as f64),
+            ),
+            ("clamped_count", f(&|r| r.clamped_count as f64)),
+            ("vis_rel_l2_mean", f(&|r| o(r.vis_rel_l2_mean))),
+            ("vis_rel_l2_max", f(&|r| o(r.vis_rel_l2_max))),
+            ("occ_rel_l2_mean", f(&|r| o(r.occ_rel_l2_mean))),
+            ("occ_rel_l2_max", f(&|r| o(r.occ_rel_l2_max))),
+            ("on_surface_count", f(&|r| r.on_surface_count as f64)),
+            (
+                "vis_rel_l2_on_surface_mean",
+                f(&|r| o(r.vis_rel_l2_on_surface_mean)),
+            ),
+            (
+                "occ_rel_l2_on_surface_mean",
+                f(&|r| o(r.occ_rel_l2_on_surface_mean)),
+            ),
+            (
+                "occ_rel_l2_on_surface_max",
+                f(&|r| o(r.occ_rel_l2_on_surface_max)),
+            ),
+            ("extrapolation_seconds", f(&|r| r.extrapolation_seconds)),
+            ("truth_seconds", f(&|r| r.truth_seconds)),
+        ];
+        for (k, v) in cols {
+            rows.set_item(k, v.into_pyarray(py))?;
+        }
+        d.set_item("rows", rows)?;
+        Ok(d)
+    })
+}
+
+/// Run an experiment config through the runner (`shscale run`): `set` and `sweep` are the
+/// `--set key=value` and `--sweep key=v1,v2` overrides. Returns `(results_dir, warnings)`.
+#[pyfunction]
+#[pyo3(signature = (config, set=vec![], sweep=vec![], name=None, out_dir="results", allow_large=false))]
+fn run_config(
+    py: Python<'_>,
+    config: &str,
+    set: Vec<String>,
+    sweep: Vec<String>,
+    name: Option<String>,
+    out_dir: &str,
+    allow_large: bool,
+) -> PyResult<(String, Vec<String>)> {
+    guard(|| {
+        let registry = shscale_experiments::registry();
+        let ov = shscale_lab::exp::config::Overrides { set, sweep, name };
+        let plan =
+            shscale_lab::exp::runner::Plan::load(std::path::Path::new(config), &ov, &registry)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        plan.check_limits(allow_large)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let out = std::path::PathBuf::from(out_dir);
+        let (dir, warnings) = py
+            .allow_threads(|| {
+                let warnings = std::sync::Mutex::new(Vec::new());
+                let s = shscale_lab::exp::runner::run_plan(&plan, &out, None, &|ev| {
+                    if let shscale_lab::exp::runner::RunEvent::Warn(w) = ev {
+                        warnings
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .push(w.to_string());
+                    }
+                })?;
+                shscale_lab::exp::runner::report(plan.kind, &s.dir)?;
+                Ok::<_, shscale_lab::LabError>((s.dir, warnings.into_inner().unwrap_or_default()))
+            })
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok((dir.display().to_string(), warnings))
+    })
+}
+
+/// The experiment kinds of the runner, by name.
+#[pyfunction]
+fn kinds<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+    PyList::new(py, shscale_experiments::registry().iter().map(|k| k.name()))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(sh_eval, m)?)?;
+    m.add_function(wrap_pyfunction!(sh_cap, m)?)?;
+    m.add_function(wrap_pyfunction!(sh_rotate, m)?)?;
+    m.add_function(wrap_pyfunction!(scaling_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(ktable, m)?)?;
+    m.add_class::<KTableHandle>()?;
+    m.add_function(wrap_pyfunction!(visibility, m)?)?;
+    m.add_function(wrap_pyfunction!(inspect, m)?)?;
+    m.add_function(wrap_pyfunction!(probe, m)?)?;
+    m.add_function(wrap_pyfunction!(run_config, m)?)?;
+    m.add_function(wrap_pyfunction!(kinds, m)?)?;
+    Ok(())
+}

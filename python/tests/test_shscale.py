@@ -1,0 +1,216 @@
+"""Tests of the Python package against the command line (the same numbers, the same error
+messages), of its bad-input handling, of the GIL being released, and of a tiny run end to end."""
+
+import json
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import shscale
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("SHSCALE_BIN", ROOT / "target" / "release" / "shscale"))
+
+
+def cli(*args):
+    """The CLI's JSON answer."""
+    out = subprocess.run([str(BIN), *args], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout)
+
+
+def cli_error(*args):
+    """The CLI's one error line, without the `error: ` prefix and the flag's dashes."""
+    out = subprocess.run([str(BIN), *args], capture_output=True, text=True)
+    assert out.returncode == 2, out
+    line = out.stderr.strip()
+    assert line.startswith("error: ")
+    return line[len("error: "):]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def binary():
+    if not BIN.exists():
+        pytest.fail(f"{BIN}: build the CLI first (cargo build --release) or set SHSCALE_BIN")
+
+
+def test_sh_eval_cap_rotate_equal_the_cli():
+    d = [1.0, 2.0, -3.0]
+    got = shscale.sh_eval(5, [d])[0]
+    want = cli("sh", "eval", "--order", "5", "--dir", "1,2,-3")["values"]
+    np.testing.assert_array_equal(got, want)
+    # Several directions at once, each normalised: equal to one call per row.
+    dirs = np.array([[0, 0, 1], [1, 1, 0], [0.3, -0.2, 0.9]])
+    many = shscale.sh_eval(4, dirs)
+    assert many.shape == (3, 16)
+    for i, r in enumerate(dirs):
+        np.testing.assert_array_equal(many[i], shscale.sh_eval(4, r)[0])
+    np.testing.assert_array_equal(
+        shscale.sh_cap(4, 30.0), cli("sh", "cap", "--order", "4", "--angle-deg", "30")["values"]
+    )
+    c = [1.0, 0.2, 0.5, -0.3]
+    np.testing.assert_array_equal(
+        shscale.sh_rotate(2, c, [10, 90, -20]),
+        cli("sh", "rotate", "--order", "2", "--coeffs", "1,0.2,0.5,-0.3", "--euler-zyz-deg", "10,90,-20")["values"],
+    )
+
+
+def test_matrices_and_tables_equal_the_cli():
+    m = shscale.scaling_matrix(4, "cone", 45.0, 2.0)
+    assert m.shape == (16, 16)
+    np.testing.assert_array_equal(
+        m, cli("matrix", "--order", "4", "--tau", "cone", "--alpha-deg", "45", "--k", "2")["matrix"]
+    )
+    e = shscale.scaling_matrix(3, tau="midrange", k=0.5, energy=True)
+    np.testing.assert_array_equal(
+        e, cli("matrix", "--order", "3", "--tau", "midrange", "--k", "0.5", "--energy")["matrix"]
+    )
+    t = shscale.ktable(2, 0.5, 2.0, count=10)
+    want = cli("matrix", "--order", "2", "--tau", "cone", "--alpha-deg", "45", "--table", "10", "--k-range", "0.5,2")
+    assert t.size_bytes == want["size_bytes"]
+    err, at = t.max_interp_error(3)
+    assert (err, at) == (want["max_interp_error"], want["max_interp_error_k"])
+    # At a node the table is the directly computed matrix.
+    k = float(t.ks[3])
+    np.testing.assert_allclose(t.lookup(k), shscale.scaling_matrix(2, k=k), rtol=0, atol=1e-15)
+    print(f"k-table N = 2, K = 10: max interpolation error {err:.3e} at k = {at:.3f}")
+
+
+def test_visibility_inspect_probe_equal_the_cli():
+    v = shscale.visibility("sphere", [[0, 0, 2], [0.5, 1.5, 0.2]], 4, hemisphere_res=16)
+    assert v.shape == (2, 16)
+    for i, p in enumerate(["0,0,2", "0.5,1.5,0.2"]):
+        want = cli("visibility", "--mesh", "sphere", "--point", p, "--order", "4", "--hemisphere-res", "16")
+        np.testing.assert_array_equal(v[i], want["values"])
+    info = shscale.inspect("bunny")
+    want = cli("inspect", "bunny")
+    assert info["vertices"] == want["vertices"] and info["triangles"] == want["triangles"]
+    assert info["radius"] == want["bounding_sphere"]["radius"]
+    assert list(info["center"]) == want["bounding_sphere"]["center"]
+    p = shscale.probe("bird", 3, 45.0, layout="fib:40", hemisphere_res=8, radii=[0.7, 1.3], k_count=8)
+    want = cli("probe", "--mesh", "bird", "--order", "3", "--alpha-deg", "45", "--layout", "fib:40",
+               "--hemisphere-res", "8", "--radii", "0.7,1.3", "--k-count", "8")
+    assert p["samples"] == want["samples"] and p["k_min"] == want["k_min"]
+    for col in ["radius", "k", "probes", "inside_count", "vis_rel_l2_mean", "occ_rel_l2_mean", "occ_rel_l2_max"]:
+        got = p["rows"][col]
+        ref = np.array([np.nan if r[col] is None else r[col] for r in want["rows"]], dtype=float)
+        np.testing.assert_array_equal(got, ref, err_msg=col)
+
+
+@pytest.mark.parametrize(
+    "call, flags",
+    [
+        (lambda: shscale.scaling_matrix(4, alpha_deg=95.0), ["matrix", "--order", "4", "--tau", "cone", "--alpha-deg", "95", "--k", "2"]),
+        (lambda: shscale.probe("sphere", 4, 45.0, layout="fib:1000000000"), ["probe", "--mesh", "sphere", "--order", "4", "--alpha-deg", "45", "--layout", "fib:1000000000"]),
+        (lambda: shscale.probe("sphere", 4, 45.0, radii=[-1.0]), ["probe", "--mesh", "sphere", "--order", "4", "--alpha-deg", "45", "--radii", "-1"]),
+        (lambda: shscale.probe("sphere", 4, 45.0, k_count=1_000_000_000), ["probe", "--mesh", "sphere", "--order", "4", "--alpha-deg", "45", "--k-count", "1000000000"]),
+        (lambda: shscale.probe("bunny", 4, 45.0, layout="fib:1000000", hemisphere_res=256), ["probe", "--mesh", "bunny", "--order", "4", "--alpha-deg", "45", "--layout", "fib:1000000", "--hemisphere-res", "256"]),
+        (lambda: shscale.probe("moon", 4, 45.0), ["probe", "--mesh", "moon", "--order", "4", "--alpha-deg", "45"]),
+    ],
+)
+def test_errors_carry_the_cli_message(call, flags):
+    """The same words as the CLI: the Python message is the CLI's, with the key for the flag."""
+    with pytest.raises(ValueError) as e:
+        call()
+    want = cli_error(*flags)
+    # The CLI names the flag (`--radii:`), Python the parameter (`radii:`).
+    want = want.split(": ", 1)[1] if want.startswith("--") else want
+    assert want in str(e.value), (str(e.value), want)
+
+
+def test_bad_values_raise_value_error():
+    for call in [
+        lambda: shscale.sh_eval(0, [[0, 0, 1]]),
+        lambda: shscale.sh_eval(4, [[0, 0, 0]]),
+        lambda: shscale.sh_eval(4, [[np.nan, 0, 1]]),
+        lambda: shscale.sh_eval(4, [[0, 1]]),
+        lambda: shscale.sh_eval(-1, [[0, 0, 1]]),
+        lambda: shscale.sh_eval(2.5, [[0, 0, 1]]),
+        lambda: shscale.sh_cap(4, np.inf),
+        lambda: shscale.sh_rotate(2, [1, 0, 0], [0, 0, 0]),
+        lambda: shscale.sh_rotate(2, [1, 0, 0, np.nan], [0, 0, 0]),
+        lambda: shscale.scaling_matrix(4, tau="laser"),
+        lambda: shscale.scaling_matrix(4, k=-1.0),
+        lambda: shscale.scaling_matrix(40),
+        lambda: shscale.ktable(4, 2.0, 0.5),
+        lambda: shscale.ktable(4, 0.5, 2.0, count=1),
+        lambda: shscale.ktable(4, 0.5, 2.0, spacing="random"),
+        lambda: shscale.ktable(4, 0.5, 2.0).lookup(100.0),
+        lambda: shscale.ktable(4, 0.5, 2.0).lookup(np.nan, clamp=True),
+        lambda: shscale.visibility("sphere", [[1e308, 0, 0]], 4),
+        lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, frame="world"),
+        lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, hemisphere_res=100000),
+        lambda: shscale.inspect("/nonexistent.ply"),
+        lambda: shscale.run("/nonexistent.toml"),
+        lambda: shscale.load_results("/nonexistent"),
+    ]:
+        with pytest.raises(ValueError) as e:
+            call()
+        assert str(e.value), "an empty message"
+
+
+def test_long_calls_release_the_gil():
+    """While a ray-traced visibility call runs, Python keeps running in another thread."""
+    points = np.column_stack([np.zeros(200), np.zeros(200), np.linspace(1.2, 3.0, 200) * 7 + 4.7])
+    ticks = []
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    t0 = time.perf_counter()
+    shscale.visibility("bunny", points, 4, hemisphere_res=128)
+    t1 = time.perf_counter()
+    done.set()
+    t.join()
+    during = [x for x in ticks if t0 < x < t1]
+    print(f"visibility took {t1 - t0:.3f} s; the other thread ticked {len(during)} times meanwhile")
+    assert t1 - t0 > 0.1, "too short to tell"
+    # Holding the GIL would allow at most a tick or two (the interpreter's switch interval).
+    assert len(during) >= 10
+
+
+def test_tiny_run_end_to_end(tmp_path):
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(
+        'experiment = "probe"\nmesh = "sphere"\norder = 2\nlayout = "fib:10"\nhemisphere_res = 2\n'
+        'k_count = 4\nradii = [2.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [30, 60]\n'
+    )
+    out = tmp_path / "results"
+    rows, directory = shscale.run(cfg, out_dir=out)
+    assert Path(directory) == out / "probe" / "tiny"
+    assert len(rows) == 2 and sorted(rows["alpha_deg"]) == [30.0, 60.0]
+    for col in ["run_id", "occ_rel_l2_mean", "k_count", "git_revision"]:
+        assert col in rows.columns, col
+    # Resume: nothing new; overrides add runs in their own columns; load_results reads it back.
+    again, _ = shscale.run(cfg, out_dir=out)
+    assert list(again["run_id"]) == list(rows["run_id"])
+    more, _ = shscale.run(cfg, overrides={"order": 3}, sweep={"alpha_deg": [45]}, out_dir=out)
+    assert len(more) == 3 and sorted(set(more["order"])) == [2, 3]
+    assert len(shscale.load_results(directory)) == 3
+    # The same CSV as the CLI would read: the command line agrees on the row count.
+    with pytest.raises(ValueError) as e:
+        shscale.run(cfg, overrides={"order": 0}, out_dir=out)
+    assert "--set order=0" in str(e.value) and "1..=16" in str(e.value)
+    assert len(shscale.load_results(directory)) == 3, "a refused run wrote rows"
+
+
+def test_notebook_runs(tmp_path):
+    """examples/quickstart.ipynb executes top to bottom."""
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    nb = nbformat.read(ROOT / "examples" / "quickstart.ipynb", as_version=4)
+    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
+    client.execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.get("output_type") == "error"]
+    text = "".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")
+    assert "44 structural" in text, text
