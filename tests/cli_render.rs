@@ -171,3 +171,50 @@ fn scene_errors_name_file_line_and_field() {
     assert!(!std::path::Path::new(out).exists());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `render --format json`: the stage times, the reference's error and the files, for scripts;
+/// the reference's error equals the one the text output prints.
+#[test]
+fn render_prints_json_for_scripts() {
+    let d = std::env::temp_dir().join(format!("shscale-render-json-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../configs/scene_sphere.toml"
+    );
+    let out = d.join("s.exr");
+    let v = json(&[
+        "render",
+        "--scene",
+        scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--reference",
+        "raytraced",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(v["width"], 96);
+    assert!(v["stages_ms"]["bsv_sampling"].as_f64().unwrap() > 0.0);
+    let rel = v["reference"]["shade_rmse_rel"].as_f64().unwrap();
+    assert!(rel.is_finite() && rel > 0.0, "{rel}");
+    for f in v["files"].as_array().unwrap() {
+        assert!(std::path::Path::new(f.as_str().unwrap()).exists(), "{f}");
+    }
+    let text = shscale(&[
+        "render",
+        "--scene",
+        scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--reference",
+        "raytraced",
+    ]);
+    let t = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        t.contains(&format!("shade_rmse_rel vs Raytraced: {rel:.4e}")),
+        "{t} vs {rel}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -174,3 +174,34 @@ fn help_lists_subcommands_with_examples() {
         assert!(text.contains(needle), "--help lacks {needle:?}:\n{text}");
     }
 }
+
+/// `--version` names the git revision it was built from; `completions` prints a script for
+/// each shell that knows the subcommands and their flags; an unknown shell is one clear line.
+#[test]
+fn version_and_completions() {
+    let v = shscale(&["--version"]);
+    let text = String::from_utf8_lossy(&v.stdout).to_string();
+    assert!(v.status.success());
+    let inner = text
+        .split("(git ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("no git revision in {text:?}"));
+    assert!(
+        inner == "unknown"
+            || inner
+                .trim_end_matches("+dirty")
+                .chars()
+                .all(|c| c.is_ascii_hexdigit()),
+        "{text:?}"
+    );
+    for shell in ["bash", "zsh", "fish"] {
+        let o = shscale(&["completions", shell]);
+        let script = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{shell}");
+        for needle in ["probe", "render", "hemisphere-res", "allow-large"] {
+            assert!(script.contains(needle), "{shell} completions lack {needle}");
+        }
+    }
+    fails(&["completions", "tcsh"], "tcsh");
+}

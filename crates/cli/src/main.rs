@@ -95,6 +95,11 @@ fn main() -> ExitCode {
         Command::Slurm(cmd) => run_cmd::slurm(cmd),
         Command::Bench(cmd) => bench_cmd::run(cmd),
         Command::Figs(cmd) => bench_cmd::figs(cmd),
+        Command::Completions { shell } => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(shell, &mut cmd, "shscale", &mut std::io::stdout());
+            Ok(ExitCode::SUCCESS)
+        }
     };
     match result {
         Ok(code) => code,

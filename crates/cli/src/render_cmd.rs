@@ -1,6 +1,6 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{MethodArg, RenderArgs};
+use crate::args::{MethodArg, RenderArgs, RenderFormat};
 use anyhow::{bail, Context};
 use shscale_lab::render::{render, render_sequence, Method};
 use shscale_lab::scene::Scene;
@@ -59,6 +59,59 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         shscale_lab::io::Png::Preview,
     )
     .context("--out")?;
+    let total = t0.elapsed().as_secs_f64();
+    // The reference, rendered on the same scene, and the error against it.
+    let reference = match a.reference {
+        None => None,
+        Some(r) => {
+            let t = std::time::Instant::now();
+            let truth = render(&scene, to_method(r))?;
+            // Unshadowed irradiance: the same scene without occluders (docs/conventions.md §6).
+            let mut open = scene.clone();
+            open.occluders.clear();
+            let unshadowed = render(&open, Method::RayTraced)?;
+            let flat = |img: &shscale_lab::render::RenderOutput| {
+                img.pixels
+                    .iter()
+                    .flat_map(|p| p.map(f64::from))
+                    .collect::<Vec<f64>>()
+            };
+            let rel = shscale_field::shading::shade_rmse_rel(
+                &flat(&img),
+                &flat(&truth),
+                &flat(&unshadowed),
+            )
+            .context("shade_rmse_rel: the unshadowed image is black")?;
+            Some((r, rel, t.elapsed().as_secs_f64()))
+        }
+    };
+    if a.format == RenderFormat::Json {
+        let stages: serde_json::Map<String, serde_json::Value> = img
+            .stages
+            .iter()
+            .map(|(k, v)| (k.to_string(), serde_json::json!(v * 1e3)))
+            .collect();
+        let out = serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "method": format!("{:?}", a.method),
+            "width": img.width,
+            "height": img.height,
+            "occluders": scene.occluders.len(),
+            "threads": rayon::current_num_threads(),
+            "stages_ms": stages,
+            "total_ms": total * 1e3,
+            "sh_products": img.products,
+            "skipped_unoccluded": img.skipped,
+            "reference": reference.map(|(r, rel, secs)| serde_json::json!({
+                "method": format!("{r:?}"),
+                "shade_rmse_rel": rel,
+                "render_ms": secs * 1e3,
+            })),
+            "files": [a.out.display().to_string(), png.display().to_string()],
+        });
+        crate::output::print_json(&out)?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
         a.scene.display(),
@@ -71,36 +124,15 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     for (stage, s) in &img.stages {
         println!("  {stage:<18} {:>10.3} ms", s * 1e3);
     }
-    println!(
-        "  {:<18} {:>10.3} ms",
-        "total",
-        t0.elapsed().as_secs_f64() * 1e3
-    );
+    println!("  {:<18} {:>10.3} ms", "total", total * 1e3);
     println!(
         "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
         img.products, img.skipped
     );
-    if let Some(r) = a.reference {
-        let reference = to_method(r);
-        let t = std::time::Instant::now();
-        let truth = render(&scene, reference)?;
-        // Unshadowed irradiance: the same scene without occluders (docs/conventions.md §6 denominator).
-        let mut open = scene.clone();
-        open.occluders.clear();
-        let unshadowed = render(&open, Method::RayTraced)?;
-        let flat = |img: &shscale_lab::render::RenderOutput| {
-            img.pixels
-                .iter()
-                .flat_map(|p| p.map(f64::from))
-                .collect::<Vec<f64>>()
-        };
-        let rel =
-            shscale_field::shading::shade_rmse_rel(&flat(&img), &flat(&truth), &flat(&unshadowed))
-                .context("shade_rmse_rel: the unshadowed image is black")?;
+    if let Some((r, rel, secs)) = reference {
         println!(
-            "shade_rmse_rel vs {:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
-            r,
-            t.elapsed().as_secs_f64() * 1e3
+            "shade_rmse_rel vs {r:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
+            secs * 1e3
         );
     }
     println!("wrote {} and {}", a.out.display(), png.display());

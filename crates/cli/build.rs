@@ -1,0 +1,31 @@
+//! Build script: the git revision of the checkout (and whether it had local changes) for
+//! `shscale --version`, recorded at build time; "unknown" outside a git checkout.
+
+use std::process::Command;
+
+fn git(args: &[&str]) -> Option<String> {
+    let out = Command::new("git").args(args).output().ok()?;
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+fn main() {
+    let rev = git(&["rev-parse", "--short=12", "HEAD"]).filter(|r| !r.is_empty());
+    let dirty =
+        git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    let text = match rev {
+        Some(r) if dirty => format!("{r}+dirty"),
+        Some(r) => r,
+        None => "unknown".into(),
+    };
+    println!("cargo:rustc-env=SHSCALE_GIT_REVISION={text}");
+    // Rebuilt when the checkout moves or its index changes.
+    if let Some(dir) = git(&["rev-parse", "--absolute-git-dir"]) {
+        println!("cargo:rerun-if-changed={dir}/HEAD");
+        println!("cargo:rerun-if-changed={dir}/index");
+        if let Some(r) = git(&["symbolic-ref", "-q", "HEAD"]) {
+            println!("cargo:rerun-if-changed={dir}/{r}");
+        }
+    }
+}
