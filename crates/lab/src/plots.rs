@@ -1,6 +1,8 @@
 //! Plots of a run directory's `runs.csv` (plotters; PNG and SVG, written to a temporary name and
 //! renamed): the error against the swept parameter with one series per probe radius, and the
-//! speed/accuracy scatter of all runs with its Pareto front. Text uses the bundled DejaVu Sans
+//! speed/accuracy scatter of all runs with its Pareto front. Every plot: the Okabe–Ito palette
+//! (colour-blind safe), a log y axis when the data span two decades or more ([`log_axis`]),
+//! integer ticks when x is an integer parameter, and a y range that never clips ([`y_range`]). Text uses the bundled DejaVu Sans
 //! (assets/fonts, Bitstream Vera licence), so nothing is needed from the system at run time.
 
 use crate::LabError;
@@ -61,6 +63,12 @@ where
     if pts.is_empty() {
         return Err("no finite data to plot".into());
     }
+    // Data spanning two decades or more (all > 0) are drawn on a log axis: y becomes log10 y
+    // and the ticks are labelled as powers of ten.
+    let log_y = log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>());
+    let ty = |y: f64| if log_y { y.log10() } else { y };
+    let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, ty(y))).collect();
+    let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
     let (mut x0, mut x1) = pts
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
@@ -75,7 +83,23 @@ where
         y0 -= 0.5;
         y1 += 0.5;
     }
-    let (ylo, yhi) = y_range(y0, y1);
+    let (ylo, yhi) = if log_y {
+        let pad = 0.05 * (y1 - y0);
+        (y0 - pad, y1 + pad)
+    } else {
+        y_range(y0, y1)
+    };
+    let y_desc = if log_y {
+        format!("{} — log scale", labels.y)
+    } else {
+        labels.y.to_string()
+    };
+    // Integer parameters get integer ticks (one per value when there are few).
+    let x_ticks = if integer_x && x1 - x0 <= 12.0 {
+        (x1 - x0).round() as usize + 1
+    } else {
+        10
+    };
     let mut chart = ChartBuilder::on(&area)
         .caption(labels.title, ("sans-serif", 22))
         .margin(12)
@@ -83,19 +107,43 @@ where
         .y_label_area_size(64)
         .build_cartesian_2d(x0..x1, ylo..yhi)
         .map_err(|e| e.to_string())?;
+    let x_fmt = |v: &f64| {
+        if integer_x {
+            format!("{v:.0}")
+        } else {
+            format!("{}", (v * 1e6).round() / 1e6)
+        }
+    };
+    let y_fmt = |v: &f64| {
+        if log_y {
+            // Decades only (1e-3, 1e-2, …); the ticks between them stay unlabelled.
+            if (v - v.round()).abs() < 1e-9 {
+                format!("1e{}", v.round())
+            } else {
+                String::new()
+            }
+        } else {
+            format!("{}", (v * 1e6).round() / 1e6)
+        }
+    };
     chart
         .configure_mesh()
         .x_desc(labels.x)
-        .y_desc(labels.y)
+        .y_desc(y_desc)
+        .x_labels(x_ticks)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(|e| e.to_string())?;
     for (i, (name, points)) in series.iter().enumerate() {
-        let color = Palette99::pick(i).to_rgba();
+        let color = palette(i);
         let mut pts: Vec<(f64, f64)> = points
             .iter()
             .copied()
             .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .map(|(x, y)| (x, ty(y)))
+            .filter(|(_, y)| y.is_finite())
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         if !scatter_only {
@@ -116,8 +164,9 @@ where
         }
     }
     if !front.is_empty() {
+        let front: Vec<(f64, f64)> = front.iter().map(|&(x, y)| (x, ty(y))).collect();
         chart
-            .draw_series(LineSeries::new(front.to_vec(), BLACK.stroke_width(1)))
+            .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
             .map_err(|e| e.to_string())?
             .label("Pareto front")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(1)));
@@ -130,6 +179,36 @@ where
         .draw()
         .map_err(|e| e.to_string())?;
     area.present().map_err(|e| e.to_string())
+}
+
+/// The Okabe–Ito palette (colour-blind safe), in order; series beyond eight repeat it.
+const OKABE_ITO: [(u8, u8, u8); 8] = [
+    (0, 114, 178),
+    (230, 159, 0),
+    (0, 158, 115),
+    (213, 94, 0),
+    (86, 180, 233),
+    (204, 121, 167),
+    (240, 228, 66),
+    (0, 0, 0),
+];
+
+/// The colour of series `i`.
+pub fn palette(i: usize) -> RGBAColor {
+    let (r, g, b) = OKABE_ITO[i % OKABE_ITO.len()];
+    RGBColor(r, g, b).to_rgba()
+}
+
+/// Whether values should be drawn on a log axis: all finite and > 0, spanning ≥ 100×.
+pub fn log_axis(ys: &[f64]) -> bool {
+    let finite: Vec<f64> = ys.iter().copied().filter(|y| y.is_finite()).collect();
+    if finite.is_empty() || finite.iter().any(|y| *y <= 0.0) {
+        return false;
+    }
+    let (lo, hi) = finite
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(*y), b.max(*y)));
+    hi / lo >= 100.0
 }
 
 /// The drawn y range of data spanning `[y0, y1]` (`y0 < y1`): 5 % padding each side, the lower
@@ -334,6 +413,18 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
 #[cfg(test)]
 mod tests {
     use super::y_range;
+
+    /// Data spanning two decades or more go on a log axis; negative, zero or narrow data do not.
+    #[test]
+    fn log_axis_when_data_span_decades() {
+        assert!(super::log_axis(&[1e-6, 3e-4, 1e-2]));
+        assert!(super::log_axis(&[1.0, 100.0]));
+        assert!(!super::log_axis(&[1.0, 99.0]));
+        assert!(!super::log_axis(&[0.0, 1e-6, 1.0]));
+        assert!(!super::log_axis(&[-1.0, 1e3]));
+        assert!(!super::log_axis(&[]));
+        assert!(super::log_axis(&[f64::NAN, 1e-3, 1.0]));
+    }
 
     /// A series reaching −0.76 (an element of M_k, Fig. 3) stays inside the drawn range; data
     /// that are non-negative keep their axis at or above 0.
