@@ -63,6 +63,41 @@ pub enum Command {
     /// Regenerate the papers' figures (paper-figs/) from configs/paper/*.toml, with an index.
     /// Example: shscale figs
     Figs(FigsArgs),
+    /// Regenerate summary.md, report.md, the self-contained report.html and the plots of a
+    /// results directory. Example: shscale report results/probe/quickstart
+    Report {
+        /// A results directory (holding runs.csv and manifest.toml).
+        dir: std::path::PathBuf,
+    },
+    /// Compare two results directories of one kind: metrics over the parameters both share and
+    /// their differences (compare.md + plots). Example: shscale compare results/probe/a results/probe/b
+    Compare {
+        a: std::path::PathBuf,
+        b: std::path::PathBuf,
+        /// Where compare.md and the plots go [default: <A>/../compare_<A>_vs_<B>].
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+    },
+    /// Re-plot any column of a results directory without rerunning: plot_<METRIC>_vs_<X>.png/.svg.
+    /// Example: shscale plot results/probe/quickstart --metric occ_rel_l2_mean --x alpha_deg --series radius
+    Plot {
+        dir: std::path::PathBuf,
+        /// The y column.
+        #[arg(long)]
+        metric: String,
+        /// The x column.
+        #[arg(long)]
+        x: String,
+        /// One series per value of this column [default: per combination of the other varying parameters].
+        #[arg(long)]
+        series: Option<String>,
+        /// Logarithmic y axis (default: when the data span two decades).
+        #[arg(long, conflicts_with = "linear_y")]
+        log_y: bool,
+        /// Linear y axis even when the data span decades.
+        #[arg(long)]
+        linear_y: bool,
+    },
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell.
     /// Example: shscale completions bash > ~/.local/share/bash-completion/completions/shscale
     Completions {

@@ -95,6 +95,16 @@ fn main() -> ExitCode {
         Command::Slurm(cmd) => run_cmd::slurm(cmd),
         Command::Bench(cmd) => bench_cmd::run(cmd),
         Command::Figs(cmd) => bench_cmd::figs(cmd),
+        Command::Report { dir } => run_cmd::report(&dir),
+        Command::Compare { a, b, out } => run_cmd::compare(&a, &b, out.as_deref()),
+        Command::Plot {
+            dir,
+            metric,
+            x,
+            series,
+            log_y,
+            linear_y,
+        } => run_cmd::plot(&dir, &metric, &x, series.as_deref(), log_y, linear_y),
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(shell, &mut cmd, "shscale", &mut std::io::stdout());

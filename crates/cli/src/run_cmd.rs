@@ -145,3 +145,90 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     );
     Ok(ExitCode::SUCCESS)
 }
+
+/// The kind of a results directory, from its manifest.
+fn kind_of_dir(dir: &std::path::Path) -> anyhow::Result<&'static dyn shscale_lab::exp::DynKind> {
+    let m = runner::Manifest::read(dir)?.with_context(|| {
+        format!(
+            "{}: no manifest.toml (not a results directory of shscale run)",
+            dir.display()
+        )
+    })?;
+    shscale_experiments::registry()
+        .into_iter()
+        .find(|k| k.name() == m.experiment)
+        .with_context(|| {
+            format!(
+                "{}: experiment {:?} is not a kind of this shscale",
+                dir.join("manifest.toml").display(),
+                m.experiment
+            )
+        })
+}
+
+pub fn report(dir: &std::path::Path) -> anyhow::Result<ExitCode> {
+    let kind = kind_of_dir(dir)?;
+    let r = runner::report(kind, dir)?;
+    for f in &r.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn compare(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    out: Option<&std::path::Path>,
+) -> anyhow::Result<ExitCode> {
+    let (ka, kb) = (kind_of_dir(a)?, kind_of_dir(b)?);
+    if ka.name() != kb.name() {
+        bail!(
+            "{} holds {} results and {} holds {}: compare needs one kind",
+            a.display(),
+            ka.name(),
+            b.display(),
+            kb.name()
+        );
+    }
+    let name = |p: &std::path::Path| {
+        p.file_name()
+            .map_or("results".to_string(), |n| n.to_string_lossy().to_string())
+    };
+    let out = out.map(std::path::Path::to_path_buf).unwrap_or_else(|| {
+        a.parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join(format!("compare_{}_vs_{}", name(a), name(b)))
+    });
+    let c = shscale_lab::exp::report::compare(ka, a, b, &out)?;
+    print!("{}", c.markdown);
+    for f in &c.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn plot(
+    dir: &std::path::Path,
+    metric: &str,
+    x: &str,
+    series: Option<&str>,
+    log_y: bool,
+    linear_y: bool,
+) -> anyhow::Result<ExitCode> {
+    let kind = kind_of_dir(dir)?;
+    let t = shscale_lab::exp::records::Results::read(&dir.join("runs.csv"))?;
+    let log = if log_y {
+        Some(true)
+    } else if linear_y {
+        Some(false)
+    } else {
+        None
+    };
+    let files =
+        shscale_lab::plots::plot_column(dir, &t, &kind.param_columns(), metric, x, series, log)
+            .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -49,6 +49,7 @@ fn line_plot<DB: DrawingBackend>(
     series: &BTreeMap<String, Vec<(f64, f64)>>,
     scatter_only: bool,
     front: &[(f64, f64)],
+    log: Option<bool>,
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -65,7 +66,10 @@ where
     }
     // Data spanning two decades or more (all > 0) are drawn on a log axis: y becomes log10 y
     // and the ticks are labelled as powers of ten.
-    let log_y = log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>());
+    let log_y = log.unwrap_or_else(|| log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>()));
+    if log_y && pts.iter().any(|p| p.1 <= 0.0) {
+        return Err("a log y axis needs values > 0".into());
+    }
     let ty = |y: f64| if log_y { y.log10() } else { y };
     let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, ty(y))).collect();
     let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
@@ -181,6 +185,73 @@ where
     area.present().map_err(|e| e.to_string())
 }
 
+/// `shscale plot`: `metric` against `x` from a results table, one series per value of `series`
+/// (or, without it, per combination of every other parameter that varies), written as
+/// `plot_<metric>_vs_<x>.png/.svg` in `dir`. Rows whose cells are not numbers are left out.
+pub fn plot_column(
+    dir: &Path,
+    t: &Table,
+    params: &[String],
+    metric: &str,
+    x: &str,
+    series: Option<&str>,
+    log: Option<bool>,
+) -> Result<Vec<PathBuf>, LabError> {
+    for c in [metric, x].into_iter().chain(series) {
+        if t.col(c).is_none() {
+            return Err(LabError::Config(format!(
+                "{c:?} is not a column of {} (columns: {})",
+                dir.join("runs.csv").display(),
+                t.columns.join(", ")
+            )));
+        }
+    }
+    let groups: Vec<String> = match series {
+        Some(s) => vec![s.to_string()],
+        None => t
+            .varying(params)
+            .into_iter()
+            .filter(|c| c != x && c != metric)
+            .collect(),
+    };
+    let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        let (xv, yv) = (t.num(r, x), t.num(r, metric));
+        if !(xv.is_finite() && yv.is_finite()) {
+            continue;
+        }
+        let label = if groups.is_empty() {
+            metric.to_string()
+        } else {
+            groups
+                .iter()
+                .map(|g| format!("{g} = {}", t.cell(r, g)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        by.entry(label).or_default().push((xv, yv));
+    }
+    if by.is_empty() {
+        return Err(LabError::Config(format!(
+            "no row has numbers in both {metric:?} and {x:?}"
+        )));
+    }
+    let title = format!("{metric} against {x}");
+    write_both_log(
+        dir,
+        &format!("plot_{metric}_vs_{x}"),
+        &Labels {
+            title: &title,
+            x,
+            y: metric,
+        },
+        &by,
+        false,
+        &[],
+        log,
+    )
+}
+
 /// The Okabe–Ito palette (colour-blind safe), in order; series beyond eight repeat it.
 const OKABE_ITO: [(u8, u8, u8); 8] = [
     (0, 114, 178),
@@ -234,6 +305,20 @@ pub fn write_both(
     scatter: bool,
     front: &[(f64, f64)],
 ) -> Result<Vec<PathBuf>, LabError> {
+    write_both_log(dir, stem, labels, series, scatter, front, None)
+}
+
+/// [`write_both`] with the y axis forced linear (`Some(false)`) or logarithmic (`Some(true)`);
+/// `None` decides by the data ([`log_axis`]).
+pub fn write_both_log(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter: bool,
+    front: &[(f64, f64)],
+    log: Option<bool>,
+) -> Result<Vec<PathBuf>, LabError> {
     ensure_font();
     let pid = std::process::id();
     let png = dir.join(format!("{stem}.png"));
@@ -244,6 +329,7 @@ pub fn write_both(
         series,
         scatter,
         front,
+        log,
     )
     .map_err(|e| err(&png, e))?;
     finish(&tmp_png, &png)?;
@@ -255,6 +341,7 @@ pub fn write_both(
         series,
         scatter,
         front,
+        log,
     )
     .map_err(|e| err(&svg, e))?;
     finish(&tmp_svg, &svg)?;

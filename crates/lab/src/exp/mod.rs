@@ -11,6 +11,7 @@
 pub mod config;
 pub mod probe;
 pub mod records;
+pub mod report;
 pub mod runner;
 pub mod timing;
 

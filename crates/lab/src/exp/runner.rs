@@ -949,8 +949,10 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
     }
     let p = dir.join("summary.md");
     write_atomic(&p, &s)?;
+    let figures = kind.report(dir, &t)?;
     let mut files = vec![p];
-    files.extend(kind.report(dir, &t)?);
+    files.extend(super::report::write_report(dir, &s, &figures)?);
+    files.extend(figures);
     Ok(Report { summary: s, files })
 }
 

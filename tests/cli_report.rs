@@ -1,0 +1,185 @@
+//! End-to-end tests of the reports: every results directory gets `report.md` and a
+//! self-contained `report.html` (plots inline as SVG, the config, the plan, provenance, captions),
+//! checked in a real headless browser; `shscale report`, `compare` and `plot` work on existing
+//! results without rerunning.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shscale-report-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const TINY: &str = "experiment = \"probe\"\ntitle = \"Tiny sweep\"\nclaim = \"the error grows with alpha\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:12\"\nhemisphere_res = 2\nk_count = 4\nradii = [1.5, 2.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [20, 40, 60]\n";
+
+fn run(d: &Path, extra: &[&str]) -> PathBuf {
+    let cfg = d.join("tiny.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = d.join("results");
+    let mut args = vec![
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let o = shscale(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let name = extra
+        .windows(2)
+        .find(|w| w[0] == "--name")
+        .map_or("tiny", |w| w[1]);
+    out.join("probe").join(name)
+}
+
+/// A headless Chromium, if one is installed.
+fn browser() -> Option<PathBuf> {
+    ["chromium", "chromium-browser", "google-chrome"]
+        .iter()
+        .find_map(|b| {
+            std::process::Command::new("which")
+                .arg(b)
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()))
+        })
+}
+
+#[test]
+fn every_run_writes_a_report_that_renders_in_a_browser() {
+    let d = tmp("html");
+    let dir = run(&d, &[]);
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    for needle in [
+        "# Tiny sweep",
+        "**Claim.** the error grows with alpha",
+        "## Figures",
+        "Figure 1. ",
+        "## Plan and provenance",
+        "## Config (newest version)",
+        "alpha_deg = [20, 40, 60]",
+    ] {
+        assert!(md.contains(needle), "report.md lacks {needle:?}:\n{md}");
+    }
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let svgs = html.matches("<svg").count();
+    let figures = md.matches("\nFigure ").count();
+    assert!(
+        svgs >= 2 && svgs == figures,
+        "{svgs} inline SVGs for {figures} figures"
+    );
+    assert!(
+        !html.contains("src=\"http"),
+        "the report must not load anything from outside"
+    );
+    let Some(chromium) = browser() else {
+        assert!(
+            std::env::var("SHSCALE_REQUIRE_BROWSER").as_deref() != Ok("1"),
+            "SHSCALE_REQUIRE_BROWSER=1 but no chromium is installed"
+        );
+        eprintln!("notice: no chromium: the report's browser check is skipped (install Debian's chromium, as .ci/run does)");
+        return;
+    };
+    let o = std::process::Command::new(&chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(format!("file://{}", dir.join("report.html").display()))
+        .output()
+        .expect("chromium runs");
+    let dom = String::from_utf8_lossy(&o.stdout);
+    let want = format!("figures: {svgs} of {svgs} rendered, 0 script errors");
+    assert!(
+        dom.contains(&want),
+        "{chromium:?} did not report {want:?}: {}",
+        dom.lines()
+            .filter(|l| l.contains("figure-check"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn report_compare_and_plot_work_on_existing_results() {
+    let d = tmp("cmp");
+    let a = run(&d, &[]);
+    let b = run(&d, &["--set", "order=3", "--name", "order3"]);
+    // `report` regenerates every file from the CSV alone.
+    std::fs::remove_file(a.join("report.html")).unwrap();
+    let o = shscale(&["report", a.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(a.join("report.html").exists());
+    // `compare`: the parameter fixed at different values is named, rows matched per α and radius.
+    let out = d.join("cmp");
+    let o = shscale(&[
+        "compare",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("order (A: 2, B: 3)"), "{text}");
+    assert!(
+        text.contains("Rows matched on: alpha_deg, radius"),
+        "{text}"
+    );
+    assert!(
+        text.contains("6 matched row group(s); 0 only in A, 0 only in B"),
+        "{text}"
+    );
+    assert!(out.join("compare.md").exists() && out.join("compare_occ_rel_l2_mean.svg").exists());
+    // The differences are B − A of the two CSVs' own numbers.
+    let row = text
+        .lines()
+        .find(|l| l.starts_with("| 20.0 | 1.5 |"))
+        .unwrap_or_else(|| panic!("no row for α = 20, r = 1.5 in {text}"));
+    let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
+    let (x, y, dxy): (f64, f64, f64) = (
+        cells[2].parse().unwrap(),
+        cells[3].parse().unwrap(),
+        cells[4].parse().unwrap(),
+    );
+    assert!((y - x - dxy).abs() < 2e-4, "{row}");
+    // `plot` any column, and errors that name the culprit.
+    let o = shscale(&[
+        "plot",
+        a.to_str().unwrap(),
+        "--metric",
+        "occ_rel_l2_mean",
+        "--x",
+        "alpha_deg",
+        "--series",
+        "radius",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(a.join("plot_occ_rel_l2_mean_vs_alpha_deg.svg").exists());
+    fails(
+        &[
+            "plot",
+            a.to_str().unwrap(),
+            "--metric",
+            "nosuch",
+            "--x",
+            "alpha_deg",
+        ],
+        "\"nosuch\" is not a column",
+    );
+    fails(&["report", d.to_str().unwrap()], "no manifest.toml");
+    fails(
+        &["compare", a.to_str().unwrap(), d.to_str().unwrap()],
+        "no manifest.toml",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
