@@ -31,6 +31,15 @@ fn figures_and_their_index_are_regenerated() {
         "experiment = \"probe\"\ntitle = \"Fig. 5 test\"\nclaim = \"resembles\"\nmesh = \"bird\"\norder = 3\nalpha_deg = 45\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 8\nradii = [0.7, 1.3]\n",
     )
     .unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../configs/scene_sphere.toml"
+    );
+    std::fs::write(
+        cfg.join("d_shadows.toml"),
+        format!("experiment = \"shadows\"\ntitle = \"Fig. 7 test\"\nclaim = \"consistent\"\nscene = \"{scene}\"\norder = 2\nhemisphere_res = 4\ntiming_warmup = 0\ntiming_repeats = 1\n"),
+    )
+    .unwrap();
     let out = d.join("figs");
     let runs = d.join("runs");
     let figs = |extra: &[&str]| {
@@ -59,6 +68,9 @@ fn figures_and_their_index_are_regenerated() {
         "c_visibility.png",
         "c_visibility.exr",
         "c_visibility.csv",
+        "d_shadows.png",
+        "d_shadows.exr",
+        "d_shadows.csv",
         "README.md",
     ] {
         let len = std::fs::metadata(out.join(f))
@@ -76,6 +88,8 @@ fn figures_and_their_index_are_regenerated() {
         "Over 6 matrices (3 τ × plain and energy η)",
         "Confirmed where it matters",
         "![Fig. 5 test](c_visibility.png)",
+        "![Fig. 7 test](d_shadows.png)",
+        "| extrapolated |",
         "| 0.7 |",
     ] {
         assert!(index.contains(needle), "index lacks {needle:?}:\n{index}");
@@ -107,6 +121,21 @@ fn figures_and_their_index_are_regenerated() {
     assert!(again.contains("(0 run(s), 2 already done)"), "{again}");
     let fresh = figs(&[]);
     assert!(fresh.contains("(2 run(s), 0 already done)"), "{fresh}");
+    // The figure images are labelled pictures, wider than the raw side-by-side values.
+    let png_width = |f: &str| {
+        let b = std::fs::read(out.join(f)).unwrap();
+        u32::from_be_bytes([b[16], b[17], b[18], b[19]])
+    };
+    assert!(
+        png_width("d_shadows.png") >= 1000,
+        "{}",
+        png_width("d_shadows.png")
+    );
+    assert!(
+        png_width("c_visibility.png") >= 800,
+        "{}",
+        png_width("c_visibility.png")
+    );
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -6,8 +6,10 @@
 //! overridden — each a sweepable parameter): the receiver plane rendered with the full field, the
 //! extrapolated field, band-limited ray tracing and full-frequency ray tracing, one row per method
 //! with `shade_rmse_rel` (docs/conventions.md §6) against both truths and the render time (the
-//! timing procedure of the config). The run writes `shadows_<run id>.exr/.png`: full field |
-//! extrapolated | full-frequency truth, side by side.
+//! timing procedure of the config). The run writes
+//! `shadows_fullfield_extrapolated_truth_<run id>.exr` (the three irradiance images side by side)
+//! and a `.png` with labelled panels on one heat scale, plus the differences of both fields from
+//! the truth on a diverging scale, with colour bars and receiver-plane axes.
 
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
@@ -171,7 +173,9 @@ impl Kind for Shadows {
                 LabError::Config(format!("scene: {}: the unshadowed image is black", p.scene))
             })
         };
-        // Side by side: full field | extrapolated | full-frequency truth.
+        // The values side by side (full field | extrapolated | full-frequency truth) as EXR, and
+        // the labelled figure: the three irradiance images on one scale, then the differences
+        // of the two fields from the truth on a symmetric diverging scale.
         let (w, h) = (imgs[0].1.width, imgs[0].1.height);
         let mut px = vec![[0f32; 3]; 3 * w * h];
         for (slot, idx) in [0usize, 1, 3].into_iter().enumerate() {
@@ -181,8 +185,69 @@ impl Kind for Shadows {
                 }
             }
         }
-        let exr = ctx.dir.join(format!("shadows_{run_id}.exr"));
-        shscale_lab::io::write_exr_and_png(&exr, 3 * w, h, &px, shscale_lab::io::Png::Preview)?;
+        let stem = format!("shadows_fullfield_extrapolated_truth_{run_id}");
+        let exr = ctx.dir.join(format!("{stem}.exr"));
+        shscale_lab::io::write_exr(&exr, 3 * w, h, &px)?;
+        let lum = |img: &RenderOutput| -> Vec<f32> {
+            img.pixels
+                .iter()
+                .map(|p| (p[0] + p[1] + p[2]) / 3.0)
+                .collect()
+        };
+        let (ff, ex, tr) = (lum(&imgs[0].1), lum(&imgs[1].1), lum(&imgs[3].1));
+        let max = ff.iter().chain(&ex).chain(&tr).fold(0f32, |a, v| a.max(*v)) as f64;
+        let diff = |a: &[f32]| -> Vec<f32> { a.iter().zip(&tr).map(|(x, t)| x - t).collect() };
+        let (dff, dex) = (diff(&ff), diff(&ex));
+        let dmax = dff.iter().chain(&dex).fold(0f32, |a, v| a.max(v.abs())) as f64;
+        let c = scene.receiver_center;
+        let [sx, sy] = scene.receiver_size;
+        let xr = (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)");
+        let yr = (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)");
+        let panel = |title: String, values: Vec<f32>| shscale_lab::figure::Panel {
+            title,
+            width: w,
+            height: h,
+            values,
+        };
+        let rel = |e: &[f32]| {
+            let num: f64 = e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64;
+            num.sqrt()
+        };
+        shscale_lab::figure::write_png_stack(
+            &exr.with_extension("png"),
+            &[
+                shscale_lab::figure::Grid {
+                    title: "irradiance on the receiver plane",
+                    rows: vec![vec![
+                        panel("fully sampled shadow field (16 shells)".into(), ff.clone()),
+                        panel(
+                            format!("SH-scaling extrapolation (N = {})", scene.order),
+                            ex.clone(),
+                        ),
+                        panel("full-frequency ray-traced truth".into(), tr.clone()),
+                    ]],
+                    x: xr,
+                    y: yr,
+                    colours: shscale_lab::figure::ColourMap::Heat,
+                    range: (0.0, max),
+                    scale_label: "irradiance (scene radiance units)",
+                    panel_px: (320, 320),
+                },
+                shscale_lab::figure::Grid {
+                    title: "difference from the full-frequency truth",
+                    rows: vec![vec![
+                        panel(format!("full field − truth (RMS {:.3})", rel(&dff)), dff),
+                        panel(format!("extrapolation − truth (RMS {:.3})", rel(&dex)), dex),
+                    ]],
+                    x: xr,
+                    y: yr,
+                    colours: shscale_lab::figure::ColourMap::Diverging,
+                    range: (-dmax, dmax),
+                    scale_label: "irradiance difference",
+                    panel_px: (320, 320),
+                },
+            ],
+        )?;
         imgs.iter()
             .map(|(name, img, t)| {
                 Ok(Row {
@@ -249,8 +314,9 @@ impl Kind for Shadows {
                 t.num(ex, "rmse_vs_band_limited"),
             );
             out.push_str(&format!(
-                "**Ours.** Scene `{}` ({} receivers, N = {}, α = {}°, layout {}, H = {}; run `{id}`). Image, left to right: fully sampled shadow field \
-(16 shells), SH-scaling extrapolation, full-frequency ray-traced truth (linear radiance in the EXR). `shade_rmse_rel` = RMSE of \
+                "**Ours.** Scene `{}` ({} receivers, N = {}, α = {}°, layout {}, H = {}; run `{id}`). Image: the irradiance of the fully sampled shadow field \
+(16 shells), the SH-scaling extrapolation and the full-frequency ray-traced truth on one scale, and below them each field's difference \
+from the truth on a symmetric scale (the values in the EXR). `shade_rmse_rel` = RMSE of \
 irradiance over receivers / mean unshadowed irradiance; render times are the median of the config's timing procedure:\n\n\
 | method | vs band-limited truth | vs full-frequency truth | render (ms) |\n|---|---:|---:|---:|\n{table}\n\
 **Comparison.** The paper shows the two side by side as visually consistent and gives no numbers. Measured, the {} is the closer to \
@@ -282,7 +348,10 @@ per-frame resampling, docs/BENCHMARKS.md).\n\n",
         };
         shscale_lab::exp::probe::copy_image(
             dir,
-            &format!("shadows_{}", t.cell(r, "run_id")),
+            &format!(
+                "shadows_fullfield_extrapolated_truth_{}",
+                t.cell(r, "run_id")
+            ),
             out,
             stem,
         )

@@ -5,6 +5,7 @@
 
 pub mod bench;
 pub mod exp;
+pub mod figure;
 pub mod gpu_path;
 pub mod io;
 pub mod limits;

@@ -197,7 +197,9 @@ fn runs_resume_validate_rows_and_shards_partition() {
     assert!(!m.versions[0].provenance.cpu_model.is_empty());
     // The Fig. 5 image of every run: truth | extrapolated, one row per radius.
     for r in &plan.runs {
-        let exr = s.dir.join(format!("visibility_{}.exr", r.id));
+        let exr = s
+            .dir
+            .join(format!("visibility_truth_vs_extrapolated_{}.exr", r.id));
         let (w, h, _) = shscale_lab::io::read_exr(&exr).unwrap();
         assert_eq!((w, h), (512, 256));
     }

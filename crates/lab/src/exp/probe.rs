@@ -535,7 +535,7 @@ actual full-frequency visibility (left, white = visible; lat-long, +z at the top
         };
         copy_image(
             dir,
-            &format!("visibility_{}", t.cell(r, "run_id")),
+            &format!("visibility_truth_vs_extrapolated_{}", t.cell(r, "run_id")),
             out,
             stem,
         )
