@@ -150,18 +150,42 @@ where
             .filter(|(_, y)| y.is_finite())
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Colours repeat every eight series; the marker shape tells the repeats apart
+        // (circles, then triangles, then squares).
+        let shape = (i / 8) % 3;
         if !scatter_only {
-            chart
+            let line = chart
                 .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
                 .map_err(|e| e.to_string())?
-                .label(name.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
+                .label(name.clone());
+            let seg = move |x: i32, y: i32| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            };
+            match shape {
+                0 => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y)) + seg(0, 0) + Circle::new((9, 0), 4, color.filled())
+                }),
+                1 => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + seg(0, 0)
+                        + TriangleMarker::new((9, 0), 6, color.filled())
+                }),
+                _ => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + seg(0, 0)
+                        + Cross::new((9, 0), 5, color.stroke_width(2))
+                }),
+            };
         }
-        let s = chart
-            .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
-            .map_err(|e| e.to_string())?;
+        let s = match shape {
+            0 => chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))),
+            1 => chart.draw_series(
+                pts.iter()
+                    .map(|p| TriangleMarker::new(*p, 6, color.filled())),
+            ),
+            _ => chart.draw_series(pts.iter().map(|p| Cross::new(*p, 5, color.stroke_width(2)))),
+        }
+        .map_err(|e| e.to_string())?;
         if scatter_only {
             s.label(name.clone())
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
@@ -250,6 +274,24 @@ pub fn plot_column(
         &[],
         log,
     )
+}
+
+/// A parameter's name in words, for titles and legends.
+pub fn words(key: &str) -> String {
+    match key {
+        "alpha_deg" => "cone angle α (°)".into(),
+        "order" => "SH order N".into(),
+        "hemisphere_res" => "hemisphere resolution H".into(),
+        "k_count" => "k-table size K".into(),
+        "k_spacing" => "k spacing".into(),
+        "k_interp" => "k interpolation".into(),
+        "sampling_radius" => "sampling radius s".into(),
+        "on_surface_eps" => "on-surface threshold ε".into(),
+        "layout" => "layout".into(),
+        "mesh" => "mesh".into(),
+        "radius" => "probe radius ρ".into(),
+        other => other.replace('_', " "),
+    }
 }
 
 /// The Okabe–Ito palette (colour-blind safe), in order; series beyond eight repeat it.
@@ -382,46 +424,30 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
             .filter(|k| *k != param)
             .collect();
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        let y_desc = if !others.is_empty() {
-            // Mean over the probe radii per (param, other parameters) cell.
-            let mut cells: BTreeMap<(String, u64), (f64, usize)> = BTreeMap::new();
-            for r in 0..t.rows.len() {
-                let v = t.num(r, "occ_rel_l2_mean");
-                if !v.is_finite() {
-                    continue;
-                }
-                let label = others
-                    .iter()
-                    .map(|o| format!("{o} = {}", t.cell(r, o)))
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                let e = cells
-                    .entry((label, t.num(r, param).to_bits()))
-                    .or_insert((0.0, 0));
-                e.0 += v;
-                e.1 += 1;
+        // One series per combination of the other varying parameters and the probe radius:
+        // nothing is averaged.
+        let with_radius = param != "radius";
+        for r in 0..t.rows.len() {
+            let v = t.num(r, "occ_rel_l2_mean");
+            if !v.is_finite() {
+                continue;
             }
-            for ((label, x), (sum, n)) in cells {
-                series
-                    .entry(label)
-                    .or_default()
-                    .push((f64::from_bits(x), sum / n as f64));
+            let mut parts: Vec<String> = others
+                .iter()
+                .filter(|o| **o != "radii")
+                .map(|o| format!("{} = {}", words(o), t.cell(r, o)))
+                .collect();
+            if with_radius {
+                parts.push(format!("ρ = {} r", t.cell(r, "radius")));
             }
-            "occ_rel_l2, mean over probe radii (1)"
-        } else {
-            for r in 0..t.rows.len() {
-                let key = if param == "radius" {
-                    "all runs".to_string()
-                } else {
-                    format!("ρ = {} r", t.num(r, "radius"))
-                };
-                series
-                    .entry(key)
-                    .or_default()
-                    .push((t.num(r, param), t.num(r, "occ_rel_l2_mean")));
-            }
-            "occ_rel_l2, mean over samples (1)"
-        };
+            let label = if parts.is_empty() {
+                "all runs".to_string()
+            } else {
+                parts.join(", ")
+            };
+            series.entry(label).or_default().push((t.num(r, param), v));
+        }
+        let y_desc = "occ_rel_l2: relative L2 error of the occluded part (1)";
         let unit = match param {
             "alpha_deg" => "α (degrees)",
             "order" => "SH order N",
@@ -431,7 +457,7 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
             "on_surface_eps" => "on-surface threshold ε (× r)",
             _ => "probe radius ρ (× r)",
         };
-        let title = format!("occ_rel_l2 vs {param}");
+        let title = format!("extrapolation error against {}", words(param));
         files.extend(write_both(
             dir,
             &format!("occ_rel_l2_vs_{param}"),
@@ -481,14 +507,14 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
         return Ok(files);
     }
     let mut series = BTreeMap::new();
-    series.insert("runs".to_string(), pts);
+    series.insert("one point per run".to_string(), pts);
     files.extend(write_both(
         dir,
         "pareto_time_vs_error",
         &Labels {
-            title: "speed / accuracy",
-            x: "time per run (ms: BSV + table + extrapolation)",
-            y: "mean occ_rel_l2 (1)",
+            title: "speed against accuracy per run, with the Pareto front",
+            x: "time per run (ms: BSV sampling + k-table + extrapolation)",
+            y: "occ_rel_l2, mean over the run's probe radii (1)",
         },
         &series,
         true,
