@@ -506,7 +506,7 @@ fn an_edited_fixed_key_never_mixes_silently() {
     );
     let svg = std::fs::read_to_string(dirp.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
     assert!(
-        svg.contains("order = 2") && svg.contains("order = 3"),
+        svg.contains("SH order N = 2") && svg.contains("SH order N = 3"),
         "plot series not split by order"
     );
     let manifest = std::fs::read_to_string(dirp.join("manifest.toml")).unwrap();

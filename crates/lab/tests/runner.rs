@@ -292,7 +292,7 @@ fn plots_are_written_as_png_and_svg_with_labelled_axes() {
     }
     let svg = std::fs::read_to_string(s.dir.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
     assert!(
-        svg.contains("alpha_deg") && svg.contains("order = 2"),
+        svg.contains("α (degrees)") && svg.contains("SH order N = 2"),
         "axis label or series missing"
     );
     assert!(
