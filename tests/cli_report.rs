@@ -183,3 +183,86 @@ fn report_compare_and_plot_work_on_existing_results() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `docs/config-reference.md` is what `shscale config-reference` prints (regenerate it with
+/// `shscale config-reference > docs/config-reference.md`); every parameter of every kind is
+/// described and every description names a real parameter; the scene keys listed are exactly
+/// the schema's (read from the parser's own "expected one of" list, table by table).
+#[test]
+fn the_config_reference_matches_the_code() {
+    let o = shscale(&["config-reference"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    let committed = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../docs/config-reference.md"
+    ))
+    .unwrap();
+    assert!(
+        text == committed,
+        "docs/config-reference.md is stale: regenerate it with `shscale config-reference > docs/config-reference.md`"
+    );
+    for kind in shscale_experiments::registry() {
+        let missing = shscale_lab::exp::reference::undescribed(kind);
+        assert!(
+            missing.is_empty(),
+            "{}: undescribed keys {missing:?}",
+            kind.name()
+        );
+        let keys: Vec<String> = kind.defaults().into_iter().map(|(k, _)| k).collect();
+        for (k, _) in kind.describe() {
+            assert!(
+                keys.iter().any(|x| x == k),
+                "{}: {k} is described but not a parameter",
+                kind.name()
+            );
+        }
+    }
+    // The scene schema, table by table.
+    let base = "order = 2\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.5]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [8, 8]\n[light]\nkind = \"sky\"\n[[light_source]]\nkind = \"quad\"\ncenter = [0, 0, 3]\n";
+    let expected = |table: &str| -> Vec<String> {
+        let text = match table {
+            "" => format!("zz_unknown = 1\n{base}"),
+            t => base.replacen(&format!("[{t}]\n"), &format!("[{t}]\nzz_unknown = 1\n"), 1),
+        };
+        let e = match shscale_lab::scene::Scene::parse("s.toml", &text, std::path::Path::new(".")) {
+            Ok(_) => panic!("{table}: an unknown key was accepted"),
+            Err(e) => e.to_string(),
+        };
+        let list = e
+            .split("expected one of")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{e}"));
+        list.split('`')
+            .skip(1)
+            .step_by(2)
+            .map(String::from)
+            .collect()
+    };
+    let listed = |prefix: &str| -> Vec<String> {
+        let mut v: Vec<String> = shscale_lab::scene::SCENE_KEYS
+            .iter()
+            .filter_map(|(k, ..)| {
+                if prefix.is_empty() {
+                    (!k.contains('.')).then(|| k.to_string())
+                } else {
+                    k.strip_prefix(prefix).map(String::from)
+                }
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    for (table, prefix) in [
+        ("", ""),
+        ("[occluder]", "occluder[i]."),
+        ("receiver", "receiver."),
+        ("light", "light."),
+        ("[light_source]", "light_source[i]."),
+    ] {
+        let mut schema = expected(table);
+        schema.retain(|k| !["occluder", "receiver", "light", "light_source"].contains(&k.as_str()));
+        schema.sort();
+        assert_eq!(schema, listed(prefix), "scene table {table:?}");
+    }
+}

@@ -121,6 +121,21 @@ impl Kind for Extremes {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("tau", "angular scaling τ: `cone` or `midrange`"),
+            (
+                "k",
+                "scale: d/r > 0 for the cone, d/R in (−1, 1) for mid-range",
+            ),
+            (
+                "alpha_deg",
+                "cone half-angle α, degrees, (0, 90); unused by mid-range",
+            ),
+            ("order", "SH order N, 1..=32"),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !(1..=MAX_ORDER).contains(&p.order) {
             return Err(KeyError::new(

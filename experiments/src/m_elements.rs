@@ -92,6 +92,31 @@ impl Kind for MElements {
     type Shared = (KTable, f64, f64);
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("order", "SH order N, 1..=16"),
+            ("alpha_deg", "cone half-angle α, degrees, (0, 90)"),
+            ("k_min", "smallest k of the table and the curve, ≥ 1e-6"),
+            ("k_max", "largest k, > k_min, ≤ 1e6"),
+            (
+                "k_count",
+                "table entries K (exponential spacing, linear interpolation), 2..=10000",
+            ),
+            (
+                "row",
+                "the element's row (output coefficient, index l² + l + m), < N²",
+            ),
+            (
+                "col",
+                "the element's column (input coefficient), < N², same m as the row",
+            ),
+            (
+                "curve_points",
+                "points of the directly computed curve, 2..=10000",
+            ),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         let n = p.order;
         if !(1..=16).contains(&n) {

@@ -142,6 +142,30 @@ impl Kind for MidRange {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("order", "SH order N, 1..=16"),
+            (
+                "k",
+                "receiver distance from the centre over the environment radius, k = d/R in [0, 1)",
+            ),
+            (
+                "points",
+                "point directions (Fibonacci) at distance k, 1..=10000",
+            ),
+            (
+                "normals",
+                "receiver normals per point (Fibonacci), 1..=10000",
+            ),
+            ("sun", "sun strength of the analytic sky, [0, 1e6]"),
+            (
+                "sun_dir",
+                "sun direction, three finite numbers not all 0 (normalised)",
+            ),
+            ("sun_radius_deg", "sun's angular radius, degrees, (0, 90]"),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !(1..=16).contains(&p.order) {
             return Err(KeyError::new(

@@ -102,6 +102,16 @@ impl Kind for Shadows {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
+            ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
+            ("alpha_deg", "override of the scene's cone angle α, degrees, (0, 90)"),
+            ("layout", "override of the scene's base-sphere layout"),
+            ("hemisphere_res", "override of the scene's hemisphere resolution H, 1..=256"),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if p.scene.trim().is_empty() {
             return Err(KeyError::new("scene", "give a scene file"));

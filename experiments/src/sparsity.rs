@@ -101,6 +101,21 @@ impl Kind for Sparsity {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("order", "SH order N, 1..=16"),
+            ("tau", "angular scaling τ: `cone` or `midrange`"),
+            (
+                "k",
+                "scale: d/r > 0 for the cone, d/R in (−1, 1) for mid-range",
+            ),
+            (
+                "alpha_deg",
+                "cone half-angle α, degrees, (0, 90); unused by mid-range",
+            ),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !(1..=16).contains(&p.order) {
             return Err(KeyError::new(

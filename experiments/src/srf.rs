@@ -68,6 +68,23 @@ impl Kind for Srf {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("order", "SH order N, 1..=16"),
+            ("layout", "base-sphere sample layout, at most 10⁶ samples"),
+            ("hemisphere_res", "H: H² rays per BSV sample, 1..=256"),
+            ("alpha_deg", "cone half-angle α, degrees, (0, 90)"),
+            (
+                "hinge_deg",
+                "angle between the light's two panels, degrees, (0, 360)",
+            ),
+            (
+                "radii",
+                "probe radii in bounding radii, 1 to 64 distinct values in [1, 1e6]",
+            ),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !(1..=MAX_ORDER).contains(&p.order) {
             return Err(KeyError::new(

@@ -75,6 +75,24 @@ impl Kind for Timing {
     type Shared = ();
     type Row = Row;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            (
+                "scene",
+                "bench sequence: `bird` (flapping), `egg` (morphing) or `sponge` (bending)",
+            ),
+            (
+                "path",
+                "`cpu` or `gpu` (a gpu run without an adapter writes no row)",
+            ),
+            (
+                "frames",
+                "measured frames (their medians are the times), 1..=10000",
+            ),
+            ("warmup", "frames run and dropped before measuring, ≤ 10000"),
+        ]
+    }
+
     fn validate(p: &Params) -> Result<(), KeyError> {
         if !matches!(p.scene.as_str(), "bird" | "egg" | "sponge") {
             return Err(KeyError::new(

@@ -98,6 +98,9 @@ pub enum Command {
         #[arg(long)]
         linear_y: bool,
     },
+    /// Print the config reference (runner keys, every kind's parameters, scene-file keys) as
+    /// Markdown — the text of docs/config-reference.md. Example: shscale config-reference
+    ConfigReference,
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell.
     /// Example: shscale completions bash > ~/.local/share/bash-completion/completions/shscale
     Completions {

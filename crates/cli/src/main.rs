@@ -105,6 +105,13 @@ fn main() -> ExitCode {
             log_y,
             linear_y,
         } => run_cmd::plot(&dir, &metric, &x, series.as_deref(), log_y, linear_y),
+        Command::ConfigReference => {
+            print!(
+                "{}",
+                shscale_lab::exp::reference::markdown(&shscale_experiments::registry())
+            );
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(shell, &mut cmd, "shscale", &mut std::io::stdout());

@@ -172,6 +172,41 @@ pub struct LightSourceSpec {
     pub energy: bool,
 }
 
+/// Every key of a scene file: (key path, type, default, meaning and range) — the config
+/// reference; a test checks the list against the schema (`RawScene` and its tables).
+pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
+    ("order", "integer", "4", "SH order N, 1..=16"),
+    ("alpha_deg", "number", "45", "cone half-angle α, degrees, (0, 90)"),
+    ("layout", "string", "`latlong:12x20`", "base-sphere layout, at most 10⁶ samples"),
+    ("hemisphere_res", "integer", "32", "H: H² rays per BSV sample, 1..=256"),
+    ("k_count", "integer", "40", "k-table entries, 2..=10000"),
+    ("sampling_radius", "number", "1", "sampling sphere in bounding radii, [1, 1000]"),
+    ("occluder[i].mesh", "string", "(required)", "`sphere`, a procedural shape, a bundled mesh or a path (relative to the scene file)"),
+    ("occluder[i].center", "3 numbers", "(required)", "where the bounding-sphere centre goes, each within ±1e6"),
+    ("occluder[i].radius", "number", "(required)", "the bounding radius after scaling, [1e-6, 1e6]"),
+    ("occluder[i].up", "string", "`y`", "the mesh's up axis, `y` or `z`, mapped to +z"),
+    ("occluder[i].deformer", "string", "—", "`flap`, `bend`, `twist` or `morph`, animated over the frames (not for `sphere`)"),
+    ("occluder[i].amount", "number", "the deformer's own", "deformer strength, [−10, 10]"),
+    ("receiver.center", "3 numbers", "(required)", "centre of the receiver plane (normal +z), each within ±1e6"),
+    ("receiver.size", "2 numbers", "(required)", "extent in x and y, each [1e-6, 1e6]"),
+    ("receiver.resolution", "2 integers", "(required)", "receivers along x and y, 2..=4096 each"),
+    ("light.kind", "string", "(required)", "`sky` (closed form) or `exr` (lat-long map, top row +z)"),
+    ("light.ambient", "number", "0.3", "sky: constant term, [0, 1e12]"),
+    ("light.zenith", "number", "1", "sky: max(0, z) term, [0, 1e12]"),
+    ("light.sun", "number", "20", "sky: sun strength, [0, 1e12]"),
+    ("light.sun_dir", "3 numbers", "`[0.3, 0.2, 1]`", "sky: sun direction, not all 0"),
+    ("light.sun_radius_deg", "number", "5", "sky: sun angular radius, degrees, (0, 90]"),
+    ("light.path", "string", "(required for `exr`)", "the EXR map, relative to the scene file; pixels finite and ≥ 0 (ringing to −1e-3 × max clamped)"),
+    ("light.intensity", "number", "1", "exr: scale of the map, [0, 1e12], intensity × max ≤ 1e12"),
+    ("light_source[i].kind", "string", "(required)", "`quad` (one-sided square) or `hinge` (red and green panels), emitting toward −z"),
+    ("light_source[i].center", "3 numbers", "(required)", "centre, each within ±1e6"),
+    ("light_source[i].size", "number", "1", "side, [1e-6, 1e6]"),
+    ("light_source[i].hinge_deg", "number", "100", "hinge: angle between the panels, degrees, (0, 180)"),
+    ("light_source[i].radiance", "3 numbers", "`[1, 1, 1]`", "quad: RGB radiance, each [0, 1e12]"),
+    ("light_source[i].intensity", "number", "1", "scales the radiance, [0, 1e12], product ≤ 1e12"),
+    ("light_source[i].eta", "string", "`plain`", "source-radiance-field scaling: `plain` or `energy`"),
+];
+
 /// The largest |coordinate| (and size) of anything placed in a scene: occluder centres and
 /// radii, the receiver plane, light sources (docs/limits.md).
 pub const MAX_SCENE_COORDINATE: f64 = 1e6;

@@ -11,6 +11,7 @@
 pub mod config;
 pub mod probe;
 pub mod records;
+pub mod reference;
 pub mod report;
 pub mod runner;
 pub mod timing;
@@ -107,6 +108,10 @@ pub trait Kind: Send + Sync + 'static {
         let _ = (dir, table);
         Ok(Vec::new())
     }
+    /// Every parameter key with its meaning, unit and valid range, in words: the config
+    /// reference (`shscale config-reference`, `docs/config-reference.md`); a test checks that
+    /// every field of [`Kind::Params`] is described.
+    fn describe() -> &'static [(&'static str, &'static str)];
     /// Our numbers against the claim the results test, in words (Markdown, computed from the
     /// rows so it never goes stale): appended to `summary.md`, and a figure's section of
     /// `paper-figs/README.md`. Default: nothing.
@@ -175,6 +180,9 @@ pub trait DynKind: Send + Sync {
     ) -> Result<(), LabError>;
     fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, LabError>;
     fn discussion(&self, table: &records::Results) -> Result<String, LabError>;
+    fn describe(&self) -> &'static [(&'static str, &'static str)];
+    /// The parameter keys with their default cells (the CSV/TOML form).
+    fn defaults(&self) -> Vec<(String, String)>;
     fn figure(
         &self,
         dir: &Path,
@@ -297,6 +305,14 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn discussion(&self, table: &records::Results) -> Result<String, LabError> {
         K::discussion(table)
+    }
+    fn describe(&self) -> &'static [(&'static str, &'static str)] {
+        K::describe()
+    }
+    fn defaults(&self) -> Vec<(String, String)> {
+        records::to_cells(&K::Params::default())
+            .map(|(h, c)| h.into_iter().zip(c).collect())
+            .unwrap_or_default()
     }
     fn figure(
         &self,

@@ -163,6 +163,22 @@ impl Kind for Probe {
     type Shared = ProbeShared;
     type Row = ProbeRow;
 
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("mesh", "the occluder: `sphere` (analytic, closed-form truth), a procedural shape (`bird`, `egg`, `sponge`, `plane`), a bundled mesh (`bunny`, `duck`, `dragon_19k`, `knot`, `teapot`) or an .obj/.ply path"),
+            ("order", "SH order N (N² coefficients), 1..=16"),
+            ("alpha_deg", "cone half-angle α of the cone approximation τ, degrees, in (0, 90)"),
+            ("layout", "base-sphere sample layout: `latlong:RxC`, `cube:N` or `fib:P`, at most 10⁶ samples"),
+            ("hemisphere_res", "H: H² rays per BSV sample (2H² per truth probe), 1..=256"),
+            ("sampling_radius", "radius of the sampling sphere in bounding radii, [1, 1000]; > 1 mitigates the on-surface failure"),
+            ("k_count", "entries K of the k-table, 2..=10000 (≥ 4 for cubic)"),
+            ("k_spacing", "spacing of the tabulated k: `exp`, `uniform` or `chebyshev`"),
+            ("k_interp", "interpolation between table entries: `linear` or `cubic` (in ln k)"),
+            ("on_surface_eps", "on-surface threshold ε in bounding radii, [0, 1): samples closer to the surface are reported separately"),
+            ("radii", "probe radii in bounding radii: 1 to 64 distinct values in (0, 1e6]"),
+        ]
+    }
+
     fn validate(p: &ProbeParams) -> Result<(), KeyError> {
         if !crate::vocab::mesh_exists(&p.mesh) {
             return Err(KeyError::new(
