@@ -69,6 +69,7 @@ fn figures_and_their_index_are_regenerated() {
         "c_visibility.exr",
         "c_visibility.csv",
         "d_shadows.png",
+        "d_shadows_camera.png",
         "d_shadows.exr",
         "d_shadows.csv",
         "README.md",

@@ -218,3 +218,75 @@ fn render_prints_json_for_scripts() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `render --camera`: a camera straight above the receiver plane sees, at a pixel away from the
+/// sphere, the plane's irradiance there (bilinear on the receiver grid) × albedo 0.8 / π; a pixel
+/// looking at the sphere sees the sphere (diffuse, not the plane); off the plane, the background.
+#[test]
+fn camera_renders_see_the_plane_with_its_irradiance() {
+    let d = std::env::temp_dir().join(format!("shscale-camera-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let base = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../configs/scene_sphere.toml"
+    ))
+    .unwrap();
+    let scene = d.join("s.toml");
+    std::fs::write(&scene, format!("{base}\n[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov_deg = 40\nresolution = [120, 80]\n")).unwrap();
+    let (plane, view) = (d.join("plane.exr"), d.join("view.exr"));
+    for (out, extra) in [(&plane, None), (&view, Some("--camera"))] {
+        let mut args = vec![
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = shscale(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let (gw, gh, e) = shscale_lab::io::read_exr(&plane).unwrap();
+    let (w, h, v) = shscale_lab::io::read_exr(&view).unwrap();
+    assert_eq!((w, h), (120, 80));
+    // The pixel's ray, as the camera casts it (right = +x, up = +y looking down).
+    let tan = 20f64.to_radians().tan();
+    let ray = |i: usize, j: usize| {
+        let sx = (2.0 * (i as f64 + 0.5) / w as f64 - 1.0) * tan * (w as f64 / h as f64);
+        let sy = (1.0 - 2.0 * (j as f64 + 0.5) / h as f64) * tan;
+        // Hit of (sx, sy, −1) from z = 10 on z = 0.
+        (10.0 * sx, 10.0 * sy)
+    };
+    let lookup = |x: f64, y: f64| {
+        let u = (x + 2.5) / 5.0 * (gw - 1) as f64;
+        let vv = (2.5 - y) / 5.0 * (gh - 1) as f64;
+        let (i0, j0) = (u.floor() as usize, vv.floor() as usize);
+        let (fu, fv) = (u - i0 as f64, vv - j0 as f64);
+        let p = |i: usize, j: usize| e[j * gw + i][0] as f64;
+        let a = p(i0, j0) * (1.0 - fu) + p(i0 + 1, j0) * fu;
+        let b = p(i0, j1(j0, gh)) * (1.0 - fu) + p(i0 + 1, j1(j0, gh)) * fu;
+        (a * (1.0 - fv) + b * fv) * 0.8 / std::f64::consts::PI
+    };
+    fn j1(j: usize, h: usize) -> usize {
+        (j + 1).min(h - 1)
+    }
+    let (i, j) = (40, 40); // left of the sphere
+    let (x, y) = ray(i, j);
+    assert!(
+        x < -1.3 && x > -2.4 && y.abs() < 1.0,
+        "pixel ({i}, {j}) hits ({x}, {y})"
+    );
+    let (got, want) = (v[j * w + i][0] as f64, lookup(x, y));
+    println!("camera pixel ({i}, {j}) on the plane at ({x:.3}, {y:.3}): {got:.5}, irradiance × 0.8/π = {want:.5}");
+    assert!(
+        (got - want).abs() < 1e-4 * want.max(1e-3),
+        "{got} vs {want}"
+    );
+    // Straight down the middle the sphere is in the way: the pixel is the sphere, not the plane.
+    let (cx, cy) = (w / 2, h / 2);
+    assert!((v[cy * w + cx][0] as f64 - lookup(ray(cx, cy).0, ray(cx, cy).1)).abs() > 1e-3);
+    // A corner ray misses the 5 × 5 plane: background, the same in every corner.
+    assert_eq!(v[0], v[w - 1]);
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -219,7 +219,7 @@ fn the_config_reference_matches_the_code() {
         }
     }
     // The scene schema, table by table.
-    let base = "order = 2\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.5]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [8, 8]\n[light]\nkind = \"sky\"\n[[light_source]]\nkind = \"quad\"\ncenter = [0, 0, 3]\n";
+    let base = "order = 2\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.5]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [8, 8]\n[light]\nkind = \"sky\"\n[[light_source]]\nkind = \"quad\"\ncenter = [0, 0, 3]\n[camera]\nposition = [0, -5, 4]\nlook_at = [0, 0, 0]\n";
     let expected = |table: &str| -> Vec<String> {
         let text = match table {
             "" => format!("zz_unknown = 1\n{base}"),
@@ -259,9 +259,12 @@ fn the_config_reference_matches_the_code() {
         ("receiver", "receiver."),
         ("light", "light."),
         ("[light_source]", "light_source[i]."),
+        ("camera", "camera."),
     ] {
         let mut schema = expected(table);
-        schema.retain(|k| !["occluder", "receiver", "light", "light_source"].contains(&k.as_str()));
+        schema.retain(|k| {
+            !["occluder", "receiver", "light", "light_source", "camera"].contains(&k.as_str())
+        });
         schema.sort();
         assert_eq!(schema, listed(prefix), "scene table {table:?}");
     }

@@ -258,6 +258,46 @@ impl Kind for Shadows {
                 },
             ],
         )?;
+        // The same comparison seen through the scene's camera (or the default view), as the
+        // papers show it: the plane shaded with each method's irradiance.
+        let cam = scene
+            .camera
+            .unwrap_or_else(|| shscale_lab::camera::Camera::default_for(&scene));
+        let mut views = Vec::new();
+        for (idx, title) in [
+            (0usize, "fully sampled shadow field"),
+            (1, "SH-scaling extrapolation"),
+            (3, "full-frequency ray-traced truth"),
+        ] {
+            let v = shscale_lab::camera::render_camera(&scene, &imgs[idx].1, &cam)?;
+            views.push((title, v));
+        }
+        let vmax = views
+            .iter()
+            .flat_map(|(_, v)| v.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0))
+            .fold(0f32, f32::max) as f64;
+        let [cw, ch] = cam.resolution;
+        shscale_lab::figure::write_png(
+            &ctx.dir.join(format!("shadows_camera_view_{run_id}.png")),
+            &shscale_lab::figure::Grid {
+                title: "the scene through its camera: the receiver plane shaded with each method's irradiance",
+                rows: vec![views
+                    .into_iter()
+                    .map(|(t, v)| shscale_lab::figure::Panel {
+                        title: t.into(),
+                        width: cw,
+                        height: ch,
+                        values: v.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect(),
+                    })
+                    .collect()],
+                x: (0.0, cw as f64, "image x (pixels)"),
+                y: (0.0, ch as f64, "image y (pixels)"),
+                colours: shscale_lab::figure::ColourMap::Grey,
+                range: (0.0, vmax),
+                scale_label: "radiance (scene units)",
+                panel_px: (360, (360 * ch / cw.max(1)) as u32),
+            },
+        )?;
         imgs.iter()
             .map(|(name, img, t)| {
                 Ok(Row {
@@ -356,14 +396,19 @@ per-frame resampling, docs/BENCHMARKS.md).\n\n",
         let Some(r) = (0..t.rows.len()).next() else {
             return Ok(Vec::new());
         };
-        shscale_lab::exp::probe::copy_image(
+        let id = t.cell(r, "run_id");
+        let mut files = shscale_lab::exp::probe::copy_image(
             dir,
-            &format!(
-                "shadows_fullfield_extrapolated_truth_{}",
-                t.cell(r, "run_id")
-            ),
+            &format!("shadows_fullfield_extrapolated_truth_{id}"),
             out,
             stem,
-        )
+        )?;
+        files.extend(shscale_lab::exp::probe::copy_image(
+            dir,
+            &format!("shadows_camera_view_{id}"),
+            out,
+            &format!("{stem}_camera"),
+        )?);
+        Ok(files)
     }
 }

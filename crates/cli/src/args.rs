@@ -293,6 +293,10 @@ pub struct RenderArgs {
     /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
     #[arg(long)]
     pub allow_large: bool,
+    /// Write a camera render instead of the receiver plane: the scene's `[camera]` (or a default
+    /// view) ray-casts the occluders and the plane, the plane shaded with this method's irradiance.
+    #[arg(long, conflicts_with = "frames")]
+    pub camera: bool,
     /// How the stage times (and the reference's error) are printed; `json` for scripts.
     #[arg(long, value_enum, default_value_t = RenderFormat::Text)]
     pub format: RenderFormat,

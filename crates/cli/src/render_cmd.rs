@@ -51,13 +51,27 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let t0 = std::time::Instant::now();
     let img = render(&scene, method)?;
-    let png = shscale_lab::io::write_exr_and_png(
-        &a.out,
-        img.width,
-        img.height,
-        &img.pixels,
-        shscale_lab::io::Png::Preview,
-    )
+    let png = if a.camera {
+        let cam = scene
+            .camera
+            .unwrap_or_else(|| shscale_lab::camera::Camera::default_for(&scene));
+        let view = shscale_lab::camera::render_camera(&scene, &img, &cam)?;
+        shscale_lab::io::write_exr_and_png(
+            &a.out,
+            cam.resolution[0],
+            cam.resolution[1],
+            &view,
+            shscale_lab::io::Png::Preview,
+        )
+    } else {
+        shscale_lab::io::write_exr_and_png(
+            &a.out,
+            img.width,
+            img.height,
+            &img.pixels,
+            shscale_lab::io::Png::Preview,
+        )
+    }
     .context("--out")?;
     let total = t0.elapsed().as_secs_f64();
     // The reference, rendered on the same scene, and the error against it.

@@ -265,6 +265,12 @@ impl MeshBvh {
             .collect()
     }
 
+    /// The unit geometric normal of triangle `i` of the mesh (counter-clockwise winding).
+    pub fn triangle_normal(&self, i: usize) -> DVec3 {
+        let [a, b, c] = self.mesh_tris[i].map(|v| self.positions[v as usize]);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
     /// Closest hit `(t, triangle index in the mesh)` in `(tmin, tmax)`, if any.
     pub fn closest_hit_triangle(
         &self,

@@ -4,6 +4,7 @@
 //! rename). The numerical crates stay free of files and configs.
 
 pub mod bench;
+pub mod camera;
 pub mod exp;
 pub mod figure;
 pub mod gpu_path;

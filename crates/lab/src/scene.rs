@@ -65,6 +65,17 @@ pub struct RawScene {
     pub light: RawLight,
     #[serde(default)]
     pub light_source: Vec<RawLightSource>,
+    pub camera: Option<RawCamera>,
+}
+
+/// `[camera]`: a perspective view for `shscale render --camera` (+z up).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCamera {
+    pub position: [f64; 3],
+    pub look_at: [f64; 3],
+    pub fov_deg: Option<f64>,
+    pub resolution: Option<[usize; 2]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -159,6 +170,8 @@ pub struct Scene {
     pub resolution: [usize; 2],
     pub light: LightSpec,
     pub light_sources: Vec<LightSourceSpec>,
+    /// The `[camera]` table, if any (`render --camera` uses a default view otherwise).
+    pub camera: Option<crate::camera::Camera>,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -205,6 +218,10 @@ pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
     ("light_source[i].radiance", "3 numbers", "`[1, 1, 1]`", "quad: RGB radiance, each [0, 1e12]"),
     ("light_source[i].intensity", "number", "1", "scales the radiance, [0, 1e12], product ≤ 1e12"),
     ("light_source[i].eta", "string", "`plain`", "source-radiance-field scaling: `plain` or `energy`"),
+    ("camera.position", "3 numbers", "(required in `[camera]`)", "`render --camera`: the eye, each within ±1e6 (+z up); without `[camera]` a default view of the receiver plane"),
+    ("camera.look_at", "3 numbers", "(required in `[camera]`)", "the point the camera looks at, not the position"),
+    ("camera.fov_deg", "number", "40", "vertical field of view, degrees, [1, 170]"),
+    ("camera.resolution", "2 integers", "`[480, 320]`", "image width and height, 2..=4096 each"),
 ];
 
 /// The largest |coordinate| (and size) of anything placed in a scene: occluder centres and
@@ -542,7 +559,35 @@ impl Scene {
                 energy,
             });
         }
+        let camera = match &raw.camera {
+            None => None,
+            Some(c) => {
+                let position = coords("camera.position", c.position)?;
+                let look_at = coords("camera.look_at", c.look_at)?;
+                if (look_at - position).length() == 0.0 {
+                    return Err(err(
+                        "camera.look_at",
+                        "must differ from camera.position".into(),
+                    ));
+                }
+                let fov_deg = within("camera.fov_deg", c.fov_deg.unwrap_or(40.0), 1.0, 170.0)?;
+                let resolution = c.resolution.unwrap_or([480, 320]);
+                if !resolution.iter().all(|n| (2..=4096).contains(n)) {
+                    return Err(err(
+                        "camera.resolution",
+                        format!("{resolution:?} must be within 2..=4096 each"),
+                    ));
+                }
+                Some(crate::camera::Camera {
+                    position,
+                    look_at,
+                    fov_deg,
+                    resolution,
+                })
+            }
+        };
         Ok(Self {
+            camera,
             file: file.into(),
             order,
             alpha: alpha_deg.to_radians(),
