@@ -315,7 +315,7 @@ fn draw(
     let png = out.join(format!("{stem}.png"));
     let tmp = out.join(format!(".{stem}.tmp-{pid}.png"));
     paint(
-        BitMapBackend::new(&tmp, (560, 600)).into_drawing_area(),
+        BitMapBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
         pattern,
         structural,
@@ -331,7 +331,7 @@ fn draw(
     let svg = out.join(format!("{stem}.svg"));
     let tmp = out.join(format!(".{stem}.tmp-{pid}.svg"));
     paint(
-        SVGBackend::new(&tmp, (560, 600)).into_drawing_area(),
+        SVGBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
         pattern,
         structural,
@@ -347,7 +347,8 @@ fn draw(
     Ok(vec![png, svg])
 }
 
-/// Draw the pattern grid: black non-zero, grey structural zero, white zero.
+/// Draw the pattern grid: black non-zero, grey structural zero, white zero — with row and
+/// column indices (i = l² + l + m), axis labels and a legend.
 fn paint<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
     n: usize,
@@ -358,37 +359,92 @@ where
     DB::ErrorType: 'static,
 {
     let nn = n * n;
-    area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let (title, body) = area.split_vertically(40);
-    title
-        .titled(
-            &format!("non-zero pattern of M, N = {n} (X non-zero, grey structural zero)"),
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    area.fill(&WHITE).map_err(|x| e(&x))?;
+    let (body, legend) = area.split_vertically(area.dim_in_pixel().1 - 40);
+    let grey = RGBColor(190, 190, 190);
+    let mut chart = ChartBuilder::on(&body)
+        .caption(
+            format!("non-zero pattern of the plain scaling matrix M, order N = {n}"),
             ("sans-serif", 18),
         )
-        .map_err(|e| e.to_string())?;
-    let (w, h) = body.dim_in_pixel();
-    let cell = ((w.min(h) as usize - 20) / nn) as i32;
-    for i in 0..nn {
-        for j in 0..nn {
-            let (x, y) = (10 + j as i32 * cell, 10 + i as i32 * cell);
-            let style = if pattern[i * nn + j] {
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0f64..nn as f64, nn as f64..0f64)
+        .map_err(|x| e(&x))?;
+    let idx = |v: &f64| {
+        let k = v.floor();
+        if (v - k - 0.5).abs() < 1e-9 {
+            format!("{k:.0}")
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("column j: input coefficient, j = l² + l + m")
+        .y_desc("row i: output coefficient, i = l² + l + m")
+        .x_labels(nn * 2 + 1)
+        .y_labels(nn * 2 + 1)
+        .x_label_formatter(&idx)
+        .y_label_formatter(&idx)
+        .label_style(("sans-serif", 11))
+        .draw()
+        .map_err(|x| e(&x))?;
+    chart
+        .draw_series((0..nn * nn).map(|x| {
+            let (i, j) = (x / nn, x % nn);
+            let style = if pattern[x] {
                 BLACK.filled()
             } else if structural(i, j) {
-                RGBColor(190, 190, 190).filled()
+                grey.filled()
             } else {
                 WHITE.filled()
             };
-            body.draw(&Rectangle::new(
-                [(x, y), (x + cell - 2, y + cell - 2)],
+            Rectangle::new(
+                [
+                    (j as f64 + 0.06, i as f64 + 0.06),
+                    (j as f64 + 0.94, i as f64 + 0.94),
+                ],
                 style,
-            ))
-            .map_err(|e| e.to_string())?;
-            body.draw(&Rectangle::new(
-                [(x, y), (x + cell - 2, y + cell - 2)],
+            )
+        }))
+        .map_err(|x| e(&x))?;
+    chart
+        .draw_series((0..nn * nn).map(|x| {
+            let (i, j) = (x / nn, x % nn);
+            Rectangle::new(
+                [
+                    (j as f64 + 0.06, i as f64 + 0.06),
+                    (j as f64 + 0.94, i as f64 + 0.94),
+                ],
                 RGBColor(120, 120, 120).stroke_width(1),
+            )
+        }))
+        .map_err(|x| e(&x))?;
+    let style = ("sans-serif", 13).into_font();
+    for ((x, y), (fill, text)) in [(20, 10), (210, 10), (20, 28)].into_iter().zip([
+        (BLACK, "numerically non-zero"),
+        (grey, "structurally allowed (same m), numerically zero"),
+        (WHITE, "zero by structure (different m)"),
+    ]) {
+        legend
+            .draw(&Rectangle::new(
+                [(x, y - 6), (x + 12, y + 6)],
+                fill.filled(),
             ))
-            .map_err(|e| e.to_string())?;
-        }
+            .map_err(|x| e(&x))?;
+        legend
+            .draw(&Rectangle::new(
+                [(x, y - 6), (x + 12, y + 6)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|x| e(&x))?;
+        legend
+            .draw(&Text::new(text, (x + 18, y - 7), style.clone()))
+            .map_err(|x| e(&x))?;
     }
-    body.present().map_err(|e| e.to_string())
+    body.present().map_err(|x| e(&x))
 }
