@@ -633,3 +633,107 @@ fn a_study_kind_resumes_after_sigkill_and_its_shards_merge_to_the_unsharded_run(
         .exists());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Off a terminal, a long run prints one progress line on stderr at most every 10 s
+/// (`SHSCALE_PROGRESS_EVERY_S` shortens the interval; 0 prints at every finished run).
+#[test]
+fn progress_lines_off_a_terminal() {
+    let d = std::env::temp_dir().join(format!("shscale-progress-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let cfg = d.join("p.toml");
+    std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [2.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [30, 60]\n").unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
+        .args([
+            "run",
+            cfg.to_str().unwrap(),
+            "--out-dir",
+            d.join("r").to_str().unwrap(),
+        ])
+        .env("SHSCALE_PROGRESS_EVERY_S", "0")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("progress: 1/2 runs") && err.contains("progress: 2/2 runs"),
+        "{err}"
+    );
+    // The default interval keeps a short run quiet.
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        d.join("r2").to_str().unwrap(),
+    ]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("progress:"));
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// `--format json` on run, merge and compare: one JSON object on stdout, nothing else there.
+#[test]
+fn run_merge_and_compare_print_json() {
+    let d = std::env::temp_dir().join(format!("shscale-json-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let cfg = d.join("j.toml");
+    std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [2.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [30, 60]\n").unwrap();
+    let out = d.join("r");
+    let v = json(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert_eq!(v["ran"], 2);
+    assert_eq!(v["experiment"], "probe");
+    let files: Vec<String> = v["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        files.iter().any(|f| f.ends_with("report.html")),
+        "{files:?}"
+    );
+    for s in ["0/2", "1/2"] {
+        let o = shscale(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out-dir",
+            d.join("s").to_str().unwrap(),
+            "--shard",
+            s,
+            "--format",
+            "json",
+        ]);
+        assert!(o.status.success());
+    }
+    let m = json(&[
+        "merge",
+        d.join("s/probe/j").to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert_eq!(m["rows"], 2);
+    let c = json(&[
+        "compare",
+        out.join("probe/j").to_str().unwrap(),
+        m["out"].as_str().unwrap(),
+        "--out",
+        d.join("c").to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        c["markdown"]
+            .as_str()
+            .unwrap()
+            .contains("2 matched row group(s)"),
+        "{c}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -77,6 +77,9 @@ pub enum Command {
         /// Where compare.md and the plots go [default: <A>/../compare_<A>_vs_<B>].
         #[arg(long)]
         out: Option<std::path::PathBuf>,
+        /// `json`: the comparison's Markdown and files as one JSON object.
+        #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+        format: TextFormat,
     },
     /// Re-plot any column of a results directory without rerunning: plot_<METRIC>_vs_<X>.png/.svg.
     /// Example: shscale plot results/probe/quickstart --metric occ_rel_l2_mean --x alpha_deg --series radius
@@ -125,6 +128,9 @@ pub struct FigsArgs {
     /// figure is recomputed by this binary.
     #[arg(long, value_name = "DIR")]
     pub runs: Option<std::path::PathBuf>,
+    /// `json`: one JSON object (the files written and the index).
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -136,7 +142,7 @@ pub enum BenchScene {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum RenderFormat {
+pub enum TextFormat {
     Text,
     Json,
 }
@@ -187,6 +193,9 @@ pub struct MergeArgs {
     /// plots. An existing runs.csv there is never overwritten.
     #[arg(long)]
     pub out: Option<std::path::PathBuf>,
+    /// `json`: one JSON object (the merged directory, files, rows, report files).
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
 }
 
 #[derive(Args, Debug)]
@@ -254,6 +263,10 @@ pub struct RunArgs {
     /// nothing.
     #[arg(long)]
     pub dry_run: bool,
+    /// `json`: print one JSON object (the results directory, CSV, counts, files written)
+    /// instead of the log and the summary.
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
     /// Run plans beyond the limits (10^10 rays, 8 GiB per group).
     #[arg(long)]
     pub allow_large: bool,
@@ -298,8 +311,8 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with = "frames")]
     pub camera: bool,
     /// How the stage times (and the reference's error) are printed; `json` for scripts.
-    #[arg(long, value_enum, default_value_t = RenderFormat::Text)]
-    pub format: RenderFormat,
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
 }
 
 #[derive(Args, Debug)]

@@ -45,13 +45,13 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         a.allow_large,
     )?;
     let mut rows = Vec::new();
-    let bar = progress_bar(scenes.len(), "scenes");
+    let bar = crate::output::Progress::new(scenes.len(), "scenes");
     for s in scenes {
         bar.set_message(format!("{s} ({} + {} frames)", a.warmup, a.frames));
         rows.extend(bench_scene(s, a.frames, a.warmup, cpu, ctx.as_ref())?);
-        bar.inc(1);
+        bar.inc();
     }
-    bar.finish_and_clear();
+    bar.finish();
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
@@ -101,34 +101,29 @@ pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
             (d.clone(), Some(TempDir(d)))
         }
     };
-    let bar = progress_bar(count, "figures");
+    let bar = crate::output::Progress::new(count, "figures");
     let files = shscale_experiments::regenerate(&a.configs, &a.out, &runs, Some(mode), |l| {
-        if bar.is_hidden() {
-            println!("  {l}");
-        } else {
-            bar.println(format!("  {l}"));
+        if l.starts_with("warning:") {
+            eprintln!("{l}");
+        } else if a.format != crate::args::TextFormat::Json {
+            bar.println(l);
         }
         if !l.starts_with("warning:") {
-            bar.inc(1);
+            bar.inc();
         }
     })?;
-    bar.finish_and_clear();
+    bar.finish();
+    if a.format == crate::args::TextFormat::Json {
+        crate::output::print_json(&serde_json::json!({
+            "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+            "index": a.out.join("README.md").display().to_string(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "wrote {} file(s); index {}",
         files.len(),
         a.out.join("README.md").display()
     );
     Ok(ExitCode::SUCCESS)
-}
-
-/// A progress bar with ETA on stderr (hidden when stderr is not a terminal).
-fn progress_bar(len: usize, what: &str) -> indicatif::ProgressBar {
-    let b = indicatif::ProgressBar::new(len as u64);
-    b.set_style(
-        indicatif::ProgressStyle::with_template(&format!(
-            "  [{{elapsed_precise}}] {{bar:30}} {{pos}}/{{len}} {what}, ETA {{eta}} {{msg}}"
-        ))
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    b
 }

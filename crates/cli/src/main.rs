@@ -96,7 +96,9 @@ fn main() -> ExitCode {
         Command::Bench(cmd) => bench_cmd::run(cmd),
         Command::Figs(cmd) => bench_cmd::figs(cmd),
         Command::Report { dir } => run_cmd::report(&dir),
-        Command::Compare { a, b, out } => run_cmd::compare(&a, &b, out.as_deref()),
+        Command::Compare { a, b, out, format } => {
+            run_cmd::compare(&a, &b, out.as_deref(), format == args::TextFormat::Json)
+        }
         Command::Plot {
             dir,
             metric,

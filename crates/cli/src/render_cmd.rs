@@ -1,6 +1,6 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{MethodArg, RenderArgs, RenderFormat};
+use crate::args::{MethodArg, RenderArgs, TextFormat};
 use anyhow::{bail, Context};
 use shscale_lab::render::{render, render_sequence, Method};
 use shscale_lab::scene::Scene;
@@ -99,7 +99,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             Some((r, rel, t.elapsed().as_secs_f64()))
         }
     };
-    if a.format == RenderFormat::Json {
+    if a.format == TextFormat::Json {
         let stages: serde_json::Map<String, serde_json::Value> = img
             .stages
             .iter()

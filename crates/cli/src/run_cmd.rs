@@ -46,22 +46,28 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     plan.check_limits(a.allow_large)?;
-    println!(
-        "{}: experiment {:?}, {} run(s){}",
-        config.display(),
-        plan.kind.name(),
-        plan.runs.len(),
-        shard
-            .map(|(i, n)| format!(", shard {i}/{n}"))
-            .unwrap_or_default()
-    );
+    let json = a.format == crate::args::TextFormat::Json;
+    if !json {
+        println!(
+            "{}: experiment {:?}, {} run(s){}",
+            config.display(),
+            plan.kind.name(),
+            plan.runs.len(),
+            shard
+                .map(|(i, n)| format!(", shard {i}/{n}"))
+                .unwrap_or_default()
+        );
+    }
     // A progress bar with ETA over the pending runs (drawn on stderr only when it is a
     // terminal); every finished run is also logged as a line on stdout.
     let bar: std::sync::OnceLock<indicatif::ProgressBar> = std::sync::OnceLock::new();
     let log = |line: &str| match bar.get() {
+        _ if json => {}
         Some(b) if !b.is_hidden() => b.println(format!("  {line}")),
         _ => println!("  {line}"),
     };
+    let start = std::time::Instant::now();
+    let last = std::sync::Mutex::new(start);
     let s = run_plan(&plan, &a.out_dir, shard, &|ev| match ev {
         RunEvent::Begin { total, pending } => {
             log(&format!(
@@ -88,6 +94,17 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
             log(line);
             if let Some(b) = bar.get() {
                 b.inc(1);
+                // Off a terminal: one progress line on stderr at most every 10 s.
+                let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
+                if b.is_hidden() && l.elapsed() >= crate::output::Progress::every() {
+                    *l = std::time::Instant::now();
+                    let (pos, len) = (b.position(), b.length().unwrap_or(0));
+                    let secs = start.elapsed().as_secs_f64();
+                    eprintln!(
+                        "progress: {pos}/{len} runs, {secs:.0} s elapsed, ETA {:.0} s",
+                        secs / pos.max(1) as f64 * len.saturating_sub(pos) as f64
+                    );
+                }
             }
         }
         RunEvent::Warn(line) => eprintln!("warning: {line}"),
@@ -95,7 +112,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(b) = bar.get() {
         b.finish_and_clear();
     }
-    println!(
+    if !json {
+        println!(
         "ran {}, skipped {} already done ({} redone after invalid rows), of {} in this shard → {}",
         s.ran,
         s.already_done,
@@ -103,12 +121,34 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         s.in_shard,
         s.csv.display()
     );
+    }
+    let files = if shard.is_none() {
+        runner::report(plan.kind, &s.dir)?.files
+    } else {
+        Vec::new()
+    };
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "experiment": plan.kind.name(),
+            "name": plan.name,
+            "dir": s.dir.display().to_string(),
+            "csv": s.csv.display().to_string(),
+            "runs_in_shard": s.in_shard,
+            "ran": s.ran,
+            "already_done": s.already_done,
+            "redone": s.redone,
+            "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    for f in &files {
+        println!("  wrote {}", f.display());
+    }
     if shard.is_none() {
-        let r = runner::report(plan.kind, &s.dir)?;
-        for f in &r.files {
-            println!("  wrote {}", f.display());
-        }
-        println!("{}", r.summary);
+        println!(
+            "{}",
+            std::fs::read_to_string(s.dir.join("summary.md")).unwrap_or_default()
+        );
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -116,13 +156,24 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
     let registry = shscale_experiments::registry();
     let m = runner::merge(&a.dirs, a.out.as_deref(), &registry)?;
+    let r = runner::report(m.kind, &m.out)?;
+    if a.format == crate::args::TextFormat::Json {
+        crate::output::print_json(&serde_json::json!({
+            "experiment": m.kind.name(),
+            "out": m.out.display().to_string(),
+            "csv": m.out.join("runs.csv").display().to_string(),
+            "files_merged": m.files,
+            "rows": m.rows,
+            "files": r.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "merged {} file(s), {} row(s) → {}",
         m.files,
         m.rows,
         m.out.join("runs.csv").display()
     );
-    let r = runner::report(m.kind, &m.out)?;
     for f in &r.files {
         println!("  wrote {}", f.display());
     }
@@ -179,6 +230,7 @@ pub fn compare(
     a: &std::path::Path,
     b: &std::path::Path,
     out: Option<&std::path::Path>,
+    json: bool,
 ) -> anyhow::Result<ExitCode> {
     let (ka, kb) = (kind_of_dir(a)?, kind_of_dir(b)?);
     if ka.name() != kb.name() {
@@ -200,6 +252,17 @@ pub fn compare(
             .join(format!("compare_{}_vs_{}", name(a), name(b)))
     });
     let c = shscale_lab::exp::report::compare(ka, a, b, &out)?;
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "experiment": ka.name(),
+            "a": a.display().to_string(),
+            "b": b.display().to_string(),
+            "out": out.display().to_string(),
+            "markdown": c.markdown,
+            "files": c.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     print!("{}", c.markdown);
     for f in &c.files {
         println!("wrote {}", f.display());
