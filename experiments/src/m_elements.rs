@@ -316,7 +316,7 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
                 t.cell(r, "col"),
                 others
                     .iter()
-                    .map(|o| format!(", {o} = {}", t.cell(r, o)))
+                    .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
                     .collect::<String>()
             );
             series

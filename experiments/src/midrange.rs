@@ -262,7 +262,7 @@ impl Kind for MidRange {
         for r in 0..t.rows.len() {
             let label = others
                 .iter()
-                .map(|o| format!(", {o} = {}", t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [
                 ("SH scaling (mid-range τ)", "scaled_rel_err_mean"),

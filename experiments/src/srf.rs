@@ -248,7 +248,7 @@ error of the extrapolated radiance against ray-traced radiance over the sample d
         for r in 0..t.rows.len() {
             let label = varying
                 .iter()
-                .map(|o| format!(", {o} = {}", t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [("plain η", "plain_rel_l2"), ("energy η", "energy_rel_l2")] {
                 series

@@ -50,7 +50,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         return sequence(&a, &scene, method, frames);
     }
     let t0 = std::time::Instant::now();
-    let img = render(&scene, method)?;
+    // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
+    // stderr every 10 s otherwise.
+    let est = rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND;
+    let ticker = Ticker::start(&format!("{:?}", a.method), est);
+    let img = render(&scene, method);
+    ticker.stop();
+    let img = img?;
     let png = if a.camera {
         let cam = scene
             .camera
@@ -273,4 +279,58 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// Liveness of a long render: a spinner with elapsed and estimated seconds on a terminal, a
+/// line on stderr every [`crate::output::Progress::every`] otherwise; silent for short renders.
+struct Ticker {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Ticker {
+    fn start(what: &str, estimate_s: f64) -> Self {
+        use std::io::IsTerminal;
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = stop.clone();
+        let what = what.to_string();
+        let handle = std::thread::spawn(move || {
+            let t0 = std::time::Instant::now();
+            let terminal = std::io::stderr().is_terminal();
+            let spinner = terminal.then(indicatif::ProgressBar::new_spinner);
+            let mut last = t0;
+            while !flag.load(std::sync::atomic::Ordering::Relaxed) {
+                std::thread::sleep(std::time::Duration::from_millis(200));
+                let secs = t0.elapsed().as_secs_f64();
+                let msg = format!(
+                    "rendering {what}: {secs:.0} s elapsed of ≈ {estimate_s:.0} s estimated"
+                );
+                match &spinner {
+                    Some(sp) if secs > 1.0 => {
+                        sp.set_message(msg);
+                        sp.tick();
+                    }
+                    None if last.elapsed() >= crate::output::Progress::every() => {
+                        last = std::time::Instant::now();
+                        eprintln!("progress: {msg}");
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(sp) = spinner {
+                sp.finish_and_clear();
+            }
+        });
+        Self {
+            stop,
+            handle: Some(handle),
+        }
+    }
+
+    fn stop(mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
 }
