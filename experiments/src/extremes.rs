@@ -147,17 +147,7 @@ impl Kind for Extremes {
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
-        let nn = (p.order * p.order) as f64;
-        (
-            Cost::default(),
-            Cost {
-                bytes: nn * nn * 8.0 * 4.0,
-                // Adaptive quadrature: ≈ 1e-6 s per element and panel; extreme k need more panels.
-                seconds: 2.0 * 2e-4 * nn * nn,
-                drivers: format!("order = {} → 2 matrices of {nn}² elements", p.order),
-                ..Cost::default()
-            },
-        )
+        crate::two_matrices_cost(p.order)
     }
 
     fn rows_per_run(_: &Params) -> usize {

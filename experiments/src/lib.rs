@@ -167,6 +167,21 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
     Ok(all)
 }
 
+/// The cost of a run that computes the plain and the energy matrix of one τ at `order` by
+/// adaptive quadrature (≈ 2e-4 s per element at N = 4 here; extreme k need more panels).
+pub(crate) fn two_matrices_cost(order: usize) -> (shscale_lab::exp::Cost, shscale_lab::exp::Cost) {
+    let nn = (order * order) as f64;
+    (
+        shscale_lab::exp::Cost::default(),
+        shscale_lab::exp::Cost {
+            bytes: nn * nn * 8.0 * 4.0,
+            seconds: 2.0 * 2e-4 * nn * nn,
+            drivers: format!("order = {order} → 2 matrices of {nn}² elements"),
+            ..shscale_lab::exp::Cost::default()
+        },
+    )
+}
+
 /// Write `text` to `out/name` atomically and return the path.
 pub(crate) fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, LabError> {
     let p = out.join(name);

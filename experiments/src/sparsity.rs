@@ -127,17 +127,7 @@ impl Kind for Sparsity {
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
-        let nn = (p.order * p.order) as f64;
-        (
-            Cost::default(),
-            Cost {
-                bytes: nn * nn * 8.0 * 4.0,
-                // Two matrices by adaptive quadrature: ≈ 3 ms each at N = 4 here.
-                seconds: 2.0 * 2e-4 * nn * nn,
-                drivers: format!("order = {} → 2 matrices of {nn}² elements", p.order),
-                ..Cost::default()
-            },
-        )
+        crate::two_matrices_cost(p.order)
     }
 
     fn rows_per_run(_: &Params) -> usize {

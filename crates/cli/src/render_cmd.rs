@@ -70,13 +70,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             shscale_lab::io::Png::Preview,
         )
     } else {
-        shscale_lab::io::write_exr_and_png(
-            &a.out,
-            img.width,
-            img.height,
-            &img.pixels,
-            shscale_lab::io::Png::Preview,
-        )
+        write_image(&a.out, &img)
     }
     .context("--out")?;
     let total = t0.elapsed().as_secs_f64();
@@ -184,14 +178,7 @@ fn sequence(
         return gpu_sequence(a, scene, frames);
     }
     let (img, stats) = render_sequence(scene, frames)?;
-    let png = shscale_lab::io::write_exr_and_png(
-        &a.out,
-        img.width,
-        img.height,
-        &img.pixels,
-        shscale_lab::io::Png::Preview,
-    )
-    .context("--out")?;
+    let png = write_image(&a.out, &img).context("--out")?;
     println!(
         "sequence {} ({}×{} receivers, {} occluder(s), {frames} frames, {} threads)",
         a.scene.display(),
@@ -235,14 +222,7 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
     let run = render_sequence_gpu(scene, frames, &ctx)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
-    let png = shscale_lab::io::write_exr_and_png(
-        &a.out,
-        img.width,
-        img.height,
-        &img.pixels,
-        shscale_lab::io::Png::Preview,
-    )
-    .context("--out")?;
+    let png = write_image(&a.out, &img).context("--out")?;
     println!(
         "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),
@@ -333,4 +313,18 @@ impl Ticker {
             let _ = h.join();
         }
     }
+}
+
+/// A rendered receiver plane as EXR + PNG preview, written as a unit; the PNG's path.
+fn write_image(
+    out: &std::path::Path,
+    img: &shscale_lab::render::RenderOutput,
+) -> Result<std::path::PathBuf, shscale_lab::LabError> {
+    shscale_lab::io::write_exr_and_png(
+        out,
+        img.width,
+        img.height,
+        &img.pixels,
+        shscale_lab::io::Png::Preview,
+    )
 }
