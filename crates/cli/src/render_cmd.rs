@@ -222,7 +222,7 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
     let run = render_sequence_gpu(scene, frames, &ctx)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
-    let png = write_image(&a.out, &img).context("--out")?;
+    let png = write_image(&a.out, img).context("--out")?;
     println!(
         "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),
