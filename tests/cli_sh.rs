@@ -205,3 +205,15 @@ fn version_and_completions() {
     }
     fails(&["completions", "tcsh"], "tcsh");
 }
+
+/// `demo --format json`: the same tables and checks as the text, as one JSON object.
+#[test]
+fn demo_prints_json() {
+    let v = json(&["demo", "--order", "8", "--format", "json"]);
+    assert_eq!(v["operator_accuracy"].as_array().unwrap().len(), 5);
+    assert_eq!(v["on_surface"].as_array().unwrap().len(), 5);
+    for c in v["identities"].as_array().unwrap() {
+        assert_eq!(c["ok"], true, "{c}");
+    }
+    assert!(v["failures"].as_array().unwrap().is_empty());
+}

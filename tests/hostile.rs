@@ -1249,3 +1249,28 @@ mod vectors {
         }
     }
 }
+
+/// A reader that closes the pipe early (`shscale demo | head -c 100`) ends the process quietly:
+/// no panic message, killed by SIGPIPE like any Unix tool.
+#[test]
+fn a_closed_pipe_is_not_a_panic() {
+    use std::io::Read;
+    for args in [
+        &["demo"][..],
+        &["config-reference"][..],
+        &["sh", "eval", "--order", "100", "--dir", "0,0,1"][..],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = [0u8; 16];
+        child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+        // The read end is dropped here: further writes hit a closed pipe.
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}

@@ -494,6 +494,9 @@ pub struct DemoArgs {
     /// Cone half-angle α in degrees.
     #[arg(long, default_value_t = 45.0)]
     pub alpha_deg: f64,
+    /// `json`: the tables and checks as one JSON object.
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
 }
 
 /// Small helpers on [`Format`].

@@ -33,6 +33,12 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     if !(a.alpha_deg > 0.0 && a.alpha_deg < 90.0) {
         bail!("--alpha-deg: {} is outside (0, 90)", a.alpha_deg);
     }
+    let json = a.format == crate::args::TextFormat::Json;
+    let say = |line: String| {
+        if !json {
+            println!("{line}");
+        }
+    };
     let alpha = a.alpha_deg.to_radians();
     let t0 = Instant::now();
     let mut failures = Vec::new();
@@ -41,23 +47,22 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .into_iter()
         .filter(|&n| n <= a.order)
         .collect();
-
-    println!(
-        "shscale demo — cone model α = {}°, radii k = d/r of the papers' Fig. 5",
+    say(format!(
+        "shscale demo — cone model α = {}°, radii k = d/r of the papers' Fig. 5\n",
         a.alpha_deg
-    );
-    println!();
-    println!("1. Operator accuracy: ‖M_k·cap(40°) − cap(τ_k⁻¹(40°))‖₂ / ‖cap(τ_k⁻¹(40°))‖₂ (band-limiting only)");
-    print!("{:>6}", "k");
+    ));
+    say("1. Operator accuracy: ‖M_k·cap(40°) − cap(τ_k⁻¹(40°))‖₂ / ‖cap(τ_k⁻¹(40°))‖₂ (band-limiting only)".into());
+    let mut head = format!("{:>6}", "k");
     for n in &orders {
-        print!("  {:>10}", format!("N={n}"));
+        head.push_str(&format!("  {:>10}", format!("N={n}")));
     }
-    println!();
+    say(head);
     let cap_angle = 40f64.to_radians();
+    let mut operator = Vec::new();
     for &k in &radii {
         let tau = Cone::new(k, alpha)?;
         let target = tau.inverse(cap_angle);
-        print!("{k:>6}");
+        let mut line = format!("{k:>6}");
         let mut errs = Vec::new();
         for &n in &orders {
             let m = ScalingMatrix::compute(&tau, Eta::Plain, n)?;
@@ -67,22 +72,23 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             m.apply(&src, &mut got)?;
             let e = l2(&got, &want) / l2(&want, &vec![0.0; n * n]);
             errs.push(e);
-            print!("  {e:>10.3e}");
+            line.push_str(&format!("  {e:>10.3e}"));
         }
-        println!();
+        say(line);
         if errs.len() >= 2 && errs[errs.len() - 1] >= errs[0] {
             failures.push(format!(
                 "operator error does not decrease with N at k = {k}: {errs:?}"
             ));
         }
+        operator.push(serde_json::json!({"k": k, "orders": orders, "relative_error": errs}));
     }
-
-    println!();
-    println!("2. On-surface failure case: solid sphere, samples on its surface (visibility = half sphere)");
-    println!(
+    say(String::new());
+    say("2. On-surface failure case: solid sphere, samples on its surface (visibility = half sphere)".into());
+    say(format!(
         "{:>6}  {:>14}  {:>16}  {:>12}",
         "k", "true cap angle", "cone prediction", "occ_rel_l2 N=4"
-    );
+    ));
+    let mut on_surface = Vec::new();
     for &k in &[1.05, 1.3, 2.0, 4.0, 8.0] {
         let tau = Cone::new(k, alpha)?;
         let truth = (1.0 / k).asin();
@@ -96,15 +102,20 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         // M maps the constant to itself, so M·(1 − cap) = 1 − M·cap.
         m.apply(&src, &mut got)?;
         let occ = l2(&got, &want) / l2(&want, &vec![0.0; n * n]);
-        println!(
+        say(format!(
             "{k:>6}  {:>13.3}°  {:>15.3}°  {occ:>12.3e}",
             truth.to_degrees(),
             predicted.to_degrees()
-        );
+        ));
+        on_surface.push(serde_json::json!({
+            "k": k,
+            "true_cap_deg": truth.to_degrees(),
+            "cone_prediction_deg": predicted.to_degrees(),
+            "occ_rel_l2": occ,
+        }));
     }
-
-    println!();
-    println!("3. Identities");
+    say(String::new());
+    say("3. Identities".into());
     let n = a.order.min(16);
     let m1 = ScalingMatrix::compute(&Cone::new(1.0, alpha)?, Eta::Plain, n)?;
     let e_id = m1.max_abs_diff(&ScalingMatrix::identity(n)?);
@@ -129,6 +140,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .map(|(i, j)| (gram[i * n * n + j] - if i == j { 1.0 } else { 0.0 }).abs())
         .fold(0.0f64, f64::max);
     const TOL: f64 = 1e-12;
+    let mut identities = Vec::new();
     for (name, e) in [
         ("M at k = 1 equals I", e_id),
         (
@@ -138,16 +150,29 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         ("SH orthonormal on the exact quadrature", e_orth),
     ] {
         let ok = e < TOL;
-        println!(
+        say(format!(
             "  [{}] {name} (order {n}): max error {e:.2e} (tolerance {TOL:e})",
             if ok { "ok" } else { "FAIL" }
-        );
+        ));
         if !ok {
             failures.push(format!("{name}: {e:e}"));
         }
+        identities.push(serde_json::json!({"check": name, "order": n, "max_error": e, "tolerance": TOL, "ok": ok}));
     }
-    println!();
-    println!("done in {:.2} s", t0.elapsed().as_secs_f64());
+    let secs = t0.elapsed().as_secs_f64();
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "alpha_deg": a.alpha_deg,
+            "operator_accuracy": operator,
+            "on_surface": on_surface,
+            "identities": identities,
+            "seconds": secs,
+            "failures": failures,
+        }))?;
+    } else {
+        println!();
+        println!("done in {secs:.2} s");
+    }
     if failures.is_empty() {
         Ok(ExitCode::SUCCESS)
     } else {

@@ -37,6 +37,13 @@ fn quiet_mesa() {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`shscale demo | head`) ends the process quietly, as it does any Unix
+    // tool, instead of a panic in println!.
+    #[cfg(unix)]
+    // SAFETY: resetting a signal's disposition to the default before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     quiet_mesa();
     // Negative numbers are values (`--order -1`, `--radii -1`), refused by the flag's own check.
     fn negatives(c: clap::Command) -> clap::Command {
