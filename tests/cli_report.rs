@@ -85,18 +85,37 @@ fn every_run_writes_a_report_that_renders_in_a_browser() {
         eprintln!("notice: no chromium: the report's browser check is skipped (install Debian's chromium, as .ci/run does)");
         return;
     };
-    let o = std::process::Command::new(&chromium)
+    // Headless, sandbox off (CI runs as root), /dev/shm not needed; killed after 120 s.
+    let mut child = std::process::Command::new(&chromium)
         .args([
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
+            "--disable-dev-shm-usage",
             "--virtual-time-budget=5000",
             "--dump-dom",
         ])
         .arg(format!("file://{}", dir.join("report.html").display()))
-        .output()
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
         .expect("chromium runs");
-    let dom = String::from_utf8_lossy(&o.stdout);
+    // Read the DOM while it is written (it is larger than a pipe's buffer).
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
+        s
+    });
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > std::time::Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("{chromium:?} did not finish within 120 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let dom = reader.join().unwrap();
     let want = format!("figures: {svgs} of {svgs} rendered, 0 script errors");
     assert!(
         dom.contains(&want),
