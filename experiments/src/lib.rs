@@ -141,8 +141,7 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
         if let Some(c) = claim {
             index.push_str(&format!("**Paper.** {}\n\n", c.trim()));
         }
-        let _ = report;
-        index.push_str(plan.kind.discussion(&table)?.trim_end());
+        index.push_str(report.discussion.trim_end());
         index.push_str("\n\nFiles: ");
         let names: Vec<String> = files
             .iter()

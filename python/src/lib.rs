@@ -11,8 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use shscale_field::{Frame, Layout, VisibilitySampler};
 use shscale_geometry::DVec3;
-use shscale_lab::exp::probe::{Probe, ProbeParams};
-use shscale_lab::exp::Kind;
+use shscale_lab::exp::probe::ProbeParams;
 use shscale_scaling::{Eta, KTable, ScalingMatrix, TauFamily};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -150,21 +149,7 @@ fn sh_rotate<'py>(
 }
 
 fn family(tau: &str, alpha_deg: f64) -> PyResult<TauFamily> {
-    match tau {
-        "cone" => {
-            if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
-                return Err(bad("alpha_deg", format!("{alpha_deg} is outside (0, 90)")));
-            }
-            Ok(TauFamily::Cone {
-                alpha: alpha_deg.to_radians(),
-            })
-        }
-        "midrange" => Ok(TauFamily::MidRange),
-        other => Err(bad(
-            "tau",
-            format!("{other:?} is not \"cone\" or \"midrange\""),
-        )),
-    }
+    shscale_lab::vocab::tau_family(tau, alpha_deg).map_err(|e| bad(&e.key, e.message))
 }
 
 fn eta(energy: bool) -> Eta {
@@ -301,7 +286,7 @@ fn ktable(
     })
 }
 
-const MAX_VISIBILITY_RES: usize = 1024;
+use shscale_lab::vocab::MAX_VISIBILITY_RES;
 
 /// `(P, N²)` ray-traced visibility (1 = unoccluded) over the full sphere at each point.
 #[pyfunction]
@@ -334,25 +319,8 @@ fn visibility<'py>(
         };
         let pts = rows3("points", &points)?;
         let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
-        let b = occ.bounding_sphere();
-        for (i, p) in pts.iter().enumerate() {
-            let far = (*p - b.center).length() / b.radius;
-            if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
-                return Err(bad(
-                    "points",
-                    format!(
-                        "row {i} is {far:.3e} bounding radii from {mesh}, more than {:e}",
-                        shscale_geometry::ray::MAX_QUERY_DISTANCE
-                    ),
-                ));
-            }
-            if frame == Frame::Local && (*p - b.center).length() == 0.0 {
-                return Err(bad(
-                    "points",
-                    format!("row {i}: the local frame is undefined at the bounding-sphere centre"),
-                ));
-            }
-        }
+        shscale_lab::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)
+            .map_err(|m| bad("points", m))?;
         let sampler = VisibilitySampler::new(order, hemisphere_res).map_err(|e| bad("order", e))?;
         let nn = order * order;
         let values: Vec<f64> = py.allow_threads(|| {
@@ -437,20 +405,13 @@ fn probe<'py>(
             radii,
             ..ProbeParams::default()
         };
-        <Probe as Kind>::validate(&params)
-            .map_err(|e| bad(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
-        let (shared, run) = <Probe as Kind>::cost(&params);
-        shscale_lab::limits::check_work(
-            "probe",
-            shared.rays + run.rays,
-            shared.bytes.max(run.bytes),
-            &shared.drivers,
-            allow_large,
-        )
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let spec = params
-            .spec()
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let spec = params.checked_spec(allow_large).map_err(|e| {
+            if e.key.is_empty() {
+                PyValueError::new_err(e.message)
+            } else {
+                bad(&e.key, e.message)
+            }
+        })?;
         let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
         let analytic = (mesh == "sphere").then(|| shscale_geometry::AnalyticSphere::unit().sphere);
         let res = py

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 /// Largest hemisphere resolution accepted (2H² rays; 1024 gives 2M rays).
-const MAX_H: usize = 1024;
+use shscale_lab::vocab::MAX_VISIBILITY_RES as MAX_H;
 
 /// The analytic unit sphere, or a mesh (procedural, bundled or a path) behind a BVH, in its own
 /// coordinates — the one vocabulary of `shscale_lab::vocab`.
@@ -115,21 +115,14 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
     }
     let p = DVec3::new(p[0], p[1], p[2]);
     let occ = occluder(&a.mesh)?;
-    let b = occ.bounding_sphere();
-    let far = (p - b.center).length() / b.radius;
-    if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
-        bail!(
-            "--point: ({:e}, {:e}, {:e}) is {far:.3e} bounding radii from {}, more than {:e}, the farthest a query keeps its precision",
-            p.x,
-            p.y,
-            p.z,
-            a.mesh,
-            shscale_geometry::ray::MAX_QUERY_DISTANCE
-        );
-    }
-    if a.frame == FrameArg::Local && (occ.bounding_sphere().center - p).length() == 0.0 {
-        bail!("--point: the local frame is undefined at the bounding-sphere centre {p}");
-    }
+    shscale_lab::vocab::check_query_points(occ.as_ref(), &a.mesh, &[p], a.frame == FrameArg::Local)
+        .map_err(|m| {
+            anyhow::anyhow!(
+                "--point: {}",
+                m.trim_start_matches("point 0 ")
+                    .trim_start_matches("point 0: ")
+            )
+        })?;
     let sampler = VisibilitySampler::new(a.order, a.hemisphere_res)?;
     let frame = match a.frame {
         FrameArg::Entity => Frame::Entity,

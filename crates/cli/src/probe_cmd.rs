@@ -7,8 +7,7 @@ use anyhow::anyhow;
 use serde::Serialize;
 use shscale_field::probe::{probe, ProbeRow};
 use shscale_geometry::AnalyticSphere;
-use shscale_lab::exp::probe::{Probe, ProbeParams};
-use shscale_lab::exp::Kind;
+use shscale_lab::exp::probe::ProbeParams;
 use std::process::ExitCode;
 
 #[derive(Serialize)]
@@ -94,19 +93,13 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
         radii: parse_list("radii", &a.radii)?,
         ..ProbeParams::default()
     };
-    <Probe as Kind>::validate(&params).map_err(|e| {
-        let key = e.key.split('[').next().unwrap_or(&e.key).replace('_', "-");
-        anyhow!("--{key}: {}", e.message)
+    let spec = params.checked_spec(a.allow_large).map_err(|e| {
+        if e.key.is_empty() {
+            anyhow!("{}", e.message)
+        } else {
+            anyhow!("--{}: {}", e.key.replace('_', "-"), e.message)
+        }
     })?;
-    let (shared, run) = <Probe as Kind>::cost(&params);
-    shscale_lab::limits::check_work(
-        "probe",
-        shared.rays + run.rays,
-        shared.bytes.max(run.bytes),
-        &shared.drivers,
-        a.allow_large,
-    )?;
-    let spec = params.spec()?;
     let occ = occluder(&a.mesh)?;
     let analytic = (a.mesh == "sphere").then(|| AnalyticSphere::unit().sphere);
     let res = probe(occ.as_ref(), analytic, &spec)?;

@@ -5,7 +5,7 @@
 //! diffuse shading under the light's dominant direction (the sun, or +z for a map), on the same
 //! exposure. Rays that hit nothing show a flat grey background.
 
-use crate::render::{build_occluder, placed_mesh, RenderOutput};
+use crate::render::{placed_mesh, RenderOutput};
 use crate::scene::Scene;
 use crate::LabError;
 use glam::DVec3;
@@ -59,7 +59,6 @@ pub fn render_camera(
                     radius: o.radius,
                 })
             } else {
-                let _ = build_occluder; // the same placement as the renders
                 Shape::Mesh(Box::new(MeshBvh::build(
                     &placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?,
                     UpdateStrategy::Rebuild,

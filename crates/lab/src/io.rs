@@ -9,7 +9,8 @@
 use crate::LabError;
 use std::path::{Path, PathBuf};
 
-fn tmp_path(path: &Path) -> PathBuf {
+/// The temporary beside `path` that atomic writes go through: `.<name>.tmp-<pid>`.
+pub fn tmp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_string())

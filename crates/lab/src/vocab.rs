@@ -85,35 +85,75 @@ pub fn unit_occluder(name: &str) -> Result<UnitOccluder, LabError> {
 /// [`shscale_field::probe::k_range`], re-exported so every caller finds it here.
 pub use shscale_field::probe::k_range;
 
-/// The angular scaling function τ named in a config (`tau = "cone" | "midrange"`): the cone
-/// approximation at k = d/r > 0 with half-angle `alpha_deg` in (0, 90), or mid-range lighting at
-/// k = d/R in (−1, 1) (α unused). Errors name the key at fault.
-pub fn scaling_tau(
+/// The family of angular scaling functions named in a config (`tau = "cone" | "midrange"`): the
+/// cone approximation with half-angle `alpha_deg` in (0, 90), or mid-range lighting (α unused).
+/// Errors name the key at fault.
+pub fn tau_family(
     tau: &str,
-    k: f64,
     alpha_deg: f64,
-) -> Result<Box<dyn shscale_scaling::AngularScaling>, crate::exp::KeyError> {
+) -> Result<shscale_scaling::TauFamily, crate::exp::KeyError> {
     use crate::exp::KeyError;
     match tau {
-        "cone" => {
-            if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
-                return Err(KeyError::new(
-                    "alpha_deg",
-                    format!("{alpha_deg} is outside (0, 90)"),
-                ));
-            }
-            shscale_scaling::Cone::new(k, alpha_deg.to_radians())
-                .map(|t| Box::new(t) as Box<dyn shscale_scaling::AngularScaling>)
-                .map_err(|e| KeyError::new("k", e.to_string()))
-        }
-        "midrange" => shscale_scaling::MidRange::new(k)
-            .map(|t| Box::new(t) as Box<dyn shscale_scaling::AngularScaling>)
-            .map_err(|e| KeyError::new("k", e.to_string())),
+        "cone" if !(alpha_deg > 0.0 && alpha_deg < 90.0) => Err(KeyError::new(
+            "alpha_deg",
+            format!("{alpha_deg} is outside (0, 90)"),
+        )),
+        "cone" => Ok(shscale_scaling::TauFamily::Cone {
+            alpha: alpha_deg.to_radians(),
+        }),
+        "midrange" => Ok(shscale_scaling::TauFamily::MidRange),
         other => Err(KeyError::new(
             "tau",
             format!("{other:?} is not cone or midrange"),
         )),
     }
+}
+
+/// The angular scaling function τ of [`tau_family`] at k (k = d/r > 0 for the cone, k = d/R
+/// in (−1, 1) for mid-range lighting). Errors name the key at fault.
+pub fn scaling_tau(
+    tau: &str,
+    k: f64,
+    alpha_deg: f64,
+) -> Result<Box<dyn shscale_scaling::AngularScaling>, crate::exp::KeyError> {
+    tau_family(tau, alpha_deg)?
+        .at(k)
+        .map_err(|e| crate::exp::KeyError::new("k", e.to_string()))
+}
+
+/// The largest hemisphere resolution of a single-point visibility query (`shscale visibility`,
+/// Python `visibility`): 2·1024² rays per point.
+pub const MAX_VISIBILITY_RES: usize = 1024;
+
+/// Check query points against an occluder: each within
+/// [`shscale_geometry::ray::MAX_QUERY_DISTANCE`] bounding radii (beyond it the ray tracer loses
+/// its precision), and — for the `local` frame — not at the bounding-sphere centre, where the
+/// frame is undefined. The error names the point by its index.
+pub fn check_query_points(
+    occ: &dyn Occluder,
+    name: &str,
+    points: &[glam::DVec3],
+    local_frame: bool,
+) -> Result<(), String> {
+    let b = occ.bounding_sphere();
+    for (i, p) in points.iter().enumerate() {
+        let far = (*p - b.center).length() / b.radius;
+        if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
+            return Err(format!(
+                "point {i} ({:e}, {:e}, {:e}) is {far:.3e} bounding radii from {name}, more than {:e}, the farthest a query keeps its precision",
+                p.x,
+                p.y,
+                p.z,
+                shscale_geometry::ray::MAX_QUERY_DISTANCE
+            ));
+        }
+        if local_frame && (*p - b.center).length() == 0.0 {
+            return Err(format!(
+                "point {i}: the local frame is undefined at the bounding-sphere centre"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `plain` or `energy`: the name of η in configs and CSV columns.

@@ -88,6 +88,25 @@ pub fn parse_interp(s: &str) -> Result<Interp, String> {
 }
 
 impl ProbeParams {
+    /// Validate (the kind's bounds), check the estimated work against the limits unless
+    /// `allow_large`, and give the field crate's spec: what `shscale probe` and the Python
+    /// `probe` do before any work. A bad parameter comes back as a [`KeyError`] naming it (the
+    /// key without an index: `radii`, not `radii[2]`); a plan over the limits as its message.
+    pub fn checked_spec(&self, allow_large: bool) -> Result<ProbeSpec, KeyError> {
+        <Probe as Kind>::validate(self)
+            .map_err(|e| KeyError::new(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
+        let (shared, run) = <Probe as Kind>::cost(self);
+        crate::limits::check_work(
+            "probe",
+            shared.rays + run.rays,
+            shared.bytes.max(run.bytes),
+            &shared.drivers,
+            allow_large,
+        )
+        .map_err(|e| KeyError::new("", e.to_string()))?;
+        self.spec().map_err(|e| KeyError::new("", e.to_string()))
+    }
+
     /// The field crate's spec (parameters already validated).
     pub fn spec(&self) -> Result<ProbeSpec, LabError> {
         let c = |m: String| LabError::Config(m);

@@ -455,13 +455,7 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), LabError> {
 /// the temporaries not yet renamed. A directory at a target is refused before anything is
 /// written.
 pub fn write_atomic_all(files: &[(&Path, &str)]) -> Result<(), LabError> {
-    let tmp_of = |path: &Path| {
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default();
-        path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
-    };
+    let tmp_of = crate::io::tmp_path;
     if let Some((p, _)) = files.iter().find(|(p, _)| p.is_dir()) {
         return Err(io_err(p, "is a directory"));
     }
@@ -875,9 +869,10 @@ pub fn run_plan(
     Ok(summary)
 }
 
-/// What [`report`] wrote: the summary text and files.
+/// What [`report`] wrote: the summary text, the kind's discussion in it, and the files.
 pub struct Report {
     pub summary: String,
+    pub discussion: String,
     pub files: Vec<PathBuf>,
 }
 
@@ -953,7 +948,11 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, LabError> {
     let mut files = vec![p];
     files.extend(super::report::write_report(dir, &s, &figures)?);
     files.extend(figures);
-    Ok(Report { summary: s, files })
+    Ok(Report {
+        summary: s,
+        discussion,
+        files,
+    })
 }
 
 /// `title` and `claim` of the newest config version in `dir/manifest.toml`.
