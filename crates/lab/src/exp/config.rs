@@ -340,6 +340,19 @@ impl Expanded {
     }
 }
 
+/// `key=value` of a `--set` or `--sweep` flag, or an error at that flag saying what it expected.
+fn key_value<'a>(
+    s: &'a str,
+    flag: &Place,
+    expected: &str,
+) -> Result<(&'a str, &'a str), ConfigError> {
+    s.split_once('=').ok_or_else(|| ConfigError {
+        place: flag.clone(),
+        key: s.to_string(),
+        message: format!("expected {expected}"),
+    })
+}
+
 /// Read the config `text` of `file`, apply `ov`, split the runner's keys and expand the sweep.
 pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, ConfigError> {
     let source = Source::new(file, text);
@@ -369,11 +382,7 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
     let mut set_places = Vec::new();
     for s in &ov.set {
         let flag = Place::Flag(format!("--set {s}"));
-        let (k, v) = s.split_once('=').ok_or_else(|| ConfigError {
-            place: flag.clone(),
-            key: s.clone(),
-            message: "expected key=value".into(),
-        })?;
+        let (k, v) = key_value(s, &flag, "key=value")?;
         let path = parse_path(k.trim());
         set_path(&mut doc, &path, cli_value(v)).map_err(|m| ConfigError {
             place: flag.clone(),
@@ -385,11 +394,7 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
     let mut sweep_flag_places = Vec::new();
     for s in &ov.sweep {
         let flag = Place::Flag(format!("--sweep {s}"));
-        let (k, v) = s.split_once('=').ok_or_else(|| ConfigError {
-            place: flag.clone(),
-            key: s.clone(),
-            message: "expected key=v1,v2,…".into(),
-        })?;
+        let (k, v) = key_value(s, &flag, "key=v1,v2,…")?;
         let values: Vec<toml::Value> = split_top(v).iter().map(|x| cli_value(x)).collect();
         // With `[[sweep]]` blocks the axis is added to (or replaced in) every block.
         let roots: Vec<KeyPath> = match doc.get("sweep") {
