@@ -155,7 +155,12 @@ pub enum BenchFormat {
 }
 
 #[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct BenchArgs {
+    /// One kernel timed the way the peers are (Embree, sphericart): rays, bsv or sh. Without
+    /// one, the Table 1 reproduction below.
+    #[command(subcommand)]
+    pub kernel: Option<BenchKernel>,
     /// Also run the GPU path (without an adapter: a one-line notice, the CPU path goes on).
     #[arg(long)]
     pub gpu: bool,
@@ -182,6 +187,104 @@ pub struct BenchArgs {
     /// Run even when the estimated work exceeds 1e10 rays (docs/limits.md).
     #[arg(long)]
     pub allow_large: bool,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum BenchKernel {
+    /// Occlusion throughput of the BVH on the BSV workload, random rays or a peers' ray file.
+    /// Example: shscale bench rays --mesh bunny --workload random --threads 1 --format json
+    Rays(BenchRaysArgs),
+    /// The whole BSV sampling (rays and SH projection) of one mesh.
+    /// Example: shscale bench bsv --mesh bunny --hemisphere-res 32 --order 4 --threads 2
+    Bsv(BenchBsvArgs),
+    /// All N² real SH at P random directions, one thread.
+    /// Example: shscale bench sh --order 8 --precision f32 --format json
+    Sh(BenchShArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Workload {
+    /// 12×20 samples on the minimal bounding sphere × 32² rays toward the centre.
+    Bsv,
+    /// 10⁶ rays, origins uniform in the doubled bounding box, directions uniform.
+    Random,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+/// Flags every kernel benchmark shares.
+#[derive(Args, Debug)]
+pub struct KernelCommon {
+    /// `json`: one JSON object.
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
+    /// Keep repeating until the timed calls add up to this many seconds (0 < S ≤ 600).
+    #[arg(long, default_value_t = 1.0)]
+    pub min_time: f64,
+    /// Warm-up calls, run and dropped.
+    #[arg(long, default_value_t = 2, value_parser = whole)]
+    pub warmup: usize,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchRaysArgs {
+    /// A mesh name or OBJ/PLY file (not the analytic sphere).
+    #[arg(long, default_value = "bunny")]
+    pub mesh: String,
+    #[arg(long, value_enum, default_value_t = Workload::Bsv)]
+    pub workload: Workload,
+    /// Rays for the random workload.
+    #[arg(long, default_value_t = 1_000_000, value_parser = whole)]
+    pub count: usize,
+    /// Trace the rays of a peers' file instead (`<mesh>_{A,B}.rays.f32`; t from 0).
+    #[arg(long, conflicts_with_all = ["workload", "count"])]
+    pub rays: Option<std::path::PathBuf>,
+    /// With --rays: Embree's answers (`.hits.bits`), to count disagreements.
+    #[arg(long, requires = "rays")]
+    pub hits: Option<std::path::PathBuf>,
+    /// Worker threads (1 = the calling thread's pool of one).
+    #[arg(long, default_value_t = 1, value_parser = whole)]
+    pub threads: usize,
+    #[command(flatten)]
+    pub common: KernelCommon,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchBsvArgs {
+    /// A mesh name or OBJ/PLY file (not the analytic sphere).
+    #[arg(long, default_value = "bunny")]
+    pub mesh: String,
+    /// Base-sphere layout: latlong:RxC, cube:N or fib:P.
+    #[arg(long, default_value = "latlong:12x20")]
+    pub layout: String,
+    /// Hemisphere resolution H (H² rays per sample).
+    #[arg(long, default_value_t = 32, value_parser = whole)]
+    pub hemisphere_res: usize,
+    /// SH order N.
+    #[arg(long, default_value_t = 4, value_parser = whole)]
+    pub order: usize,
+    #[arg(long, default_value_t = 2, value_parser = whole)]
+    pub threads: usize,
+    #[command(flatten)]
+    pub common: KernelCommon,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchShArgs {
+    /// SH order N (l_max = N − 1).
+    #[arg(long, default_value_t = 8, value_parser = whole)]
+    pub order: usize,
+    #[arg(long, value_enum, default_value_t = Precision::F64)]
+    pub precision: Precision,
+    /// Directions (the output holds points × N² values).
+    #[arg(long, default_value_t = 1_000_000, value_parser = whole)]
+    pub points: usize,
+    #[command(flatten)]
+    pub common: KernelCommon,
 }
 
 #[derive(Args, Debug)]

@@ -2,12 +2,19 @@
 //! or JSON, with the machine in a header line; `shscale figs`: the papers' figures
 //! (experiments/).
 
-use crate::args::{BenchArgs, BenchFormat, BenchScene, FigsArgs};
+use crate::args::{
+    BenchArgs, BenchFormat, BenchKernel, BenchScene, FigsArgs, KernelCommon, Precision,
+    TextFormat, Workload,
+};
+use shscale_lab::kernels::{self, Protocol, RaySet};
 use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
 use shscale_lab::gpu_path::{open_gpu, GpuMode};
 use std::process::ExitCode;
 
 pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
+    if let Some(k) = a.kernel {
+        return kernel(k);
+    }
     let mode = match (a.gpu, a.require_gpu) {
         (false, _) => GpuMode::Off,
         (true, false) => GpuMode::Auto,
@@ -125,5 +132,136 @@ pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
         files.len(),
         a.out.join("README.md").display()
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The most rays, points or threads a kernel benchmark accepts without --allow-large-like
+/// flags: beyond these a run takes minutes or gigabytes.
+const MAX_KERNEL_RAYS: usize = 100_000_000;
+const MAX_THREADS: usize = 1024;
+
+fn protocol(c: &KernelCommon) -> anyhow::Result<Protocol> {
+    if !(c.min_time.is_finite() && c.min_time > 0.0 && c.min_time <= 600.0) {
+        anyhow::bail!("--min-time: {} is outside (0, 600] seconds", c.min_time);
+    }
+    if c.warmup > 100 {
+        anyhow::bail!("--warmup: {} is more than the limit 100", c.warmup);
+    }
+    Ok(Protocol {
+        warmup: c.warmup,
+        min_reps: 5,
+        min_time: c.min_time,
+    })
+}
+
+fn threads(t: usize) -> anyhow::Result<usize> {
+    if !(1..=MAX_THREADS).contains(&t) {
+        anyhow::bail!("--threads: {t} is outside 1..={MAX_THREADS}");
+    }
+    Ok(t)
+}
+
+fn mesh(name: &str) -> anyhow::Result<shscale_geometry::Mesh> {
+    shscale_lab::vocab::mesh(name).map_err(|e| anyhow::anyhow!("--mesh: {e}"))
+}
+
+fn print<T: serde::Serialize>(format: TextFormat, row: &T, text: String) -> anyhow::Result<()> {
+    match format {
+        TextFormat::Json => println!("{}", serde_json::to_string_pretty(row)?),
+        TextFormat::Text => println!("{text}"),
+    }
+    Ok(())
+}
+
+fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
+    let level = shscale_sh::simd::level();
+    match k {
+        BenchKernel::Rays(a) => {
+            let p = protocol(&a.common)?;
+            let t = threads(a.threads)?;
+            let m = mesh(&a.mesh)?;
+            let (set, workload) = match &a.rays {
+                Some(f) => (
+                    RaySet::from_file(f, a.hits.as_deref()).map_err(|e| anyhow::anyhow!("--rays: {e}"))?,
+                    f.display().to_string(),
+                ),
+                None => match a.workload {
+                    Workload::Bsv => (RaySet::bsv(&m, 12, 20, 32), "bsv".to_string()),
+                    Workload::Random => {
+                        if !(1..=MAX_KERNEL_RAYS).contains(&a.count) {
+                            anyhow::bail!("--count: {} is outside 1..={MAX_KERNEL_RAYS}", a.count);
+                        }
+                        (RaySet::random(&m, a.count, 20261122), "random".to_string())
+                    }
+                },
+            };
+            let r = kernels::bench_rays(&m, &a.mesh, &workload, &set, t, level, p)?;
+            let text = format!(
+                "rays {} {} ({} triangles): {} rays, {:.2} Mrays/s (median of {} in {:.3} s; min {:.3} ms, max {:.3} ms), {} thread(s), {}, hit fraction {:.4}{}",
+                r.mesh,
+                r.workload,
+                r.triangles,
+                r.rays,
+                r.rays_per_second / 1e6,
+                r.timing.reps,
+                r.median_seconds,
+                r.timing.min_seconds * 1e3,
+                r.timing.max_seconds * 1e3,
+                r.threads,
+                r.simd,
+                r.hits as f64 / r.rays as f64,
+                r.mismatches.map_or(String::new(), |m| format!(", {m} disagreements with the file's answers"))
+            );
+            print(a.common.format, &r, text)?;
+        }
+        BenchKernel::Bsv(a) => {
+            let p = protocol(&a.common)?;
+            let t = threads(a.threads)?;
+            let m = mesh(&a.mesh)?;
+            let layout = shscale_field::bsv::Layout::parse(&a.layout).map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
+            if !(1..=shscale_lab::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
+                anyhow::bail!(
+                    "--hemisphere-res: {} is outside 1..={}",
+                    a.hemisphere_res,
+                    shscale_lab::vocab::MAX_VISIBILITY_RES
+                );
+            }
+            shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
+            let rays = layout.sample_count().unwrap_or(usize::MAX) as f64 * (a.hemisphere_res * a.hemisphere_res) as f64;
+            shscale_lab::limits::check_work("bench bsv", rays, 0.0, "layout samples × H²", false)?;
+            let r = kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
+            let text = format!(
+                "bsv {} {} ({} triangles): {} rays in {:.3} ms (median of {}; min {:.3}, max {:.3}), {:.2} Mrays/s, {} thread(s), {}",
+                r.mesh,
+                r.workload,
+                r.triangles,
+                r.rays,
+                r.median_seconds * 1e3,
+                r.timing.reps,
+                r.timing.min_seconds * 1e3,
+                r.timing.max_seconds * 1e3,
+                r.rays_per_second / 1e6,
+                r.threads,
+                r.simd
+            );
+            print(a.common.format, &r, text)?;
+        }
+        BenchKernel::Sh(a) => {
+            let p = protocol(&a.common)?;
+            shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
+            if a.points == 0 {
+                anyhow::bail!("--points: 0; at least one direction is needed");
+            }
+            let f32 = a.precision == Precision::F32;
+            let bytes = a.points as f64 * (a.order * a.order) as f64 * if f32 { 4.0 } else { 8.0 };
+            shscale_lab::limits::check_work("bench sh", 0.0, bytes, "--points × N² values", false)?;
+            let r = kernels::bench_sh(a.order, f32, a.points, level, p)?;
+            let text = format!(
+                "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",
+                r.order, r.precision, r.ns_per_point, r.points, r.timing.reps, r.median_seconds, r.simd
+            );
+            print(a.common.format, &r, text)?;
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -10,6 +10,7 @@ pub mod mesh;
 pub mod ply;
 pub mod ray;
 pub mod shapes;
+pub mod wide;
 
 pub use bsphere::{min_enclosing_sphere, Sphere};
 pub use error::GeometryError;

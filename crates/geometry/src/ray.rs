@@ -1,5 +1,6 @@
 //! Ray casting against an entity's surface: the [`Occluder`] seam with three implementations
-//! compared in tests — [`MeshBvh`] (obvhs compressed-wide BVH, f32, the production path),
+//! compared in tests — [`MeshBvh`] (an 8-wide BVH built from obvhs' binary tree and traversed
+//! with SIMD kernels, f32, the production path: [`crate::wide`]),
 //! [`BruteForce`] (every triangle, f64 Möller–Trumbore; the oracle) and [`AnalyticSphere`]
 //! (exact f64 ray–sphere intersection, for closed-form truth).
 //!
@@ -22,13 +23,11 @@
 
 use crate::{Mesh, Sphere};
 use glam::{DVec3, Vec3A};
+use crate::wide::{WideBvh, WideRay};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::bvh2::Bvh2;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
+use shscale_sh::simd::Level;
 use std::time::Duration;
 
 /// Relative ray start offset: queries start at `t = RAY_EPS · bounding radius`.
@@ -42,6 +41,13 @@ pub const MAX_QUERY_DISTANCE: f64 = 1e12;
 pub trait Occluder: Send + Sync {
     /// Whether the ray `o + t d` (`d` unit) hits the surface for some `t ∈ (tmin, tmax)`.
     fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool;
+    /// [`Occluder::occluded`] for many rays from one origin, `t ∈ (tmin, ∞)`: `hit[i]` for
+    /// `dirs[i]` (the BSV workload; implementations may share work between the rays).
+    fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
+            *h = self.occluded(o, *d, tmin, f64::INFINITY);
+        }
+    }
     /// The nearest hit distance in `(tmin, tmax)`, if any.
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64>;
     /// Minimal enclosing sphere of the surface.
@@ -56,24 +62,22 @@ pub trait Occluder: Send + Sync {
 /// How [`MeshBvh::update`] follows a deforming mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum UpdateStrategy {
-    /// Rebuild a compressed wide BVH (fast traversal, cannot be refit in place).
+    /// Build the tree again every frame (best traversal; costs a build).
     Rebuild,
-    /// Keep a binary BVH and refit its boxes (fast update, slower traversal).
+    /// Keep the tree and refit its boxes (fast update; traversal degrades as the mesh moves
+    /// away from the pose the tree was built for).
     Refit,
 }
 
-enum Accel {
-    Wide(CwBvh),
-    Binary(Bvh2),
-}
-
-/// A BVH over a mesh's triangles (obvhs), in f32.
+/// A BVH over a mesh's triangles, in f32 ([`crate::wide`]).
 pub struct MeshBvh {
     /// Triangles in the unit frame `(p − frame.center) / frame.radius`.
     tris: Vec<Triangle>,
     /// The unit frame: the bounding sphere (radius 1 when the mesh is a point).
     frame: Sphere,
-    accel: Accel,
+    accel: WideBvh,
+    /// The kernels' instruction set ([`shscale_sh::simd::level`] at build time).
+    level: Level,
     strategy: UpdateStrategy,
     sphere: Sphere,
     mesh_tris: Vec<[u32; 3]>,
@@ -106,10 +110,10 @@ fn frame_of(s: Sphere) -> Sphere {
 /// A ray in the unit frame, or `None` when its line misses the bounding ball (radius 1 plus a
 /// margin for the f32 rounding of the vertices) within `[tmin, tmax]`. Returns the f32 ray and
 /// the offset `t0` (unit-frame units) the origin was advanced by.
-fn unit_ray(frame: &Sphere, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(Ray, f64)> {
+fn unit_ray(frame: &Sphere, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(WideRay, f64)> {
     const BALL: f64 = 1.0 + 1e-5;
-    let s = frame.radius;
-    let (o, tmin, tmax) = ((o - frame.center) / s, tmin / s, tmax / s);
+    let inv = 1.0 / frame.radius;
+    let (o, tmin, tmax) = ((o - frame.center) * inv, tmin * inv, tmax * inv);
     // |o + t d|² = BALL²: t² + 2 b t + c = 0, with the discriminant b² − c computed as
     // BALL² − |o − b d|² (the squared distance of the line from the centre), which does not
     // cancel catastrophically for far origins.
@@ -119,28 +123,39 @@ fn unit_ray(frame: &Sphere, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<
     if c > 0.0 && (b >= 0.0 || disc <= 0.0) {
         return None; // outside the ball, moving away or passing by
     }
-    let t_exit = -b + disc.max(0.0).sqrt();
-    if t_exit < tmin {
-        return None;
+    // The exit distance −b + √disc is below tmin ⟺ √disc < tmin + b (no square root needed).
+    let need = tmin + b;
+    if need > 0.0 && disc.max(0.0) < need * need {
+        return None; // the ball is left before tmin
     }
-    // Advance a far origin to just before the ball (no geometry before it).
-    let t_enter = -b - disc.max(0.0).sqrt();
-    let t0 = if c > 0.0 && t_enter > 4.0 {
-        t_enter - 2.0
+    // Advance a far origin to just before the ball (no geometry before it); the entry distance
+    // −b − √disc exceeds 4 only for origins more than 4 radii away.
+    let t0 = if c > 15.0 {
+        let t_enter = -b - disc.max(0.0).sqrt();
+        if t_enter > tmax {
+            return None;
+        }
+        if t_enter > 4.0 {
+            t_enter - 2.0
+        } else {
+            0.0
+        }
     } else {
+        // Entry beyond tmax ⟺ −b − tmax > √disc.
+        let over = -b - tmax;
+        if over > 0.0 && over * over > disc.max(0.0) {
+            return None;
+        }
         0.0
     };
-    if t_enter > tmax {
-        return None;
-    }
     let o = o + t0 * d;
     Some((
-        Ray::new(
-            Vec3A::from(o.as_vec3()),
-            Vec3A::from(d.as_vec3()),
-            (tmin - t0).max(0.0) as f32,
-            (tmax - t0).min(f32::MAX as f64) as f32,
-        ),
+        WideRay {
+            o: o.as_vec3().to_array(),
+            d: d.as_vec3().to_array(),
+            tmin: (tmin - t0).max(0.0) as f32,
+            tmax: (tmax - t0).min(f32::MAX as f64) as f32,
+        },
         t0,
     ))
 }
@@ -153,11 +168,12 @@ impl MeshBvh {
         let tris: Vec<Triangle> = (0..mesh.triangles.len())
             .map(|f| to_tri(mesh, f, &frame))
             .collect();
-        let accel = Self::make_accel(&tris, strategy);
+        let accel = Self::make_accel(&tris);
         Self {
             tris,
             frame,
             accel,
+            level: shscale_sh::simd::level(),
             strategy,
             sphere,
             mesh_tris: mesh.triangles.clone(),
@@ -165,20 +181,30 @@ impl MeshBvh {
         }
     }
 
-    fn make_accel(tris: &[Triangle], strategy: UpdateStrategy) -> Accel {
+    fn make_accel(tris: &[Triangle]) -> WideBvh {
         let mut t = Duration::default();
-        match strategy {
-            UpdateStrategy::Rebuild => Accel::Wide(build_cwbvh_from_tris(
-                tris,
-                BvhBuildParams::medium_build(),
-                &mut t,
-            )),
-            UpdateStrategy::Refit => {
-                let mut b = build_bvh2_from_tris(tris, BvhBuildParams::fast_build(), &mut t);
-                b.init_primitives_to_nodes_if_uninit();
-                Accel::Binary(b)
-            }
-        }
+        let params = BvhBuildParams {
+            max_prims_per_leaf: crate::wide::PACK as u32,
+            ..BvhBuildParams::medium_build()
+        };
+        let bvh2 = build_bvh2_from_tris(tris, params, &mut t);
+        WideBvh::from_bvh2(&bvh2, tris)
+    }
+
+    /// The kernels' instruction set; [`MeshBvh::with_level`] changes it (tests and benchmarks
+    /// compare the two paths on one tree).
+    pub fn level(&self) -> Level {
+        self.level
+    }
+
+    /// The same tree traversed with `level` (a level the CPU lacks becomes portable).
+    pub fn with_level(mut self, level: Level) -> Self {
+        self.level = if level == shscale_sh::simd::detected() {
+            level
+        } else {
+            Level::Portable
+        };
+        self
     }
 
     /// Follow a deformation of the same mesh (same topology): rebuild or refit.
@@ -189,28 +215,16 @@ impl MeshBvh {
         for f in 0..self.tris.len() {
             self.tris[f] = to_tri(mesh, f, &self.frame);
         }
-        match &mut self.accel {
-            Accel::Wide(_) => self.accel = Self::make_accel(&self.tris, UpdateStrategy::Rebuild),
-            Accel::Binary(b) => {
-                // Leaves may hold several primitives: recompute each leaf box from its primitives,
-                // then the inner boxes bottom-up.
-                for n in 0..b.nodes.len() {
-                    let node = b.nodes[n];
-                    if node.is_leaf() {
-                        let mut aabb = self.tris
-                            [b.primitive_indices[node.first_index as usize] as usize]
-                            .aabb();
-                        for k in node.first_index..node.first_index + node.prim_count {
-                            aabb = aabb
-                                .union(&self.tris[b.primitive_indices[k as usize] as usize].aabb());
-                        }
-                        b.nodes[n].set_aabb(aabb);
-                    }
-                }
-                b.refit_all();
-            }
+        match self.strategy {
+            UpdateStrategy::Rebuild => self.accel = Self::make_accel(&self.tris),
+            UpdateStrategy::Refit => self.accel.refit(&self.tris),
         }
         self.positions.clone_from(&mesh.positions);
+    }
+
+    /// Nodes, leaf packs and depth of the tree.
+    pub fn tree_stats(&self) -> (usize, usize, usize) {
+        self.accel.stats()
     }
 
     /// The update strategy.
@@ -225,13 +239,35 @@ impl Occluder for MeshBvh {
         let Some((ray, _)) = unit_ray(&self.frame, o, d, tmin, tmax) else {
             return false;
         };
-        match &self.accel {
-            Accel::Wide(b) => !b.ray_traverse_miss(ray, |r, id| {
-                self.tris[b.primitive_indices[id] as usize].intersect(r)
-            }),
-            Accel::Binary(b) => !b.ray_traverse_miss(ray, |r, id| {
-                self.tris[b.primitive_indices[id] as usize].intersect(r)
-            }),
+        self.accel.occluded(self.level, &ray)
+    }
+
+    fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        // One unit-frame origin for every ray; directions whose line misses the ball (or
+        // whose origin is far away and needs advancing) go through the one-ray path.
+        let s = self.frame.radius;
+        let ou = (o - self.frame.center) / s;
+        if ou.length_squared() > 4.0 || !(tmin / s).is_finite() {
+            for (d, h) in dirs.iter().zip(hit.iter_mut()) {
+                *h = self.occluded(o, *d, tmin, f64::INFINITY);
+            }
+            return;
+        }
+        const CHUNK: usize = 64;
+        let mut buf = [[0.0f32; 3]; CHUNK];
+        for (ds, hs) in dirs.chunks(CHUNK).zip(hit.chunks_mut(CHUNK)) {
+            for (b, d) in buf.iter_mut().zip(ds) {
+                *b = d.as_vec3().to_array();
+            }
+            let o32 = ou.as_vec3().to_array();
+            self.accel.occluded_fan(
+                self.level,
+                o32,
+                &buf[..ds.len()],
+                (tmin / s) as f32,
+                f32::MAX,
+                hs,
+            );
         }
     }
 
@@ -280,32 +316,8 @@ impl MeshBvh {
         tmax: f64,
     ) -> Option<(f64, usize)> {
         let (ray, t0) = unit_ray(&self.frame, o, d, tmin, tmax)?;
-        let mut hit = RayHit::none();
-        let (found, idx) = match &self.accel {
-            Accel::Wide(b) => {
-                let f = b.ray_traverse(ray, &mut hit, |r, id| {
-                    self.tris[b.primitive_indices[id] as usize].intersect(r)
-                });
-                (
-                    f,
-                    f.then(|| b.primitive_indices[hit.primitive_id as usize] as usize),
-                )
-            }
-            Accel::Binary(b) => {
-                let f = b.ray_traverse(ray, &mut hit, |r, id| {
-                    self.tris[b.primitive_indices[id] as usize].intersect(r)
-                });
-                (
-                    f,
-                    f.then(|| b.primitive_indices[hit.primitive_id as usize] as usize),
-                )
-            }
-        };
-        if found {
-            idx.map(|i| ((hit.t as f64 + t0) * self.frame.radius, i))
-        } else {
-            None
-        }
+        let (t, i) = self.accel.closest(self.level, &ray)?;
+        Some(((t as f64 + t0) * self.frame.radius, i as usize))
     }
 }
 

@@ -9,6 +9,7 @@ pub mod exp;
 pub mod figure;
 pub mod gpu_path;
 pub mod io;
+pub mod kernels;
 pub mod limits;
 pub mod plots;
 pub mod render;

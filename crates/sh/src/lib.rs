@@ -20,6 +20,7 @@ pub mod project;
 pub mod quadrature;
 pub mod real;
 pub mod rotation;
+pub mod simd;
 
 pub use cap::{cap_coeffs, cap_zonal};
 pub use error::ShError;

@@ -1,0 +1,563 @@
+//! The production traversal: an 8-wide BVH over packs of 4 triangles, in f32, traversed with one
+//! SIMD box test per node (8 children at once) and one SIMD triangle test per pack (4 at once).
+//!
+//! The tree comes from obvhs (a binary PLOC build, `BvhBuildParams::medium_build`), collapsed
+//! here: every inner node takes up to 8 descendants, always opening the largest-area one, and
+//! every subtree of at most [`PACK`] triangles becomes one leaf pack. Nodes are stored parents
+//! first, so a refit (same topology, moved vertices) is one reverse sweep.
+//!
+//! **Exactness.** Boxes are padded by [`BOX_PAD`] (unit-frame units, ~17 f32 ulps at 1) and the
+//! slab test's exit distance is widened by a relative [`SLAB_SLACK`], so rounding in the box test
+//! never loses a hit that the triangle test accepts: the answers are those of the f32
+//! Möller–Trumbore test on every triangle (tested against brute force). Zero direction
+//! components are replaced by ±[`TINY_DIR`] in the box test only (no NaN from `0 · ∞`).
+//!
+//! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2
+//! + FMA (chosen at run time) and for the target's default features (`shscale_sh::simd`).
+
+use obvhs::bvh2::Bvh2;
+use obvhs::triangle::Triangle;
+use shscale_sh::simd::Level;
+
+/// Triangles per leaf pack (the SIMD width of the triangle test).
+pub const PACK: usize = 4;
+/// Children per node (the SIMD width of the box test).
+pub const WIDTH: usize = 8;
+/// Absolute box padding in the unit frame.
+pub const BOX_PAD: f32 = 2e-6;
+/// Relative widening of a box's exit distance.
+pub const SLAB_SLACK: f32 = 1e-6;
+/// Replacement for a zero direction component in the box test.
+pub const TINY_DIR: f32 = 1e-20;
+
+const LEAF: u32 = 1 << 31;
+const EMPTY: u32 = u32::MAX;
+const COUNT_SHIFT: u32 = 24;
+const MAX_LEAF_PACKS: usize = 127;
+const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct Node {
+    lo: [[f32; WIDTH]; 3],
+    hi: [[f32; WIDTH]; 3],
+    /// Inner node index, `LEAF | (packs − 1) << 24 | first pack`, or `EMPTY`.
+    child: [u32; WIDTH],
+}
+
+impl Node {
+    fn empty() -> Self {
+        Self {
+            lo: [[f32::INFINITY; WIDTH]; 3],
+            hi: [[f32::NEG_INFINITY; WIDTH]; 3],
+            child: [EMPTY; WIDTH],
+        }
+    }
+    fn set_box(&mut self, j: usize, lo: [f32; 3], hi: [f32; 3]) {
+        for a in 0..3 {
+            self.lo[a][j] = lo[a] - BOX_PAD;
+            self.hi[a][j] = hi[a] + BOX_PAD;
+        }
+    }
+}
+
+/// Four triangles as `v0`, `e1 = v1 − v0`, `e2 = v2 − v0`, lane-major (padding lanes are zero:
+/// their determinant is 0 and they never hit).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+struct Pack {
+    v0: [[f32; PACK]; 3],
+    e1: [[f32; PACK]; 3],
+    e2: [[f32; PACK]; 3],
+}
+
+/// A ray in the unit frame, prepared for the box test.
+#[derive(Clone, Copy, Debug)]
+pub struct WideRay {
+    pub o: [f32; 3],
+    pub d: [f32; 3],
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
+/// The 8-wide BVH.
+#[derive(Clone, Debug)]
+pub struct WideBvh {
+    nodes: Vec<Node>,
+    packs: Vec<Pack>,
+    /// The triangle index of every pack lane (`u32::MAX` for padding).
+    ids: Vec<[u32; PACK]>,
+    /// Deepest node level (root = 1), which bounds the traversal stack.
+    depth: usize,
+}
+
+fn tri_bounds(t: &Triangle) -> ([f32; 3], [f32; 3]) {
+    let lo = t.v0.min(t.v1).min(t.v2);
+    let hi = t.v0.max(t.v1).max(t.v2);
+    (lo.to_array(), hi.to_array())
+}
+
+fn pack_of(tris: &[Triangle], ids: &[u32; PACK]) -> Pack {
+    let mut p = Pack::default();
+    for (lane, &id) in ids.iter().enumerate() {
+        if id == u32::MAX {
+            continue;
+        }
+        let t = &tris[id as usize];
+        let (e1, e2) = (t.v1 - t.v0, t.v2 - t.v0);
+        for a in 0..3 {
+            p.v0[a][lane] = t.v0[a];
+            p.e1[a][lane] = e1[a];
+            p.e2[a][lane] = e2[a];
+        }
+    }
+    p
+}
+
+struct Builder<'a> {
+    bvh2: &'a Bvh2,
+    tris: &'a [Triangle],
+    /// Triangles under each binary node.
+    counts: Vec<u32>,
+    out: WideBvh,
+}
+
+impl Builder<'_> {
+    fn count(&mut self, n: usize) -> u32 {
+        let node = &self.bvh2.nodes[n];
+        let c = if node.is_leaf() {
+            node.prim_count
+        } else {
+            let l = node.first_index as usize;
+            self.count(l) + self.count(l + 1)
+        };
+        self.counts[n] = c;
+        c
+    }
+
+    /// Whether binary node `n` becomes one leaf (a binary leaf, or few enough triangles).
+    fn is_leaf(&self, n: usize) -> bool {
+        self.bvh2.nodes[n].is_leaf() || self.counts[n] as usize <= PACK
+    }
+
+    fn gather(&self, n: usize, into: &mut Vec<u32>) {
+        let node = &self.bvh2.nodes[n];
+        if node.is_leaf() {
+            let f = node.first_index as usize;
+            into.extend_from_slice(
+                &self.bvh2.primitive_indices[f..f + node.prim_count as usize],
+            );
+        } else {
+            let l = node.first_index as usize;
+            self.gather(l, into);
+            self.gather(l + 1, into);
+        }
+    }
+
+    /// A leaf reference for the triangles under binary node `n`.
+    fn leaf(&mut self, n: usize) -> u32 {
+        let mut prims = Vec::new();
+        self.gather(n, &mut prims);
+        let first = self.out.packs.len();
+        for chunk in prims.chunks(PACK) {
+            let mut ids = [u32::MAX; PACK];
+            ids[..chunk.len()].copy_from_slice(chunk);
+            self.out.packs.push(pack_of(self.tris, &ids));
+            self.out.ids.push(ids);
+        }
+        let count = self.out.packs.len() - first;
+        debug_assert!((1..=MAX_LEAF_PACKS).contains(&count) && first < FIRST_MASK as usize);
+        LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32
+    }
+
+    /// Emit a wide node for binary inner node `n`; returns its index.
+    fn inner(&mut self, n: usize, level: usize) -> u32 {
+        self.out.depth = self.out.depth.max(level);
+        let l = self.bvh2.nodes[n].first_index as usize;
+        let mut kids = vec![l, l + 1];
+        while kids.len() < WIDTH {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| !self.is_leaf(k))
+                .max_by(|a, b| {
+                    let area = |k: usize| self.bvh2.nodes[k].aabb().half_area();
+                    area(*a.1).total_cmp(&area(*b.1))
+                })
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let k = kids.swap_remove(i);
+            let f = self.bvh2.nodes[k].first_index as usize;
+            kids.extend([f, f + 1]);
+        }
+        let me = self.out.nodes.len();
+        self.out.nodes.push(Node::empty());
+        for (j, &k) in kids.iter().enumerate() {
+            let r = if self.is_leaf(k) {
+                self.leaf(k)
+            } else {
+                self.inner(k, level + 1)
+            };
+            self.out.nodes[me].child[j] = r;
+        }
+        me as u32
+    }
+}
+
+impl WideBvh {
+    /// Collapse a binary BVH over `tris` (the triangles it was built from).
+    pub fn from_bvh2(bvh2: &Bvh2, tris: &[Triangle]) -> Self {
+        let mut b = Builder {
+            bvh2,
+            tris,
+            counts: vec![0; bvh2.nodes.len()],
+            out: WideBvh {
+                nodes: Vec::new(),
+                packs: Vec::new(),
+                ids: Vec::new(),
+                depth: 1,
+            },
+        };
+        if tris.is_empty() || bvh2.nodes.is_empty() {
+            b.out.nodes.push(Node::empty());
+            return b.out;
+        }
+        b.count(0);
+        if b.is_leaf(0) && b.counts[0] as usize <= PACK * MAX_LEAF_PACKS {
+            let r = b.leaf(0);
+            let mut root = Node::empty();
+            root.child[0] = r;
+            b.out.nodes.push(root);
+        } else {
+            b.inner(0, 1);
+        }
+        let mut w = b.out;
+        w.refit_boxes(tris);
+        w
+    }
+
+    /// Follow moved vertices (same triangles, same tree): new packs, then boxes bottom-up.
+    pub fn refit(&mut self, tris: &[Triangle]) {
+        for (p, ids) in self.packs.iter_mut().zip(&self.ids) {
+            *p = pack_of(tris, ids);
+        }
+        self.refit_boxes(tris);
+    }
+
+    fn refit_boxes(&mut self, tris: &[Triangle]) {
+        // Children have larger indices than their parents: a reverse sweep sees them first.
+        for n in (0..self.nodes.len()).rev() {
+            for j in 0..WIDTH {
+                let c = self.nodes[n].child[j];
+                if c == EMPTY {
+                    continue;
+                }
+                let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                if c & LEAF != 0 {
+                    let (first, count) = leaf_range(c);
+                    for ids in &self.ids[first..first + count] {
+                        for &id in ids.iter().filter(|&&id| id != u32::MAX) {
+                            let (a, b) = tri_bounds(&tris[id as usize]);
+                            for k in 0..3 {
+                                lo[k] = lo[k].min(a[k]);
+                                hi[k] = hi[k].max(b[k]);
+                            }
+                        }
+                    }
+                } else {
+                    let child = &self.nodes[c as usize];
+                    for i in 0..WIDTH {
+                        if child.child[i] == EMPTY {
+                            continue;
+                        }
+                        for k in 0..3 {
+                            lo[k] = lo[k].min(child.lo[k][i] + BOX_PAD);
+                            hi[k] = hi[k].max(child.hi[k][i] - BOX_PAD);
+                        }
+                    }
+                }
+                self.nodes[n].set_box(j, lo, hi);
+            }
+        }
+    }
+
+    /// Nodes, packs and tree depth (for reports and tests).
+    pub fn stats(&self) -> (usize, usize, usize) {
+        (self.nodes.len(), self.packs.len(), self.depth)
+    }
+
+    /// Whether the ray hits any triangle for `t ∈ (tmin, tmax)`.
+    #[inline]
+    pub fn occluded(&self, level: Level, ray: &WideRay) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if level == Level::Avx2Fma {
+            // SAFETY: `Level::Avx2Fma` is only produced where the CPU has AVX2 and FMA
+            // (`shscale_sh::simd::level`), and callers pass that level.
+            return unsafe { self.occluded_avx2(ray) };
+        }
+        let _ = level;
+        self.traverse::<true, false>(ray).is_some()
+    }
+
+    /// Any-hit answers for many rays sharing their origin (the BSV workload): `hit[i]` for
+    /// `dirs[i]`. Equal to [`WideBvh::occluded`] per ray.
+    pub fn occluded_fan(&self, level: Level, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+        #[cfg(target_arch = "x86_64")]
+        if level == Level::Avx2Fma {
+            // SAFETY: as in `occluded`.
+            unsafe { self.fan_avx2(o, dirs, tmin, tmax, hit) };
+            return;
+        }
+        let _ = level;
+        self.fan::<false>(o, dirs, tmin, tmax, hit)
+    }
+
+    #[inline(always)]
+    fn fan<const F: bool>(&self, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
+            *h = self
+                .traverse::<true, F>(&WideRay { o, d: *d, tmin, tmax })
+                .is_some();
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn fan_avx2(&self, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+        self.fan::<true>(o, dirs, tmin, tmax, hit)
+    }
+
+    /// The nearest hit `(t, triangle index)` for `t ∈ (tmin, tmax)`.
+    pub fn closest(&self, level: Level, ray: &WideRay) -> Option<(f32, u32)> {
+        #[cfg(target_arch = "x86_64")]
+        if level == Level::Avx2Fma {
+            // SAFETY: as in `occluded`.
+            return unsafe { self.closest_avx2(ray) };
+        }
+        let _ = level;
+        self.traverse::<false, false>(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn occluded_avx2(&self, ray: &WideRay) -> bool {
+        self.traverse::<true, true>(ray).is_some()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn closest_avx2(&self, ray: &WideRay) -> Option<(f32, u32)> {
+        self.traverse::<false, true>(ray)
+    }
+
+    /// Stack traversal; `ANY`: stop at the first hit (the returned hit is then some hit, not
+    /// the nearest); `F`: fused multiply-adds in the box test.
+    #[inline(always)]
+    fn traverse<const ANY: bool, const F: bool>(&self, ray: &WideRay) -> Option<(f32, u32)> {
+        let o = ray.o;
+        let mut inv = [0.0f32; 3];
+        for a in 0..3 {
+            let d = if ray.d[a] == 0.0 {
+                TINY_DIR
+            } else if ray.d[a].abs() < TINY_DIR {
+                TINY_DIR.copysign(ray.d[a])
+            } else {
+                ray.d[a]
+            };
+            inv[a] = 1.0 / d;
+        }
+        // o·inv, so that the slab distance is one fused multiply-add: lo·inv − o·inv.
+        let oi = [o[0] * inv[0], o[1] * inv[1], o[2] * inv[2]];
+        let neg = [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0];
+        let mut tmax = ray.tmax;
+        let mut best: Option<(f32, u32)> = None;
+        let mut stack = Stack::new(self.depth * (WIDTH - 1) + 1);
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            #[cfg(target_arch = "x86_64")]
+            let mut mask = if F {
+                // SAFETY: `F` is true only in the AVX2 + FMA instantiations.
+                unsafe { box_mask_avx2(node, &inv, &oi, &neg, ray.tmin, tmax) }
+            } else {
+                box_mask::<F>(node, &inv, &oi, &neg, ray.tmin, tmax)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let mut mask = box_mask::<F>(node, &inv, &oi, &neg, ray.tmin, tmax);
+            while mask != 0 {
+                let j = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let c = node.child[j];
+                if c & LEAF == 0 {
+                    stack.push(c);
+                    continue;
+                }
+                let (first, count) = leaf_range(c);
+                for p in first..first + count {
+                    let (t, lane) = pack_hit(&self.packs[p], ray, tmax);
+                    if lane < PACK {
+                        if ANY {
+                            return Some((t, self.ids[p][lane]));
+                        }
+                        tmax = t;
+                        best = Some((t, self.ids[p][lane]));
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+fn leaf_range(c: u32) -> (usize, usize) {
+    (
+        (c & FIRST_MASK) as usize,
+        (((c & !LEAF) >> COUNT_SHIFT) + 1) as usize,
+    )
+}
+
+/// A traversal stack: a fixed array (not initialised: only pushed slots are read), spilling to
+/// the heap for trees deeper than ~36 levels.
+struct Stack {
+    fixed: [std::mem::MaybeUninit<u32>; 256],
+    len: usize,
+    spill: Vec<u32>,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new(need: usize) -> Self {
+        Self {
+            fixed: [std::mem::MaybeUninit::uninit(); 256],
+            len: 0,
+            spill: if need > 256 {
+                Vec::with_capacity(need - 256)
+            } else {
+                Vec::new()
+            },
+        }
+    }
+    #[inline(always)]
+    fn push(&mut self, v: u32) {
+        if self.len < self.fixed.len() {
+            self.fixed[self.len].write(v);
+            self.len += 1;
+        } else {
+            self.spill.push(v);
+        }
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> Option<u32> {
+        if !self.spill.is_empty() {
+            return self.spill.pop();
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: slots below `len` were written by `push`.
+        Some(unsafe { self.fixed[self.len].assume_init() })
+    }
+}
+
+/// The slab test of one ray against a node's 8 boxes: bit j set when box j is entered for some
+/// `t ∈ [tmin, tmax]`.
+#[inline(always)]
+fn box_mask<const F: bool>(node: &Node, inv: &[f32; 3], oi: &[f32; 3], neg: &[bool; 3], tmin: f32, tmax: f32) -> u32 {
+    let mut tn = [tmin; WIDTH];
+    let mut tf = [tmax; WIDTH];
+    for a in 0..3 {
+        let (near, far) = if neg[a] {
+            (&node.hi[a], &node.lo[a])
+        } else {
+            (&node.lo[a], &node.hi[a])
+        };
+        for j in 0..WIDTH {
+            let (t0, t1) = if F {
+                (near[j].mul_add(inv[a], -oi[a]), far[j].mul_add(inv[a], -oi[a]))
+            } else {
+                (near[j] * inv[a] - oi[a], far[j] * inv[a] - oi[a])
+            };
+            tn[j] = if t0 > tn[j] { t0 } else { tn[j] };
+            tf[j] = if t1 < tf[j] { t1 } else { tf[j] };
+        }
+    }
+    let mut mask = 0u32;
+    for j in 0..WIDTH {
+        let slack = tf[j] + tf[j].abs() * SLAB_SLACK;
+        mask |= ((tn[j] <= slack) as u32) << j;
+    }
+    mask
+}
+
+/// [`box_mask`] in AVX2 + FMA intrinsics (LLVM splits the lane-array form into two 128-bit
+/// halves); the same operations with fused multiply-adds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn box_mask_avx2(
+    node: &Node,
+    inv: &[f32; 3],
+    oi: &[f32; 3],
+    neg: &[bool; 3],
+    tmin: f32,
+    tmax: f32,
+) -> u32 {
+    use std::arch::x86_64::*;
+    let mut tn = _mm256_set1_ps(tmin);
+    let mut tf = _mm256_set1_ps(tmax);
+    for a in 0..3 {
+        let (near, far) = if neg[a] {
+            (&node.hi[a], &node.lo[a])
+        } else {
+            (&node.lo[a], &node.hi[a])
+        };
+        let (i, n) = (_mm256_set1_ps(inv[a]), _mm256_set1_ps(-oi[a]));
+        // SAFETY: each row is 8 contiguous f32 (unaligned loads).
+        let t0 = _mm256_fmadd_ps(_mm256_loadu_ps(near.as_ptr()), i, n);
+        let t1 = _mm256_fmadd_ps(_mm256_loadu_ps(far.as_ptr()), i, n);
+        tn = _mm256_max_ps(t0, tn);
+        tf = _mm256_min_ps(t1, tf);
+    }
+    let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), tf);
+    let slack = _mm256_fmadd_ps(abs, _mm256_set1_ps(SLAB_SLACK), tf);
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, slack)) as u32
+}
+
+/// Möller–Trumbore on 4 triangles: the nearest hit `(t, lane)` in `(tmin, tmax)`, lane = PACK
+/// when none. Edges count as hits.
+#[inline(always)]
+fn pack_hit(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
+    let [dx, dy, dz] = ray.d;
+    let mut t = [0.0f32; PACK];
+    let mut ok = [false; PACK];
+    for k in 0..PACK {
+        let (e1x, e1y, e1z) = (p.e1[0][k], p.e1[1][k], p.e1[2][k]);
+        let (e2x, e2y, e2z) = (p.e2[0][k], p.e2[1][k], p.e2[2][k]);
+        // p = d × e2, det = e1 · p
+        let px = dy * e2z - dz * e2y;
+        let py = dz * e2x - dx * e2z;
+        let pz = dx * e2y - dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv = 1.0 / det;
+        let sx = ray.o[0] - p.v0[0][k];
+        let sy = ray.o[1] - p.v0[1][k];
+        let sz = ray.o[2] - p.v0[2][k];
+        let u = (sx * px + sy * py + sz * pz) * inv;
+        // q = s × e1
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = (dx * qx + dy * qy + dz * qz) * inv;
+        let tt = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        t[k] = tt;
+        ok[k] = det != 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0 && tt > ray.tmin && tt < tmax;
+    }
+    let mut best = (tmax, PACK);
+    for k in 0..PACK {
+        if ok[k] && t[k] < best.0 {
+            best = (t[k], k);
+        }
+    }
+    best
+}
