@@ -3,12 +3,12 @@
 //! (experiments/).
 
 use crate::args::{
-    BenchArgs, BenchFormat, BenchKernel, BenchScene, FigsArgs, KernelCommon, Precision,
-    TextFormat, Workload,
+    BenchArgs, BenchFormat, BenchKernel, BenchScene, FigsArgs, KernelCommon, Precision, TextFormat,
+    Workload,
 };
-use shscale_lab::kernels::{self, Protocol, RaySet};
 use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
 use shscale_lab::gpu_path::{open_gpu, GpuMode};
+use shscale_lab::kernels::{self, Protocol, RaySet};
 use std::process::ExitCode;
 
 pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
@@ -182,7 +182,8 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             let m = mesh(&a.mesh)?;
             let (set, workload) = match &a.rays {
                 Some(f) => (
-                    RaySet::from_file(f, a.hits.as_deref()).map_err(|e| anyhow::anyhow!("--rays: {e}"))?,
+                    RaySet::from_file(f, a.hits.as_deref())
+                        .map_err(|e| anyhow::anyhow!("--rays: {e}"))?,
                     f.display().to_string(),
                 ),
                 None => match a.workload {
@@ -218,7 +219,8 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             let p = protocol(&a.common)?;
             let t = threads(a.threads)?;
             let m = mesh(&a.mesh)?;
-            let layout = shscale_field::bsv::Layout::parse(&a.layout).map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
+            let layout = shscale_field::bsv::Layout::parse(&a.layout)
+                .map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
             if !(1..=shscale_lab::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
                 anyhow::bail!(
                     "--hemisphere-res: {} is outside 1..={}",
@@ -227,9 +229,11 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
                 );
             }
             shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
-            let rays = layout.sample_count().unwrap_or(usize::MAX) as f64 * (a.hemisphere_res * a.hemisphere_res) as f64;
+            let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
+                * (a.hemisphere_res * a.hemisphere_res) as f64;
             shscale_lab::limits::check_work("bench bsv", rays, 0.0, "layout samples × H²", false)?;
-            let r = kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
+            let r =
+                kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
             let text = format!(
                 "bsv {} {} ({} triangles): {} rays in {:.3} ms (median of {}; min {:.3}, max {:.3}), {:.2} Mrays/s, {} thread(s), {}",
                 r.mesh,
@@ -258,7 +262,13 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             let r = kernels::bench_sh(a.order, f32, a.points, level, p)?;
             let text = format!(
                 "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",
-                r.order, r.precision, r.ns_per_point, r.points, r.timing.reps, r.median_seconds, r.simd
+                r.order,
+                r.precision,
+                r.ns_per_point,
+                r.points,
+                r.timing.reps,
+                r.median_seconds,
+                r.simd
             );
             print(a.common.format, &r, text)?;
         }

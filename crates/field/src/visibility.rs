@@ -15,6 +15,27 @@ use glam::DVec3;
 use shscale_geometry::{Occluder, RAY_EPS};
 use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
 
+/// Per-thread buffers of [`VisibilitySampler::accumulate`].
+struct Scratch {
+    world: Vec<DVec3>,
+    hit: Vec<bool>,
+    free: Vec<[f64; 3]>,
+    weights: Vec<f64>,
+    values: Vec<f64>,
+}
+
+impl Scratch {
+    const fn new() -> Self {
+        Self {
+            world: Vec::new(),
+            hit: Vec::new(),
+            free: Vec::new(),
+            weights: Vec::new(),
+            values: Vec::new(),
+        }
+    }
+}
+
 /// The frame SH coefficients are expressed in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Frame {
@@ -86,6 +107,10 @@ impl VisibilitySampler {
         }
     }
 
+    /// The occlusion rays of one hemisphere, all from `p`: one fan query
+    /// ([`Occluder::occluded_fan`]), then the SH of every escaping direction in one batch
+    /// ([`ShBasis::eval_batch`]), summed with their weights. Scratch buffers are per thread and
+    /// reused: no allocation per sample once a thread has run one.
     fn accumulate(
         &self,
         occ: &dyn Occluder,
@@ -95,12 +120,44 @@ impl VisibilitySampler {
         frame: Frame,
         out: &mut [f64],
     ) {
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<Scratch> = const { std::cell::RefCell::new(Scratch::new()) };
+        }
         let tmin = RAY_EPS * occ.bounding_sphere().radius;
-        self.accumulate_with(f, side, frame, out, |w| {
-            if occ.occluded(p, w, tmin, f64::INFINITY) {
-                0.0
-            } else {
-                1.0
+        let nn = out.len();
+        SCRATCH.with_borrow_mut(|s| {
+            s.world.clear();
+            s.world.extend(
+                self.hemi
+                    .dirs
+                    .iter()
+                    .map(|d| f.to_world(DVec3::new(d[0], d[1], side * d[2]))),
+            );
+            s.hit.clear();
+            s.hit.resize(s.world.len(), false);
+            occ.occluded_fan(p, &s.world, tmin, &mut s.hit);
+            s.free.clear();
+            s.weights.clear();
+            for ((w, &h), (d, &wt)) in s
+                .world
+                .iter()
+                .zip(&s.hit)
+                .zip(self.hemi.dirs.iter().zip(&self.hemi.weights))
+            {
+                if h {
+                    continue;
+                }
+                s.free.push(match frame {
+                    Frame::Entity => w.to_array(),
+                    Frame::Local => [d[0], d[1], side * d[2]],
+                });
+                s.weights.push(wt);
+            }
+            s.values.clear();
+            s.values.resize(s.free.len() * nn, 0.0);
+            self.basis.eval_batch(&s.free, &mut s.values);
+            for (y, &w) in s.values.chunks_exact(nn).zip(&s.weights) {
+                out.iter_mut().zip(y).for_each(|(o, b)| *o += w * b);
             }
         });
     }

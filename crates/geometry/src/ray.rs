@@ -21,9 +21,9 @@
 //! rounding error of ~1e-16 × the distance, 1e-4·r at the limit). Mesh coordinates themselves
 //! are bounded by `Mesh::MAX_COORDINATE` (checked when a mesh is built).
 
+use crate::wide::{WideBvh, WideRay};
 use crate::{Mesh, Sphere};
 use glam::{DVec3, Vec3A};
-use crate::wide::{WideBvh, WideRay};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;

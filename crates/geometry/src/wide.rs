@@ -144,9 +144,7 @@ impl Builder<'_> {
         let node = &self.bvh2.nodes[n];
         if node.is_leaf() {
             let f = node.first_index as usize;
-            into.extend_from_slice(
-                &self.bvh2.primitive_indices[f..f + node.prim_count as usize],
-            );
+            into.extend_from_slice(&self.bvh2.primitive_indices[f..f + node.prim_count as usize]);
         } else {
             let l = node.first_index as usize;
             self.gather(l, into);
@@ -301,7 +299,15 @@ impl WideBvh {
 
     /// Any-hit answers for many rays sharing their origin (the BSV workload): `hit[i]` for
     /// `dirs[i]`. Equal to [`WideBvh::occluded`] per ray.
-    pub fn occluded_fan(&self, level: Level, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+    pub fn occluded_fan(
+        &self,
+        level: Level,
+        o: [f32; 3],
+        dirs: &[[f32; 3]],
+        tmin: f32,
+        tmax: f32,
+        hit: &mut [bool],
+    ) {
         #[cfg(target_arch = "x86_64")]
         if level == Level::Avx2Fma {
             // SAFETY: as in `occluded`.
@@ -313,17 +319,36 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn fan<const F: bool>(&self, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+    fn fan<const F: bool>(
+        &self,
+        o: [f32; 3],
+        dirs: &[[f32; 3]],
+        tmin: f32,
+        tmax: f32,
+        hit: &mut [bool],
+    ) {
         for (d, h) in dirs.iter().zip(hit.iter_mut()) {
             *h = self
-                .traverse::<true, F>(&WideRay { o, d: *d, tmin, tmax })
+                .traverse::<true, F>(&WideRay {
+                    o,
+                    d: *d,
+                    tmin,
+                    tmax,
+                })
                 .is_some();
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn fan_avx2(&self, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32, hit: &mut [bool]) {
+    unsafe fn fan_avx2(
+        &self,
+        o: [f32; 3],
+        dirs: &[[f32; 3]],
+        tmin: f32,
+        tmax: f32,
+        hit: &mut [bool],
+    ) {
         self.fan::<true>(o, dirs, tmin, tmax, hit)
     }
 
@@ -463,7 +488,14 @@ impl Stack {
 /// The slab test of one ray against a node's 8 boxes: bit j set when box j is entered for some
 /// `t ∈ [tmin, tmax]`.
 #[inline(always)]
-fn box_mask<const F: bool>(node: &Node, inv: &[f32; 3], oi: &[f32; 3], neg: &[bool; 3], tmin: f32, tmax: f32) -> u32 {
+fn box_mask<const F: bool>(
+    node: &Node,
+    inv: &[f32; 3],
+    oi: &[f32; 3],
+    neg: &[bool; 3],
+    tmin: f32,
+    tmax: f32,
+) -> u32 {
     let mut tn = [tmin; WIDTH];
     let mut tf = [tmax; WIDTH];
     for a in 0..3 {
@@ -474,7 +506,10 @@ fn box_mask<const F: bool>(node: &Node, inv: &[f32; 3], oi: &[f32; 3], neg: &[bo
         };
         for j in 0..WIDTH {
             let (t0, t1) = if F {
-                (near[j].mul_add(inv[a], -oi[a]), far[j].mul_add(inv[a], -oi[a]))
+                (
+                    near[j].mul_add(inv[a], -oi[a]),
+                    far[j].mul_add(inv[a], -oi[a]),
+                )
             } else {
                 (near[j] * inv[a] - oi[a], far[j] * inv[a] - oi[a])
             };
@@ -560,4 +595,167 @@ fn pack_hit(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use obvhs::bvh2::builder::build_bvh2_from_tris;
+    use obvhs::BvhBuildParams;
+    use shscale_sh::simd::detected;
+
+    /// Every pack, no tree: what the traversal must reproduce exactly.
+    fn scan(w: &WideBvh, ray: &WideRay) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        for (p, ids) in w.packs.iter().zip(&w.ids) {
+            let (t, lane) = pack_hit(p, ray, best.map_or(ray.tmax, |b| b.0));
+            if lane < PACK {
+                best = Some((t, ids[lane]));
+            }
+        }
+        best
+    }
+
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn dir(&mut self) -> [f32; 3] {
+            let z = 2.0 * self.f() - 1.0;
+            let p = std::f32::consts::TAU * self.f();
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            [s * p.cos(), s * p.sin(), z]
+        }
+    }
+
+    fn tris(n: usize, rng: &mut Rng) -> Vec<Triangle> {
+        // Small triangles scattered in the unit ball, plus a few large ones.
+        (0..n)
+            .map(|i| {
+                let c = rng.dir().map(|v| v * 0.9 * rng.f());
+                let s = if i % 50 == 0 { 0.5 } else { 0.05 };
+                let mut v = [[0f32; 3]; 3];
+                for p in &mut v {
+                    let d = rng.dir();
+                    *p = [c[0] + s * d[0], c[1] + s * d[1], c[2] + s * d[2]];
+                }
+                Triangle {
+                    v0: v[0].into(),
+                    v1: v[1].into(),
+                    v2: v[2].into(),
+                }
+            })
+            .collect()
+    }
+
+    /// Traversal = scan over every pack, bit for bit, on both instruction sets, for any-hit and
+    /// nearest-hit queries, rays from inside and outside, axis-aligned directions (zero
+    /// components) included; the fan query = the one-ray query; a refit after moving every
+    /// vertex still equals the scan.
+    #[test]
+    fn traversal_equals_scan_of_every_pack() {
+        let mut rng = Rng(5);
+        for n in [1usize, 3, 4, 5, 33, 2000] {
+            let mut t = tris(n, &mut rng);
+            let mut dur = std::time::Duration::default();
+            let params = BvhBuildParams {
+                max_prims_per_leaf: PACK as u32,
+                ..BvhBuildParams::medium_build()
+            };
+            let mut w = WideBvh::from_bvh2(&build_bvh2_from_tris(&t, params, &mut dur), &t);
+            let mut levels = vec![Level::Portable];
+            if detected() == Level::Avx2Fma {
+                levels.push(Level::Avx2Fma);
+            }
+            let (mut hits, mut rays) = (0, 0);
+            for round in 0..2 {
+                if round == 1 {
+                    // Move every vertex and refit.
+                    for tri in &mut t {
+                        tri.v0.x += 0.03;
+                        tri.v1.y -= 0.02;
+                        tri.v2.z *= 1.1;
+                    }
+                    w.refit(&t);
+                }
+                for i in 0..3000 {
+                    let o = rng.dir().map(|v| v * if i % 2 == 0 { 1.5 } else { 0.5 });
+                    let d = match i % 7 {
+                        0 => [0.0, 0.0, if i % 2 == 0 { -1.0 } else { 1.0 }],
+                        1 => [1.0, 0.0, 0.0],
+                        _ => rng.dir(),
+                    };
+                    let ray = WideRay {
+                        o,
+                        d,
+                        tmin: 1e-4,
+                        tmax: f32::MAX,
+                    };
+                    let want = scan(&w, &ray);
+                    rays += 1;
+                    hits += usize::from(want.is_some());
+                    for &l in &levels {
+                        assert_eq!(w.occluded(l, &ray), want.is_some(), "n {n} ray {i} {l:?}");
+                        assert_eq!(w.closest(l, &ray), want, "n {n} ray {i} {l:?}");
+                    }
+                }
+                // Fans from one origin.
+                let o = [0.0, 0.0, -1.2];
+                let dirs: Vec<[f32; 3]> = (0..500).map(|_| rng.dir()).collect();
+                for &l in &levels {
+                    let mut hit = vec![false; dirs.len()];
+                    w.occluded_fan(l, o, &dirs, 1e-4, f32::MAX, &mut hit);
+                    for (d, h) in dirs.iter().zip(&hit) {
+                        let ray = WideRay {
+                            o,
+                            d: *d,
+                            tmin: 1e-4,
+                            tmax: f32::MAX,
+                        };
+                        assert_eq!(*h, scan(&w, &ray).is_some());
+                    }
+                }
+            }
+            println!(
+                "{n} triangles: {hits} hits in {rays} rays, tree {:?}",
+                w.stats()
+            );
+            assert!(n < 1000 || hits * 5 > rays, "too few hits to test anything");
+        }
+    }
+
+    /// A finite `tmax` stops the search; `tmin` skips the nearer hit.
+    #[test]
+    fn interval_is_honoured() {
+        let t: Vec<Triangle> = [0.0f32, 0.5]
+            .iter()
+            .map(|&z| Triangle {
+                v0: [-1.0, -1.0, z].into(),
+                v1: [1.0, -1.0, z].into(),
+                v2: [0.0, 1.0, z].into(),
+            })
+            .collect();
+        let mut dur = std::time::Duration::default();
+        let w = WideBvh::from_bvh2(
+            &build_bvh2_from_tris(&t, BvhBuildParams::medium_build(), &mut dur),
+            &t,
+        );
+        let l = shscale_sh::simd::level();
+        let ray = |tmin, tmax| WideRay {
+            o: [0.0, 0.0, -1.0],
+            d: [0.0, 0.0, 1.0],
+            tmin,
+            tmax,
+        };
+        assert_eq!(w.closest(l, &ray(0.0, 10.0)), Some((1.0, 0)));
+        assert_eq!(w.closest(l, &ray(1.1, 10.0)), Some((1.5, 1)));
+        assert!(!w.occluded(l, &ray(0.0, 0.99)));
+        assert!(!w.occluded(l, &ray(1.6, 10.0)));
+        assert!(w.occluded(l, &ray(1.2, 1.6)));
+    }
 }

@@ -156,7 +156,10 @@ impl RaySet {
 
     /// The `random` workload on `mesh`: `n` rays, seeded.
     pub fn random(mesh: &Mesh, n: usize, seed: u64) -> Self {
-        let lo = mesh.positions.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
+        let lo = mesh
+            .positions
+            .iter()
+            .fold(DVec3::INFINITY, |a, p| a.min(*p));
         let hi = mesh
             .positions
             .iter()
@@ -173,7 +176,10 @@ impl RaySet {
     }
 
     /// Rays from a peers' `.rays.f32` file; `hits`: the matching `.hits.bits` file.
-    pub fn from_file(path: &std::path::Path, hits: Option<&std::path::Path>) -> Result<Self, LabError> {
+    pub fn from_file(
+        path: &std::path::Path,
+        hits: Option<&std::path::Path>,
+    ) -> Result<Self, LabError> {
         let bytes = std::fs::read(path).map_err(|e| LabError::Io {
             path: path.display().to_string(),
             reason: e.to_string(),
@@ -186,7 +192,9 @@ impl RaySet {
             )));
         }
         let n = bytes.len() / 24;
-        let f = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("4 bytes")) as f64;
+        let f = |i: usize| {
+            f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("4 bytes")) as f64
+        };
         let mut origins = Vec::with_capacity(n);
         let mut dirs = Vec::with_capacity(n);
         for r in 0..n {
@@ -233,7 +241,11 @@ impl RaySet {
         if self.groups.len() * 2 > self.len() {
             // Mostly distinct origins (random rays): one ray at a time, in chunks per thread.
             hit.par_chunks_mut(4096)
-                .zip(self.origins.par_chunks(4096).zip(self.dirs.par_chunks(4096)))
+                .zip(
+                    self.origins
+                        .par_chunks(4096)
+                        .zip(self.dirs.par_chunks(4096)),
+                )
                 .for_each(|(h, (o, d))| {
                     for i in 0..h.len() {
                         h[i] = occ.occluded(o[i], d[i], self.tmin, f64::INFINITY);
@@ -393,7 +405,13 @@ fn bench_sh_t<T: shscale_sh::Real>(
 
 /// `bench sh`: all `N²` values at `points` random unit directions, one thread, written point by
 /// point into a preallocated (already touched) array — as sphericart is timed.
-pub fn bench_sh(order: usize, f32: bool, points: usize, level: Level, p: Protocol) -> Result<ShBench, LabError> {
+pub fn bench_sh(
+    order: usize,
+    f32: bool,
+    points: usize,
+    level: Level,
+    p: Protocol,
+) -> Result<ShBench, LabError> {
     let level = if level == shscale_sh::simd::detected() {
         level
     } else {

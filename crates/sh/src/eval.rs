@@ -183,21 +183,57 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
     let (out_head, out_tail) = out.split_at_mut(whole * nn);
     macro_rules! run {
         ($cap:expr, $n:expr) => {
-            for (d, o) in head.chunks_exact(LANES).zip(out_head.chunks_exact_mut(LANES * nn)) {
+            for (d, o) in head
+                .chunks_exact(LANES)
+                .zip(out_head.chunks_exact_mut(LANES * nn))
+            {
                 lane_kernel::<T, $cap, FMA>(leg, $n, d, o)
             }
         };
     }
+    // Large outputs of long rows are written with non-temporal stores (AVX2 path): the lines
+    // then go to memory without first being read. Measured (docs/BENCHMARKS.md): a gain of
+    // 1.5× for f64 at N = 16 (2 KiB rows), a loss for rows of 1 KiB and less.
+    #[cfg(target_arch = "x86_64")]
+    let stream = FMA
+        && std::mem::size_of_val(out_head) >= STREAM_BYTES
+        && nn * std::mem::size_of::<T>() >= STREAM_ROW_BYTES;
+    #[cfg(not(target_arch = "x86_64"))]
+    let stream = false;
+    let mut tile = if stream {
+        vec![T::zero(); LANES * nn]
+    } else {
+        Vec::new()
+    };
+    macro_rules! fixed {
+        ($n:literal, $nn:literal) => {{
+            for (d, o) in head
+                .chunks_exact(LANES)
+                .zip(out_head.chunks_exact_mut(LANES * nn))
+            {
+                if stream {
+                    lane_kernel_fixed::<T, $n, $nn, FMA>(leg, d, &mut tile);
+                    stream_out(o, &tile);
+                } else {
+                    lane_kernel_fixed::<T, $n, $nn, FMA>(leg, d, o)
+                }
+            }
+            if stream {
+                stream_fence();
+            }
+        }};
+    }
     match n {
         1 => run!(8, 1),
-        2 => run!(8, 2),
-        3 => run!(8, 3),
-        4 => run!(8, 4),
-        5 => run!(8, 5),
-        6 => run!(8, 6),
-        8 => run!(8, 8),
+        2 => fixed!(2, 4),
+        3 => fixed!(3, 9),
+        4 => fixed!(4, 16),
+        5 => fixed!(5, 25),
+        6 => fixed!(6, 36),
+        8 => fixed!(8, 64),
         n if n <= 8 => run!(8, n),
-        16 => run!(16, 16),
+        12 => fixed!(12, 144),
+        16 => fixed!(16, 256),
         n if n <= 16 => run!(16, n),
         n if n <= 32 => run!(32, n),
         n => run!({ crate::MAX_ORDER }, n),
@@ -209,6 +245,58 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
             eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, *d, o)
         }
     }
+}
+
+/// Output size from which [`ShBasis::eval_batch`] streams its stores past the caches (AVX2),
+/// for rows (`N²` values of one point) of at least [`STREAM_ROW_BYTES`].
+pub const STREAM_BYTES: usize = 16 << 20;
+/// See [`STREAM_BYTES`].
+pub const STREAM_ROW_BYTES: usize = 2048;
+
+/// Copy `src` into `dst` with 32-byte non-temporal stores (ordinary stores for the unaligned
+/// ends); the caller issues the fence.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn stream_copy<T: Copy>(dst: &mut [T], src: &[T]) {
+    use std::arch::x86_64::*;
+    assert_eq!(dst.len(), src.len());
+    let bytes = std::mem::size_of_val(dst);
+    let (d, s) = (dst.as_mut_ptr() as *mut u8, src.as_ptr() as *const u8);
+    let head = (d.align_offset(32)).min(bytes);
+    // SAFETY: every access is within the two slices of `bytes` bytes each, and the body's
+    // destination is 32-byte aligned.
+    std::ptr::copy_nonoverlapping(s, d, head);
+    let mut i = head;
+    while i + 32 <= bytes {
+        let v = _mm256_loadu_si256(s.add(i) as *const __m256i);
+        _mm256_stream_si256(d.add(i) as *mut __m256i, v);
+        i += 32;
+    }
+    std::ptr::copy_nonoverlapping(s.add(i), d.add(i), bytes - i);
+}
+
+/// [`stream_copy`] where the target has it (callers pass `stream = true` only in the AVX2
+/// instantiation).
+#[inline(always)]
+fn stream_out<T: Copy>(dst: &mut [T], src: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: reached with `stream = true` only, i.e. from the AVX2 + FMA instantiation.
+    unsafe {
+        stream_copy(dst, src)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    dst.copy_from_slice(src);
+}
+
+/// Order the streaming stores before any later store.
+#[inline(always)]
+fn stream_fence() {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE2 is part of x86-64.
+    unsafe {
+        std::arch::x86_64::_mm_sfence()
+    };
 }
 
 /// `a·b + c`, fused (one rounding) when `FMA`.
@@ -291,6 +379,72 @@ fn lane_kernel<T: Real, const CAP: usize, const FMA: bool>(
             for m in 1..=l {
                 o[l - m] = neg[m][j];
             }
+        }
+    }
+}
+
+/// [`lane_kernel`] for a compile-time order `N` (`NN = N²`): every loop has a constant trip
+/// count, so the recurrence is unrolled into straight-line SIMD code on a tile of `NN × LANES`
+/// values, which is then written out point by point. The same operations as [`lane_kernel`].
+#[inline(always)]
+fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const FMA: bool>(
+    leg: &Legendre<T>,
+    d: &[[T; 3]],
+    out: &mut [T],
+) {
+    const W: usize = LANES;
+    let out = &mut out[..W * NN];
+    let d = &d[..W];
+    let (mut x, mut y, mut z) = ([T::zero(); W], [T::zero(); W], [T::zero(); W]);
+    for j in 0..W {
+        [x[j], y[j], z[j]] = d[j];
+    }
+    let mut cs = [[T::zero(); W]; N];
+    let mut sn = [[T::zero(); W]; N];
+    cs[0] = [T::one(); W];
+    for m in 1..N {
+        for j in 0..W {
+            let (c, s) = (cs[m - 1][j], sn[m - 1][j]);
+            cs[m][j] = madd::<T, FMA>(x[j], c, -(y[j] * s));
+            sn[m][j] = madd::<T, FMA>(x[j], s, y[j] * c);
+        }
+    }
+    let ab = &leg.ab_l[..(N.saturating_sub(1)) * (N.saturating_sub(2)) / 2];
+    let qmm = &leg.qmm[..N];
+    let sub = &leg.sub[..N];
+    let mut p1 = [[T::zero(); W]; N];
+    let mut p2 = [[T::zero(); W]; N];
+    let mut tile = [[T::zero(); W]; NN];
+    p1[0] = [qmm[0]; W];
+    tile[0] = p1[0];
+    let mut k = 0;
+    for l in 1..N {
+        for m in 0..l.saturating_sub(1) {
+            let (a, b) = ab[k + m];
+            for j in 0..W {
+                let q = madd::<T, FMA>(a * z[j], p1[m][j], -(b * p2[m][j]));
+                p2[m][j] = p1[m][j];
+                p1[m][j] = q;
+            }
+        }
+        k += l.saturating_sub(1);
+        for j in 0..W {
+            p2[l - 1][j] = p1[l - 1][j];
+            p1[l - 1][j] = sub[l - 1] * z[j] * qmm[l - 1];
+        }
+        p1[l] = [qmm[l]; W];
+        let c = l * l + l;
+        tile[c] = p1[0];
+        for m in 1..=l {
+            for j in 0..W {
+                tile[c + m][j] = p1[m][j] * cs[m][j];
+                tile[c - m][j] = p1[m][j] * sn[m][j];
+            }
+        }
+    }
+    for (j, o) in out.chunks_exact_mut(NN).enumerate() {
+        for i in 0..NN {
+            o[i] = tile[i][j];
         }
     }
 }
@@ -416,5 +570,81 @@ mod tests {
         assert!((d[0] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-15);
         let d = normalize([1e300f64, 1e300, 0.0]).unwrap();
         assert!((d[1] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-15);
+    }
+
+    /// The batched kernels against the one-direction kernel: the portable path performs the same
+    /// operations (bit-identical), the AVX2 + FMA path rounds fused multiply-adds once (a few
+    /// ulps, scaled by the order's largest value). Every order 1..=20 and batch lengths that
+    /// leave a tail of every size.
+    #[test]
+    fn batch_agrees_with_one_direction_kernel() {
+        use crate::simd::{detected, Level};
+        fn check<T: Real>(tol_ulps: f64) {
+            let dirs: Vec<[T; 3]> = dirs().iter().map(|d| d.map(T::c)).collect();
+            let eps = T::epsilon().f64();
+            let mut worst_fma = 0f64;
+            for order in 1..=20usize {
+                let b = ShBasis::<T>::new(order).unwrap();
+                let nn = order * order;
+                for len in [1usize, 7, 8, 9, 17, dirs.len()] {
+                    let ds = &dirs[..len];
+                    let mut one = vec![T::zero(); len * nn];
+                    for (d, o) in ds.iter().zip(one.chunks_exact_mut(nn)) {
+                        b.eval(*d, o);
+                    }
+                    let mut port = vec![T::zero(); len * nn];
+                    b.eval_batch_with(Level::Portable, ds, &mut port);
+                    assert!(
+                        one.iter()
+                            .zip(&port)
+                            .all(|(a, c)| a.f64().to_bits() == c.f64().to_bits()),
+                        "portable batch differs, order {order}, len {len}"
+                    );
+                    if detected() == Level::Avx2Fma {
+                        let mut fma = vec![T::zero(); len * nn];
+                        b.eval_batch_with(Level::Avx2Fma, ds, &mut fma);
+                        let scale = one.iter().fold(1f64, |m, v| m.max(v.f64().abs()));
+                        for (a, c) in one.iter().zip(&fma) {
+                            let e = (a.f64() - c.f64()).abs() / (scale * eps);
+                            worst_fma = worst_fma.max(e);
+                        }
+                    }
+                }
+            }
+            println!(
+                "{}: worst FMA-path difference {worst_fma:.1} ulps of the largest value",
+                std::any::type_name::<T>()
+            );
+            assert!(worst_fma <= tol_ulps, "FMA path off by {worst_fma} ulps");
+        }
+        check::<f64>(32.0);
+        check::<f32>(32.0);
+    }
+
+    /// Outputs past [`STREAM_BYTES`] with long rows take the streaming stores: same values.
+    #[test]
+    fn streamed_batch_agrees() {
+        let b = ShBasis::<f64>::new(16).unwrap();
+        let n = STREAM_BYTES / (256 * 8) + 13;
+        let dirs: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let p = 2.399963229728653 * i as f64;
+                [r * p.cos(), r * p.sin(), z]
+            })
+            .collect();
+        let mut out = vec![0.0; n * 256];
+        b.eval_batch(&dirs, &mut out);
+        let mut one = vec![0.0; 256];
+        let mut worst = 0f64;
+        for (d, o) in dirs.iter().zip(out.chunks_exact(256)).step_by(97) {
+            b.eval(*d, &mut one);
+            for (a, c) in one.iter().zip(o) {
+                worst = worst.max((a - c).abs());
+            }
+        }
+        println!("streamed batch: worst difference {worst:e}");
+        assert!(worst < 1e-13, "{worst:e}");
     }
 }
