@@ -74,7 +74,7 @@ pub struct MeshBvh {
     /// Triangles in the unit frame `(p − frame.center) / frame.radius`.
     tris: Vec<Triangle>,
     /// The unit frame: the bounding sphere (radius 1 when the mesh is a point).
-    frame: Sphere,
+    frame: UnitFrame,
     accel: WideBvh,
     /// The kernels' instruction set ([`shscale_sh::simd::level`] at build time).
     level: Level,
@@ -84,7 +84,7 @@ pub struct MeshBvh {
     positions: Vec<DVec3>,
 }
 
-fn to_tri(m: &Mesh, f: usize, frame: &Sphere) -> Triangle {
+fn to_tri(m: &Mesh, f: usize, frame: &UnitFrame) -> Triangle {
     let [a, b, c] = m
         .corners(f)
         .map(|p| ((p - frame.center) / frame.radius).as_vec3());
@@ -95,24 +95,35 @@ fn to_tri(m: &Mesh, f: usize, frame: &Sphere) -> Triangle {
     }
 }
 
+/// The unit frame `(p − center) / radius` of an entity, with the reciprocal radius kept.
+#[derive(Clone, Copy, Debug)]
+struct UnitFrame {
+    center: DVec3,
+    radius: f64,
+    inv: f64,
+}
+
 /// The unit frame of a bounding sphere (a zero or non-finite radius falls back to 1).
-fn frame_of(s: Sphere) -> Sphere {
-    Sphere {
+fn frame_of(s: Sphere) -> UnitFrame {
+    let radius = if s.radius.is_finite() && s.radius > 0.0 {
+        s.radius
+    } else {
+        1.0
+    };
+    UnitFrame {
         center: s.center,
-        radius: if s.radius.is_finite() && s.radius > 0.0 {
-            s.radius
-        } else {
-            1.0
-        },
+        radius,
+        inv: 1.0 / radius,
     }
 }
 
 /// A ray in the unit frame, or `None` when its line misses the bounding ball (radius 1 plus a
 /// margin for the f32 rounding of the vertices) within `[tmin, tmax]`. Returns the f32 ray and
 /// the offset `t0` (unit-frame units) the origin was advanced by.
-fn unit_ray(frame: &Sphere, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(WideRay, f64)> {
+#[inline]
+fn unit_ray(frame: &UnitFrame, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(WideRay, f64)> {
     const BALL: f64 = 1.0 + 1e-5;
-    let inv = 1.0 / frame.radius;
+    let inv = frame.inv;
     let (o, tmin, tmax) = ((o - frame.center) * inv, tmin * inv, tmax * inv);
     // |o + t d|² = BALL²: t² + 2 b t + c = 0, with the discriminant b² − c computed as
     // BALL² − |o − b d|² (the squared distance of the line from the centre), which does not

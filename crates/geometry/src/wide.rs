@@ -31,6 +31,7 @@ pub const SLAB_SLACK: f32 = 1e-6;
 pub const TINY_DIR: f32 = 1e-20;
 
 const LEAF: u32 = 1 << 31;
+const LEAF_TRIS: usize = PACK;
 const EMPTY: u32 = u32::MAX;
 const COUNT_SHIFT: u32 = 24;
 const MAX_LEAF_PACKS: usize = 127;
@@ -39,8 +40,8 @@ const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 struct Node {
-    lo: [[f32; WIDTH]; 3],
-    hi: [[f32; WIDTH]; 3],
+    /// Rows 0–2: the boxes' minima in x, y, z; rows 3–5: their maxima.
+    b: [[f32; WIDTH]; 6],
     /// Inner node index, `LEAF | (packs − 1) << 24 | first pack`, or `EMPTY`.
     child: [u32; WIDTH],
 }
@@ -48,15 +49,21 @@ struct Node {
 impl Node {
     fn empty() -> Self {
         Self {
-            lo: [[f32::INFINITY; WIDTH]; 3],
-            hi: [[f32::NEG_INFINITY; WIDTH]; 3],
+            b: [
+                [f32::INFINITY; WIDTH],
+                [f32::INFINITY; WIDTH],
+                [f32::INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+            ],
             child: [EMPTY; WIDTH],
         }
     }
     fn set_box(&mut self, j: usize, lo: [f32; 3], hi: [f32; 3]) {
         for a in 0..3 {
-            self.lo[a][j] = lo[a] - BOX_PAD;
-            self.hi[a][j] = hi[a] + BOX_PAD;
+            self.b[a][j] = lo[a] - BOX_PAD;
+            self.b[a + 3][j] = hi[a] + BOX_PAD;
         }
     }
 }
@@ -137,7 +144,7 @@ impl Builder<'_> {
 
     /// Whether binary node `n` becomes one leaf (a binary leaf, or few enough triangles).
     fn is_leaf(&self, n: usize) -> bool {
-        self.bvh2.nodes[n].is_leaf() || self.counts[n] as usize <= PACK
+        self.bvh2.nodes[n].is_leaf() || self.counts[n] as usize <= LEAF_TRIS
     }
 
     fn gather(&self, n: usize, into: &mut Vec<u32>) {
@@ -269,8 +276,8 @@ impl WideBvh {
                             continue;
                         }
                         for k in 0..3 {
-                            lo[k] = lo[k].min(child.lo[k][i] + BOX_PAD);
-                            hi[k] = hi[k].max(child.hi[k][i] - BOX_PAD);
+                            lo[k] = lo[k].min(child.b[k][i] + BOX_PAD);
+                            hi[k] = hi[k].max(child.b[k + 3][i] - BOX_PAD);
                         }
                     }
                 }
@@ -379,21 +386,7 @@ impl WideBvh {
     /// the nearest); `F`: fused multiply-adds in the box test.
     #[inline(always)]
     fn traverse<const ANY: bool, const F: bool>(&self, ray: &WideRay) -> Option<(f32, u32)> {
-        let o = ray.o;
-        let mut inv = [0.0f32; 3];
-        for a in 0..3 {
-            let d = if ray.d[a] == 0.0 {
-                TINY_DIR
-            } else if ray.d[a].abs() < TINY_DIR {
-                TINY_DIR.copysign(ray.d[a])
-            } else {
-                ray.d[a]
-            };
-            inv[a] = 1.0 / d;
-        }
-        // o·inv, so that the slab distance is one fused multiply-add: lo·inv − o·inv.
-        let oi = [o[0] * inv[0], o[1] * inv[1], o[2] * inv[2]];
-        let neg = [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0];
+        let pre = Prepared::new(ray);
         let mut tmax = ray.tmax;
         let mut best: Option<(f32, u32)> = None;
         let mut stack = Stack::new(self.depth * (WIDTH - 1) + 1);
@@ -403,12 +396,12 @@ impl WideBvh {
             #[cfg(target_arch = "x86_64")]
             let mut mask = if F {
                 // SAFETY: `F` is true only in the AVX2 + FMA instantiations.
-                unsafe { box_mask_avx2(node, &inv, &oi, &neg, ray.tmin, tmax) }
+                unsafe { box_mask_avx2(node, &pre, ray.tmin, tmax) }
             } else {
-                box_mask::<F>(node, &inv, &oi, &neg, ray.tmin, tmax)
+                box_mask::<F>(node, &pre, ray.tmin, tmax)
             };
             #[cfg(not(target_arch = "x86_64"))]
-            let mut mask = box_mask::<F>(node, &inv, &oi, &neg, ray.tmin, tmax);
+            let mut mask = box_mask::<F>(node, &pre, ray.tmin, tmax);
             while mask != 0 {
                 let j = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -485,33 +478,57 @@ impl Stack {
     }
 }
 
+/// A ray prepared for the slab tests: reciprocal direction, `o·inv`, and for each axis the
+/// node rows of the near and far planes (chosen once per ray, so the box test has no branch).
+struct Prepared {
+    inv: [f32; 3],
+    oi: [f32; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl Prepared {
+    #[inline(always)]
+    fn new(ray: &WideRay) -> Self {
+        let mut inv = [0.0f32; 3];
+        let mut near = [0usize; 3];
+        let mut far = [0usize; 3];
+        for a in 0..3 {
+            let d = ray.d[a];
+            // Zero (or denormal-small) components become ±TINY_DIR: no 0·∞ in the test.
+            let d = if d.abs() < TINY_DIR {
+                TINY_DIR.copysign(d)
+            } else {
+                d
+            };
+            inv[a] = 1.0 / d;
+            let neg = usize::from(inv[a] < 0.0);
+            near[a] = a + 3 * neg;
+            far[a] = a + 3 * (1 - neg);
+        }
+        Self {
+            inv,
+            oi: [ray.o[0] * inv[0], ray.o[1] * inv[1], ray.o[2] * inv[2]],
+            near,
+            far,
+        }
+    }
+}
+
 /// The slab test of one ray against a node's 8 boxes: bit j set when box j is entered for some
 /// `t ∈ [tmin, tmax]`.
 #[inline(always)]
-fn box_mask<const F: bool>(
-    node: &Node,
-    inv: &[f32; 3],
-    oi: &[f32; 3],
-    neg: &[bool; 3],
-    tmin: f32,
-    tmax: f32,
-) -> u32 {
+fn box_mask<const F: bool>(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
     let mut tn = [tmin; WIDTH];
     let mut tf = [tmax; WIDTH];
     for a in 0..3 {
-        let (near, far) = if neg[a] {
-            (&node.hi[a], &node.lo[a])
-        } else {
-            (&node.lo[a], &node.hi[a])
-        };
+        let (near, far) = (&node.b[pre.near[a]], &node.b[pre.far[a]]);
+        let (inv, oi) = (pre.inv[a], pre.oi[a]);
         for j in 0..WIDTH {
             let (t0, t1) = if F {
-                (
-                    near[j].mul_add(inv[a], -oi[a]),
-                    far[j].mul_add(inv[a], -oi[a]),
-                )
+                (near[j].mul_add(inv, -oi), far[j].mul_add(inv, -oi))
             } else {
-                (near[j] * inv[a] - oi[a], far[j] * inv[a] - oi[a])
+                (near[j] * inv - oi, far[j] * inv - oi)
             };
             tn[j] = if t0 > tn[j] { t0 } else { tn[j] };
             tf[j] = if t1 < tf[j] { t1 } else { tf[j] };
@@ -530,24 +547,13 @@ fn box_mask<const F: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn box_mask_avx2(
-    node: &Node,
-    inv: &[f32; 3],
-    oi: &[f32; 3],
-    neg: &[bool; 3],
-    tmin: f32,
-    tmax: f32,
-) -> u32 {
+unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
     use std::arch::x86_64::*;
     let mut tn = _mm256_set1_ps(tmin);
     let mut tf = _mm256_set1_ps(tmax);
     for a in 0..3 {
-        let (near, far) = if neg[a] {
-            (&node.hi[a], &node.lo[a])
-        } else {
-            (&node.lo[a], &node.hi[a])
-        };
-        let (i, n) = (_mm256_set1_ps(inv[a]), _mm256_set1_ps(-oi[a]));
+        let (near, far) = (&node.b[pre.near[a]], &node.b[pre.far[a]]);
+        let (i, n) = (_mm256_set1_ps(pre.inv[a]), _mm256_set1_ps(-pre.oi[a]));
         // SAFETY: each row is 8 contiguous f32 (unaligned loads).
         let t0 = _mm256_fmadd_ps(_mm256_loadu_ps(near.as_ptr()), i, n);
         let t1 = _mm256_fmadd_ps(_mm256_loadu_ps(far.as_ptr()), i, n);
