@@ -65,7 +65,7 @@ impl VisibilitySampler {
         let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)?;
         Ok(Self {
             basis,
-            hemi: DirectionSet::gauss_hemisphere(h),
+            hemi: DirectionSet::gauss_hemisphere(h).in_tiles(h, h),
             back_zonal: cap,
         })
     }

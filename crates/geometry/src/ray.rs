@@ -264,22 +264,21 @@ impl Occluder for MeshBvh {
             }
             return;
         }
-        const CHUNK: usize = 64;
-        let mut buf = [[0.0f32; 3]; CHUNK];
-        for (ds, hs) in dirs.chunks(CHUNK).zip(hit.chunks_mut(CHUNK)) {
-            for (b, d) in buf.iter_mut().zip(ds) {
-                *b = d.as_vec3().to_array();
-            }
-            let o32 = ou.as_vec3().to_array();
+        thread_local! {
+            static DIRS: std::cell::RefCell<Vec<[f32; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        DIRS.with_borrow_mut(|buf| {
+            buf.clear();
+            buf.extend(dirs.iter().map(|d| d.as_vec3().to_array()));
             self.accel.occluded_fan(
                 self.level,
-                o32,
-                &buf[..ds.len()],
+                ou.as_vec3().to_array(),
+                buf,
                 (tmin / s) as f32,
                 f32::MAX,
-                hs,
+                hit,
             );
-        }
+        });
     }
 
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {

@@ -356,7 +356,14 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
-        self.fan::<true>(o, dirs, tmin, tmax, hit)
+        // Packets of 8 consecutive directions: callers order fans coherently (the BSV
+        // sampler's hemisphere comes in 2×4 tiles of its grid).
+        for (d, h) in dirs.chunks(8).zip(hit.chunks_mut(8)) {
+            let m = packet_occluded(self, o, d, tmin, tmax);
+            for (i, h) in h.iter_mut().enumerate() {
+                *h = m >> i & 1 == 1;
+            }
+        }
     }
 
     /// The nearest hit `(t, triangle index)` for `t ∈ (tmin, tmax)`.
@@ -563,6 +570,195 @@ unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u3
     let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), tf);
     let slack = _mm256_fmadd_ps(abs, _mm256_set1_ps(SLAB_SLACK), tf);
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, slack)) as u32
+}
+
+/// Any-hit for up to 8 rays from one origin, traversed together (AVX2 lanes = rays): each
+/// child box is tested against every live lane, a subtree is entered by the lanes that hit
+/// its box, and a lane leaves when a triangle occludes it; the packet stops when every lane
+/// has. The triangle test is [`pack_hit`]'s operations lane by lane (unfused, so the answers
+/// are bit-identical to the one-ray traversal); the box test is conservative like
+/// [`box_mask`]. Returns the occluded lanes as bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn packet_occluded(
+    w: &WideBvh,
+    o: [f32; 3],
+    dirs: &[[f32; 3]],
+    tmin: f32,
+    tmax: f32,
+) -> u32 {
+    use std::arch::x86_64::*;
+    let n = dirs.len().min(8);
+    let valid = (1u32 << n) - 1;
+    let (mut dx, mut dy, mut dz) = ([0f32; 8], [0f32; 8], [0f32; 8]);
+    for i in 0..8 {
+        let d = dirs[i.min(n - 1)];
+        (dx[i], dy[i], dz[i]) = (d[0], d[1], d[2]);
+    }
+    let (vdx, vdy, vdz) = (
+        _mm256_loadu_ps(dx.as_ptr()),
+        _mm256_loadu_ps(dy.as_ptr()),
+        _mm256_loadu_ps(dz.as_ptr()),
+    );
+    let recip = |v: __m256| {
+        // |d| < TINY_DIR → ±TINY_DIR (sign kept), then 1/d.
+        let sign = _mm256_and_ps(v, _mm256_set1_ps(-0.0));
+        let small = _mm256_cmp_ps::<_CMP_LT_OQ>(
+            _mm256_andnot_ps(_mm256_set1_ps(-0.0), v),
+            _mm256_set1_ps(TINY_DIR),
+        );
+        let fixed = _mm256_blendv_ps(v, _mm256_or_ps(sign, _mm256_set1_ps(TINY_DIR)), small);
+        _mm256_div_ps(_mm256_set1_ps(1.0), fixed)
+    };
+    let (ix, iy, iz) = (recip(vdx), recip(vdy), recip(vdz));
+    let (vtmin, vtmax) = (_mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
+    let slack = _mm256_set1_ps(SLAB_SLACK);
+    let abs_mask = _mm256_set1_ps(-0.0);
+    let mut occluded = 0u32;
+    let mut stack = Stack::new(w.depth * (WIDTH - 1) + 1);
+    let mut masks = Stack::new(w.depth * (WIDTH - 1) + 1);
+    stack.push(0);
+    masks.push(valid);
+    'outer: while let (Some(node_id), Some(m)) = (stack.pop(), masks.pop()) {
+        let live = m & !occluded & valid;
+        if live == 0 {
+            continue;
+        }
+        let node = &w.nodes[node_id as usize];
+        // The planes relative to the common origin, for all 8 children at once.
+        let mut rel = [[0f32; WIDTH]; 6];
+        for (row, r) in rel.iter_mut().enumerate() {
+            let v = _mm256_sub_ps(
+                _mm256_loadu_ps(node.b[row].as_ptr()),
+                _mm256_set1_ps(o[row % 3]),
+            );
+            _mm256_storeu_ps(r.as_mut_ptr(), v);
+        }
+        // Every child against every lane first (no branch), then the children some lane
+        // enters.
+        let mut hits = [0u32; WIDTH];
+        let mut any = 0u32;
+        for j in 0..WIDTH {
+            let t = |row: usize, inv: __m256| _mm256_mul_ps(_mm256_set1_ps(rel[row][j]), inv);
+            let (x0, x1) = (t(0, ix), t(3, ix));
+            let (y0, y1) = (t(1, iy), t(4, iy));
+            let (z0, z1) = (t(2, iz), t(5, iz));
+            let tn = _mm256_max_ps(
+                _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
+                _mm256_max_ps(_mm256_min_ps(z0, z1), vtmin),
+            );
+            let tf = _mm256_min_ps(
+                _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
+                _mm256_min_ps(_mm256_max_ps(z0, z1), vtmax),
+            );
+            let widened = _mm256_fmadd_ps(_mm256_andnot_ps(abs_mask, tf), slack, tf);
+            hits[j] = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32 & live;
+            any |= u32::from(hits[j] != 0) << j;
+        }
+        // Empty slots: their inverted boxes become unbounded under the min/max of the lane
+        // test, so they are masked out here.
+        let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_loadu_si256(node.child.as_ptr() as *const __m256i),
+            _mm256_set1_epi32(-1),
+        ))) as u32;
+        any &= !empty;
+        while any != 0 {
+            let j = any.trailing_zeros() as usize;
+            any &= any - 1;
+            let c = node.child[j];
+            let lanes = hits[j] & !occluded;
+            if lanes == 0 {
+                continue;
+            }
+            if c & LEAF == 0 {
+                stack.push(c);
+                masks.push(lanes);
+                continue;
+            }
+            let (first, count) = leaf_range(c);
+            for (p, ids) in w.packs[first..first + count]
+                .iter()
+                .zip(&w.ids[first..first + count])
+            {
+                for k in 0..PACK {
+                    if ids[k] == u32::MAX {
+                        break; // padding lanes are at the end of a pack
+                    }
+                    occluded |= tri_lanes(p, k, o, vdx, vdy, vdz, vtmin, vtmax) & lanes;
+                }
+                if occluded & valid == valid {
+                    break 'outer;
+                }
+            }
+        }
+    }
+    occluded & valid
+}
+
+/// [`pack_hit`]'s test of triangle `k` of a pack against 8 rays from `o` (lanes), with the same
+/// unfused operations in the same order: bit i set when ray i hits in `(tmin, tmax)`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(clippy::too_many_arguments)]
+unsafe fn tri_lanes(
+    p: &Pack,
+    k: usize,
+    o: [f32; 3],
+    dx: std::arch::x86_64::__m256,
+    dy: std::arch::x86_64::__m256,
+    dz: std::arch::x86_64::__m256,
+    tmin: std::arch::x86_64::__m256,
+    tmax: std::arch::x86_64::__m256,
+) -> u32 {
+    use std::arch::x86_64::*;
+    let b = _mm256_set1_ps;
+    let (mul, sub, add) = (
+        |a, c| _mm256_mul_ps(a, c),
+        |a, c| _mm256_sub_ps(a, c),
+        |a, c| _mm256_add_ps(a, c),
+    );
+    let (e1x, e1y, e1z) = (b(p.e1[0][k]), b(p.e1[1][k]), b(p.e1[2][k]));
+    let (e2x, e2y, e2z) = (b(p.e2[0][k]), b(p.e2[1][k]), b(p.e2[2][k]));
+    let px = sub(mul(dy, e2z), mul(dz, e2y));
+    let py = sub(mul(dz, e2x), mul(dx, e2z));
+    let pz = sub(mul(dx, e2y), mul(dy, e2x));
+    let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+    let inv = _mm256_div_ps(b(1.0), det);
+    // s = o − v0 and q = s × e1 are the same for every lane.
+    let (sx, sy, sz) = (o[0] - p.v0[0][k], o[1] - p.v0[1][k], o[2] - p.v0[2][k]);
+    let (qx, qy, qz) = (
+        sy * p.e1[2][k] - sz * p.e1[1][k],
+        sz * p.e1[0][k] - sx * p.e1[2][k],
+        sx * p.e1[1][k] - sy * p.e1[0][k],
+    );
+    let u = mul(
+        add(add(mul(b(sx), px), mul(b(sy), py)), mul(b(sz), pz)),
+        inv,
+    );
+    let v = mul(
+        add(add(mul(dx, b(qx)), mul(dy, b(qy))), mul(dz, b(qz))),
+        inv,
+    );
+    let t = mul(b(p.e2[0][k] * qx + p.e2[1][k] * qy + p.e2[2][k] * qz), inv);
+    let zero = _mm256_setzero_ps();
+    let ok = _mm256_and_ps(
+        _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, zero),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(u, zero),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(v, zero),
+            ),
+        ),
+        _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), b(1.0)),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+            ),
+        ),
+    );
+    _mm256_movemask_ps(ok) as u32
 }
 
 /// Möller–Trumbore on 4 triangles: the nearest hit `(t, lane)` in `(tmin, tmax)`, lane = PACK

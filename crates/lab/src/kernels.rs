@@ -6,7 +6,8 @@
 //! Workloads (docs/BENCHMARKS.md):
 //! - `bsv`: 12×20 lat-long cell centres on the minimal bounding sphere, 32×32 rays per sample
 //!   over the hemisphere facing the centre in equal-solid-angle strata (`cosθ = (i+½)/32`,
-//!   `φ = 2π(j+½)/32`), every ray of a sample from its origin, `t ∈ (RAY_EPS·r, ∞)`;
+//!   `φ = 2π(j+½)/32`) listed in 2×4 tiles of that grid as the BSV sampler lists them
+//!   ([`shscale_sh::tile_order`]), every ray of a sample from its origin, `t ∈ (RAY_EPS·r, ∞)`;
 //! - `random`: 10⁶ rays, origins uniform in the bounding box scaled 2× about its centre,
 //!   directions uniform on the sphere (seeded), `t ∈ (0, ∞)`;
 //! - a file in the peers' format (`<mesh>_{A,B}.rays.f32`: little-endian f32, N×3 origins then
@@ -141,14 +142,14 @@ impl RaySet {
             let helper = if z.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
             let x = helper.cross(z).normalize();
             let y = z.cross(x);
-            for i in 0..h {
+            // In the BSV sampler's order: 2×4 tiles of the (cosθ, φ) grid.
+            for q in shscale_sh::tile_order(h, h) {
+                let (i, j) = (q / h, q % h);
                 let ct = (i as f64 + 0.5) / h as f64;
                 let st = (1.0 - ct * ct).sqrt();
-                for j in 0..h {
-                    let p = std::f64::consts::TAU * (j as f64 + 0.5) / h as f64;
-                    origins.push(o);
-                    dirs.push((x * (st * p.cos()) + y * (st * p.sin()) + z * ct).normalize());
-                }
+                let p = std::f64::consts::TAU * (j as f64 + 0.5) / h as f64;
+                origins.push(o);
+                dirs.push((x * (st * p.cos()) + y * (st * p.sin()) + z * ct).normalize());
             }
         }
         Self::grouped(origins, dirs, RAY_EPS * s.radius)

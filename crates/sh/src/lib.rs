@@ -29,6 +29,6 @@ pub use gaunt::GauntTensor;
 pub use index::{check_coeffs, check_order, coeff_count, order_of_len, sh_index, sh_lm, MAX_ORDER};
 pub use lobe::{clamped_cosine_zonal, irradiance, ClampedCosine};
 pub use project::{dot, project_fn, project_samples, reconstruct};
-pub use quadrature::{DirectionSet, GaussLegendre};
+pub use quadrature::{tile_order, DirectionSet, GaussLegendre};
 pub use real::Real;
 pub use rotation::{euler_zyz, rotate_zonal, EulerRotator, ShRotation, ShRotator};

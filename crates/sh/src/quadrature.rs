@@ -94,6 +94,25 @@ pub struct DirectionSet {
     pub weights: Vec<f64>,
 }
 
+/// The cells of a `rows × cols` grid (row-major indices) in tiles of 2 rows × 4 columns, tile
+/// by tile (row-major), each tile row by row; tiles are clipped at the grid's edges. Eight
+/// consecutive entries are one SIMD packet of the ray traversal.
+pub fn tile_order(rows: usize, cols: usize) -> Vec<usize> {
+    const TR: usize = 2;
+    const TC: usize = 4;
+    let mut out = Vec::with_capacity(rows * cols);
+    for r0 in (0..rows).step_by(TR) {
+        for c0 in (0..cols).step_by(TC) {
+            for r in r0..(r0 + TR).min(rows) {
+                for c in c0..(c0 + TC).min(cols) {
+                    out.push(r * cols + c);
+                }
+            }
+        }
+    }
+    out
+}
+
 impl DirectionSet {
     /// Number of directions.
     pub fn len(&self) -> usize {
@@ -120,6 +139,18 @@ impl DirectionSet {
     /// uniform azimuths; weights sum to `2π`.
     pub fn gauss_hemisphere(h: usize) -> Self {
         Self::gauss_band(h, h, 0.0, 1.0)
+    }
+
+    /// The same directions and weights reordered by [`tile_order`] (a `rows × cols` grid
+    /// stored row by row, as [`DirectionSet::gauss_hemisphere`] is): neighbours in the grid
+    /// become neighbours in the list, so consecutive rays from one point are coherent.
+    pub fn in_tiles(&self, rows: usize, cols: usize) -> Self {
+        assert_eq!(rows * cols, self.len(), "in_tiles: grid size");
+        let order = tile_order(rows, cols);
+        Self {
+            dirs: order.iter().map(|&i| self.dirs[i]).collect(),
+            weights: order.iter().map(|&i| self.weights[i]).collect(),
+        }
     }
 
     fn gauss_band(n_theta: usize, n_phi: usize, z0: f64, z1: f64) -> Self {
