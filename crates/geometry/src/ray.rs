@@ -48,6 +48,13 @@ pub trait Occluder: Send + Sync {
             *h = self.occluded(o, *d, tmin, f64::INFINITY);
         }
     }
+    /// [`Occluder::occluded`] for many independent rays, `t ∈ (tmin, ∞)`: `hit[i]` for
+    /// `(origins[i], dirs[i])` (implementations may vectorise the set-up of the rays).
+    fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        for ((o, d), h) in origins.iter().zip(dirs).zip(hit.iter_mut()) {
+            *h = self.occluded(*o, *d, tmin, f64::INFINITY);
+        }
+    }
     /// The nearest hit distance in `(tmin, tmax)`, if any.
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64>;
     /// Minimal enclosing sphere of the surface.
@@ -279,6 +286,61 @@ impl Occluder for MeshBvh {
                 hit,
             );
         });
+    }
+
+    fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        // Blocks of rays: the unit-frame set-up and the ball test for the whole block first
+        // (straight-line code the compiler vectorises), the survivors compacted, then traversed
+        // one by one. Far origins (more than 4 radii away) take the one-ray path, which
+        // advances them in f64.
+        const BLOCK: usize = 64;
+        const BALL: f64 = 1.0 + 1e-5;
+        let (c, inv) = (self.frame.center, self.frame.inv);
+        let tmin_u = tmin * inv;
+        let mut keep = [0u8; BLOCK];
+        let mut far = [false; BLOCK];
+        for ((os, ds), hs) in origins
+            .chunks(BLOCK)
+            .zip(dirs.chunks(BLOCK))
+            .zip(hit.chunks_mut(BLOCK))
+        {
+            let n = os.len();
+            for i in 0..n {
+                let o = (os[i] - c) * inv;
+                let d = ds[i];
+                let b = o.dot(d);
+                let r2 = o.length_squared();
+                let disc = BALL * BALL - (o - b * d).length_squared();
+                let outside = r2 > BALL * BALL;
+                let misses = outside & ((b >= 0.0) | (disc <= 0.0));
+                far[i] = r2 > 16.0;
+                keep[i] = u8::from(!misses | far[i]);
+            }
+            let mut idx = [0u8; BLOCK];
+            let mut m = 0;
+            for i in 0..n {
+                idx[m] = i as u8;
+                m += usize::from(keep[i]);
+                hs[i] = false;
+            }
+            for &i in &idx[..m] {
+                let i = i as usize;
+                hs[i] = if far[i] {
+                    self.occluded(os[i], ds[i], tmin, f64::INFINITY)
+                } else {
+                    let o = (os[i] - c) * inv;
+                    self.accel.occluded(
+                        self.level,
+                        &WideRay {
+                            o: o.as_vec3().to_array(),
+                            d: ds[i].as_vec3().to_array(),
+                            tmin: tmin_u.max(0.0) as f32,
+                            tmax: f32::MAX,
+                        },
+                    )
+                };
+            }
+        }
     }
 
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {

@@ -354,3 +354,71 @@ fn procedural_shapes_have_papers_sizes_and_are_watertight() {
     assert!(bird.inspect().watertight, "{:?}", bird.inspect());
     assert!(shapes::uv_sphere(1.0, 10, 16).inspect().watertight);
 }
+
+/// The batched queries answer exactly as the one-ray query: `occluded_many` on random rays
+/// (near, inside and far origins — the far ones take the f64 advance), `occluded_fan` on
+/// hemisphere fans from the bounding sphere, on both instruction sets.
+#[test]
+fn batched_queries_equal_one_ray_queries() {
+    use shscale_sh::simd::{detected, Level};
+    let mesh = bundled::load("bunny").unwrap();
+    let s = mesh.bounding_sphere();
+    let mut levels = vec![Level::Portable];
+    if detected() == Level::Avx2Fma {
+        levels.push(Level::Avx2Fma);
+    }
+    for level in levels {
+        let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild).with_level(level);
+        let mut rng = Rng(23);
+        let (mut origins, mut dirs) = (Vec::new(), Vec::new());
+        for i in 0..5000 {
+            let dist = [0.3, 1.0, 1.5, 3.9, 4.1, 50.0, 1e9][i % 7];
+            origins.push(s.center + dist * s.radius * rng.dir());
+            dirs.push(if i % 3 == 0 {
+                (s.center + 0.5 * s.radius * rng.dir() - origins[i]).normalize()
+            } else {
+                rng.dir()
+            });
+        }
+        let tmin = RAY_EPS * s.radius;
+        let mut many = vec![false; dirs.len()];
+        bvh.occluded_many(&origins, &dirs, tmin, &mut many);
+        let mut hits = 0;
+        for i in 0..dirs.len() {
+            let one = bvh.occluded(origins[i], dirs[i], tmin, f64::INFINITY);
+            assert_eq!(many[i], one, "{level:?} ray {i}");
+            hits += usize::from(one);
+        }
+        // Fans: 1000 directions over the hemisphere facing the centre from 60 points.
+        let (mut fan_hits, mut fan_rays) = (0, 0);
+        for _ in 0..60 {
+            let o = s.center + s.radius * rng.dir();
+            let fan: Vec<DVec3> = (0..1000)
+                .map(|_| {
+                    let d = rng.dir();
+                    if d.dot(s.center - o) < 0.0 {
+                        -d
+                    } else {
+                        d
+                    }
+                })
+                .collect();
+            let mut hit = vec![false; fan.len()];
+            bvh.occluded_fan(o, &fan, tmin, &mut hit);
+            for (d, h) in fan.iter().zip(&hit) {
+                assert_eq!(
+                    *h,
+                    bvh.occluded(o, *d, tmin, f64::INFINITY),
+                    "{level:?} fan"
+                );
+                fan_hits += usize::from(*h);
+                fan_rays += 1;
+            }
+        }
+        println!("{level:?}: {hits}/5000 random and {fan_hits}/{fan_rays} fan rays occluded");
+        assert!(
+            hits > 500 && fan_hits > 5000,
+            "too few hits to test anything"
+        );
+    }
+}

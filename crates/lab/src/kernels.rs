@@ -247,11 +247,7 @@ impl RaySet {
                         .par_chunks(4096)
                         .zip(self.dirs.par_chunks(4096)),
                 )
-                .for_each(|(h, (o, d))| {
-                    for i in 0..h.len() {
-                        h[i] = occ.occluded(o[i], d[i], self.tmin, f64::INFINITY);
-                    }
-                });
+                .for_each(|(h, (o, d))| occ.occluded_many(o, d, self.tmin, h));
             return;
         }
         let mut rest = &mut hit[..];
@@ -261,7 +257,7 @@ impl RaySet {
             parts.push((g, a));
             rest = b;
         }
-        parts.into_par_iter().with_min_len(1).for_each(|(g, out)| {
+        parts.into_par_iter().with_min_len(8).for_each(|(g, out)| {
             let dirs = &self.dirs[g.1..g.1 + g.2];
             if g.2 > 1 {
                 occ.occluded_fan(g.0, dirs, self.tmin, out);

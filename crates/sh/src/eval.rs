@@ -191,35 +191,23 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
             }
         };
     }
-    // Large outputs of long rows are written with non-temporal stores (AVX2 path): the lines
-    // then go to memory without first being read. Measured (docs/BENCHMARKS.md): a gain of
-    // 1.5× for f64 at N = 16 (2 KiB rows), a loss for rows of 1 KiB and less.
-    #[cfg(target_arch = "x86_64")]
-    let stream = FMA
-        && std::mem::size_of_val(out_head) >= STREAM_BYTES
-        && nn * std::mem::size_of::<T>() >= STREAM_ROW_BYTES;
-    #[cfg(not(target_arch = "x86_64"))]
-    let stream = false;
-    let mut tile = if stream {
-        vec![T::zero(); LANES * nn]
-    } else {
-        Vec::new()
-    };
     macro_rules! fixed {
         ($n:literal, $nn:literal) => {{
-            for (d, o) in head
-                .chunks_exact(LANES)
-                .zip(out_head.chunks_exact_mut(LANES * nn))
-            {
-                if stream {
-                    lane_kernel_fixed::<T, $n, $nn, FMA>(leg, d, &mut tile);
-                    stream_out(o, &tile);
-                } else {
-                    lane_kernel_fixed::<T, $n, $nn, FMA>(leg, d, o)
+            // Long rows of f64 in half batches: the tile then stays in the first-level cache.
+            if std::mem::size_of::<T>() == 8 && $nn >= 256 {
+                for (d, o) in head
+                    .chunks_exact(LANES / 2)
+                    .zip(out_head.chunks_exact_mut(LANES / 2 * nn))
+                {
+                    lane_kernel_fixed::<T, $n, $nn, { LANES / 2 }, FMA>(leg, d, o)
                 }
-            }
-            if stream {
-                stream_fence();
+            } else {
+                for (d, o) in head
+                    .chunks_exact(LANES)
+                    .zip(out_head.chunks_exact_mut(LANES * nn))
+                {
+                    lane_kernel_fixed::<T, $n, $nn, LANES, FMA>(leg, d, o)
+                }
             }
         }};
     }
@@ -245,58 +233,6 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
             eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, *d, o)
         }
     }
-}
-
-/// Output size from which [`ShBasis::eval_batch`] streams its stores past the caches (AVX2),
-/// for rows (`N²` values of one point) of at least [`STREAM_ROW_BYTES`].
-pub const STREAM_BYTES: usize = 16 << 20;
-/// See [`STREAM_BYTES`].
-pub const STREAM_ROW_BYTES: usize = 2048;
-
-/// Copy `src` into `dst` with 32-byte non-temporal stores (ordinary stores for the unaligned
-/// ends); the caller issues the fence.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn stream_copy<T: Copy>(dst: &mut [T], src: &[T]) {
-    use std::arch::x86_64::*;
-    assert_eq!(dst.len(), src.len());
-    let bytes = std::mem::size_of_val(dst);
-    let (d, s) = (dst.as_mut_ptr() as *mut u8, src.as_ptr() as *const u8);
-    let head = (d.align_offset(32)).min(bytes);
-    // SAFETY: every access is within the two slices of `bytes` bytes each, and the body's
-    // destination is 32-byte aligned.
-    std::ptr::copy_nonoverlapping(s, d, head);
-    let mut i = head;
-    while i + 32 <= bytes {
-        let v = _mm256_loadu_si256(s.add(i) as *const __m256i);
-        _mm256_stream_si256(d.add(i) as *mut __m256i, v);
-        i += 32;
-    }
-    std::ptr::copy_nonoverlapping(s.add(i), d.add(i), bytes - i);
-}
-
-/// [`stream_copy`] where the target has it (callers pass `stream = true` only in the AVX2
-/// instantiation).
-#[inline(always)]
-fn stream_out<T: Copy>(dst: &mut [T], src: &[T]) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: reached with `stream = true` only, i.e. from the AVX2 + FMA instantiation.
-    unsafe {
-        stream_copy(dst, src)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    dst.copy_from_slice(src);
-}
-
-/// Order the streaming stores before any later store.
-#[inline(always)]
-fn stream_fence() {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: SSE2 is part of x86-64.
-    unsafe {
-        std::arch::x86_64::_mm_sfence()
-    };
 }
 
 /// `a·b + c`, fused (one rounding) when `FMA`.
@@ -387,12 +323,11 @@ fn lane_kernel<T: Real, const CAP: usize, const FMA: bool>(
 /// count, so the recurrence is unrolled into straight-line SIMD code on a tile of `NN × LANES`
 /// values, which is then written out point by point. The same operations as [`lane_kernel`].
 #[inline(always)]
-fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const FMA: bool>(
+fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, const FMA: bool>(
     leg: &Legendre<T>,
     d: &[[T; 3]],
     out: &mut [T],
 ) {
-    const W: usize = LANES;
     let out = &mut out[..W * NN];
     let d = &d[..W];
     let (mut x, mut y, mut z) = ([T::zero(); W], [T::zero(); W], [T::zero(); W]);
@@ -442,9 +377,82 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const FMA: bool>(
             }
         }
     }
+    // Measured (docs/BENCHMARKS.md): whole-vector transposed stores win for f32 at N ≤ 4
+    // (about 0.56× the time) and lose elsewhere, where the compiler's scalar stores straight
+    // from registers beat materialising the tile.
+    #[cfg(target_arch = "x86_64")]
+    if FMA && W == LANES && std::mem::size_of::<T>() == 4 && NN <= 16 {
+        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation; `out` holds W·NN values.
+        unsafe { write_tile_avx2::<T, NN>(tile.as_ptr() as *const [T; LANES], out) };
+        return;
+    }
     for (j, o) in out.chunks_exact_mut(NN).enumerate() {
         for i in 0..NN {
             o[i] = tile[i][j];
+        }
+    }
+}
+
+/// Write a tile (`NN` values × 8 lanes) point by point with AVX2 transposes (8×8 blocks of
+/// f32), so every store is a whole vector; values that do not fill a block are stored one by
+/// one.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn write_tile_avx2<T: Real, const NN: usize>(tile: *const [T; LANES], out: &mut [T]) {
+    // SAFETY: the caller's tile is NN rows of LANES values.
+    let tile = std::slice::from_raw_parts(tile, NN);
+    use std::arch::x86_64::*;
+    assert!(out.len() >= LANES * NN);
+    let o = out.as_mut_ptr();
+    let mut done = 0;
+    if std::mem::size_of::<T>() == 4 {
+        let t = tile.as_ptr() as *const f32;
+        let o = o as *mut f32;
+        macro_rules! st {
+            ($p:expr, $v:expr) => {{
+                _mm256_storeu_ps($p, $v)
+            }};
+        }
+        while done + 8 <= NN {
+            macro_rules! r {
+                ($k:expr) => {
+                    _mm256_loadu_ps(t.add((done + $k) * LANES))
+                };
+            }
+            let (r0, r1, r2, r3) = (r!(0), r!(1), r!(2), r!(3));
+            let (r4, r5, r6, r7) = (r!(4), r!(5), r!(6), r!(7));
+            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+            let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
+            let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
+            let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+            let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+            let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+            let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+            let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+            let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+            let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+            let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+            let c = [
+                _mm256_permute2f128_ps::<0x20>(s0, s4),
+                _mm256_permute2f128_ps::<0x20>(s1, s5),
+                _mm256_permute2f128_ps::<0x20>(s2, s6),
+                _mm256_permute2f128_ps::<0x20>(s3, s7),
+                _mm256_permute2f128_ps::<0x31>(s0, s4),
+                _mm256_permute2f128_ps::<0x31>(s1, s5),
+                _mm256_permute2f128_ps::<0x31>(s2, s6),
+                _mm256_permute2f128_ps::<0x31>(s3, s7),
+            ];
+            for (lane, v) in c.into_iter().enumerate() {
+                st!(o.add(lane * NN + done), v);
+            }
+            done += 8;
+        }
+    }
+    for (j, row) in out.chunks_exact_mut(NN).take(LANES).enumerate() {
+        for i in done..NN {
+            row[i] = tile[i][j];
         }
     }
 }
@@ -619,32 +627,5 @@ mod tests {
         }
         check::<f64>(32.0);
         check::<f32>(32.0);
-    }
-
-    /// Outputs past [`STREAM_BYTES`] with long rows take the streaming stores: same values.
-    #[test]
-    fn streamed_batch_agrees() {
-        let b = ShBasis::<f64>::new(16).unwrap();
-        let n = STREAM_BYTES / (256 * 8) + 13;
-        let dirs: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-                let r = (1.0 - z * z).sqrt();
-                let p = 2.399963229728653 * i as f64;
-                [r * p.cos(), r * p.sin(), z]
-            })
-            .collect();
-        let mut out = vec![0.0; n * 256];
-        b.eval_batch(&dirs, &mut out);
-        let mut one = vec![0.0; 256];
-        let mut worst = 0f64;
-        for (d, o) in dirs.iter().zip(out.chunks_exact(256)).step_by(97) {
-            b.eval(*d, &mut one);
-            for (a, c) in one.iter().zip(o) {
-                worst = worst.max((a - c).abs());
-            }
-        }
-        println!("streamed batch: worst difference {worst:e}");
-        assert!(worst < 1e-13, "{worst:e}");
     }
 }
