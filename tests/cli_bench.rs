@@ -263,3 +263,180 @@ fn gpu_sequence_image_matches_the_cpu_sequence() {
     assert!(rmse <= 1e-3 * max, "RMSE {rmse:.2e} vs max {max:.3}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `bench rays|bsv|sh --format json`: the fields the issue names, values that agree with the
+/// workload (ray and point counts, order, precision, threads), and on a ray file with its
+/// answers the disagreement count — zero against answers computed here by brute force, and
+/// exactly the flipped bits when some answers are flipped.
+#[test]
+fn kernel_benchmarks_report_their_workload() {
+    let quick = ["--min-time", "0.01", "--warmup", "0", "--format", "json"];
+    let with = |args: &[&str]| -> Vec<String> {
+        args.iter()
+            .chain(quick.iter())
+            .map(|s| s.to_string())
+            .collect()
+    };
+    let json = |args: Vec<String>| {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        common::json(&a)
+    };
+    let r = json(with(&[
+        "bench",
+        "rays",
+        "--workload",
+        "random",
+        "--count",
+        "3000",
+    ]));
+    assert_eq!(r["rays"], 3000);
+    assert_eq!(r["threads"], 1);
+    assert!(r["rays_per_second"].as_f64().unwrap() > 0.0);
+    assert!(r["median_seconds"].as_f64().unwrap() > 0.0);
+    assert!(
+        ["portable", "avx2+fma"].contains(&r["simd"].as_str().unwrap()),
+        "{r}"
+    );
+    let r = json(with(&[
+        "bench",
+        "rays",
+        "--workload",
+        "bsv",
+        "--threads",
+        "2",
+    ]));
+    assert_eq!(r["rays"], 12 * 20 * 32 * 32);
+    assert_eq!(r["threads"], 2);
+    let r = json(with(&[
+        "bench",
+        "bsv",
+        "--layout",
+        "latlong:4x6",
+        "--hemisphere-res",
+        "8",
+        "--order",
+        "3",
+    ]));
+    assert_eq!(r["rays"], 4 * 6 * 8 * 8);
+    assert_eq!(r["kernel"], "bsv");
+    let r = json(with(&[
+        "bench",
+        "sh",
+        "--order",
+        "5",
+        "--precision",
+        "f32",
+        "--points",
+        "1001",
+    ]));
+    assert_eq!(r["order"], 5);
+    assert_eq!(r["precision"], "f32");
+    assert_eq!(r["points"], 1001);
+    assert!(r["ns_per_point"].as_f64().unwrap() > 0.0);
+
+    // A ray file against the bunny with answers from the f64 brute force.
+    use shscale_geometry::{bundled, BruteForce, DVec3, Occluder};
+    let mesh = bundled::load("bunny").unwrap();
+    let s = mesh.bounding_sphere();
+    let brute = BruteForce::new(&mesh);
+    let n = 200;
+    let (mut os, mut ds, mut hits) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..n {
+        let a = i as f64 * 2.399963;
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let dir = DVec3::new(
+            (1.0 - z * z).sqrt() * a.cos(),
+            (1.0 - z * z).sqrt() * a.sin(),
+            z,
+        );
+        let o = s.center + 1.5 * s.radius * dir;
+        let target = s.center + 0.4 * s.radius * DVec3::new(a.sin(), (2.0 * a).cos(), 0.3);
+        let d = (target - o).normalize();
+        os.push(o.as_vec3());
+        ds.push(d.as_vec3());
+        hits.push(brute.occluded(o, d, 0.0, f64::INFINITY));
+    }
+    let mut bytes = Vec::new();
+    for v in os.iter().chain(&ds) {
+        for c in v.to_array() {
+            bytes.extend(c.to_le_bytes());
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("shscale-rays-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rays = dir.join("t.rays.f32");
+    std::fs::write(&rays, &bytes).unwrap();
+    let pack = |h: &[bool]| {
+        let mut b = vec![0u8; h.len().div_ceil(8)];
+        for (i, &x) in h.iter().enumerate() {
+            b[i / 8] |= u8::from(x) << (i % 8);
+        }
+        b
+    };
+    let bits = dir.join("t.hits.bits");
+    std::fs::write(&bits, pack(&hits)).unwrap();
+    let args = |b: &std::path::Path| {
+        with(&[
+            "bench",
+            "rays",
+            "--rays",
+            rays.to_str().unwrap(),
+            "--hits",
+            b.to_str().unwrap(),
+        ])
+    };
+    let r = json(args(&bits));
+    let want_hits = hits.iter().filter(|h| **h).count();
+    println!("{want_hits} of {n} rays hit");
+    assert!(want_hits > 20 && want_hits < n - 20, "{want_hits}");
+    assert_eq!(r["rays"], n);
+    assert_eq!(r["hits"], want_hits);
+    assert_eq!(r["mismatches"], 0);
+    // Flip 7 answers: 7 disagreements.
+    let mut flipped = hits.clone();
+    for i in [0, 3, 50, 51, 120, 198, 199] {
+        flipped[i] = !flipped[i];
+    }
+    let bad = dir.join("f.hits.bits");
+    std::fs::write(&bad, pack(&flipped)).unwrap();
+    assert_eq!(json(args(&bad))["mismatches"], 7);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An unknown `SHSCALE_SIMD` is refused before any work (exit 2, the variable named); `portable`
+/// is reported by the benchmarks.
+#[test]
+fn simd_setting_is_checked_and_reported() {
+    let out = run(
+        &["sh", "eval", "--order", "2", "--dir", "0,0,1"],
+        &[("SHSCALE_SIMD", "avx9")],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("SHSCALE_SIMD") && err.contains("avx9"),
+        "{err}"
+    );
+    let out = run(
+        &[
+            "bench",
+            "sh",
+            "--order",
+            "4",
+            "--points",
+            "100",
+            "--min-time",
+            "0.01",
+            "--format",
+            "json",
+        ],
+        &[("SHSCALE_SIMD", "portable")],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["simd"], "portable");
+}

@@ -385,6 +385,25 @@ fn fixture() -> PathBuf {
     std::fs::create_dir_all(d.join("o/keep.png")).unwrap();
     std::fs::create_dir_all(d.join("o/adir.exr")).unwrap();
     write(&d, "o/bench.csv", "existing,bench,rows\n");
+    // Ray files in the peers' format: 25 bytes (not whole rays), one ray with a zero
+    // direction, two good rays (48 bytes) with a hits file of the wrong length.
+    write(&d, "rays/odd.rays.f32", [0u8; 25]);
+    let ray = |o: [f32; 3], dir: [f32; 3]| -> Vec<u8> {
+        o.iter().chain(&dir).flat_map(|v| v.to_le_bytes()).collect()
+    };
+    write(
+        &d,
+        "rays/zero.rays.f32",
+        ray([5.0, 0.0, 0.0], [0.0, 0.0, 0.0]),
+    );
+    let mut two = Vec::new();
+    for v in [
+        5.0f32, 0.0, 0.0, 0.0, 5.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0,
+    ] {
+        two.extend(v.to_le_bytes());
+    }
+    write(&d, "rays/two.rays.f32", two);
+    write(&d, "rays/two.hits.bits", [0u8, 0u8]);
     d
 }
 
@@ -626,6 +645,42 @@ const CASES: &[(&str, &str)] = &[
         "bench --frames 1 --warmup 0 --csv {D}/o/keep.png",
         "keep.png",
     ),
+    // Kernel benchmarks.
+    ("bench rays --threads 0", "--threads"),
+    ("bench rays --threads 100000", "--threads"),
+    ("bench rays --min-time 0", "--min-time"),
+    ("bench rays --min-time nan", "--min-time"),
+    ("bench rays --min-time 1e9", "--min-time"),
+    ("bench rays --warmup 101", "--warmup"),
+    ("bench rays --workload random --count 0", "--count"),
+    ("bench rays --workload random --count 1000000000", "--count"),
+    ("bench rays --workload moon", "moon"),
+    ("bench rays --mesh sphere", "--mesh"),
+    ("bench rays --mesh moon", "moon"),
+    ("bench rays --rays {D}/nosuch.rays.f32", "nosuch.rays.f32"),
+    ("bench rays --rays {D}/rays/odd.rays.f32", "odd.rays.f32"),
+    ("bench rays --rays {D}/rays/zero.rays.f32", "ray 0"),
+    (
+        "bench rays --rays {D}/rays/two.rays.f32 --hits {D}/rays/two.hits.bits",
+        "two.hits.bits",
+    ),
+    ("bench rays --hits {D}/rays/two.hits.bits", "--rays"),
+    (
+        "bench rays --rays {D}/rays/two.rays.f32 --workload random",
+        "--workload",
+    ),
+    ("bench bsv --layout latlong:0x4", "--layout"),
+    ("bench bsv --hemisphere-res 0", "--hemisphere-res"),
+    ("bench bsv --order 0", "--order"),
+    ("bench bsv --order 17", "--order"),
+    (
+        "bench bsv --layout fib:1000000 --hemisphere-res 1024",
+        "--allow-large",
+    ),
+    ("bench sh --order 0", "--order"),
+    ("bench sh --precision f16", "f16"),
+    ("bench sh --points 0", "--points"),
+    ("bench sh --order 64 --points 100000000", "--allow-large"),
     ("frobnicate", "frobnicate"),
     // Runs, merges, Slurm, figures.
     ("run", "config"),

@@ -228,6 +228,9 @@ pub struct KernelCommon {
     /// Warm-up calls, run and dropped.
     #[arg(long, default_value_t = 2, value_parser = whole)]
     pub warmup: usize,
+    /// Run even when one call's estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Args, Debug)]

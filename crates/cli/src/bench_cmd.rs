@@ -228,10 +228,19 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
                     shscale_lab::vocab::MAX_VISIBILITY_RES
                 );
             }
-            shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
+            // The orders a scene may shade with (docs/config-reference.md).
+            if !(1..=16).contains(&a.order) {
+                anyhow::bail!("--order: {} is outside 1..=16", a.order);
+            }
             let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
                 * (a.hemisphere_res * a.hemisphere_res) as f64;
-            shscale_lab::limits::check_work("bench bsv", rays, 0.0, "layout samples × H²", false)?;
+            shscale_lab::limits::check_work(
+                "bench bsv",
+                rays,
+                0.0,
+                "layout samples × H²",
+                a.common.allow_large,
+            )?;
             let r =
                 kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
             let text = format!(
@@ -258,7 +267,13 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             }
             let f32 = a.precision == Precision::F32;
             let bytes = a.points as f64 * (a.order * a.order) as f64 * if f32 { 4.0 } else { 8.0 };
-            shscale_lab::limits::check_work("bench sh", 0.0, bytes, "--points × N² values", false)?;
+            shscale_lab::limits::check_work(
+                "bench sh",
+                0.0,
+                bytes,
+                "--points × N² values",
+                a.common.allow_large,
+            )?;
             let r = kernels::bench_sh(a.order, f32, a.points, level, p)?;
             let text = format!(
                 "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",

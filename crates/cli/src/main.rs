@@ -45,6 +45,12 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     quiet_mesa();
+    // The kernels' instruction set is chosen from SHSCALE_SIMD once; a value the library would
+    // silently read as `portable` is refused here.
+    if let Err(e) = shscale_sh::simd::parse_setting(std::env::var("SHSCALE_SIMD").ok().as_deref()) {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     // Negative numbers are values (`--order -1`, `--radii -1`), refused by the flag's own check.
     fn negatives(c: clap::Command) -> clap::Command {
         c.allow_negative_numbers(true).mut_subcommands(negatives)
