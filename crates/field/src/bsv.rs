@@ -155,7 +155,32 @@ pub struct Bsv {
     pub sampling_radius: f64,
     pub samples: Vec<BsvSample>,
     pub rays: usize,
-    tri: SphericalTriangulation,
+    tri: std::sync::Arc<SphericalTriangulation>,
+}
+
+/// The triangulation of a set of sample directions, shared between every BSV sampled on the
+/// same directions (a deforming sequence resamples each frame on one layout): the last few
+/// are kept, looked up by exact equality of the directions.
+fn triangulation(dirs: &[DVec3]) -> Result<std::sync::Arc<SphericalTriangulation>, FieldError> {
+    use std::sync::{Arc, Mutex};
+    type Cache = Vec<(Vec<DVec3>, Arc<SphericalTriangulation>)>;
+    static CACHE: Mutex<Cache> = Mutex::new(Vec::new());
+    const KEEP: usize = 8;
+    if let Some(t) = CACHE.lock().ok().and_then(|c| {
+        c.iter()
+            .find(|(d, _)| d.as_slice() == dirs)
+            .map(|(_, t)| t.clone())
+    }) {
+        return Ok(t);
+    }
+    let t = Arc::new(SphericalTriangulation::new(dirs).map_err(FieldError::Spec)?);
+    if let Ok(mut c) = CACHE.lock() {
+        if c.len() == KEEP {
+            c.remove(0);
+        }
+        c.push((dirs.to_vec(), t.clone()));
+    }
+    Ok(t)
 }
 
 impl Bsv {
@@ -237,7 +262,7 @@ impl Bsv {
         rays: usize,
     ) -> Result<Self, FieldError> {
         let dirs: Vec<DVec3> = samples.iter().map(|s| s.dir).collect();
-        let tri = SphericalTriangulation::new(&dirs).map_err(FieldError::Spec)?;
+        let tri = triangulation(&dirs)?;
         Ok(Self {
             layout,
             sphere,

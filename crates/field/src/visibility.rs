@@ -13,7 +13,7 @@
 use crate::frame::LocalFrame;
 use glam::DVec3;
 use shscale_geometry::{Occluder, RAY_EPS};
-use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
+use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, EulerRotator, ShBasis};
 
 /// Per-thread buffers of [`VisibilitySampler::accumulate`].
 struct Scratch {
@@ -22,6 +22,7 @@ struct Scratch {
     free: Vec<[f64; 3]>,
     weights: Vec<f64>,
     values: Vec<f64>,
+    rotated: Vec<f64>,
 }
 
 impl Scratch {
@@ -32,6 +33,7 @@ impl Scratch {
             free: Vec::new(),
             weights: Vec::new(),
             values: Vec::new(),
+            rotated: Vec::new(),
         }
     }
 }
@@ -51,6 +53,22 @@ pub struct VisibilitySampler {
     basis: ShBasis<f64>,
     hemi: DirectionSet,
     back_zonal: Vec<f64>,
+    /// The local-frame SH of every hemisphere direction and their weighted sum, when the
+    /// table fits [`LOCAL_TABLE_VALUES`]: occlusion is then projected by subtracting the
+    /// occluded rows from the sum and rotating once ([`VisibilitySampler::facing_hemisphere`]).
+    local: Option<LocalTable>,
+    rotator: EulerRotator<f64>,
+}
+
+/// The most values (`H² · N²`) a sampler tabulates (16 MiB of f64).
+pub const LOCAL_TABLE_VALUES: usize = 2 << 20;
+
+#[derive(Clone, Debug)]
+struct LocalTable {
+    /// `Y(d_i)` for the hemisphere directions about +z, row by row.
+    rows: Vec<f64>,
+    /// `Σ w_i Y(d_i)`.
+    sum: Vec<f64>,
 }
 
 impl VisibilitySampler {
@@ -63,10 +81,23 @@ impl VisibilitySampler {
             ));
         }
         let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)?;
+        let hemi = DirectionSet::gauss_hemisphere(h).in_tiles(h, h);
+        let nn = basis.len();
+        let local = (h.saturating_mul(h).saturating_mul(nn) <= LOCAL_TABLE_VALUES).then(|| {
+            let mut rows = vec![0.0; hemi.len() * nn];
+            basis.eval_batch(&hemi.dirs, &mut rows);
+            let mut sum = vec![0.0; nn];
+            for (y, &w) in rows.chunks_exact(nn).zip(&hemi.weights) {
+                sum.iter_mut().zip(y).for_each(|(o, b)| *o += w * b);
+            }
+            LocalTable { rows, sum }
+        });
         Ok(Self {
             basis,
-            hemi: DirectionSet::gauss_hemisphere(h).in_tiles(h, h),
+            hemi,
             back_zonal: cap,
+            local,
+            rotator: EulerRotator::new(order)?,
         })
     }
 
@@ -125,6 +156,45 @@ impl VisibilitySampler {
         }
         let tmin = RAY_EPS * occ.bounding_sphere().radius;
         let nn = out.len();
+        if let (Some(t), true) = (&self.local, side > 0.0) {
+            // Σ over the escaping rays = the whole hemisphere's sum − the occluded rows, in the
+            // local frame; then one rotation to the entity frame.
+            SCRATCH.with_borrow_mut(|s| {
+                s.world.clear();
+                s.world.extend(
+                    self.hemi
+                        .dirs
+                        .iter()
+                        .map(|d| f.to_world(DVec3::from_array(*d))),
+                );
+                s.hit.clear();
+                s.hit.resize(s.world.len(), false);
+                occ.occluded_fan(p, &s.world, tmin, &mut s.hit);
+                s.values.clear();
+                s.values.extend_from_slice(&t.sum);
+                for ((y, &w), &h) in t.rows.chunks_exact(nn).zip(&self.hemi.weights).zip(&s.hit) {
+                    if h {
+                        s.values.iter_mut().zip(y).for_each(|(o, b)| *o -= w * b);
+                    }
+                }
+                match frame {
+                    Frame::Local => out.iter_mut().zip(&s.values).for_each(|(o, v)| *o += v),
+                    Frame::Entity => {
+                        let r = [
+                            [f.x.x, f.y.x, f.z.x],
+                            [f.x.y, f.y.y, f.z.y],
+                            [f.x.z, f.y.z, f.z.z],
+                        ];
+                        s.rotated.resize(nn, 0.0);
+                        self.rotator
+                            .apply(&r, &s.values, &mut s.rotated)
+                            .expect("lengths agree");
+                        out.iter_mut().zip(&s.rotated).for_each(|(o, v)| *o += v);
+                    }
+                }
+            });
+            return;
+        }
         SCRATCH.with_borrow_mut(|s| {
             s.world.clear();
             s.world.extend(
@@ -153,11 +223,18 @@ impl VisibilitySampler {
                 });
                 s.weights.push(wt);
             }
-            s.values.clear();
-            s.values.resize(s.free.len() * nn, 0.0);
-            self.basis.eval_batch(&s.free, &mut s.values);
-            for (y, &w) in s.values.chunks_exact(nn).zip(&s.weights) {
-                out.iter_mut().zip(y).for_each(|(o, b)| *o += w * b);
+            // In chunks that stay in the first-level cache; the buffer is only ever grown, and
+            // every value read was written by the batch just before.
+            const CHUNK: usize = 64;
+            if s.values.len() < CHUNK * nn {
+                s.values.resize(CHUNK * nn, 0.0);
+            }
+            for (dirs, ws) in s.free.chunks(CHUNK).zip(s.weights.chunks(CHUNK)) {
+                let vals = &mut s.values[..dirs.len() * nn];
+                self.basis.eval_batch(dirs, vals);
+                for (y, &w) in vals.chunks_exact(nn).zip(ws) {
+                    out.iter_mut().zip(y).for_each(|(o, b)| *o += w * b);
+                }
             }
         });
     }

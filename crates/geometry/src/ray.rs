@@ -203,7 +203,7 @@ impl MeshBvh {
         let mut t = Duration::default();
         let params = BvhBuildParams {
             max_prims_per_leaf: crate::wide::PACK as u32,
-            ..BvhBuildParams::medium_build()
+            ..BvhBuildParams::fast_build()
         };
         let bvh2 = build_bvh2_from_tris(tris, params, &mut t);
         WideBvh::from_bvh2(&bvh2, tris)
