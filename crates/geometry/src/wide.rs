@@ -393,11 +393,21 @@ impl WideBvh {
     /// the nearest); `F`: fused multiply-adds in the box test.
     #[inline(always)]
     fn traverse<const ANY: bool, const F: bool>(&self, ray: &WideRay) -> Option<(f32, u32)> {
+        self.traverse_from::<ANY, F>(ray, 0)
+    }
+
+    /// [`WideBvh::traverse`] of the subtree under node `start`.
+    #[inline(always)]
+    fn traverse_from<const ANY: bool, const F: bool>(
+        &self,
+        ray: &WideRay,
+        start: u32,
+    ) -> Option<(f32, u32)> {
         let pre = Prepared::new(ray);
         let mut tmax = ray.tmax;
         let mut best: Option<(f32, u32)> = None;
         let mut stack = Stack::new(self.depth * (WIDTH - 1) + 1);
-        stack.push(0);
+        stack.push(start);
         while let Some(n) = stack.pop() {
             let node = &self.nodes[n as usize];
             #[cfg(target_arch = "x86_64")]
@@ -572,6 +582,9 @@ unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u3
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, slack)) as u32
 }
 
+/// A packet subtree with at most this many live lanes is finished ray by ray.
+const SOLO_LANES: u32 = 2;
+
 /// Any-hit for up to 8 rays from one origin, traversed together (AVX2 lanes = rays): each
 /// child box is tested against every live lane, a subtree is entered by the lanes that hit
 /// its box, and a lane leaves when a triangle occludes it; the packet stops when every lane
@@ -622,6 +635,28 @@ unsafe fn packet_occluded(
     'outer: while let (Some(node_id), Some(m)) = (stack.pop(), masks.pop()) {
         let live = m & !occluded & valid;
         if live == 0 {
+            continue;
+        }
+        if live.count_ones() <= SOLO_LANES {
+            // Few lanes left in this subtree: one-ray traversals are cheaper than the packet's
+            // 8-lane tests.
+            let mut l = live;
+            while l != 0 {
+                let i = l.trailing_zeros() as usize;
+                l &= l - 1;
+                let ray = WideRay {
+                    o,
+                    d: dirs[i.min(n - 1)],
+                    tmin,
+                    tmax,
+                };
+                if w.traverse_from::<true, true>(&ray, node_id).is_some() {
+                    occluded |= 1 << i;
+                }
+            }
+            if occluded & valid == valid {
+                break 'outer;
+            }
             continue;
         }
         let node = &w.nodes[node_id as usize];
