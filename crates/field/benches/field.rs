@@ -1,5 +1,5 @@
-//! Criterion benchmarks of geometry and BSV sampling: BVH build (wide BVH, rebuild) and refit
-//! (binary BVH) for ~20k and ~100k triangles; occlusion rays per second of the BSV workload on
+//! Criterion benchmarks of geometry and BSV sampling: BVH build, rebuild and refit (the 8-wide
+//! tree of `shscale_geometry::wide`) for ~20k and ~100k triangles; occlusion rays per second of the BSV workload on
 //! dragon_19k with 1 and 2 threads; BSV sampling of the bunny at 12×20×32² and 6×8×8×32² with 2
 //! threads. Run: `cargo bench -p shscale-field`; results in docs/BENCHMARKS.md.
 
@@ -39,7 +39,7 @@ fn bvh_build_refit(c: &mut Criterion) {
         );
         let mut bin = MeshBvh::build(&rest, UpdateStrategy::Refit);
         g.bench_function(
-            BenchmarkId::new("update_refit_binary", format!("{label}_{tris}")),
+            BenchmarkId::new("update_refit", format!("{label}_{tris}")),
             |b| b.iter(|| bin.update(black_box(&bent))),
         );
     }

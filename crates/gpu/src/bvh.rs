@@ -170,7 +170,7 @@ mod tests {
     use glam::DVec3;
     use shscale_geometry::{shapes, MeshBvh, Occluder};
 
-    /// Oracle: the obvhs CwBvh of `MeshBvh` (another tree, another traversal) on 4000 rays
+    /// Oracle: the 8-wide tree of `MeshBvh` (another tree, another traversal) on 4000 rays
     /// through and around a bent box; the flattened tree must answer identically, before and
     /// after a refit and a rebuild.
     #[test]
