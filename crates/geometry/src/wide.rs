@@ -697,17 +697,45 @@ unsafe fn packet_occluded(
             _mm256_set1_epi32(-1),
         ))) as u32;
         any &= !empty;
+        // Nearest boxes first (squared distance from the common origin to the box centre, for
+        // all 8 children at once): occluded lanes then leave the packet sooner. Leaves are
+        // tested in that order, inner nodes pushed farthest first.
+        let mut key = [0f32; WIDTH];
+        {
+            let half = _mm256_set1_ps(0.5);
+            let c = |a: usize| {
+                let lo = _mm256_loadu_ps(rel[a].as_ptr());
+                let hi = _mm256_loadu_ps(rel[a + 3].as_ptr());
+                _mm256_mul_ps(_mm256_add_ps(lo, hi), half)
+            };
+            let (cx, cy, cz) = (c(0), c(1), c(2));
+            let d2 = _mm256_fmadd_ps(cx, cx, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cz, cz)));
+            _mm256_storeu_ps(key.as_mut_ptr(), d2);
+        }
+        let mut order = [0usize; WIDTH];
+        let mut k = 0;
         while any != 0 {
             let j = any.trailing_zeros() as usize;
             any &= any - 1;
+            let mut i = k;
+            while i > 0 && key[order[i - 1]] > key[j] {
+                order[i] = order[i - 1];
+                i -= 1;
+            }
+            order[i] = j;
+            k += 1;
+        }
+        let mut inner = [(0u32, 0u32); WIDTH];
+        let mut ni = 0;
+        for &j in &order[..k] {
             let c = node.child[j];
             let lanes = hits[j] & !occluded;
             if lanes == 0 {
                 continue;
             }
             if c & LEAF == 0 {
-                stack.push(c);
-                masks.push(lanes);
+                inner[ni] = (c, lanes);
+                ni += 1;
                 continue;
             }
             let (first, count) = leaf_range(c);
@@ -725,6 +753,10 @@ unsafe fn packet_occluded(
                     break 'outer;
                 }
             }
+        }
+        for &(c, lanes) in inner[..ni].iter().rev() {
+            stack.push(c);
+            masks.push(lanes);
         }
     }
     occluded & valid
