@@ -138,10 +138,35 @@ impl VisibilitySampler {
         }
     }
 
-    /// The occlusion rays of one hemisphere, all from `p`: one fan query
-    /// ([`Occluder::occluded_fan`]), then the SH of every escaping direction in one batch
-    /// ([`ShBasis::eval_batch`]), summed with their weights. Scratch buffers are per thread and
-    /// reused: no allocation per sample once a thread has run one.
+    /// The hemisphere's rays from `p` in world directions (`s.world`) and their answers
+    /// (`s.hit`, one fan query).
+    fn cast(
+        &self,
+        s: &mut Scratch,
+        occ: &dyn Occluder,
+        p: DVec3,
+        f: &LocalFrame,
+        side: f64,
+        tmin: f64,
+    ) {
+        s.world.clear();
+        s.world.extend(
+            self.hemi
+                .dirs
+                .iter()
+                .map(|d| f.to_world(DVec3::new(d[0], d[1], side * d[2]))),
+        );
+        s.hit.clear();
+        s.hit.resize(s.world.len(), false);
+        occ.occluded_fan(p, &s.world, tmin, &mut s.hit);
+    }
+
+    /// The occlusion rays of one hemisphere, all from `p`, in one fan query
+    /// ([`Occluder::occluded_fan`]), projected to SH: for the facing hemisphere with a table,
+    /// the table's weighted sum minus the occluded rows, rotated once to the entity frame;
+    /// otherwise the SH of every escaping direction in batches ([`ShBasis::eval_batch`]),
+    /// summed with their weights. Scratch buffers are per thread and reused: no allocation per
+    /// sample once a thread has run one.
     fn accumulate(
         &self,
         occ: &dyn Occluder,
@@ -160,16 +185,7 @@ impl VisibilitySampler {
             // Σ over the escaping rays = the whole hemisphere's sum − the occluded rows, in the
             // local frame; then one rotation to the entity frame.
             SCRATCH.with_borrow_mut(|s| {
-                s.world.clear();
-                s.world.extend(
-                    self.hemi
-                        .dirs
-                        .iter()
-                        .map(|d| f.to_world(DVec3::from_array(*d))),
-                );
-                s.hit.clear();
-                s.hit.resize(s.world.len(), false);
-                occ.occluded_fan(p, &s.world, tmin, &mut s.hit);
+                self.cast(s, occ, p, f, side, tmin);
                 s.values.clear();
                 s.values.extend_from_slice(&t.sum);
                 for ((y, &w), &h) in t.rows.chunks_exact(nn).zip(&self.hemi.weights).zip(&s.hit) {
@@ -196,16 +212,7 @@ impl VisibilitySampler {
             return;
         }
         SCRATCH.with_borrow_mut(|s| {
-            s.world.clear();
-            s.world.extend(
-                self.hemi
-                    .dirs
-                    .iter()
-                    .map(|d| f.to_world(DVec3::new(d[0], d[1], side * d[2]))),
-            );
-            s.hit.clear();
-            s.hit.resize(s.world.len(), false);
-            occ.occluded_fan(p, &s.world, tmin, &mut s.hit);
+            self.cast(s, occ, p, f, side, tmin);
             s.free.clear();
             s.weights.clear();
             for ((w, &h), (d, &wt)) in s
@@ -276,5 +283,44 @@ impl VisibilitySampler {
             .expect("lengths agree");
         out.iter_mut().zip(&back).for_each(|(o, b)| *o += b);
         (out, self.hemi.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shscale_geometry::ray::UpdateStrategy;
+    use shscale_geometry::{bundled, MeshBvh};
+
+    /// The table path (hemisphere sum minus occluded rows, one rotation) against the direct
+    /// path (SH of every escaping ray): the same coefficients to round-off, in both frames, at
+    /// points on and off the bounding sphere.
+    #[test]
+    fn table_projection_equals_direct_projection() {
+        let mesh = bundled::load("bunny").unwrap();
+        let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+        let s = bvh.bounding_sphere();
+        for (order, h) in [(4, 32), (8, 16), (3, 7)] {
+            let table = VisibilitySampler::new(order, h).unwrap();
+            assert!(table.local.is_some());
+            let mut direct = table.clone();
+            direct.local = None;
+            let mut worst = 0f64;
+            for (i, d) in [DVec3::X, DVec3::new(0.3, -0.8, 0.5).normalize(), -DVec3::Z]
+                .into_iter()
+                .enumerate()
+            {
+                let p = s.center + s.radius * (1.0 + 0.5 * i as f64) * d;
+                for frame in [Frame::Entity, Frame::Local] {
+                    let (a, _) = table.facing_hemisphere(&bvh, p, s.center, frame);
+                    let (b, _) = direct.facing_hemisphere(&bvh, p, s.center, frame);
+                    for (x, y) in a.iter().zip(&b) {
+                        worst = worst.max((x - y).abs());
+                    }
+                }
+            }
+            println!("N = {order}, H = {h}: worst difference {worst:e}");
+            assert!(worst < 1e-12, "N = {order}, H = {h}: {worst:e}");
+        }
     }
 }
