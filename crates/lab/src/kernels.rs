@@ -102,6 +102,9 @@ impl Mix {
     }
 }
 
+/// The most rays a ray file may hold (2.4 GB of f32).
+pub const MAX_FILE_RAYS: usize = 100_000_000;
+
 /// Rays grouped by common origin (`groups[g]` = (origin, first ray, count)), with `t ∈ (tmin, ∞)`.
 #[derive(Clone, Debug)]
 pub struct RaySet {
@@ -181,6 +184,18 @@ impl RaySet {
         path: &std::path::Path,
         hits: Option<&std::path::Path>,
     ) -> Result<Self, LabError> {
+        let size = std::fs::metadata(path)
+            .map_err(|e| LabError::Io {
+                path: path.display().to_string(),
+                reason: e.to_string(),
+            })?
+            .len();
+        if size > (MAX_FILE_RAYS * 24) as u64 {
+            return Err(LabError::Config(format!(
+                "{}: {size} bytes is more than {MAX_FILE_RAYS} rays (24 bytes each), the most a ray file may hold",
+                path.display()
+            )));
+        }
         let bytes = std::fs::read(path).map_err(|e| LabError::Io {
             path: path.display().to_string(),
             reason: e.to_string(),
@@ -430,4 +445,28 @@ pub fn bench_sh(
         median_seconds: timing.median_seconds,
         timing,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ray file larger than [`MAX_FILE_RAYS`] rays is refused from its size, before it is
+    /// read (a sparse 3 GB file: no disk space, no memory).
+    #[test]
+    fn oversized_ray_file_is_refused_unread() {
+        let dir = std::env::temp_dir().join(format!("shscale-huge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("huge.rays.f32");
+        std::fs::File::create(&p)
+            .unwrap()
+            .set_len(3_000_000_000)
+            .unwrap();
+        let e = RaySet::from_file(&p, None).unwrap_err().to_string();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(
+            e.contains("huge.rays.f32") && e.contains("100000000 rays"),
+            "{e}"
+        );
+    }
 }
