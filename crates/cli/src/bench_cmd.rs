@@ -135,8 +135,8 @@ pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The most rays, points or threads a kernel benchmark accepts without --allow-large-like
-/// flags: beyond these a run takes minutes or gigabytes.
+/// The most random rays (`--count`) and threads (`--threads`) a kernel benchmark accepts:
+/// beyond these a run takes minutes or gigabytes (`--allow-large` does not lift them).
 const MAX_KERNEL_RAYS: usize = 100_000_000;
 const MAX_THREADS: usize = 1024;
 

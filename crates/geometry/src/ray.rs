@@ -124,23 +124,52 @@ fn frame_of(s: Sphere) -> UnitFrame {
     }
 }
 
+/// The bounding ball in the unit frame: radius 1 plus a margin for the f32 rounding of the
+/// vertices.
+const BALL: f64 = 1.0 + 1e-5;
+
+/// A unit-frame ray `o + t d` (`d` unit) against the ball `|x| = BALL`: `|o + t d|² = BALL²` is
+/// `t² + 2 b t + c = 0`, with the discriminant `b² − c` computed as `BALL² − |o − b d|²` (the
+/// squared distance of the line from the centre), which does not cancel catastrophically for
+/// far origins.
+#[derive(Clone, Copy)]
+struct Ball {
+    b: f64,
+    c: f64,
+    disc: f64,
+}
+
+impl Ball {
+    #[inline(always)]
+    fn of(o: DVec3, d: DVec3) -> Self {
+        let b = o.dot(d);
+        Self {
+            b,
+            c: o.length_squared() - BALL * BALL,
+            disc: BALL * BALL - (o - b * d).length_squared(),
+        }
+    }
+
+    /// The origin is outside the ball and the ray moves away from it or passes by (no
+    /// short-circuit, so block loops stay branch-free).
+    #[inline(always)]
+    fn missed(self) -> bool {
+        (self.c > 0.0) & ((self.b >= 0.0) | (self.disc <= 0.0))
+    }
+}
+
 /// A ray in the unit frame, or `None` when its line misses the bounding ball (radius 1 plus a
 /// margin for the f32 rounding of the vertices) within `[tmin, tmax]`. Returns the f32 ray and
 /// the offset `t0` (unit-frame units) the origin was advanced by.
 #[inline]
 fn unit_ray(frame: &UnitFrame, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(WideRay, f64)> {
-    const BALL: f64 = 1.0 + 1e-5;
     let inv = frame.inv;
     let (o, tmin, tmax) = ((o - frame.center) * inv, tmin * inv, tmax * inv);
-    // |o + t d|² = BALL²: t² + 2 b t + c = 0, with the discriminant b² − c computed as
-    // BALL² − |o − b d|² (the squared distance of the line from the centre), which does not
-    // cancel catastrophically for far origins.
-    let b = o.dot(d);
-    let c = o.length_squared() - BALL * BALL;
-    let disc = BALL * BALL - (o - b * d).length_squared();
-    if c > 0.0 && (b >= 0.0 || disc <= 0.0) {
+    let ball = Ball::of(o, d);
+    if ball.missed() {
         return None; // outside the ball, moving away or passing by
     }
+    let Ball { b, c, disc } = ball;
     // The exit distance −b + √disc is below tmin ⟺ √disc < tmin + b (no square root needed).
     let need = tmin + b;
     if need > 0.0 && disc.max(0.0) < need * need {
@@ -217,11 +246,7 @@ impl MeshBvh {
 
     /// The same tree traversed with `level` (a level the CPU lacks becomes portable).
     pub fn with_level(mut self, level: Level) -> Self {
-        self.level = if level == shscale_sh::simd::detected() {
-            level
-        } else {
-            Level::Portable
-        };
+        self.level = level.usable();
         self
     }
 
@@ -294,7 +319,6 @@ impl Occluder for MeshBvh {
         // one by one. Far origins (more than 4 radii away) take the one-ray path, which
         // advances them in f64.
         const BLOCK: usize = 64;
-        const BALL: f64 = 1.0 + 1e-5;
         let (c, inv) = (self.frame.center, self.frame.inv);
         let tmin_u = tmin * inv;
         let mut keep = [0u8; BLOCK];
@@ -307,14 +331,8 @@ impl Occluder for MeshBvh {
             let n = os.len();
             for i in 0..n {
                 let o = (os[i] - c) * inv;
-                let d = ds[i];
-                let b = o.dot(d);
-                let r2 = o.length_squared();
-                let disc = BALL * BALL - (o - b * d).length_squared();
-                let outside = r2 > BALL * BALL;
-                let misses = outside & ((b >= 0.0) | (disc <= 0.0));
-                far[i] = r2 > 16.0;
-                keep[i] = u8::from(!misses | far[i]);
+                far[i] = o.length_squared() > 16.0;
+                keep[i] = u8::from(!Ball::of(o, ds[i]).missed() | far[i]);
             }
             let mut idx = [0u8; BLOCK];
             let mut m = 0;

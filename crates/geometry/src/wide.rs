@@ -1,9 +1,9 @@
 //! The production traversal: an 8-wide BVH over packs of 4 triangles, in f32, traversed with one
 //! SIMD box test per node (8 children at once) and one SIMD triangle test per pack (4 at once).
 //!
-//! The tree comes from obvhs (a binary PLOC build, `BvhBuildParams::medium_build`), collapsed
-//! here: every inner node takes up to 8 descendants, always opening the largest-area one, and
-//! every subtree of at most [`PACK`] triangles becomes one leaf pack. Nodes are stored parents
+//! The tree comes from obvhs (a binary PLOC build, `BvhBuildParams::fast_build` in
+//! `MeshBvh::build`), collapsed here: every inner node takes up to 8 descendants, always opening
+//! the largest-area one, and every subtree of at most [`PACK`] triangles becomes one leaf pack. Nodes are stored parents
 //! first, so a refit (same topology, moved vertices) is one reverse sweep.
 //!
 //! **Exactness.** Boxes are padded by [`BOX_PAD`] (unit-frame units, ~17 f32 ulps at 1) and the

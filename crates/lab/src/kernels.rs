@@ -140,11 +140,8 @@ impl RaySet {
         let (mut origins, mut dirs) = (Vec::new(), Vec::new());
         for dir in (Layout::LatLong { rows, cols }).directions() {
             let o = s.center + s.radius * dir;
-            // Local frame: z toward the centre.
-            let z = -dir;
-            let helper = if z.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
-            let x = helper.cross(z).normalize();
-            let y = z.cross(x);
+            // The sampler's local frame: z toward the centre.
+            let f = shscale_field::LocalFrame::toward(o, s.center);
             // In the BSV sampler's order: 2×4 tiles of the (cosθ, φ) grid.
             for q in shscale_sh::tile_order(h, h) {
                 let (i, j) = (q / h, q % h);
@@ -152,7 +149,10 @@ impl RaySet {
                 let st = (1.0 - ct * ct).sqrt();
                 let p = std::f64::consts::TAU * (j as f64 + 0.5) / h as f64;
                 origins.push(o);
-                dirs.push((x * (st * p.cos()) + y * (st * p.sin()) + z * ct).normalize());
+                dirs.push(
+                    f.to_world(DVec3::new(st * p.cos(), st * p.sin(), ct))
+                        .normalize(),
+                );
             }
         }
         Self::grouped(origins, dirs, RAY_EPS * s.radius)
@@ -424,11 +424,7 @@ pub fn bench_sh(
     level: Level,
     p: Protocol,
 ) -> Result<ShBench, LabError> {
-    let level = if level == shscale_sh::simd::detected() {
-        level
-    } else {
-        Level::Portable
-    };
+    let level = level.usable();
     let timing = if f32 {
         bench_sh_t::<f32>(order, points, level, p)?
     } else {

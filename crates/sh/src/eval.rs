@@ -100,8 +100,8 @@ impl<T: Real> ShBasis<T> {
         let nn = self.len();
         assert_eq!(out.len(), dirs.len() * nn, "eval_batch: output length");
         #[cfg(target_arch = "x86_64")]
-        if level == crate::simd::Level::Avx2Fma && crate::simd::detected() == level {
-            // SAFETY: the CPU supports AVX2 and FMA (checked on the line above).
+        if level.usable() == crate::simd::Level::Avx2Fma {
+            // SAFETY: the CPU supports AVX2 and FMA (`usable` checked it).
             unsafe { batch_avx2(&self.leg, dirs, out) };
             return;
         }

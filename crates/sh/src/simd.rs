@@ -24,6 +24,16 @@ pub enum Level {
 }
 
 impl Level {
+    /// This level where the CPU has it, [`Level::Portable`] otherwise: what a caller asking for
+    /// a level may safely run.
+    pub fn usable(self) -> Level {
+        if self == detected() {
+            self
+        } else {
+            Level::Portable
+        }
+    }
+
     /// Lower-case name (`portable`, `avx2+fma`), as reported by benchmarks.
     pub fn name(self) -> &'static str {
         match self {
@@ -85,9 +95,12 @@ mod tests {
 
     #[test]
     fn level_is_supported_by_this_cpu() {
-        // The chosen level never exceeds what the CPU has.
+        // The chosen level never exceeds what the CPU has, and asking for a level gives one
+        // the CPU has.
         if level() == Level::Avx2Fma {
             assert_eq!(detected(), Level::Avx2Fma);
         }
+        assert_eq!(Level::Portable.usable(), Level::Portable);
+        assert_eq!(Level::Avx2Fma.usable(), detected());
     }
 }
