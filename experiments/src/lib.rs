@@ -13,12 +13,14 @@
 //! - [`timing`] — Table 1: per-stage times and FPS of the deforming sequences.
 //! - [`srf`], [`midrange`], [`extremes`] — the source-radiance, mid-range-lighting and stability
 //!   studies.
+//! - [`alpha_fit`] — the best cone angle α at each distance, against 45° and the closed-form law.
 //!
 //! [`regenerate`] runs every config of a folder (`configs/paper/`) through the runner and writes
 //! each kind's figure into an output folder (`paper-figs/`) with the data behind it
 //! (`<stem>.csv`) and an index `README.md` with, per figure, the config, the claim, our numbers
 //! and the comparison — generated from the rows, so the text never goes stale.
 
+pub mod alpha_fit;
 pub mod extremes;
 pub mod m_elements;
 pub mod midrange;
@@ -42,6 +44,7 @@ static SHADOWS: Erased<shadows::Shadows> = Erased::new();
 static TIMING: Erased<timing::Timing> = Erased::new();
 static SRF: Erased<srf::Srf> = Erased::new();
 static EXTREMES: Erased<extremes::Extremes> = Erased::new();
+static ALPHA_FIT: Erased<alpha_fit::AlphaFit> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
 /// file implementing `shscale_lab::exp::Kind` plus one line here.
@@ -55,6 +58,7 @@ pub fn registry() -> Vec<&'static dyn DynKind> {
         &TIMING,
         &SRF,
         &EXTREMES,
+        &ALPHA_FIT,
     ]
 }
 

@@ -435,9 +435,15 @@ pub struct ProbeArgs {
     /// Base-sphere layout: latlong:RxC, cube:N or fib:P.
     #[arg(long, default_value = "latlong:12x20")]
     pub layout: String,
-    /// Rays per hemisphere H×H for the BSV and for the truth (2H²).
+    /// Rays per hemisphere H×H for the BSV.
     #[arg(value_parser = whole, long, default_value_t = 32)]
     pub hemisphere_res: usize,
+    /// Resolution T of the converged ray-traced truth (4T² rays per probe, its own error reported).
+    #[arg(value_parser = whole, long, default_value_t = shscale_field::truth::DEFAULT_TRUTH_RES)]
+    pub truth_res: usize,
+    /// Probe directions: random (seeded, between the samples) or samples (on them).
+    #[arg(long, default_value = "random")]
+    pub probe_dirs: String,
     /// Sampling sphere radius as a multiple of the bounding radius (≥ 1; > 1 mitigates on-surface samples).
     #[arg(long, default_value_t = 1.0)]
     pub sampling_radius: f64,
@@ -466,6 +472,12 @@ pub struct InspectArgs {
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quadrature {
+    Stratified,
+    Gauss,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameArg {
     Entity,
     Local,
@@ -482,7 +494,17 @@ pub struct VisibilityArgs {
     /// SH order N.
     #[arg(value_parser = whole, long)]
     pub order: usize,
-    /// Rays per hemisphere H×H (the full sphere uses 2H²).
+    /// Quadrature: `stratified` (the converged truth, 4T² rays, with its error estimate) or
+    /// `gauss` (the method's Gauss–Legendre rings, 2H² rays, no error estimate).
+    #[arg(long, value_enum, default_value_t = Quadrature::Stratified)]
+    pub quadrature: Quadrature,
+    /// Resolution T of the stratified quadrature (4T² rays).
+    #[arg(value_parser = whole, long, default_value_t = shscale_field::truth::DEFAULT_TRUTH_RES)]
+    pub truth_res: usize,
+    /// Seed of the stratified quadrature's rotations and jitter.
+    #[arg(long, default_value_t = shscale_field::truth::DEFAULT_TRUTH_SEED)]
+    pub seed: u64,
+    /// Rays per hemisphere H×H of the gauss quadrature (the full sphere uses 2H²).
     #[arg(value_parser = whole, long, default_value_t = 32)]
     pub hemisphere_res: usize,
     /// Frame of the coefficients: the mesh's own axes, or z toward the bounding-sphere centre.

@@ -1,6 +1,6 @@
 //! `shscale inspect` and `shscale visibility`.
 
-use crate::args::{parse_list, FormatArgsExt, FrameArg, InspectArgs, VisibilityArgs};
+use crate::args::{parse_list, FormatArgsExt, FrameArg, InspectArgs, Quadrature, VisibilityArgs};
 use crate::output::{print_coeffs, print_json};
 use anyhow::{bail, Context};
 use serde::Serialize;
@@ -93,8 +93,13 @@ pub fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
 struct VisOut<'a> {
     order: usize,
     frame: &'static str,
+    quadrature: &'static str,
     rays: usize,
     seconds: f64,
+    /// Stratified only: the estimated RMS error of `values` (`‖A − B‖/2`), and that relative to
+    /// the occlusion `‖P_N(1 − V)‖` (absent when nothing is occluded).
+    error_estimate: Option<f64>,
+    rel_error_estimate: Option<f64>,
     values: &'a [f64],
 }
 
@@ -123,13 +128,31 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
                     .trim_start_matches("point 0: ")
             )
         })?;
-    let sampler = VisibilitySampler::new(a.order, a.hemisphere_res)?;
+    if a.truth_res == 0 || a.truth_res > shscale_field::truth::MAX_TRUTH_RES {
+        bail!(
+            "--truth-res: {} is outside 1..={}",
+            a.truth_res,
+            shscale_field::truth::MAX_TRUTH_RES
+        );
+    }
     let frame = match a.frame {
         FrameArg::Entity => Frame::Entity,
         FrameArg::Local => Frame::Local,
     };
     let t0 = Instant::now();
-    let (values, rays) = sampler.full_sphere(occ.as_ref(), p, frame);
+    let (values, rays, error, rel) = match a.quadrature {
+        Quadrature::Gauss => {
+            let sampler = VisibilitySampler::new(a.order, a.hemisphere_res)?;
+            let (v, rays) = sampler.full_sphere(occ.as_ref(), p, frame);
+            (v, rays, None, None)
+        }
+        Quadrature::Stratified => {
+            let t = shscale_field::truth::TruthSampler::new(a.order, a.truth_res, a.seed)?
+                .sample_in(occ.as_ref(), p, frame);
+            let rel = t.rel_error();
+            (t.coeffs, t.rays, Some(t.error), rel)
+        }
+    };
     let seconds = t0.elapsed().as_secs_f64();
     if a.format.is_json() {
         print_json(&VisOut {
@@ -139,8 +162,14 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
             } else {
                 "local"
             },
+            quadrature: match a.quadrature {
+                Quadrature::Gauss => "gauss",
+                Quadrature::Stratified => "stratified",
+            },
             rays,
             seconds,
+            error_estimate: error,
+            rel_error_estimate: rel,
             values: &values,
         })?;
     } else {

@@ -11,55 +11,16 @@ use shscale_lab::exp::probe::ProbeParams;
 use std::process::ExitCode;
 
 #[derive(Serialize)]
-struct RowOut {
-    radius: f64,
-    k: f64,
-    probes: usize,
-    inside_count: usize,
-    unoccluded_truth_count: usize,
-    clamped_count: usize,
-    vis_rel_l2_mean: Option<f64>,
-    vis_rel_l2_max: Option<f64>,
-    occ_rel_l2_mean: Option<f64>,
-    occ_rel_l2_max: Option<f64>,
-    on_surface_count: usize,
-    vis_rel_l2_on_surface_mean: Option<f64>,
-    occ_rel_l2_on_surface_mean: Option<f64>,
-    occ_rel_l2_on_surface_max: Option<f64>,
-    extrapolation_seconds: f64,
-    truth_seconds: f64,
+struct RowOut<'a> {
+    #[serde(flatten)]
+    row: &'a ProbeRow,
     /// docs/conventions.md §6: times carry the device they were measured on.
     device: &'static str,
     threads: usize,
 }
 
-impl From<&ProbeRow> for RowOut {
-    fn from(r: &ProbeRow) -> Self {
-        Self {
-            radius: r.radius,
-            k: r.k,
-            probes: r.probes,
-            inside_count: r.inside_count,
-            unoccluded_truth_count: r.unoccluded_truth_count,
-            clamped_count: r.clamped_count,
-            vis_rel_l2_mean: r.vis_rel_l2_mean,
-            vis_rel_l2_max: r.vis_rel_l2_max,
-            occ_rel_l2_mean: r.occ_rel_l2_mean,
-            occ_rel_l2_max: r.occ_rel_l2_max,
-            on_surface_count: r.on_surface_count,
-            vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
-            occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
-            occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
-            extrapolation_seconds: r.extrapolation_seconds,
-            truth_seconds: r.truth_seconds,
-            device: "cpu",
-            threads: rayon_threads(),
-        }
-    }
-}
-
 #[derive(Serialize)]
-struct ProbeOut {
+struct ProbeOut<'a> {
     mesh: String,
     order: usize,
     alpha_deg: f64,
@@ -75,7 +36,11 @@ struct ProbeOut {
     bsv_sampling_seconds: f64,
     table_build_seconds: f64,
     threads: usize,
-    rows: Vec<RowOut>,
+    truth_res: usize,
+    truth_rays_per_probe: usize,
+    probe_dirs: String,
+    contact_samples: usize,
+    rows: Vec<RowOut<'a>>,
 }
 
 pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
@@ -90,6 +55,8 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
         sampling_radius: a.sampling_radius,
         k_count: a.k_count,
         on_surface_eps: a.on_surface_eps,
+        truth_res: a.truth_res,
+        probe_dirs: a.probe_dirs.clone(),
         radii: parse_list("radii", &a.radii)?,
         ..ProbeParams::default()
     };
@@ -119,7 +86,19 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
         bsv_sampling_seconds: res.bsv_sampling_seconds,
         table_build_seconds: res.table_build_seconds,
         threads: rayon_threads(),
-        rows: res.rows.iter().map(RowOut::from).collect(),
+        truth_res: a.truth_res,
+        truth_rays_per_probe: res.truth_rays_per_probe,
+        probe_dirs: a.probe_dirs.clone(),
+        contact_samples: res.contact_samples,
+        rows: res
+            .rows
+            .iter()
+            .map(|row| RowOut {
+                row,
+                device: "cpu",
+                threads: rayon_threads(),
+            })
+            .collect(),
     };
     match a.format {
         Format::Json => print_json(&out)?,

@@ -288,6 +288,14 @@ impl Bsv {
         }
     }
 
+    /// The sample that weighs most in the interpolation at direction `q`.
+    pub fn nearest(&self, q: DVec3) -> usize {
+        let l = self.tri.locate(q);
+        l.iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(0, |x| x.0 as usize)
+    }
+
     /// Number of on-surface samples.
     pub fn on_surface_count(&self) -> usize {
         self.samples.iter().filter(|s| s.on_surface).count()

@@ -15,6 +15,28 @@ use glam::DVec3;
 use shscale_scaling::{KLookup, KTable, ScalingMatrix};
 use shscale_sh::EulerRotator;
 
+/// Scale `e`, visibility (entity frame) on the sampling sphere in the direction of `p` from the
+/// centre `c`, to `p` with the matrix `m` (`M_k` at `k = |p − c| / (s·r)`): rotate into `p`'s local
+/// frame (z toward `c`), apply `m`, rotate back. The one scaling step of [`Extrapolator::eval`],
+/// also used with exact inputs in the probe's error decomposition.
+pub fn scale_to(
+    rot: &EulerRotator<f64>,
+    e: &[f64],
+    p: DVec3,
+    c: DVec3,
+    m: &ScalingMatrix<f64>,
+    out: &mut [f64],
+) {
+    let f = LocalFrame::toward(p, c);
+    let r = f.matrix();
+    let rt = [0, 1, 2].map(|i| [0, 1, 2].map(|j| r[j][i]));
+    let mut local = vec![0.0; out.len()];
+    rot.apply(&rt, e, &mut local).expect("lengths agree");
+    let mut scaled = vec![0.0; out.len()];
+    m.apply_unchecked(&local, &mut scaled);
+    rot.apply(&r, &scaled, out).expect("lengths agree");
+}
+
 /// What happened to one query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExtrapolationKind {
@@ -96,13 +118,7 @@ impl<'a> Extrapolator<'a> {
         let dir = (p - c) / d;
         let mut e = vec![0.0; out.len()];
         self.bsv.interpolate(dir, &mut e);
-        let f = LocalFrame::toward(p, c);
-        let r = f.matrix();
-        let rt = [0, 1, 2].map(|i| [0, 1, 2].map(|j| r[j][i]));
-        let mut local = vec![0.0; out.len()];
-        self.rot.apply(&rt, &e, &mut local).expect("lengths agree");
-        m.apply_unchecked(&local, &mut e);
-        self.rot.apply(&r, &e, out).expect("lengths agree");
+        scale_to(&self.rot, &e, p, c, m, out);
         match status {
             KLookup::BelowMin { .. } => ExtrapolationKind::ClampedBelow,
             _ => ExtrapolationKind::Scaled,

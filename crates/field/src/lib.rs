@@ -4,6 +4,7 @@
 //! maps). Built on the SH core and the geometry crate's [`Occluder`]; knows nothing of configs,
 //! files or GPUs. Conventions: docs/conventions.md §2 (frames), §4 (fields), §7 (on-surface samples).
 
+pub mod alpha;
 pub mod bsv;
 pub mod delaunay;
 pub mod evaluator;

@@ -1,24 +1,42 @@
-//! The probe experiment (SHS Fig. 5 / TR Fig. 1): for every base-sphere sample direction u, put a
-//! probe at `c + ρ·r·u` for each radius factor ρ (default 0.5, 0.7, 0.9, 1.3, 2), compare the
-//! extrapolated visibility with the band-limited truth, and summarise per radius — overall and for
-//! the on-surface samples (docs/conventions.md §7) separately.
+//! The probe experiment (SHS Fig. 5 / TR Fig. 1): for every probe direction u — by default as many
+//! seeded uniform directions as base-sphere samples, so that they fall between the samples; or
+//! the sample directions themselves, the papers' design — put a probe at `c + ρ·r·u` for each
+//! radius factor ρ (default 0.5, 0.7, 0.9, 1.3, 2), compare the extrapolated visibility with the
+//! band-limited truth, and summarise per radius: overall, on-surface and contact samples
+//! (docs/conventions.md §7) separately, the truth's own error, the physical plausibility of the
+//! extrapolation, and an error decomposition (each component replaced by its exact counterpart
+//! in turn: the k-table, the BSV interpolation, the BSV's sampling resolution; what remains is
+//! the cone model; the band-limiting of the truth is reported beside them).
 //!
-//! Truth: ray traced over the full sphere (`2H²` rays), or, for the analytic sphere, the
-//! closed-form cap `√(4π)e₀ − cap(asin(R/d))` about the direction to the centre (exact up to
-//! nothing). Probes inside a solid (the truth sees nothing: `c₀ ≤ 1e-9`) are excluded and counted
-//! (`inside_count`); probes that see nothing occluded have no `occ_rel_l2` and are counted too.
+//! Truth: the converged ray-traced truth of [`TruthSampler`] (its own resolution, never the
+//! method's H; `4T²` rays, with an error estimate), or, for the analytic sphere, the closed-form
+//! cap `√(4π)e₀ − cap(asin(R/d))` about the direction to the centre (exact). Probes inside a solid
+//! (no truth ray escapes) are excluded and counted (`inside_count`); probes that see nothing
+//! occluded have no `occ_rel_l2` and are counted too.
 
 use crate::bsv::{Bsv, Layout};
-use crate::extrapolate::{ExtrapolationKind, Extrapolator};
+use crate::extrapolate::{scale_to, ExtrapolationKind, Extrapolator};
 use crate::metrics::{mean_max, occ_rel_l2, vis_rel_l2};
+use crate::truth::{SplitMix, Truth, TruthSampler, DEFAULT_TRUTH_RES, DEFAULT_TRUTH_SEED};
 use crate::visibility::{Frame, VisibilitySampler};
 use crate::FieldError;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::{Occluder, Sphere};
 use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
-use shscale_sh::{cap_zonal, rotate_zonal, ShBasis};
+use shscale_sh::{cap_zonal, rotate_zonal, EulerRotator, ShBasis};
 use std::time::Instant;
+
+/// Where the probes sit, as directions from the centre.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeDirs {
+    /// Exactly on the base-sphere sample directions (the papers' design: the BSV's interpolation
+    /// is never exercised).
+    Samples,
+    /// As many directions as samples, uniform on the sphere from a seeded generator: between the
+    /// samples, so the interpolation of the BSV is part of what is measured.
+    Random { seed: u64 },
+}
 
 /// Parameters of a probe run.
 #[derive(Clone, Debug)]
@@ -36,15 +54,57 @@ pub struct ProbeSpec {
     /// Placement of the K tabulated k values and interpolation between them.
     pub k_spacing: Spacing,
     pub k_interp: Interp,
+    /// The k-table's range; `None`: [`k_range`] of the radii (the range the probes need, widened
+    /// by [`K_MARGIN`] so that no probe radius sits on an end node).
+    pub k_min: Option<f64>,
+    pub k_max: Option<f64>,
     /// On-surface threshold ε (distance < ε·r).
     pub on_surface_eps: f64,
+    /// Contact threshold: a probe direction whose BSV occludes at least this fraction of the
+    /// facing hemisphere is a contact sample (docs/conventions.md §7).
+    pub contact_occlusion: f64,
+    pub probe_dirs: ProbeDirs,
+    /// Resolution T of the converged truth ([`TruthSampler`], `4T²` rays per probe) and its seed.
+    pub truth_res: usize,
+    pub truth_seed: u64,
 }
 
-/// Summary of one probe radius.
-#[derive(Clone, Debug, Default)]
+/// The default contact threshold (docs/conventions.md §7, calibrated on the bundled meshes).
+pub const DEFAULT_CONTACT_OCCLUSION: f64 = 0.5;
+
+impl Default for ProbeSpec {
+    /// The documented defaults (those of the `probe` kind).
+    fn default() -> Self {
+        Self {
+            order: 4,
+            alpha: std::f64::consts::FRAC_PI_4,
+            layout: Layout::LatLong { rows: 12, cols: 20 },
+            hemisphere_res: 32,
+            sampling_radius: 1.0,
+            radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
+            k_count: 40,
+            k_spacing: Spacing::Exp,
+            k_interp: Interp::Linear,
+            k_min: None,
+            k_max: None,
+            on_surface_eps: 1e-3,
+            contact_occlusion: DEFAULT_CONTACT_OCCLUSION,
+            probe_dirs: ProbeDirs::Random { seed: 1 },
+            truth_res: DEFAULT_TRUTH_RES,
+            truth_seed: DEFAULT_TRUTH_SEED,
+        }
+    }
+}
+
+/// Summary of one probe radius (metric names of docs/conventions.md §6). Means and maxima are
+/// over the probes with a truth (outside the solid) and an occluded truth.
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct ProbeRow {
     pub radius: f64,
     pub k: f64,
+    /// Distance of k from the nearest table node in node spacings (in ln k for exp spacing),
+    /// 0 = on a node, 0.5 = midway.
+    pub k_node_offset: f64,
     pub probes: usize,
     pub inside_count: usize,
     pub unoccluded_truth_count: usize,
@@ -53,10 +113,37 @@ pub struct ProbeRow {
     pub vis_rel_l2_max: Option<f64>,
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_max: Option<f64>,
+    /// The truth's own error relative to its occlusion ([`Truth::rel_error`]); 0 for the
+    /// closed-form sphere.
+    pub truth_rel_err_mean: Option<f64>,
+    pub truth_rel_err_max: Option<f64>,
+    /// Probes whose `occ_rel_l2` is within 3× the truth's own error (not resolved by the truth).
+    pub truth_limited_count: usize,
+    /// Error decomposition, each replacing one more component by its exact counterpart:
+    /// the k-table by the exact `M_k` …
+    pub occ_rel_l2_exact_k_mean: Option<f64>,
+    /// … and the interpolated BSV by the BSV sampled at the probe's own direction (same H) …
+    pub occ_rel_l2_exact_dir_mean: Option<f64>,
+    /// … and that sample by the converged truth quadrature at the same point: what remains is
+    /// the cone model (and the band-limiting of its input).
+    pub occ_rel_l2_model_mean: Option<f64>,
+    /// The band-limiting error of the truth itself, `‖occ − P_N occ‖ / ‖occ‖ =
+    /// √(1 − ‖P_N occ‖² / Ω_occ)` (occlusion is an indicator, so `‖occ‖² = Ω_occ`).
+    pub band_limit_rel_mean: Option<f64>,
+    /// Probes whose extrapolated occluded solid angle `Ω = 4π − √(4π) c₀` is negative or exceeds
+    /// what the bounding sphere can cover from there (`2π(1 − √(1 − 1/ρ²))` for ρ ≥ 1, 4π inside).
+    pub implausible_count: usize,
+    pub occ_solid_angle_min: Option<f64>,
+    pub occ_solid_angle_max: Option<f64>,
     pub on_surface_count: usize,
     pub vis_rel_l2_on_surface_mean: Option<f64>,
     pub occ_rel_l2_on_surface_mean: Option<f64>,
     pub occ_rel_l2_on_surface_max: Option<f64>,
+    /// Probes in contact directions (the BSV there occludes ≥ `contact_occlusion` of the facing
+    /// hemisphere) and their errors.
+    pub contact_count: usize,
+    pub occ_rel_l2_contact_mean: Option<f64>,
+    pub occ_rel_l2_contact_max: Option<f64>,
     pub extrapolation_seconds: f64,
     pub truth_seconds: f64,
 }
@@ -65,12 +152,14 @@ pub struct ProbeRow {
 #[derive(Clone, Debug)]
 pub struct ProbeResult {
     pub rows: Vec<ProbeRow>,
-    /// Per radius, one probe for images (the papers' Fig. 5): one sample direction for all radii,
+    /// Per radius, one probe for images (the papers' Fig. 5): one probe direction for all radii,
     /// the most occluded one at the first radius.
     pub examples: Vec<ProbeExample>,
     pub samples: usize,
     pub on_surface_samples: usize,
+    pub contact_samples: usize,
     pub bsv_rays: usize,
+    pub truth_rays_per_probe: usize,
     pub k_min: f64,
     pub k_max: f64,
     pub bsv_sampling_seconds: f64,
@@ -101,44 +190,97 @@ pub fn sphere_truth(basis: &ShBasis<f64>, s: &Sphere, p: DVec3) -> Option<Vec<f6
 }
 
 /// The part of a probe run that depends only on the occluder and its sampling — not on α or K:
-/// the BSV and the truth at every probe point (one entry per radius and base-sphere sample;
-/// `None` inside the entity). Runs that differ only in α or K share one ([`probe_with`]).
+/// the BSV, the probe directions, the truth at every probe point (`None` inside the entity),
+/// and the exact inputs of the error decomposition. Runs that differ only in α or the k-table
+/// share one ([`probe_with`]).
 pub struct ProbeBase {
     pub bsv: Bsv,
-    /// `truth[radius][sample]`, entity frame.
-    pub truth: Vec<Vec<Option<Vec<f64>>>>,
+    /// Probe directions from the centre.
+    pub dirs: Vec<DVec3>,
+    /// `truth[radius][probe]`, entity frame.
+    pub truth: Vec<Vec<Option<Truth>>>,
     pub truth_seconds: Vec<f64>,
+    /// The BSV sampled at each probe direction with the method's H (the samples themselves when
+    /// the probes sit on them).
+    pub direct: Vec<Vec<f64>>,
+    /// The visibility at each probe direction on the sampling sphere by the converged truth.
+    pub converged: Vec<Vec<f64>>,
+    /// Per probe direction: on-surface (its nearest sample is) and contact (the interpolated BSV
+    /// occludes ≥ `contact_occlusion` of the facing hemisphere).
+    pub on_surface: Vec<bool>,
+    pub contact: Vec<bool>,
+    pub truth_rays_per_probe: usize,
     pub bsv_sampling_seconds: f64,
-    /// The sharing key: order, layout, H, sampling radius, ε and radii of the spec it was built for.
+    /// The sharing key ([`base_key`]).
     pub key: String,
 }
 
 /// The fields of a spec a [`ProbeBase`] depends on, as a key.
 pub fn base_key(spec: &ProbeSpec) -> String {
     format!(
-        "order={};layout={};h={};s={};eps={};radii={:?}",
+        "order={};layout={};h={};s={};eps={};contact={};dirs={:?};truth={}/{};radii={:?}",
         spec.order,
         spec.layout.name(),
         spec.hemisphere_res,
         spec.sampling_radius,
         spec.on_surface_eps,
+        spec.contact_occlusion,
+        spec.probe_dirs,
+        spec.truth_res,
+        spec.truth_seed,
         spec.radii
     )
 }
 
+/// How far [`k_range`] widens the probes' k range at each end (×1.25 up, ÷1.25 down).
+pub const K_MARGIN: f64 = 1.25;
+
 /// The k range a k-table needs for probe radii `radii` (× r) sampled at radius `s` (× r):
-/// `[min ρ/s, max ρ/s]`, widened ×2 both ways when it is a single value. The one definition,
-/// used by probes, the runner and the figures.
+/// `[min ρ/s, max ρ/s]` widened by [`K_MARGIN`] both ways, so that the extreme probes fall
+/// between table nodes rather than on the end nodes. The one definition, used by probes, the
+/// runner and the figures.
 pub fn k_range(radii: &[f64], sampling_radius: f64) -> (f64, f64) {
-    let (mut lo, mut hi) = radii
+    let (lo, hi) = radii
         .iter()
         .map(|r| r / sampling_radius)
         .fold((f64::MAX, f64::MIN), |(a, b), k| (a.min(k), b.max(k)));
-    if hi / lo < 1.0 + 1e-9 {
-        lo /= 2.0;
-        hi *= 2.0;
+    (lo / K_MARGIN, hi * K_MARGIN)
+}
+
+/// The table range of a spec: its own `k_min`/`k_max` where given, else [`k_range`].
+pub fn table_range(spec: &ProbeSpec) -> (f64, f64) {
+    table_range_of(spec.k_min, spec.k_max, &spec.radii, spec.sampling_radius)
+}
+
+/// [`table_range`] from its parts.
+pub fn table_range_of(
+    k_min: Option<f64>,
+    k_max: Option<f64>,
+    radii: &[f64],
+    sampling_radius: f64,
+) -> (f64, f64) {
+    let (lo, hi) = k_range(radii, sampling_radius);
+    (k_min.unwrap_or(lo), k_max.unwrap_or(hi))
+}
+
+/// Distance of `k` from the nearest of the sorted nodes `ks`, in units of the local node spacing
+/// (in ln k when `log`): 0 on a node, 0.5 midway; outside the nodes, the distance past the end
+/// in units of the last spacing.
+pub fn node_offset(ks: &[f64], k: f64, log: bool) -> f64 {
+    let f = |x: f64| if log { x.ln() } else { x };
+    let x = f(k);
+    let i = ks.partition_point(|&n| f(n) <= x);
+    let (a, b) = match i {
+        0 => (0, 1),
+        i if i >= ks.len() => (ks.len() - 2, ks.len() - 1),
+        i => (i - 1, i),
+    };
+    let (xa, xb) = (f(ks[a]), f(ks[b]));
+    let h = xb - xa;
+    if h <= 0.0 {
+        return 0.0;
     }
-    (lo, hi)
+    ((x - xa).abs().min((xb - x).abs()) / h).max(if x < xa { (xa - x) / h } else { 0.0 })
 }
 
 fn check_radii(spec: &ProbeSpec) -> Result<(), FieldError> {
@@ -148,11 +290,17 @@ fn check_radii(spec: &ProbeSpec) -> Result<(), FieldError> {
             spec.radii
         )));
     }
+    if !(0.0..=1.0).contains(&spec.contact_occlusion) {
+        return Err(FieldError::Spec(format!(
+            "contact occlusion {} is outside [0, 1]",
+            spec.contact_occlusion
+        )));
+    }
     Ok(())
 }
 
 /// Sample the BSV of `occ` and compute the truth at every probe point (`analytic`: closed-form
-/// truth of a solid sphere; otherwise ray-traced, `2H²` rays, projected to order N).
+/// truth of a solid sphere; otherwise the converged ray-traced truth of [`TruthSampler`]).
 pub fn probe_base(
     occ: &dyn Occluder,
     analytic: Option<Sphere>,
@@ -177,7 +325,51 @@ pub fn sample_bsv(occ: &dyn Occluder, spec: &ProbeSpec) -> Result<Bsv, FieldErro
     )
 }
 
-/// [`probe_base`] on a BSV sampled (and timed) by the caller: the truth at every probe point.
+/// The probe directions of a spec on its BSV: the sample directions, or as many seeded uniform
+/// directions on the sphere.
+pub fn probe_directions(spec: &ProbeSpec, bsv: &Bsv) -> Vec<DVec3> {
+    match spec.probe_dirs {
+        ProbeDirs::Samples => bsv.samples.iter().map(|s| s.dir).collect(),
+        ProbeDirs::Random { seed } => {
+            let mut rng = SplitMix(seed);
+            (0..bsv.samples.len())
+                .map(|_| {
+                    let z = 2.0 * rng.unit() - 1.0;
+                    let phi = std::f64::consts::TAU * rng.unit();
+                    let s = (1.0 - z * z).max(0.0).sqrt();
+                    DVec3::new(s * phi.cos(), s * phi.sin(), z)
+                })
+                .collect()
+        }
+    }
+}
+
+/// The occluded fraction of the facing hemisphere of a sample's visibility `v` (entity frame,
+/// back hemisphere unoccluded): `(4π − √(4π) v₀) / 2π`.
+pub fn facing_occlusion(v: &[f64]) -> f64 {
+    let s0 = (4.0 * std::f64::consts::PI).sqrt();
+    (4.0 * std::f64::consts::PI - s0 * v[0]) / (2.0 * std::f64::consts::PI)
+}
+
+/// The exact visibility of the analytic sphere at `p` (a point on its surface sees the
+/// tangent-plane hemisphere occluded); `None` strictly inside.
+fn sphere_visibility(basis: &ShBasis<f64>, s: &Sphere, p: DVec3) -> Option<Vec<f64>> {
+    let d = (s.center - p).length();
+    if d >= s.radius * (1.0 - 1e-9) && d <= s.radius * (1.0 + 1e-12) {
+        return sphere_truth(
+            basis,
+            &Sphere {
+                center: s.center,
+                radius: d * (1.0 - 1e-15),
+            },
+            p,
+        );
+    }
+    sphere_truth(basis, s, p)
+}
+
+/// [`probe_base`] on a BSV sampled (and timed) by the caller: the truth at every probe point and
+/// the exact inputs of the error decomposition.
 pub fn probe_base_on(
     bsv: Bsv,
     bsv_sampling_seconds: f64,
@@ -186,33 +378,74 @@ pub fn probe_base_on(
     spec: &ProbeSpec,
 ) -> Result<ProbeBase, FieldError> {
     check_radii(spec)?;
-    let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
+    let truth_sampler = TruthSampler::new(spec.order, spec.truth_res, spec.truth_seed)?;
     let basis = ShBasis::<f64>::new(spec.order)?;
     let s = bsv.sphere;
+    let dirs = probe_directions(spec, &bsv);
+    let exact_at = |p: DVec3| -> Option<Truth> {
+        match analytic {
+            Some(sph) => sphere_visibility(&basis, &sph, p).map(|coeffs| Truth {
+                coeffs,
+                error: 0.0,
+                rays: 0,
+                escaped: 1,
+            }),
+            None => Some(truth_sampler.sample(occ, p)).filter(|t| t.escaped > 0),
+        }
+    };
     let (mut truth, mut truth_seconds) = (Vec::new(), Vec::new());
     for &rho in &spec.radii {
         let t = Instant::now();
-        let per: Vec<Option<Vec<f64>>> = bsv
-            .samples
+        let per: Vec<Option<Truth>> = dirs
             .par_iter()
-            .map(|smp| {
-                let p = s.center + rho * s.radius * smp.dir;
-                match analytic {
-                    Some(sph) => sphere_truth(&basis, &sph, p),
-                    None => {
-                        let (v, _) = sampler.full_sphere(occ, p, Frame::Entity);
-                        (v[0] > 1e-9).then_some(v)
-                    }
-                }
-            })
+            .map(|d| exact_at(s.center + rho * s.radius * *d))
             .collect();
         truth.push(per);
         truth_seconds.push(t.elapsed().as_secs_f64());
     }
+    let on_sampling = |d: &DVec3| s.center + bsv.sampling_radius * *d;
+    let direct: Vec<Vec<f64>> = match spec.probe_dirs {
+        ProbeDirs::Samples => bsv.samples.iter().map(|x| x.coeffs.clone()).collect(),
+        ProbeDirs::Random { .. } => {
+            let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
+            dirs.par_iter()
+                .map(|d| {
+                    sampler
+                        .facing_hemisphere(occ, on_sampling(d), s.center, Frame::Entity)
+                        .0
+                })
+                .collect()
+        }
+    };
+    let converged: Vec<Vec<f64>> = dirs
+        .par_iter()
+        .map(|d| {
+            exact_at(on_sampling(d))
+                .map_or_else(|| vec![0.0; spec.order * spec.order], |t| t.coeffs)
+        })
+        .collect();
+    let nn = spec.order * spec.order;
+    let (mut on_surface, mut contact) = (Vec::new(), Vec::new());
+    let mut e = vec![0.0; nn];
+    for d in &dirs {
+        on_surface.push(bsv.samples[bsv.nearest(*d)].on_surface);
+        bsv.interpolate(*d, &mut e);
+        contact.push(facing_occlusion(&e) >= spec.contact_occlusion);
+    }
     Ok(ProbeBase {
         bsv,
+        dirs,
         truth,
         truth_seconds,
+        direct,
+        converged,
+        on_surface,
+        contact,
+        truth_rays_per_probe: if analytic.is_some() {
+            0
+        } else {
+            truth_sampler.rays()
+        },
         bsv_sampling_seconds,
         key: base_key(spec),
     })
@@ -225,6 +458,29 @@ pub fn probe(
     spec: &ProbeSpec,
 ) -> Result<ProbeResult, FieldError> {
     probe_with(&probe_base(occ, analytic, spec)?, spec)
+}
+
+/// The largest occluded solid angle an occluder inside the bounding sphere can cover from a
+/// point at ρ bounding radii from its centre.
+pub fn max_occluded_solid_angle(rho: f64) -> f64 {
+    if rho <= 1.0 {
+        4.0 * std::f64::consts::PI
+    } else {
+        2.0 * std::f64::consts::PI * (1.0 - (1.0 - 1.0 / (rho * rho)).sqrt())
+    }
+}
+
+/// Per-probe metrics of one radius, before summarising.
+struct PerProbe {
+    on_surface: bool,
+    contact: bool,
+    vis: Option<f64>,
+    occ: Option<f64>,
+    truth_err: Option<f64>,
+    exact_k: Option<f64>,
+    exact_dir: Option<f64>,
+    model: Option<f64>,
+    band: Option<f64>,
 }
 
 /// The α- and K-dependent part of a probe run on a shared [`ProbeBase`] (built for a spec with the
@@ -244,10 +500,11 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         .iter()
         .map(|r| r / spec.sampling_radius)
         .collect();
-    let (k_min, k_max) = k_range(&spec.radii, spec.sampling_radius);
+    let (k_min, k_max) = table_range(spec);
     let t1 = Instant::now();
+    let family = TauFamily::Cone { alpha: spec.alpha };
     let table = KTable::build(
-        TauFamily::Cone { alpha: spec.alpha },
+        family,
         Eta::Plain,
         spec.order,
         spec.k_count,
@@ -259,23 +516,25 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
     .map_err(|e| FieldError::Spec(e.to_string()))?;
     let table_build_seconds = t1.elapsed().as_secs_f64();
     let ex = Extrapolator::new(bsv, &table);
+    let rot = EulerRotator::<f64>::new(spec.order)?;
     let s = bsv.sphere;
     let nn = spec.order * spec.order;
+    let s0 = (4.0 * std::f64::consts::PI).sqrt();
     let mut rows = Vec::new();
     let mut examples = Vec::new();
     let mut example_index: Option<usize> = None;
     for (ri, (&rho, &k)) in spec.radii.iter().zip(&ks).enumerate() {
-        let points: Vec<(DVec3, bool)> = bsv
-            .samples
+        let points: Vec<DVec3> = base
+            .dirs
             .iter()
-            .map(|smp| (s.center + rho * s.radius * smp.dir, smp.on_surface))
+            .map(|d| s.center + rho * s.radius * *d)
             .collect();
         let t2 = Instant::now();
         let ext: Vec<(Vec<f64>, ExtrapolationKind)> = points
             .par_iter()
             .map_init(
                 || ScalingMatrix::identity(spec.order).expect("valid order"),
-                |m, (p, _)| {
+                |m, p| {
                     let mut out = vec![0.0; nn];
                     let kind = ex.eval(*p, m, &mut out);
                     (out, kind)
@@ -283,19 +542,21 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             )
             .collect();
         let extrapolation_seconds = t2.elapsed().as_secs_f64();
+        // The decomposition's exact matrix at this k.
+        let exact_m = family
+            .at(k)
+            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))
+            .map_err(|e| FieldError::Spec(e.to_string()))?;
         let truth = &base.truth[ri];
-        let truth_seconds = base.truth_seconds[ri];
         let mut row = ProbeRow {
             radius: rho,
             k,
+            k_node_offset: node_offset(table.ks(), k, table.log_k()),
             probes: points.len(),
             extrapolation_seconds,
-            truth_seconds,
+            truth_seconds: base.truth_seconds[ri],
             ..Default::default()
         };
-        // The example direction (the papers' Fig. 5 shows one direction at every radius): the
-        // sample whose truth is most occluded at the first radius (smallest visible integral
-        // v₀), kept for the other radii wherever the truth exists there.
         if example_index.is_none() {
             example_index = truth
                 .iter()
@@ -303,7 +564,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
                 .enumerate()
                 .filter_map(|(i, (t, (e, _)))| {
                     let t = t.as_ref()?;
-                    occ_rel_l2(e, t).map(|_| (i, t[0]))
+                    occ_rel_l2(e, &t.coeffs).map(|_| (i, t.coeffs[0]))
                 })
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(i, _)| i);
@@ -311,34 +572,92 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
             examples.push(ProbeExample {
                 radius: rho,
-                point: points[i].0,
+                point: points[i],
                 extrapolated: ext[i].0.clone(),
             });
         }
-        let mut per: Vec<(bool, Option<f64>, Option<f64>)> = Vec::new();
-        for ((e, kind), (t, (_, on))) in ext.iter().zip(truth.iter().zip(&points)) {
+        let bound = max_occluded_solid_angle(rho) * (1.0 + 1e-9) + 1e-12;
+        let mut solid: Vec<f64> = Vec::new();
+        let mut per: Vec<PerProbe> = Vec::new();
+        let mut scaled = vec![0.0; nn];
+        let mut interp = vec![0.0; nn];
+        for (i, ((e, kind), t)) in ext.iter().zip(truth).enumerate() {
             if *kind == ExtrapolationKind::ClampedBelow {
                 row.clamped_count += 1;
+            }
+            let omega = 4.0 * std::f64::consts::PI - s0 * e[0];
+            solid.push(omega);
+            if !(-1e-12..=bound).contains(&omega) {
+                row.implausible_count += 1;
             }
             let Some(t) = t else {
                 row.inside_count += 1;
                 continue;
             };
-            let occ = occ_rel_l2(e, t);
+            let occ = occ_rel_l2(e, &t.coeffs);
             if occ.is_none() {
                 row.unoccluded_truth_count += 1;
             }
-            per.push((*on, vis_rel_l2(e, t), occ));
+            let mut with = |v: &[f64]| {
+                scale_to(&rot, v, points[i], s.center, &exact_m, &mut scaled);
+                occ_rel_l2(&scaled, &t.coeffs)
+            };
+            bsv.interpolate(base.dirs[i], &mut interp);
+            let exact_k = with(&interp);
+            let exact_dir = with(&base.direct[i]);
+            let model = with(&base.converged[i]);
+            let occ_n: Vec<f64> = t
+                .coeffs
+                .iter()
+                .enumerate()
+                .map(|(j, v)| if j == 0 { s0 - v } else { -v })
+                .collect();
+            let omega_t = s0 * occ_n[0];
+            let band = (omega_t > 1e-12).then(|| {
+                (1.0 - occ_n.iter().map(|x| x * x).sum::<f64>() / omega_t)
+                    .max(0.0)
+                    .sqrt()
+            });
+            let truth_err = t.rel_error();
+            if let (Some(o), Some(te)) = (occ, truth_err) {
+                if o < 3.0 * te {
+                    row.truth_limited_count += 1;
+                }
+            }
+            per.push(PerProbe {
+                on_surface: base.on_surface[i],
+                contact: base.contact[i],
+                vis: vis_rel_l2(e, &t.coeffs),
+                occ,
+                truth_err,
+                exact_k,
+                exact_dir,
+                model,
+                band,
+            });
         }
-        (row.vis_rel_l2_mean, row.vis_rel_l2_max, _) = mean_max(per.iter().map(|x| x.1));
-        (row.occ_rel_l2_mean, row.occ_rel_l2_max, _) = mean_max(per.iter().map(|x| x.2));
-        row.on_surface_count = per.iter().filter(|x| x.0).count();
-        (row.vis_rel_l2_on_surface_mean, _, _) = mean_max(per.iter().filter(|x| x.0).map(|x| x.1));
+        row.occ_solid_angle_min = solid.iter().copied().reduce(f64::min);
+        row.occ_solid_angle_max = solid.iter().copied().reduce(f64::max);
+        (row.vis_rel_l2_mean, row.vis_rel_l2_max, _) = mean_max(per.iter().map(|x| x.vis));
+        (row.occ_rel_l2_mean, row.occ_rel_l2_max, _) = mean_max(per.iter().map(|x| x.occ));
+        (row.truth_rel_err_mean, row.truth_rel_err_max, _) =
+            mean_max(per.iter().map(|x| x.occ.and(x.truth_err)));
+        (row.occ_rel_l2_exact_k_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.exact_k)));
+        (row.occ_rel_l2_exact_dir_mean, _, _) =
+            mean_max(per.iter().map(|x| x.occ.and(x.exact_dir)));
+        (row.occ_rel_l2_model_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.model)));
+        (row.band_limit_rel_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.band)));
+        row.on_surface_count = per.iter().filter(|x| x.on_surface).count();
+        (row.vis_rel_l2_on_surface_mean, _, _) =
+            mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.vis));
         (
             row.occ_rel_l2_on_surface_mean,
             row.occ_rel_l2_on_surface_max,
             _,
-        ) = mean_max(per.iter().filter(|x| x.0).map(|x| x.2));
+        ) = mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.occ));
+        row.contact_count = per.iter().filter(|x| x.contact).count();
+        (row.occ_rel_l2_contact_mean, row.occ_rel_l2_contact_max, _) =
+            mean_max(per.iter().filter(|x| x.contact).map(|x| x.occ));
         rows.push(row);
     }
     Ok(ProbeResult {
@@ -346,7 +665,13 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         examples,
         samples: bsv.samples.len(),
         on_surface_samples: bsv.on_surface_count(),
+        contact_samples: bsv
+            .samples
+            .iter()
+            .filter(|x| facing_occlusion(&x.coeffs) >= spec.contact_occlusion)
+            .count(),
         bsv_rays: bsv.rays,
+        truth_rays_per_probe: base.truth_rays_per_probe,
         k_min,
         k_max,
         bsv_sampling_seconds,

@@ -138,19 +138,22 @@ fn sphere_on_surface_error_matches_the_closed_form_prediction() {
         k_spacing: shscale_scaling::Spacing::Exp,
         k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: 1e-6,
+        probe_dirs: shscale_field::probe::ProbeDirs::Samples,
+        ..Default::default()
     };
     let sphere = AnalyticSphere::unit();
     let res = probe(&sphere, Some(sphere.sphere), &spec).unwrap();
     assert_eq!(res.on_surface_samples, 60);
-    // The table is built over exactly [1.3, 2]; its interpolation error enters the probe but not
-    // the prediction, so the prediction uses the same table.
+    // The table's interpolation error enters the probe but not the prediction, so the
+    // prediction uses the same table.
+    let (k_min, k_max) = shscale_field::probe::table_range(&spec);
     let table = KTable::build(
         TauFamily::Cone { alpha },
         Eta::Plain,
         order,
         40,
-        1.3,
-        2.0,
+        k_min,
+        k_max,
         Spacing::Exp,
         Interp::Linear,
     )
@@ -324,6 +327,8 @@ fn probe_on_a_shared_base_equals_a_fresh_probe() {
         k_spacing: shscale_scaling::Spacing::Exp,
         k_interp: shscale_scaling::Interp::Linear,
         on_surface_eps: 1e-3,
+        truth_res: 12,
+        ..Default::default()
     };
     let base = probe_base(&occ, None, &spec(30.0, 10)).unwrap();
     for (a, k) in [(30.0, 10), (60.0, 10), (45.0, 25)] {

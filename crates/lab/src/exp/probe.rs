@@ -8,7 +8,9 @@ use super::{Cost, Ctx, KeyError, Kind};
 use crate::exp::timing::{Timing, CPU_RAYS_PER_SECOND};
 use crate::LabError;
 use serde::{Deserialize, Serialize};
-use shscale_field::probe::{probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeSpec};
+use shscale_field::probe::{
+    probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
+};
 use shscale_field::Layout;
 use shscale_scaling::{Interp, Spacing};
 use std::path::{Path, PathBuf};
@@ -19,6 +21,8 @@ pub const MAX_RADII: usize = 64;
 pub const MAX_ORDER: usize = 16;
 /// The largest hemisphere resolution H (H² rays per BSV sample, 2H² per truth probe).
 pub const MAX_HEMISPHERE_RES: usize = 256;
+/// The largest truth resolution T (4T² rays per probe).
+pub const MAX_TRUTH_RES: usize = shscale_field::truth::MAX_TRUTH_RES;
 /// The most tabulated k values.
 pub const MAX_K_COUNT: usize = 10_000;
 
@@ -41,8 +45,19 @@ pub struct ProbeParams {
     pub k_spacing: String,
     /// `linear | cubic` (in ln k).
     pub k_interp: String,
+    /// The k-table's range; empty: the probes' range widened by 1.25 each way.
+    pub k_min: Option<f64>,
+    pub k_max: Option<f64>,
     /// On-surface threshold ε (× r).
     pub on_surface_eps: f64,
+    /// Contact threshold: occluded fraction of the facing hemisphere, [0, 1].
+    pub contact_occlusion: f64,
+    /// `random` (seeded, between the samples) or `samples` (on them).
+    pub probe_dirs: String,
+    pub probe_seed: u64,
+    /// Truth resolution T (4T² rays per probe) and the truth's seed.
+    pub truth_res: usize,
+    pub truth_seed: u64,
     /// Probe radii (× r).
     #[serde(with = "list")]
     pub radii: Vec<f64>,
@@ -60,9 +75,25 @@ impl Default for ProbeParams {
             k_count: 40,
             k_spacing: "exp".into(),
             k_interp: "linear".into(),
+            k_min: None,
+            k_max: None,
             on_surface_eps: 1e-3,
+            contact_occlusion: shscale_field::probe::DEFAULT_CONTACT_OCCLUSION,
+            probe_dirs: "random".into(),
+            probe_seed: 1,
+            truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
+            truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
             radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
         }
+    }
+}
+
+/// `"random" | "samples"` with the seed of `random`.
+pub fn parse_probe_dirs(s: &str, seed: u64) -> Result<ProbeDirs, String> {
+    match s {
+        "random" => Ok(ProbeDirs::Random { seed }),
+        "samples" => Ok(ProbeDirs::Samples),
+        _ => Err(format!("{s:?} is not one of \"random\", \"samples\"")),
     }
 }
 
@@ -120,16 +151,24 @@ impl ProbeParams {
             k_count: self.k_count,
             k_spacing: parse_spacing(&self.k_spacing).map_err(c)?,
             k_interp: parse_interp(&self.k_interp).map_err(c)?,
+            k_min: self.k_min,
+            k_max: self.k_max,
             on_surface_eps: self.on_surface_eps,
+            contact_occlusion: self.contact_occlusion,
+            probe_dirs: parse_probe_dirs(&self.probe_dirs, self.probe_seed).map_err(c)?,
+            truth_res: self.truth_res,
+            truth_seed: self.truth_seed,
         })
     }
 }
 
-/// One row: a run at one probe radius (metric names of docs/conventions.md).
+/// One row: a run at one probe radius (metric names of docs/conventions.md §6; the accuracy
+/// columns are those of [`shscale_field::probe::ProbeRow`], documented there).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct ProbeRow {
     pub radius: f64,
     pub k: f64,
+    pub k_node_offset: f64,
     pub probes: usize,
     pub inside_count: usize,
     pub unoccluded_truth_count: usize,
@@ -138,11 +177,26 @@ pub struct ProbeRow {
     pub vis_rel_l2_max: Option<f64>,
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_max: Option<f64>,
+    pub truth_rel_err_mean: Option<f64>,
+    pub truth_rel_err_max: Option<f64>,
+    pub truth_limited_count: usize,
+    pub occ_rel_l2_exact_k_mean: Option<f64>,
+    pub occ_rel_l2_exact_dir_mean: Option<f64>,
+    pub occ_rel_l2_model_mean: Option<f64>,
+    pub band_limit_rel_mean: Option<f64>,
+    pub implausible_count: usize,
+    pub occ_solid_angle_min: Option<f64>,
+    pub occ_solid_angle_max: Option<f64>,
     pub on_surface_count: usize,
     pub vis_rel_l2_on_surface_mean: Option<f64>,
     pub occ_rel_l2_on_surface_mean: Option<f64>,
     pub occ_rel_l2_on_surface_max: Option<f64>,
+    pub contact_count: usize,
+    pub occ_rel_l2_contact_mean: Option<f64>,
+    pub occ_rel_l2_contact_max: Option<f64>,
     pub bsv_rays: usize,
+    /// Rays per probe of the truth (0: closed form).
+    pub truth_rays: usize,
     /// Median over the timing procedure; `*_spread` = (max − min) / median.
     pub bsv_sampling_seconds: f64,
     pub bsv_sampling_spread: f64,
@@ -170,8 +224,9 @@ pub struct Probe;
 
 fn base_key(p: &ProbeParams) -> String {
     format!(
-        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};radii={:?}",
-        p.mesh, p.order, p.layout, p.hemisphere_res, p.sampling_radius, p.on_surface_eps, p.radii
+        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};contact={};dirs={}/{};truth={}/{};radii={:?}",
+        p.mesh, p.order, p.layout, p.hemisphere_res, p.sampling_radius, p.on_surface_eps,
+        p.contact_occlusion, p.probe_dirs, p.probe_seed, p.truth_res, p.truth_seed, p.radii
     )
 }
 
@@ -193,7 +248,14 @@ impl Kind for Probe {
             ("k_count", "entries K of the k-table, 2..=10000 (≥ 4 for cubic)"),
             ("k_spacing", "spacing of the tabulated k: `exp`, `uniform` or `chebyshev`"),
             ("k_interp", "interpolation between table entries: `linear` or `cubic` (in ln k)"),
+            ("k_min", "smallest tabulated k (> 0); empty: the probes' smallest k ÷ 1.25, so no probe sits on an end node"),
+            ("k_max", "largest tabulated k (> k_min); empty: the probes' largest k × 1.25"),
             ("on_surface_eps", "on-surface threshold ε in bounding radii, [0, 1): samples closer to the surface are reported separately"),
+            ("contact_occlusion", "contact threshold, [0, 1]: probe directions whose BSV occludes at least this fraction of the facing hemisphere are reported separately (docs/conventions.md §7)"),
+            ("probe_dirs", "`random` (as many seeded uniform directions as samples, between them: the BSV interpolation is measured) or `samples` (on the sample directions, the papers' design)"),
+            ("probe_seed", "seed of the `random` probe directions"),
+            ("truth_res", "resolution T of the converged truth (4T² rays per probe, stratified, its own error reported), 1..=1024, independent of hemisphere_res"),
+            ("truth_seed", "seed of the truth's per-probe rotations and jitter"),
             ("radii", "probe radii in bounding radii: 1 to 64 distinct values in (0, 1e6]"),
         ]
     }
@@ -252,6 +314,32 @@ impl Kind for Probe {
                 format!("{} is outside [0, 1)", p.on_surface_eps),
             ));
         }
+        if let Some(k) = p
+            .k_min
+            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
+        {
+            return Err(KeyError::new("k_min", format!("{k} is outside (0, 1e6]")));
+        }
+        if let Some(k) = p
+            .k_max
+            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
+        {
+            return Err(KeyError::new("k_max", format!("{k} is outside (0, 1e6]")));
+        }
+        if !(p.contact_occlusion.is_finite() && (0.0..=1.0).contains(&p.contact_occlusion)) {
+            return Err(KeyError::new(
+                "contact_occlusion",
+                format!("{} is outside [0, 1]", p.contact_occlusion),
+            ));
+        }
+        parse_probe_dirs(&p.probe_dirs, p.probe_seed)
+            .map_err(|m| KeyError::new("probe_dirs", m))?;
+        if !(1..=MAX_TRUTH_RES).contains(&p.truth_res) {
+            return Err(KeyError::new(
+                "truth_res",
+                format!("{} is outside 1..={MAX_TRUTH_RES}", p.truth_res),
+            ));
+        }
         if p.radii.is_empty() || p.radii.len() > MAX_RADII {
             return Err(KeyError::new(
                 "radii",
@@ -273,6 +361,14 @@ impl Kind for Probe {
                 ));
             }
         }
+        let (a, b) =
+            shscale_field::probe::table_range_of(p.k_min, p.k_max, &p.radii, p.sampling_radius);
+        if a >= b {
+            return Err(KeyError::new(
+                if p.k_max.is_some() { "k_max" } else { "k_min" },
+                format!("the table range [{a}, {b}] is empty: k_max must exceed k_min"),
+            ));
+        }
         Ok(())
     }
 
@@ -288,23 +384,32 @@ impl Kind for Probe {
         let h2 = (p.hemisphere_res * p.hemisphere_res) as f64;
         let nn = (p.order * p.order) as f64;
         let radii = p.radii.len() as f64;
+        let t4 = 4.0 * (p.truth_res * p.truth_res) as f64;
+        // The truth at every probe and radius, and at each probe direction on the sampling
+        // sphere (the decomposition's converged BSV); the BSV at the probe directions when they
+        // are not the samples.
         let truth_rays = if p.mesh == "sphere" {
             0.0
         } else {
-            radii * samples * 2.0 * h2
+            (radii + 1.0) * samples * t4
         };
-        let bsv_rays = samples * h2;
+        let direct_rays = if p.probe_dirs == "samples" {
+            0.0
+        } else {
+            samples * h2
+        };
+        let bsv_rays = samples * h2 + direct_rays;
         let rays = bsv_rays + truth_rays;
         let shared = Cost {
             rays,
             bytes: (1.0 + radii) * samples * nn * 8.0 + 64e6,
             seconds: rays / CPU_RAYS_PER_SECOND,
             drivers: format!(
-                "mesh {} with layout = {:?} ({samples} samples) × hemisphere_res = {} ({h2} rays per BSV sample, {} per truth probe) × {} radii → {rays:.3e} rays",
+                "mesh {} with layout = {:?} ({samples} samples) × hemisphere_res = {} ({h2} rays per BSV sample), truth_res = {} ({t4} rays per truth probe) × ({} radii + 1) → {rays:.3e} rays",
                 p.mesh,
                 p.layout,
                 p.hemisphere_res,
-                2.0 * h2,
+                p.truth_res,
                 p.radii.len()
             ),
         };
@@ -399,6 +504,7 @@ impl Kind for Probe {
                 ProbeRow {
                     radius: r.radius,
                     k: r.k,
+                    k_node_offset: r.k_node_offset,
                     probes: r.probes,
                     inside_count: r.inside_count,
                     unoccluded_truth_count: r.unoccluded_truth_count,
@@ -407,11 +513,25 @@ impl Kind for Probe {
                     vis_rel_l2_max: r.vis_rel_l2_max,
                     occ_rel_l2_mean: r.occ_rel_l2_mean,
                     occ_rel_l2_max: r.occ_rel_l2_max,
+                    truth_rel_err_mean: r.truth_rel_err_mean,
+                    truth_rel_err_max: r.truth_rel_err_max,
+                    truth_limited_count: r.truth_limited_count,
+                    occ_rel_l2_exact_k_mean: r.occ_rel_l2_exact_k_mean,
+                    occ_rel_l2_exact_dir_mean: r.occ_rel_l2_exact_dir_mean,
+                    occ_rel_l2_model_mean: r.occ_rel_l2_model_mean,
+                    band_limit_rel_mean: r.band_limit_rel_mean,
+                    implausible_count: r.implausible_count,
+                    occ_solid_angle_min: r.occ_solid_angle_min,
+                    occ_solid_angle_max: r.occ_solid_angle_max,
                     on_surface_count: r.on_surface_count,
                     vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
                     occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
                     occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
+                    contact_count: r.contact_count,
+                    occ_rel_l2_contact_mean: r.occ_rel_l2_contact_mean,
+                    occ_rel_l2_contact_max: r.occ_rel_l2_contact_max,
                     bsv_rays: res.bsv_rays,
+                    truth_rays: res.truth_rays_per_probe,
                     bsv_sampling_seconds: sh.bsv_timing.median,
                     bsv_sampling_spread: sh.bsv_timing.spread(),
                     table_build_seconds: table.median,
