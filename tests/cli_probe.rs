@@ -17,8 +17,12 @@ fn probe_json_form_and_on_surface_sphere() {
         "fib:40",
         "--radii",
         "1.3,2",
+        "--probe-dirs",
+        "samples",
     ]);
     assert_eq!(v["mesh"], "sphere");
+    assert_eq!(v["probe_dirs"], "samples");
+    assert_eq!(v["truth_rays_per_probe"], 0, "the sphere's truth is closed-form");
     assert_eq!(v["order"], 4);
     assert_eq!(v["alpha_deg"].as_f64(), Some(45.0));
     assert_eq!(v["samples"], 40);
@@ -35,6 +39,12 @@ fn probe_json_form_and_on_surface_sphere() {
             "occ_rel_l2_on_surface_mean",
             "extrapolation_seconds",
             "truth_seconds",
+            "truth_rel_err_mean",
+            "occ_rel_l2_exact_k_mean",
+            "occ_rel_l2_model_mean",
+            "band_limit_rel_mean",
+            "occ_solid_angle_max",
+            "k_node_offset",
         ] {
             assert!(!row[key].is_null(), "{key} missing in {row}");
         }
@@ -45,9 +55,16 @@ fn probe_json_form_and_on_surface_sphere() {
             row["occ_rel_l2_max"].as_f64().unwrap(),
         );
         assert!((m - x).abs() < 1e-9 && m > 0.3, "{m} {x}");
+        // The truth is exact; on the sample directions the BSV at the probe's direction is the
+        // sample itself, so replacing the interpolation changes nothing.
+        assert_eq!(row["truth_rel_err_mean"].as_f64(), Some(0.0));
+        assert_eq!(row["occ_rel_l2_exact_k_mean"], row["occ_rel_l2_exact_dir_mean"]);
+        // The widened table range keeps both radii off the end nodes.
+        let off = row["k_node_offset"].as_f64().unwrap();
+        assert!(off > 0.0 && off <= 0.5, "{off}");
     }
     // The closed-form prediction at 1.3 r, α = 45°, N = 4 (crates/field/tests/extrapolation.rs).
-    assert!((rows[0]["occ_rel_l2_mean"].as_f64().unwrap() - 0.804271).abs() < 1e-5);
+    assert!((rows[0]["occ_rel_l2_mean"].as_f64().unwrap() - 0.804259).abs() < 1e-5);
     // Sampling on an inflated sphere removes the on-surface samples and the error drops.
     let w = json(&[
         "probe",

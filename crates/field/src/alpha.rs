@@ -31,12 +31,13 @@ pub fn cap_matching_alpha(theta0: f64, k: f64) -> Option<f64> {
         return None;
     }
     let (se, ce) = (s, (1.0 - s * s).sqrt());
-    if theta0 == FRAC_PI_2 || (FRAC_PI_2 - theta0) < 1e-12 {
+    let a = if (FRAC_PI_2 - theta0) < 1e-12 {
         // tan θ₀ → ∞: tan α = (k − 1) tan θ_e.
-        return Some(((k - 1.0) * se).atan2(ce));
-    }
-    let t0 = theta0.tan();
-    let a = ((k - 1.0) * t0 * se).atan2(t0 * ce - k * se);
+        ((k - 1.0) * se / ce).atan()
+    } else {
+        let t0 = theta0.tan();
+        ((k - 1.0) * t0 * se / (t0 * ce - k * se)).atan()
+    };
     (a > 0.0 && a < FRAC_PI_2).then_some(a)
 }
 
@@ -74,7 +75,8 @@ mod tests {
         for theta0 in [0.2, 0.7, 1.2, std::f64::consts::FRAC_PI_2] {
             for k in [0.3, 0.8, 1.05, 1.3, 2.0, 10.0, 1e4] {
                 let Some(a) = cap_matching_alpha(theta0, k) else {
-                    assert!(theta0.sin() / k > 1.0, "θ₀ {theta0}, k {k}");
+                    // No sphere fits (the point is inside it), or it touches the point.
+                    assert!(theta0.sin() / k >= 1.0 - 1e-12, "θ₀ {theta0}, k {k}");
                     continue;
                 };
                 let te = (theta0.sin() / k).asin();

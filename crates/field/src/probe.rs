@@ -382,7 +382,10 @@ pub fn probe_base_on(
     let basis = ShBasis::<f64>::new(spec.order)?;
     let s = bsv.sphere;
     let dirs = probe_directions(spec, &bsv);
-    let exact_at = |p: DVec3| -> Option<Truth> {
+    // Each truth draws from the seed and its own stream (radius index, probe index): the same
+    // draw whatever the scene's scale, the thread or the order.
+    let np = dirs.len() as u64;
+    let exact_at = |p: DVec3, stream: u64| -> Option<Truth> {
         match analytic {
             Some(sph) => sphere_visibility(&basis, &sph, p).map(|coeffs| Truth {
                 coeffs,
@@ -390,15 +393,16 @@ pub fn probe_base_on(
                 rays: 0,
                 escaped: 1,
             }),
-            None => Some(truth_sampler.sample(occ, p)).filter(|t| t.escaped > 0),
+            None => Some(truth_sampler.sample_stream(occ, p, stream)).filter(|t| t.escaped > 0),
         }
     };
     let (mut truth, mut truth_seconds) = (Vec::new(), Vec::new());
-    for &rho in &spec.radii {
+    for (ri, &rho) in spec.radii.iter().enumerate() {
         let t = Instant::now();
         let per: Vec<Option<Truth>> = dirs
             .par_iter()
-            .map(|d| exact_at(s.center + rho * s.radius * *d))
+            .enumerate()
+            .map(|(i, d)| exact_at(s.center + rho * s.radius * *d, ri as u64 * np + i as u64))
             .collect();
         truth.push(per);
         truth_seconds.push(t.elapsed().as_secs_f64());
@@ -417,10 +421,12 @@ pub fn probe_base_on(
                 .collect()
         }
     };
+    let last = spec.radii.len() as u64 * np;
     let converged: Vec<Vec<f64>> = dirs
         .par_iter()
-        .map(|d| {
-            exact_at(on_sampling(d))
+        .enumerate()
+        .map(|(i, d)| {
+            exact_at(on_sampling(d), last + i as u64)
                 .map_or_else(|| vec![0.0; spec.order * spec.order], |t| t.coeffs)
         })
         .collect();

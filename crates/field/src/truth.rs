@@ -145,11 +145,10 @@ impl TruthSampler {
         4 * self.res * self.res
     }
 
-    /// The two stratified direction sets at a point, each rotated by its own rotation, one after
-    /// the other, and which set (false = A, true = B) each belongs to.
-    fn directions(&self, p: DVec3) -> (Vec<DVec3>, Vec<bool>) {
+    /// The two stratified direction sets drawn from `rng`, each rotated by its own rotation, one
+    /// after the other, and which set (false = A, true = B) each belongs to.
+    fn directions(&self, mut rng: SplitMix) -> (Vec<DVec3>, Vec<bool>) {
         let t = self.res;
-        let mut rng = SplitMix::at(self.seed, p);
         let mut dirs = Vec::with_capacity(4 * t * t);
         let mut half = Vec::with_capacity(4 * t * t);
         let dz = 2.0 / t as f64;
@@ -169,9 +168,21 @@ impl TruthSampler {
         (dirs, half)
     }
 
-    /// The truth at `p` (entity frame).
+    /// The truth at `p` (entity frame), drawn from the seed and the point's coordinates.
     pub fn sample(&self, occ: &dyn Occluder, p: DVec3) -> Truth {
-        let (dirs, half) = self.directions(p);
+        self.sample_from(occ, p, SplitMix::at(self.seed, p))
+    }
+
+    /// The truth at `p`, drawn from the seed and a stream number (e.g. a probe's index) instead of
+    /// the point: the same draw for the same stream whatever the scene's scale or placement.
+    pub fn sample_stream(&self, occ: &dyn Occluder, p: DVec3, stream: u64) -> Truth {
+        let mut rng = SplitMix(self.seed ^ stream.wrapping_mul(0xd1b5_4a32_d192_ed03));
+        rng.next_u64();
+        self.sample_from(occ, p, rng)
+    }
+
+    fn sample_from(&self, occ: &dyn Occluder, p: DVec3, rng: SplitMix) -> Truth {
+        let (dirs, half) = self.directions(rng);
         let mut hit = vec![false; dirs.len()];
         let tmin = RAY_EPS * occ.bounding_sphere().radius;
         occ.occluded_fan(p, &dirs, tmin, &mut hit);
@@ -313,6 +324,16 @@ mod tests {
                 }
                 prev = e;
             }
+            // The method's Gauss–Legendre rings for comparison (printed for docs/math.md §5;
+            // not monotone in H where the cap's edge lines up with the rings).
+            for h in [16, 32, 64, 128, 256] {
+                let gl = VisibilitySampler::new(8, h).unwrap().full_sphere(&sph, p, Frame::Entity).0;
+                println!(
+                    "p = {p}, Gauss–Legendre H = {h} ({} rays): actual {:.2e}",
+                    2 * h * h,
+                    occ_err(&exact, &gl)
+                );
+            }
         }
     }
 
@@ -345,7 +366,7 @@ mod tests {
     #[test]
     fn rotation_is_uniform_and_directions_are_unit() {
         let ts = TruthSampler::new(2, 24, 1).unwrap();
-        let (dirs, half) = ts.directions(DVec3::new(0.5, 0.2, 3.0));
+        let (dirs, half) = ts.directions(SplitMix::at(1, DVec3::new(0.5, 0.2, 3.0)));
         assert_eq!(dirs.len(), 4 * 24 * 24);
         assert_eq!(half.iter().filter(|&&h| h).count(), 2 * 24 * 24);
         let mean = dirs.iter().copied().sum::<DVec3>() / dirs.len() as f64;
