@@ -1,6 +1,6 @@
 //! Cone angle by distance: for each probe radius, which α minimises the mean `occ_rel_l2` of the
 //! extrapolation against the converged truth, how much better is it than the papers' 45°, and
-//! does the closed-form law of a centred sphere (docs/math.md §5.4,
+//! does the closed-form law of a centred sphere (docs/math.md §7,
 //! `shscale_field::alpha::cap_matching_alpha`) predict it?
 //!
 //! Per run: the BSV, the probe directions and the truth of the `probe` kind (shared machinery,

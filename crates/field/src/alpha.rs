@@ -1,4 +1,4 @@
-//! The cone angle α by distance (docs/math.md §5.4): the α that makes the cone model exact for a
+//! The cone angle α by distance (docs/math.md §7): the α that makes the cone model exact for a
 //! centred spherical occluder, and the effective cap of a BSV that applies it to any entity.
 //!
 //! A solid sphere of radius R at the centre, sampled on a sphere of radius `r_s ≥ R`, occludes at
