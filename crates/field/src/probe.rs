@@ -15,7 +15,9 @@
 //! occluded have no `occ_rel_l2` and are counted too.
 
 use crate::bsv::{Bsv, Layout};
-use crate::extrapolate::{scale_to, ExtrapolationKind, Extrapolator};
+use crate::extrapolate::{
+    bounding_cone, scale_to_with, Clamp, ExtrapolationKind, Extrapolator, Plausibility,
+};
 use crate::metrics::{mean_max, occ_rel_l2, vis_rel_l2};
 use crate::truth::{SplitMix, Truth, TruthSampler, DEFAULT_TRUTH_RES, DEFAULT_TRUTH_SEED};
 use crate::visibility::{Frame, VisibilitySampler};
@@ -67,10 +69,12 @@ pub struct ProbeSpec {
     /// Resolution T of the converged truth ([`TruthSampler`], `4T²` rays per probe) and its seed.
     pub truth_res: usize,
     pub truth_seed: u64,
+    /// The plausibility mitigation of the extrapolation (and of the decomposition's columns).
+    pub plausibility: Plausibility,
 }
 
 /// The default contact threshold (docs/conventions.md §7, calibrated on the bundled meshes).
-pub const DEFAULT_CONTACT_OCCLUSION: f64 = 0.5;
+pub const DEFAULT_CONTACT_OCCLUSION: f64 = 0.4;
 
 impl Default for ProbeSpec {
     /// The documented defaults (those of the `probe` kind).
@@ -92,6 +96,7 @@ impl Default for ProbeSpec {
             probe_dirs: ProbeDirs::Random { seed: 1 },
             truth_res: DEFAULT_TRUTH_RES,
             truth_seed: DEFAULT_TRUTH_SEED,
+            plausibility: Plausibility::None,
         }
     }
 }
@@ -205,10 +210,10 @@ pub struct ProbeBase {
     pub direct: Vec<Vec<f64>>,
     /// The visibility at each probe direction on the sampling sphere by the converged truth.
     pub converged: Vec<Vec<f64>>,
-    /// Per probe direction: on-surface (its nearest sample is) and contact (the interpolated BSV
-    /// occludes ≥ `contact_occlusion` of the facing hemisphere).
+    /// Per probe direction: on-surface (its nearest sample is), and the occluded fraction of the
+    /// facing hemisphere of the BSV interpolated there (contact when ≥ `contact_occlusion`).
     pub on_surface: Vec<bool>,
-    pub contact: Vec<bool>,
+    pub facing_occlusion: Vec<f64>,
     pub truth_rays_per_probe: usize,
     pub bsv_sampling_seconds: f64,
     /// The sharing key ([`base_key`]).
@@ -218,13 +223,12 @@ pub struct ProbeBase {
 /// The fields of a spec a [`ProbeBase`] depends on, as a key.
 pub fn base_key(spec: &ProbeSpec) -> String {
     format!(
-        "order={};layout={};h={};s={};eps={};contact={};dirs={:?};truth={}/{};radii={:?}",
+        "order={};layout={};h={};s={};eps={};dirs={:?};truth={}/{};radii={:?}",
         spec.order,
         spec.layout.name(),
         spec.hemisphere_res,
         spec.sampling_radius,
         spec.on_surface_eps,
-        spec.contact_occlusion,
         spec.probe_dirs,
         spec.truth_res,
         spec.truth_seed,
@@ -431,12 +435,12 @@ pub fn probe_base_on(
         })
         .collect();
     let nn = spec.order * spec.order;
-    let (mut on_surface, mut contact) = (Vec::new(), Vec::new());
+    let (mut on_surface, mut occluded) = (Vec::new(), Vec::new());
     let mut e = vec![0.0; nn];
     for d in &dirs {
         on_surface.push(bsv.samples[bsv.nearest(*d)].on_surface);
         bsv.interpolate(*d, &mut e);
-        contact.push(facing_occlusion(&e) >= spec.contact_occlusion);
+        occluded.push(facing_occlusion(&e));
     }
     Ok(ProbeBase {
         bsv,
@@ -446,7 +450,7 @@ pub fn probe_base_on(
         direct,
         converged,
         on_surface,
-        contact,
+        facing_occlusion: occluded,
         truth_rays_per_probe: if analytic.is_some() {
             0
         } else {
@@ -521,7 +525,10 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
     )
     .map_err(|e| FieldError::Spec(e.to_string()))?;
     let table_build_seconds = t1.elapsed().as_secs_f64();
-    let ex = Extrapolator::new(bsv, &table);
+    let ex = Extrapolator::new(bsv, &table).with_plausibility(spec.plausibility);
+    let clamp = (spec.plausibility == Plausibility::Clamp)
+        .then(|| Clamp::new(spec.order))
+        .transpose()?;
     let rot = EulerRotator::<f64>::new(spec.order)?;
     let s = bsv.sphere;
     let nn = spec.order * spec.order;
@@ -604,8 +611,17 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             if occ.is_none() {
                 row.unoccluded_truth_count += 1;
             }
+            let cone = bounding_cone(s.radius, (points[i] - s.center).length());
             let mut with = |v: &[f64]| {
-                scale_to(&rot, v, points[i], s.center, &exact_m, &mut scaled);
+                scale_to_with(
+                    &rot,
+                    v,
+                    points[i],
+                    s.center,
+                    &exact_m,
+                    clamp.as_ref().map(|c| (c, cone)),
+                    &mut scaled,
+                );
                 occ_rel_l2(&scaled, &t.coeffs)
             };
             bsv.interpolate(base.dirs[i], &mut interp);
@@ -632,7 +648,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             }
             per.push(PerProbe {
                 on_surface: base.on_surface[i],
-                contact: base.contact[i],
+                contact: base.facing_occlusion[i] >= spec.contact_occlusion,
                 vis: vis_rel_l2(e, &t.coeffs),
                 occ,
                 truth_err,

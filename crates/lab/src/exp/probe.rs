@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use shscale_field::probe::{
     probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
 };
+use shscale_field::extrapolate::Plausibility;
 use shscale_field::Layout;
 use shscale_scaling::{Interp, Spacing};
 use std::path::{Path, PathBuf};
@@ -58,6 +59,8 @@ pub struct ProbeParams {
     /// Truth resolution T (4T² rays per probe) and the truth's seed.
     pub truth_res: usize,
     pub truth_seed: u64,
+    /// `none` or `clamp` (the plausibility mitigation).
+    pub plausibility: String,
     /// Probe radii (× r).
     #[serde(with = "list")]
     pub radii: Vec<f64>,
@@ -83,6 +86,7 @@ impl Default for ProbeParams {
             probe_seed: 1,
             truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
             truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
+            plausibility: "none".into(),
             radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
         }
     }
@@ -158,6 +162,7 @@ impl ProbeParams {
             probe_dirs: parse_probe_dirs(&self.probe_dirs, self.probe_seed).map_err(c)?,
             truth_res: self.truth_res,
             truth_seed: self.truth_seed,
+            plausibility: Plausibility::parse(&self.plausibility).map_err(c)?,
         })
     }
 }
@@ -224,9 +229,9 @@ pub struct Probe;
 
 fn base_key(p: &ProbeParams) -> String {
     format!(
-        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};contact={};dirs={}/{};truth={}/{};radii={:?}",
+        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};dirs={}/{};truth={}/{};radii={:?}",
         p.mesh, p.order, p.layout, p.hemisphere_res, p.sampling_radius, p.on_surface_eps,
-        p.contact_occlusion, p.probe_dirs, p.probe_seed, p.truth_res, p.truth_seed, p.radii
+        p.probe_dirs, p.probe_seed, p.truth_res, p.truth_seed, p.radii
     )
 }
 
@@ -256,6 +261,7 @@ impl Kind for Probe {
             ("probe_seed", "seed of the `random` probe directions"),
             ("truth_res", "resolution T of the converged truth (4T² rays per probe, stratified, its own error reported), 1..=1024, independent of hemisphere_res"),
             ("truth_seed", "seed of the truth's per-probe rotations and jitter"),
+            ("plausibility", "`none` or `clamp`: visibility clamped to [0, 1] in the angular domain and 1 outside the bounding sphere's cone, re-projected (docs/conventions.md §6)"),
             ("radii", "probe radii in bounding radii: 1 to 64 distinct values in (0, 1e6]"),
         ]
     }
