@@ -22,7 +22,10 @@ fn probe_json_form_and_on_surface_sphere() {
     ]);
     assert_eq!(v["mesh"], "sphere");
     assert_eq!(v["probe_dirs"], "samples");
-    assert_eq!(v["truth_rays_per_probe"], 0, "the sphere's truth is closed-form");
+    assert_eq!(
+        v["truth_rays_per_probe"], 0,
+        "the sphere's truth is closed-form"
+    );
     assert_eq!(v["order"], 4);
     assert_eq!(v["alpha_deg"].as_f64(), Some(45.0));
     assert_eq!(v["samples"], 40);
@@ -58,7 +61,10 @@ fn probe_json_form_and_on_surface_sphere() {
         // The truth is exact; on the sample directions the BSV at the probe's direction is the
         // sample itself, so replacing the interpolation changes nothing.
         assert_eq!(row["truth_rel_err_mean"].as_f64(), Some(0.0));
-        assert_eq!(row["occ_rel_l2_exact_k_mean"], row["occ_rel_l2_exact_dir_mean"]);
+        assert_eq!(
+            row["occ_rel_l2_exact_k_mean"],
+            row["occ_rel_l2_exact_dir_mean"]
+        );
         // The widened table range keeps both radii off the end nodes.
         let off = row["k_node_offset"].as_f64().unwrap();
         assert!(off > 0.0 && off <= 0.5, "{off}");

@@ -737,3 +737,42 @@ fn run_merge_and_compare_print_json() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `alpha_fit` on the analytic sphere sampled on itself: the best α on the 0.5° grid follows the
+/// closed-form law α = ½ arccos(1/k) (docs/math.md §7) within 2° at N = 8, and beats 45° by far.
+#[test]
+fn alpha_fit_finds_the_sphere_law() {
+    let dir = std::env::temp_dir().join(format!("shscale-alpha-fit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("af.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"alpha_fit\"\nmesh = \"sphere\"\norder = 8\nlayout = \"fib:60\"\nhemisphere_res = 16\nradii = [1.1, 1.6, 3.0]\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.join("r/alpha_fit/af/runs.csv")).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let mut n = 0;
+    for l in lines {
+        let c: Vec<&str> = l.split(',').collect();
+        let num = |k: &str| c[col(k)].parse::<f64>().unwrap();
+        let (k, best, law) = (num("k"), num("best_alpha_deg"), num("law_alpha_deg"));
+        let want = 0.5 * (1.0 / k).acos().to_degrees();
+        println!("k = {k}: best {best}°, law {law:.3}° (closed form {want:.3}°)");
+        assert!((law - want).abs() < 1e-9);
+        assert!((best - want).abs() <= 2.0, "k = {k}: {best} vs {want}");
+        assert!(num("occ_rel_l2_best") < 0.5 * num("occ_rel_l2_45"));
+        n += 1;
+    }
+    assert_eq!(n, 3);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -132,7 +132,8 @@ fn locals(base: &ProbeBase, ri: usize, rho: f64, order: usize) -> Vec<Local> {
             base.bsv.interpolate(*d, &mut e);
             let (mut input, mut truth) = (vec![0.0; nn], vec![0.0; nn]);
             rot.apply(&rt, &e, &mut input).expect("lengths agree");
-            rot.apply(&rt, &t.coeffs, &mut truth).expect("lengths agree");
+            rot.apply(&rt, &t.coeffs, &mut truth)
+                .expect("lengths agree");
             Some(Local { input, truth })
         })
         .collect()
@@ -168,12 +169,21 @@ impl Kind for AlphaFit {
             ("order", "SH order N, 1..=16"),
             ("layout", "base-sphere sample layout, as in `probe`"),
             ("hemisphere_res", "H of the BSV, 1..=256"),
-            ("sampling_radius", "sampling sphere radius in bounding radii, [1, 1000]"),
+            (
+                "sampling_radius",
+                "sampling sphere radius in bounding radii, [1, 1000]",
+            ),
             ("probe_dirs", "`random` or `samples`, as in `probe`"),
             ("probe_seed", "seed of the random probe directions"),
-            ("truth_res", "resolution T of the converged truth (4T² rays per probe), 1..=1024"),
+            (
+                "truth_res",
+                "resolution T of the converged truth (4T² rays per probe), 1..=1024",
+            ),
             ("truth_seed", "seed of the truth's rotations and jitter"),
-            ("alpha_step_deg", "grid step of α in degrees, [0.01, 10]: α = step, 2·step, … < 90°"),
+            (
+                "alpha_step_deg",
+                "grid step of α in degrees, [0.01, 10]: α = step, 2·step, … < 90°",
+            ),
             ("radii", "probe radii in bounding radii, as in `probe`"),
         ]
     }

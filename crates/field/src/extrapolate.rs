@@ -265,7 +265,9 @@ mod tests {
         let (nt, np) = (1200, 2400);
         let mut want = vec![0.0; v.len()];
         let mut y = vec![0.0; v.len()];
-        let cells = (0..nt).map(|i| (0.0, theta_c, i)).chain((0..nt).map(|i| (theta_c, std::f64::consts::PI, i)));
+        let cells = (0..nt)
+            .map(|i| (0.0, theta_c, i))
+            .chain((0..nt).map(|i| (theta_c, std::f64::consts::PI, i)));
         for (a, b, i) in cells {
             let h = (b - a) / nt as f64;
             let th = a + h * (i as f64 + 0.5);

@@ -71,6 +71,9 @@ pub struct ProbeSpec {
     pub truth_seed: u64,
     /// The plausibility mitigation of the extrapolation (and of the decomposition's columns).
     pub plausibility: Plausibility,
+    /// α by distance instead of the fixed `alpha`: the cone-angle law at the BSV's effective cap
+    /// ([`TauFamily::ConeFit`], [`crate::alpha::effective_cap_angle`]; docs/math.md §7).
+    pub alpha_fit: bool,
 }
 
 /// The default contact threshold (docs/conventions.md §7, calibrated on the bundled meshes).
@@ -97,6 +100,7 @@ impl Default for ProbeSpec {
             truth_res: DEFAULT_TRUTH_RES,
             truth_seed: DEFAULT_TRUTH_SEED,
             plausibility: Plausibility::None,
+            alpha_fit: false,
         }
     }
 }
@@ -110,6 +114,8 @@ pub struct ProbeRow {
     /// Distance of k from the nearest table node in node spacings (in ln k for exp spacing),
     /// 0 = on a node, 0.5 = midway.
     pub k_node_offset: f64,
+    /// The cone angle used at this k (degrees): `alpha`, or the law's α(k) with `alpha_fit`.
+    pub alpha_used_deg: f64,
     pub probes: usize,
     pub inside_count: usize,
     pub unoccluded_truth_count: usize,
@@ -163,6 +169,8 @@ pub struct ProbeResult {
     pub samples: usize,
     pub on_surface_samples: usize,
     pub contact_samples: usize,
+    /// The BSV's effective cap θ₀ (degrees, [`crate::alpha::effective_cap_angle`]).
+    pub effective_cap_deg: f64,
     pub bsv_rays: usize,
     pub truth_rays_per_probe: usize,
     pub k_min: f64,
@@ -512,7 +520,12 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         .collect();
     let (k_min, k_max) = table_range(spec);
     let t1 = Instant::now();
-    let family = TauFamily::Cone { alpha: spec.alpha };
+    let theta0 = crate::alpha::effective_cap_angle(bsv);
+    let family = if spec.alpha_fit {
+        TauFamily::ConeFit { theta0 }
+    } else {
+        TauFamily::Cone { alpha: spec.alpha }
+    };
     let table = KTable::build(
         family,
         Eta::Plain,
@@ -565,6 +578,11 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             radius: rho,
             k,
             k_node_offset: node_offset(table.ks(), k, table.log_k()),
+            alpha_used_deg: if spec.alpha_fit {
+                shscale_scaling::alpha_law::fitted_alpha(theta0, k).to_degrees()
+            } else {
+                spec.alpha.to_degrees()
+            },
             probes: points.len(),
             extrapolation_seconds,
             truth_seconds: base.truth_seconds[ri],
@@ -692,6 +710,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             .iter()
             .filter(|x| facing_occlusion(&x.coeffs) >= spec.contact_occlusion)
             .count(),
+        effective_cap_deg: theta0.to_degrees(),
         bsv_rays: bsv.rays,
         truth_rays_per_probe: base.truth_rays_per_probe,
         k_min,

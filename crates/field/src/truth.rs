@@ -327,7 +327,10 @@ mod tests {
             // The method's Gauss–Legendre rings for comparison (printed for docs/math.md §5;
             // not monotone in H where the cap's edge lines up with the rings).
             for h in [16, 32, 64, 128, 256] {
-                let gl = VisibilitySampler::new(8, h).unwrap().full_sphere(&sph, p, Frame::Entity).0;
+                let gl = VisibilitySampler::new(8, h)
+                    .unwrap()
+                    .full_sphere(&sph, p, Frame::Entity)
+                    .0;
                 println!(
                     "p = {p}, Gauss–Legendre H = {h} ({} rays): actual {:.2e}",
                     2 * h * h,

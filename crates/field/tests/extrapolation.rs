@@ -361,3 +361,106 @@ fn probe_on_a_shared_base_equals_a_fresh_probe() {
         "a base for H = 8 used for H = 9"
     );
 }
+
+/// The probe's new columns against oracles on the analytic sphere sampled on itself:
+/// - random probe directions are not the sample directions, and are reproducible by seed;
+/// - the truth is closed-form (error 0), so `truth_limited_count` is 0;
+/// - `band_limit_rel` equals the closed form √(1 − ‖P_N cap‖²/Ω) of the cap asin(1/k);
+/// - `implausible_count` counts exactly the probes whose extrapolated Ω leaves [0, Ω_max(ρ)];
+///   the clamp mitigation leaves none;
+/// - α by distance (the law at the effective cap, 90° here) beats 45° at every radius > r up to 2r.
+#[test]
+fn probe_columns_on_the_sphere_match_their_closed_forms() {
+    use shscale_field::extrapolate::Plausibility;
+    use shscale_field::probe::{max_occluded_solid_angle, probe_directions, sample_bsv, ProbeDirs};
+    let sphere = AnalyticSphere::unit();
+    let spec = ProbeSpec {
+        order: 4,
+        layout: Layout::parse("fib:60").unwrap(),
+        hemisphere_res: 16,
+        radii: vec![1.3, 2.0],
+        on_surface_eps: 1e-6,
+        ..Default::default()
+    };
+    let bsv = sample_bsv(&sphere, &spec).unwrap();
+    let dirs = probe_directions(&spec, &bsv);
+    let nearest = dirs
+        .iter()
+        .map(|d| {
+            bsv.samples
+                .iter()
+                .map(|s| s.dir.dot(*d))
+                .fold(-1.0, f64::max)
+        })
+        .fold(-1.0, f64::max);
+    assert!(nearest < 1.0 - 1e-9, "a random probe sits on a sample");
+    assert_eq!(dirs, probe_directions(&spec, &bsv));
+    let other = ProbeSpec {
+        probe_dirs: ProbeDirs::Random { seed: 2 },
+        ..spec.clone()
+    };
+    assert_ne!(dirs, probe_directions(&other, &bsv));
+    let res = probe(&sphere, Some(sphere.sphere), &spec).unwrap();
+    for row in &res.rows {
+        assert_eq!(row.truth_rel_err_mean, Some(0.0));
+        assert_eq!(row.truth_limited_count, 0);
+        let cap = shscale_sh::cap_coeffs(4, (1.0 / row.radius).asin()).unwrap();
+        let omega = 2.0 * PI * (1.0 - (1.0 - 1.0 / (row.radius * row.radius)).sqrt());
+        let band = (1.0 - cap.iter().map(|c| c * c).sum::<f64>() / omega).sqrt();
+        let got = row.band_limit_rel_mean.unwrap();
+        println!(
+            "ρ = {}: band_limit_rel {got:.6} vs closed form {band:.6}",
+            row.radius
+        );
+        assert!((got - band).abs() < 1e-9, "{got} vs {band}");
+        // The 45° extrapolation of the on-surface sphere claims far too much occlusion here.
+        let bound = max_occluded_solid_angle(row.radius);
+        let max = row.occ_solid_angle_max.unwrap();
+        assert_eq!(row.implausible_count > 0, max > bound * (1.0 + 1e-9));
+        assert_eq!(
+            row.implausible_count, 60,
+            "ρ = {}: Ω up to {max} > {bound}",
+            row.radius
+        );
+    }
+    let clamped = probe(
+        &sphere,
+        Some(sphere.sphere),
+        &ProbeSpec {
+            plausibility: Plausibility::Clamp,
+            ..spec.clone()
+        },
+    )
+    .unwrap();
+    let fit = probe(
+        &sphere,
+        Some(sphere.sphere),
+        &ProbeSpec {
+            alpha_fit: true,
+            ..spec.clone()
+        },
+    )
+    .unwrap();
+    assert!(
+        (res.effective_cap_deg - 90.0).abs() < 0.5,
+        "{}",
+        res.effective_cap_deg
+    );
+    for ((a, c), f) in res.rows.iter().zip(&clamped.rows).zip(&fit.rows) {
+        assert_eq!(c.implausible_count, 0);
+        let (e45, efit) = (a.occ_rel_l2_mean.unwrap(), f.occ_rel_l2_mean.unwrap());
+        println!(
+            "ρ = {}: 45° {e45:.4}, α(k) = {:.2}° {efit:.4}, clamp {:.4}",
+            a.radius,
+            f.alpha_used_deg,
+            c.occ_rel_l2_mean.unwrap()
+        );
+        assert!(efit < 0.5 * e45, "ρ = {}", a.radius);
+        let law = 0.5 * (1.0 / a.k).acos();
+        assert!(
+            (f.alpha_used_deg - law.to_degrees()).abs() < 0.3,
+            "{}",
+            f.alpha_used_deg
+        );
+    }
+}

@@ -7,6 +7,7 @@
 //! block diagonal in `m` with identical `±m` blocks, and each block is a 1-D θ-integral
 //! ([`matrix`]). The crate knows nothing of meshes, configs or files.
 
+pub mod alpha_law;
 pub mod error;
 pub mod matrix;
 pub mod quad;

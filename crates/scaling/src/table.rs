@@ -40,6 +40,10 @@ pub enum Interp {
 pub enum TauFamily {
     /// The cone model with half-angle `alpha` (radians), `k = d/r > 0`.
     Cone { alpha: f64 },
+    /// The cone model with α by distance, `α(k) =` [`crate::alpha_law::fitted_alpha`]`(θ₀, k)`:
+    /// exact for a centred sphere whose cap seen from the sampling sphere has half-angle
+    /// `theta0` (radians, in (0, π/2]); `k = d/r > 0`.
+    ConeFit { theta0: f64 },
     /// Mid-range environment lighting, `k = d/R ∈ (−1, 1)`.
     MidRange,
 }
@@ -49,6 +53,16 @@ impl TauFamily {
     pub fn at(&self, k: f64) -> Result<Box<dyn AngularScaling>, ScalingError> {
         Ok(match *self {
             TauFamily::Cone { alpha } => Box::new(Cone::new(k, alpha)?),
+            TauFamily::ConeFit { theta0 } => {
+                if !(theta0 > 0.0 && theta0 <= std::f64::consts::FRAC_PI_2) {
+                    return Err(ScalingError::Domain {
+                        name: "effective cap angle θ₀ (rad)",
+                        value: theta0,
+                        domain: "(0, π/2]",
+                    });
+                }
+                Box::new(Cone::new(k, crate::alpha_law::fitted_alpha(theta0, k))?)
+            }
             TauFamily::MidRange => Box::new(MidRange::new(k)?),
         })
     }
@@ -57,6 +71,7 @@ impl TauFamily {
     pub fn name(&self) -> &'static str {
         match self {
             TauFamily::Cone { .. } => "cone",
+            TauFamily::ConeFit { .. } => "cone-fit",
             TauFamily::MidRange => "midrange",
         }
     }
@@ -158,6 +173,12 @@ impl KTable {
         match family {
             TauFamily::Cone { alpha } => {
                 check_alpha(alpha)?;
+                check_cone_k(k_min)?;
+                check_cone_k(k_max)?;
+            }
+            TauFamily::ConeFit { theta0 } => {
+                family.at(1.0)?;
+                let _ = theta0;
                 check_cone_k(k_min)?;
                 check_cone_k(k_max)?;
             }

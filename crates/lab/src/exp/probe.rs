@@ -8,10 +8,10 @@ use super::{Cost, Ctx, KeyError, Kind};
 use crate::exp::timing::{Timing, CPU_RAYS_PER_SECOND};
 use crate::LabError;
 use serde::{Deserialize, Serialize};
+use shscale_field::extrapolate::Plausibility;
 use shscale_field::probe::{
     probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
 };
-use shscale_field::extrapolate::Plausibility;
 use shscale_field::Layout;
 use shscale_scaling::{Interp, Spacing};
 use std::path::{Path, PathBuf};
@@ -36,6 +36,8 @@ pub struct ProbeParams {
     pub order: usize,
     /// Cone half-angle α in degrees, in (0, 90).
     pub alpha_deg: f64,
+    /// `fixed` (α = alpha_deg at every distance) or `fit` (α by distance, the cone-angle law).
+    pub alpha_mode: String,
     /// `latlong:RxC`, `cube:N` or `fib:P` (at most 10⁶ samples).
     pub layout: String,
     pub hemisphere_res: usize,
@@ -72,6 +74,7 @@ impl Default for ProbeParams {
             mesh: "sphere".into(),
             order: 4,
             alpha_deg: 45.0,
+            alpha_mode: "fixed".into(),
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
             sampling_radius: 1.0,
@@ -89,6 +92,15 @@ impl Default for ProbeParams {
             plausibility: "none".into(),
             radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
         }
+    }
+}
+
+/// `"fixed" | "fit"`: whether α is fitted by distance.
+pub fn parse_alpha_mode(s: &str) -> Result<bool, String> {
+    match s {
+        "fixed" => Ok(false),
+        "fit" => Ok(true),
+        _ => Err(format!("{s:?} is not one of \"fixed\", \"fit\"")),
     }
 }
 
@@ -163,6 +175,7 @@ impl ProbeParams {
             truth_res: self.truth_res,
             truth_seed: self.truth_seed,
             plausibility: Plausibility::parse(&self.plausibility).map_err(c)?,
+            alpha_fit: parse_alpha_mode(&self.alpha_mode).map_err(c)?,
         })
     }
 }
@@ -174,6 +187,9 @@ pub struct ProbeRow {
     pub radius: f64,
     pub k: f64,
     pub k_node_offset: f64,
+    pub alpha_used_deg: f64,
+    /// The BSV's effective cap θ₀, degrees (what `alpha_mode = "fit"` uses).
+    pub effective_cap_deg: f64,
     pub probes: usize,
     pub inside_count: usize,
     pub unoccluded_truth_count: usize,
@@ -247,6 +263,7 @@ impl Kind for Probe {
             ("mesh", "the occluder: `sphere` (analytic, closed-form truth), a procedural shape (`bird`, `egg`, `sponge`, `plane`), a bundled mesh (`bunny`, `duck`, `dragon_19k`, `knot`, `teapot`) or an .obj/.ply path"),
             ("order", "SH order N (N² coefficients), 1..=16"),
             ("alpha_deg", "cone half-angle α of the cone approximation τ, degrees, in (0, 90)"),
+            ("alpha_mode", "`fixed` (α = alpha_deg at every distance) or `fit` (α by distance: the law exact for a centred sphere, at the BSV's effective cap; docs/math.md §7)"),
             ("layout", "base-sphere sample layout: `latlong:RxC`, `cube:N` or `fib:P`, at most 10⁶ samples"),
             ("hemisphere_res", "H: H² rays per BSV sample (2H² per truth probe), 1..=256"),
             ("sampling_radius", "radius of the sampling sphere in bounding radii, [1, 1000]; > 1 mitigates the on-surface failure"),
@@ -340,6 +357,8 @@ impl Kind for Probe {
         }
         parse_probe_dirs(&p.probe_dirs, p.probe_seed)
             .map_err(|m| KeyError::new("probe_dirs", m))?;
+        Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
+        parse_alpha_mode(&p.alpha_mode).map_err(|m| KeyError::new("alpha_mode", m))?;
         if !(1..=MAX_TRUTH_RES).contains(&p.truth_res) {
             return Err(KeyError::new(
                 "truth_res",
@@ -511,6 +530,8 @@ impl Kind for Probe {
                     radius: r.radius,
                     k: r.k,
                     k_node_offset: r.k_node_offset,
+                    alpha_used_deg: r.alpha_used_deg,
+                    effective_cap_deg: res.effective_cap_deg,
                     probes: r.probes,
                     inside_count: r.inside_count,
                     unoccluded_truth_count: r.unoccluded_truth_count,
