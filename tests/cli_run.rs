@@ -776,3 +776,58 @@ fn alpha_fit_finds_the_sphere_law() {
     assert_eq!(n, 3);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `budget` end to end on a small plan: one row per method and budget, the ray and memory counts
+/// the methods imply (S shells × P samples × H² rays; S·P·N² doubles; ray tracing 4T² rays per
+/// receiver and no memory), and a discussion with the Pareto front and the equal-accuracy verdict.
+#[test]
+fn budget_rows_count_what_each_method_costs() {
+    let dir = std::env::temp_dir().join(format!("shscale-budget-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("b.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:30\"\nhemisphere_res = 6\nreceivers = 20\ntruth_res = 16\nradii = [1.2, 2.0]\ngpu = \"off\"\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 5]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [3]\n",
+    )
+    .unwrap();
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.join("r/budget/b/runs.csv")).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), 4);
+    for r in &rows {
+        let num = |k: &str| r[col(k)].parse::<f64>().unwrap();
+        assert_eq!(num("receiver_points"), 40.0);
+        let (rays, mem) = (num("rays"), num("memory_bytes"));
+        match r[col("method")].as_str() {
+            "full_field" => {
+                let s = num("shells");
+                assert_eq!(rays, s * 30.0 * 36.0);
+                assert_eq!(mem, s * 30.0 * 9.0 * 8.0);
+            }
+            "ray_traced" => {
+                assert_eq!(rays, 40.0 * 36.0);
+                assert_eq!(mem, 0.0);
+                assert_eq!(num("build_seconds"), 0.0);
+            }
+            _ => assert_eq!(rays, 30.0 * 36.0),
+        }
+        let e = num("occ_rel_l2_mean");
+        assert!(e.is_finite() && e > 0.0, "{e}");
+        assert!((num("frame_seconds") - num("build_seconds") - num("eval_seconds")).abs() < 1e-12);
+    }
+    let summary = std::fs::read_to_string(dir.join("r/budget/b/summary.md")).unwrap();
+    assert!(summary.contains("Pareto front"), "{summary}");
+    assert!(dir.join("r/budget/b/pareto_time_duck.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

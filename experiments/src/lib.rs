@@ -14,6 +14,7 @@
 //! - [`srf`], [`midrange`], [`extremes`] — the source-radiance, mid-range-lighting and stability
 //!   studies.
 //! - [`alpha_fit`] — the best cone angle α at each distance, against 45° and the closed-form law.
+//! - [`budget`] — extrapolation, full field and ray tracing at equal time per frame and memory.
 //!
 //! [`regenerate`] runs every config of a folder (`configs/paper/`) through the runner and writes
 //! each kind's figure into an output folder (`paper-figs/`) with the data behind it
@@ -21,6 +22,7 @@
 //! and the comparison — generated from the rows, so the text never goes stale.
 
 pub mod alpha_fit;
+pub mod budget;
 pub mod extremes;
 pub mod m_elements;
 pub mod midrange;
@@ -45,6 +47,7 @@ static TIMING: Erased<timing::Timing> = Erased::new();
 static SRF: Erased<srf::Srf> = Erased::new();
 static EXTREMES: Erased<extremes::Extremes> = Erased::new();
 static ALPHA_FIT: Erased<alpha_fit::AlphaFit> = Erased::new();
+static BUDGET: Erased<budget::Budget> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
 /// file implementing `shscale_lab::exp::Kind` plus one line here.
@@ -59,6 +62,7 @@ pub fn registry() -> Vec<&'static dyn DynKind> {
         &SRF,
         &EXTREMES,
         &ALPHA_FIT,
+        &BUDGET,
     ]
 }
 

@@ -342,18 +342,21 @@ pub fn sample_bsv(occ: &dyn Occluder, spec: &ProbeSpec) -> Result<Bsv, FieldErro
 pub fn probe_directions(spec: &ProbeSpec, bsv: &Bsv) -> Vec<DVec3> {
     match spec.probe_dirs {
         ProbeDirs::Samples => bsv.samples.iter().map(|s| s.dir).collect(),
-        ProbeDirs::Random { seed } => {
-            let mut rng = SplitMix(seed);
-            (0..bsv.samples.len())
-                .map(|_| {
-                    let z = 2.0 * rng.unit() - 1.0;
-                    let phi = std::f64::consts::TAU * rng.unit();
-                    let s = (1.0 - z * z).max(0.0).sqrt();
-                    DVec3::new(s * phi.cos(), s * phi.sin(), z)
-                })
-                .collect()
-        }
+        ProbeDirs::Random { seed } => random_directions(seed, bsv.samples.len()),
     }
+}
+
+/// `n` directions uniform on the sphere from the seeded generator (the `random` probes).
+pub fn random_directions(seed: u64, n: usize) -> Vec<DVec3> {
+    let mut rng = SplitMix(seed);
+    (0..n)
+        .map(|_| {
+            let z = 2.0 * rng.unit() - 1.0;
+            let phi = std::f64::consts::TAU * rng.unit();
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            DVec3::new(s * phi.cos(), s * phi.sin(), z)
+        })
+        .collect()
 }
 
 /// The occluded fraction of the facing hemisphere of a sample's visibility `v` (entity frame,

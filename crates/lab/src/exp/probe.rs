@@ -627,10 +627,12 @@ impl Kind for Probe {
         if let [(_, rows)] = runs.as_slice() {
             let r0 = rows[0];
             out.push_str(&format!(
-                "**Ours.** Mesh `{}`, N = {}, α = {}°, BSV on `{}` × {}² rays, K = {} ({} k, {} interpolation). Mean errors over all \
-sample directions per radius (docs/conventions.md §6; `occ_rel_l2` is relative to the occluded part; both compare coefficients with the \
-truth projected to order N, so they measure the extrapolation alone, not band-limiting). Image: one probe direction per radius (rows), \
-actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated visibility (right).\n\n\
+                "**Ours.** Mesh `{}`, N = {}, α = {}°, BSV on `{}` × {}² rays, K = {} ({} k, {} interpolation). Mean errors over the \
+probe directions per radius (`probe_dirs = {}`: seeded directions between the samples unless `samples`; docs/conventions.md §6; \
+`occ_rel_l2` is relative to the occluded part; both compare coefficients with the converged truth projected to order N — its own \
+error is in the CSV's `truth_rel_err_mean` — so they measure the extrapolation alone, not band-limiting). Image: one probe direction \
+per radius (rows), actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated \
+visibility (right).\n\n\
 | radius (× r) | k | probes | vis_rel_l2 | occ_rel_l2 | inside the mesh |\n|---:|---:|---:|---:|---:|---:|\n",
                 t.cell(r0, "mesh"),
                 t.cell(r0, "order"),
@@ -640,6 +642,7 @@ actual full-frequency visibility (left, white = visible; lat-long, +z at the top
                 t.cell(r0, "k_count"),
                 t.cell(r0, "k_spacing"),
                 t.cell(r0, "k_interp"),
+                t.cell(r0, "probe_dirs"),
             ));
             for &r in rows {
                 out.push_str(&format!(
