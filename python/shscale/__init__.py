@@ -121,16 +121,24 @@ def visibility(
     order: int,
     hemisphere_res: int = 32,
     frame: str = "entity",
+    quadrature: str = "stratified",
+    truth_res: int = 128,
+    seed: int = 0x5EED7207,
 ) -> np.ndarray:
     """Ray-traced visibility (1 = unoccluded) over the full sphere at each point, projected to
     order N: shape ``(P, N²)``. ``mesh``: ``sphere``, a procedural shape (bird, egg, sponge,
-    plane), a bundled mesh or an .obj/.ply path; ``frame``: entity or local."""
+    plane), a bundled mesh or an .obj/.ply path; ``frame``: entity or local. ``quadrature``:
+    ``stratified`` (the converged truth, 4·truth_res² rays per point, as ``shscale visibility``)
+    or ``gauss`` (the method's rings, 2·hemisphere_res² rays)."""
     return _native.visibility(
         str(mesh),
         _rows3("points", points),
         _count("order", order),
         _count("hemisphere_res", hemisphere_res),
         frame,
+        str(quadrature),
+        _count("truth_res", truth_res),
+        _count("seed", seed),
     )
 
 

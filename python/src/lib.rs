@@ -288,9 +288,12 @@ fn ktable(
 
 use shscale_lab::vocab::MAX_VISIBILITY_RES;
 
-/// `(P, N²)` ray-traced visibility (1 = unoccluded) over the full sphere at each point.
+/// `(P, N²)` ray-traced visibility (1 = unoccluded) over the full sphere at each point: the
+/// converged stratified truth (`quadrature = "stratified"`, `4T²` rays, as `shscale visibility`)
+/// or the Gauss–Legendre rings (`"gauss"`, `2H²` rays).
 #[pyfunction]
-#[pyo3(signature = (mesh, points, order, hemisphere_res=32, frame="entity"))]
+#[pyo3(signature = (mesh, points, order, hemisphere_res=32, frame="entity", quadrature="stratified", truth_res=shscale_field::truth::DEFAULT_TRUTH_RES, seed=shscale_field::truth::DEFAULT_TRUTH_SEED))]
+#[allow(clippy::too_many_arguments)]
 fn visibility<'py>(
     py: Python<'py>,
     mesh: &str,
@@ -298,6 +301,9 @@ fn visibility<'py>(
     order: usize,
     hemisphere_res: usize,
     frame: &str,
+    quadrature: &str,
+    truth_res: usize,
+    seed: u64,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
         check_order(order, shscale_sh::MAX_ORDER)?;
@@ -321,13 +327,33 @@ fn visibility<'py>(
         let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
         shscale_lab::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)
             .map_err(|m| bad("points", m))?;
-        let sampler = VisibilitySampler::new(order, hemisphere_res).map_err(|e| bad("order", e))?;
         let nn = order * order;
-        let values: Vec<f64> = py.allow_threads(|| {
-            pts.iter()
-                .flat_map(|p| sampler.full_sphere(occ.as_ref(), *p, frame).0)
-                .collect()
-        });
+        let values: Vec<f64> = match quadrature {
+            "gauss" => {
+                let sampler =
+                    VisibilitySampler::new(order, hemisphere_res).map_err(|e| bad("order", e))?;
+                py.allow_threads(|| {
+                    pts.iter()
+                        .flat_map(|p| sampler.full_sphere(occ.as_ref(), *p, frame).0)
+                        .collect()
+                })
+            }
+            "stratified" => {
+                let ts = shscale_field::truth::TruthSampler::new(order, truth_res, seed)
+                    .map_err(|e| bad("truth_res", e))?;
+                py.allow_threads(|| {
+                    pts.iter()
+                        .flat_map(|p| ts.sample_in(occ.as_ref(), *p, frame).coeffs)
+                        .collect()
+                })
+            }
+            other => {
+                return Err(bad(
+                    "quadrature",
+                    format!("{other:?} is not \"stratified\" or \"gauss\""),
+                ))
+            }
+        };
         Ok(Array2::from_shape_vec((pts.len(), nn), values)
             .map_err(|e| bad("points", e))?
             .into_pyarray(py))

@@ -81,11 +81,15 @@ def test_matrices_and_tables_equal_the_cli():
 
 
 def test_visibility_inspect_probe_equal_the_cli():
-    v = shscale.visibility("sphere", [[0, 0, 2], [0.5, 1.5, 0.2]], 4, hemisphere_res=16)
-    assert v.shape == (2, 16)
+    v = shscale.visibility("sphere", [[0, 0, 2], [0.5, 1.5, 0.2]], 4, hemisphere_res=16, quadrature="gauss")
+    s = shscale.visibility("sphere", [[0, 0, 2], [0.5, 1.5, 0.2]], 4, truth_res=32)
+    assert v.shape == (2, 16) and s.shape == (2, 16)
     for i, p in enumerate(["0,0,2", "0.5,1.5,0.2"]):
-        want = cli("visibility", "--mesh", "sphere", "--point", p, "--order", "4", "--hemisphere-res", "16")
+        want = cli("visibility", "--mesh", "sphere", "--point", p, "--order", "4", "--hemisphere-res", "16", "--quadrature", "gauss")
         np.testing.assert_array_equal(v[i], want["values"])
+        want = cli("visibility", "--mesh", "sphere", "--point", p, "--order", "4", "--truth-res", "32")
+        assert want["quadrature"] == "stratified" and want["rays"] == 4 * 32 * 32
+        np.testing.assert_array_equal(s[i], want["values"])
     info = shscale.inspect("bunny")
     want = cli("inspect", "bunny")
     assert info["vertices"] == want["vertices"] and info["triangles"] == want["triangles"]
@@ -144,6 +148,8 @@ def test_bad_values_raise_value_error():
         lambda: shscale.visibility("sphere", [[1e308, 0, 0]], 4),
         lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, frame="world"),
         lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, hemisphere_res=100000),
+        lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, quadrature="simpson"),
+        lambda: shscale.visibility("sphere", [[0, 0, 2]], 4, truth_res=0),
         lambda: shscale.inspect("/nonexistent.ply"),
         lambda: shscale.run("/nonexistent.toml"),
         lambda: shscale.load_results("/nonexistent"),
