@@ -52,9 +52,11 @@ pub struct Row {
     pub radius: f64,
     pub plain_rel_l2: f64,
     pub energy_rel_l2: f64,
+    /// The energy-preserving result × (r_s/d)² (radiant intensity conserved).
+    pub energy_r2_rel_l2: f64,
     /// Sample directions whose truth is lit (the errors' denominator).
     pub probes: usize,
-    /// `plain` or `energy`: the closer variant.
+    /// `plain`, `energy` or `energy_r2`: the closest variant.
     pub better: String,
 }
 
@@ -184,6 +186,7 @@ impl Kind for Srf {
                 radius: r.radius,
                 plain_rel_l2: r.plain_rel_l2,
                 energy_rel_l2: r.energy_rel_l2,
+                energy_r2_rel_l2: r.energy_r2_rel_l2,
                 probes: r.probes,
                 better: r.better().into(),
             })
@@ -191,7 +194,13 @@ impl Kind for Srf {
     }
 
     fn summary_columns() -> &'static [&'static str] {
-        &["radius", "plain_rel_l2", "energy_rel_l2", "better"]
+        &[
+            "radius",
+            "plain_rel_l2",
+            "energy_rel_l2",
+            "energy_r2_rel_l2",
+            "better",
+        ]
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
@@ -203,27 +212,29 @@ impl Kind for Srf {
             return Ok(String::new());
         }
         let total = t.rows.len();
-        let energy = (0..total)
-            .filter(|&r| t.cell(r, "better") == "energy")
-            .count();
+        let count = |v: &str| (0..total).filter(|&r| t.cell(r, "better") == v).count();
+        let (plain, energy, r2) = (count("plain"), count("energy"), count("energy_r2"));
         let verdict = if energy == total {
-            "the energy-preserving matrix is the closer one in every case — as the papers prescribe"
+            "the energy-preserving matrix is the closest in every case — as the papers prescribe"
                 .to_string()
-        } else if energy == 0 {
-            "the plain matrix is the closer one in every case — contrary to the papers' prescription"
+        } else if plain == total {
+            "the plain matrix is the closest in every case — contrary to the papers' prescription"
                 .to_string()
+        } else if r2 == total {
+            "the energy-preserving result scaled by (r/d)² is the closest in every case".to_string()
         } else {
-            format!("the energy-preserving matrix is closer in {energy} of {total} cases and the plain one in the rest — neither uniformly, contrary to the papers' unconditional prescription")
+            format!("the plain matrix is closest in {plain}, the energy-preserving one in {energy} and the energy-preserving one scaled by (r/d)² in {r2} of {total} cases — none uniformly, contrary to the papers' unconditional prescription")
         };
         let rows: Vec<String> = (0..total)
             .map(|r| {
                 format!(
-                    "| {}° | {}° | {} | {:.4} | {:.4} | {} |",
+                    "| {}° | {}° | {} | {:.4} | {:.4} | {:.4} | {} |",
                     t.cell(r, "hinge_deg"),
                     t.cell(r, "alpha_deg"),
                     t.cell(r, "radius"),
                     t.num(r, "plain_rel_l2"),
                     t.num(r, "energy_rel_l2"),
+                    t.num(r, "energy_r2_rel_l2"),
                     t.cell(r, "better")
                 )
             })
@@ -231,7 +242,7 @@ impl Kind for Srf {
         Ok(format!(
             "**Ours.** The hinged two-panel light (side 1, both panels radiance 1), BSV sampled on its bounding sphere; mean relative L2 \
 error of the extrapolated radiance against ray-traced radiance over the sample directions whose truth is lit.\n\n\
-| hinge | α | radius | plain η | energy η | closer |\n|---|---|---:|---:|---:|---|\n{}\n\n**Comparison.** Across these cases {verdict}.",
+| hinge | α | radius | plain η | energy η | energy η × (r/d)² | closest |\n|---|---|---:|---:|---:|---:|---|\n{}\n\n**Comparison.** Across these cases {verdict}.",
             rows.join("\n")
         ))
     }
@@ -250,7 +261,11 @@ error of the extrapolated radiance against ray-traced radiance over the sample d
                 .iter()
                 .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
-            for (name, col) in [("plain η", "plain_rel_l2"), ("energy η", "energy_rel_l2")] {
+            for (name, col) in [
+                ("plain η", "plain_rel_l2"),
+                ("energy η", "energy_rel_l2"),
+                ("energy η × (r/d)²", "energy_r2_rel_l2"),
+            ] {
                 series
                     .entry(format!("{name}{label}"))
                     .or_default()

@@ -47,6 +47,22 @@ impl VisibilityField for RayTraced<'_> {
     }
 }
 
+/// Converged ray-traced truth (band-limited): [`crate::truth::TruthSampler`], `4T²` stratified
+/// rays per query, drawn from the seed and the query point.
+pub struct ConvergedTruth<'a> {
+    pub occ: &'a dyn Occluder,
+    pub truth: &'a crate::truth::TruthSampler,
+}
+
+impl VisibilityField for ConvergedTruth<'_> {
+    fn name(&self) -> &'static str {
+        "raytraced"
+    }
+    fn eval(&self, p: DVec3, out: &mut [f64]) {
+        out.copy_from_slice(&self.truth.sample(self.occ, p).coeffs);
+    }
+}
+
 /// The fully sampled shadow field (Zhou et al. 2005, "Precomputed shadow fields for dynamic
 /// scenes"): the base-sphere layout sampled on `R` concentric shells with radii exponentially
 /// spaced over `[ρ_min r, ρ_max r]` (default 16 shells over [1, 8]), interpolated barycentrically in

@@ -40,7 +40,10 @@ pub fn light_at(env: &EnvLight, offset: DVec3, radius: f64) -> Result<EnvLight, 
         m.apply(&local, &mut scaled)?;
         rot.apply(&scaled, &mut out[c])?;
     }
-    Ok(EnvLight { rgb: out })
+    Ok(EnvLight {
+        rgb: out,
+        source: None,
+    })
 }
 
 /// The reference for [`light_at`]: irradiance at `q` (|q − c| < `radius`, c the origin here) with

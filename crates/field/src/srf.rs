@@ -20,16 +20,21 @@ pub struct SrfRow {
     pub radius: f64,
     pub plain_rel_l2: f64,
     pub energy_rel_l2: f64,
+    /// The energy-preserving result scaled by `(r_s/d)² = 1/k²` (radiant intensity conserved:
+    /// the light's power spread over a sphere of radius d instead of r_s).
+    pub energy_r2_rel_l2: f64,
     pub probes: usize,
 }
 
 impl SrfRow {
-    /// `"plain"` or `"energy"`: the variant with the smaller error.
+    /// `"plain"`, `"energy"` or `"energy_r2"`: the variant with the smallest error.
     pub fn better(&self) -> &'static str {
-        if self.plain_rel_l2 <= self.energy_rel_l2 {
+        if self.plain_rel_l2 <= self.energy_rel_l2 && self.plain_rel_l2 <= self.energy_r2_rel_l2 {
             "plain"
-        } else {
+        } else if self.energy_rel_l2 <= self.energy_r2_rel_l2 {
             "energy"
+        } else {
+            "energy_r2"
         }
     }
 }
@@ -103,7 +108,8 @@ pub fn compare(
     let s = bsv.sphere;
     let mut rows = Vec::new();
     for &rho in radii {
-        let errs: Vec<(f64, f64)> = bsv
+        let k = rho * s.radius / bsv.sampling_radius;
+        let errs: Vec<(f64, f64, f64)> = bsv
             .samples
             .par_iter()
             .filter_map(|smp| {
@@ -117,7 +123,12 @@ pub fn compare(
                 let (mut a, mut b) = (vec![0.0; order * order], vec![0.0; order * order]);
                 xp.eval(p, &mut m, &mut a);
                 xe.eval(p, &mut m, &mut b);
-                Some((l2_diff(&a, &truth) / norm, l2_diff(&b, &truth) / norm))
+                let c: Vec<f64> = b.iter().map(|x| x / (k * k)).collect();
+                Some((
+                    l2_diff(&a, &truth) / norm,
+                    l2_diff(&b, &truth) / norm,
+                    l2_diff(&c, &truth) / norm,
+                ))
             })
             .collect();
         let n = errs.len().max(1) as f64;
@@ -125,6 +136,7 @@ pub fn compare(
             radius: rho,
             plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
             energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
+            energy_r2_rel_l2: errs.iter().map(|x| x.2).sum::<f64>() / n,
             probes: errs.len(),
         });
     }

@@ -200,6 +200,7 @@ pub fn render_sequence_gpu(
         stages: Vec::new(),
         products: 0,
         skipped: 0,
+        error: Vec::new(),
     };
     Ok(GpuSequenceRun {
         image: out,

@@ -7,7 +7,7 @@ use crate::scene::{LightSpec, Scene};
 use crate::LabError;
 use glam::DVec3;
 use rayon::prelude::*;
-use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
+use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
@@ -39,6 +39,9 @@ pub struct RenderOutput {
     /// SH products computed and occluder evaluations skipped as unoccluded.
     pub products: usize,
     pub skipped: usize,
+    /// The full-frequency truth's own estimated error per pixel (`|A − B|/2` of its two
+    /// estimates, [`shscale_field::shading::irradiance_exact`]); empty for the other methods.
+    pub error: Vec<[f32; 3]>,
 }
 
 /// Build an occluder: the analytic sphere, or a mesh (bundled or path) rotated to z-up, scaled and
@@ -76,6 +79,11 @@ pub fn placed_mesh(
     }
     m.fit_to(&Sphere { center, radius });
     Ok(m)
+}
+
+/// What the full-frequency truth of `scene` lights with ([`EnvLight::truth_light`]).
+pub fn truth_light(scene: &Scene) -> Result<&'static str, LabError> {
+    Ok(light_of(scene)?.truth_light())
 }
 
 pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
@@ -117,11 +125,13 @@ pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, LabError> {
 }
 
 /// Estimated rays and peak bytes of one [`render`] of `scene` with `method` (for the work limits
-/// of `shscale render`): the BSV of every occluder (16 shells for the full field), 2H² rays per
-/// receiver and occluder for band-limited ray tracing, (2H)² per receiver for full-frequency truth.
+/// of `shscale render`): the BSV of every occluder (16 shells for the full field), 4T² rays per
+/// receiver and occluder for band-limited ray tracing, 4T² plus the sun's cap per receiver for
+/// full-frequency truth.
 pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     let samples = scene.layout.sample_count().unwrap_or(usize::MAX) as f64;
     let h2 = (scene.hemisphere_res * scene.hemisphere_res) as f64;
+    let t2 = (scene.truth_res * scene.truth_res) as f64;
     let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
     let occluders = scene.occluders.len().max(1) as f64;
     let nn = (scene.order * scene.order) as f64;
@@ -129,8 +139,10 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     let rays = match method {
         Method::Extrapolated => bsv,
         Method::FullField => 16.0 * bsv,
-        Method::RayTraced => receivers * occluders * 2.0 * h2,
-        Method::FullFrequency => receivers * 4.0 * h2,
+        Method::RayTraced => receivers * occluders * 4.0 * t2,
+        Method::FullFrequency => {
+            receivers * 4.0 * (t2 + ((scene.truth_res / 2).max(4).pow(2)) as f64)
+        }
     };
     let shells = if method == Method::FullField {
         16.0
@@ -205,11 +217,16 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         .zip(&tables)
         .map(|(b, t)| Extrapolator::new(b, t))
         .collect();
-    let rts: Vec<RayTraced> = if method == Method::RayTraced {
+    let truth = shscale_field::truth::TruthSampler::new(
+        scene.order,
+        scene.truth_res,
+        shscale_field::truth::DEFAULT_TRUTH_SEED,
+    )?;
+    let rts: Vec<ConvergedTruth> = if method == Method::RayTraced {
         occs.iter()
-            .map(|o| RayTraced {
+            .map(|o| ConvergedTruth {
                 occ: o.as_ref(),
-                sampler: &sampler,
+                truth: &truth,
             })
             .collect()
     } else {
@@ -234,20 +251,22 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             .iter()
             .map(|e| [0, 1, 2].map(|c| e.channels[c].as_ref()))
             .collect();
-        let pixels: Vec<[f32; 3]> = recv
+        let both: Vec<shscale_field::shading::Irradiance> = recv
             .par_iter()
             .map(|p| {
-                shscale_field::shading::irradiance_full_frequency_with(
+                shscale_field::shading::irradiance_exact(
                     &light,
                     &refs,
                     &ems,
                     *p,
                     DVec3::Z,
-                    2 * scene.hemisphere_res,
+                    scene.truth_res,
+                    shscale_field::truth::DEFAULT_TRUTH_SEED,
                 )
-                .map(|x| x as f32)
             })
             .collect();
+        let pixels = both.iter().map(|x| x.e.map(|v| v as f32)).collect();
+        let error = both.iter().map(|x| x.err.map(|v| v as f32)).collect();
         stages.push((
             "full_frequency_truth".to_string(),
             t.elapsed().as_secs_f64(),
@@ -259,6 +278,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
             stages,
             products: 0,
             skipped: 0,
+            error,
         });
     }
     // Source radiance fields of the local lights (docs/conventions.md §4).
@@ -342,6 +362,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         stages,
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
+        error: Vec::new(),
     })
 }
 
@@ -646,6 +667,7 @@ pub fn render_sequence(
         stages: Vec::new(),
         products,
         skipped,
+        error: Vec::new(),
     };
     Ok((out, stats))
 }

@@ -6,7 +6,8 @@
 //! order = 4                 # SH order N
 //! alpha_deg = 45            # cone half-angle
 //! layout = "latlong:12x20"  # base-sphere layout
-//! hemisphere_res = 32       # H (H×H rays per sample; 2H² for ray-traced truth)
+//! hemisphere_res = 32       # H (H×H rays per BSV sample)
+//! truth_res = 32            # T of the truths (4T² stratified rays per receiver)
 //! k_count = 40              # tabulated k values
 //! sampling_radius = 1.0     # s ≥ 1
 //!
@@ -49,6 +50,9 @@ use serde::Deserialize;
 use shscale_field::Layout;
 use std::path::{Path, PathBuf};
 
+/// The default truth resolution of a scene (`4T²` rays per receiver).
+pub const DEFAULT_SCENE_TRUTH_RES: usize = 32;
+
 /// The file as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -57,6 +61,7 @@ pub struct RawScene {
     pub alpha_deg: Option<f64>,
     pub layout: Option<String>,
     pub hemisphere_res: Option<usize>,
+    pub truth_res: Option<usize>,
     pub k_count: Option<usize>,
     pub sampling_radius: Option<f64>,
     #[serde(default)]
@@ -162,6 +167,9 @@ pub struct Scene {
     pub alpha: f64,
     pub layout: Layout,
     pub hemisphere_res: usize,
+    /// T of the ray-traced truths (band-limited: `4T²` stratified rays per receiver and occluder;
+    /// full-frequency: `4T²` plus the sun's `4·max(4, T/2)²` per receiver).
+    pub truth_res: usize,
     pub k_count: usize,
     pub sampling_radius: f64,
     pub occluders: Vec<OccluderSpec>,
@@ -192,6 +200,7 @@ pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
     ("alpha_deg", "number", "45", "cone half-angle α, degrees, (0, 90)"),
     ("layout", "string", "`latlong:12x20`", "base-sphere layout, at most 10⁶ samples"),
     ("hemisphere_res", "integer", "32", "H: H² rays per BSV sample, 1..=256"),
+    ("truth_res", "integer", "32", "T of the ray-traced truths: 4T² stratified rays per receiver (band-limited, per occluder; full-frequency, plus the sun's cap), with their own error estimate, 1..=256"),
     ("k_count", "integer", "40", "k-table entries, 2..=10000"),
     ("sampling_radius", "number", "1", "sampling sphere in bounding radii, [1, 1000]"),
     ("occluder[i].mesh", "string", "(required)", "`sphere`, a procedural shape, a bundled mesh or a path (relative to the scene file)"),
@@ -329,6 +338,10 @@ impl Scene {
                 "hemisphere_res",
                 format!("{hemisphere_res} is outside 1..=256"),
             ));
+        }
+        let truth_res = raw.truth_res.unwrap_or(DEFAULT_SCENE_TRUTH_RES);
+        if !(1..=256).contains(&truth_res) {
+            return Err(err("truth_res", format!("{truth_res} is outside 1..=256")));
         }
         let k_count = raw.k_count.unwrap_or(40);
         if !(2..=crate::exp::probe::MAX_K_COUNT).contains(&k_count) {
@@ -593,6 +606,7 @@ impl Scene {
             alpha: alpha_deg.to_radians(),
             layout,
             hemisphere_res,
+            truth_res,
             k_count,
             sampling_radius,
             occluders,
