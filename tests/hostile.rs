@@ -245,6 +245,8 @@ fn fixture() -> PathBuf {
         ("order_str", sub("order = 2", "order = \"two\"")),
         ("alpha90", sub("alpha_deg = 45", "alpha_deg = 90")),
         ("hres", sub("hemisphere_res = 4", "hemisphere_res = 100000")),
+        ("truthres", sub("hemisphere_res = 4", "hemisphere_res = 4\ntruth_res = 0")),
+        ("plaus", sub("hemisphere_res = 4", "hemisphere_res = 4\nplausibility = \"soft\"")),
         ("layout_fib", sub("layout = \"fib:20\"", "layout = \"fib:1000000000\"")),
         ("layout_cube", sub("layout = \"fib:20\"", "layout = \"cube:5000000000\"")),
         ("layout_bogus", sub("layout = \"fib:20\"", "layout = \"spiral:3\"")),
@@ -988,6 +990,14 @@ const CASES: &[(&str, &str)] = &[
     (
         "render --scene {D}/s/hres.toml --out {D}/o/y.exr",
         "hemisphere_res",
+    ),
+    (
+        "render --scene {D}/s/truthres.toml --out {D}/o/y.exr",
+        "truth_res",
+    ),
+    (
+        "render --scene {D}/s/plaus.toml --out {D}/o/y.exr",
+        "plausibility",
     ),
     (
         "render --scene {D}/s/layout_fib.toml --out {D}/o/y.exr",

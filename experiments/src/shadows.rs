@@ -33,6 +33,7 @@ pub struct Params {
     pub alpha_deg: Option<f64>,
     pub layout: Option<String>,
     pub hemisphere_res: Option<usize>,
+    pub plausibility: Option<String>,
 }
 
 impl Default for Params {
@@ -43,6 +44,7 @@ impl Default for Params {
             alpha_deg: None,
             layout: None,
             hemisphere_res: None,
+            plausibility: None,
         }
     }
 }
@@ -100,6 +102,10 @@ fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, LabError> {
     if let Some(h) = p.hemisphere_res {
         s.hemisphere_res = h;
     }
+    if let Some(m) = &p.plausibility {
+        s.plausibility =
+            shscale_field::extrapolate::Plausibility::parse(m).map_err(LabError::Config)?;
+    }
     Ok(s)
 }
 
@@ -117,6 +123,7 @@ impl Kind for Shadows {
             ("alpha_deg", "override of the scene's cone angle α, degrees, (0, 90)"),
             ("layout", "override of the scene's base-sphere layout"),
             ("hemisphere_res", "override of the scene's hemisphere resolution H, 1..=256"),
+            ("plausibility", "override of the scene's plausibility mitigation: `none` or `clamp`"),
         ]
     }
 
@@ -150,6 +157,10 @@ impl Kind for Shadows {
                     format!("{h} is outside 1..={MAX_HEMISPHERE_RES}"),
                 ));
             }
+        }
+        if let Some(m) = &p.plausibility {
+            shscale_field::extrapolate::Plausibility::parse(m)
+                .map_err(|e| KeyError::new("plausibility", e))?;
         }
         Ok(())
     }

@@ -215,7 +215,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
     let exs: Vec<Extrapolator> = bsvs
         .iter()
         .zip(&tables)
-        .map(|(b, t)| Extrapolator::new(b, t))
+        .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(scene.plausibility))
         .collect();
     let truth = shscale_field::truth::TruthSampler::new(
         scene.order,
@@ -629,7 +629,9 @@ pub fn render_sequence(
             st.resampled += 1;
         }
         let t0 = Instant::now();
-        if ents.len() == 1 {
+        // The receiver cache is linear in the visibility; the clamp mitigation is not, so a
+        // clamped sequence takes the direct path.
+        if ents.len() == 1 && scene.plausibility == shscale_field::extrapolate::Plausibility::None {
             let bsv = ents[0].bsv.as_ref().expect("sampled");
             let c = cache.get_or_insert_with(|| {
                 shscale_field::receivers::ReceiverCache::build(bsv, &tables[0], &transfer, &recv)
@@ -641,7 +643,10 @@ pub fn render_sequence(
             let exs: Vec<Extrapolator> = ents
                 .iter()
                 .zip(&tables)
-                .map(|(e, t)| Extrapolator::new(e.bsv.as_ref().expect("sampled"), t))
+                .map(|(e, t)| {
+                    Extrapolator::new(e.bsv.as_ref().expect("sampled"), t)
+                        .with_plausibility(scene.plausibility)
+                })
                 .collect();
             let fields: Vec<&dyn VisibilityField> =
                 exs.iter().map(|e| e as &dyn VisibilityField).collect();

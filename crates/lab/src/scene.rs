@@ -62,6 +62,7 @@ pub struct RawScene {
     pub layout: Option<String>,
     pub hemisphere_res: Option<usize>,
     pub truth_res: Option<usize>,
+    pub plausibility: Option<String>,
     pub k_count: Option<usize>,
     pub sampling_radius: Option<f64>,
     #[serde(default)]
@@ -170,6 +171,8 @@ pub struct Scene {
     /// T of the ray-traced truths (band-limited: `4T²` stratified rays per receiver and occluder;
     /// full-frequency: `4T²` plus the sun's `4·max(4, T/2)²` per receiver).
     pub truth_res: usize,
+    /// The extrapolation's plausibility mitigation (docs/conventions.md §6).
+    pub plausibility: shscale_field::extrapolate::Plausibility,
     pub k_count: usize,
     pub sampling_radius: f64,
     pub occluders: Vec<OccluderSpec>,
@@ -201,6 +204,7 @@ pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
     ("layout", "string", "`latlong:12x20`", "base-sphere layout, at most 10⁶ samples"),
     ("hemisphere_res", "integer", "32", "H: H² rays per BSV sample, 1..=256"),
     ("truth_res", "integer", "32", "T of the ray-traced truths: 4T² stratified rays per receiver (band-limited, per occluder; full-frequency, plus the sun's cap), with their own error estimate, 1..=256"),
+    ("plausibility", "string", "`none`", "the extrapolation's plausibility mitigation: `none` or `clamp` (visibility clamped to [0, 1] and 1 outside the bounding cone, re-projected)"),
     ("k_count", "integer", "40", "k-table entries, 2..=10000"),
     ("sampling_radius", "number", "1", "sampling sphere in bounding radii, [1, 1000]"),
     ("occluder[i].mesh", "string", "(required)", "`sphere`, a procedural shape, a bundled mesh or a path (relative to the scene file)"),
@@ -343,6 +347,10 @@ impl Scene {
         if !(1..=256).contains(&truth_res) {
             return Err(err("truth_res", format!("{truth_res} is outside 1..=256")));
         }
+        let plausibility = shscale_field::extrapolate::Plausibility::parse(
+            raw.plausibility.as_deref().unwrap_or("none"),
+        )
+        .map_err(|m| err("plausibility", m))?;
         let k_count = raw.k_count.unwrap_or(40);
         if !(2..=crate::exp::probe::MAX_K_COUNT).contains(&k_count) {
             return Err(err(
@@ -607,6 +615,7 @@ impl Scene {
             layout,
             hemisphere_res,
             truth_res,
+            plausibility,
             k_count,
             sampling_radius,
             occluders,
