@@ -831,3 +831,38 @@ fn budget_rows_count_what_each_method_costs() {
     assert!(dir.join("r/budget/b/pareto_time_duck.png").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A truth too coarse for the method's error is flagged in the summary; a converged one is not.
+#[test]
+fn a_truth_limited_probe_is_flagged_in_the_summary() {
+    let dir = std::env::temp_dir().join(format!("shscale-truth-limited-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, res, flagged) in [("coarse", 2, true), ("fine", 64, false)] {
+        let cfg = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &cfg,
+            format!("experiment = \"probe\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 8\ntruth_res = {res}\nradii = [1.5]\ngpu = \"off\"\n"),
+        )
+        .unwrap();
+        let o = shscale(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out-dir",
+            dir.join("r").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary =
+            std::fs::read_to_string(dir.join(format!("r/probe/{name}/summary.md"))).unwrap();
+        assert_eq!(
+            summary.contains("**Truth-limited**"),
+            flagged,
+            "{name}: {summary}"
+        );
+        assert_eq!(
+            summary.contains("**Truth.**"),
+            !flagged,
+            "{name}: {summary}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -710,6 +710,35 @@ visibility (right).\n\n\
                 _ => out.push_str(&format!("{who}: no radius has a finite occ_rel_l2 (no occluded truth).\n")),
             }
         }
+        // The truth's own error against the method's: rows where the truth does not resolve the
+        // error are flagged (docs/conventions.md §6).
+        let limited: Vec<String> = (0..t.rows.len())
+            .filter(|&r| t.num(r, "truth_limited_count") > 0.0)
+            .map(|r| {
+                format!(
+                    "run `{}` at {}r ({} probes)",
+                    t.cell(r, "run_id"),
+                    t.cell(r, "radius"),
+                    t.cell(r, "truth_limited_count")
+                )
+            })
+            .collect();
+        let worst = (0..t.rows.len())
+            .map(|r| t.num(r, "truth_rel_err_mean"))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if limited.is_empty() {
+            out.push_str(&format!(
+                "\n**Truth.** The converged truth's own error (mean per row) is at most {worst:.4} of the occlusion, and no probe's \
+occ_rel_l2 is within 3× of its truth's error.\n"
+            ));
+        } else {
+            out.push_str(&format!(
+                "\n**Truth-limited** (occ_rel_l2 within 3× of the truth's own error; raise `truth_res`): {}. The truth's mean \
+error per row is at most {worst:.4} of the occlusion.\n",
+                limited.join(", ")
+            ));
+        }
         Ok(out)
     }
 
