@@ -738,18 +738,17 @@ fn run_merge_and_compare_print_json() {
     std::fs::remove_dir_all(&d).ok();
 }
 
-/// `alpha_fit` on the analytic sphere sampled on itself: the best α on the 0.5° grid follows the
-/// closed-form law α = ½ arccos(1/k) (docs/math.md §7) within 2° at N = 8, and beats 45° by far.
-#[test]
-fn alpha_fit_finds_the_sphere_law() {
-    let dir = std::env::temp_dir().join(format!("shscale-alpha-fit-{}", std::process::id()));
+/// Run a config text through `shscale run` in a fresh folder; the folder, the CSV header and rows
+/// of `<kind>/<name>/runs.csv`.
+fn run_csv(
+    tag: &str,
+    kind: &str,
+    text: &str,
+) -> (std::path::PathBuf, Vec<String>, Vec<Vec<String>>) {
+    let dir = std::env::temp_dir().join(format!("shscale-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let cfg = dir.join("af.toml");
-    std::fs::write(
-        &cfg,
-        "experiment = \"alpha_fit\"\nmesh = \"sphere\"\norder = 8\nlayout = \"fib:60\"\nhemisphere_res = 16\nradii = [1.1, 1.6, 3.0]\ngpu = \"off\"\n",
-    )
-    .unwrap();
+    let cfg = dir.join(format!("{tag}.toml"));
+    std::fs::write(&cfg, text).unwrap();
     let o = shscale(&[
         "run",
         cfg.to_str().unwrap(),
@@ -757,13 +756,27 @@ fn alpha_fit_finds_the_sphere_law() {
         dir.join("r").to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(dir.join("r/alpha_fit/af/runs.csv")).unwrap();
+    let csv = std::fs::read_to_string(dir.join(format!("r/{kind}/{tag}/runs.csv"))).unwrap();
     let mut lines = csv.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let head = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    (dir, head, rows)
+}
+
+/// `alpha_fit` on the analytic sphere sampled on itself: the best α on the 0.5° grid follows the
+/// closed-form law α = ½ arccos(1/k) (docs/math.md §7) within 2° at N = 8, and beats 45° by far.
+#[test]
+fn alpha_fit_finds_the_sphere_law() {
+    let (dir, head, rows) = run_csv(
+        "af",
+        "alpha_fit",
+        "experiment = \"alpha_fit\"\nmesh = \"sphere\"\norder = 8\nlayout = \"fib:60\"\nhemisphere_res = 16\nradii = [1.1, 1.6, 3.0]\ngpu = \"off\"\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let mut n = 0;
-    for l in lines {
-        let c: Vec<&str> = l.split(',').collect();
+    for c in &rows {
         let num = |k: &str| c[col(k)].parse::<f64>().unwrap();
         let (k, best, law) = (num("k"), num("best_alpha_deg"), num("law_alpha_deg"));
         let want = 0.5 * (1.0 / k).acos().to_degrees();
@@ -782,28 +795,12 @@ fn alpha_fit_finds_the_sphere_law() {
 /// receiver and no memory), and a discussion with the Pareto front and the equal-accuracy verdict.
 #[test]
 fn budget_rows_count_what_each_method_costs() {
-    let dir = std::env::temp_dir().join(format!("shscale-budget-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let cfg = dir.join("b.toml");
-    std::fs::write(
-        &cfg,
+    let (dir, head, rows) = run_csv(
+        "b",
+        "budget",
         "experiment = \"budget\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:30\"\nhemisphere_res = 6\nreceivers = 20\ntruth_res = 16\nradii = [1.2, 2.0]\ngpu = \"off\"\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 5]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [3]\n",
-    )
-    .unwrap();
-    let o = shscale(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out-dir",
-        dir.join("r").to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(dir.join("r/budget/b/runs.csv")).unwrap();
-    let mut lines = csv.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
-    let rows: Vec<Vec<String>> = lines
-        .map(|l| l.split(',').map(String::from).collect())
-        .collect();
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     assert_eq!(rows.len(), 4);
     for r in &rows {
         let num = |k: &str| r[col(k)].parse::<f64>().unwrap();

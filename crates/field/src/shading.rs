@@ -499,38 +499,23 @@ pub fn irradiance_exact(
             let rs = (res / 2).max(4);
             let cap = 1.0 - sun_radius.cos();
             for e in est.iter_mut() {
-                // Hemisphere about n, bands of equal solid angle in z = cos θ ∈ [0, 1].
-                let rot = std::f64::consts::TAU * rng.unit();
-                let w = std::f64::consts::TAU / (2 * res * res) as f64;
-                let mut acc = 0.0;
-                for i in 0..res {
-                    for j in 0..2 * res {
-                        let z = 1.0 - (i as f64 + rng.unit()) / res as f64;
-                        let phi = rot + std::f64::consts::PI * (j as f64 + rng.unit()) / res as f64;
-                        let r = (1.0 - z * z).max(0.0).sqrt();
-                        let d = fh.to_world(DVec3::new(r * phi.cos(), r * phi.sin(), z));
-                        if visible(d) {
-                            acc += w * (a + b * d.dot(*up).max(0.0)) * z;
-                        }
+                // Hemisphere about n (z = cos θ ∈ [0, 1]), then the sun disc over its own cap.
+                let mut acc = stratified_cap(&fh, 1.0, res, &mut rng, |d, z| {
+                    if visible(d) {
+                        (a + b * d.dot(*up).max(0.0)) * z
+                    } else {
+                        0.0
                     }
-                }
-                // The sun disc over its own cap.
+                });
                 if *sun > 0.0 && *sun_radius > 0.0 {
-                    let rot = std::f64::consts::TAU * rng.unit();
-                    let ws = std::f64::consts::TAU * cap / (2 * rs * rs) as f64;
-                    for i in 0..rs {
-                        for j in 0..2 * rs {
-                            let z = 1.0 - cap * (i as f64 + rng.unit()) / rs as f64;
-                            let phi =
-                                rot + std::f64::consts::PI * (j as f64 + rng.unit()) / rs as f64;
-                            let r = (1.0 - z * z).max(0.0).sqrt();
-                            let d = fs.to_world(DVec3::new(r * phi.cos(), r * phi.sin(), z));
-                            let c = d.dot(n);
-                            if c > 0.0 && visible(d) {
-                                acc += ws * sun * c;
-                            }
+                    acc += stratified_cap(&fs, cap, rs, &mut rng, |d, _| {
+                        let c = d.dot(n);
+                        if c > 0.0 && visible(d) {
+                            sun * c
+                        } else {
+                            0.0
                         }
-                    }
+                    });
                 }
                 *e = [acc; 3];
             }
@@ -569,6 +554,33 @@ pub fn irradiance_exact(
         e: [0, 1, 2].map(|c| 0.5 * (est[0][c] + est[1][c]) + local[c]),
         err: [0, 1, 2].map(|c| 0.5 * (est[0][c] - est[1][c]).abs()),
     }
+}
+
+/// `∫ f` over the cap `z ∈ [1 − height, 1]` about the z axis of `frame`, by `bands` bands of equal
+/// solid angle × `2·bands` sectors, one jittered direction in each, the pattern turned about the
+/// axis by a random angle; `f` gets the direction (world) and its `z`.
+fn stratified_cap(
+    frame: &crate::frame::LocalFrame,
+    height: f64,
+    bands: usize,
+    rng: &mut crate::truth::SplitMix,
+    mut f: impl FnMut(DVec3, f64) -> f64,
+) -> f64 {
+    let rot = std::f64::consts::TAU * rng.unit();
+    let w = std::f64::consts::TAU * height / (2 * bands * bands) as f64;
+    let mut acc = 0.0;
+    for i in 0..bands {
+        for j in 0..2 * bands {
+            let z = 1.0 - height * (i as f64 + rng.unit()) / bands as f64;
+            let phi = rot + std::f64::consts::PI * (j as f64 + rng.unit()) / bands as f64;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            acc += w * f(
+                frame.to_world(DVec3::new(r * phi.cos(), r * phi.sin(), z)),
+                z,
+            );
+        }
+    }
+    acc
 }
 
 #[inline]
