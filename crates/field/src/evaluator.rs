@@ -31,7 +31,8 @@ impl VisibilityField for Extrapolator<'_> {
     }
 }
 
-/// Ray-traced truth (band-limited): `2H²` rays per query.
+/// Ray tracing with the method's Gauss–Legendre rings (band-limited): `2H²` rays per query. The
+/// reference of accuracy columns is [`ConvergedTruth`]; this one is kept for comparison.
 pub struct RayTraced<'a> {
     pub occ: &'a dyn Occluder,
     pub sampler: &'a VisibilitySampler,

@@ -1,6 +1,8 @@
 //! Rendering a scene's receiver plane (normal +z) with one of the three visibility evaluators
 //! (docs/conventions.md §4–5): extrapolated (BSV + k-table), full field (16 shells over [s, 8s]·r) or
-//! ray-traced truth (2H² rays per receiver per occluder). Irradiance per pixel in linear RGB.
+//! ray-traced truth (the converged `TruthSampler`, 4T² rays per receiver per occluder; or, for
+//! `raytraced-full`, exact visibility lit by the environment itself, `irradiance_exact`).
+//! Irradiance per pixel in linear RGB.
 //! Stage times are reported so methods can be compared on the same scene.
 
 use crate::scene::{LightSpec, Scene};

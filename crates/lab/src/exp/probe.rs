@@ -1,5 +1,6 @@
 //! The `probe` kind (SHS Fig. 5 / TR Fig. 1): extrapolated vs ray-traced visibility at probe
-//! radii along every base-sphere sample, one row per run and radius. Runs sharing mesh, order,
+//! radii along the probe directions (seeded, between the base-sphere samples, or on them), one row
+//! per run and radius. Runs sharing mesh, order,
 //! layout, H, sampling radius, ε and radii share the BSV and the truth (computed once); α and
 //! the k-table vary per run.
 
@@ -20,7 +21,7 @@ use std::path::{Path, PathBuf};
 pub const MAX_RADII: usize = 64;
 /// The largest SH order of a probe run.
 pub const MAX_ORDER: usize = 16;
-/// The largest hemisphere resolution H (H² rays per BSV sample, 2H² per truth probe).
+/// The largest hemisphere resolution H (H² rays per BSV sample).
 pub const MAX_HEMISPHERE_RES: usize = 256;
 /// The largest truth resolution T (4T² rays per probe).
 pub const MAX_TRUTH_RES: usize = shscale_field::truth::MAX_TRUTH_RES;
@@ -265,7 +266,7 @@ impl Kind for Probe {
             ("alpha_deg", "cone half-angle α of the cone approximation τ, degrees, in (0, 90)"),
             ("alpha_mode", "`fixed` (α = alpha_deg at every distance) or `fit` (α by distance: the law exact for a centred sphere, at the BSV's effective cap; docs/math.md §7)"),
             ("layout", "base-sphere sample layout: `latlong:RxC`, `cube:N` or `fib:P`, at most 10⁶ samples"),
-            ("hemisphere_res", "H: H² rays per BSV sample (2H² per truth probe), 1..=256"),
+            ("hemisphere_res", "H: H² rays per BSV sample (and per probe direction for the decomposition), 1..=256; the truth has its own `truth_res`"),
             ("sampling_radius", "radius of the sampling sphere in bounding radii, [1, 1000]; > 1 mitigates the on-surface failure"),
             ("k_count", "entries K of the k-table, 2..=10000 (≥ 4 for cubic)"),
             ("k_spacing", "spacing of the tabulated k: `exp`, `uniform` or `chebyshev`"),
