@@ -1,8 +1,8 @@
 //! The `probe` kind (SHS Fig. 5 / TR Fig. 1): extrapolated vs ray-traced visibility at probe
 //! radii along the probe directions (seeded, between the base-sphere samples, or on them), one row
-//! per run and radius. Runs sharing mesh, order,
-//! layout, H, sampling radius, ε and radii share the BSV and the truth (computed once); α and
-//! the k-table vary per run.
+//! per run and radius. Runs sharing mesh, order, layout, H, sampling radius, ε, probe directions,
+//! truth resolution and seed, and radii share the BSV and the truth (computed once); α, the
+//! k-table, the contact threshold and the plausibility mitigation vary per run.
 
 use super::records::{list, Results};
 use super::{Cost, Ctx, KeyError, Kind};
