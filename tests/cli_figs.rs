@@ -95,6 +95,28 @@ fn figures_and_their_index_are_regenerated() {
     ] {
         assert!(index.contains(needle), "index lacks {needle:?}:\n{index}");
     }
+    // The shadows rows say which light the full-frequency truth uses and carry both truths' own
+    // errors (a single occluder: both are estimated), small against the extrapolation's error.
+    let mut r = ::csv::Reader::from_path(out.join("d_shadows.csv")).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let col = |n: &str| {
+        h.iter()
+            .position(|x| x == n)
+            .unwrap_or_else(|| panic!("{n} not in {h:?}"))
+    };
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        assert_eq!(&rec[col("truth_light")], "closed-form sky");
+        let (bl, ff) = (
+            rec[col("band_limited_truth_err")].parse::<f64>().unwrap(),
+            rec[col("full_frequency_truth_err")].parse::<f64>().unwrap(),
+        );
+        assert!(bl > 0.0 && ff > 0.0 && bl < 0.05 && ff < 0.05, "{bl} {ff}");
+        if &rec[col("method")] == "extrapolated" {
+            let e = rec[col("rmse_vs_full_frequency")].parse::<f64>().unwrap();
+            assert!(e > ff, "{e} vs the truth's own {ff}");
+        }
+    }
     // The pattern text: 16 rows of 16, 41 non-zeros for the plain matrix at N = 4.
     let txt = std::fs::read_to_string(out.join("a_sparsity.txt")).unwrap();
     assert_eq!(txt.lines().count(), 16);

@@ -291,6 +291,7 @@ impl Kind for Budget {
             .map(|(i, (_, q))| match u.analytic {
                 Some(sph) => {
                     shscale_field::probe::sphere_truth(&basis, &sph, *q).map(|coeffs| Truth {
+                        half_diff: vec![0.0; coeffs.len()],
                         coeffs,
                         error: 0.0,
                         rays: 0,

@@ -72,6 +72,9 @@ pub struct Row {
     /// The full-frequency truth's own estimated error: RMS over receivers of its per-receiver
     /// `|A − B|/2`, over the mean unshadowed irradiance (the unit of `rmse_vs_*`).
     pub full_frequency_truth_err: f64,
+    /// The band-limited truth's own estimated error in the same unit (single occluder without
+    /// local lights; NaN otherwise).
+    pub band_limited_truth_err: f64,
 }
 
 /// The kind `shadows`.
@@ -199,19 +202,21 @@ impl Kind for Shadows {
         let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
         let truth_light = shscale_lab::render::truth_light(&scene)?;
         let mean_open = unshadowed.iter().sum::<f64>() / unshadowed.len().max(1) as f64;
-        let ff_err = {
-            let e = &imgs[3].1.error;
+        // A truth's own error: RMS over receivers and channels of its per-pixel estimate, over
+        // the mean unshadowed irradiance (NaN where the render has no estimate).
+        let own_err = |e: &[[f32; 3]]| {
             let ms = e
                 .iter()
                 .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
                 .sum::<f64>()
                 / (3 * e.len()).max(1) as f64;
-            if mean_open > 0.0 {
+            if mean_open > 0.0 && !e.is_empty() {
                 ms.sqrt() / mean_open
             } else {
                 f64::NAN
             }
         };
+        let (ff_err, bl_err) = (own_err(&imgs[3].1.error), own_err(&imgs[2].1.error));
         let err = |img: &RenderOutput, truth: &[f64]| {
             shade_rmse_rel(&flat(img), truth, &unshadowed).ok_or_else(|| {
                 LabError::Config(format!("scene: {}: the unshadowed image is black", p.scene))
@@ -348,6 +353,7 @@ impl Kind for Shadows {
                     receivers: w * h,
                     truth_light: truth_light.to_string(),
                     full_frequency_truth_err: ff_err,
+                    band_limited_truth_err: bl_err,
                 })
             })
             .collect()
@@ -405,13 +411,13 @@ impl Kind for Shadows {
 (16 shells), the SH-scaling extrapolation and the full-frequency ray-traced truth on one scale, and below them each field's difference \
 from the truth on a symmetric scale (the values in the EXR). `shade_rmse_rel` = RMSE of \
 irradiance over receivers / mean unshadowed irradiance. Truths: band-limited = the converged stratified visibility (T = {}, \
-4T² rays per receiver) projected to order N under the SH light; full-frequency = exact visibility lit by the {} (its own estimated \
+4T² rays per receiver; its own estimated error {:.4}) projected to order N under the SH light; full-frequency = exact visibility lit by the {} (its own estimated \
 error {:.4} in the same unit). Render times are the median of the config's timing procedure:\n\n\
 | method | vs band-limited truth | vs full-frequency truth | render (ms) |\n|---|---:|---:|---:|\n{table}\n\
 **Comparison.** The paper shows the two side by side as visually consistent and gives no numbers. Measured, the {} is the closer to \
 band-limited truth: the full field errs {fb:.4} and the extrapolation {eb:.4} ({}); against full-frequency truth {:.4} and {:.4}. The \
 extrapolation's error is the price of sampling one sphere per frame instead of 16 shells (the full field's render time excludes its \
-per-frame resampling, docs/BENCHMARKS.md).\n\n",
+per-frame resampling, docs/BENCHMARKS.md).{}\n\n",
                 t.cell(r0, "scene"),
                 t.cell(r0, "receivers"),
                 t.cell(r0, "scene_order"),
@@ -419,6 +425,10 @@ per-frame resampling, docs/BENCHMARKS.md).\n\n",
                 t.cell(r0, "scene_layout"),
                 t.cell(r0, "scene_hemisphere_res"),
                 t.cell(r0, "scene_truth_res"),
+                rows.iter()
+                    .map(|&r| t.num(r, "band_limited_truth_err"))
+                    .find(|v| v.is_finite())
+                    .unwrap_or(f64::NAN),
                 t.cell(r0, "truth_light"),
                 rows.iter()
                     .map(|&r| t.num(r, "full_frequency_truth_err"))
@@ -432,6 +442,32 @@ per-frame resampling, docs/BENCHMARKS.md).\n\n",
                 },
                 t.num(ff, "rmse_vs_full_frequency"),
                 t.num(ex, "rmse_vs_full_frequency"),
+                {
+                    // Errors within 3× of the truth's own are not resolved by it.
+                    let (bl, fq) = (
+                        rows.iter().map(|&r| t.num(r, "band_limited_truth_err")).find(|v| v.is_finite()),
+                        rows.iter().map(|&r| t.num(r, "full_frequency_truth_err")).find(|v| v.is_finite()),
+                    );
+                    let limited: Vec<String> = rows
+                        .iter()
+                        .flat_map(|&r| {
+                            let m = t.cell(r, "method").to_string();
+                            let mut v = Vec::new();
+                            if let Some(e) = bl.filter(|e| m != "ray_traced" && t.num(r, "rmse_vs_band_limited") < 3.0 * e) {
+                                v.push(format!("{m} against band-limited truth ({:.4} vs its {e:.4})", t.num(r, "rmse_vs_band_limited")));
+                            }
+                            if let Some(e) = fq.filter(|e| m != "full_frequency" && t.num(r, "rmse_vs_full_frequency") < 3.0 * e) {
+                                v.push(format!("{m} against full-frequency truth ({:.4} vs its {e:.4})", t.num(r, "rmse_vs_full_frequency")));
+                            }
+                            v
+                        })
+                        .collect();
+                    if limited.is_empty() {
+                        " Every error here is more than 3× its truth's own error.".to_string()
+                    } else {
+                        format!(" **Truth-limited** (within 3× of the truth's own error; raise `truth_res`): {}.", limited.join("; "))
+                    }
+                },
             ));
         }
         Ok(out)

@@ -403,6 +403,7 @@ pub fn probe_base_on(
     let exact_at = |p: DVec3, stream: u64| -> Option<Truth> {
         match analytic {
             Some(sph) => sphere_visibility(&basis, &sph, p).map(|coeffs| Truth {
+                half_diff: vec![0.0; coeffs.len()],
                 coeffs,
                 error: 0.0,
                 rays: 0,

@@ -80,6 +80,9 @@ pub struct Truth {
     /// squared error of `(A + B)/2`, so this is a one-point estimate of it (averaged over many
     /// points it converges to the RMS error).
     pub error: f64,
+    /// `(A − B)/2`, the coefficient vector whose norm is `error`: the error estimate of any linear
+    /// functional of the visibility (e.g. a receiver's irradiance `⟨T, V⟩`) is `|⟨T, (A − B)/2⟩|`.
+    pub half_diff: Vec<f64>,
     /// Rays traced (`4T²`).
     pub rays: usize,
     /// Rays that escaped; 0 means the point sees nothing (inside a solid).
@@ -216,10 +219,12 @@ impl TruthSampler {
         let (a, b) = (est(&sums[0]), est(&sums[1]));
         let coeffs: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
         let error = 0.5 * crate::metrics::l2_diff(&a, &b);
+        let half_diff: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x - y)).collect();
         let occluded = lists[0].len() + lists[1].len();
         Truth {
             coeffs,
             error,
+            half_diff,
             rays: dirs.len(),
             escaped: dirs.len() - occluded,
         }
@@ -244,7 +249,10 @@ impl TruthSampler {
             let mut local = vec![0.0; t.coeffs.len()];
             rot.apply(&rt, &t.coeffs, &mut local)
                 .expect("lengths agree");
-            t.coeffs = local;
+            t.coeffs = local.clone();
+            rot.apply(&rt, &t.half_diff, &mut local)
+                .expect("lengths agree");
+            t.half_diff = local;
         }
         t
     }

@@ -41,8 +41,9 @@ pub struct RenderOutput {
     /// SH products computed and occluder evaluations skipped as unoccluded.
     pub products: usize,
     pub skipped: usize,
-    /// The full-frequency truth's own estimated error per pixel (`|A − B|/2` of its two
-    /// estimates, [`shscale_field::shading::irradiance_exact`]); empty for the other methods.
+    /// A truth's own estimated error per pixel: `|A − B|/2` of the full-frequency truth's two
+    /// estimates ([`shscale_field::shading::irradiance_exact`]), or `|⟨T, (A − B)/2⟩|` of the
+    /// band-limited truth of a single occluder without local lights; empty otherwise.
     pub error: Vec<[f32; 3]>,
 }
 
@@ -327,6 +328,33 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, LabError> {
         })
         .collect();
     let nn = scene.order * scene.order;
+    // Band-limited truth of one occluder and no local lights: the truth's own error per receiver,
+    // |⟨T, (A − B)/2⟩| (irradiance is linear in the visibility), beside the pixel.
+    if let (Method::RayTraced, [o], true) = (method, occs.as_slice(), emitters.is_empty()) {
+        let both: Vec<([f32; 3], [f32; 3], usize)> = recv
+            .par_iter()
+            .map(|p| {
+                let t = truth.sample(o.as_ref(), *p);
+                let e = Shader::shade(&transfer, &t.coeffs);
+                let d = Shader::shade(&transfer, &t.half_diff);
+                (
+                    e.map(|x| x as f32),
+                    d.map(|x| x.abs() as f32),
+                    usize::from(t.escaped == t.rays),
+                )
+            })
+            .collect();
+        stages.push(("shading".to_string(), t.elapsed().as_secs_f64()));
+        return Ok(RenderOutput {
+            width: w,
+            height: h,
+            pixels: both.iter().map(|x| x.0).collect(),
+            stages,
+            products: 0,
+            skipped: both.iter().map(|x| x.2).sum(),
+            error: both.iter().map(|x| x.1).collect(),
+        });
+    }
     let shaded: Vec<([f32; 3], usize, usize)> = recv
         .par_iter()
         .map(|p| {
