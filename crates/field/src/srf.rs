@@ -23,6 +23,8 @@ pub struct SrfRow {
     /// The energy-preserving result scaled by `(r_s/d)² = 1/k²` (radiant intensity conserved:
     /// the light's power spread over a sphere of radius d instead of r_s).
     pub energy_r2_rel_l2: f64,
+    /// The radiance truth's own error relative to its norm (mean over the probes).
+    pub truth_rel_err: f64,
     pub probes: usize,
 }
 
@@ -66,8 +68,11 @@ pub fn radiance_bsv(
     Bsv::from_samples(layout, sphere, rs, samples, rays)
 }
 
-/// Compare both η variants at `radii` (multiples of r, ≥ the sampling radius factor) along every
-/// sample direction whose truth is not dark.
+/// Compare the η variants at `radii` (multiples of r, ≥ the sampling radius factor) along every
+/// sample direction whose truth is not dark. Truth: the light's radiance projected by the
+/// converged stratified quadrature ([`crate::truth::TruthSampler::project`], `4T²` rays, its own
+/// error reported), never by the method's rings.
+#[allow(clippy::too_many_arguments)]
 pub fn compare(
     e: &Emitter,
     layout: Layout,
@@ -76,8 +81,11 @@ pub fn compare(
     alpha: f64,
     inflate: f64,
     radii: &[f64],
+    truth_res: usize,
 ) -> Result<Vec<SrfRow>, FieldError> {
     let sampler = VisibilitySampler::new(order, h)?;
+    let truth_sampler =
+        crate::truth::TruthSampler::new(order, truth_res, crate::truth::DEFAULT_TRUTH_SEED)?;
     let bsv = radiance_bsv(e, layout, &sampler, inflate)?;
     let (kmin, kmax) = radii.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
         (a.min(r / inflate), b.max(r / inflate))
@@ -109,12 +117,13 @@ pub fn compare(
     let mut rows = Vec::new();
     for &rho in radii {
         let k = rho * s.radius / bsv.sampling_radius;
-        let errs: Vec<(f64, f64, f64)> = bsv
+        let errs: Vec<(f64, f64, f64, f64)> = bsv
             .samples
             .par_iter()
             .filter_map(|smp| {
                 let p = s.center + rho * s.radius * smp.dir;
-                let (truth, _) = sampler.radiance_full_sphere(e, p, Frame::Entity);
+                let t = truth_sampler.project(p, |d| e.radiance_along(p, d));
+                let truth = t.coeffs;
                 let norm = crate::metrics::l2(&truth);
                 if norm < 1e-12 {
                     return None;
@@ -128,6 +137,7 @@ pub fn compare(
                     l2_diff(&a, &truth) / norm,
                     l2_diff(&b, &truth) / norm,
                     l2_diff(&c, &truth) / norm,
+                    t.error / norm,
                 ))
             })
             .collect();
@@ -137,6 +147,7 @@ pub fn compare(
             plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
             energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
             energy_r2_rel_l2: errs.iter().map(|x| x.2).sum::<f64>() / n,
+            truth_rel_err: errs.iter().map(|x| x.3).sum::<f64>() / n,
             probes: errs.len(),
         });
     }

@@ -257,6 +257,41 @@ impl TruthSampler {
         t
     }
 
+    /// The converged projection of any bounded `value(direction)` over the sphere at `p` (e.g. a
+    /// light's radiance): the same two stratified estimates, `Σ w value(d) Y(d)` each, no closed
+    /// form for any part; `escaped` counts the directions where the value is non-zero.
+    pub fn project(&self, p: DVec3, mut value: impl FnMut(DVec3) -> f64) -> Truth {
+        let (dirs, half) = self.directions(SplitMix::at(self.seed, p));
+        let nn = self.basis.len();
+        let mut sums = [vec![0.0; nn], vec![0.0; nn]];
+        let mut y = vec![0.0; nn];
+        let mut nonzero = 0;
+        for (d, &b) in dirs.iter().zip(&half) {
+            let v = value(*d);
+            if v == 0.0 {
+                continue;
+            }
+            nonzero += 1;
+            self.basis.eval(d.to_array(), &mut y);
+            sums[b as usize]
+                .iter_mut()
+                .zip(&y)
+                .for_each(|(o, x)| *o += v * x);
+        }
+        let w = 2.0 * std::f64::consts::PI / (self.res * self.res) as f64;
+        let (a, b): (Vec<f64>, Vec<f64>) = (
+            sums[0].iter().map(|x| w * x).collect(),
+            sums[1].iter().map(|x| w * x).collect(),
+        );
+        Truth {
+            coeffs: a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect(),
+            error: 0.5 * crate::metrics::l2_diff(&a, &b),
+            half_diff: a.iter().zip(&b).map(|(x, y)| 0.5 * (x - y)).collect(),
+            rays: dirs.len(),
+            escaped: nonzero,
+        }
+    }
+
     /// [`TruthSampler::sample`] at many points, in parallel.
     pub fn sample_many(&self, occ: &dyn Occluder, points: &[DVec3]) -> Vec<Truth> {
         points.par_iter().map(|&p| self.sample(occ, p)).collect()

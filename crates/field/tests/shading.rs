@@ -238,20 +238,27 @@ fn source_radiance_fields_plain_versus_energy_preserving() {
             45f64.to_radians(),
             1.0,
             &[1.5, 2.0, 3.0],
+            64,
         )
         .unwrap();
         for r in &rows {
             println!(
-                "{name} ρ={}: plain {:.3e}, energy {:.3e}, energy × (r/d)² {:.3e} over {} probes → {}",
+                "{name} ρ={}: plain {:.3e}, energy {:.3e}, energy × (r/d)² {:.3e} (truth's own {:.1e}) over {} probes → {}",
                 r.radius,
                 r.plain_rel_l2,
                 r.energy_rel_l2,
                 r.energy_r2_rel_l2,
+                r.truth_rel_err,
                 r.probes,
                 r.better()
             );
             assert!(r.probes > 0);
             assert!(r.plain_rel_l2.is_finite() && r.energy_rel_l2.is_finite());
+            // The truth resolves every error it is used to measure.
+            assert!(
+                3.0 * r.truth_rel_err < r.energy_r2_rel_l2.min(r.plain_rel_l2),
+                "{r:?}"
+            );
         }
         // At the farthest radius the energy variant's constant-energy assumption is off by the
         // inverse-square falloff: plain must be better there, and so must the energy variant
