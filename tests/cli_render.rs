@@ -197,6 +197,10 @@ fn render_prints_json_for_scripts() {
     ]);
     assert_eq!(v["width"], 96);
     assert!(v["stages_ms"]["bsv_sampling"].as_f64().unwrap() > 0.0);
+    // Every output says what the full-frequency truth lights with; the extrapolation has no
+    // truth error of its own.
+    assert_eq!(v["full_frequency_light"], "closed-form sky");
+    assert!(v["truth_error_rms"].is_null());
     let rel = v["reference"]["shade_rmse_rel"].as_f64().unwrap();
     assert!(rel.is_finite() && rel > 0.0, "{rel}");
     for f in v["files"].as_array().unwrap() {

@@ -99,6 +99,17 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             Some((r, rel, t.elapsed().as_secs_f64()))
         }
     };
+    // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
+    // channels of its per-pixel estimate; only the truth methods have one).
+    let truth_light = shscale_lab::render::truth_light(&scene)?;
+    let truth_error_rms = (!img.error.is_empty()).then(|| {
+        (img.error
+            .iter()
+            .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
+            .sum::<f64>()
+            / (3 * img.error.len()) as f64)
+            .sqrt()
+    });
     if a.format == TextFormat::Json {
         let stages: serde_json::Map<String, serde_json::Value> = img
             .stages
@@ -116,6 +127,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "total_ms": total * 1e3,
             "sh_products": img.products,
             "skipped_unoccluded": img.skipped,
+            "full_frequency_light": truth_light,
+            "truth_error_rms": truth_error_rms,
             "reference": reference.map(|(r, rel, secs)| serde_json::json!({
                 "method": format!("{r:?}"),
                 "shade_rmse_rel": rel,
@@ -143,6 +156,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
         img.products, img.skipped
     );
+    println!("  full-frequency truth lights with: {truth_light}");
+    if let Some(e) = truth_error_rms {
+        println!("  the truth's own error (RMS of its per-pixel estimate): {e:.3e}");
+    }
     if let Some((r, rel, secs)) = reference {
         println!(
             "shade_rmse_rel vs {r:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
