@@ -15,7 +15,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use shscale_field::alpha::{cap_matching_alpha, effective_cap_angle};
-use shscale_field::metrics::occ_rel_l2;
+use shscale_field::metrics::{l2, occ_rel_l2, occlusion};
 use shscale_field::probe::{probe_base, ProbeBase};
 use shscale_field::LocalFrame;
 use shscale_lab::exp::probe::{Probe, ProbeParams};
@@ -122,16 +122,18 @@ fn locals(base: &ProbeBase, ri: usize, rho: f64, order: usize) -> Vec<Local> {
     base.dirs
         .iter()
         .zip(&base.truth[ri])
-        .filter_map(|(d, t)| {
+        .zip(&base.interpolated)
+        .filter_map(|((d, t), e)| {
+            // Probes outside the entity whose truth has something occluded.
             let t = t.as_ref()?;
-            occ_rel_l2(&t.coeffs, &t.coeffs)?;
+            if l2(&occlusion(&t.coeffs)) <= 1e-12 {
+                return None;
+            }
             let p: DVec3 = s.center + rho * s.radius * *d;
             let r = LocalFrame::toward(p, s.center).matrix();
             let rt = [0, 1, 2].map(|i| [0, 1, 2].map(|j| r[j][i]));
-            let mut e = vec![0.0; nn];
-            base.bsv.interpolate(*d, &mut e);
             let (mut input, mut truth) = (vec![0.0; nn], vec![0.0; nn]);
-            rot.apply(&rt, &e, &mut input).expect("lengths agree");
+            rot.apply(&rt, e, &mut input).expect("lengths agree");
             rot.apply(&rt, &t.coeffs, &mut truth)
                 .expect("lengths agree");
             Some(Local { input, truth })

@@ -289,15 +289,7 @@ impl Kind for Budget {
             .par_iter()
             .enumerate()
             .map(|(i, (_, q))| match u.analytic {
-                Some(sph) => {
-                    shscale_field::probe::sphere_truth(&basis, &sph, *q).map(|coeffs| Truth {
-                        half_diff: vec![0.0; coeffs.len()],
-                        coeffs,
-                        error: 0.0,
-                        rays: 0,
-                        escaped: 1,
-                    })
-                }
+                Some(sph) => shscale_field::probe::sphere_truth(&basis, &sph, *q).map(Truth::exact),
                 None => {
                     Some(ts.sample_stream(occ.as_ref(), *q, i as u64)).filter(|t| t.escaped > 0)
                 }

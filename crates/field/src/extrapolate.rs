@@ -292,6 +292,20 @@ mod tests {
         let mut c1 = one.clone();
         cl.apply(&mut c1, theta_c);
         assert!(crate::metrics::l2_diff(&c1, &one) < 1e-12);
+        // Edges of the cone angle: θ_c = 0 leaves only the constant 1 (nothing can occlude);
+        // θ_c = π cuts nothing, and a band-limited input already in [0, 1] (0.5 + 0.3·Y₁⁰, so
+        // 0.35…0.65) is a fixed point: the quadrature is exact for it.
+        let mut none = v.clone();
+        cl.apply(&mut none, 0.0);
+        assert!(crate::metrics::l2_diff(&none, &one) < 1e-12);
+        let mut w = vec![0.0; v.len()];
+        w[0] = 0.5 * (4.0 * std::f64::consts::PI).sqrt();
+        w[2] = 0.3;
+        let mut all = w.clone();
+        cl.apply(&mut all, std::f64::consts::PI);
+        let moved = crate::metrics::l2_diff(&all, &w);
+        println!("θ_c = π on a plausible input: moved {moved:.2e}");
+        assert!(moved < 1e-12, "{moved}");
         assert_eq!(Plausibility::parse("clamp"), Ok(Plausibility::Clamp));
         assert!(Plausibility::parse("nope").is_err());
         assert_eq!(bounding_cone(1.0, 0.5), std::f64::consts::PI);

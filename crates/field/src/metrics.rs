@@ -22,6 +22,13 @@ pub fn l2_diff(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
+/// The occlusion `S_occ = P_N(1 − V) = √(4π)e₀ − S` of visibility coefficients `v`.
+pub fn occlusion(v: &[f64]) -> Vec<f64> {
+    let mut occ: Vec<f64> = v.iter().map(|x| -x).collect();
+    occ[0] += (4.0 * std::f64::consts::PI).sqrt();
+    occ
+}
+
 /// `vis_rel_l2`, or `None` when `‖S_true‖` is 0.
 pub fn vis_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
     let d = l2(truth);
@@ -30,9 +37,7 @@ pub fn vis_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
 
 /// `occ_rel_l2`, or `None` when the truth has nothing occluded (`‖S_occ_true‖ ≤ 1e-12`).
 pub fn occ_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
-    let mut occ: Vec<f64> = truth.iter().map(|v| -v).collect();
-    occ[0] += (4.0 * std::f64::consts::PI).sqrt();
-    let d = l2(&occ);
+    let d = l2(&occlusion(truth));
     (d > 1e-12).then(|| l2_diff(ext, truth) / d)
 }
 

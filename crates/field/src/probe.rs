@@ -18,7 +18,7 @@ use crate::bsv::{Bsv, Layout};
 use crate::extrapolate::{
     bounding_cone, scale_to_with, Clamp, ExtrapolationKind, Extrapolator, Plausibility,
 };
-use crate::metrics::{mean_max, occ_rel_l2, vis_rel_l2};
+use crate::metrics::{mean_max, occ_rel_l2, occlusion, vis_rel_l2};
 use crate::truth::{SplitMix, Truth, TruthSampler, DEFAULT_TRUTH_RES, DEFAULT_TRUTH_SEED};
 use crate::visibility::{Frame, VisibilitySampler};
 use crate::FieldError;
@@ -187,14 +187,17 @@ pub struct ProbeExample {
     pub extrapolated: Vec<f64>,
 }
 
-/// Closed-form visibility of a solid sphere seen from `p` (entity frame), `None` inside it.
+/// Closed-form visibility of a solid sphere of radius R seen from `p` at distance d (entity
+/// frame): 1 minus the cap of half-angle `asin(min(1, R/d))` about the direction to the centre.
+/// On the surface (`d ≥ R(1 − 1e-9)`, within round-off of it) that is the tangent-plane
+/// hemisphere; `None` strictly inside.
 pub fn sphere_truth(basis: &ShBasis<f64>, s: &Sphere, p: DVec3) -> Option<Vec<f64>> {
     let d = (s.center - p).length();
-    if d <= s.radius {
+    if d < s.radius * (1.0 - 1e-9) || d == 0.0 {
         return None;
     }
     let n = basis.order();
-    let cap = cap_zonal(n, (s.radius / d).asin()).ok()?;
+    let cap = cap_zonal(n, (s.radius / d).min(1.0).asin()).ok()?;
     let mut v = vec![0.0; n * n];
     rotate_zonal(basis, &cap, ((s.center - p) / d).to_array(), &mut v).ok()?;
     v.iter_mut().for_each(|x| *x = -*x);
@@ -218,8 +221,10 @@ pub struct ProbeBase {
     pub direct: Vec<Vec<f64>>,
     /// The visibility at each probe direction on the sampling sphere by the converged truth.
     pub converged: Vec<Vec<f64>>,
+    /// The BSV interpolated at each probe direction (the extrapolation's input there).
+    pub interpolated: Vec<Vec<f64>>,
     /// Per probe direction: on-surface (its nearest sample is), and the occluded fraction of the
-    /// facing hemisphere of the BSV interpolated there (contact when ≥ `contact_occlusion`).
+    /// facing hemisphere of the interpolated BSV (contact when ≥ `contact_occlusion`).
     pub on_surface: Vec<bool>,
     pub facing_occlusion: Vec<f64>,
     pub truth_rays_per_probe: usize,
@@ -292,7 +297,7 @@ pub fn node_offset(ks: &[f64], k: f64, log: bool) -> f64 {
     if h <= 0.0 {
         return 0.0;
     }
-    ((x - xa).abs().min((xb - x).abs()) / h).max(if x < xa { (xa - x) / h } else { 0.0 })
+    (x - xa).abs().min((xb - x).abs()) / h
 }
 
 fn check_radii(spec: &ProbeSpec) -> Result<(), FieldError> {
@@ -349,14 +354,7 @@ pub fn probe_directions(spec: &ProbeSpec, bsv: &Bsv) -> Vec<DVec3> {
 /// `n` directions uniform on the sphere from the seeded generator (the `random` probes).
 pub fn random_directions(seed: u64, n: usize) -> Vec<DVec3> {
     let mut rng = SplitMix(seed);
-    (0..n)
-        .map(|_| {
-            let z = 2.0 * rng.unit() - 1.0;
-            let phi = std::f64::consts::TAU * rng.unit();
-            let s = (1.0 - z * z).max(0.0).sqrt();
-            DVec3::new(s * phi.cos(), s * phi.sin(), z)
-        })
-        .collect()
+    (0..n).map(|_| rng.direction()).collect()
 }
 
 /// The occluded fraction of the facing hemisphere of a sample's visibility `v` (entity frame,
@@ -364,23 +362,6 @@ pub fn random_directions(seed: u64, n: usize) -> Vec<DVec3> {
 pub fn facing_occlusion(v: &[f64]) -> f64 {
     let s0 = (4.0 * std::f64::consts::PI).sqrt();
     (4.0 * std::f64::consts::PI - s0 * v[0]) / (2.0 * std::f64::consts::PI)
-}
-
-/// The exact visibility of the analytic sphere at `p` (a point on its surface sees the
-/// tangent-plane hemisphere occluded); `None` strictly inside.
-fn sphere_visibility(basis: &ShBasis<f64>, s: &Sphere, p: DVec3) -> Option<Vec<f64>> {
-    let d = (s.center - p).length();
-    if d >= s.radius * (1.0 - 1e-9) && d <= s.radius * (1.0 + 1e-12) {
-        return sphere_truth(
-            basis,
-            &Sphere {
-                center: s.center,
-                radius: d * (1.0 - 1e-15),
-            },
-            p,
-        );
-    }
-    sphere_truth(basis, s, p)
 }
 
 /// [`probe_base`] on a BSV sampled (and timed) by the caller: the truth at every probe point and
@@ -402,13 +383,7 @@ pub fn probe_base_on(
     let np = dirs.len() as u64;
     let exact_at = |p: DVec3, stream: u64| -> Option<Truth> {
         match analytic {
-            Some(sph) => sphere_visibility(&basis, &sph, p).map(|coeffs| Truth {
-                half_diff: vec![0.0; coeffs.len()],
-                coeffs,
-                error: 0.0,
-                rays: 0,
-                escaped: 1,
-            }),
+            Some(sph) => sphere_truth(&basis, &sph, p).map(Truth::exact),
             None => Some(truth_sampler.sample_stream(occ, p, stream)).filter(|t| t.escaped > 0),
         }
     };
@@ -447,13 +422,19 @@ pub fn probe_base_on(
         })
         .collect();
     let nn = spec.order * spec.order;
-    let (mut on_surface, mut occluded) = (Vec::new(), Vec::new());
-    let mut e = vec![0.0; nn];
-    for d in &dirs {
-        on_surface.push(bsv.samples[bsv.nearest(*d)].on_surface);
-        bsv.interpolate(*d, &mut e);
-        occluded.push(facing_occlusion(&e));
-    }
+    let on_surface: Vec<bool> = dirs
+        .iter()
+        .map(|d| bsv.samples[bsv.nearest(*d)].on_surface)
+        .collect();
+    let interpolated: Vec<Vec<f64>> = dirs
+        .par_iter()
+        .map(|d| {
+            let mut e = vec![0.0; nn];
+            bsv.interpolate(*d, &mut e);
+            e
+        })
+        .collect();
+    let occluded = interpolated.iter().map(|e| facing_occlusion(e)).collect();
     Ok(ProbeBase {
         bsv,
         dirs,
@@ -461,6 +442,7 @@ pub fn probe_base_on(
         truth_seconds,
         direct,
         converged,
+        interpolated,
         on_surface,
         facing_occlusion: occluded,
         truth_rays_per_probe: if analytic.is_some() {
@@ -483,7 +465,8 @@ pub fn probe(
 }
 
 /// The largest occluded solid angle an occluder inside the bounding sphere can cover from a
-/// point at ρ bounding radii from its centre.
+/// point at ρ bounding radii from its centre: the cap the sphere subtends,
+/// `2π(1 − √(1 − 1/ρ²))` for ρ > 1 (→ 2π as ρ → 1⁺, ≈ π/ρ² far away), 4π for ρ ≤ 1.
 pub fn max_occluded_solid_angle(rho: f64) -> f64 {
     if rho <= 1.0 {
         4.0 * std::f64::consts::PI
@@ -615,7 +598,6 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         let mut solid: Vec<f64> = Vec::new();
         let mut per: Vec<PerProbe> = Vec::new();
         let mut scaled = vec![0.0; nn];
-        let mut interp = vec![0.0; nn];
         for (i, ((e, kind), t)) in ext.iter().zip(truth).enumerate() {
             if *kind == ExtrapolationKind::ClampedBelow {
                 row.clamped_count += 1;
@@ -646,16 +628,10 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
                 );
                 occ_rel_l2(&scaled, &t.coeffs)
             };
-            bsv.interpolate(base.dirs[i], &mut interp);
-            let exact_k = with(&interp);
+            let exact_k = with(&base.interpolated[i]);
             let exact_dir = with(&base.direct[i]);
             let model = with(&base.converged[i]);
-            let occ_n: Vec<f64> = t
-                .coeffs
-                .iter()
-                .enumerate()
-                .map(|(j, v)| if j == 0 { s0 - v } else { -v })
-                .collect();
+            let occ_n = occlusion(&t.coeffs);
             let omega_t = s0 * occ_n[0];
             let band = (omega_t > 1e-12).then(|| {
                 (1.0 - occ_n.iter().map(|x| x * x).sum::<f64>() / omega_t)
@@ -722,4 +698,36 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         bsv_sampling_seconds,
         table_build_seconds,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a node 0, midway 0.5, in ln k for a log table and in k for a uniform one; past an end,
+    /// the distance in units of the end spacing; a point exactly on the surface of the analytic
+    /// sphere sees the tangent-plane hemisphere (cap π/2), strictly inside nothing.
+    #[test]
+    fn node_offset_and_sphere_truth_at_their_edges() {
+        let ks = [1.0, 2.0, 4.0, 8.0];
+        assert_eq!(node_offset(&ks, 2.0, true), 0.0);
+        assert!((node_offset(&ks, 8f64.sqrt(), true) - 0.5).abs() < 1e-12);
+        assert!((node_offset(&ks, 3.0, false) - 0.5).abs() < 1e-12);
+        assert!((node_offset(&ks, 16.0, true) - 1.0).abs() < 1e-12);
+        assert!((node_offset(&ks, 0.5, true) - 1.0).abs() < 1e-12);
+        let basis = ShBasis::<f64>::new(4).unwrap();
+        let s = Sphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        };
+        let on = sphere_truth(&basis, &s, DVec3::Z).unwrap();
+        // Half the sphere visible: c₀ = √(4π)/2.
+        assert!((on[0] - (4.0 * std::f64::consts::PI).sqrt() / 2.0).abs() < 1e-12);
+        assert!(sphere_truth(&basis, &s, 0.99 * DVec3::Z).is_none());
+        assert!(sphere_truth(&basis, &s, DVec3::ZERO).is_none());
+        // Random directions are unit and reproducible.
+        let d = random_directions(9, 100);
+        assert!(d.iter().all(|v| (v.length() - 1.0).abs() < 1e-12));
+        assert_eq!(d, random_directions(9, 100));
+    }
 }

@@ -431,6 +431,12 @@ pub fn irradiance_full_frequency_with(
     [0, 1, 2].map(|c| e[c] + e_local[c])
 }
 
+/// Bands of the sun's cap in [`irradiance_exact`] at resolution `res` (`2·bands²` rays per
+/// estimate).
+pub fn sun_bands(res: usize) -> usize {
+    (res / 2).max(4)
+}
+
 /// Full-frequency irradiance and its own estimated error (per channel).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Irradiance {
@@ -496,7 +502,7 @@ pub fn irradiance_exact(
         } => {
             let fh = crate::frame::LocalFrame::from_z(n);
             let fs = crate::frame::LocalFrame::from_z(*sun_dir);
-            let rs = (res / 2).max(4);
+            let rs = sun_bands(res);
             let cap = 1.0 - sun_radius.cos();
             for e in est.iter_mut() {
                 // Hemisphere about n (z = cos θ ∈ [0, 1]), then the sun disc over its own cap.

@@ -55,6 +55,13 @@ impl SplitMix {
     pub fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
+    /// A direction uniform on the unit sphere (`z` uniform in [−1, 1], then φ uniform; Archimedes).
+    pub fn direction(&mut self) -> DVec3 {
+        let z = 2.0 * self.unit() - 1.0;
+        let phi = std::f64::consts::TAU * self.unit();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
     /// A uniformly distributed rotation (Shoemake 1992, from three uniforms).
     pub fn rotation(&mut self) -> DQuat {
         let (u1, u2, u3) = (self.unit(), self.unit(), self.unit());
@@ -90,12 +97,33 @@ pub struct Truth {
 }
 
 impl Truth {
+    /// The truth from its two independent estimates `a`, `b`: their mean, `‖a − b‖/2` and
+    /// `(a − b)/2`.
+    fn from_estimates(a: &[f64], b: &[f64], rays: usize, escaped: usize) -> Self {
+        Self {
+            coeffs: a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect(),
+            error: 0.5 * crate::metrics::l2_diff(a, b),
+            half_diff: a.iter().zip(b).map(|(x, y)| 0.5 * (x - y)).collect(),
+            rays,
+            escaped,
+        }
+    }
+
+    /// A closed-form truth (the analytic sphere): no error, no rays.
+    pub fn exact(coeffs: Vec<f64>) -> Self {
+        Self {
+            half_diff: vec![0.0; coeffs.len()],
+            coeffs,
+            error: 0.0,
+            rays: 0,
+            escaped: 1,
+        }
+    }
+
     /// The truth's own error relative to its occlusion, `error / ‖P_N(1 − V)‖`; `None` when
     /// nothing is occluded (docs/conventions.md §6, `truth_rel_err`).
     pub fn rel_error(&self) -> Option<f64> {
-        let mut occ: Vec<f64> = self.coeffs.iter().map(|v| -v).collect();
-        occ[0] += (4.0 * std::f64::consts::PI).sqrt();
-        let d = crate::metrics::l2(&occ);
+        let d = crate::metrics::l2(&crate::metrics::occlusion(&self.coeffs));
         (d > 1e-12).then(|| self.error / d)
     }
 }
@@ -216,18 +244,13 @@ impl TruthSampler {
             v[0] += s0;
             v
         };
-        let (a, b) = (est(&sums[0]), est(&sums[1]));
-        let coeffs: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
-        let error = 0.5 * crate::metrics::l2_diff(&a, &b);
-        let half_diff: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x - y)).collect();
         let occluded = lists[0].len() + lists[1].len();
-        Truth {
-            coeffs,
-            error,
-            half_diff,
-            rays: dirs.len(),
-            escaped: dirs.len() - occluded,
-        }
+        Truth::from_estimates(
+            &est(&sums[0]),
+            &est(&sums[1]),
+            dirs.len(),
+            dirs.len() - occluded,
+        )
     }
 
     /// [`TruthSampler::sample`] with the coefficients in `frame` (`Local`: z toward the
@@ -279,22 +302,8 @@ impl TruthSampler {
                 .for_each(|(o, x)| *o += v * x);
         }
         let w = 2.0 * std::f64::consts::PI / (self.res * self.res) as f64;
-        let (a, b): (Vec<f64>, Vec<f64>) = (
-            sums[0].iter().map(|x| w * x).collect(),
-            sums[1].iter().map(|x| w * x).collect(),
-        );
-        Truth {
-            coeffs: a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect(),
-            error: 0.5 * crate::metrics::l2_diff(&a, &b),
-            half_diff: a.iter().zip(&b).map(|(x, y)| 0.5 * (x - y)).collect(),
-            rays: dirs.len(),
-            escaped: nonzero,
-        }
-    }
-
-    /// [`TruthSampler::sample`] at many points, in parallel.
-    pub fn sample_many(&self, occ: &dyn Occluder, points: &[DVec3]) -> Vec<Truth> {
-        points.par_iter().map(|&p| self.sample(occ, p)).collect()
+        let scaled = |s: &[f64]| s.iter().map(|x| w * x).collect::<Vec<f64>>();
+        Truth::from_estimates(&scaled(&sums[0]), &scaled(&sums[1]), dirs.len(), nonzero)
     }
 }
 

@@ -18,6 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 use shscale_field::bsv::{Bsv, Layout};
+use shscale_field::truth::SplitMix;
 use shscale_field::visibility::VisibilitySampler;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{Mesh, MeshBvh, Occluder, RAY_EPS};
@@ -76,29 +77,6 @@ pub fn time_reps(p: Protocol, mut f: impl FnMut()) -> Timing {
         median_seconds: median,
         min_seconds: ts[0],
         max_seconds: ts[n - 1],
-    }
-}
-
-/// A deterministic generator (SplitMix64) for the workloads.
-struct Mix(u64);
-
-impl Mix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn f(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn dir(&mut self) -> DVec3 {
-        let z = 2.0 * self.f() - 1.0;
-        let p = std::f64::consts::TAU * self.f();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        DVec3::new(s * p.cos(), s * p.sin(), z)
     }
 }
 
@@ -169,12 +147,12 @@ impl RaySet {
             .iter()
             .fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
         let (c, e) = (0.5 * (lo + hi), hi - lo);
-        let mut rng = Mix(seed);
+        let mut rng = SplitMix(seed);
         let (mut origins, mut dirs) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for _ in 0..n {
-            let u = DVec3::new(rng.f(), rng.f(), rng.f()) * 2.0 - DVec3::ONE;
+            let u = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 2.0 - DVec3::ONE;
             origins.push(c + u * e);
-            dirs.push(rng.dir());
+            dirs.push(rng.direction());
         }
         Self::grouped(origins, dirs, 0.0)
     }
@@ -396,8 +374,8 @@ pub struct ShBench {
 }
 
 fn sh_points(points: usize) -> Vec<[f64; 3]> {
-    let mut rng = Mix(12345);
-    (0..points).map(|_| rng.dir().to_array()).collect()
+    let mut rng = SplitMix(12345);
+    (0..points).map(|_| rng.direction().to_array()).collect()
 }
 
 fn bench_sh_t<T: shscale_sh::Real>(

@@ -144,7 +144,9 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
         Method::FullField => 16.0 * bsv,
         Method::RayTraced => receivers * occluders * 4.0 * t2,
         Method::FullFrequency => {
-            receivers * 4.0 * (t2 + ((scene.truth_res / 2).max(4).pow(2)) as f64)
+            receivers
+                * 4.0
+                * (t2 + (shscale_field::shading::sun_bands(scene.truth_res).pow(2)) as f64)
         }
     };
     let shells = if method == Method::FullField {

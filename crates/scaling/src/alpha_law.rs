@@ -105,5 +105,30 @@ mod tests {
         assert!(cap_matching_alpha(0.0, 2.0).is_none());
         assert!(cap_matching_alpha(1.0, 1.0).is_none());
         assert!(cap_matching_alpha(1.0, f64::NAN).is_none());
+        // The extension where the law is undefined: at k = 1, inside the effective sphere
+        // (continuous with the law at k = sin θ₀), and inside a sphere sampled on itself.
+        for theta0 in [0.3, 1.0, std::f64::consts::FRAC_PI_2] {
+            for k in [1e-3, 0.2, theta0.sin(), 0.999, 1.0, 1.001, 5.0] {
+                let a = fitted_alpha(theta0, k);
+                assert!(
+                    a > 0.0 && a < std::f64::consts::FRAC_PI_2,
+                    "θ₀ {theta0}, k {k}: {a}"
+                );
+            }
+        }
+        let (t0, s) = (1.0f64, 1.0f64.sin());
+        let inside = fitted_alpha(t0, 0.5 * s);
+        let edge = fitted_alpha(t0, s);
+        let just_out = fitted_alpha(t0, s * (1.0 + 1e-9));
+        // Continuous at k = sin θ₀, with the square-root cusp of θ_e = asin(sin θ₀ / k) there
+        // (a step of 1e-9 in k moves α by ~√(2e-9)).
+        assert!(
+            (inside - edge).abs() < 1e-12 && (edge - just_out).abs() < 1e-4,
+            "{inside} {edge} {just_out}"
+        );
+        assert_eq!(
+            fitted_alpha(std::f64::consts::FRAC_PI_2, 0.5),
+            std::f64::consts::FRAC_PI_4
+        );
     }
 }
