@@ -96,17 +96,38 @@ impl<T: Real> ShBasis<T> {
 
     /// As [`ShBasis::eval_batch`] with an explicit instruction set (for tests and benchmarks; a
     /// level the CPU lacks falls back to the portable path).
+    ///
+    /// The AVX2 path writes outputs of at least [`STREAM_BYTES`] with non-temporal stores
+    /// (they bypass the caches: such an output would not stay there anyway, and its lines are
+    /// then written without first being read), smaller ones with ordinary stores.
     pub fn eval_batch_with(&self, level: crate::simd::Level, dirs: &[[T; 3]], out: &mut [T]) {
+        let bytes = std::mem::size_of_val(out);
+        let store = if bytes >= STREAM_BYTES {
+            Store::Stream
+        } else {
+            Store::Vector
+        };
+        self.eval_batch_store(level, dirs, out, store)
+    }
+
+    /// [`ShBasis::eval_batch_with`] with the AVX2 path's store kind forced (tests).
+    fn eval_batch_store(
+        &self,
+        level: crate::simd::Level,
+        dirs: &[[T; 3]],
+        out: &mut [T],
+        store: Store,
+    ) {
         let nn = self.len();
         assert_eq!(out.len(), dirs.len() * nn, "eval_batch: output length");
         #[cfg(target_arch = "x86_64")]
         if level.usable() == crate::simd::Level::Avx2Fma {
             // SAFETY: the CPU supports AVX2 and FMA (`usable` checked it).
-            unsafe { batch_avx2(&self.leg, dirs, out) };
+            unsafe { batch_avx2(&self.leg, dirs, out, store) };
             return;
         }
-        let _ = level;
-        batch_dispatch::<T, false>(&self.leg, dirs, out);
+        let _ = (level, store);
+        batch_dispatch::<T, false>(&self.leg, dirs, out, None);
     }
 
     /// Allocating convenience: the `N²` values at the unit direction `d`.
@@ -168,14 +189,20 @@ pub const LANES: usize = 8;
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn batch_avx2<T: Real>(leg: &Legendre<T>, dirs: &[[T; 3]], out: &mut [T]) {
-    batch_dispatch::<T, true>(leg, dirs, out)
+unsafe fn batch_avx2<T: Real>(leg: &Legendre<T>, dirs: &[[T; 3]], out: &mut [T], store: Store) {
+    batch_dispatch::<T, true>(leg, dirs, out, Some(store))
 }
 
 /// Whole batches of [`LANES`] directions through the lane kernel (literal orders unrolled), the
 /// remainder through the one-direction kernel.
 #[inline(always)]
-fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], out: &mut [T]) {
+fn batch_dispatch<T: Real, const FMA: bool>(
+    leg: &Legendre<T>,
+    dirs: &[[T; 3]],
+    out: &mut [T],
+    store: Option<Store>,
+) {
+    let store = if FMA { store } else { None };
     let n = leg.order();
     let nn = n * n;
     let whole = dirs.len() / LANES * LANES;
@@ -193,28 +220,44 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
     }
     macro_rules! fixed {
         ($n:literal, $nn:literal) => {{
-            // Long rows of f64 in half batches: the tile then stays in the first-level cache.
-            if std::mem::size_of::<T>() == 8 && $nn >= 256 {
-                for (d, o) in head
-                    .chunks_exact(LANES / 2)
-                    .zip(out_head.chunks_exact_mut(LANES / 2 * nn))
-                {
-                    lane_kernel_fixed::<T, $n, $nn, { LANES / 2 }, FMA>(leg, d, o)
-                }
-            } else {
-                for (d, o) in head
-                    .chunks_exact(LANES)
-                    .zip(out_head.chunks_exact_mut(LANES * nn))
-                {
-                    lane_kernel_fixed::<T, $n, $nn, LANES, FMA>(leg, d, o)
-                }
-            }
+            fixed_batches::<T, $n, $nn, LANES, FMA>(leg, head, out_head, store)
         }};
+    }
+    #[cfg(target_arch = "x86_64")]
+    if n == 4 && FMA {
+        let store = store.unwrap_or(Store::Vector);
+        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation; T is f64 or f32 (checked
+        // by size, the only two `Real` types).
+        unsafe {
+            if std::mem::size_of::<T>() == 8 {
+                order4::batch_f64(
+                    &*(leg as *const Legendre<T> as *const Legendre<f64>),
+                    std::slice::from_raw_parts(head.as_ptr() as *const [f64; 3], head.len()),
+                    std::slice::from_raw_parts_mut(
+                        out_head.as_mut_ptr() as *mut f64,
+                        out_head.len(),
+                    ),
+                    store,
+                );
+            } else {
+                order4::batch_f32(
+                    &*(leg as *const Legendre<T> as *const Legendre<f32>),
+                    std::slice::from_raw_parts(head.as_ptr() as *const [f32; 3], head.len()),
+                    std::slice::from_raw_parts_mut(
+                        out_head.as_mut_ptr() as *mut f32,
+                        out_head.len(),
+                    ),
+                    store,
+                );
+            }
+        }
     }
     match n {
         1 => run!(8, 1),
         2 => fixed!(2, 4),
         3 => fixed!(3, 9),
+        #[cfg(target_arch = "x86_64")]
+        4 if FMA => {}
         4 => fixed!(4, 16),
         5 => fixed!(5, 25),
         6 => fixed!(6, 36),
@@ -226,12 +269,61 @@ fn batch_dispatch<T: Real, const FMA: bool>(leg: &Legendre<T>, dirs: &[[T; 3]], 
         n if n <= 32 => run!(32, n),
         n => run!({ crate::MAX_ORDER }, n),
     }
+    #[cfg(target_arch = "x86_64")]
+    if store == Some(Store::Stream) {
+        // SAFETY: only reached in the AVX2 instantiation (`store` is `None` otherwise); the
+        // fence orders the non-temporal stores before anything that follows.
+        unsafe { std::arch::x86_64::_mm_sfence() };
+    }
     for (d, o) in tail.iter().zip(out_tail.chunks_exact_mut(nn)) {
         if FMA {
             eval_kernel_fma::<T, { crate::MAX_ORDER }, FMA>(leg, n, *d, o)
         } else {
             eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, *d, o)
         }
+    }
+}
+
+/// Whole batches of `W` directions at the literal order `N` (`NN = N²`), each order in a
+/// function of its own (so each gets its own small stack frame and is optimised alone).
+#[inline(always)]
+fn fixed_batches<T: Real, const N: usize, const NN: usize, const W: usize, const FMA: bool>(
+    leg: &Legendre<T>,
+    dirs: &[[T; 3]],
+    out: &mut [T],
+    store: Option<Store>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if FMA {
+        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation (`batch_avx2`).
+        unsafe { fixed_batches_avx2::<T, N, NN, W>(leg, dirs, out, store) };
+        return;
+    }
+    fixed_batches_portable::<T, N, NN, W>(leg, dirs, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn fixed_batches_avx2<T: Real, const N: usize, const NN: usize, const W: usize>(
+    leg: &Legendre<T>,
+    dirs: &[[T; 3]],
+    out: &mut [T],
+    store: Option<Store>,
+) {
+    for (d, o) in dirs.chunks_exact(W).zip(out.chunks_exact_mut(W * NN)) {
+        lane_kernel_fixed::<T, N, NN, W, true>(leg, d, o, store)
+    }
+}
+
+#[inline(never)]
+fn fixed_batches_portable<T: Real, const N: usize, const NN: usize, const W: usize>(
+    leg: &Legendre<T>,
+    dirs: &[[T; 3]],
+    out: &mut [T],
+) {
+    for (d, o) in dirs.chunks_exact(W).zip(out.chunks_exact_mut(W * NN)) {
+        lane_kernel_fixed::<T, N, NN, W, false>(leg, d, o, None)
     }
 }
 
@@ -327,6 +419,7 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
     leg: &Legendre<T>,
     d: &[[T; 3]],
     out: &mut [T],
+    store: Option<Store>,
 ) {
     let out = &mut out[..W * NN];
     let d = &d[..W];
@@ -349,9 +442,11 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
     let sub = &leg.sub[..N];
     let mut p1 = [[T::zero(); W]; N];
     let mut p2 = [[T::zero(); W]; N];
-    let mut tile = [[T::zero(); W]; NN];
+    // Every row of the tile is written below (index l² + l ± m for every l < N, m ≤ l), so it
+    // is not initialised first.
+    let mut tile = [std::mem::MaybeUninit::<[T; W]>::uninit(); NN];
     p1[0] = [qmm[0]; W];
-    tile[0] = p1[0];
+    tile[0].write(p1[0]);
     let mut k = 0;
     for l in 1..N {
         for m in 0..l.saturating_sub(1) {
@@ -369,23 +464,28 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
         }
         p1[l] = [qmm[l]; W];
         let c = l * l + l;
-        tile[c] = p1[0];
+        tile[c].write(p1[0]);
         for m in 1..=l {
+            let (mut pos, mut neg) = ([T::zero(); W], [T::zero(); W]);
             for j in 0..W {
-                tile[c + m][j] = p1[m][j] * cs[m][j];
-                tile[c - m][j] = p1[m][j] * sn[m][j];
+                pos[j] = p1[m][j] * cs[m][j];
+                neg[j] = p1[m][j] * sn[m][j];
             }
+            tile[c + m].write(pos);
+            tile[c - m].write(neg);
         }
     }
-    // Measured (docs/BENCHMARKS.md): whole-vector transposed stores win for f32 at N ≤ 4
-    // (about 0.56× the time) and lose elsewhere, where the compiler's scalar stores straight
-    // from registers beat materialising the tile.
+    // SAFETY: every row was written (the indices l² + l ± m cover 0..N² exactly once), and
+    // `MaybeUninit<[T; W]>` has the layout of `[T; W]`.
+    let tile: &[[T; W]; NN] = unsafe { &*(tile.as_ptr() as *const [[T; W]; NN]) };
     #[cfg(target_arch = "x86_64")]
-    if FMA && W == LANES && std::mem::size_of::<T>() == 4 && NN <= 16 {
-        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation; `out` holds W·NN values.
-        unsafe { write_tile_avx2::<T, NN>(tile.as_ptr() as *const [T; LANES], out) };
+    if let Some(store) = store {
+        // SAFETY: `store` is `Some` only in the AVX2 + FMA instantiation; `out` holds W·NN
+        // values.
+        unsafe { write_tile_avx2::<T, NN, W>(tile.as_ptr(), out, store) };
         return;
     }
+    let _ = store;
     for (j, o) in out.chunks_exact_mut(NN).enumerate() {
         for i in 0..NN {
             o[i] = tile[i][j];
@@ -393,31 +493,68 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
     }
 }
 
-/// Write a tile (`NN` values × 8 lanes) point by point with AVX2 transposes (8×8 blocks of
-/// f32), so every store is a whole vector; values that do not fill a block are stored one by
-/// one.
+/// How [`lane_kernel_fixed`] writes its tile out (chosen per call by [`batch_dispatch`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Store {
+    /// Whole-vector transposes, ordinary stores (the output stays in cache).
+    Vector,
+    /// Whole-vector transposes, non-temporal stores (outputs far larger than the caches:
+    /// no read-for-ownership of lines that are overwritten whole).
+    Stream,
+}
+
+/// Outputs of [`ShBasis::eval_batch`] at least this large are written with non-temporal
+/// stores: well past the second-level cache of one core, where the lines would be evicted
+/// unread anyway (measured in docs/BENCHMARKS.md: 2–3× faster at N = 8 and 16 for 10⁶ points,
+/// and slower for outputs that stay in cache).
+pub const STREAM_BYTES: usize = 8 << 20;
+
+/// Write a tile (`NN` values × `W` lanes, `W` = 8, or 4 for f64) point by point.
+///
+/// [`Store::Vector`]: AVX2 in-register transposes (8×8 blocks of f32, 4×4 blocks of f64)
+/// straight into `out`, so every load and store is a whole vector; values that do not fill a
+/// block are stored one by one. [`Store::Stream`]: the same transposes into an aligned staging
+/// copy of the batch's output (it stays in the first-level cache), which is then copied to
+/// `out` in address order with non-temporal stores — whole aligned 32-B vectors, the unaligned
+/// ends value by value — so each output line is written once, whole, without being read.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn write_tile_avx2<T: Real, const NN: usize>(tile: *const [T; LANES], out: &mut [T]) {
-    // SAFETY: the caller's tile is NN rows of LANES values.
+unsafe fn write_tile_avx2<T: Real, const NN: usize, const W: usize>(
+    tile: *const [T; W],
+    out: &mut [T],
+    store: Store,
+) {
+    // SAFETY: the caller's tile is NN rows of W values.
     let tile = std::slice::from_raw_parts(tile, NN);
+    assert!(out.len() >= W * NN);
+    if store == Store::Vector {
+        transpose_tile::<T, NN, W>(tile, out.as_mut_ptr());
+        return;
+    }
+    #[repr(C, align(64))]
+    struct Staging<T, const L: usize>([[T; L]; W_MAX]);
+    const W_MAX: usize = LANES;
+    let mut staging = std::mem::MaybeUninit::<Staging<T, NN>>::uninit();
+    let sp = staging.as_mut_ptr() as *mut T;
+    transpose_tile::<T, NN, W>(tile, sp);
+    stream_copy(sp, out.as_mut_ptr(), W * NN);
+}
+
+/// The tile's transpose: `out[j·NN + i] = tile[i][j]` for `j < W`, `i < NN`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W]], out: *mut T) {
     use std::arch::x86_64::*;
-    assert!(out.len() >= LANES * NN);
-    let o = out.as_mut_ptr();
     let mut done = 0;
-    if std::mem::size_of::<T>() == 4 {
+    if std::mem::size_of::<T>() == 4 && W == 8 {
         let t = tile.as_ptr() as *const f32;
-        let o = o as *mut f32;
-        macro_rules! st {
-            ($p:expr, $v:expr) => {{
-                _mm256_storeu_ps($p, $v)
-            }};
-        }
+        let o = out as *mut f32;
         while done + 8 <= NN {
             macro_rules! r {
                 ($k:expr) => {
-                    _mm256_loadu_ps(t.add((done + $k) * LANES))
+                    _mm256_loadu_ps(t.add((done + $k) * 8))
                 };
             }
             let (r0, r1, r2, r3) = (r!(0), r!(1), r!(2), r!(3));
@@ -445,15 +582,310 @@ unsafe fn write_tile_avx2<T: Real, const NN: usize>(tile: *const [T; LANES], out
                 _mm256_permute2f128_ps::<0x31>(s3, s7),
             ];
             for (lane, v) in c.into_iter().enumerate() {
-                st!(o.add(lane * NN + done), v);
+                _mm256_storeu_ps(o.add(lane * NN + done), v);
             }
             done += 8;
         }
-    }
-    for (j, row) in out.chunks_exact_mut(NN).take(LANES).enumerate() {
-        for i in done..NN {
-            row[i] = tile[i][j];
+    } else if std::mem::size_of::<T>() == 8 && W % 4 == 0 {
+        let t = tile.as_ptr() as *const f64;
+        let o = out as *mut f64;
+        while done + 4 <= NN {
+            for g in 0..W / 4 {
+                macro_rules! r {
+                    ($k:expr) => {
+                        _mm256_loadu_pd(t.add((done + $k) * W + 4 * g))
+                    };
+                }
+                let (r0, r1, r2, r3) = (r!(0), r!(1), r!(2), r!(3));
+                let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+                let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+                let c = [
+                    _mm256_permute2f128_pd::<0x20>(t0, t2),
+                    _mm256_permute2f128_pd::<0x20>(t1, t3),
+                    _mm256_permute2f128_pd::<0x31>(t0, t2),
+                    _mm256_permute2f128_pd::<0x31>(t1, t3),
+                ];
+                for (k, v) in c.into_iter().enumerate() {
+                    _mm256_storeu_pd(o.add((4 * g + k) * NN + done), v);
+                }
+            }
+            done += 4;
         }
+    }
+    for j in 0..W {
+        for (i, row) in tile.iter().enumerate().skip(done) {
+            *out.add(j * NN + i) = row[j];
+        }
+    }
+}
+
+/// Order 4 (the papers' order) in explicit AVX2 + FMA code: the operations of
+/// [`lane_kernel_fixed`] with `FMA = true`, one after another in the same order (so the same
+/// roundings), on whole vectors held in registers — 4 directions per batch in f64, 8 in f32 —
+/// and the 16 values per direction transposed to point-major vectors in registers.
+#[cfg(target_arch = "x86_64")]
+mod order4 {
+    use super::{stream_copy, Store};
+    use crate::legendre::Legendre;
+    use crate::Real;
+    use std::arch::x86_64::*;
+
+    /// A 256-bit vector of `W` lanes of `S`.
+    trait Lane: Copy {
+        type S: Real;
+        unsafe fn splat(s: Self::S) -> Self;
+        unsafe fn mul(a: Self, b: Self) -> Self;
+        /// `a·b + c`, one rounding.
+        unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self;
+        /// `a·b − c`, one rounding.
+        unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self;
+    }
+
+    impl Lane for __m256d {
+        type S = f64;
+        #[inline(always)]
+        unsafe fn splat(s: f64) -> Self {
+            _mm256_set1_pd(s)
+        }
+        #[inline(always)]
+        unsafe fn mul(a: Self, b: Self) -> Self {
+            _mm256_mul_pd(a, b)
+        }
+        #[inline(always)]
+        unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+            _mm256_fmadd_pd(a, b, c)
+        }
+        #[inline(always)]
+        unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
+            _mm256_fmsub_pd(a, b, c)
+        }
+    }
+
+    impl Lane for __m256 {
+        type S = f32;
+        #[inline(always)]
+        unsafe fn splat(s: f32) -> Self {
+            _mm256_set1_ps(s)
+        }
+        #[inline(always)]
+        unsafe fn mul(a: Self, b: Self) -> Self {
+            _mm256_mul_ps(a, b)
+        }
+        #[inline(always)]
+        unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+            _mm256_fmadd_ps(a, b, c)
+        }
+        #[inline(always)]
+        unsafe fn fmsub(a: Self, b: Self, c: Self) -> Self {
+            _mm256_fmsub_ps(a, b, c)
+        }
+    }
+
+    /// The recurrence's constants for order 4.
+    struct Consts<S> {
+        q: [S; 4],
+        sub: [S; 3],
+        ab: [(S, S); 3],
+    }
+
+    impl<S: Real> Consts<S> {
+        fn of(leg: &Legendre<S>) -> Self {
+            Self {
+                q: [leg.qmm[0], leg.qmm[1], leg.qmm[2], leg.qmm[3]],
+                sub: [leg.sub[0], leg.sub[1], leg.sub[2]],
+                ab: [leg.ab_l[0], leg.ab_l[1], leg.ab_l[2]],
+            }
+        }
+    }
+
+    /// The 16 values (index order) for the directions in the lanes of `x, y, z`: the steps of
+    /// [`super::lane_kernel_fixed`] at N = 4, written out.
+    #[inline(always)]
+    unsafe fn values<L: Lane>(k: &Consts<L::S>, x: L, y: L, z: L) -> [L; 16] {
+        let s = |v: L::S| L::splat(v);
+        // (Re, Im) of (x + iy)^m: m = 1 is (x, y) exactly.
+        let (cs1, sn1) = (x, y);
+        let cs2 = L::fmsub(x, cs1, L::mul(y, sn1));
+        let sn2 = L::fmadd(x, sn1, L::mul(y, cs1));
+        let cs3 = L::fmsub(x, cs2, L::mul(y, sn2));
+        let sn3 = L::fmadd(x, sn2, L::mul(y, cs2));
+        let [q0, q1, q2, q3] = k.q;
+        let (a0, b0) = k.ab[0];
+        let (a1, b1) = k.ab[1];
+        let (a2, b2) = k.ab[2];
+        let q10 = L::mul(L::mul(s(k.sub[0]), z), s(q0));
+        let q20 = L::fmsub(L::mul(s(a0), z), q10, L::mul(s(b0), s(q0)));
+        let q21 = L::mul(L::mul(s(k.sub[1]), z), s(q1));
+        let q30 = L::fmsub(L::mul(s(a1), z), q20, L::mul(s(b1), q10));
+        let q31 = L::fmsub(L::mul(s(a2), z), q21, L::mul(s(b2), s(q1)));
+        let q32 = L::mul(L::mul(s(k.sub[2]), z), s(q2));
+        let (q1, q2, q3) = (s(q1), s(q2), s(q3));
+        [
+            s(q0),
+            L::mul(q1, sn1),
+            q10,
+            L::mul(q1, cs1),
+            L::mul(q2, sn2),
+            L::mul(q21, sn1),
+            q20,
+            L::mul(q21, cs1),
+            L::mul(q2, cs2),
+            L::mul(q3, sn3),
+            L::mul(q32, sn2),
+            L::mul(q31, sn1),
+            q30,
+            L::mul(q31, cs1),
+            L::mul(q32, cs2),
+            L::mul(q3, cs3),
+        ]
+    }
+
+    /// Order 4 in f64, 4 directions per batch: `out[j·16 ..]` for `dirs[j]`; `dirs.len()` a
+    /// multiple of 4.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn batch_f64(
+        leg: &Legendre<f64>,
+        dirs: &[[f64; 3]],
+        out: &mut [f64],
+        store: Store,
+    ) {
+        let k = Consts::of(leg);
+        assert!(dirs.len() % 4 == 0 && out.len() == dirs.len() * 16);
+        #[repr(C, align(64))]
+        struct Stage([f64; 64]);
+        let mut stage = Stage([0.0; 64]);
+        for (d, o) in dirs.chunks_exact(4).zip(out.chunks_exact_mut(64)) {
+            let x = _mm256_set_pd(d[3][0], d[2][0], d[1][0], d[0][0]);
+            let y = _mm256_set_pd(d[3][1], d[2][1], d[1][1], d[0][1]);
+            let z = _mm256_set_pd(d[3][2], d[2][2], d[1][2], d[0][2]);
+            let v = values::<__m256d>(&k, x, y, z);
+            let dst = if store == Store::Stream {
+                stage.0.as_mut_ptr()
+            } else {
+                o.as_mut_ptr()
+            };
+            for b in 0..4 {
+                let (r0, r1, r2, r3) = (v[4 * b], v[4 * b + 1], v[4 * b + 2], v[4 * b + 3]);
+                let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+                let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+                let c = [
+                    _mm256_permute2f128_pd::<0x20>(t0, t2),
+                    _mm256_permute2f128_pd::<0x20>(t1, t3),
+                    _mm256_permute2f128_pd::<0x31>(t0, t2),
+                    _mm256_permute2f128_pd::<0x31>(t1, t3),
+                ];
+                for (j, c) in c.into_iter().enumerate() {
+                    _mm256_storeu_pd(dst.add(16 * j + 4 * b), c);
+                }
+            }
+            if store == Store::Stream {
+                stream_copy(stage.0.as_ptr(), o.as_mut_ptr(), 64);
+            }
+        }
+    }
+
+    /// Order 4 in f32, 8 directions per batch; `dirs.len()` a multiple of 8.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn batch_f32(
+        leg: &Legendre<f32>,
+        dirs: &[[f32; 3]],
+        out: &mut [f32],
+        store: Store,
+    ) {
+        let k = Consts::of(leg);
+        assert!(dirs.len() % 8 == 0 && out.len() == dirs.len() * 16);
+        #[repr(C, align(64))]
+        struct Stage([f32; 128]);
+        let mut stage = Stage([0.0; 128]);
+        for (d, o) in dirs.chunks_exact(8).zip(out.chunks_exact_mut(128)) {
+            let lane = |a: usize| {
+                _mm256_set_ps(
+                    d[7][a], d[6][a], d[5][a], d[4][a], d[3][a], d[2][a], d[1][a], d[0][a],
+                )
+            };
+            let v = values::<__m256>(&k, lane(0), lane(1), lane(2));
+            let dst = if store == Store::Stream {
+                stage.0.as_mut_ptr()
+            } else {
+                o.as_mut_ptr()
+            };
+            for b in 0..2 {
+                let r = &v[8 * b..8 * b + 8];
+                let (t0, t1) = (
+                    _mm256_unpacklo_ps(r[0], r[1]),
+                    _mm256_unpackhi_ps(r[0], r[1]),
+                );
+                let (t2, t3) = (
+                    _mm256_unpacklo_ps(r[2], r[3]),
+                    _mm256_unpackhi_ps(r[2], r[3]),
+                );
+                let (t4, t5) = (
+                    _mm256_unpacklo_ps(r[4], r[5]),
+                    _mm256_unpackhi_ps(r[4], r[5]),
+                );
+                let (t6, t7) = (
+                    _mm256_unpacklo_ps(r[6], r[7]),
+                    _mm256_unpackhi_ps(r[6], r[7]),
+                );
+                let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+                let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+                let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+                let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+                let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+                let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+                let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+                let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+                let c = [
+                    _mm256_permute2f128_ps::<0x20>(s0, s4),
+                    _mm256_permute2f128_ps::<0x20>(s1, s5),
+                    _mm256_permute2f128_ps::<0x20>(s2, s6),
+                    _mm256_permute2f128_ps::<0x20>(s3, s7),
+                    _mm256_permute2f128_ps::<0x31>(s0, s4),
+                    _mm256_permute2f128_ps::<0x31>(s1, s5),
+                    _mm256_permute2f128_ps::<0x31>(s2, s6),
+                    _mm256_permute2f128_ps::<0x31>(s3, s7),
+                ];
+                for (j, c) in c.into_iter().enumerate() {
+                    _mm256_storeu_ps(dst.add(16 * j + 8 * b), c);
+                }
+            }
+            if store == Store::Stream {
+                stream_copy(stage.0.as_ptr(), o.as_mut_ptr(), 128);
+            }
+        }
+    }
+}
+
+/// Copy `n` values from `src` to `dst` with non-temporal stores: the unaligned head and tail of
+/// `dst` value by value, the 32-B aligned body in whole vectors (unaligned loads from `src`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn stream_copy<T: Real>(src: *const T, dst: *mut T, n: usize) {
+    use std::arch::x86_64::*;
+    let size = std::mem::size_of::<T>();
+    let per = 32 / size;
+    let mis = (dst as usize % 32) / size;
+    let head = if mis == 0 { 0 } else { (per - mis).min(n) };
+    let body = (n - head) / per * per;
+    let one = |k: usize| {
+        if size == 8 {
+            _mm_stream_si64(dst.add(k) as *mut i64, *(src.add(k) as *const i64));
+        } else {
+            _mm_stream_si32(dst.add(k) as *mut i32, *(src.add(k) as *const i32));
+        }
+    };
+    for k in 0..head {
+        one(k);
+    }
+    let mut k = head;
+    while k < head + body {
+        let v = _mm256_loadu_si256(src.add(k) as *const __m256i);
+        _mm256_stream_si256(dst.add(k) as *mut __m256i, v);
+        k += per;
+    }
+    for k in head + body..n {
+        one(k);
     }
 }
 
@@ -627,5 +1059,115 @@ mod tests {
         }
         check::<f64>(32.0);
         check::<f32>(32.0);
+    }
+
+    /// Both store kinds of the AVX2 path (ordinary transposed stores and non-temporal streams
+    /// through the staging copy) give the same values, at every alignment of the output and
+    /// with tails; and they equal the one-direction kernel to the FMA tolerance above. The
+    /// order-4 kernel written out in intrinsics performs the generic kernel's operations, so it
+    /// equals the generic AVX2 kernel exactly (as numbers; zeros may differ in sign).
+    #[test]
+    fn store_kinds_and_alignments_agree() {
+        use crate::simd::{detected, Level};
+        if detected() != Level::Avx2Fma {
+            println!("notice: no AVX2 + FMA on this CPU; only the portable path exists");
+            return;
+        }
+        fn check<T: Real>() {
+            let dirs: Vec<[T; 3]> = dirs().iter().map(|d| d.map(T::c)).collect();
+            let eps = T::epsilon().f64();
+            let mut worst = 0f64;
+            for order in [1usize, 2, 3, 4, 5, 7, 8, 12, 16, 17] {
+                let b = ShBasis::<T>::new(order).unwrap();
+                let nn = order * order;
+                for len in [8usize, 13, 48, 54] {
+                    let ds = &dirs[..len];
+                    let mut one = vec![T::zero(); len * nn];
+                    for (d, o) in ds.iter().zip(one.chunks_exact_mut(nn)) {
+                        b.eval(*d, o);
+                    }
+                    let scale = one.iter().fold(1f64, |m, v| m.max(v.f64().abs()));
+                    let mut first: Option<Vec<T>> = None;
+                    for store in [Store::Vector, Store::Stream] {
+                        for shift in 0..8 {
+                            // Sentinels around the output catch writes outside it.
+                            let mut buf = vec![T::c(7.0); len * nn + 16];
+                            let out = &mut buf[shift..shift + len * nn];
+                            b.eval_batch_store(Level::Avx2Fma, ds, out, store);
+                            let got = out.to_vec();
+                            assert!(buf[..shift].iter().all(|v| *v == T::c(7.0)));
+                            assert!(buf[shift + len * nn..].iter().all(|v| *v == T::c(7.0)));
+                            for (a, c) in one.iter().zip(&got) {
+                                worst = worst.max((a.f64() - c.f64()).abs() / (scale * eps));
+                            }
+                            match &first {
+                                None => first = Some(got),
+                                Some(f) => assert!(
+                                    f.iter().zip(&got).all(|(a, c)| a == c),
+                                    "order {order}, len {len}, {store:?}, shift {shift}"
+                                ),
+                            }
+                        }
+                    }
+                    if order == 4 {
+                        // The generic AVX2 kernel on the whole batches.
+                        let whole = len / LANES * LANES;
+                        let mut generic = vec![T::zero(); whole * nn];
+                        // SAFETY: the CPU has AVX2 and FMA (checked above).
+                        unsafe {
+                            fixed_batches_avx2::<T, 4, 16, LANES>(
+                                &b.leg,
+                                &ds[..whole],
+                                &mut generic,
+                                Some(Store::Vector),
+                            )
+                        };
+                        let f = first.as_ref().unwrap();
+                        assert!(
+                            generic.iter().zip(f).all(|(a, c)| a == c),
+                            "order 4, len {len}"
+                        );
+                    }
+                }
+            }
+            println!(
+                "{}: store kinds and alignments agree; worst difference from the one-direction \
+                 kernel {worst:.1} ulps of the largest value",
+                std::any::type_name::<T>()
+            );
+            assert!(worst <= 32.0, "{worst} ulps");
+        }
+        check::<f64>();
+        check::<f32>();
+    }
+
+    /// An output past [`STREAM_BYTES`] takes the streaming path through the public entry point
+    /// and matches the one-direction kernel.
+    #[test]
+    fn large_output_streams_correctly() {
+        let order = 16;
+        let b = ShBasis::<f64>::new(order).unwrap();
+        let nn = order * order;
+        let n = STREAM_BYTES / (nn * 8) + 5;
+        let base = dirs();
+        let ds: Vec<[f64; 3]> = (0..n).map(|i| base[i % base.len()]).collect();
+        let mut out = vec![0.0; n * nn];
+        b.eval_batch(&ds, &mut out);
+        let mut one = vec![0.0; nn];
+        let mut worst = 0f64;
+        for (i, d) in ds
+            .iter()
+            .enumerate()
+            .step_by(97)
+            .chain(std::iter::once((n - 1, &ds[n - 1])))
+        {
+            b.eval(*d, &mut one);
+            let scale = one.iter().fold(1f64, |m, v| m.max(v.abs()));
+            for (a, c) in one.iter().zip(&out[i * nn..(i + 1) * nn]) {
+                worst = worst.max((a - c).abs() / (scale * f64::EPSILON));
+            }
+        }
+        println!("{n} directions at order {order}: worst difference {worst:.1} ulps of the largest value");
+        assert!(worst <= 32.0, "{worst}");
     }
 }
