@@ -463,7 +463,8 @@ impl Stack {
     #[inline(always)]
     fn new(need: usize) -> Self {
         Self {
-            fixed: [std::mem::MaybeUninit::uninit(); 256],
+            // SAFETY: an array of `MaybeUninit` needs no initialisation.
+            fixed: unsafe { std::mem::MaybeUninit::uninit().assume_init() },
             len: 0,
             spill: if need > 256 {
                 Vec::with_capacity(need - 256)
