@@ -20,11 +20,14 @@ impl DeformerKind {
     /// `cargo bench -p shscale-field -- frame_update`, docs/BENCHMARKS.md): refitting keeps the
     /// old tree topology, which stays good under small or local motion (egg morph: 10.3 vs 12.7 ms;
     /// bird flap: equal) but degrades badly under large shear (sponge bend: 36 vs 20 ms; twist:
-    /// 174 vs 22 ms), where a rebuild pays for itself.
+    /// 174 vs 22 ms), where rebuilding pays for itself — but not every frame: under bending and
+    /// twisting the tree is refitted until its boxes have grown by `REBUILD_GROWTH`
+    /// ([`UpdateStrategy::Adaptive`]; Table 1 sponge: 1.7 ms of BVH update per frame instead of
+    /// 6–7 ms, the rays as fast, docs/BENCHMARKS.md).
     pub fn preferred_update(self) -> UpdateStrategy {
         match self {
             DeformerKind::Morph | DeformerKind::Flap => UpdateStrategy::Refit,
-            DeformerKind::Bend | DeformerKind::Twist => UpdateStrategy::Rebuild,
+            DeformerKind::Bend | DeformerKind::Twist => UpdateStrategy::Adaptive,
         }
     }
 }

@@ -74,6 +74,25 @@ pub enum UpdateStrategy {
     /// Keep the tree and refit its boxes (fast update; traversal degrades as the mesh moves
     /// away from the pose the tree was built for).
     Refit,
+    /// Refit, and rebuild once refitting has made the tree's boxes too large: when its
+    /// [`relative_area`](crate::wide::WideBvh::relative_area) (the summed surface area of every
+    /// box over the root's, the surface-area heuristic's measure of how many boxes a random ray
+    /// enters) exceeds that of the last build by more than [`REBUILD_GROWTH`]. For large,
+    /// gradual deformations (bending, twisting), where a refit alone degrades and a rebuild
+    /// every frame costs more than it saves.
+    Adaptive,
+}
+
+/// [`UpdateStrategy::Adaptive`] rebuilds once the refitted tree's relative box area has grown
+/// by this fraction over the last build's (measured on the Table 1 sponge in
+/// docs/BENCHMARKS.md).
+pub const REBUILD_GROWTH: f64 = 0.15;
+
+/// Whether [`UpdateStrategy::Adaptive`] rebuilds: the refitted tree's relative area `now`
+/// against `built`, that of the last build.
+pub fn rebuild_due(now: f64, built: f64) -> bool {
+    // A NaN area (a degenerate tree) rebuilds.
+    now.is_nan() || built.is_nan() || now > built * (1.0 + REBUILD_GROWTH)
 }
 
 /// A BVH over a mesh's triangles, in f32 ([`crate::wide`]).
@@ -86,6 +105,10 @@ pub struct MeshBvh {
     /// The kernels' instruction set ([`shscale_sh::simd::level`] at build time).
     level: Level,
     strategy: UpdateStrategy,
+    /// The tree's relative box area right after its last build ([`UpdateStrategy::Adaptive`]).
+    built_area: f64,
+    /// Builds since [`MeshBvh::build`] (the first included): how often `Adaptive` rebuilt.
+    builds: usize,
     sphere: Sphere,
     mesh_tris: Vec<[u32; 3]>,
     positions: Vec<DVec3>,
@@ -219,6 +242,8 @@ impl MeshBvh {
         Self {
             tris,
             frame,
+            built_area: accel.relative_area(),
+            builds: 1,
             accel,
             level: shscale_sh::simd::level(),
             strategy,
@@ -259,8 +284,19 @@ impl MeshBvh {
             self.tris[f] = to_tri(mesh, f, &self.frame);
         }
         match self.strategy {
-            UpdateStrategy::Rebuild => self.accel = Self::make_accel(&self.tris),
+            UpdateStrategy::Rebuild => {
+                self.accel = Self::make_accel(&self.tris);
+                self.builds += 1;
+            }
             UpdateStrategy::Refit => self.accel.refit(&self.tris),
+            UpdateStrategy::Adaptive => {
+                self.accel.refit(&self.tris);
+                if rebuild_due(self.accel.relative_area(), self.built_area) {
+                    self.accel = Self::make_accel(&self.tris);
+                    self.built_area = self.accel.relative_area();
+                    self.builds += 1;
+                }
+            }
         }
         self.positions.clone_from(&mesh.positions);
     }
@@ -273,6 +309,12 @@ impl MeshBvh {
     /// The update strategy.
     pub fn strategy(&self) -> UpdateStrategy {
         self.strategy
+    }
+
+    /// Trees built so far, the first included (with [`UpdateStrategy::Adaptive`]: how often it
+    /// chose to rebuild).
+    pub fn builds(&self) -> usize {
+        self.builds
     }
 }
 

@@ -286,6 +286,40 @@ impl WideBvh {
         }
     }
 
+    /// The summed surface area of every child box over the root's box (the surface-area
+    /// heuristic's expected number of boxes a random ray line enters, for a tree of this
+    /// shape): 1 for a single leaf, larger as boxes overlap and grow. The padding is left out.
+    pub fn relative_area(&self) -> f64 {
+        let area = |lo: [f32; 3], hi: [f32; 3]| {
+            let e = [0, 1, 2].map(|a| ((hi[a] - lo[a]) as f64 - 2.0 * BOX_PAD as f64).max(0.0));
+            2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
+        };
+        let mut total = 0.0;
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for (i, n) in self.nodes.iter().enumerate() {
+            for j in 0..WIDTH {
+                if n.child[j] == EMPTY {
+                    continue;
+                }
+                let b = |r: usize| n.b[r][j];
+                let (l, h) = ([b(0), b(1), b(2)], [b(3), b(4), b(5)]);
+                total += area(l, h);
+                if i == 0 {
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(l[a]);
+                        hi[a] = hi[a].max(h[a]);
+                    }
+                }
+            }
+        }
+        let root = area(lo, hi);
+        if root > 0.0 {
+            total / root
+        } else {
+            1.0
+        }
+    }
+
     /// Nodes, packs and tree depth (for reports and tests).
     pub fn stats(&self) -> (usize, usize, usize) {
         (self.nodes.len(), self.packs.len(), self.depth)
@@ -922,6 +956,43 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// The relative area is 1 for a tree of one leaf and exceeds 1 otherwise; a refit with the
+    /// same triangles leaves it unchanged, and moving the triangles to each other's places (the
+    /// same root box, scattered leaves) raises it.
+    #[test]
+    fn relative_area_measures_box_growth() {
+        let mut rng = Rng(3);
+        let one = tris(3, &mut rng);
+        let build = |t: &[Triangle]| {
+            let mut dur = std::time::Duration::default();
+            let params = BvhBuildParams {
+                max_prims_per_leaf: PACK as u32,
+                ..BvhBuildParams::fast_build()
+            };
+            build_bvh2_from_tris(t, params, &mut dur)
+        };
+        let w1 = WideBvh::from_bvh2(&build(&one), &one);
+        assert!(
+            (w1.relative_area() - 1.0).abs() < 1e-12,
+            "{}",
+            w1.relative_area()
+        );
+        let mut many = tris(500, &mut rng);
+        let mut w = WideBvh::from_bvh2(&build(&many), &many);
+        let a0 = w.relative_area();
+        w.refit(&many);
+        assert_eq!(w.relative_area(), a0);
+        // The same triangles, each moved to another's place: the root box stays, the leaves'
+        // boxes now span the ball.
+        many.reverse();
+        w.refit(&many);
+        println!(
+            "relative area {a0:.3}, after shuffling the triangles {:.3}",
+            w.relative_area()
+        );
+        assert!(a0 > 1.0 && w.relative_area() > a0 * 1.05);
     }
 
     /// Traversal = scan over every pack, bit for bit, on both instruction sets, for any-hit and

@@ -150,7 +150,11 @@ fn bvh_agrees_with_brute_force_on_random_rays() {
     let s = mesh.bounding_sphere();
     let brute = BruteForce::new(&mesh);
     let mut rng = Rng(7);
-    for strategy in [UpdateStrategy::Rebuild, UpdateStrategy::Refit] {
+    for strategy in [
+        UpdateStrategy::Rebuild,
+        UpdateStrategy::Refit,
+        UpdateStrategy::Adaptive,
+    ] {
         let bvh = MeshBvh::build(&mesh, strategy);
         let (mut disagree, mut total) = (0, 0);
         for _ in 0..3000 {
@@ -300,6 +304,60 @@ fn refit_follows_deformation_like_a_rebuild() {
             );
         }
     }
+}
+
+/// `Adaptive` refits while the refitted boxes stay within `REBUILD_GROWTH` of the last build's
+/// relative area and rebuilds past it: a static mesh never rebuilds (a refit of the same
+/// triangles reproduces the built area exactly), a twist from straight to half a turn does,
+/// fewer times than a rebuild every frame; its answers equal brute force at every frame.
+#[test]
+fn adaptive_update_rebuilds_only_when_the_boxes_have_grown() {
+    use shscale_geometry::ray::{rebuild_due, REBUILD_GROWTH};
+    assert!(!rebuild_due(1.0, 1.0));
+    assert!(!rebuild_due(1.0 + REBUILD_GROWTH * 0.99, 1.0));
+    assert!(rebuild_due(1.0 + REBUILD_GROWTH * 1.01, 1.0));
+    assert!(
+        rebuild_due(f64::NAN, 1.0),
+        "an unmeasurable tree is rebuilt"
+    );
+
+    let rest = shapes::box_block(DVec3::new(1.0, 0.3, 0.1), 12);
+    let mut still = MeshBvh::build(&rest, UpdateStrategy::Adaptive);
+    for _ in 0..5 {
+        still.update(&rest);
+    }
+    assert_eq!(still.builds(), 1, "a static mesh is only refitted");
+
+    let rest = shapes::box_block(DVec3::new(0.3, 0.3, 1.0), 12);
+    let mut bent = rest.clone();
+    let mut bvh = MeshBvh::build(&rest, UpdateStrategy::Adaptive);
+    let frames = 12;
+    let mut rng = Rng(5);
+    let mut disagree = 0;
+    for f in 1..=frames {
+        deform::twist(&rest, &mut bent, 0.5, 0.5 * f as f64 / frames as f64);
+        bvh.update(&bent);
+        let brute = BruteForce::new(&bent);
+        let s = bent.bounding_sphere();
+        for _ in 0..300 {
+            let o = s.center + 1.5 * s.radius * rng.dir();
+            let d = (s.center + 0.5 * s.radius * rng.dir() - o).normalize();
+            if bvh.occluded(o, d, 0.0, 1e30) != brute.occluded(o, d, 0.0, 1e30) {
+                disagree += 1;
+                assert!(
+                    grazing_margin(&bent, o, d) < 1e-5,
+                    "frame {f}: non-grazing disagreement"
+                );
+            }
+        }
+    }
+    let builds = bvh.builds();
+    println!("twist over {frames} frames: {builds} builds, {disagree} grazing disagreements");
+    assert!(builds > 1, "half a turn should trigger a rebuild");
+    assert!(
+        builds < frames + 1,
+        "every frame rebuilt: the trigger never refits"
+    );
 }
 
 #[test]

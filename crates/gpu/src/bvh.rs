@@ -20,11 +20,27 @@ pub const MAX_GPU_BVH_DEPTH: usize = 64;
 /// Host side of the GPU BVH of one deforming mesh.
 pub struct FlatBvh {
     strategy: UpdateStrategy,
+    /// The tree's relative box area after its last build (`UpdateStrategy::Adaptive`).
+    built_area: f64,
     tris: Vec<Triangle>,
     bvh: Bvh2,
     /// Flattened nodes and reordered triangles, ready to upload.
     pub nodes: Vec<GpuNode>,
     pub gpu_tris: Vec<GpuTri>,
+}
+
+/// The summed surface area of every node's box over the root's (as
+/// `shscale_geometry::wide::WideBvh::relative_area`, for the binary tree).
+fn relative_area(b: &Bvh2) -> f64 {
+    let root = b.nodes.first().map_or(0.0, |n| n.aabb.half_area() as f64);
+    if root.is_nan() || root <= 0.0 {
+        return 1.0;
+    }
+    b.nodes
+        .iter()
+        .map(|n| n.aabb.half_area() as f64)
+        .sum::<f64>()
+        / root
 }
 
 fn triangles(mesh: &Mesh) -> Vec<Triangle> {
@@ -50,6 +66,7 @@ impl FlatBvh {
         let bvh = Self::make(&tris);
         let mut out = Self {
             strategy,
+            built_area: relative_area(&bvh),
             tris,
             bvh,
             nodes: Vec::new(),
@@ -78,7 +95,7 @@ impl FlatBvh {
         self.tris = triangles(mesh);
         match self.strategy {
             UpdateStrategy::Rebuild => self.bvh = Self::make(&self.tris),
-            UpdateStrategy::Refit => {
+            UpdateStrategy::Refit | UpdateStrategy::Adaptive => {
                 let b = &mut self.bvh;
                 for n in 0..b.nodes.len() {
                     let node = b.nodes[n];
@@ -92,6 +109,12 @@ impl FlatBvh {
                     }
                 }
                 b.refit_all();
+                if self.strategy == UpdateStrategy::Adaptive
+                    && shscale_geometry::ray::rebuild_due(relative_area(&self.bvh), self.built_area)
+                {
+                    self.bvh = Self::make(&self.tris);
+                    self.built_area = relative_area(&self.bvh);
+                }
             }
         }
         self.flatten()

@@ -586,7 +586,7 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
             }
             done += 8;
         }
-    } else if std::mem::size_of::<T>() == 8 && W % 4 == 0 {
+    } else if std::mem::size_of::<T>() == 8 && W.is_multiple_of(4) {
         let t = tile.as_ptr() as *const f64;
         let o = out as *mut f64;
         while done + 4 <= NN {
@@ -750,7 +750,7 @@ mod order4 {
         store: Store,
     ) {
         let k = Consts::of(leg);
-        assert!(dirs.len() % 4 == 0 && out.len() == dirs.len() * 16);
+        assert!(dirs.len().is_multiple_of(4) && out.len() == dirs.len() * 16);
         #[repr(C, align(64))]
         struct Stage([f64; 64]);
         let mut stage = Stage([0.0; 64]);
@@ -793,7 +793,7 @@ mod order4 {
         store: Store,
     ) {
         let k = Consts::of(leg);
-        assert!(dirs.len() % 8 == 0 && out.len() == dirs.len() * 16);
+        assert!(dirs.len().is_multiple_of(8) && out.len() == dirs.len() * 16);
         #[repr(C, align(64))]
         struct Stage([f32; 128]);
         let mut stage = Stage([0.0; 128]);
