@@ -299,6 +299,7 @@ fn fixed_batches<T: Real, const N: usize, const NN: usize, const W: usize, const
         unsafe { fixed_batches_avx2::<T, N, NN, W>(leg, dirs, out, store) };
         return;
     }
+    let _ = store;
     fixed_batches_portable::<T, N, NN, W>(leg, dirs, out)
 }
 
@@ -1067,6 +1068,7 @@ mod tests {
     /// order-4 kernel written out in intrinsics performs the generic kernel's operations, so it
     /// equals the generic AVX2 kernel exactly (as numbers; zeros may differ in sign).
     #[test]
+    #[cfg(target_arch = "x86_64")]
     fn store_kinds_and_alignments_agree() {
         use crate::simd::{detected, Level};
         if detected() != Level::Avx2Fma {
