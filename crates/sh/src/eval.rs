@@ -220,7 +220,14 @@ fn batch_dispatch<T: Real, const FMA: bool>(
     }
     macro_rules! fixed {
         ($n:literal, $nn:literal) => {{
-            fixed_batches::<T, $n, $nn, LANES, FMA>(leg, head, out_head, store)
+            // Long rows of f64 in half batches: tile and staging copy (8 KiB each) then fit the
+            // first-level cache together (N = 16 f64: 110–118 ns against 115–239 ns in 8-lane
+            // batches, five alternating runs, docs/BENCHMARKS.md).
+            if std::mem::size_of::<T>() == 8 && $nn >= 256 {
+                fixed_batches::<T, $n, $nn, { LANES / 2 }, FMA>(leg, head, out_head, store)
+            } else {
+                fixed_batches::<T, $n, $nn, LANES, FMA>(leg, head, out_head, store)
+            }
         }};
     }
     #[cfg(target_arch = "x86_64")]
@@ -533,13 +540,27 @@ unsafe fn write_tile_avx2<T: Real, const NN: usize, const W: usize>(
         transpose_tile::<T, NN, W>(tile, out.as_mut_ptr());
         return;
     }
+    // The staging copy is placed 1 KiB *ahead* of the output modulo 4 KiB: its loads then
+    // never share their low 12 address bits with the non-temporal stores just issued to the
+    // output (which the CPU would take for a possible dependence and stall on — 4 KiB
+    // aliasing), whatever the relative placement of stack and output in this process.
     #[repr(C, align(64))]
-    struct Staging<T, const L: usize>([[T; L]; W_MAX]);
+    struct Staging<T, const L: usize>([[T; L]; W_MAX], [u8; 4096]);
     const W_MAX: usize = LANES;
     let mut staging = std::mem::MaybeUninit::<Staging<T, NN>>::uninit();
-    let sp = staging.as_mut_ptr() as *mut T;
+    let sp = ahead_of(staging.as_mut_ptr() as *mut u8, out.as_ptr());
     transpose_tile::<T, NN, W>(tile, sp);
     stream_copy(sp, out.as_mut_ptr(), W * NN);
+}
+
+/// The place in a staging buffer (`base`, 64-B aligned, 4 KiB longer than the copy) that lies
+/// 1 KiB ahead of `out` modulo 4 KiB, to a cache line (see [`write_tile_avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn ahead_of<T>(base: *mut u8, out: *const T) -> *mut T {
+    let want = (out as usize + 1024) % 4096;
+    let shift = (want + 4096 - base as usize % 4096) % 4096 / 64 * 64;
+    base.wrapping_add(shift) as *mut T
 }
 
 /// The tile's transpose: `out[j·NN + i] = tile[i][j]` for `j < W`, `i < NN`.
@@ -626,7 +647,7 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
 /// and the 16 values per direction transposed to point-major vectors in registers.
 #[cfg(target_arch = "x86_64")]
 mod order4 {
-    use super::{stream_copy, Store};
+    use super::{ahead_of, stream_copy, Store};
     use crate::legendre::Legendre;
     use crate::Real;
     use std::arch::x86_64::*;
@@ -753,15 +774,16 @@ mod order4 {
         let k = Consts::of(leg);
         assert!(dirs.len().is_multiple_of(4) && out.len() == dirs.len() * 16);
         #[repr(C, align(64))]
-        struct Stage([f64; 64]);
-        let mut stage = Stage([0.0; 64]);
+        struct Stage([f64; 64], [u8; 4096]);
+        let mut stage = std::mem::MaybeUninit::<Stage>::uninit();
         for (d, o) in dirs.chunks_exact(4).zip(out.chunks_exact_mut(64)) {
             let x = _mm256_set_pd(d[3][0], d[2][0], d[1][0], d[0][0]);
             let y = _mm256_set_pd(d[3][1], d[2][1], d[1][1], d[0][1]);
             let z = _mm256_set_pd(d[3][2], d[2][2], d[1][2], d[0][2]);
             let v = values::<__m256d>(&k, x, y, z);
+            let sp = ahead_of::<f64>(stage.as_mut_ptr() as *mut u8, o.as_ptr());
             let dst = if store == Store::Stream {
-                stage.0.as_mut_ptr()
+                sp
             } else {
                 o.as_mut_ptr()
             };
@@ -780,7 +802,7 @@ mod order4 {
                 }
             }
             if store == Store::Stream {
-                stream_copy(stage.0.as_ptr(), o.as_mut_ptr(), 64);
+                stream_copy(sp, o.as_mut_ptr(), 64);
             }
         }
     }
@@ -796,8 +818,8 @@ mod order4 {
         let k = Consts::of(leg);
         assert!(dirs.len().is_multiple_of(8) && out.len() == dirs.len() * 16);
         #[repr(C, align(64))]
-        struct Stage([f32; 128]);
-        let mut stage = Stage([0.0; 128]);
+        struct Stage([f32; 128], [u8; 4096]);
+        let mut stage = std::mem::MaybeUninit::<Stage>::uninit();
         for (d, o) in dirs.chunks_exact(8).zip(out.chunks_exact_mut(128)) {
             let lane = |a: usize| {
                 _mm256_set_ps(
@@ -805,8 +827,9 @@ mod order4 {
                 )
             };
             let v = values::<__m256>(&k, lane(0), lane(1), lane(2));
+            let sp = ahead_of::<f32>(stage.as_mut_ptr() as *mut u8, o.as_ptr());
             let dst = if store == Store::Stream {
-                stage.0.as_mut_ptr()
+                sp
             } else {
                 o.as_mut_ptr()
             };
@@ -851,7 +874,7 @@ mod order4 {
                 }
             }
             if store == Store::Stream {
-                stream_copy(stage.0.as_ptr(), o.as_mut_ptr(), 128);
+                stream_copy(sp, o.as_mut_ptr(), 128);
             }
         }
     }
