@@ -563,6 +563,70 @@ fn ahead_of<T>(base: *mut u8, out: *const T) -> *mut T {
     base.wrapping_add(shift) as *mut T
 }
 
+/// An 8×8 transpose of f32 vectors: `out[j][i] = r[i][j]`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn transpose8_ps(r: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 8] {
+    use std::arch::x86_64::*;
+    let (t0, t1) = (
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+    );
+    let (t2, t3) = (
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+    );
+    let (t4, t5) = (
+        _mm256_unpacklo_ps(r[4], r[5]),
+        _mm256_unpackhi_ps(r[4], r[5]),
+    );
+    let (t6, t7) = (
+        _mm256_unpacklo_ps(r[6], r[7]),
+        _mm256_unpackhi_ps(r[6], r[7]),
+    );
+    let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+    let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+    let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+    let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+    let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+    let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+    let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+    let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+    [
+        _mm256_permute2f128_ps::<0x20>(s0, s4),
+        _mm256_permute2f128_ps::<0x20>(s1, s5),
+        _mm256_permute2f128_ps::<0x20>(s2, s6),
+        _mm256_permute2f128_ps::<0x20>(s3, s7),
+        _mm256_permute2f128_ps::<0x31>(s0, s4),
+        _mm256_permute2f128_ps::<0x31>(s1, s5),
+        _mm256_permute2f128_ps::<0x31>(s2, s6),
+        _mm256_permute2f128_ps::<0x31>(s3, s7),
+    ]
+}
+
+/// A 4×4 transpose of f64 vectors: `out[j][i] = r[i][j]`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn transpose4_pd(r: [std::arch::x86_64::__m256d; 4]) -> [std::arch::x86_64::__m256d; 4] {
+    use std::arch::x86_64::*;
+    let (t0, t1) = (
+        _mm256_unpacklo_pd(r[0], r[1]),
+        _mm256_unpackhi_pd(r[0], r[1]),
+    );
+    let (t2, t3) = (
+        _mm256_unpacklo_pd(r[2], r[3]),
+        _mm256_unpackhi_pd(r[2], r[3]),
+    );
+    [
+        _mm256_permute2f128_pd::<0x20>(t0, t2),
+        _mm256_permute2f128_pd::<0x20>(t1, t3),
+        _mm256_permute2f128_pd::<0x31>(t0, t2),
+        _mm256_permute2f128_pd::<0x31>(t1, t3),
+    ]
+}
+
 /// The tile's transpose: `out[j·NN + i] = tile[i][j]` for `j < W`, `i < NN`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
@@ -574,35 +638,9 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
         let t = tile.as_ptr() as *const f32;
         let o = out as *mut f32;
         while done + 8 <= NN {
-            macro_rules! r {
-                ($k:expr) => {
-                    _mm256_loadu_ps(t.add((done + $k) * 8))
-                };
-            }
-            let (r0, r1, r2, r3) = (r!(0), r!(1), r!(2), r!(3));
-            let (r4, r5, r6, r7) = (r!(4), r!(5), r!(6), r!(7));
-            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-            let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
-            let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
-            let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
-            let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
-            let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
-            let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
-            let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
-            let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
-            let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
-            let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
-            let c = [
-                _mm256_permute2f128_ps::<0x20>(s0, s4),
-                _mm256_permute2f128_ps::<0x20>(s1, s5),
-                _mm256_permute2f128_ps::<0x20>(s2, s6),
-                _mm256_permute2f128_ps::<0x20>(s3, s7),
-                _mm256_permute2f128_ps::<0x31>(s0, s4),
-                _mm256_permute2f128_ps::<0x31>(s1, s5),
-                _mm256_permute2f128_ps::<0x31>(s2, s6),
-                _mm256_permute2f128_ps::<0x31>(s3, s7),
-            ];
+            let c = transpose8_ps(std::array::from_fn(|k| {
+                _mm256_loadu_ps(t.add((done + k) * 8))
+            }));
             for (lane, v) in c.into_iter().enumerate() {
                 _mm256_storeu_ps(o.add(lane * NN + done), v);
             }
@@ -613,20 +651,9 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
         let o = out as *mut f64;
         while done + 4 <= NN {
             for g in 0..W / 4 {
-                macro_rules! r {
-                    ($k:expr) => {
-                        _mm256_loadu_pd(t.add((done + $k) * W + 4 * g))
-                    };
-                }
-                let (r0, r1, r2, r3) = (r!(0), r!(1), r!(2), r!(3));
-                let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-                let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-                let c = [
-                    _mm256_permute2f128_pd::<0x20>(t0, t2),
-                    _mm256_permute2f128_pd::<0x20>(t1, t3),
-                    _mm256_permute2f128_pd::<0x31>(t0, t2),
-                    _mm256_permute2f128_pd::<0x31>(t1, t3),
-                ];
+                let c = transpose4_pd(std::array::from_fn(|k| {
+                    _mm256_loadu_pd(t.add((done + k) * W + 4 * g))
+                }));
                 for (k, v) in c.into_iter().enumerate() {
                     _mm256_storeu_pd(o.add((4 * g + k) * NN + done), v);
                 }
@@ -647,7 +674,7 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
 /// and the 16 values per direction transposed to point-major vectors in registers.
 #[cfg(target_arch = "x86_64")]
 mod order4 {
-    use super::{ahead_of, stream_copy, Store};
+    use super::{ahead_of, stream_copy, transpose4_pd, transpose8_ps, Store};
     use crate::legendre::Legendre;
     use crate::Real;
     use std::arch::x86_64::*;
@@ -788,15 +815,7 @@ mod order4 {
                 o.as_mut_ptr()
             };
             for b in 0..4 {
-                let (r0, r1, r2, r3) = (v[4 * b], v[4 * b + 1], v[4 * b + 2], v[4 * b + 3]);
-                let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-                let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-                let c = [
-                    _mm256_permute2f128_pd::<0x20>(t0, t2),
-                    _mm256_permute2f128_pd::<0x20>(t1, t3),
-                    _mm256_permute2f128_pd::<0x31>(t0, t2),
-                    _mm256_permute2f128_pd::<0x31>(t1, t3),
-                ];
+                let c = transpose4_pd([v[4 * b], v[4 * b + 1], v[4 * b + 2], v[4 * b + 3]]);
                 for (j, c) in c.into_iter().enumerate() {
                     _mm256_storeu_pd(dst.add(16 * j + 4 * b), c);
                 }
@@ -834,41 +853,7 @@ mod order4 {
                 o.as_mut_ptr()
             };
             for b in 0..2 {
-                let r = &v[8 * b..8 * b + 8];
-                let (t0, t1) = (
-                    _mm256_unpacklo_ps(r[0], r[1]),
-                    _mm256_unpackhi_ps(r[0], r[1]),
-                );
-                let (t2, t3) = (
-                    _mm256_unpacklo_ps(r[2], r[3]),
-                    _mm256_unpackhi_ps(r[2], r[3]),
-                );
-                let (t4, t5) = (
-                    _mm256_unpacklo_ps(r[4], r[5]),
-                    _mm256_unpackhi_ps(r[4], r[5]),
-                );
-                let (t6, t7) = (
-                    _mm256_unpacklo_ps(r[6], r[7]),
-                    _mm256_unpackhi_ps(r[6], r[7]),
-                );
-                let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
-                let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
-                let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
-                let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
-                let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
-                let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
-                let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
-                let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
-                let c = [
-                    _mm256_permute2f128_ps::<0x20>(s0, s4),
-                    _mm256_permute2f128_ps::<0x20>(s1, s5),
-                    _mm256_permute2f128_ps::<0x20>(s2, s6),
-                    _mm256_permute2f128_ps::<0x20>(s3, s7),
-                    _mm256_permute2f128_ps::<0x31>(s0, s4),
-                    _mm256_permute2f128_ps::<0x31>(s1, s5),
-                    _mm256_permute2f128_ps::<0x31>(s2, s6),
-                    _mm256_permute2f128_ps::<0x31>(s3, s7),
-                ];
+                let c = transpose8_ps(std::array::from_fn(|k| v[8 * b + k]));
                 for (j, c) in c.into_iter().enumerate() {
                     _mm256_storeu_ps(dst.add(16 * j + 8 * b), c);
                 }
