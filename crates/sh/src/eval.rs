@@ -231,12 +231,14 @@ fn batch_dispatch<T: Real, const FMA: bool>(
         }};
     }
     #[cfg(target_arch = "x86_64")]
-    if n == 4 && FMA {
+    let order4 = n == 4 && FMA && (is::<T, f64>() || is::<T, f32>());
+    #[cfg(target_arch = "x86_64")]
+    if order4 {
         let store = store.unwrap_or(Store::Vector);
-        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation; T is f64 or f32 (checked
-        // by size, the only two `Real` types).
+        // SAFETY: `FMA` is true only in the AVX2 + FMA instantiation, and T is f64 or f32
+        // (checked by type identity just above), so the casts are to T itself.
         unsafe {
-            if std::mem::size_of::<T>() == 8 {
+            if is::<T, f64>() {
                 order4::batch_f64(
                     &*(leg as *const Legendre<T> as *const Legendre<f64>),
                     std::slice::from_raw_parts(head.as_ptr() as *const [f64; 3], head.len()),
@@ -264,7 +266,7 @@ fn batch_dispatch<T: Real, const FMA: bool>(
         2 => fixed!(2, 4),
         3 => fixed!(3, 9),
         #[cfg(target_arch = "x86_64")]
-        4 if FMA => {}
+        4 if order4 => {}
         4 => fixed!(4, 16),
         5 => fixed!(5, 25),
         6 => fixed!(6, 36),
@@ -333,6 +335,14 @@ fn fixed_batches_portable<T: Real, const N: usize, const NN: usize, const W: usi
     for (d, o) in dirs.chunks_exact(W).zip(out.chunks_exact_mut(W * NN)) {
         lane_kernel_fixed::<T, N, NN, W, false>(leg, d, o, None)
     }
+}
+
+/// Whether `T` is `U` (the kernels that reinterpret memory as f32 or f64 check this, not the
+/// size: `Real` is implementable outside this crate).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn is<T: 'static, U: 'static>() -> bool {
+    std::any::TypeId::of::<T>() == std::any::TypeId::of::<U>()
 }
 
 /// `a·b + c`, fused (one rounding) when `FMA`.
@@ -536,7 +546,7 @@ unsafe fn write_tile_avx2<T: Real, const NN: usize, const W: usize>(
     // SAFETY: the caller's tile is NN rows of W values.
     let tile = std::slice::from_raw_parts(tile, NN);
     assert!(out.len() >= W * NN);
-    if store == Store::Vector {
+    if store == Store::Vector || !(is::<T, f64>() || is::<T, f32>()) {
         transpose_tile::<T, NN, W>(tile, out.as_mut_ptr());
         return;
     }
@@ -634,7 +644,7 @@ unsafe fn transpose4_pd(r: [std::arch::x86_64::__m256d; 4]) -> [std::arch::x86_6
 unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W]], out: *mut T) {
     use std::arch::x86_64::*;
     let mut done = 0;
-    if std::mem::size_of::<T>() == 4 && W == 8 {
+    if is::<T, f32>() && W == 8 {
         let t = tile.as_ptr() as *const f32;
         let o = out as *mut f32;
         while done + 8 <= NN {
@@ -646,7 +656,7 @@ unsafe fn transpose_tile<T: Real, const NN: usize, const W: usize>(tile: &[[T; W
             }
             done += 8;
         }
-    } else if std::mem::size_of::<T>() == 8 && W.is_multiple_of(4) {
+    } else if is::<T, f64>() && W.is_multiple_of(4) {
         let t = tile.as_ptr() as *const f64;
         let o = out as *mut f64;
         while done + 4 <= NN {
