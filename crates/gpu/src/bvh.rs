@@ -199,9 +199,13 @@ mod tests {
     #[test]
     fn flattened_tree_answers_as_the_cpu_bvh() {
         let mut mesh = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 12);
-        for strategy in [UpdateStrategy::Refit, UpdateStrategy::Rebuild] {
+        for strategy in [
+            UpdateStrategy::Refit,
+            UpdateStrategy::Rebuild,
+            UpdateStrategy::Adaptive,
+        ] {
             let mut flat = FlatBvh::build(&mesh, strategy).unwrap();
-            for pass in 0..2 {
+            for pass in 0..3 {
                 let cpu = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
                 let mut mismatches = 0;
                 let n = 4000;
@@ -223,10 +227,23 @@ mod tests {
                 }
                 println!("{strategy:?} pass {pass}: {mismatches} / {n} rays differ");
                 assert_eq!(mismatches, 0, "{strategy:?} pass {pass}");
-                // Deform (bend) and follow.
+                // Deform (a bend, then a quarter turn of twist, which makes `Adaptive`
+                // rebuild) and follow.
                 let rest = mesh.clone();
-                shscale_geometry::deform::bend(&rest, &mut mesh, 0.8, 0.5);
+                if pass == 0 {
+                    shscale_geometry::deform::bend(&rest, &mut mesh, 0.8, 0.5);
+                } else {
+                    shscale_geometry::deform::twist(&rest, &mut mesh, 0.25, 0.5);
+                }
+                let built_before = flat.built_area;
                 flat.update(&mesh).unwrap();
+                if strategy == UpdateStrategy::Adaptive && pass == 1 {
+                    // `built_area` changes only when the tree is built again.
+                    assert!(
+                        flat.built_area != built_before,
+                        "the twist should have triggered a rebuild"
+                    );
+                }
             }
         }
     }
