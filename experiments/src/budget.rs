@@ -388,13 +388,7 @@ impl Kind for Budget {
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
         let mut files = Vec::new();
-        let mut meshes: Vec<String> = (0..t.rows.len())
-            .map(|r| t.cell(r, "mesh").to_string())
-            .collect();
-        meshes.dedup();
-        meshes.sort();
-        meshes.dedup();
-        for mesh in meshes {
+        for mesh in t.distinct("mesh") {
             for (x, stem, xl) in [
                 (
                     "frame_seconds",
@@ -442,12 +436,7 @@ impl Kind for Budget {
 
     fn discussion(t: &Results) -> Result<String, LabError> {
         let mut s = String::new();
-        let mut meshes: Vec<String> = (0..t.rows.len())
-            .map(|r| t.cell(r, "mesh").to_string())
-            .collect();
-        meshes.sort();
-        meshes.dedup();
-        for mesh in meshes {
+        for mesh in t.distinct("mesh") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh)
                 .collect();

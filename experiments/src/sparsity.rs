@@ -182,12 +182,11 @@ impl Kind for Sparsity {
         if t.rows.is_empty() {
             return Ok(String::new());
         }
-        let orders: std::collections::BTreeSet<&str> =
-            (0..t.rows.len()).map(|r| t.cell(r, "order")).collect();
+        let orders = t.distinct("order");
         if orders.len() > 1 {
             return Ok(format!(
                 "The results hold several orders ({}); the patterns are compared per order in the table above.",
-                orders.into_iter().collect::<Vec<_>>().join(", ")
+                orders.join(", ")
             ));
         }
         let n = t.cell(0, "order");

@@ -960,7 +960,7 @@ mod tests {
 
     /// The relative area is 1 for a tree of one leaf and exceeds 1 otherwise; a refit with the
     /// same triangles leaves it unchanged, and moving the triangles to each other's places (the
-    /// same root box, scattered leaves) raises it.
+    /// same root box, scattered leaves) raises it; a tree of zero extent reads 1.
     #[test]
     fn relative_area_measures_box_growth() {
         let mut rng = Rng(3);
@@ -993,6 +993,17 @@ mod tests {
             w.relative_area()
         );
         assert!(a0 > 1.0 && w.relative_area() > a0 * 1.05);
+        // Degenerate edge: every triangle at one point (a root box of zero area) reads 1, not
+        // NaN, so `rebuild_due` is not fed a NaN by a collapsed mesh.
+        let point: Vec<Triangle> = (0..40)
+            .map(|_| Triangle {
+                v0: [0.25f32; 3].into(),
+                v1: [0.25f32; 3].into(),
+                v2: [0.25f32; 3].into(),
+            })
+            .collect();
+        let wp = WideBvh::from_bvh2(&build(&point), &point);
+        assert_eq!(wp.relative_area(), 1.0);
     }
 
     /// Traversal = scan over every pack, bit for bit, on both instruction sets, for any-hit and

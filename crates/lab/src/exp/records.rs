@@ -160,6 +160,16 @@ impl Results {
             .map_or("", String::as_str)
     }
 
+    /// The distinct cells of column `name`, sorted (text order).
+    pub fn distinct(&self, name: &str) -> Vec<String> {
+        let mut v: Vec<String> = (0..self.rows.len())
+            .map(|r| self.cell(r, name).to_string())
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+
     /// Numeric value (NaN when empty or not a number).
     pub fn num(&self, r: usize, name: &str) -> f64 {
         self.cell(r, name).parse().unwrap_or(f64::NAN)
