@@ -23,7 +23,6 @@ use shscale_field::metrics::occ_rel_l2;
 use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Bsv, Layout, VisibilitySampler};
-use shscale_lab::exp::probe::MAX_ORDER;
 use shscale_lab::exp::records::{list, Results};
 use shscale_lab::exp::timing::CPU_RAYS_PER_SECOND;
 use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
@@ -154,27 +153,20 @@ impl Kind for Budget {
     }
 
     fn validate(p: &Params) -> Result<(), KeyError> {
-        if !shscale_lab::vocab::mesh_exists(&p.mesh) {
-            return Err(KeyError::new(
-                "mesh",
-                format!("{:?} is not a known occluder", p.mesh),
-            ));
-        }
-        if !(1..=MAX_ORDER).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..={MAX_ORDER}", p.order),
-            ));
-        }
+        shscale_lab::exp::probe::check_sampling_keys(
+            &p.mesh,
+            p.order,
+            p.alpha_deg,
+            &p.layout,
+            p.hemisphere_res,
+        )?;
         if !METHODS.contains(&p.method.as_str()) {
             return Err(KeyError::new(
                 "method",
                 format!("{:?} is not one of {METHODS:?}", p.method),
             ));
         }
-        Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
-        let checks: [(&str, usize, usize, usize); 5] = [
-            ("hemisphere_res", p.hemisphere_res, 1, 256),
+        let checks: [(&str, usize, usize, usize); 4] = [
             ("shells", p.shells, 2, MAX_SHELLS),
             ("rt_res", p.rt_res, 1, shscale_field::truth::MAX_TRUTH_RES),
             (
@@ -194,12 +186,6 @@ impl Kind for Budget {
             return Err(KeyError::new(
                 "k_count",
                 format!("{} is outside 2..=10000", p.k_count),
-            ));
-        }
-        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
-            return Err(KeyError::new(
-                "alpha_deg",
-                format!("{} is outside (0, 90)", p.alpha_deg),
             ));
         }
         if p.radii.is_empty() || p.radii.len() > 64 {

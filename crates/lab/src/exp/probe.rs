@@ -252,6 +252,47 @@ fn base_key(p: &ProbeParams) -> String {
     )
 }
 
+/// The checks of the keys every base-sphere study shares (`probe`, `alpha_fit`, `budget`):
+/// `mesh` known, `order` in 1..=[`MAX_ORDER`], `alpha_deg` in (0, 90), `layout` parsed,
+/// `hemisphere_res` in 1..=[`MAX_HEMISPHERE_RES`]; the error names the first bad key.
+pub fn check_sampling_keys(
+    mesh: &str,
+    order: usize,
+    alpha_deg: f64,
+    layout: &str,
+    hemisphere_res: usize,
+) -> Result<(), KeyError> {
+    if !crate::vocab::mesh_exists(mesh) {
+        return Err(KeyError::new(
+            "mesh",
+            format!(
+                "{mesh:?} is neither {} nor an existing .obj/.ply file",
+                crate::vocab::mesh_names()
+            ),
+        ));
+    }
+    if !(1..=MAX_ORDER).contains(&order) {
+        return Err(KeyError::new(
+            "order",
+            format!("{order} is outside 1..={MAX_ORDER}"),
+        ));
+    }
+    if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
+        return Err(KeyError::new(
+            "alpha_deg",
+            format!("{alpha_deg} is outside (0, 90)"),
+        ));
+    }
+    Layout::parse(layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+    if !(1..=MAX_HEMISPHERE_RES).contains(&hemisphere_res) {
+        return Err(KeyError::new(
+            "hemisphere_res",
+            format!("{hemisphere_res} is outside 1..={MAX_HEMISPHERE_RES}"),
+        ));
+    }
+    Ok(())
+}
+
 impl Kind for Probe {
     const NAME: &'static str = "probe";
     const QUESTION: &'static str = "How close is SH-scaling extrapolation of a base-sphere visibility field to ray-traced visibility at probe radii (occ_rel_l2 per radius, on-surface samples separately), and at what cost?";
@@ -285,35 +326,7 @@ impl Kind for Probe {
     }
 
     fn validate(p: &ProbeParams) -> Result<(), KeyError> {
-        if !crate::vocab::mesh_exists(&p.mesh) {
-            return Err(KeyError::new(
-                "mesh",
-                format!(
-                    "{:?} is neither {} nor an existing .obj/.ply file",
-                    p.mesh,
-                    crate::vocab::mesh_names()
-                ),
-            ));
-        }
-        if !(1..=MAX_ORDER).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..={MAX_ORDER}", p.order),
-            ));
-        }
-        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
-            return Err(KeyError::new(
-                "alpha_deg",
-                format!("{} is outside (0, 90)", p.alpha_deg),
-            ));
-        }
-        Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
-        if !(1..=MAX_HEMISPHERE_RES).contains(&p.hemisphere_res) {
-            return Err(KeyError::new(
-                "hemisphere_res",
-                format!("{} is outside 1..={MAX_HEMISPHERE_RES}", p.hemisphere_res),
-            ));
-        }
+        check_sampling_keys(&p.mesh, p.order, p.alpha_deg, &p.layout, p.hemisphere_res)?;
         if !(p.sampling_radius.is_finite() && (1.0..=1e3).contains(&p.sampling_radius)) {
             return Err(KeyError::new(
                 "sampling_radius",
