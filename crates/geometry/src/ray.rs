@@ -356,51 +356,14 @@ impl Occluder for MeshBvh {
     }
 
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
-        // Blocks of rays: the unit-frame set-up and the ball test for the whole block first
-        // (straight-line code the compiler vectorises), the survivors compacted, then traversed
-        // one by one. Far origins (more than 4 radii away) take the one-ray path, which
-        // advances them in f64.
-        const BLOCK: usize = 64;
-        let (c, inv) = (self.frame.center, self.frame.inv);
-        let tmin_u = tmin * inv;
-        let mut keep = [0u8; BLOCK];
-        let mut far = [false; BLOCK];
-        for ((os, ds), hs) in origins
-            .chunks(BLOCK)
-            .zip(dirs.chunks(BLOCK))
-            .zip(hit.chunks_mut(BLOCK))
-        {
-            let n = os.len();
-            for i in 0..n {
-                let o = (os[i] - c) * inv;
-                far[i] = o.length_squared() > 16.0;
-                keep[i] = u8::from(!Ball::of(o, ds[i]).missed() | far[i]);
-            }
-            let mut idx = [0u8; BLOCK];
-            let mut m = 0;
-            for i in 0..n {
-                idx[m] = i as u8;
-                m += usize::from(keep[i]);
-                hs[i] = false;
-            }
-            for &i in &idx[..m] {
-                let i = i as usize;
-                hs[i] = if far[i] {
-                    self.occluded(os[i], ds[i], tmin, f64::INFINITY)
-                } else {
-                    let o = (os[i] - c) * inv;
-                    self.accel.occluded(
-                        self.level,
-                        &WideRay {
-                            o: o.as_vec3().to_array(),
-                            d: ds[i].as_vec3().to_array(),
-                            tmin: tmin_u.max(0.0) as f32,
-                            tmax: f32::MAX,
-                        },
-                    )
-                };
-            }
+        #[cfg(target_arch = "x86_64")]
+        if self.level == Level::Avx2Fma {
+            // SAFETY: `Level::Avx2Fma` is only held where the CPU has AVX2 and FMA
+            // (`MeshBvh::build` and `with_level` keep only usable levels).
+            unsafe { self.many_avx2(origins, dirs, tmin, hit) };
+            return;
         }
+        self.many::<false>(origins, dirs, tmin, hit)
     }
 
     fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
@@ -450,6 +413,61 @@ impl MeshBvh {
         let (ray, t0) = unit_ray(&self.frame, o, d, tmin, tmax)?;
         let (t, i) = self.accel.closest(self.level, &ray)?;
         Some(((t as f64 + t0) * self.frame.radius, i as usize))
+    }
+}
+
+impl MeshBvh {
+    /// [`Occluder::occluded_many`] in blocks of rays: the unit-frame set-up and the ball test
+    /// for the whole block first (straight-line code the compiler vectorises), the survivors
+    /// compacted, then traversed one by one. Far origins (more than 4 radii away) take the
+    /// one-ray path, which advances them in f64. `F`: the AVX2 + FMA traversal, inlined here.
+    #[inline(always)]
+    fn many<const F: bool>(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        const BLOCK: usize = 64;
+        let (c, inv) = (self.frame.center, self.frame.inv);
+        let tmin_u = (tmin * inv).max(0.0) as f32;
+        let mut keep = [0u8; BLOCK];
+        let mut far = [false; BLOCK];
+        let mut unit = [[0f32; 3]; BLOCK];
+        for ((os, ds), hs) in origins
+            .chunks(BLOCK)
+            .zip(dirs.chunks(BLOCK))
+            .zip(hit.chunks_mut(BLOCK))
+        {
+            let n = os.len();
+            for i in 0..n {
+                let o = (os[i] - c) * inv;
+                far[i] = o.length_squared() > 16.0;
+                keep[i] = u8::from(!Ball::of(o, ds[i]).missed() | far[i]);
+                unit[i] = o.as_vec3().to_array();
+            }
+            let mut idx = [0u8; BLOCK];
+            let mut m = 0;
+            for i in 0..n {
+                idx[m] = i as u8;
+                m += usize::from(keep[i]);
+                hs[i] = false;
+            }
+            for &i in &idx[..m] {
+                let i = i as usize;
+                hs[i] = if far[i] {
+                    self.occluded(os[i], ds[i], tmin, f64::INFINITY)
+                } else {
+                    self.accel.occluded_inline::<F>(&WideRay {
+                        o: unit[i],
+                        d: ds[i].as_vec3().to_array(),
+                        tmin: tmin_u,
+                        tmax: f32::MAX,
+                    })
+                };
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn many_avx2(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        self.many::<true>(origins, dirs, tmin, hit)
     }
 }
 

@@ -338,6 +338,14 @@ impl WideBvh {
         self.traverse::<true, false>(ray).is_some()
     }
 
+    /// [`WideBvh::occluded`] with the instruction set fixed at compile time, for callers that
+    /// inline it into their own kernels (`F`: AVX2 + FMA box tests; only inside an AVX2 + FMA
+    /// `#[target_feature]` function).
+    #[inline(always)]
+    pub(crate) fn occluded_inline<const F: bool>(&self, ray: &WideRay) -> bool {
+        self.traverse::<true, F>(ray).is_some()
+    }
+
     /// Any-hit answers for many rays sharing their origin (the BSV workload): `hit[i]` for
     /// `dirs[i]`. Equal to [`WideBvh::occluded`] per ray.
     pub fn occluded_fan(
