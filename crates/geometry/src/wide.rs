@@ -449,8 +449,8 @@ impl WideBvh {
         let mut tmax = ray.tmax;
         let mut best: Option<(f32, u32)> = None;
         let mut stack = Stack::new(self.depth * (WIDTH - 1) + 1);
-        stack.push(start);
-        while let Some(n) = stack.pop() {
+        let mut n = start;
+        loop {
             let node = &self.nodes[n as usize];
             #[cfg(target_arch = "x86_64")]
             let mut mask = if F {
@@ -461,17 +461,23 @@ impl WideBvh {
             };
             #[cfg(not(target_arch = "x86_64"))]
             let mut mask = box_mask::<F>(node, &pre, ray.tmin, tmax);
+            // The last inner child entered is visited next without a round trip through the
+            // stack; the others are pushed.
+            let mut next = EMPTY;
             while mask != 0 {
                 let j = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let c = node.child[j];
                 if c & LEAF == 0 {
-                    stack.push(c);
+                    if next != EMPTY {
+                        stack.push(next);
+                    }
+                    next = c;
                     continue;
                 }
                 let (first, count) = leaf_range(c);
                 for p in first..first + count {
-                    let (t, lane) = pack_hit(&self.packs[p], ray, tmax);
+                    let (t, lane) = pack_hit::<ANY>(&self.packs[p], ray, tmax);
                     if lane < PACK {
                         if ANY {
                             return Some((t, self.ids[p][lane]));
@@ -481,6 +487,14 @@ impl WideBvh {
                     }
                 }
             }
+            n = if next != EMPTY {
+                next
+            } else {
+                match stack.pop() {
+                    Some(n) => n,
+                    None => break,
+                }
+            };
         }
         best
     }
@@ -835,7 +849,9 @@ unsafe fn tri_lanes(
     let py = sub(mul(dz, e2x), mul(dx, e2z));
     let pz = sub(mul(dx, e2y), mul(dy, e2x));
     let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
-    let inv = _mm256_div_ps(b(1.0), det);
+    let neg = b(-0.0);
+    let sign = _mm256_and_ps(det, neg);
+    let adet = _mm256_andnot_ps(neg, det);
     // s = o − v0 and q = s × e1 are the same for every lane.
     let (sx, sy, sz) = (o[0] - p.v0[0][k], o[1] - p.v0[1][k], o[2] - p.v0[2][k]);
     let (qx, qy, qz) = (
@@ -843,15 +859,15 @@ unsafe fn tri_lanes(
         sz * p.e1[0][k] - sx * p.e1[2][k],
         sx * p.e1[1][k] - sy * p.e1[0][k],
     );
-    let u = mul(
+    let u = _mm256_xor_ps(
         add(add(mul(b(sx), px), mul(b(sy), py)), mul(b(sz), pz)),
-        inv,
+        sign,
     );
-    let v = mul(
+    let v = _mm256_xor_ps(
         add(add(mul(dx, b(qx)), mul(dy, b(qy))), mul(dz, b(qz))),
-        inv,
+        sign,
     );
-    let t = mul(b(p.e2[0][k] * qx + p.e2[1][k] * qy + p.e2[2][k] * qz), inv);
+    let t = _mm256_xor_ps(b(p.e2[0][k] * qx + p.e2[1][k] * qy + p.e2[2][k] * qz), sign);
     let zero = _mm256_setzero_ps();
     let ok = _mm256_and_ps(
         _mm256_and_ps(
@@ -862,22 +878,27 @@ unsafe fn tri_lanes(
             ),
         ),
         _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), b(1.0)),
+            _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), adet),
             _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, mul(tmin, adet)),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, mul(tmax, adet)),
             ),
         ),
     );
     _mm256_movemask_ps(ok) as u32
 }
 
-/// Möller–Trumbore on 4 triangles: the nearest hit `(t, lane)` in `(tmin, tmax)`, lane = PACK
-/// when none. Edges count as hits.
+/// Möller–Trumbore on 4 triangles, decided without a division: with `det = e1 · (d × e2)`, the
+/// barycentric `u = s · p / det`, `v = d · q / det` and the distance `t = e2 · q / det` are
+/// tested as their numerators with `det`'s sign moved onto them (`u·sgn ≥ 0`, `v·sgn ≥ 0`,
+/// `(u + v)·sgn ≤ |det|`, `tmin·|det| < t·sgn < tmax·|det|`); the one division, `t`, is made
+/// for accepted lanes only. Edges count as hits. `ANY`: the first accepted lane `(t, lane)`;
+/// otherwise the nearest accepted lane with `t < tmax`; lane = PACK when none.
 #[inline(always)]
-fn pack_hit(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
+fn pack_hit<const ANY: bool>(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
     let [dx, dy, dz] = ray.d;
-    let mut t = [0.0f32; PACK];
+    let mut num = [0.0f32; PACK];
+    let mut den = [0.0f32; PACK];
     let mut ok = [false; PACK];
     for k in 0..PACK {
         let (e1x, e1y, e1z) = (p.e1[0][k], p.e1[1][k], p.e1[2][k]);
@@ -887,24 +908,38 @@ fn pack_hit(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
         let py = dz * e2x - dx * e2z;
         let pz = dx * e2y - dy * e2x;
         let det = e1x * px + e1y * py + e1z * pz;
-        let inv = 1.0 / det;
         let sx = ray.o[0] - p.v0[0][k];
         let sy = ray.o[1] - p.v0[1][k];
         let sz = ray.o[2] - p.v0[2][k];
-        let u = (sx * px + sy * py + sz * pz) * inv;
+        let u = sx * px + sy * py + sz * pz;
         // q = s × e1
         let qx = sy * e1z - sz * e1y;
         let qy = sz * e1x - sx * e1z;
         let qz = sx * e1y - sy * e1x;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let tt = (e2x * qx + e2y * qy + e2z * qz) * inv;
-        t[k] = tt;
-        ok[k] = det != 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0 && tt > ray.tmin && tt < tmax;
+        let v = dx * qx + dy * qy + dz * qz;
+        let tt = e2x * qx + e2y * qy + e2z * qz;
+        let sign = det.to_bits() & 0x8000_0000;
+        let flip = |x: f32| f32::from_bits(x.to_bits() ^ sign);
+        let (u, v, tt, adet) = (flip(u), flip(v), flip(tt), det.abs());
+        num[k] = tt;
+        den[k] = adet;
+        ok[k] = det != 0.0
+            && u >= 0.0
+            && v >= 0.0
+            && u + v <= adet
+            && tt > ray.tmin * adet
+            && tt < tmax * adet;
     }
     let mut best = (tmax, PACK);
     for k in 0..PACK {
-        if ok[k] && t[k] < best.0 {
-            best = (t[k], k);
+        if ok[k] {
+            let t = num[k] / den[k];
+            if ANY {
+                return (t, k);
+            }
+            if t < best.0 {
+                best = (t, k);
+            }
         }
     }
     best
@@ -921,7 +956,7 @@ mod tests {
     fn scan(w: &WideBvh, ray: &WideRay) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         for (p, ids) in w.packs.iter().zip(&w.ids) {
-            let (t, lane) = pack_hit(p, ray, best.map_or(ray.tmax, |b| b.0));
+            let (t, lane) = pack_hit::<false>(p, ray, best.map_or(ray.tmax, |b| b.0));
             if lane < PACK {
                 best = Some((t, ids[lane]));
             }
