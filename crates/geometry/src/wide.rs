@@ -448,7 +448,8 @@ impl WideBvh {
         let pre = Prepared::new(ray);
         let mut tmax = ray.tmax;
         let mut best: Option<(f32, u32)> = None;
-        let mut stack = Stack::new(self.depth * (WIDTH - 1) + 1);
+        let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
+        let mut stack = stack_slots(&mut fixed, &mut heap, self.depth * (WIDTH - 1) + 1);
         let mut n = start;
         loop {
             let node = &self.nodes[n as usize];
@@ -507,49 +508,58 @@ fn leaf_range(c: u32) -> (usize, usize) {
     )
 }
 
-/// A traversal stack: a fixed array (not initialised: only pushed slots are read), spilling to
-/// the heap for trees deeper than ~36 levels.
-struct Stack {
-    fixed: [std::mem::MaybeUninit<u32>; 256],
-    len: usize,
-    spill: Vec<u32>,
+/// Slots on the call stack for a traversal stack; trees deeper than ~36 levels take a heap
+/// buffer instead ([`stack_slots`]).
+const FIXED_SLOTS: usize = 256;
+
+/// The slots of a traversal stack of at most `need` entries: the fixed array (not initialised:
+/// only pushed slots are read) or, when it is too small, `heap`, sized once here.
+#[inline(always)]
+fn stack_slots<'a>(
+    fixed: &'a mut [std::mem::MaybeUninit<u32>; FIXED_SLOTS],
+    heap: &'a mut Vec<std::mem::MaybeUninit<u32>>,
+    need: usize,
+) -> Stack<'a> {
+    let slots: &'a mut [std::mem::MaybeUninit<u32>] = if need <= FIXED_SLOTS {
+        fixed
+    } else {
+        heap.resize(need, std::mem::MaybeUninit::uninit());
+        heap
+    };
+    Stack { slots, len: 0 }
 }
 
-impl Stack {
-    #[inline(always)]
-    fn new(need: usize) -> Self {
-        Self {
-            // SAFETY: an array of `MaybeUninit` needs no initialisation.
-            fixed: unsafe { std::mem::MaybeUninit::uninit().assume_init() },
-            len: 0,
-            spill: if need > 256 {
-                Vec::with_capacity(need - 256)
-            } else {
-                Vec::new()
-            },
-        }
-    }
+/// A traversal stack over preallocated slots: a push is one checked store, a pop one load.
+struct Stack<'a> {
+    slots: &'a mut [std::mem::MaybeUninit<u32>],
+    len: usize,
+}
+
+impl Stack<'_> {
     #[inline(always)]
     fn push(&mut self, v: u32) {
-        if self.len < self.fixed.len() {
-            self.fixed[self.len].write(v);
-            self.len += 1;
-        } else {
-            self.spill.push(v);
-        }
+        // Checked: the slots are sized for the tree's depth, so this never fails.
+        self.slots[self.len].write(v);
+        self.len += 1;
     }
     #[inline(always)]
     fn pop(&mut self) -> Option<u32> {
-        if !self.spill.is_empty() {
-            return self.spill.pop();
-        }
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
-        // SAFETY: slots below `len` were written by `push`.
-        Some(unsafe { self.fixed[self.len].assume_init() })
+        // SAFETY: `len < slots.len()` (it was pushed), and slots below `len` were written by
+        // `push`.
+        Some(unsafe { self.slots.get_unchecked(self.len).assume_init() })
     }
+}
+
+/// Uninitialised slots for [`stack_slots`] (built without writing them: an array-repeat
+/// expression here was compiled to a 1 KiB `memset` per traversal).
+#[inline(always)]
+fn uninit_slots() -> [std::mem::MaybeUninit<u32>; FIXED_SLOTS] {
+    // SAFETY: an array of `MaybeUninit` needs no initialisation.
+    unsafe { std::mem::MaybeUninit::uninit().assume_init() }
 }
 
 /// A ray prepared for the slab tests: reciprocal direction, `o·inv`, and for each axis the
@@ -686,8 +696,11 @@ unsafe fn packet_occluded(
     let slack = _mm256_set1_ps(SLAB_SLACK);
     let abs_mask = _mm256_set1_ps(-0.0);
     let mut occluded = 0u32;
-    let mut stack = Stack::new(w.depth * (WIDTH - 1) + 1);
-    let mut masks = Stack::new(w.depth * (WIDTH - 1) + 1);
+    let need = w.depth * (WIDTH - 1) + 1;
+    let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
+    let mut stack = stack_slots(&mut fixed, &mut heap, need);
+    let (mut fixed_masks, mut heap_masks) = (uninit_slots(), Vec::new());
+    let mut masks = stack_slots(&mut fixed_masks, &mut heap_masks, need);
     stack.push(0);
     masks.push(valid);
     'outer: while let (Some(node_id), Some(m)) = (stack.pop(), masks.pop()) {
@@ -1004,6 +1017,102 @@ mod tests {
     /// The relative area is 1 for a tree of one leaf and exceeds 1 otherwise; a refit with the
     /// same triangles leaves it unchanged, and moving the triangles to each other's places (the
     /// same root box, scattered leaves) raises it; a tree of zero extent reads 1.
+    /// A tree too deep for the fixed stack slots: a binary "caterpillar" (every inner node has
+    /// one leaf and one inner child), which the collapse turns into one wide level per 7
+    /// binary ones. The heap-backed stack gives the same answers as the scan, one ray and fans.
+    #[test]
+    fn deep_trees_use_the_heap_stack() {
+        use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
+        let n = 300;
+        let t: Vec<Triangle> = (0..n)
+            .map(|k| {
+                let x = 0.99f32.powi(k as i32);
+                let h = 0.002;
+                Triangle {
+                    v0: glam::Vec3A::new(x, -h, -h),
+                    v1: glam::Vec3A::new(x, h, -h),
+                    v2: glam::Vec3A::new(x, 0.0, h),
+                }
+            })
+            .collect();
+        // Node 0 is the root; inner node 2k has children 2k + 1 (the leaf of triangle k) and
+        // 2k + 2 (the rest of the chain); the last node is the leaf of the last triangle.
+        let span = |k: usize| {
+            t[k..]
+                .iter()
+                .fold(t[k].aabb(), |b: Aabb, tri| b.union(&tri.aabb()))
+        };
+        let mut nodes = Vec::new();
+        for k in 0..n - 1 {
+            nodes.push(Bvh2Node::new(span(k), 0, 2 * k as u32 + 1));
+            nodes.push(Bvh2Node::new(t[k].aabb(), 1, k as u32));
+        }
+        nodes.push(Bvh2Node::new(t[n - 1].aabb(), 1, n as u32 - 1));
+        let bvh2 = Bvh2 {
+            nodes,
+            primitive_indices: (0..n as u32).collect(),
+            ..Bvh2::default()
+        };
+        let w = WideBvh::from_bvh2(&bvh2, &t);
+        let depth = w.stats().2;
+        println!("chain of {n} triangles: wide depth {depth}");
+        assert!(
+            depth * (WIDTH - 1) + 1 > FIXED_SLOTS,
+            "depth {depth}: not deep enough"
+        );
+        let mut levels = vec![Level::Portable];
+        if detected() == Level::Avx2Fma {
+            levels.push(Level::Avx2Fma);
+        }
+        // Rays along the chain's axis from beyond each end, and across it at every triangle.
+        let o = [0.0, 0.0, -1.0];
+        let mut dirs = Vec::new();
+        let mut hits = 0;
+        for k in (0..n).step_by(3) {
+            let x = 0.99f32.powi(k as i32);
+            let d = [x, 0.0, 1.0];
+            let n = (d[0] * d[0] + 1.0f32).sqrt();
+            dirs.push([d[0] / n, 0.0, 1.0 / n]);
+        }
+        for &l in &levels {
+            let mut fan = vec![false; dirs.len()];
+            w.occluded_fan(l, o, &dirs, 0.0, f32::MAX, &mut fan);
+            for (d, h) in dirs.iter().zip(&fan) {
+                let ray = WideRay {
+                    o,
+                    d: *d,
+                    tmin: 0.0,
+                    tmax: f32::MAX,
+                };
+                let want = scan(&w, &ray);
+                hits += usize::from(want.is_some());
+                assert_eq!(w.occluded(l, &ray), want.is_some(), "{l:?} {d:?}");
+                assert_eq!(w.closest(l, &ray), want, "{l:?} {d:?}");
+                assert_eq!(*h, want.is_some(), "fan, {l:?} {d:?}");
+            }
+            for o in [[2.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] {
+                let d = if o[0] > 0.0 {
+                    [-1.0, 0.0, 0.0]
+                } else {
+                    [1.0, 0.0, 0.0]
+                };
+                let ray = WideRay {
+                    o,
+                    d,
+                    tmin: 0.0,
+                    tmax: f32::MAX,
+                };
+                let want = scan(&w, &ray);
+                assert!(want.is_some());
+                assert_eq!(w.closest(l, &ray), want, "{l:?} along the axis");
+            }
+        }
+        assert!(
+            hits * 2 > dirs.len() * levels.len(),
+            "{hits} hits: the rays miss the chain"
+        );
+    }
+
     #[test]
     fn relative_area_measures_box_growth() {
         let mut rng = Rng(3);
