@@ -48,6 +48,15 @@ pub trait Occluder: Send + Sync {
             *h = self.occluded(o, *d, tmin, f64::INFINITY);
         }
     }
+    /// [`Occluder::occluded_fan`] with the directions given in f32 (unit vectors), the
+    /// precision the mesh BVH traces in: no conversion pass over the fan. By default each
+    /// direction is widened to f64 and traced by [`Occluder::occluded`].
+    fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
+        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
+            let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
+            *h = self.occluded(o, d, tmin, f64::INFINITY);
+        }
+    }
     /// [`Occluder::occluded`] for many independent rays, `t ∈ (tmin, ∞)`: `hit[i]` for
     /// `(origins[i], dirs[i])` (implementations may vectorise the set-up of the rays).
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
@@ -328,11 +337,7 @@ impl Occluder for MeshBvh {
     }
 
     fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
-        // One unit-frame origin for every ray; directions whose line misses the ball (or
-        // whose origin is far away and needs advancing) go through the one-ray path.
-        let s = self.frame.radius;
-        let ou = (o - self.frame.center) / s;
-        if ou.length_squared() > 4.0 || !(tmin / s).is_finite() {
+        if self.fan_origin(o, tmin).is_none() {
             for (d, h) in dirs.iter().zip(hit.iter_mut()) {
                 *h = self.occluded(o, *d, tmin, f64::INFINITY);
             }
@@ -344,15 +349,21 @@ impl Occluder for MeshBvh {
         DIRS.with_borrow_mut(|buf| {
             buf.clear();
             buf.extend(dirs.iter().map(|d| d.as_vec3().to_array()));
-            self.accel.occluded_fan(
-                self.level,
-                ou.as_vec3().to_array(),
-                buf,
-                (tmin / s) as f32,
-                f32::MAX,
-                hit,
-            );
+            self.occluded_fan_f32(o, buf, tmin, hit);
         });
+    }
+
+    fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
+        let Some(ou) = self.fan_origin(o, tmin) else {
+            for (d, h) in dirs.iter().zip(hit.iter_mut()) {
+                let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
+                *h = self.occluded(o, d, tmin, f64::INFINITY);
+            }
+            return;
+        };
+        let s = self.frame.radius;
+        self.accel
+            .occluded_fan(self.level, ou, dirs, (tmin / s) as f32, f32::MAX, hit);
     }
 
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
@@ -462,6 +473,15 @@ impl MeshBvh {
                 };
             }
         }
+    }
+
+    /// The unit-frame origin shared by a fan's rays, or `None` when the fan takes the one-ray
+    /// path: directions whose line misses the ball, or an origin far away that needs
+    /// advancing (more than 2 radii from the centre), are handled there.
+    fn fan_origin(&self, o: DVec3, tmin: f64) -> Option<[f32; 3]> {
+        let s = self.frame.radius;
+        let ou = (o - self.frame.center) / s;
+        (ou.length_squared() <= 4.0 && (tmin / s).is_finite()).then(|| ou.as_vec3().to_array())
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -651,7 +651,7 @@ unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u3
 
 /// A packet subtree with at most this many live lanes is finished ray by ray.
 #[cfg(target_arch = "x86_64")]
-const SOLO_LANES: u32 = 2;
+const SOLO_LANES: u32 = 4;
 
 /// Any-hit for up to 8 rays from one origin, traversed together (AVX2 lanes = rays): each
 /// child box is tested against every live lane, a subtree is entered by the lanes that hit

@@ -447,28 +447,33 @@ fn batched_queries_equal_one_ray_queries() {
             assert_eq!(many[i], one, "{level:?} ray {i}");
             hits += usize::from(one);
         }
-        // Fans: 1000 directions over the hemisphere facing the centre from 60 points.
+        // Fans: 1000 directions over the hemisphere facing the centre from 60 points, most on
+        // the bounding sphere (the fan kernel), some inside it and some 3 radii away (the
+        // one-ray path). Directions are f32 values, so the f64 and f32 fan queries trace the
+        // same rays.
         let (mut fan_hits, mut fan_rays) = (0, 0);
-        for _ in 0..60 {
-            let o = s.center + s.radius * rng.dir();
-            let fan: Vec<DVec3> = (0..1000)
+        for f in 0..60 {
+            let dist = [1.0, 1.0, 1.0, 0.5, 3.0][f % 5];
+            let o = s.center + dist * s.radius * rng.dir();
+            let fan32: Vec<[f32; 3]> = (0..1000)
                 .map(|_| {
                     let d = rng.dir();
-                    if d.dot(s.center - o) < 0.0 {
-                        -d
-                    } else {
-                        d
-                    }
+                    let d = if d.dot(s.center - o) < 0.0 { -d } else { d };
+                    d.as_vec3().to_array()
                 })
+                .collect();
+            let fan: Vec<DVec3> = fan32
+                .iter()
+                .map(|d| DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64))
                 .collect();
             let mut hit = vec![false; fan.len()];
             bvh.occluded_fan(o, &fan, tmin, &mut hit);
-            for (d, h) in fan.iter().zip(&hit) {
-                assert_eq!(
-                    *h,
-                    bvh.occluded(o, *d, tmin, f64::INFINITY),
-                    "{level:?} fan"
-                );
+            let mut hit32 = vec![false; fan.len()];
+            bvh.occluded_fan_f32(o, &fan32, tmin, &mut hit32);
+            for ((d, h), h32) in fan.iter().zip(&hit).zip(&hit32) {
+                let one = bvh.occluded(o, *d, tmin, f64::INFINITY);
+                assert_eq!(*h, one, "{level:?} fan from {dist} radii");
+                assert_eq!(*h32, one, "{level:?} f32 fan from {dist} radii");
                 fan_hits += usize::from(*h);
                 fan_rays += 1;
             }

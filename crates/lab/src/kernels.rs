@@ -89,6 +89,9 @@ pub struct RaySet {
     pub origins: Vec<DVec3>,
     pub dirs: Vec<DVec3>,
     pub groups: Vec<(DVec3, usize, usize)>,
+    /// `dirs` in f32, what the fans are traced from (the precision of the BVH and of the
+    /// peers' files).
+    pub dirs32: Vec<[f32; 3]>,
     pub tmin: f64,
     /// Expected answers (from the peers' files), if any.
     pub expected: Option<Vec<bool>>,
@@ -103,10 +106,12 @@ impl RaySet {
                 _ => groups.push((*o, i, 1)),
             }
         }
+        let dirs32 = dirs.iter().map(|d| d.as_vec3().to_array()).collect();
         Self {
             origins,
             dirs,
             groups,
+            dirs32,
             tmin,
             expected: None,
         }
@@ -251,11 +256,10 @@ impl RaySet {
             rest = b;
         }
         parts.into_par_iter().with_min_len(8).for_each(|(g, out)| {
-            let dirs = &self.dirs[g.1..g.1 + g.2];
             if g.2 > 1 {
-                occ.occluded_fan(g.0, dirs, self.tmin, out);
+                occ.occluded_fan_f32(g.0, &self.dirs32[g.1..g.1 + g.2], self.tmin, out);
             } else {
-                out[0] = occ.occluded(g.0, dirs[0], self.tmin, f64::INFINITY);
+                out[0] = occ.occluded(g.0, self.dirs[g.1], self.tmin, f64::INFINITY);
             }
         });
     }
