@@ -57,6 +57,11 @@ pub trait Occluder: Send + Sync {
             *h = self.occluded(o, d, tmin, f64::INFINITY);
         }
     }
+    /// Whether [`Occluder::occluded_fan_f32`] is this occluder's native fan query (it traces in
+    /// f32, so callers that can produce f32 directions directly should): `false` by default.
+    fn fans_in_f32(&self) -> bool {
+        false
+    }
     /// [`Occluder::occluded`] for many independent rays, `t ∈ (tmin, ∞)`: `hit[i]` for
     /// `(origins[i], dirs[i])` (implementations may vectorise the set-up of the rays).
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
@@ -351,6 +356,10 @@ impl Occluder for MeshBvh {
             buf.extend(dirs.iter().map(|d| d.as_vec3().to_array()));
             self.occluded_fan_f32(o, buf, tmin, hit);
         });
+    }
+
+    fn fans_in_f32(&self) -> bool {
+        true
     }
 
     fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
