@@ -9,8 +9,10 @@
 //! **Exactness.** Boxes are padded by [`BOX_PAD`] (unit-frame units, ~17 f32 ulps at 1) and the
 //! slab test's exit distance is widened by a relative [`SLAB_SLACK`], so rounding in the box test
 //! never loses a hit that the triangle test accepts: the answers are those of the f32
-//! Möller–Trumbore test on every triangle (tested against brute force). Zero direction
-//! components are replaced by ±[`TINY_DIR`] in the box test only (no NaN from `0 · ∞`).
+//! Möller–Trumbore test on every triangle (decided without a division, `pack_hit`; the one-ray
+//! and packet kernels perform the same operations, so their answers are bit-identical; tested
+//! against a scan of every pack and against brute force). Zero direction components are
+//! replaced by ±[`TINY_DIR`] in the box test only (no NaN from `0 · ∞`).
 //!
 //! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2
 //! + FMA (chosen at run time) and for the target's default features (`shscale_sh::simd`).
