@@ -98,6 +98,10 @@ pub struct WideBvh {
     ids: Vec<[u32; PACK]>,
     /// Deepest node level (root = 1), which bounds the traversal stack.
     depth: usize,
+    /// The root's children's (padded) boxes together, `[minima, maxima]`: the packets' first,
+    /// cheap test, conservative like the children's (for an empty tree it is inverted and lets
+    /// every lane through to the root's own test, which rejects them).
+    bounds: [[f32; 3]; 2],
 }
 
 fn tri_bounds(t: &Triangle) -> ([f32; 3], [f32; 3]) {
@@ -223,6 +227,7 @@ impl WideBvh {
                 packs: Vec::new(),
                 ids: Vec::new(),
                 depth: 1,
+                bounds: [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]],
             },
         };
         if tris.is_empty() || bvh2.nodes.is_empty() {
@@ -286,6 +291,15 @@ impl WideBvh {
                 self.nodes[n].set_box(j, lo, hi);
             }
         }
+        let root = &self.nodes[0];
+        let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        for j in (0..WIDTH).filter(|&j| root.child[j] != EMPTY) {
+            for a in 0..3 {
+                bounds[0][a] = bounds[0][a].min(root.b[a][j]);
+                bounds[1][a] = bounds[1][a].max(root.b[a + 3][j]);
+            }
+        }
+        self.bounds = bounds;
     }
 
     /// The summed surface area of every child box over the root's box (the surface-area
@@ -697,6 +711,27 @@ unsafe fn packet_occluded(
     let (vtmin, vtmax) = (_mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
     let slack = _mm256_set1_ps(SLAB_SLACK);
     let abs_mask = _mm256_set1_ps(-0.0);
+    // The whole packet against the root's children's boxes together first: a packet that
+    // misses them all (a common case: fans see the object from outside) ends after one test.
+    {
+        let t =
+            |bound: f32, a: usize, inv: __m256| _mm256_mul_ps(_mm256_set1_ps(bound - o[a]), inv);
+        let (x0, x1) = (t(w.bounds[0][0], 0, ix), t(w.bounds[1][0], 0, ix));
+        let (y0, y1) = (t(w.bounds[0][1], 1, iy), t(w.bounds[1][1], 1, iy));
+        let (z0, z1) = (t(w.bounds[0][2], 2, iz), t(w.bounds[1][2], 2, iz));
+        let tn = _mm256_max_ps(
+            _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
+            _mm256_max_ps(_mm256_min_ps(z0, z1), vtmin),
+        );
+        let tf = _mm256_min_ps(
+            _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
+            _mm256_min_ps(_mm256_max_ps(z0, z1), vtmax),
+        );
+        let widened = _mm256_fmadd_ps(_mm256_andnot_ps(abs_mask, tf), slack, tf);
+        if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32 & valid == 0 {
+            return 0;
+        }
+    }
     let mut occluded = 0u32;
     let need = w.depth * (WIDTH - 1) + 1;
     let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
