@@ -687,16 +687,21 @@ unsafe fn packet_occluded(
     use std::arch::x86_64::*;
     let n = dirs.len().min(8);
     let valid = (1u32 << n) - 1;
-    let (mut dx, mut dy, mut dz) = ([0f32; 8], [0f32; 8], [0f32; 8]);
-    for i in 0..8 {
-        let d = dirs[i.min(n - 1)];
-        (dx[i], dy[i], dz[i]) = (d[0], d[1], d[2]);
-    }
-    let (vdx, vdy, vdz) = (
-        _mm256_loadu_ps(dx.as_ptr()),
-        _mm256_loadu_ps(dy.as_ptr()),
-        _mm256_loadu_ps(dz.as_ptr()),
-    );
+    let (vdx, vdy, vdz) = if n == 8 {
+        soa8(dirs)
+    } else {
+        // A short packet: the last direction fills the empty lanes.
+        let (mut dx, mut dy, mut dz) = ([0f32; 8], [0f32; 8], [0f32; 8]);
+        for i in 0..8 {
+            let d = dirs[i.min(n - 1)];
+            (dx[i], dy[i], dz[i]) = (d[0], d[1], d[2]);
+        }
+        (
+            _mm256_loadu_ps(dx.as_ptr()),
+            _mm256_loadu_ps(dy.as_ptr()),
+            _mm256_loadu_ps(dz.as_ptr()),
+        )
+    };
     let recip = |v: __m256| {
         // |d| < TINY_DIR → ±TINY_DIR (sign kept), then 1/d.
         let sign = _mm256_and_ps(v, _mm256_set1_ps(-0.0));
@@ -868,6 +873,41 @@ unsafe fn packet_occluded(
         }
     }
     occluded & valid
+}
+
+/// Eight `[x, y, z]` directions (AoS, 96 bytes) as x, y and z vectors (lane i = `dirs[i]`):
+/// three unaligned loads of two 16-byte halves each, then five shuffles — no round trip through
+/// memory, whose 4-byte stores a 32-byte load could not forward.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn soa8(
+    dirs: &[[f32; 3]],
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let f = dirs[..8].as_flattened();
+    let p = f.as_ptr();
+    // Halves: m03 = x0 y0 z0 x1 | x4 y4 z4 x5, m14 = y1 z1 x2 y2 | y5 z5 x6 y6,
+    // m25 = z2 x3 y3 z3 | z6 x7 y7 z7.
+    // SAFETY: `f` holds 24 floats; each load reads 4 of them at offsets ≤ 20.
+    let half = |lo: usize, hi: usize| {
+        _mm256_insertf128_ps::<1>(
+            _mm256_castps128_ps256(_mm_loadu_ps(p.add(lo))),
+            _mm_loadu_ps(p.add(hi)),
+        )
+    };
+    let (m03, m14, m25) = (half(0, 12), half(4, 16), half(8, 20));
+    // xy = x2 y2 x3 y3 | x6 y6 x7 y7, yz = y0 z0 y1 z1 | y4 z4 y5 z5
+    let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25);
+    let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14);
+    let x = _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy);
+    let y = _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy);
+    let z = _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25);
+    (x, y, z)
 }
 
 /// [`pack_hit`]'s test of triangle `k` of a pack against 8 rays from `o` (lanes), with the same
