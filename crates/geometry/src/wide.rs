@@ -665,6 +665,33 @@ unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u3
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, slack)) as u32
 }
 
+/// The packet's slab test of one box, as a macro so that it is expanded in place inside the
+/// packet kernel (as a `#[target_feature]` function LLVM left it out of line there, 25 % more
+/// instructions): `$t(a, k)` is the distance vector to the box's lower (`k = 0`) or upper
+/// (`k = 1`) plane on axis `a`, lanes = rays. Bit i is set when ray i enters the box for some
+/// `t ∈ [tmin, tmax]`, with the exit distance widened by [`SLAB_SLACK`] like [`box_mask`]'s
+/// (each axis takes the lesser and the greater plane distance, so the lanes' signs may differ).
+#[cfg(target_arch = "x86_64")]
+macro_rules! lanes_entering {
+    ($t:expr, $vtmin:expr, $vtmax:expr) => {{
+        let t = $t;
+        let (x0, x1) = (t(0, 0), t(0, 1));
+        let (y0, y1) = (t(1, 0), t(1, 1));
+        let (z0, z1) = (t(2, 0), t(2, 1));
+        let tn = _mm256_max_ps(
+            _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
+            _mm256_max_ps(_mm256_min_ps(z0, z1), $vtmin),
+        );
+        let tf = _mm256_min_ps(
+            _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
+            _mm256_min_ps(_mm256_max_ps(z0, z1), $vtmax),
+        );
+        let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), tf);
+        let widened = _mm256_fmadd_ps(abs, _mm256_set1_ps(SLAB_SLACK), tf);
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32
+    }};
+}
+
 /// A packet subtree with at most this many live lanes is finished ray by ray.
 #[cfg(target_arch = "x86_64")]
 const SOLO_LANES: u32 = 4;
@@ -714,28 +741,12 @@ unsafe fn packet_occluded(
     };
     let (ix, iy, iz) = (recip(vdx), recip(vdy), recip(vdz));
     let (vtmin, vtmax) = (_mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
-    let slack = _mm256_set1_ps(SLAB_SLACK);
-    let abs_mask = _mm256_set1_ps(-0.0);
     // The whole packet against the root's children's boxes together first: a packet that
     // misses them all (a common case: fans see the object from outside) ends after one test.
-    {
-        let t =
-            |bound: f32, a: usize, inv: __m256| _mm256_mul_ps(_mm256_set1_ps(bound - o[a]), inv);
-        let (x0, x1) = (t(w.bounds[0][0], 0, ix), t(w.bounds[1][0], 0, ix));
-        let (y0, y1) = (t(w.bounds[0][1], 1, iy), t(w.bounds[1][1], 1, iy));
-        let (z0, z1) = (t(w.bounds[0][2], 2, iz), t(w.bounds[1][2], 2, iz));
-        let tn = _mm256_max_ps(
-            _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
-            _mm256_max_ps(_mm256_min_ps(z0, z1), vtmin),
-        );
-        let tf = _mm256_min_ps(
-            _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
-            _mm256_min_ps(_mm256_max_ps(z0, z1), vtmax),
-        );
-        let widened = _mm256_fmadd_ps(_mm256_andnot_ps(abs_mask, tf), slack, tf);
-        if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32 & valid == 0 {
-            return 0;
-        }
+    let inv = [ix, iy, iz];
+    let root = |a: usize, k: usize| _mm256_mul_ps(_mm256_set1_ps(w.bounds[k][a] - o[a]), inv[a]);
+    if lanes_entering!(root, vtmin, vtmax) & valid == 0 {
+        return 0;
     }
     let mut occluded = 0u32;
     let need = w.depth * (WIDTH - 1) + 1;
@@ -787,20 +798,9 @@ unsafe fn packet_occluded(
         let mut hits = [0u32; WIDTH];
         let mut any = 0u32;
         for j in 0..WIDTH {
-            let t = |row: usize, inv: __m256| _mm256_mul_ps(_mm256_set1_ps(rel[row][j]), inv);
-            let (x0, x1) = (t(0, ix), t(3, ix));
-            let (y0, y1) = (t(1, iy), t(4, iy));
-            let (z0, z1) = (t(2, iz), t(5, iz));
-            let tn = _mm256_max_ps(
-                _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
-                _mm256_max_ps(_mm256_min_ps(z0, z1), vtmin),
-            );
-            let tf = _mm256_min_ps(
-                _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
-                _mm256_min_ps(_mm256_max_ps(z0, z1), vtmax),
-            );
-            let widened = _mm256_fmadd_ps(_mm256_andnot_ps(abs_mask, tf), slack, tf);
-            hits[j] = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32 & live;
+            let child =
+                |a: usize, k: usize| _mm256_mul_ps(_mm256_set1_ps(rel[a + 3 * k][j]), inv[a]);
+            hits[j] = lanes_entering!(child, vtmin, vtmax) & live;
             any |= u32::from(hits[j] != 0) << j;
         }
         // Empty slots: their inverted boxes become unbounded under the min/max of the lane
