@@ -342,19 +342,19 @@ impl Occluder for MeshBvh {
     }
 
     fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
-        if self.fan_origin(o, tmin).is_none() {
+        let Some(ou) = self.fan_origin(o, tmin) else {
             for (d, h) in dirs.iter().zip(hit.iter_mut()) {
                 *h = self.occluded(o, *d, tmin, f64::INFINITY);
             }
             return;
-        }
+        };
         thread_local! {
             static DIRS: std::cell::RefCell<Vec<[f32; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
         }
         DIRS.with_borrow_mut(|buf| {
             buf.clear();
             buf.extend(dirs.iter().map(|d| d.as_vec3().to_array()));
-            self.occluded_fan_f32(o, buf, tmin, hit);
+            self.fan_unit(ou, buf, tmin, hit);
         });
     }
 
@@ -370,9 +370,7 @@ impl Occluder for MeshBvh {
             }
             return;
         };
-        let s = self.frame.radius;
-        self.accel
-            .occluded_fan(self.level, ou, dirs, (tmin / s) as f32, f32::MAX, hit);
+        self.fan_unit(ou, dirs, tmin, hit);
     }
 
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
@@ -485,12 +483,19 @@ impl MeshBvh {
     }
 
     /// The unit-frame origin shared by a fan's rays, or `None` when the fan takes the one-ray
-    /// path: directions whose line misses the ball, or an origin far away that needs
-    /// advancing (more than 2 radii from the centre), are handled there.
+    /// path instead: an origin more than 2 radii from the centre (the one-ray path advances it
+    /// in f64 first), or a `tmin` that is not finite in the unit frame.
     fn fan_origin(&self, o: DVec3, tmin: f64) -> Option<[f32; 3]> {
         let s = self.frame.radius;
         let ou = (o - self.frame.center) / s;
         (ou.length_squared() <= 4.0 && (tmin / s).is_finite()).then(|| ou.as_vec3().to_array())
+    }
+
+    /// A fan from the unit-frame origin `ou` ([`MeshBvh::fan_origin`]) through the tree.
+    fn fan_unit(&self, ou: [f32; 3], dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
+        let tmin = (tmin / self.frame.radius) as f32;
+        self.accel
+            .occluded_fan(self.level, ou, dirs, tmin, f32::MAX, hit);
     }
 
     #[cfg(target_arch = "x86_64")]

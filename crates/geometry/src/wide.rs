@@ -1091,9 +1091,6 @@ mod tests {
             .collect()
     }
 
-    /// The relative area is 1 for a tree of one leaf and exceeds 1 otherwise; a refit with the
-    /// same triangles leaves it unchanged, and moving the triangles to each other's places (the
-    /// same root box, scattered leaves) raises it; a tree of zero extent reads 1.
     /// A tree too deep for the fixed stack slots: a binary "caterpillar" (every inner node has
     /// one leaf and one inner child), which the collapse turns into one wide level per 7
     /// binary ones. The heap-backed stack gives the same answers as the scan, one ray and fans.
@@ -1141,7 +1138,8 @@ mod tests {
         if detected() == Level::Avx2Fma {
             levels.push(Level::Avx2Fma);
         }
-        // Rays along the chain's axis from beyond each end, and across it at every triangle.
+        // A fan across the chain through every third triangle, then rays along its axis
+        // from beyond each end.
         let o = [0.0, 0.0, -1.0];
         let mut dirs = Vec::new();
         let mut hits = 0;
@@ -1190,6 +1188,102 @@ mod tests {
         );
     }
 
+    /// The division-free triangle test at its edges, on one triangle in both windings (det > 0
+    /// and det < 0) with exactly representable rays: interior, edge and vertex points hit, a
+    /// point just outside misses, a ray in the triangle's plane (det = 0) misses, and the hit
+    /// distance 1 is excluded by `tmax = 1` and `tmin = 1` and included just beyond them. Any-hit
+    /// and nearest-hit agree, and `t` is exact.
+    #[test]
+    fn triangle_test_at_its_edges() {
+        let (a, b, c) = ([0.0f32, 0.0, 0.0], [1.0f32, 0.0, 0.0], [0.0f32, 1.0, 0.0]);
+        let tri = |p: [f32; 3], q: [f32; 3], r: [f32; 3]| Triangle {
+            v0: glam::Vec3A::from(p),
+            v1: glam::Vec3A::from(q),
+            v2: glam::Vec3A::from(r),
+        };
+        for t in [tri(a, b, c), tri(a, c, b)] {
+            let pack = pack_of(&[t], &[0, u32::MAX, u32::MAX, u32::MAX]);
+            let down = |x: f32, y: f32, tmin: f32, tmax: f32| {
+                let ray = WideRay {
+                    o: [x, y, 1.0],
+                    d: [0.0, 0.0, -1.0],
+                    tmin,
+                    tmax,
+                };
+                let any = pack_hit::<true>(&pack, &ray, tmax);
+                let near = pack_hit::<false>(&pack, &ray, tmax);
+                assert_eq!(any.1, near.1, "({x}, {y}) any-hit and nearest disagree");
+                (near.1 < PACK).then_some(near.0)
+            };
+            let m = f32::MAX;
+            for (x, y) in [
+                (0.25, 0.25),
+                (0.5, 0.0),
+                (0.0, 0.5),
+                (0.5, 0.5),
+                (0.0, 0.0),
+                (1.0, 0.0),
+            ] {
+                assert_eq!(
+                    down(x, y, 0.0, m),
+                    Some(1.0),
+                    "({x}, {y}) should hit at t = 1"
+                );
+            }
+            for (x, y) in [(-1e-3, 0.25), (0.25, -1e-3), (0.5, 0.5 + 1e-3), (2.0, 2.0)] {
+                assert_eq!(down(x, y, 0.0, m), None, "({x}, {y}) is outside");
+            }
+            assert_eq!(down(0.25, 0.25, 0.0, 1.0), None, "t = tmax is excluded");
+            assert_eq!(down(0.25, 0.25, 0.0, 1.0 + 1e-6), Some(1.0));
+            assert_eq!(down(0.25, 0.25, 1.0, m), None, "t = tmin is excluded");
+            assert_eq!(down(0.25, 0.25, 1.0 - 1e-6, m), Some(1.0));
+            let grazing = WideRay {
+                o: [-1.0, 0.25, 0.0],
+                d: [1.0, 0.0, 0.0],
+                tmin: 0.0,
+                tmax: m,
+            };
+            assert_eq!(
+                pack_hit::<false>(&pack, &grazing, m).1,
+                PACK,
+                "det = 0 misses"
+            );
+        }
+    }
+
+    /// An empty tree: every query misses, on both instruction sets, one ray and fans (its
+    /// packets' root pre-test box is inverted and passes every lane to the root's own test).
+    #[test]
+    fn empty_trees_answer_no() {
+        let mut dur = std::time::Duration::default();
+        let params = BvhBuildParams::fast_build();
+        let w = WideBvh::from_bvh2(&build_bvh2_from_tris(&[], params, &mut dur), &[]);
+        let mut rng = Rng(11);
+        let dirs: Vec<[f32; 3]> = (0..20).map(|_| rng.dir()).collect();
+        let mut levels = vec![Level::Portable];
+        if detected() == Level::Avx2Fma {
+            levels.push(Level::Avx2Fma);
+        }
+        for &l in &levels {
+            let mut hit = vec![true; dirs.len()];
+            w.occluded_fan(l, [0.0; 3], &dirs, 0.0, f32::MAX, &mut hit);
+            assert!(hit.iter().all(|h| !h), "{l:?}");
+            let ray = WideRay {
+                o: [0.0; 3],
+                d: dirs[0],
+                tmin: 0.0,
+                tmax: f32::MAX,
+            };
+            assert!(
+                !w.occluded(l, &ray) && w.closest(l, &ray).is_none(),
+                "{l:?}"
+            );
+        }
+    }
+
+    /// The relative area is 1 for a tree of one leaf and exceeds 1 otherwise; a refit with the
+    /// same triangles leaves it unchanged, and moving the triangles to each other's places (the
+    /// same root box, scattered leaves) raises it; a tree of zero extent reads 1.
     #[test]
     fn relative_area_measures_box_growth() {
         let mut rng = Rng(3);
