@@ -198,10 +198,15 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             };
             let r = kernels::bench_rays(&m, &a.mesh, &workload, &set, t, level, p)?;
             let text = format!(
-                "rays {} {} ({} triangles): {} rays, {:.2} Mrays/s (median of {} in {:.3} s; min {:.3} ms, max {:.3} ms), {} thread(s), {}, hit fraction {:.4}{}",
+                "rays {} {} ({} triangles; tree of {} nodes, {:.1} of 8 slots used, {} packs of {:.2} triangles, depth {}): {} rays, {:.2} Mrays/s (median of {} in {:.3} s; min {:.3} ms, max {:.3} ms), {} thread(s), {}, hit fraction {:.4}{}",
                 r.mesh,
                 r.workload,
                 r.triangles,
+                r.tree.nodes,
+                r.tree.slots_used,
+                r.tree.packs,
+                r.tree.pack_fill,
+                r.tree.depth,
                 r.rays,
                 r.rays_per_second / 1e6,
                 r.timing.reps,

@@ -269,8 +269,9 @@ impl MeshBvh {
 
     fn make_accel(tris: &[Triangle]) -> WideBvh {
         let mut t = Duration::default();
+        // Leaves of one triangle: the collapse to the wide tree chooses its own leaves.
         let params = BvhBuildParams {
-            max_prims_per_leaf: crate::wide::PACK as u32,
+            max_prims_per_leaf: 1,
             ..BvhBuildParams::fast_build()
         };
         let bvh2 = build_bvh2_from_tris(tris, params, &mut t);
@@ -315,8 +316,8 @@ impl MeshBvh {
         self.positions.clone_from(&mesh.positions);
     }
 
-    /// Nodes, leaf packs and depth of the tree.
-    pub fn tree_stats(&self) -> (usize, usize, usize) {
+    /// The shape of the tree.
+    pub fn tree_stats(&self) -> crate::wide::TreeStats {
         self.accel.stats()
     }
 

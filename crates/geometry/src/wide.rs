@@ -1,10 +1,13 @@
 //! The production traversal: an 8-wide BVH over packs of 4 triangles, in f32, traversed with one
 //! SIMD box test per node (8 children at once) and one SIMD triangle test per pack (4 at once).
 //!
-//! The tree comes from obvhs (a binary PLOC build, `BvhBuildParams::fast_build` in
-//! `MeshBvh::build`), collapsed here: every inner node takes up to 8 descendants, always opening
-//! the largest-area one, and every subtree of at most [`PACK`] triangles becomes one leaf pack. Nodes are stored parents
-//! first, so a refit (same topology, moved vertices) is one reverse sweep.
+//! The tree comes from obvhs (a binary PLOC build with one triangle per leaf,
+//! `BvhBuildParams::fast_build` in `MeshBvh::build`), collapsed here by the optimal
+//! dynamic-programming collapse of Ylitie et al. (2017) under the surface-area heuristic: for
+//! every binary node and every number of child slots 1–8, the least expected cost of spreading
+//! its subtree over that many slots, where a leaf of `n ≤ 16` triangles costs `⌈n / 4⌉` pack
+//! tests and an inner node one 8-box test, each weighted by its box's area. Nodes are stored
+//! parents first, so a refit (same topology, moved vertices) is one reverse sweep.
 //!
 //! **Exactness.** Boxes are padded by [`BOX_PAD`] (unit-frame units, ~17 f32 ulps at 1) and the
 //! slab test's exit distance is widened by a relative [`SLAB_SLACK`], so rounding in the box test
@@ -36,7 +39,8 @@ const LEAF: u32 = 1 << 31;
 const LEAF_TRIS: usize = PACK;
 const EMPTY: u32 = u32::MAX;
 const COUNT_SHIFT: u32 = 24;
-const MAX_LEAF_PACKS: usize = 127;
+/// The most packs one leaf child refers to.
+pub const MAX_LEAF_PACKS: usize = 127;
 const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
 #[derive(Clone, Copy, Debug)]
@@ -89,6 +93,21 @@ pub struct WideRay {
     pub tmax: f32,
 }
 
+/// The shape of a [`WideBvh`] (`bench rays` and `bench bsv` report it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TreeStats {
+    /// Wide nodes (the root included).
+    pub nodes: usize,
+    /// Leaf children (each one to [`MAX_LEAF_PACKS`] packs).
+    pub leaves: usize,
+    /// Packs of up to [`PACK`] triangles.
+    pub packs: usize,
+    /// Triangles in the packs.
+    pub triangles: usize,
+    /// Deepest node level (root = 1).
+    pub depth: usize,
+}
+
 /// The 8-wide BVH.
 #[derive(Clone, Debug)]
 pub struct WideBvh {
@@ -127,30 +146,103 @@ fn pack_of(tris: &[Triangle], ids: &[u32; PACK]) -> Pack {
     p
 }
 
+/// The collapse's cost model (surface-area heuristic, in units of one 8-box node test): a
+/// pack test (4 triangles at once) costs about as much as a node test.
+const COST_NODE: f32 = 1.0;
+const COST_PACK: f32 = 1.0;
+/// The most triangles the collapse puts in one leaf (as `⌈n / PACK⌉` packs).
+const LEAF_MAX: u32 = 16;
+
 struct Builder<'a> {
     bvh2: &'a Bvh2,
     tris: &'a [Triangle],
     /// Triangles under each binary node.
     counts: Vec<u32>,
+    /// Per binary node and `i = 1..=8`: the least cost of the subtree spread over at most `i`
+    /// child slots of a wide node (`cost[n][i - 1]`), and how: 0 = the node itself as one
+    /// child, `k > 0` = `k` slots for its left subtree and `i − k` for its right.
+    cost: Vec<[f32; WIDTH]>,
+    split: Vec<[u8; WIDTH]>,
+    /// Whether the node, as one child, is a leaf (else a wide node of its own).
+    as_leaf: Vec<bool>,
     out: WideBvh,
 }
 
-impl Builder<'_> {
-    fn count(&mut self, n: usize) -> u32 {
-        let node = &self.bvh2.nodes[n];
-        let c = if node.is_leaf() {
-            node.prim_count
-        } else {
-            let l = node.first_index as usize;
-            self.count(l) + self.count(l + 1)
-        };
-        self.counts[n] = c;
-        c
+impl<'a> Builder<'a> {
+    fn new(bvh2: &'a Bvh2, tris: &'a [Triangle]) -> Self {
+        let n = bvh2.nodes.len();
+        Builder {
+            bvh2,
+            tris,
+            counts: vec![0; n],
+            cost: vec![[0.0; WIDTH]; n],
+            split: vec![[0; WIDTH]; n],
+            as_leaf: vec![false; n],
+            out: WideBvh {
+                nodes: Vec::new(),
+                packs: Vec::new(),
+                ids: Vec::new(),
+                depth: 1,
+                bounds: [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]],
+            },
+        }
     }
 
-    /// Whether binary node `n` becomes one leaf (a binary leaf, or few enough triangles).
-    fn is_leaf(&self, n: usize) -> bool {
-        self.bvh2.nodes[n].is_leaf() || self.counts[n] as usize <= LEAF_TRIS
+    /// Counts, costs and choices bottom-up (the optimal collapse of a binary tree into a wide
+    /// one under the cost model, by dynamic programming over the child slots).
+    fn plan(&mut self, n: usize) {
+        let node = &self.bvh2.nodes[n];
+        let area = node.aabb().half_area().max(0.0);
+        let packs = |c: u32| c.div_ceil(PACK as u32) as f32;
+        if node.is_leaf() {
+            let c = node.prim_count;
+            self.counts[n] = c;
+            self.cost[n] = [area * COST_PACK * packs(c); WIDTH];
+            self.as_leaf[n] = true;
+            return;
+        }
+        let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+        self.plan(l);
+        self.plan(r);
+        let c = self.counts[l] + self.counts[r];
+        self.counts[n] = c;
+        let spread = |me: &Self, i: usize| {
+            (1..i)
+                .map(|k| (me.cost[l][k - 1] + me.cost[r][i - k - 1], k as u8))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .expect("i ≥ 2")
+        };
+        let leaf = if c <= LEAF_MAX || c as usize <= LEAF_TRIS {
+            area * COST_PACK * packs(c)
+        } else {
+            f32::INFINITY
+        };
+        let inner = area * COST_NODE + spread(self, WIDTH).0;
+        self.as_leaf[n] = leaf <= inner;
+        self.cost[n][0] = leaf.min(inner);
+        self.split[n][0] = 0;
+        for i in 2..=WIDTH {
+            let (c, k) = spread(self, i);
+            if c < self.cost[n][i - 2] {
+                self.cost[n][i - 1] = c;
+                self.split[n][i - 1] = k;
+            } else {
+                self.cost[n][i - 1] = self.cost[n][i - 2];
+                self.split[n][i - 1] = self.split[n][i - 2];
+            }
+        }
+    }
+
+    /// The children of a wide node for binary node `n` spread over at most `i` slots.
+    fn children(&self, n: usize, i: usize, into: &mut Vec<usize>) {
+        let k = self.split[n][i - 1] as usize;
+        if k == 0 {
+            into.push(n);
+        } else {
+            let l = self.bvh2.nodes[n].first_index as usize;
+            self.children(l, k, into);
+            self.children(l + 1, i - k, into);
+        }
     }
 
     fn gather(&self, n: usize, into: &mut Vec<u32>) {
@@ -185,26 +277,19 @@ impl Builder<'_> {
     fn inner(&mut self, n: usize, level: usize) -> u32 {
         self.out.depth = self.out.depth.max(level);
         let l = self.bvh2.nodes[n].first_index as usize;
-        let mut kids = vec![l, l + 1];
-        while kids.len() < WIDTH {
-            let open = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, &k)| !self.is_leaf(k))
-                .max_by(|a, b| {
-                    let area = |k: usize| self.bvh2.nodes[k].aabb().half_area();
-                    area(*a.1).total_cmp(&area(*b.1))
-                })
-                .map(|(i, _)| i);
-            let Some(i) = open else { break };
-            let k = kids.swap_remove(i);
-            let f = self.bvh2.nodes[k].first_index as usize;
-            kids.extend([f, f + 1]);
-        }
+        let k = (1..WIDTH)
+            .min_by(|&a, &b| {
+                let c = |k: usize| self.cost[l][k - 1] + self.cost[l + 1][WIDTH - k - 1];
+                c(a).total_cmp(&c(b))
+            })
+            .expect("WIDTH ≥ 2");
+        let mut kids = Vec::with_capacity(WIDTH);
+        self.children(l, k, &mut kids);
+        self.children(l + 1, WIDTH - k, &mut kids);
         let me = self.out.nodes.len();
         self.out.nodes.push(Node::empty());
         for (j, &k) in kids.iter().enumerate() {
-            let r = if self.is_leaf(k) {
+            let r = if self.as_leaf[k] {
                 self.leaf(k)
             } else {
                 self.inner(k, level + 1)
@@ -218,24 +303,13 @@ impl Builder<'_> {
 impl WideBvh {
     /// Collapse a binary BVH over `tris` (the triangles it was built from).
     pub fn from_bvh2(bvh2: &Bvh2, tris: &[Triangle]) -> Self {
-        let mut b = Builder {
-            bvh2,
-            tris,
-            counts: vec![0; bvh2.nodes.len()],
-            out: WideBvh {
-                nodes: Vec::new(),
-                packs: Vec::new(),
-                ids: Vec::new(),
-                depth: 1,
-                bounds: [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]],
-            },
-        };
+        let mut b = Builder::new(bvh2, tris);
         if tris.is_empty() || bvh2.nodes.is_empty() {
             b.out.nodes.push(Node::empty());
             return b.out;
         }
-        b.count(0);
-        if b.is_leaf(0) && b.counts[0] as usize <= PACK * MAX_LEAF_PACKS {
+        b.plan(0);
+        if b.as_leaf[0] && b.counts[0] as usize <= PACK * MAX_LEAF_PACKS {
             let r = b.leaf(0);
             let mut root = Node::empty();
             root.child[0] = r;
@@ -337,8 +411,26 @@ impl WideBvh {
     }
 
     /// Nodes, packs and tree depth (for reports and tests).
-    pub fn stats(&self) -> (usize, usize, usize) {
-        (self.nodes.len(), self.packs.len(), self.depth)
+    pub fn stats(&self) -> TreeStats {
+        let refs = |leaf: bool| {
+            self.nodes
+                .iter()
+                .flat_map(|n| n.child)
+                .filter(|&c| c != EMPTY && (c & LEAF != 0) == leaf)
+                .count()
+        };
+        TreeStats {
+            nodes: self.nodes.len(),
+            leaves: refs(true),
+            packs: self.packs.len(),
+            triangles: self
+                .ids
+                .iter()
+                .flatten()
+                .filter(|&&i| i != u32::MAX)
+                .count(),
+            depth: self.depth,
+        }
     }
 
     /// Whether the ray hits any triangle for `t ∈ (tmin, tmax)`.
@@ -1092,8 +1184,8 @@ mod tests {
     }
 
     /// A tree too deep for the fixed stack slots: a binary "caterpillar" (every inner node has
-    /// one leaf and one inner child), which the collapse turns into one wide level per 7
-    /// binary ones. The heap-backed stack gives the same answers as the scan, one ray and fans.
+    /// one leaf and one inner child): a wide level takes at most 7 of its binary levels, only
+    /// the last leaf more. The heap-backed stack gives the same answers as the scan, one ray and fans.
     #[test]
     fn deep_trees_use_the_heap_stack() {
         use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
@@ -1128,7 +1220,7 @@ mod tests {
             ..Bvh2::default()
         };
         let w = WideBvh::from_bvh2(&bvh2, &t);
-        let depth = w.stats().2;
+        let depth = w.stats().depth;
         println!("chain of {n} triangles: wide depth {depth}");
         assert!(
             depth * (WIDTH - 1) + 1 > FIXED_SLOTS,
@@ -1277,6 +1369,107 @@ mod tests {
             assert!(
                 !w.occluded(l, &ray) && w.closest(l, &ray).is_none(),
                 "{l:?}"
+            );
+        }
+    }
+
+    /// The collapse against exhaustive search, on binary trees of 20–60 triangles: the least
+    /// cost over every wide tree the binary one can be collapsed into (each wide node's children
+    /// enumerated as every cut of at most 8 nodes below it, every child a leaf where allowed or
+    /// a wide node) equals the planned cost, and the tree actually emitted, costed from its own
+    /// (refitted) boxes, costs the same.
+    #[test]
+    fn collapse_is_optimal_under_its_cost_model() {
+        fn cuts(b: &Builder, n: usize) -> Vec<Vec<usize>> {
+            let node = &b.bvh2.nodes[n];
+            let mut all = vec![vec![n]];
+            if !node.is_leaf() {
+                let l = node.first_index as usize;
+                for a in cuts(b, l) {
+                    for c in cuts(b, l + 1) {
+                        if a.len() + c.len() <= WIDTH {
+                            all.push([a.clone(), c].concat());
+                        }
+                    }
+                }
+            }
+            all
+        }
+        fn best(b: &Builder, n: usize, memo: &mut Vec<Option<f64>>) -> f64 {
+            if let Some(c) = memo[n] {
+                return c;
+            }
+            let node = &b.bvh2.nodes[n];
+            let area = node.aabb().half_area() as f64;
+            let count = b.counts[n];
+            let leaf = if node.is_leaf() || count <= LEAF_MAX {
+                area * COST_PACK as f64 * count.div_ceil(PACK as u32) as f64
+            } else {
+                f64::INFINITY
+            };
+            let mut inner = f64::INFINITY;
+            if !node.is_leaf() {
+                let l = node.first_index as usize;
+                for a in cuts(b, l) {
+                    for c in cuts(b, l + 1) {
+                        if a.len() + c.len() <= WIDTH {
+                            let kids: f64 = a.iter().chain(&c).map(|&k| best(b, k, memo)).sum();
+                            inner = inner.min(area * COST_NODE as f64 + kids);
+                        }
+                    }
+                }
+            }
+            let c = leaf.min(inner);
+            memo[n] = Some(c);
+            c
+        }
+        /// The cost of the emitted subtree under wide node `n`, whose own box has `area`.
+        fn emitted(w: &WideBvh, n: usize, area: f64) -> f64 {
+            let node = &w.nodes[n];
+            let mut c = area * COST_NODE as f64;
+            for j in (0..WIDTH).filter(|&j| node.child[j] != EMPTY) {
+                let e = [0, 1, 2].map(|a| (node.b[a + 3][j] - node.b[a][j] - 2.0 * BOX_PAD) as f64);
+                let a = e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+                let r = node.child[j];
+                c += if r & LEAF != 0 {
+                    a * COST_PACK as f64 * leaf_range(r).1 as f64
+                } else {
+                    emitted(w, r as usize, a)
+                };
+            }
+            c
+        }
+        let mut rng = Rng(7);
+        let mut dur = core::time::Duration::default();
+        for n in [20, 33, 47, 60] {
+            let t = tris(n, &mut rng);
+            let params = BvhBuildParams {
+                max_prims_per_leaf: 1,
+                ..BvhBuildParams::fast_build()
+            };
+            let bvh2 = build_bvh2_from_tris(&t, params, &mut dur);
+            let mut b = Builder::new(&bvh2, &t);
+            b.plan(0);
+            let planned = b.cost[0][0] as f64;
+            let searched = best(&b, 0, &mut vec![None; bvh2.nodes.len()]);
+            let w = WideBvh::from_bvh2(&bvh2, &t);
+            let root = bvh2.nodes[0].aabb().half_area() as f64;
+            let built = emitted(&w, 0, root);
+            println!(
+                "{n} triangles: planned {planned:.6}, exhaustive {searched:.6}, emitted {built:.6} ({} nodes, {} packs)",
+                w.nodes.len(),
+                w.packs.len()
+            );
+            // f32 sums in the plan, f64 here; the emitted boxes are f32 refits of the same
+            // triangles.
+            let tol = 1e-4 * searched;
+            assert!(
+                (planned - searched).abs() <= tol,
+                "plan {planned} vs search {searched}"
+            );
+            assert!(
+                (built - searched).abs() <= tol,
+                "emitted {built} vs search {searched}"
             );
         }
     }

@@ -285,11 +285,37 @@ pub struct RayBench {
     pub hits: usize,
     /// Disagreements with the expected answers of a peers' file (absent without one).
     pub mismatches: Option<usize>,
+    /// The shape of the 8-wide tree traversed.
+    pub tree: Tree,
     pub threads: usize,
     pub simd: String,
     pub median_seconds: f64,
     pub rays_per_second: f64,
     pub timing: Timing,
+}
+
+/// The shape of the 8-wide tree: `slots_used` is the mean number of occupied child slots
+/// per node (of 8), `pack_fill` the mean number of triangles per pack (of 4).
+#[derive(Clone, Debug, Serialize)]
+pub struct Tree {
+    pub nodes: usize,
+    pub packs: usize,
+    pub depth: usize,
+    pub slots_used: f64,
+    pub pack_fill: f64,
+}
+
+impl Tree {
+    fn of(bvh: &MeshBvh) -> Self {
+        let s = bvh.tree_stats();
+        Tree {
+            nodes: s.nodes,
+            packs: s.packs,
+            depth: s.depth,
+            slots_used: (s.nodes - 1 + s.leaves) as f64 / s.nodes as f64,
+            pack_fill: s.triangles as f64 / s.packs.max(1) as f64,
+        }
+    }
 }
 
 /// `bench rays`: occlusion throughput of [`MeshBvh`] on `set`.
@@ -318,6 +344,7 @@ pub fn bench_rays(
         rays: set.len(),
         hits,
         mismatches,
+        tree: Tree::of(&bvh),
         threads,
         simd: bvh.level().name().into(),
         median_seconds: timing.median_seconds,
@@ -355,6 +382,7 @@ pub fn bench_bsv(
         rays: bsv.rays,
         hits: 0,
         mismatches: None,
+        tree: Tree::of(&bvh),
         threads,
         simd: bvh.level().name().into(),
         median_seconds: timing.median_seconds,
