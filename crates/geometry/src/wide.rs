@@ -163,6 +163,10 @@ struct Builder<'a> {
     /// child, `k > 0` = `k` slots for its left subtree and `i − k` for its right.
     cost: Vec<[f32; WIDTH]>,
     split: Vec<[u8; WIDTH]>,
+    /// For a node that becomes a wide node: its left subtree's share of the 8 slots.
+    wide_split: Vec<u8>,
+    /// Scratch for a leaf's triangle indices.
+    prims: Vec<u32>,
     /// Whether the node, as one child, is a leaf (else a wide node of its own).
     as_leaf: Vec<bool>,
     out: WideBvh,
@@ -177,6 +181,8 @@ impl<'a> Builder<'a> {
             counts: vec![0; n],
             cost: vec![[0.0; WIDTH]; n],
             split: vec![[0; WIDTH]; n],
+            wide_split: vec![0; n],
+            prims: Vec::new(),
             as_leaf: vec![false; n],
             out: WideBvh {
                 nodes: Vec::new(),
@@ -206,38 +212,48 @@ impl<'a> Builder<'a> {
         self.plan(r);
         let c = self.counts[l] + self.counts[r];
         self.counts[n] = c;
-        let spread = |me: &Self, i: usize| {
-            (1..i)
-                .map(|k| (me.cost[l][k - 1] + me.cost[r][i - k - 1], k as u8))
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .expect("i ≥ 2")
-        };
+        // spread[i]: the least cost of `i` slots shared by both subtrees (each taking ≥ 1),
+        // the left one's share in `share[i]` (the first of equal costs).
+        let (cl, cr) = (self.cost[l], self.cost[r]);
+        let mut spread = [f32::INFINITY; WIDTH + 1];
+        let mut share = [0u8; WIDTH + 1];
+        for a in 1..WIDTH {
+            for b in 1..=WIDTH - a {
+                let cost = cl[a - 1] + cr[b - 1];
+                if cost < spread[a + b] {
+                    spread[a + b] = cost;
+                    share[a + b] = a as u8;
+                }
+            }
+        }
         let leaf = if c <= LEAF_MAX || c as usize <= LEAF_TRIS {
             area * COST_PACK * packs(c)
         } else {
             f32::INFINITY
         };
-        let inner = area * COST_NODE + spread(self, WIDTH).0;
+        let inner = area * COST_NODE + spread[WIDTH];
         self.as_leaf[n] = leaf <= inner;
-        self.cost[n][0] = leaf.min(inner);
-        self.split[n][0] = 0;
+        self.wide_split[n] = share[WIDTH];
+        let (cost, split) = (&mut self.cost[n], &mut self.split[n]);
+        cost[0] = leaf.min(inner);
+        split[0] = 0;
         for i in 2..=WIDTH {
-            let (c, k) = spread(self, i);
-            if c < self.cost[n][i - 2] {
-                self.cost[n][i - 1] = c;
-                self.split[n][i - 1] = k;
+            if spread[i] < cost[i - 2] {
+                cost[i - 1] = spread[i];
+                split[i - 1] = share[i];
             } else {
-                self.cost[n][i - 1] = self.cost[n][i - 2];
-                self.split[n][i - 1] = self.split[n][i - 2];
+                cost[i - 1] = cost[i - 2];
+                split[i - 1] = split[i - 2];
             }
         }
     }
 
     /// The children of a wide node for binary node `n` spread over at most `i` slots.
-    fn children(&self, n: usize, i: usize, into: &mut Vec<usize>) {
+    fn children(&self, n: usize, i: usize, into: &mut ([usize; WIDTH], usize)) {
         let k = self.split[n][i - 1] as usize;
         if k == 0 {
-            into.push(n);
+            into.0[into.1] = n;
+            into.1 += 1;
         } else {
             let l = self.bvh2.nodes[n].first_index as usize;
             self.children(l, k, into);
@@ -259,7 +275,8 @@ impl<'a> Builder<'a> {
 
     /// A leaf reference for the triangles under binary node `n`.
     fn leaf(&mut self, n: usize) -> u32 {
-        let mut prims = Vec::new();
+        let mut prims = std::mem::take(&mut self.prims);
+        prims.clear();
         self.gather(n, &mut prims);
         let first = self.out.packs.len();
         for chunk in prims.chunks(PACK) {
@@ -268,6 +285,7 @@ impl<'a> Builder<'a> {
             self.out.packs.push(pack_of(self.tris, &ids));
             self.out.ids.push(ids);
         }
+        self.prims = prims;
         let count = self.out.packs.len() - first;
         debug_assert!((1..=MAX_LEAF_PACKS).contains(&count) && first < FIRST_MASK as usize);
         LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32
@@ -277,18 +295,13 @@ impl<'a> Builder<'a> {
     fn inner(&mut self, n: usize, level: usize) -> u32 {
         self.out.depth = self.out.depth.max(level);
         let l = self.bvh2.nodes[n].first_index as usize;
-        let k = (1..WIDTH)
-            .min_by(|&a, &b| {
-                let c = |k: usize| self.cost[l][k - 1] + self.cost[l + 1][WIDTH - k - 1];
-                c(a).total_cmp(&c(b))
-            })
-            .expect("WIDTH ≥ 2");
-        let mut kids = Vec::with_capacity(WIDTH);
+        let k = self.wide_split[n] as usize;
+        let mut kids = ([0usize; WIDTH], 0);
         self.children(l, k, &mut kids);
         self.children(l + 1, WIDTH - k, &mut kids);
         let me = self.out.nodes.len();
         self.out.nodes.push(Node::empty());
-        for (j, &k) in kids.iter().enumerate() {
+        for (j, &k) in kids.0[..kids.1].iter().enumerate() {
             let r = if self.as_leaf[k] {
                 self.leaf(k)
             } else {
