@@ -813,11 +813,24 @@ mod order4 {
         #[repr(C, align(64))]
         struct Stage([f64; 64], [u8; 4096]);
         let mut stage = std::mem::MaybeUninit::<Stage>::uninit();
+        let mut half = HalfShift::new(store, out.as_ptr() as *const u8);
         for (d, o) in dirs.chunks_exact(4).zip(out.chunks_exact_mut(64)) {
             let x = _mm256_set_pd(d[3][0], d[2][0], d[1][0], d[0][0]);
             let y = _mm256_set_pd(d[3][1], d[2][1], d[1][1], d[0][1]);
             let z = _mm256_set_pd(d[3][2], d[2][2], d[1][2], d[0][2]);
             let v = values::<__m256d>(&k, x, y, z);
+            if let Some(h) = half.as_mut() {
+                // The batch's 16 vectors in address order, then streamed half a vector on.
+                let mut w = [_mm256_setzero_si256(); 16];
+                for b in 0..4 {
+                    let c = transpose4_pd([v[4 * b], v[4 * b + 1], v[4 * b + 2], v[4 * b + 3]]);
+                    for (j, c) in c.into_iter().enumerate() {
+                        w[4 * j + b] = _mm256_castpd_si256(c);
+                    }
+                }
+                h.put(&w, o.as_mut_ptr() as *mut u8);
+                continue;
+            }
             let sp = ahead_of::<f64>(stage.as_mut_ptr() as *mut u8, o.as_ptr());
             let dst = if store == Store::Stream {
                 sp
@@ -834,6 +847,9 @@ mod order4 {
                 stream_copy(sp, o.as_mut_ptr(), 64);
             }
         }
+        if let Some(h) = half {
+            h.finish(out.as_mut_ptr().add(out.len()) as *mut u8);
+        }
     }
 
     /// Order 4 in f32, 8 directions per batch; `dirs.len()` a multiple of 8.
@@ -849,6 +865,7 @@ mod order4 {
         #[repr(C, align(64))]
         struct Stage([f32; 128], [u8; 4096]);
         let mut stage = std::mem::MaybeUninit::<Stage>::uninit();
+        let mut half = HalfShift::new(store, out.as_ptr() as *const u8);
         for (d, o) in dirs.chunks_exact(8).zip(out.chunks_exact_mut(128)) {
             let lane = |a: usize| {
                 _mm256_set_ps(
@@ -856,6 +873,17 @@ mod order4 {
                 )
             };
             let v = values::<__m256>(&k, lane(0), lane(1), lane(2));
+            if let Some(h) = half.as_mut() {
+                let mut w = [_mm256_setzero_si256(); 16];
+                for b in 0..2 {
+                    let c = transpose8_ps(std::array::from_fn(|k| v[8 * b + k]));
+                    for (j, c) in c.into_iter().enumerate() {
+                        w[2 * j + b] = _mm256_castps_si256(c);
+                    }
+                }
+                h.put(&w, o.as_mut_ptr() as *mut u8);
+                continue;
+            }
             let sp = ahead_of::<f32>(stage.as_mut_ptr() as *mut u8, o.as_ptr());
             let dst = if store == Store::Stream {
                 sp
@@ -870,6 +898,63 @@ mod order4 {
             }
             if store == Store::Stream {
                 stream_copy(sp, o.as_mut_ptr(), 128);
+            }
+        }
+        if let Some(h) = half {
+            h.finish(out.as_mut_ptr().add(out.len()) as *mut u8);
+        }
+    }
+
+    /// Streaming to an output that starts 16 B past a 32-B boundary — where a large `Vec` from
+    /// the system allocator starts (16 B past a page): each batch's 16 vectors, in address
+    /// order, are streamed shifted by half a vector (the upper half of one and the lower half of
+    /// the next, one lane permute), so every non-temporal store but the output's first and last
+    /// 16 B is a whole aligned vector, with no staging copy. The staging copy had written each
+    /// batch's unaligned ends value by value. `None` for other placements and for `Store::Vector`.
+    pub(super) struct HalfShift {
+        prev: __m256i,
+        started: bool,
+    }
+
+    impl HalfShift {
+        pub(super) fn new(store: Store, out: *const u8) -> Option<Self> {
+            (store == Store::Stream && out as usize % 32 == 16).then(|| Self {
+                // SAFETY: all-zero bits are a valid `__m256i` (it is only read after `put`
+                // has set it).
+                prev: unsafe { std::mem::zeroed() },
+                started: false,
+            })
+        }
+
+        /// One batch: `w` are its 32-B vectors in address order, `o` (16 B past a 32-B
+        /// boundary) where the first belongs; the batches come in address order, back to back.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) unsafe fn put(&mut self, w: &[__m256i; 16], o: *mut u8) {
+            let mut from = 0;
+            if !self.started {
+                // The output's first 16 B (aligned to 16).
+                _mm_stream_si128(o as *mut __m128i, _mm256_castsi256_si128(w[0]));
+                self.prev = w[0];
+                self.started = true;
+                from = 1;
+            }
+            for (i, &v) in w.iter().enumerate().skip(from) {
+                let joined = _mm256_permute2x128_si256::<0x21>(self.prev, v);
+                _mm256_stream_si256(o.add(32 * i - 16) as *mut __m256i, joined);
+                self.prev = v;
+            }
+        }
+
+        /// The last 16 B, before `end` (the end of the batches' output).
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) unsafe fn finish(self, end: *mut u8) {
+            if self.started {
+                _mm_stream_si128(
+                    end.sub(16) as *mut __m128i,
+                    _mm256_extracti128_si256::<1>(self.prev),
+                );
             }
         }
     }
