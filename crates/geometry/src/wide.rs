@@ -2,7 +2,8 @@
 //! SIMD box test per node (8 children at once) and one SIMD triangle test per pack (8 at once).
 //! Packs of 8 (one AVX2 vector per coordinate) replaced packs of 4 on 2026-12-02: fewer, fuller
 //! leaves (dragon_19k: 3,958 packs of 4.7 triangles against 7,011 of 2.7) for the same
-//! instructions per test; +3–9 % rays per second on the kit's workloads in alternating runs.
+//! instructions per test; +8 % rays per second on the kit's four workloads (median of 12
+//! alternating rounds, −2 to +18 %; docs/BENCHMARKS.md).
 //!
 //! The tree comes from obvhs (a binary PLOC build with one triangle per leaf,
 //! `BvhBuildParams::fast_build` in `MeshBvh::build`), collapsed here by the optimal
