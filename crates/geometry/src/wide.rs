@@ -78,8 +78,8 @@ impl Node {
     }
 }
 
-/// Four triangles as `v0`, `e1 = v1 − v0`, `e2 = v2 − v0`, lane-major (padding lanes are zero:
-/// their determinant is 0 and they never hit).
+/// Up to [`PACK`] triangles as `v0`, `e1 = v1 − v0`, `e2 = v2 − v0`, lane-major (padding lanes
+/// are zero: their determinant is 0 and they never hit).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 struct Pack {
@@ -429,7 +429,7 @@ impl WideBvh {
         }
     }
 
-    /// Nodes, packs and tree depth (for reports and tests).
+    /// The tree's shape (for reports and tests).
     pub fn stats(&self) -> TreeStats {
         let refs = |leaf: bool| {
             self.nodes
@@ -1089,8 +1089,8 @@ unsafe fn tri_lanes(
     _mm256_movemask_ps(ok) as u32
 }
 
-/// Möller–Trumbore on the pack's triangles, decided without a division: with `det = e1 · (d × e2)`, the
-/// barycentric `u = s · p / det`, `v = d · q / det` and the distance `t = e2 · q / det` are
+/// Möller–Trumbore on the pack's triangles, decided without a division: with
+/// `det = e1 · (d × e2)`, the barycentric `u = s · p / det`, `v = d · q / det` and the distance `t = e2 · q / det` are
 /// tested as their numerators with `det`'s sign moved onto them (`u·sgn ≥ 0`, `v·sgn ≥ 0`,
 /// `(u + v)·sgn ≤ |det|`, `tmin·|det| < t·sgn < tmax·|det|`); the one division, `t`, is made
 /// for accepted lanes only. Edges count as hits. `ANY`: the first accepted lane `(t, lane)`;

@@ -295,7 +295,8 @@ pub struct RayBench {
 }
 
 /// The shape of the 8-wide tree: `slots_used` is the mean number of occupied child slots
-/// per node (of 8), `pack_fill` the mean number of triangles per pack (of 4).
+/// per node (of 8), `pack_fill` the mean number of triangles per pack (of
+/// `shscale_geometry::wide::PACK`, 8).
 #[derive(Clone, Debug, Serialize)]
 pub struct Tree {
     pub nodes: usize,

@@ -928,6 +928,11 @@ mod order4 {
 
         /// One batch: `w` are its 32-B vectors in address order, `o` (16 B past a 32-B
         /// boundary) where the first belongs; the batches come in address order, back to back.
+        /// Writes `o − 16 .. o + 496` (`o .. o + 496` for the first batch); the batch's last
+        /// 16 B wait for the next batch or [`HalfShift::finish`].
+        ///
+        /// # Safety
+        /// AVX2 is available, and the 512 B at `o` belong to the output this was made for.
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) unsafe fn put(&mut self, w: &[__m256i; 16], o: *mut u8) {
@@ -947,6 +952,9 @@ mod order4 {
         }
 
         /// The last 16 B, before `end` (the end of the batches' output).
+        ///
+        /// # Safety
+        /// AVX2 is available, and `end` is the end of the output given to every `put`.
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) unsafe fn finish(self, end: *mut u8) {
