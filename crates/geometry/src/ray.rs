@@ -37,6 +37,27 @@ pub const RAY_EPS: f64 = 1e-4;
 /// its precision (see the module documentation); commands refuse points beyond it.
 pub const MAX_QUERY_DISTANCE: f64 = 1e12;
 
+/// A fan traced ray by ray through [`Occluder::occluded`], each direction turned into f64 by
+/// `f64_dir`: the default fan queries, and the mesh BVH's for origins its fan kernel does not
+/// take.
+fn fan_ray_by_ray<O: Occluder + ?Sized, D: Copy>(
+    occ: &O,
+    o: DVec3,
+    dirs: &[D],
+    f64_dir: impl Fn(D) -> DVec3,
+    tmin: f64,
+    hit: &mut [bool],
+) {
+    for (&d, h) in dirs.iter().zip(hit.iter_mut()) {
+        *h = occ.occluded(o, f64_dir(d), tmin, f64::INFINITY);
+    }
+}
+
+/// An f32 direction in f64 (exact).
+fn widen(d: [f32; 3]) -> DVec3 {
+    DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64)
+}
+
 /// An entity's surface as seen by rays.
 pub trait Occluder: Send + Sync {
     /// Whether the ray `o + t d` (`d` unit) hits the surface for some `t ∈ (tmin, tmax)`.
@@ -44,18 +65,13 @@ pub trait Occluder: Send + Sync {
     /// [`Occluder::occluded`] for many rays from one origin, `t ∈ (tmin, ∞)`: `hit[i]` for
     /// `dirs[i]` (the BSV workload; implementations may share work between the rays).
     fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
-        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
-            *h = self.occluded(o, *d, tmin, f64::INFINITY);
-        }
+        fan_ray_by_ray(self, o, dirs, |d| d, tmin, hit);
     }
     /// [`Occluder::occluded_fan`] with the directions given in f32 (unit vectors), the
     /// precision the mesh BVH traces in: no conversion pass over the fan. By default each
     /// direction is widened to f64 and traced by [`Occluder::occluded`].
     fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
-        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
-            let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
-            *h = self.occluded(o, d, tmin, f64::INFINITY);
-        }
+        fan_ray_by_ray(self, o, dirs, widen, tmin, hit);
     }
     /// Whether [`Occluder::occluded_fan_f32`] is this occluder's native fan query (it traces in
     /// f32, so callers that can produce f32 directions directly should): `false` by default.
@@ -344,10 +360,7 @@ impl Occluder for MeshBvh {
 
     fn occluded_fan(&self, o: DVec3, dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
         let Some(ou) = self.fan_origin(o, tmin) else {
-            for (d, h) in dirs.iter().zip(hit.iter_mut()) {
-                *h = self.occluded(o, *d, tmin, f64::INFINITY);
-            }
-            return;
+            return fan_ray_by_ray(self, o, dirs, |d| d, tmin, hit);
         };
         thread_local! {
             static DIRS: std::cell::RefCell<Vec<[f32; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
@@ -365,11 +378,7 @@ impl Occluder for MeshBvh {
 
     fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
         let Some(ou) = self.fan_origin(o, tmin) else {
-            for (d, h) in dirs.iter().zip(hit.iter_mut()) {
-                let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
-                *h = self.occluded(o, d, tmin, f64::INFINITY);
-            }
-            return;
+            return fan_ray_by_ray(self, o, dirs, widen, tmin, hit);
         };
         self.fan_unit(ou, dirs, tmin, hit);
     }

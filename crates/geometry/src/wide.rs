@@ -40,7 +40,6 @@ pub const SLAB_SLACK: f32 = 1e-6;
 pub const TINY_DIR: f32 = 1e-20;
 
 const LEAF: u32 = 1 << 31;
-const LEAF_TRIS: usize = PACK;
 const EMPTY: u32 = u32::MAX;
 const COUNT_SHIFT: u32 = 24;
 /// The most packs one leaf child refers to.
@@ -232,7 +231,7 @@ impl<'a> Builder<'a> {
                 }
             }
         }
-        let leaf = if c <= LEAF_MAX || c as usize <= LEAF_TRIS {
+        let leaf = if c <= LEAF_MAX {
             area * COST_PACK * packs(c)
         } else {
             f32::INFINITY
@@ -431,16 +430,14 @@ impl WideBvh {
 
     /// The tree's shape (for reports and tests).
     pub fn stats(&self) -> TreeStats {
-        let refs = |leaf: bool| {
-            self.nodes
-                .iter()
-                .flat_map(|n| n.child)
-                .filter(|&c| c != EMPTY && (c & LEAF != 0) == leaf)
-                .count()
-        };
         TreeStats {
             nodes: self.nodes.len(),
-            leaves: refs(true),
+            leaves: self
+                .nodes
+                .iter()
+                .flat_map(|n| n.child)
+                .filter(|&c| c != EMPTY && c & LEAF != 0)
+                .count(),
             packs: self.packs.len(),
             triangles: self
                 .ids
@@ -1090,10 +1087,10 @@ unsafe fn tri_lanes(
 }
 
 /// Möller–Trumbore on the pack's triangles, decided without a division: with
-/// `det = e1 · (d × e2)`, the barycentric `u = s · p / det`, `v = d · q / det` and the distance `t = e2 · q / det` are
-/// tested as their numerators with `det`'s sign moved onto them (`u·sgn ≥ 0`, `v·sgn ≥ 0`,
-/// `(u + v)·sgn ≤ |det|`, `tmin·|det| < t·sgn < tmax·|det|`); the one division, `t`, is made
-/// for accepted lanes only. Edges count as hits. `ANY`: the first accepted lane `(t, lane)`;
+/// `det = e1 · (d × e2)`, the barycentric `u = s · p / det`, `v = d · q / det` and the distance
+/// `t = e2 · q / det` are tested as their numerators with `det`'s sign moved onto them
+/// (`u·sgn ≥ 0`, `v·sgn ≥ 0`, `(u + v)·sgn ≤ |det|`, `tmin·|det| < t·sgn < tmax·|det|`); the
+/// one division, `t`, is made for accepted lanes only. Edges count as hits. `ANY`: the first accepted lane `(t, lane)`;
 /// otherwise the nearest accepted lane with `t < tmax`; lane = PACK when none.
 #[inline(always)]
 fn pack_hit<const ANY: bool>(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
