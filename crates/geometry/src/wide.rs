@@ -559,33 +559,38 @@ impl WideBvh {
     /// the nearest); `F`: fused multiply-adds in the box test.
     #[inline(always)]
     fn traverse<const ANY: bool, const F: bool>(&self, ray: &WideRay) -> Option<(f32, u32)> {
-        self.traverse_from::<ANY, F>(ray, 0)
-    }
-
-    /// [`WideBvh::traverse`] of the subtree under node `start`.
-    #[inline(always)]
-    fn traverse_from<const ANY: bool, const F: bool>(
-        &self,
-        ray: &WideRay,
-        start: u32,
-    ) -> Option<(f32, u32)> {
         let pre = Prepared::new(ray);
-        let mut tmax = ray.tmax;
-        let mut best: Option<(f32, u32)> = None;
         let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
         let mut stack = stack_slots(&mut fixed, &mut heap, self.depth * (WIDTH - 1) + 1);
+        self.traverse_prepared::<ANY, F>(ray, &pre, 0, &mut stack)
+    }
+
+    /// [`WideBvh::traverse`] of the subtree under node `start`, with the ray's slab data
+    /// prepared and a stack given (the packet kernel's one-ray traversals share one; it is
+    /// emptied here, since a traversal that ends at a hit leaves entries behind).
+    #[inline(always)]
+    fn traverse_prepared<const ANY: bool, const F: bool>(
+        &self,
+        ray: &WideRay,
+        pre: &Prepared,
+        start: u32,
+        stack: &mut Stack,
+    ) -> Option<(f32, u32)> {
+        stack.len = 0;
+        let mut tmax = ray.tmax;
+        let mut best: Option<(f32, u32)> = None;
         let mut n = start;
         loop {
             let node = &self.nodes[n as usize];
             #[cfg(target_arch = "x86_64")]
             let mut mask = if F {
                 // SAFETY: `F` is true only in the AVX2 + FMA instantiations.
-                unsafe { box_mask_avx2(node, &pre, ray.tmin, tmax) }
+                unsafe { box_mask_avx2(node, pre, ray.tmin, tmax) }
             } else {
-                box_mask::<F>(node, &pre, ray.tmin, tmax)
+                box_mask::<F>(node, pre, ray.tmin, tmax)
             };
             #[cfg(not(target_arch = "x86_64"))]
-            let mut mask = box_mask::<F>(node, &pre, ray.tmin, tmax);
+            let mut mask = box_mask::<F>(node, pre, ray.tmin, tmax);
             // The last inner child entered is visited next without a round trip through the
             // stack; the others are pushed.
             let mut next = EMPTY;
@@ -699,8 +704,6 @@ impl Prepared {
     #[inline(always)]
     fn new(ray: &WideRay) -> Self {
         let mut inv = [0.0f32; 3];
-        let mut near = [0usize; 3];
-        let mut far = [0usize; 3];
         for a in 0..3 {
             let d = ray.d[a];
             // Zero (or denormal-small) components become ±TINY_DIR: no 0·∞ in the test.
@@ -710,16 +713,31 @@ impl Prepared {
                 d
             };
             inv[a] = 1.0 / d;
+        }
+        let oi = [ray.o[0] * inv[0], ray.o[1] * inv[1], ray.o[2] * inv[2]];
+        Self::with(inv, oi)
+    }
+
+    /// Lane `i` of the packet kernel's reciprocals and `o·inv`, which it computes 8 lanes at
+    /// a time with the same operations as [`Prepared::new`] (so the values are identical).
+    #[inline(always)]
+    fn lane(inv: &[[f32; 8]; 3], oi: &[[f32; 8]; 3], i: usize) -> Self {
+        Self::with(
+            [inv[0][i], inv[1][i], inv[2][i]],
+            [oi[0][i], oi[1][i], oi[2][i]],
+        )
+    }
+
+    #[inline(always)]
+    fn with(inv: [f32; 3], oi: [f32; 3]) -> Self {
+        let mut near = [0usize; 3];
+        let mut far = [0usize; 3];
+        for a in 0..3 {
             let neg = usize::from(inv[a] < 0.0);
             near[a] = a + 3 * neg;
             far[a] = a + 3 * (1 - neg);
         }
-        Self {
-            inv,
-            oi: [ray.o[0] * inv[0], ray.o[1] * inv[1], ray.o[2] * inv[2]],
-            near,
-            far,
-        }
+        Self { inv, oi, near, far }
     }
 }
 
@@ -858,6 +876,18 @@ unsafe fn packet_occluded(
     }
     let mut occluded = 0u32;
     let need = w.depth * (WIDTH - 1) + 1;
+    // The lanes' slab data for the one-ray traversals below (the values `Prepared::new` would
+    // make, without its three divisions per ray), and their one shared stack.
+    let (mut linv, mut loi) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
+    for a in 0..3 {
+        _mm256_storeu_ps(linv[a].as_mut_ptr(), inv[a]);
+        _mm256_storeu_ps(
+            loi[a].as_mut_ptr(),
+            _mm256_mul_ps(_mm256_set1_ps(o[a]), inv[a]),
+        );
+    }
+    let (mut fixed_solo, mut heap_solo) = (uninit_slots(), Vec::new());
+    let mut solo = stack_slots(&mut fixed_solo, &mut heap_solo, need);
     let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
     let mut stack = stack_slots(&mut fixed, &mut heap, need);
     let (mut fixed_masks, mut heap_masks) = (uninit_slots(), Vec::new());
@@ -882,7 +912,10 @@ unsafe fn packet_occluded(
                     tmin,
                     tmax,
                 };
-                if w.traverse_from::<true, true>(&ray, node_id).is_some() {
+                let pre = Prepared::lane(&linv, &loi, i);
+                if w.traverse_prepared::<true, true>(&ray, &pre, node_id, &mut solo)
+                    .is_some()
+                {
                     occluded |= 1 << i;
                 }
             }
