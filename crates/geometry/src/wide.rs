@@ -855,37 +855,17 @@ unsafe fn packet_occluded(
             _mm256_loadu_ps(dz.as_ptr()),
         )
     };
-    let recip = |v: __m256| {
-        // |d| < TINY_DIR → ±TINY_DIR (sign kept), then 1/d.
-        let sign = _mm256_and_ps(v, _mm256_set1_ps(-0.0));
-        let small = _mm256_cmp_ps::<_CMP_LT_OQ>(
-            _mm256_andnot_ps(_mm256_set1_ps(-0.0), v),
-            _mm256_set1_ps(TINY_DIR),
-        );
-        let fixed = _mm256_blendv_ps(v, _mm256_or_ps(sign, _mm256_set1_ps(TINY_DIR)), small);
-        _mm256_div_ps(_mm256_set1_ps(1.0), fixed)
-    };
-    let (ix, iy, iz) = (recip(vdx), recip(vdy), recip(vdz));
+    let (inv, linv, loi) = lane_slabs(o, [vdx, vdy, vdz]);
     let (vtmin, vtmax) = (_mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
     // The whole packet against the root's children's boxes together first: a packet that
     // misses them all (a common case: fans see the object from outside) ends after one test.
-    let inv = [ix, iy, iz];
     let root = |a: usize, k: usize| _mm256_mul_ps(_mm256_set1_ps(w.bounds[k][a] - o[a]), inv[a]);
     if lanes_entering!(root, vtmin, vtmax) & valid == 0 {
         return 0;
     }
     let mut occluded = 0u32;
     let need = w.depth * (WIDTH - 1) + 1;
-    // The lanes' slab data for the one-ray traversals below (the values `Prepared::new` would
-    // make, without its three divisions per ray), and their one shared stack.
-    let (mut linv, mut loi) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
-    for a in 0..3 {
-        _mm256_storeu_ps(linv[a].as_mut_ptr(), inv[a]);
-        _mm256_storeu_ps(
-            loi[a].as_mut_ptr(),
-            _mm256_mul_ps(_mm256_set1_ps(o[a]), inv[a]),
-        );
-    }
+    // The one-ray traversals below share one stack.
     let (mut fixed_solo, mut heap_solo) = (uninit_slots(), Vec::new());
     let mut solo = stack_slots(&mut fixed_solo, &mut heap_solo, need);
     let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
@@ -1014,6 +994,41 @@ unsafe fn packet_occluded(
         }
     }
     occluded & valid
+}
+
+/// The packet's slab data: the reciprocals of its 8 directions (`d`, lanes = rays) as vectors,
+/// and per lane the reciprocals and `o·inv` for the one-ray traversals it hands subtrees to —
+/// the values [`Prepared::new`] makes, with the same operations (bit-identical, tested), without
+/// its three divisions per ray.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+#[allow(clippy::type_complexity)]
+unsafe fn lane_slabs(
+    o: [f32; 3],
+    d: [std::arch::x86_64::__m256; 3],
+) -> ([std::arch::x86_64::__m256; 3], [[f32; 8]; 3], [[f32; 8]; 3]) {
+    use std::arch::x86_64::*;
+    let recip = |v: __m256| {
+        // |d| < TINY_DIR → ±TINY_DIR (sign kept), then 1/d.
+        let sign = _mm256_and_ps(v, _mm256_set1_ps(-0.0));
+        let small = _mm256_cmp_ps::<_CMP_LT_OQ>(
+            _mm256_andnot_ps(_mm256_set1_ps(-0.0), v),
+            _mm256_set1_ps(TINY_DIR),
+        );
+        let fixed = _mm256_blendv_ps(v, _mm256_or_ps(sign, _mm256_set1_ps(TINY_DIR)), small);
+        _mm256_div_ps(_mm256_set1_ps(1.0), fixed)
+    };
+    let inv = [recip(d[0]), recip(d[1]), recip(d[2])];
+    let (mut linv, mut loi) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
+    for a in 0..3 {
+        _mm256_storeu_ps(linv[a].as_mut_ptr(), inv[a]);
+        _mm256_storeu_ps(
+            loi[a].as_mut_ptr(),
+            _mm256_mul_ps(_mm256_set1_ps(o[a]), inv[a]),
+        );
+    }
+    (inv, linv, loi)
 }
 
 /// Eight `[x, y, z]` directions (AoS, 96 bytes) as x, y and z vectors (lane i = `dirs[i]`):
@@ -1651,6 +1666,71 @@ mod tests {
             );
             assert!(n < 1000 || hits * 5 > rays, "too few hits to test anything");
         }
+    }
+
+    /// The packet's per-lane slab data equals `Prepared::new`'s bit for bit, for directions
+    /// with zero, signed-zero, denormal, tiny and ordinary components.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn packet_lane_slabs_equal_the_one_ray_ones() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            eprintln!("notice: no AVX2 + FMA here; the packet kernel is not used");
+            return;
+        }
+        use std::arch::x86_64::*;
+        let special = [
+            0.0f32,
+            -0.0,
+            1e-40,
+            -1e-40,
+            TINY_DIR * 0.5,
+            -TINY_DIR,
+            TINY_DIR,
+            1e-19,
+            -0.3,
+            0.7,
+            1.0,
+            -1.0,
+        ];
+        let mut rng = Rng(7);
+        let o = [0.31f32, -1.7, 2.9];
+        let mut checked = 0;
+        for round in 0..64 {
+            let mut dirs = [[0f32; 3]; 8];
+            for (i, d) in dirs.iter_mut().enumerate() {
+                for (a, c) in d.iter_mut().enumerate() {
+                    let k = (round * 24 + i * 3 + a) % (special.len() + 4);
+                    *c = if k < special.len() {
+                        special[k]
+                    } else {
+                        rng.f() * 2.0 - 1.0
+                    };
+                }
+            }
+            let col = |a: usize| {
+                let v: [f32; 8] = std::array::from_fn(|i| dirs[i][a]);
+                // SAFETY: AVX2 was detected above; `v` holds 8 floats.
+                unsafe { _mm256_loadu_ps(v.as_ptr()) }
+            };
+            // SAFETY: AVX2 + FMA were detected above.
+            let (_, linv, loi) = unsafe { lane_slabs(o, [col(0), col(1), col(2)]) };
+            for (i, d) in dirs.iter().enumerate() {
+                let pre = Prepared::new(&WideRay {
+                    o,
+                    d: *d,
+                    tmin: 0.0,
+                    tmax: f32::MAX,
+                });
+                let lane = Prepared::lane(&linv, &loi, i);
+                for a in 0..3 {
+                    assert_eq!(pre.inv[a].to_bits(), lane.inv[a].to_bits(), "inv {d:?}");
+                    assert_eq!(pre.oi[a].to_bits(), lane.oi[a].to_bits(), "o·inv {d:?}");
+                }
+                assert_eq!((pre.near, pre.far), (lane.near, lane.far), "rows {d:?}");
+                checked += 1;
+            }
+        }
+        eprintln!("{checked} directions: packet lane slabs equal Prepared::new bit for bit");
     }
 
     /// A finite `tmax` stops the search; `tmin` skips the nearer hit.
