@@ -720,6 +720,7 @@ impl Prepared {
 
     /// Lane `i` of the packet kernel's reciprocals and `o·inv`, which it computes 8 lanes at
     /// a time with the same operations as [`Prepared::new`] (so the values are identical).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn lane(inv: &[[f32; 8]; 3], oi: &[[f32; 8]; 3], i: usize) -> Self {
         Self::with(
