@@ -555,13 +555,19 @@ impl WideBvh {
         self.traverse::<false, true>(ray)
     }
 
+    /// The most entries a traversal stack holds: at each of the tree's levels at most 7 of a
+    /// node's 8 children are pushed (the eighth is visited next), plus one.
+    fn stack_need(&self) -> usize {
+        self.depth * (WIDTH - 1) + 1
+    }
+
     /// Stack traversal; `ANY`: stop at the first hit (the returned hit is then some hit, not
     /// the nearest); `F`: fused multiply-adds in the box test.
     #[inline(always)]
     fn traverse<const ANY: bool, const F: bool>(&self, ray: &WideRay) -> Option<(f32, u32)> {
         let pre = Prepared::new(ray);
         let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
-        let mut stack = stack_slots(&mut fixed, &mut heap, self.depth * (WIDTH - 1) + 1);
+        let mut stack = stack_slots(&mut fixed, &mut heap, self.stack_need());
         self.traverse_prepared::<ANY, F>(ray, &pre, 0, &mut stack)
     }
 
@@ -865,7 +871,7 @@ unsafe fn packet_occluded(
         return 0;
     }
     let mut occluded = 0u32;
-    let need = w.depth * (WIDTH - 1) + 1;
+    let need = w.stack_need();
     // The one-ray traversals below share one stack.
     let (mut fixed_solo, mut heap_solo) = (uninit_slots(), Vec::new());
     let mut solo = stack_slots(&mut fixed_solo, &mut heap_solo, need);
@@ -1139,8 +1145,9 @@ unsafe fn tri_lanes(
 /// `det = e1 · (d × e2)`, the barycentric `u = s · p / det`, `v = d · q / det` and the distance
 /// `t = e2 · q / det` are tested as their numerators with `det`'s sign moved onto them
 /// (`u·sgn ≥ 0`, `v·sgn ≥ 0`, `(u + v)·sgn ≤ |det|`, `tmin·|det| < t·sgn < tmax·|det|`); the
-/// one division, `t`, is made for accepted lanes only. Edges count as hits. `ANY`: the first accepted lane `(t, lane)`;
-/// otherwise the nearest accepted lane with `t < tmax`; lane = PACK when none.
+/// one division, `t`, is made for accepted lanes only. Edges count as hits. `ANY`: the first
+/// accepted lane `(t, lane)`; otherwise the nearest accepted lane with `t < tmax`; lane = PACK
+/// when none.
 #[inline(always)]
 fn pack_hit<const ANY: bool>(p: &Pack, ray: &WideRay, tmax: f32) -> (f32, usize) {
     let [dx, dy, dz] = ray.d;
@@ -1254,7 +1261,8 @@ mod tests {
 
     /// A tree too deep for the fixed stack slots: a binary "caterpillar" (every inner node has
     /// one leaf and one inner child): a wide level takes at most 7 of its binary levels, only
-    /// the last leaf more. The heap-backed stack gives the same answers as the scan, one ray and fans.
+    /// the last leaf more. The heap-backed stack gives the same answers as the scan, one ray
+    /// and fans.
     #[test]
     fn deep_trees_use_the_heap_stack() {
         use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
@@ -1292,7 +1300,7 @@ mod tests {
         let depth = w.stats().depth;
         println!("chain of {n} triangles: wide depth {depth}");
         assert!(
-            depth * (WIDTH - 1) + 1 > FIXED_SLOTS,
+            w.stack_need() > FIXED_SLOTS,
             "depth {depth}: not deep enough"
         );
         let mut levels = vec![Level::Portable];

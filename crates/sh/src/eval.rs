@@ -912,18 +912,14 @@ mod order4 {
     /// 16 B is a whole aligned vector, with no staging copy. The staging copy had written each
     /// batch's unaligned ends value by value. `None` for other placements and for `Store::Vector`.
     pub(super) struct HalfShift {
-        prev: __m256i,
-        started: bool,
+        /// The last vector of the previous batch, whose upper half is not yet written (`None`
+        /// before the first batch).
+        prev: Option<__m256i>,
     }
 
     impl HalfShift {
         pub(super) fn new(store: Store, out: *const u8) -> Option<Self> {
-            (store == Store::Stream && out as usize % 32 == 16).then(|| Self {
-                // SAFETY: all-zero bits are a valid `__m256i` (it is only read after `put`
-                // has set it).
-                prev: unsafe { std::mem::zeroed() },
-                started: false,
-            })
+            (store == Store::Stream && out as usize % 32 == 16).then_some(Self { prev: None })
         }
 
         /// One batch: `w` are its 32-B vectors in address order, `o` (16 B past a 32-B
@@ -936,19 +932,20 @@ mod order4 {
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) unsafe fn put(&mut self, w: &[__m256i; 16], o: *mut u8) {
-            let mut from = 0;
-            if !self.started {
-                // The output's first 16 B (aligned to 16).
-                _mm_stream_si128(o as *mut __m128i, _mm256_castsi256_si128(w[0]));
-                self.prev = w[0];
-                self.started = true;
-                from = 1;
-            }
+            let (mut prev, from) = match self.prev {
+                Some(p) => (p, 0),
+                None => {
+                    // The output's first 16 B (aligned to 16).
+                    _mm_stream_si128(o as *mut __m128i, _mm256_castsi256_si128(w[0]));
+                    (w[0], 1)
+                }
+            };
             for (i, &v) in w.iter().enumerate().skip(from) {
-                let joined = _mm256_permute2x128_si256::<0x21>(self.prev, v);
+                let joined = _mm256_permute2x128_si256::<0x21>(prev, v);
                 _mm256_stream_si256(o.add(32 * i - 16) as *mut __m256i, joined);
-                self.prev = v;
+                prev = v;
             }
+            self.prev = Some(prev);
         }
 
         /// The last 16 B, before `end` (the end of the batches' output).
@@ -958,10 +955,10 @@ mod order4 {
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) unsafe fn finish(self, end: *mut u8) {
-            if self.started {
+            if let Some(prev) = self.prev {
                 _mm_stream_si128(
                     end.sub(16) as *mut __m128i,
-                    _mm256_extracti128_si256::<1>(self.prev),
+                    _mm256_extracti128_si256::<1>(prev),
                 );
             }
         }
