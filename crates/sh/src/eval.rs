@@ -466,31 +466,39 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
     p1[0] = [qmm[0]; W];
     tile[0].write(p1[0]);
     let mut k = 0;
+    // Where LLVM does not unroll (N ≥ 12) these loops run with run-time indices, so they are
+    // written with slices and iterators: one bounds check per band, none per value (indexing
+    // each value had cost ~10 instructions of checks and index arithmetic per SIMD operation).
     for l in 1..N {
-        for m in 0..l.saturating_sub(1) {
-            let (a, b) = ab[k + m];
+        let row = &ab[k..k + l.saturating_sub(1)];
+        k += row.len();
+        for ((&(a, b), p1m), p2m) in row.iter().zip(p1.iter_mut()).zip(p2.iter_mut()) {
             for j in 0..W {
-                let q = madd::<T, FMA>(a * z[j], p1[m][j], -(b * p2[m][j]));
-                p2[m][j] = p1[m][j];
-                p1[m][j] = q;
+                let q = madd::<T, FMA>(a * z[j], p1m[j], -(b * p2m[j]));
+                p2m[j] = p1m[j];
+                p1m[j] = q;
             }
         }
-        k += l.saturating_sub(1);
         for j in 0..W {
             p2[l - 1][j] = p1[l - 1][j];
             p1[l - 1][j] = sub[l - 1] * z[j] * qmm[l - 1];
         }
         p1[l] = [qmm[l]; W];
-        let c = l * l + l;
-        tile[c].write(p1[0]);
-        for m in 1..=l {
+        // Band l: rows l² .. (l + 1)², the sine parts (index l − m) below the centre l² + l,
+        // the cosine parts (l + m) above.
+        let band = &mut tile[l * l..(l + 1) * (l + 1)];
+        let (below, rest) = band.split_at_mut(l);
+        let (centre, above) = rest.split_at_mut(1);
+        centre[0].write(p1[0]);
+        let parts = p1[1..=l].iter().zip(&cs[1..=l]).zip(&sn[1..=l]);
+        for (((p, c), s), (up, down)) in parts.zip(above.iter_mut().zip(below.iter_mut().rev())) {
             let (mut pos, mut neg) = ([T::zero(); W], [T::zero(); W]);
             for j in 0..W {
-                pos[j] = p1[m][j] * cs[m][j];
-                neg[j] = p1[m][j] * sn[m][j];
+                pos[j] = p[j] * c[j];
+                neg[j] = p[j] * s[j];
             }
-            tile[c + m].write(pos);
-            tile[c - m].write(neg);
+            up.write(pos);
+            down.write(neg);
         }
     }
     // SAFETY: every row was written (the indices l² + l ± m cover 0..N² exactly once), and
@@ -988,9 +996,20 @@ unsafe fn stream_copy<T: Real>(src: *const T, dst: *mut T, n: usize) {
         one(k);
     }
     let mut k = head;
-    while k < head + body {
+    let copy = |k: usize| {
         let v = _mm256_loadu_si256(src.add(k) as *const __m256i);
         _mm256_stream_si256(dst.add(k) as *mut __m256i, v);
+    };
+    // Four vectors (two lines) per step: the loop's own count and branch were a third of the
+    // copy's instructions.
+    while k + 4 * per <= head + body {
+        for i in 0..4 {
+            copy(k + i * per);
+        }
+        k += 4 * per;
+    }
+    while k < head + body {
+        copy(k);
         k += per;
     }
     for k in head + body..n {
