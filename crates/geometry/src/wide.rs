@@ -1718,7 +1718,7 @@ mod tests {
             }
             let col = |a: usize| {
                 let v: [f32; 8] = std::array::from_fn(|i| dirs[i][a]);
-                // SAFETY: AVX2 was detected above (the level); `v` holds 8 floats.
+                // SAFETY: the level checked above includes AVX2; `v` holds 8 floats.
                 unsafe { _mm256_loadu_ps(v.as_ptr()) }
             };
             // SAFETY: the AVX2 + FMA level (with POPCNT and BMI) was detected above.

@@ -466,9 +466,10 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
     p1[0] = [qmm[0]; W];
     tile[0].write(p1[0]);
     let mut k = 0;
-    // Where LLVM does not unroll (N ≥ 12) these loops run with run-time indices, so they are
-    // written with slices and iterators: one bounds check per band, none per value (indexing
-    // each value had cost ~10 instructions of checks and index arithmetic per SIMD operation).
+    // Where LLVM leaves these loops rolled (at N = 8, 12 and 16) they run with run-time
+    // indices, so they are written with slices and iterators: one bounds check per band, none
+    // per value (indexing each value had cost ~10 instructions of checks and index arithmetic
+    // per multiply).
     for l in 1..N {
         let row = &ab[k..k + l.saturating_sub(1)];
         k += row.len();
@@ -1000,8 +1001,8 @@ unsafe fn stream_copy<T: Real>(src: *const T, dst: *mut T, n: usize) {
         let v = _mm256_loadu_si256(src.add(k) as *const __m256i);
         _mm256_stream_si256(dst.add(k) as *mut __m256i, v);
     };
-    // Four vectors (two lines) per step: the loop's own count and branch were a third of the
-    // copy's instructions.
+    // Four vectors (two lines) per step: the loop's counters and branch had been two thirds of
+    // the copy's instructions.
     while k + 4 * per <= head + body {
         for i in 0..4 {
             copy(k + i * per);
