@@ -193,8 +193,8 @@ unsafe fn batch_avx2<T: Real>(leg: &Legendre<T>, dirs: &[[T; 3]], out: &mut [T],
     batch_dispatch::<T, true>(leg, dirs, out, Some(store))
 }
 
-/// Whole batches of [`LANES`] directions through the lane kernel (literal orders unrolled), the
-/// remainder through the one-direction kernel.
+/// Whole batches of [`LANES`] directions through the lane kernel (literal orders compiled one by
+/// one), the remainder through the one-direction kernel.
 #[inline(always)]
 fn batch_dispatch<T: Real, const FMA: bool>(
     leg: &Legendre<T>,
@@ -430,8 +430,9 @@ fn lane_kernel<T: Real, const CAP: usize, const FMA: bool>(
 }
 
 /// [`lane_kernel`] for a compile-time order `N` (`NN = N²`): every loop has a constant trip
-/// count, so the recurrence is unrolled into straight-line SIMD code on a tile of `NN × LANES`
-/// values, which is then written out point by point. The same operations as [`lane_kernel`].
+/// count, so LLVM can unroll the recurrence into straight-line SIMD code on a tile of
+/// `NN × LANES` values (at N = 8, 12 and 16 it leaves loops rolled, hence the slices below),
+/// which is then written out point by point. The same operations as [`lane_kernel`].
 #[inline(always)]
 fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, const FMA: bool>(
     leg: &Legendre<T>,
