@@ -386,8 +386,8 @@ impl Occluder for MeshBvh {
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
         #[cfg(target_arch = "x86_64")]
         if self.level == Level::Avx2Fma {
-            // SAFETY: `Level::Avx2Fma` is only held where the CPU has AVX2, FMA, POPCNT, BMI1,
-            // BMI2 and LZCNT (`MeshBvh::build` and `with_level` keep only usable levels).
+            // SAFETY: `Level::Avx2Fma` is only held where the CPU has AVX2, FMA, POPCNT, BMI1
+            // and BMI2 (`MeshBvh::build` and `with_level` keep only usable levels).
             unsafe { self.many_avx2(origins, dirs, tmin, hit) };
             return;
         }
@@ -509,7 +509,7 @@ impl MeshBvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn many_avx2(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
         self.many::<true>(origins, dirs, tmin, hit)
     }

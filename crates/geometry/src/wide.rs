@@ -455,7 +455,7 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if level == Level::Avx2Fma {
             // SAFETY: `Level::Avx2Fma` is only produced where the CPU has AVX2, FMA, POPCNT,
-            // BMI1, BMI2 and LZCNT (`shscale_sh::simd::level`), and callers pass that level.
+            // BMI1 and BMI2 (`shscale_sh::simd::level`), and callers pass that level.
             return unsafe { self.occluded_avx2(ray) };
         }
         let _ = level;
@@ -513,7 +513,7 @@ impl WideBvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn fan_avx2(
         &self,
         o: [f32; 3],
@@ -544,13 +544,13 @@ impl WideBvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn occluded_avx2(&self, ray: &WideRay) -> bool {
         self.traverse::<true, true>(ray).is_some()
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn closest_avx2(&self, ray: &WideRay) -> Option<(f32, u32)> {
         self.traverse::<false, true>(ray)
     }
@@ -778,7 +778,7 @@ fn box_mask<const F: bool>(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) ->
 /// [`box_mask`] in AVX2 + FMA intrinsics (LLVM splits the lane-array form into two 128-bit
 /// halves); the same operations with fused multiply-adds.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
 #[inline]
 unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
     use std::arch::x86_64::*;
@@ -836,7 +836,7 @@ const SOLO_LANES: u32 = 4;
 /// are bit-identical to the one-ray traversal); the box test is conservative like
 /// [`box_mask`]. Returns the occluded lanes as bits.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
 unsafe fn packet_occluded(
     w: &WideBvh,
     o: [f32; 3],
@@ -1008,7 +1008,7 @@ unsafe fn packet_occluded(
 /// the values [`Prepared::new`] makes, with the same operations (bit-identical, tested), without
 /// its three divisions per ray.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
 #[inline]
 #[allow(clippy::type_complexity)]
 unsafe fn lane_slabs(
@@ -1042,7 +1042,7 @@ unsafe fn lane_slabs(
 /// three unaligned loads of two 16-byte halves each, then five shuffles — no round trip through
 /// memory, whose 4-byte stores a 32-byte load could not forward.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,popcnt,bmi1,bmi2")]
 #[inline]
 unsafe fn soa8(
     dirs: &[[f32; 3]],
@@ -1076,7 +1076,7 @@ unsafe fn soa8(
 /// [`pack_hit`]'s test of triangle `k` of a pack against 8 rays from `o` (lanes), with the same
 /// unfused operations in the same order: bit i set when ray i hits in `(tmin, tmax)`.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,popcnt,bmi1,bmi2")]
 #[inline]
 #[allow(clippy::too_many_arguments)]
 unsafe fn tri_lanes(

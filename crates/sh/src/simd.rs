@@ -4,8 +4,7 @@
 //! Binaries are portable: nothing is compiled for `target-cpu=native`. Each batched kernel is
 //! written once as `#[inline(always)]` lane-array code and instantiated twice — inside a
 //! `#[target_feature(enable = "avx2,fma")]` function (x86-64 with AVX2 and FMA, detected at run
-//! time; the ray kernels also enable POPCNT, BMI1, BMI2 and LZCNT, which the detection requires
-//! too) and as a portable function (SSE2 on x86-64, NEON on aarch64, whatever the target has
+//! time; the ray kernels also enable POPCNT, BMI1 and BMI2, which the detection requires too) and as a portable function (SSE2 on x86-64, NEON on aarch64, whatever the target has
 //! by default elsewhere). [`level`] picks one, once per process.
 //!
 //! `SHSCALE_SIMD=portable` forces the portable path (CI runs the test suite both ways);
@@ -21,8 +20,8 @@ pub enum Level {
     /// The target's default features only.
     Portable,
     /// x86-64 AVX2 + FMA (256-bit lanes, fused multiply-add), with the bit-manipulation
-    /// instructions every AVX2 CPU has (POPCNT, BMI1, BMI2, LZCNT), which the ray kernels' mask
-    /// loops use.
+    /// instructions every AVX2 CPU has (POPCNT, BMI1, BMI2), which the ray kernels' mask loops
+    /// use.
     Avx2Fma,
 }
 
@@ -62,13 +61,7 @@ pub fn detected() -> Level {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;
-        if has!("avx2")
-            && has!("fma")
-            && has!("popcnt")
-            && has!("bmi1")
-            && has!("bmi2")
-            && has!("lzcnt")
-        {
+        if has!("avx2") && has!("fma") && has!("popcnt") && has!("bmi1") && has!("bmi2") {
             return Level::Avx2Fma;
         }
     }
