@@ -406,6 +406,29 @@ pub struct ShBench {
     pub timing: Timing,
 }
 
+/// `n` copies of `fill` in memory advised for transparent huge pages before it is first
+/// touched — as NumPy allocates every array of 4 MiB or more on Linux, so that `bench sh` and
+/// the kit's sphericart write the same kind of pages (4 KiB pages cost this kernel a page walk
+/// every 4 KiB of a streamed output). Elsewhere, or if the advice is refused, ordinary pages.
+fn advised_vec<T: Copy>(n: usize, fill: T) -> Vec<T> {
+    let mut v: Vec<T> = Vec::with_capacity(n);
+    #[cfg(target_os = "linux")]
+    {
+        const PAGE: usize = 4096;
+        let start = v.as_ptr() as usize;
+        let end = start + n * std::mem::size_of::<T>();
+        let first = start.div_ceil(PAGE) * PAGE;
+        if end > first + (4 << 20) {
+            // SAFETY: the range lies inside `v`'s allocation; advice changes no contents.
+            unsafe {
+                libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+    v.resize(n, fill);
+    v
+}
+
 fn sh_points(points: usize) -> Vec<[f64; 3]> {
     let mut rng = SplitMix(12345);
     (0..points).map(|_| rng.direction().to_array()).collect()
@@ -418,8 +441,11 @@ fn bench_sh_t<T: shscale_sh::Real>(
     p: Protocol,
 ) -> Result<Timing, LabError> {
     let basis = ShBasis::<T>::new(order).map_err(|e| LabError::Config(format!("--order: {e}")))?;
-    let dirs: Vec<[T; 3]> = sh_points(points).iter().map(|d| d.map(T::c)).collect();
-    let mut out = vec![T::one(); points * order * order];
+    let mut dirs = advised_vec(points, [T::zero(); 3]);
+    for (d, s) in dirs.iter_mut().zip(sh_points(points)) {
+        *d = s.map(T::c);
+    }
+    let mut out = advised_vec(points * order * order, T::one());
     Ok(time_reps(p, || {
         basis.eval_batch_with(level, &dirs, &mut out);
         std::hint::black_box(&out);
@@ -427,7 +453,8 @@ fn bench_sh_t<T: shscale_sh::Real>(
 }
 
 /// `bench sh`: all `N²` values at `points` random unit directions, one thread, written point by
-/// point into a preallocated (already touched) array — as sphericart is timed.
+/// point into a preallocated (already touched) array advised for huge pages, from directions in
+/// such memory — as the kit times sphericart on NumPy arrays.
 pub fn bench_sh(
     order: usize,
     f32: bool,
@@ -457,6 +484,16 @@ pub fn bench_sh(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The advised buffer holds `n` copies of the fill, below and above the advice's 4 MiB.
+    #[test]
+    fn advised_vec_holds_its_fill() {
+        for n in [0, 1, 1000, 600_000] {
+            let v = advised_vec(n, [1.5f64, -2.0, 3.0]);
+            assert_eq!(v.len(), n);
+            assert!(v.iter().all(|&x| x == [1.5, -2.0, 3.0]), "n = {n}");
+        }
+    }
 
     /// A ray file larger than [`MAX_FILE_RAYS`] rays is refused from its size, before it is
     /// read (a sparse 3 GB file: no disk space, no memory).
