@@ -825,9 +825,12 @@ macro_rules! lanes_entering {
     }};
 }
 
-/// A packet subtree with at most this many live lanes is finished ray by ray.
+/// A packet subtree with at most this many live lanes is finished ray by ray. 6 (was 4 until
+/// the seventh session of 2026-12-02): −7 % fan-kernel instructions on the kit's dragon_19k A
+/// rays, −9 % on bunny A, and on the Zen 4 VM faster on dragon_19k A on two threads (alternating
+/// runs, docs/BENCHMARKS.md); bunny A and `bench bsv` unchanged within noise.
 #[cfg(target_arch = "x86_64")]
-const SOLO_LANES: u32 = 4;
+const SOLO_LANES: u32 = 6;
 
 /// Any-hit for up to 8 rays from one origin, traversed together (AVX2 lanes = rays): each
 /// child box is tested against every live lane, a subtree is entered by the lanes that hit
