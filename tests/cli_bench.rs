@@ -294,7 +294,7 @@ fn kernel_benchmarks_report_their_workload() {
     assert!(r["rays_per_second"].as_f64().unwrap() > 0.0);
     assert!(r["median_seconds"].as_f64().unwrap() > 0.0);
     assert!(
-        ["portable", "avx2+fma"].contains(&r["simd"].as_str().unwrap()),
+        ["portable", "avx2+fma", "avx512"].contains(&r["simd"].as_str().unwrap()),
         "{r}"
     );
     let r = json(with(&[

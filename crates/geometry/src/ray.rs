@@ -384,12 +384,13 @@ impl Occluder for MeshBvh {
     }
 
     fn occluded_many(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        // SAFETY (each arm): a level is only held where the CPU has its instructions
+        // (`MeshBvh::build` and `with_level` keep only usable levels).
         #[cfg(target_arch = "x86_64")]
-        if self.level == Level::Avx2Fma {
-            // SAFETY: `Level::Avx2Fma` is only held where the CPU has AVX2, FMA, POPCNT, BMI1
-            // and BMI2 (`MeshBvh::build` and `with_level` keep only usable levels).
-            unsafe { self.many_avx2(origins, dirs, tmin, hit) };
-            return;
+        match self.level {
+            Level::Avx512 => return unsafe { self.many_avx512(origins, dirs, tmin, hit) },
+            Level::Avx2Fma => return unsafe { self.many_avx2(origins, dirs, tmin, hit) },
+            Level::Portable => {}
         }
         self.many::<false>(origins, dirs, tmin, hit)
     }
@@ -511,6 +512,12 @@ impl MeshBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn many_avx2(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
+        self.many::<true>(origins, dirs, tmin, hit)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn many_avx512(&self, origins: &[DVec3], dirs: &[DVec3], tmin: f64, hit: &mut [bool]) {
         self.many::<true>(origins, dirs, tmin, hit)
     }
 }

@@ -21,8 +21,13 @@
 //! against a scan of every pack and against brute force). Zero direction components are
 //! replaced by ±[`TINY_DIR`] in the box test only (no NaN from `0 · ∞`).
 //!
-//! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2
-//! + FMA (chosen at run time) and for the target's default features (`shscale_sh::simd`).
+//! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2 and
+//! FMA, for AVX2 and FMA with AVX-512 F/VL/BW/DQ as well (the same code and operations,
+//! EVEX-encoded, 32 vector registers), both chosen at run time, and for the target's default
+//! features (`shscale_sh::simd`). The AVX2 intrinsic helpers (`box_mask_avx2`, `lane_slabs`,
+//! `soa8`, `tri_lanes`, `packet_occluded`) keep their AVX2 feature set; the `_avx512` entry
+//! points have a superset, so LLVM may inline the helpers there, and what it inlines is
+//! compiled with AVX-512 enabled (a helper it leaves out of line runs its AVX2 code).
 
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;
@@ -452,11 +457,13 @@ impl WideBvh {
     /// Whether the ray hits any triangle for `t ∈ (tmin, tmax)`.
     #[inline]
     pub fn occluded(&self, level: Level, ray: &WideRay) -> bool {
+        // SAFETY (each arm): a level is only produced where the CPU has its instructions
+        // (`shscale_sh::simd::level`, `Level::usable`), and callers pass such a level.
         #[cfg(target_arch = "x86_64")]
-        if level == Level::Avx2Fma {
-            // SAFETY: `Level::Avx2Fma` is only produced where the CPU has AVX2, FMA, POPCNT,
-            // BMI1 and BMI2 (`shscale_sh::simd::level`), and callers pass that level.
-            return unsafe { self.occluded_avx2(ray) };
+        match level {
+            Level::Avx512 => return unsafe { self.occluded_avx512(ray) },
+            Level::Avx2Fma => return unsafe { self.occluded_avx2(ray) },
+            Level::Portable => {}
         }
         let _ = level;
         self.traverse::<true, false>(ray).is_some()
@@ -481,11 +488,12 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
+        // SAFETY (each arm): as in `occluded`.
         #[cfg(target_arch = "x86_64")]
-        if level == Level::Avx2Fma {
-            // SAFETY: as in `occluded`.
-            unsafe { self.fan_avx2(o, dirs, tmin, tmax, hit) };
-            return;
+        match level {
+            Level::Avx512 => return unsafe { self.fan_avx512(o, dirs, tmin, tmax, hit) },
+            Level::Avx2Fma => return unsafe { self.fan_avx2(o, dirs, tmin, tmax, hit) },
+            Level::Portable => {}
         }
         let _ = level;
         self.fan::<false>(o, dirs, tmin, tmax, hit)
@@ -522,6 +530,35 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
+        self.fan_packets(o, dirs, tmin, tmax, hit)
+    }
+
+    /// [`WideBvh::fan_avx2`]'s code compiled with AVX-512 F, VL, BW and DQ as well.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn fan_avx512(
+        &self,
+        o: [f32; 3],
+        dirs: &[[f32; 3]],
+        tmin: f32,
+        tmax: f32,
+        hit: &mut [bool],
+    ) {
+        self.fan_packets(o, dirs, tmin, tmax, hit)
+    }
+
+    /// The fan in 8-ray packets; only inlined into a function that enables AVX2, FMA, POPCNT,
+    /// BMI1 and BMI2 (or more).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn fan_packets(
+        &self,
+        o: [f32; 3],
+        dirs: &[[f32; 3]],
+        tmin: f32,
+        tmax: f32,
+        hit: &mut [bool],
+    ) {
         // Packets of 8 consecutive directions: callers order fans coherently (the BSV
         // sampler's hemisphere comes in 2×4 tiles of its grid).
         for (d, h) in dirs.chunks(8).zip(hit.chunks_mut(8)) {
@@ -534,10 +571,12 @@ impl WideBvh {
 
     /// The nearest hit `(t, triangle index)` for `t ∈ (tmin, tmax)`.
     pub fn closest(&self, level: Level, ray: &WideRay) -> Option<(f32, u32)> {
+        // SAFETY (each arm): as in `occluded`.
         #[cfg(target_arch = "x86_64")]
-        if level == Level::Avx2Fma {
-            // SAFETY: as in `occluded`.
-            return unsafe { self.closest_avx2(ray) };
+        match level {
+            Level::Avx512 => return unsafe { self.closest_avx512(ray) },
+            Level::Avx2Fma => return unsafe { self.closest_avx2(ray) },
+            Level::Portable => {}
         }
         let _ = level;
         self.traverse::<false, false>(ray)
@@ -552,6 +591,18 @@ impl WideBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
     unsafe fn closest_avx2(&self, ray: &WideRay) -> Option<(f32, u32)> {
+        self.traverse::<false, true>(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn occluded_avx512(&self, ray: &WideRay) -> bool {
+        self.traverse::<true, true>(ray).is_some()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn closest_avx512(&self, ray: &WideRay) -> Option<(f32, u32)> {
         self.traverse::<false, true>(ray)
     }
 
@@ -1211,7 +1262,6 @@ mod tests {
     use super::*;
     use obvhs::bvh2::builder::build_bvh2_from_tris;
     use obvhs::BvhBuildParams;
-    use shscale_sh::simd::detected;
 
     /// Every pack, no tree: what the traversal must reproduce exactly.
     fn scan(w: &WideBvh, ray: &WideRay) -> Option<(f32, u32)> {
@@ -1306,10 +1356,7 @@ mod tests {
             w.stack_need() > FIXED_SLOTS,
             "depth {depth}: not deep enough"
         );
-        let mut levels = vec![Level::Portable];
-        if detected() == Level::Avx2Fma {
-            levels.push(Level::Avx2Fma);
-        }
+        let levels = shscale_sh::simd::supported();
         // A fan across the chain through every third triangle, then rays along its axis
         // from beyond each end.
         let o = [0.0, 0.0, -1.0];
@@ -1434,10 +1481,7 @@ mod tests {
         let w = WideBvh::from_bvh2(&build_bvh2_from_tris(&[], params, &mut dur), &[]);
         let mut rng = Rng(11);
         let dirs: Vec<[f32; 3]> = (0..20).map(|_| rng.dir()).collect();
-        let mut levels = vec![Level::Portable];
-        if detected() == Level::Avx2Fma {
-            levels.push(Level::Avx2Fma);
-        }
+        let levels = shscale_sh::simd::supported();
         for &l in &levels {
             let mut hit = vec![true; dirs.len()];
             w.occluded_fan(l, [0.0; 3], &dirs, 0.0, f32::MAX, &mut hit);
@@ -1619,10 +1663,7 @@ mod tests {
                 ..BvhBuildParams::medium_build()
             };
             let mut w = WideBvh::from_bvh2(&build_bvh2_from_tris(&t, params, &mut dur), &t);
-            let mut levels = vec![Level::Portable];
-            if detected() == Level::Avx2Fma {
-                levels.push(Level::Avx2Fma);
-            }
+            let levels = shscale_sh::simd::supported();
             let (mut hits, mut rays) = (0, 0);
             for round in 0..2 {
                 if round == 1 {
@@ -1685,7 +1726,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn packet_lane_slabs_equal_the_one_ray_ones() {
-        if detected() != Level::Avx2Fma {
+        if shscale_sh::simd::detected() < Level::Avx2Fma {
             eprintln!("notice: no AVX2 + FMA level here; the packet kernel is not used");
             return;
         }

@@ -418,13 +418,9 @@ fn procedural_shapes_have_papers_sizes_and_are_watertight() {
 /// hemisphere fans from the bounding sphere, on both instruction sets.
 #[test]
 fn batched_queries_equal_one_ray_queries() {
-    use shscale_sh::simd::{detected, Level};
     let mesh = bundled::load("bunny").unwrap();
     let s = mesh.bounding_sphere();
-    let mut levels = vec![Level::Portable];
-    if detected() == Level::Avx2Fma {
-        levels.push(Level::Avx2Fma);
-    }
+    let levels = shscale_sh::simd::supported();
     for level in levels {
         let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild).with_level(level);
         let mut rng = Rng(23);
