@@ -530,7 +530,7 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
-        self.fan_packets(o, dirs, tmin, tmax, hit)
+        self.fan_packets::<false>(o, dirs, tmin, tmax, hit)
     }
 
     /// [`WideBvh::fan_avx2`]'s code compiled with AVX-512 F, VL, BW and DQ as well.
@@ -544,14 +544,14 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
-        self.fan_packets(o, dirs, tmin, tmax, hit)
+        self.fan_packets::<true>(o, dirs, tmin, tmax, hit)
     }
 
     /// The fan in 8-ray packets; only inlined into a function that enables AVX2, FMA, POPCNT,
-    /// BMI1 and BMI2 (or more).
+    /// BMI1 and BMI2 (`AVX512`: and AVX-512 F/VL/BW/DQ, whose packet kernel it then calls).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn fan_packets(
+    unsafe fn fan_packets<const AVX512: bool>(
         &self,
         o: [f32; 3],
         dirs: &[[f32; 3]],
@@ -562,7 +562,11 @@ impl WideBvh {
         // Packets of 8 consecutive directions: callers order fans coherently (the BSV
         // sampler's hemisphere comes in 2×4 tiles of its grid).
         for (d, h) in dirs.chunks(8).zip(hit.chunks_mut(8)) {
-            let m = packet_occluded(self, o, d, tmin, tmax);
+            let m = if AVX512 {
+                packet_occluded_avx512(self, o, d, tmin, tmax)
+            } else {
+                packet_occluded(self, o, d, tmin, tmax)
+            };
             for (i, h) in h.iter_mut().enumerate() {
                 *h = m >> i & 1 == 1;
             }
@@ -898,6 +902,27 @@ unsafe fn packet_occluded(
     tmin: f32,
     tmax: f32,
 ) -> u32 {
+    packet_body(w, o, dirs, tmin, tmax)
+}
+
+/// [`packet_occluded`] compiled with AVX-512 F, VL, BW and DQ as well.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
+unsafe fn packet_occluded_avx512(
+    w: &WideBvh,
+    o: [f32; 3],
+    dirs: &[[f32; 3]],
+    tmin: f32,
+    tmax: f32,
+) -> u32 {
+    packet_body(w, o, dirs, tmin, tmax)
+}
+
+/// The packet kernel's code, inlined into [`packet_occluded`] and [`packet_occluded_avx512`]
+/// (only into functions that enable AVX2, FMA, POPCNT, BMI1 and BMI2).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn packet_body(w: &WideBvh, o: [f32; 3], dirs: &[[f32; 3]], tmin: f32, tmax: f32) -> u32 {
     use std::arch::x86_64::*;
     let n = dirs.len().min(8);
     let valid = (1u32 << n) - 1;
