@@ -24,10 +24,11 @@
 //! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2 and
 //! FMA, for AVX2 and FMA with AVX-512 F/VL/BW/DQ as well (the same code and operations,
 //! EVEX-encoded, 32 vector registers), both chosen at run time, and for the target's default
-//! features (`shscale_sh::simd`). The AVX2 intrinsic helpers (`box_mask_avx2`, `lane_slabs`,
-//! `soa8`, `tri_lanes`, `packet_occluded`) keep their AVX2 feature set; the `_avx512` entry
-//! points have a superset, so LLVM may inline the helpers there, and what it inlines is
-//! compiled with AVX-512 enabled (a helper it leaves out of line runs its AVX2 code).
+//! features (`shscale_sh::simd`). The packet kernel's body is inlined into one wrapper per
+//! level (`packet_occluded`, `packet_occluded_avx512`); the smaller AVX2 intrinsic helpers
+//! (`box_mask_avx2`, `lane_slabs`, `soa8`, `tri_lanes`) keep their AVX2 feature set and are
+//! inlined where LLVM chooses — into an AVX-512 function they compile with AVX-512 enabled (a
+//! helper left out of line runs its AVX2 code).
 
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;
@@ -457,10 +458,10 @@ impl WideBvh {
     /// Whether the ray hits any triangle for `t ∈ (tmin, tmax)`.
     #[inline]
     pub fn occluded(&self, level: Level, ray: &WideRay) -> bool {
-        // SAFETY (each arm): a level is only produced where the CPU has its instructions
-        // (`shscale_sh::simd::level`, `Level::usable`), and callers pass such a level.
+        // SAFETY (each arm): `usable` keeps a level only where the CPU has its instructions
+        // (a level it lacks becomes `Portable`).
         #[cfg(target_arch = "x86_64")]
-        match level {
+        match level.usable() {
             Level::Avx512 => return unsafe { self.occluded_avx512(ray) },
             Level::Avx2Fma => return unsafe { self.occluded_avx2(ray) },
             Level::Portable => {}
@@ -490,7 +491,7 @@ impl WideBvh {
     ) {
         // SAFETY (each arm): as in `occluded`.
         #[cfg(target_arch = "x86_64")]
-        match level {
+        match level.usable() {
             Level::Avx512 => return unsafe { self.fan_avx512(o, dirs, tmin, tmax, hit) },
             Level::Avx2Fma => return unsafe { self.fan_avx2(o, dirs, tmin, tmax, hit) },
             Level::Portable => {}
@@ -577,7 +578,7 @@ impl WideBvh {
     pub fn closest(&self, level: Level, ray: &WideRay) -> Option<(f32, u32)> {
         // SAFETY (each arm): as in `occluded`.
         #[cfg(target_arch = "x86_64")]
-        match level {
+        match level.usable() {
             Level::Avx512 => return unsafe { self.closest_avx512(ray) },
             Level::Avx2Fma => return unsafe { self.closest_avx2(ray) },
             Level::Portable => {}

@@ -69,8 +69,13 @@ pub fn parse_setting(v: Option<&str>) -> Result<Option<Level>, String> {
     }
 }
 
-/// What this CPU supports, ignoring the environment.
+/// What this CPU supports, ignoring the environment (detected once per process).
 pub fn detected() -> Level {
+    static DETECTED: OnceLock<Level> = OnceLock::new();
+    *DETECTED.get_or_init(detect)
+}
+
+fn detect() -> Level {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;
