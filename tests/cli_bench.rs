@@ -37,7 +37,7 @@ fn cpu_bench_prints_csv_rows_with_the_declared_columns() {
     let text = String::from_utf8_lossy(&out.stdout);
     let mut reader = ::csv::Reader::from_reader(text.as_bytes());
     let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
-    assert_eq!(header.join(","), shscale_lab::bench::CSV_COLUMNS);
+    assert_eq!(header.join(","), shscale_scene::bench::CSV_COLUMNS);
     let rows: Vec<::csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), 1, "{text}");
     let cells: Vec<String> = rows[0].iter().map(String::from).collect();
@@ -247,8 +247,8 @@ fn gpu_sequence_image_matches_the_cpu_sequence() {
         return;
     }
     assert!(out.status.success(), "{err}");
-    let (w, h, a) = shscale_lab::io::read_exr(&cpu).unwrap();
-    let (w2, h2, b) = shscale_lab::io::read_exr(&gpu).unwrap();
+    let (w, h, a) = shscale_runner::image::read_exr(&cpu).unwrap();
+    let (w2, h2, b) = shscale_runner::image::read_exr(&gpu).unwrap();
     assert_eq!((w, h), (w2, h2));
     let max = a.iter().flatten().fold(0f32, |m, v| m.max(*v)) as f64;
     let rmse = (a

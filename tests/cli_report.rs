@@ -222,7 +222,7 @@ fn the_config_reference_matches_the_code() {
         "docs/config-reference.md is stale: regenerate it with `shscale config-reference > docs/config-reference.md`"
     );
     for kind in shscale_experiments::registry() {
-        let missing = shscale_lab::exp::reference::undescribed(kind);
+        let missing = shscale_runner::reference::undescribed(kind);
         assert!(
             missing.is_empty(),
             "{}: undescribed keys {missing:?}",
@@ -244,7 +244,8 @@ fn the_config_reference_matches_the_code() {
             "" => format!("zz_unknown = 1\n{base}"),
             t => base.replacen(&format!("[{t}]\n"), &format!("[{t}]\nzz_unknown = 1\n"), 1),
         };
-        let e = match shscale_lab::scene::Scene::parse("s.toml", &text, std::path::Path::new(".")) {
+        let e = match shscale_scene::scene::Scene::parse("s.toml", &text, std::path::Path::new("."))
+        {
             Ok(_) => panic!("{table}: an unknown key was accepted"),
             Err(e) => e.to_string(),
         };
@@ -259,7 +260,7 @@ fn the_config_reference_matches_the_code() {
             .collect()
     };
     let listed = |prefix: &str| -> Vec<String> {
-        let mut v: Vec<String> = shscale_lab::scene::SCENE_KEYS
+        let mut v: Vec<String> = shscale_scene::scene::SCENE_KEYS
             .iter()
             .filter_map(|(k, ..)| {
                 if prefix.is_empty() {

@@ -11,6 +11,7 @@
 //! matrix–vector product per probe. The law's α uses the BSV's effective cap
 //! (`shscale_field::alpha::effective_cap_angle`), which is exact for the analytic sphere.
 
+use crate::probe::{Probe, ProbeParams};
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -18,12 +19,11 @@ use shscale_field::alpha::{cap_matching_alpha, effective_cap_angle};
 use shscale_field::metrics::{l2, occ_rel_l2, occlusion};
 use shscale_field::probe::{probe_base, ProbeBase};
 use shscale_field::LocalFrame;
-use shscale_lab::exp::probe::{Probe, ProbeParams};
-use shscale_lab::exp::records::{list, Results};
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::{list, Results};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scaling::{Eta, ScalingMatrix, TauFamily};
+use shscale_scene::Error;
 use shscale_sh::EulerRotator;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -164,6 +164,10 @@ impl Kind for AlphaFit {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -225,13 +229,13 @@ impl Kind for AlphaFit {
         p.radii.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
         let spec = p.probe().spec()?;
-        let u = shscale_lab::vocab::unit_occluder(&p.mesh)?;
+        let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
         let base = probe_base(u.occ.as_ref(), u.analytic, &spec)?;
         let theta0 = effective_cap_angle(&base.bsv);
         let steps = ((90.0 / p.alpha_step_deg).ceil() as usize).saturating_sub(1);
@@ -284,7 +288,7 @@ impl Kind for AlphaFit {
         ]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         // Best α against radius per mesh and order, with the law.
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
         for r in 0..t.rows.len() {
@@ -304,7 +308,7 @@ impl Kind for AlphaFit {
         if series.is_empty() {
             return Ok(Vec::new());
         }
-        write_both(
+        Ok(write_both(
             dir,
             "best_alpha",
             &Labels {
@@ -315,10 +319,10 @@ impl Kind for AlphaFit {
             &series,
             false,
             &[],
-        )
+        )?)
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         let f = |v: f64| {
             if v.is_finite() {
                 format!("{v:.3}")

@@ -23,12 +23,12 @@ use shscale_field::metrics::occ_rel_l2;
 use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Bsv, Layout, VisibilitySampler};
-use shscale_lab::exp::records::{list, Results};
-use shscale_lab::exp::timing::CPU_RAYS_PER_SECOND;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::{list, Results};
+use shscale_runner::timing::CPU_RAYS_PER_SECOND;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
+use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -121,7 +121,7 @@ fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
 }
 
 /// Median seconds of `f` under the config's timing procedure.
-fn timed<T>(ctx: &Ctx, f: impl FnMut() -> Result<T, LabError>) -> Result<(T, f64), LabError> {
+fn timed<T>(ctx: &Ctx, f: impl FnMut() -> Result<T, Error>) -> Result<(T, f64), Error> {
     let (v, t) = ctx.timing.measure(f)?;
     Ok((v, t.median))
 }
@@ -132,6 +132,10 @@ impl Kind for Budget {
     type Params = Params;
     type Shared = Shared;
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -153,7 +157,7 @@ impl Kind for Budget {
     }
 
     fn validate(p: &Params) -> Result<(), KeyError> {
-        shscale_lab::exp::probe::check_sampling_keys(
+        shscale_scene::vocab::check_sampling_keys(
             &p.mesh,
             p.order,
             p.alpha_deg,
@@ -256,8 +260,8 @@ impl Kind for Budget {
         1
     }
 
-    fn shared(p: &Params, _: &Ctx) -> Result<Shared, LabError> {
-        let u = shscale_lab::vocab::unit_occluder(&p.mesh)?;
+    fn shared(p: &Params, _: &Ctx) -> Result<Shared, Error> {
+        let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
         let occ = u.occ;
         let s = occ.bounding_sphere();
         // The receiver directions: the probe kind's seeded directions.
@@ -269,8 +273,8 @@ impl Kind for Budget {
             .map(|(rho, d)| (rho, s.center + rho * s.radius * d))
             .collect();
         let ts = TruthSampler::new(p.order, p.truth_res, p.truth_seed)?;
-        let basis = shscale_sh::ShBasis::<f64>::new(p.order)
-            .map_err(|e| LabError::Config(e.to_string()))?;
+        let basis =
+            shscale_sh::ShBasis::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
         let truth: Vec<Option<Truth>> = points
             .par_iter()
             .enumerate()
@@ -284,13 +288,13 @@ impl Kind for Budget {
         Ok(Shared { occ, points, truth })
     }
 
-    fn run(p: &Params, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let occ = sh.occ.as_ref();
         let layout = Layout::parse(&p.layout)?;
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
         let rho_max = p.radii.iter().copied().fold(1.0, f64::max);
-        let cfg = |e: shscale_scaling::ScalingError| LabError::Config(e.to_string());
+        let cfg = |e: shscale_scaling::ScalingError| Error::config(e.to_string());
         let (values, build, eval, rays, memory): (Vec<Vec<f64>>, f64, f64, f64, f64) =
             match p.method.as_str() {
                 "extrapolated" => {
@@ -372,7 +376,7 @@ impl Kind for Budget {
         &["method", "frame_seconds", "memory_bytes", "occ_rel_l2_mean"]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
         for mesh in t.distinct("mesh") {
             for (x, stem, xl) in [
@@ -420,7 +424,7 @@ impl Kind for Budget {
         Ok(files)
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         let mut s = String::new();
         for mesh in t.distinct("mesh") {
             let rows: Vec<usize> = (0..t.rows.len())

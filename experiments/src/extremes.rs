@@ -14,11 +14,11 @@
 //! over its k).
 
 use serde::{Deserialize, Serialize};
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scaling::{AngularScaling, Eta, QuadOptions, ScalingMatrix};
+use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -78,7 +78,7 @@ pub const MAX_ORDER: usize = 32;
 const DEFECT_OK: f64 = 1e-8;
 
 fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, KeyError> {
-    shscale_lab::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
+    shscale_scene::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
 }
 
 /// τ at the poles: failures and the worst round trip.
@@ -120,6 +120,10 @@ impl Kind for Extremes {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -154,12 +158,12 @@ impl Kind for Extremes {
         2
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
-        let tau = tau_of(p).map_err(|e| LabError::Config(format!("{}: {}", e.key, e.message)))?;
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
+        let tau = tau_of(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
         let (tau_bad, trip) = tau_checks(tau.as_ref());
         [Eta::Plain, Eta::Energy]
             .into_iter()
@@ -170,11 +174,11 @@ impl Kind for Extremes {
                     p.order,
                     &QuadOptions::default(),
                 )
-                .map_err(|e| LabError::Config(format!("k: {e}")))?;
+                .map_err(|e| Error::config(format!("k: {e}")))?;
                 let finite = m.values().iter().all(|v| v.is_finite());
                 let defect = invariant_defect(&m, eta);
                 Ok(Row {
-                    eta: shscale_lab::vocab::eta_name(eta).into(),
+                    eta: shscale_scene::vocab::eta_name(eta).into(),
                     panels: rep.panels,
                     evaluations: rep.evaluations,
                     error_bound: rep.error_bound,
@@ -200,11 +204,11 @@ impl Kind for Extremes {
         ]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         Self::figure(dir, t, dir, "extremes_panels_vs_k")
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         if t.rows.is_empty() {
             return Ok(String::new());
         }
@@ -263,7 +267,7 @@ impl Kind for Extremes {
         ))
     }
 
-    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
         // Quadrature panels of the plain cone matrix against log10 k, per α and order.
         let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
         for r in
@@ -281,7 +285,7 @@ impl Kind for Extremes {
         for v in series.values_mut() {
             v.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        write_both(
+        Ok(write_both(
             out,
             stem,
             &Labels {
@@ -292,6 +296,6 @@ impl Kind for Extremes {
             &series,
             false,
             &[],
-        )
+        )?)
     }
 }

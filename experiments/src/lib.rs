@@ -1,12 +1,12 @@
 //! The experiment kinds of the runner and the papers' figures, one module per kind, each
 //! answering one question (docs/conventions.md §8). Every kind runs through the one runner
-//! (`shscale_lab::exp`): run ids, resume, shards, merge, Slurm and a manifest.
+//! (`shscale_scene::exp`): run ids, resume, shards, merge, Slurm and a manifest.
 //!
 //! - [`sparsity`] — Fig. 2: where are the non-zeros of a scaling matrix, and is the pattern
 //!   really independent of τ?
 //! - [`m_elements`] — Fig. 3: how smoothly do elements of `M_k` vary with k, and how well does a
 //!   40-entry table interpolate them?
-//! - `probe` (in `shscale_lab::exp::probe`) — Fig. 5 and the accuracy sweeps: extrapolated vs
+//! - `probe` (in `shscale_runner::probe`) — Fig. 5 and the accuracy sweeps: extrapolated vs
 //!   actual visibility at radii around the sampling sphere.
 //! - [`shadows`] — Fig. 7: shadows of the extrapolated field vs a fully sampled shadow field and
 //!   ray-traced truth.
@@ -26,19 +26,21 @@ pub mod budget;
 pub mod extremes;
 pub mod m_elements;
 pub mod midrange;
+pub mod probe;
+pub mod probe_figure;
 pub mod shadows;
 pub mod sparsity;
 pub mod srf;
 pub mod timing;
 
-use shscale_lab::exp::config::Overrides;
-use shscale_lab::exp::runner::{self, Plan, RunEvent};
-use shscale_lab::exp::{DynKind, Erased};
-use shscale_lab::gpu_path::GpuMode;
-use shscale_lab::LabError;
+use shscale_runner::config::Overrides;
+use shscale_runner::GpuMode;
+use shscale_runner::{self as runner, Plan, RunEvent};
+use shscale_runner::{DynKind, Erased};
+use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 
-static PROBE: Erased<shscale_lab::exp::probe::Probe> = Erased::new();
+static PROBE: Erased<crate::probe::Probe> = Erased::new();
 static MIDRANGE: Erased<midrange::MidRange> = Erased::new();
 static SPARSITY: Erased<sparsity::Sparsity> = Erased::new();
 static M_ELEMENTS: Erased<m_elements::MElements> = Erased::new();
@@ -50,7 +52,7 @@ static ALPHA_FIT: Erased<alpha_fit::AlphaFit> = Erased::new();
 static BUDGET: Erased<budget::Budget> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
-/// file implementing `shscale_lab::exp::Kind` plus one line here.
+/// file implementing `shscale_runner::Kind` plus one line here.
 pub fn registry() -> Vec<&'static dyn DynKind> {
     vec![
         &PROBE,
@@ -76,11 +78,8 @@ pub fn regenerate(
     runs_root: &Path,
     gpu: Option<GpuMode>,
     mut progress: impl FnMut(&str),
-) -> Result<Vec<PathBuf>, LabError> {
-    let io = |p: &Path, e: std::io::Error| LabError::Io {
-        path: p.display().to_string(),
-        reason: e.to_string(),
-    };
+) -> Result<Vec<PathBuf>, Error> {
+    let io = |p: &Path, e: std::io::Error| Error::io(p, e);
     let mut paths: Vec<PathBuf> = std::fs::read_dir(configs)
         .map_err(|e| io(configs, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -88,7 +87,7 @@ pub fn regenerate(
         .collect();
     paths.sort();
     if paths.is_empty() {
-        return Err(LabError::Config(format!(
+        return Err(Error::config(format!(
             "{}: no *.toml figure configs",
             configs.display()
         )));
@@ -129,11 +128,11 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
             progress(&format!("warning: {w}"));
         }
         let report = runner::report(plan.kind, &s.dir)?;
-        let table = shscale_lab::exp::records::Results::read(&s.csv)?;
+        let table = shscale_runner::records::Results::read(&s.csv)?;
         let mut files = plan.kind.figure(&s.dir, &table, out, &stem)?;
         let csv = out.join(format!("{stem}.csv"));
         let text = std::fs::read_to_string(&s.csv).map_err(|e| io(&s.csv, e))?;
-        shscale_lab::runner::write_atomic(&csv, &text)?;
+        shscale_runner::write_atomic(&csv, &text)?;
         files.push(csv);
         progress(&format!(
             "{} → {} file(s) in {:.1} s ({} run(s), {} already done)",
@@ -169,29 +168,29 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
         all.extend(files);
     }
     let readme = out.join("README.md");
-    shscale_lab::runner::write_atomic(&readme, &index)?;
+    shscale_runner::write_atomic(&readme, &index)?;
     all.push(readme);
     Ok(all)
 }
 
 /// The cost of a run that computes the plain and the energy matrix of one τ at `order` by
 /// adaptive quadrature (≈ 2e-4 s per element at N = 4 here; extreme k need more panels).
-pub(crate) fn two_matrices_cost(order: usize) -> (shscale_lab::exp::Cost, shscale_lab::exp::Cost) {
+pub(crate) fn two_matrices_cost(order: usize) -> (shscale_runner::Cost, shscale_runner::Cost) {
     let nn = (order * order) as f64;
     (
-        shscale_lab::exp::Cost::default(),
-        shscale_lab::exp::Cost {
+        shscale_runner::Cost::default(),
+        shscale_runner::Cost {
             bytes: nn * nn * 8.0 * 4.0,
             seconds: 2.0 * 2e-4 * nn * nn,
             drivers: format!("order = {order} → 2 matrices of {nn}² elements"),
-            ..shscale_lab::exp::Cost::default()
+            ..shscale_runner::Cost::default()
         },
     )
 }
 
 /// Write `text` to `out/name` atomically and return the path.
-pub(crate) fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, LabError> {
+pub(crate) fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, Error> {
     let p = out.join(name);
-    shscale_lab::runner::write_atomic(&p, text)?;
+    shscale_runner::write_atomic(&p, text)?;
     Ok(p)
 }

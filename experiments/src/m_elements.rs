@@ -7,11 +7,11 @@
 //! parameter but the element). Sweep the elements with `[sweep.zip] row = […], col = […]`.
 
 use serde::{Deserialize, Serialize};
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scaling::{Cone, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
+use shscale_scene::Error;
 use shscale_sh::sh_lm;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -68,7 +68,7 @@ pub struct MElements;
 /// The most table entries and curve points.
 pub const MAX_POINTS: usize = 10_000;
 
-fn table_of(p: &Params) -> Result<KTable, LabError> {
+fn table_of(p: &Params) -> Result<KTable, Error> {
     KTable::build(
         TauFamily::Cone {
             alpha: p.alpha_deg.to_radians(),
@@ -81,7 +81,7 @@ fn table_of(p: &Params) -> Result<KTable, LabError> {
         Spacing::Exp,
         Interp::Linear,
     )
-    .map_err(|e| LabError::Config(format!("alpha_deg: {e}")))
+    .map_err(|e| Error::config(format!("alpha_deg: {e}")))
 }
 
 impl Kind for MElements {
@@ -91,6 +91,10 @@ impl Kind for MElements {
     /// The table, its whole-matrix error and where.
     type Shared = (KTable, f64, f64);
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -173,7 +177,7 @@ impl Kind for MElements {
     fn group_key(p: &Params) -> String {
         let mut q = p.clone();
         (q.row, q.col) = (0, 0);
-        shscale_lab::exp::records::canonical(&q).unwrap_or_default()
+        shscale_runner::records::canonical(&q).unwrap_or_default()
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -200,16 +204,16 @@ impl Kind for MElements {
         p.curve_points
     }
 
-    fn shared(p: &Params, _: &Ctx) -> Result<Self::Shared, LabError> {
+    fn shared(p: &Params, _: &Ctx) -> Result<Self::Shared, Error> {
         let table = table_of(p)?;
         let (whole, at_k) = table
             .max_interp_error(8)
-            .map_err(|e| LabError::Config(format!("k_count: {e}")))?;
+            .map_err(|e| Error::config(format!("k_count: {e}")))?;
         Ok((table, whole, at_k))
     }
 
-    fn run(p: &Params, _: &str, s: &Self::Shared, _: &Ctx) -> Result<Vec<Row>, LabError> {
-        let cfg = |k: &str, e: String| LabError::Config(format!("{k}: {e}"));
+    fn run(p: &Params, _: &str, s: &Self::Shared, _: &Ctx) -> Result<Vec<Row>, Error> {
+        let cfg = |k: &str, e: String| Error::config(format!("{k}: {e}"));
         let (table, whole, at_k) = s;
         let mut interp =
             ScalingMatrix::identity(p.order).map_err(|e| cfg("order", e.to_string()))?;
@@ -243,16 +247,16 @@ impl Kind for MElements {
         &["row", "col", "k", "direct", "abs_err"]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         Self::figure(dir, t, dir, "m_elements_vs_k")
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         if t.rows.is_empty() {
             return Ok(String::new());
         }
-        let params = shscale_lab::exp::Erased::<MElements>::new();
-        let varying = t.varying(&shscale_lab::exp::DynKind::param_columns(&params));
+        let params = shscale_runner::Erased::<MElements>::new();
+        let varying = t.varying(&shscale_runner::DynKind::param_columns(&params));
         if varying.iter().any(|c| c != "row" && c != "col") {
             return Ok(format!(
                 "The results vary {} besides the element; see the table and the plot per combination.",
@@ -301,10 +305,10 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
         ))
     }
 
-    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
-        let params = shscale_lab::exp::Erased::<MElements>::new();
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        let params = shscale_runner::Erased::<MElements>::new();
         let others: Vec<String> = t
-            .varying(&shscale_lab::exp::DynKind::param_columns(&params))
+            .varying(&shscale_runner::DynKind::param_columns(&params))
             .into_iter()
             .filter(|c| c != "row" && c != "col")
             .collect();
@@ -316,7 +320,7 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
                 t.cell(r, "col"),
                 others
                     .iter()
-                    .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
+                    .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
                     .collect::<String>()
             );
             series
@@ -336,7 +340,7 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
                 t.cell(0, "order")
             )
         };
-        write_both(
+        Ok(write_both(
             out,
             stem,
             &Labels {
@@ -347,6 +351,6 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
             &series,
             false,
             &[],
-        )
+        )?)
     }
 }

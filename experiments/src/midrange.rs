@@ -12,10 +12,10 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::EnvLight;
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_scene::Error;
 use shscale_sh::{ClampedCosine, DirectionSet, ShBasis};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,7 +32,7 @@ pub struct Params {
     pub normals: usize,
     /// Sun strength, direction (normalised here) and angular radius (degrees) of the sky.
     pub sun: f64,
-    #[serde(with = "shscale_lab::exp::records::list")]
+    #[serde(with = "shscale_runner::records::list")]
     pub sun_dir: Vec<f64>,
     pub sun_radius_deg: f64,
 }
@@ -86,8 +86,8 @@ fn fib(n: usize) -> Vec<DVec3> {
         .collect()
 }
 
-fn evaluate(p: &Params) -> Result<Row, LabError> {
-    let cfg = |m: String| LabError::Config(m);
+fn evaluate(p: &Params) -> Result<Row, Error> {
+    let cfg = |m: String| Error::config(m);
     let env = EnvLight::sky(
         p.order,
         0.2,
@@ -151,6 +151,10 @@ impl Kind for MidRange {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -236,11 +240,11 @@ impl Kind for MidRange {
         1
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let (mut row, t) = ctx.timing.measure(|| evaluate(p))?;
         row.evaluation_seconds = t.median;
         row.evaluation_spread = t.spread();
@@ -260,11 +264,11 @@ impl Kind for MidRange {
         ]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         // Error against k: per combination of the other varying parameters, scaled and distant.
-        let params = shscale_lab::exp::Erased::<MidRange>::new();
+        let params = shscale_runner::Erased::<MidRange>::new();
         let others: Vec<String> = t
-            .varying(&shscale_lab::exp::DynKind::param_columns(&params))
+            .varying(&shscale_runner::DynKind::param_columns(&params))
             .into_iter()
             .filter(|c| c != "k")
             .collect();
@@ -272,7 +276,7 @@ impl Kind for MidRange {
         for r in 0..t.rows.len() {
             let label = others
                 .iter()
-                .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [
                 ("SH scaling (mid-range τ)", "scaled_rel_err_mean"),
@@ -287,7 +291,7 @@ impl Kind for MidRange {
         for v in series.values_mut() {
             v.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        write_both(
+        Ok(write_both(
             dir,
             "midrange_error_vs_k",
             &Labels {
@@ -298,6 +302,6 @@ impl Kind for MidRange {
             &series,
             false,
             &[],
-        )
+        )?)
     }
 }

@@ -14,12 +14,12 @@
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
 use shscale_field::Layout;
-use shscale_lab::exp::probe::{MAX_HEMISPHERE_RES, MAX_ORDER};
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::render::{render, Method, RenderOutput};
-use shscale_lab::scene::Scene;
-use shscale_lab::LabError;
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_scene::render::{render, Method, RenderOutput};
+use shscale_scene::scene::Scene;
+use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
+use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 
 /// Parameters of one run (one scene).
@@ -91,7 +91,7 @@ fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
-fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, LabError> {
+fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
     let mut s = Scene::load(&config_dir.join(&p.scene))?;
     if let Some(n) = p.order {
         s.order = n;
@@ -107,7 +107,7 @@ fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, LabError> {
     }
     if let Some(m) = &p.plausibility {
         s.plausibility =
-            shscale_field::extrapolate::Plausibility::parse(m).map_err(LabError::Config)?;
+            shscale_field::extrapolate::Plausibility::parse(m).map_err(Error::config)?;
     }
     Ok(s)
 }
@@ -118,6 +118,10 @@ impl Kind for Shadows {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -185,11 +189,11 @@ impl Kind for Shadows {
         METHODS.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = scene_of(p, ctx.config_dir)?;
         let mut imgs = Vec::new();
         for (m, name) in METHODS {
@@ -200,7 +204,7 @@ impl Kind for Shadows {
         open.occluders.clear();
         let unshadowed = flat(&render(&open, Method::RayTraced)?);
         let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
-        let truth_light = shscale_lab::render::truth_light(&scene)?;
+        let truth_light = shscale_scene::frame::truth_light(&scene)?;
         let mean_open = unshadowed.iter().sum::<f64>() / unshadowed.len().max(1) as f64;
         // A truth's own error: RMS over receivers and channels of its per-pixel estimate, over
         // the mean unshadowed irradiance (NaN where the render has no estimate).
@@ -219,7 +223,7 @@ impl Kind for Shadows {
         let (ff_err, bl_err) = (own_err(&imgs[3].1.error), own_err(&imgs[2].1.error));
         let err = |img: &RenderOutput, truth: &[f64]| {
             shade_rmse_rel(&flat(img), truth, &unshadowed).ok_or_else(|| {
-                LabError::Config(format!("scene: {}: the unshadowed image is black", p.scene))
+                Error::config(format!("scene: {}: the unshadowed image is black", p.scene))
             })
         };
         // The values side by side (full field | extrapolated | full-frequency truth) as EXR, and
@@ -236,7 +240,7 @@ impl Kind for Shadows {
         }
         let stem = format!("shadows_fullfield_extrapolated_truth_{run_id}");
         let exr = ctx.dir.join(format!("{stem}.exr"));
-        shscale_lab::io::write_exr(&exr, 3 * w, h, &px)?;
+        shscale_runner::image::write_exr(&exr, 3 * w, h, &px)?;
         let lum = |img: &RenderOutput| -> Vec<f32> {
             img.pixels
                 .iter()
@@ -252,7 +256,7 @@ impl Kind for Shadows {
         let [sx, sy] = scene.receiver_size;
         let xr = (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)");
         let yr = (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)");
-        let panel = |title: String, values: Vec<f32>| shscale_lab::figure::Panel {
+        let panel = |title: String, values: Vec<f32>| shscale_runner::figure::Panel {
             title,
             width: w,
             height: h,
@@ -262,10 +266,10 @@ impl Kind for Shadows {
             let num: f64 = e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64;
             num.sqrt()
         };
-        shscale_lab::figure::write_png_stack(
+        shscale_runner::figure::write_png_stack(
             &exr.with_extension("png"),
             &[
-                shscale_lab::figure::Grid {
+                shscale_runner::figure::Grid {
                     title: "irradiance on the receiver plane",
                     rows: vec![vec![
                         panel("fully sampled shadow field (16 shells)".into(), ff.clone()),
@@ -277,12 +281,12 @@ impl Kind for Shadows {
                     ]],
                     x: xr,
                     y: yr,
-                    colours: shscale_lab::figure::ColourMap::Heat,
+                    colours: shscale_runner::figure::ColourMap::Heat,
                     range: (0.0, max),
                     scale_label: "irradiance (scene radiance units)",
                     panel_px: (320, 320),
                 },
-                shscale_lab::figure::Grid {
+                shscale_runner::figure::Grid {
                     title: "difference from the full-frequency truth",
                     rows: vec![vec![
                         panel(format!("full field − truth (RMS {:.3})", rel(&dff)), dff),
@@ -290,7 +294,7 @@ impl Kind for Shadows {
                     ]],
                     x: xr,
                     y: yr,
-                    colours: shscale_lab::figure::ColourMap::Diverging,
+                    colours: shscale_runner::figure::ColourMap::Diverging,
                     range: (-dmax, dmax),
                     scale_label: "irradiance difference",
                     panel_px: (320, 320),
@@ -301,14 +305,14 @@ impl Kind for Shadows {
         // papers show it: the plane shaded with each method's irradiance.
         let cam = scene
             .camera
-            .unwrap_or_else(|| shscale_lab::camera::Camera::default_for(&scene));
+            .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(&scene));
         let mut views = Vec::new();
         for (idx, title) in [
             (0usize, "fully sampled shadow field"),
             (1, "SH-scaling extrapolation"),
             (3, "full-frequency ray-traced truth"),
         ] {
-            let v = shscale_lab::camera::render_camera(&scene, &imgs[idx].1, &cam)?;
+            let v = shscale_scene::camera::render_camera(&scene, &imgs[idx].1, &cam)?;
             views.push((title, v));
         }
         let vmax = views
@@ -316,13 +320,13 @@ impl Kind for Shadows {
             .flat_map(|(_, v)| v.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0))
             .fold(0f32, f32::max) as f64;
         let [cw, ch] = cam.resolution;
-        shscale_lab::figure::write_png(
+        shscale_runner::figure::write_png(
             &ctx.dir.join(format!("shadows_camera_view_{run_id}.png")),
-            &shscale_lab::figure::Grid {
+            &shscale_runner::figure::Grid {
                 title: "the scene through its camera: the receiver plane shaded with each method's irradiance",
                 rows: vec![views
                     .into_iter()
-                    .map(|(t, v)| shscale_lab::figure::Panel {
+                    .map(|(t, v)| shscale_runner::figure::Panel {
                         title: t.into(),
                         width: cw,
                         height: ch,
@@ -331,7 +335,7 @@ impl Kind for Shadows {
                     .collect()],
                 x: (0.0, cw as f64, "image x (pixels)"),
                 y: (0.0, ch as f64, "image y (pixels)"),
-                colours: shscale_lab::figure::ColourMap::Grey,
+                colours: shscale_runner::figure::ColourMap::Grey,
                 range: (0.0, vmax),
                 scale_label: "radiance (scene units)",
                 panel_px: (360, (360 * ch / cw.max(1)) as u32),
@@ -372,7 +376,7 @@ impl Kind for Shadows {
         ]
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         let mut out = String::new();
         let mut runs: Vec<String> = Vec::new();
         for r in 0..t.rows.len() {
@@ -473,18 +477,18 @@ per-frame resampling, docs/BENCHMARKS.md).{}\n\n",
         Ok(out)
     }
 
-    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
         let Some(r) = (0..t.rows.len()).next() else {
             return Ok(Vec::new());
         };
         let id = t.cell(r, "run_id");
-        let mut files = shscale_lab::exp::probe::copy_image(
+        let mut files = shscale_runner::image::copy_image(
             dir,
             &format!("shadows_fullfield_extrapolated_truth_{id}"),
             out,
             stem,
         )?;
-        files.extend(shscale_lab::exp::probe::copy_image(
+        files.extend(shscale_runner::image::copy_image(
             dir,
             &format!("shadows_camera_view_{id}"),
             out,

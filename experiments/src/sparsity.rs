@@ -9,10 +9,10 @@
 
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::LabError;
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scaling::{AngularScaling, Eta, ScalingMatrix};
+use shscale_scene::Error;
 use shscale_sh::sh_lm;
 use std::path::{Path, PathBuf};
 
@@ -67,14 +67,14 @@ fn structural(i: usize, j: usize) -> bool {
 }
 
 fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, KeyError> {
-    shscale_lab::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
+    shscale_scene::vocab::scaling_tau(&p.tau, p.k, p.alpha_deg)
 }
 
 /// The numerical non-zero pattern (row-major, N² × N²) and max |M|.
-fn pattern(p: &Params, eta: Eta) -> Result<(Vec<bool>, f64), LabError> {
-    let tau = tau_of(p).map_err(|e| LabError::Config(format!("{}: {}", e.key, e.message)))?;
+fn pattern(p: &Params, eta: Eta) -> Result<(Vec<bool>, f64), Error> {
+    let tau = tau_of(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
     let m = ScalingMatrix::<f64>::compute(tau.as_ref(), eta, p.order)
-        .map_err(|e| LabError::Config(format!("order: {e}")))?;
+        .map_err(|e| Error::config(format!("order: {e}")))?;
     let d = m.to_dense();
     let nn = p.order * p.order;
     let max = d.iter().flatten().fold(0f64, |a, v| a.max(v.abs()));
@@ -100,6 +100,10 @@ impl Kind for Sparsity {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -134,11 +138,11 @@ impl Kind for Sparsity {
         2
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
         let nn = p.order * p.order;
         let count = (0..nn * nn).filter(|&x| structural(x / nn, x % nn)).count();
         [Eta::Plain, Eta::Energy]
@@ -150,7 +154,7 @@ impl Kind for Sparsity {
                     .map(|x| format!("({}, {})", x / nn, x % nn))
                     .collect();
                 Ok(Row {
-                    eta: shscale_lab::vocab::eta_name(eta).into(),
+                    eta: shscale_scene::vocab::eta_name(eta).into(),
                     nonzeros: pat.iter().filter(|x| **x).count(),
                     structural: count,
                     formula: p.order * (2 * p.order * p.order + 1) / 3,
@@ -174,11 +178,11 @@ impl Kind for Sparsity {
         ]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         Self::figure(dir, t, dir, "sparsity_pattern")
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         if t.rows.is_empty() {
             return Ok(String::new());
         }
@@ -260,7 +264,7 @@ Picture and its `.txt`: the plain pattern of the first τ, X non-zero, grey/o st
         ))
     }
 
-    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
         if t.rows.is_empty() {
             return Ok(Vec::new());
         }
@@ -298,8 +302,8 @@ fn draw(
     n: usize,
     pattern: &[bool],
     structural: &dyn Fn(usize, usize) -> bool,
-) -> Result<Vec<std::path::PathBuf>, LabError> {
-    shscale_lab::plots::ensure_font();
+) -> Result<Vec<std::path::PathBuf>, Error> {
+    shscale_runner::plots::ensure_font();
     let pid = std::process::id();
     let png = out.join(format!("{stem}.png"));
     let tmp = out.join(format!(".{stem}.tmp-{pid}.png"));
@@ -309,14 +313,8 @@ fn draw(
         pattern,
         structural,
     )
-    .map_err(|e| LabError::Io {
-        path: png.display().to_string(),
-        reason: e,
-    })?;
-    std::fs::rename(&tmp, &png).map_err(|e| LabError::Io {
-        path: png.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    .map_err(|e| Error::io(&png, e))?;
+    std::fs::rename(&tmp, &png).map_err(|e| Error::io(&png, e))?;
     let svg = out.join(format!("{stem}.svg"));
     let tmp = out.join(format!(".{stem}.tmp-{pid}.svg"));
     paint(
@@ -325,14 +323,8 @@ fn draw(
         pattern,
         structural,
     )
-    .map_err(|e| LabError::Io {
-        path: svg.display().to_string(),
-        reason: e,
-    })?;
-    std::fs::rename(&tmp, &svg).map_err(|e| LabError::Io {
-        path: svg.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    .map_err(|e| Error::io(&svg, e))?;
+    std::fs::rename(&tmp, &svg).map_err(|e| Error::io(&svg, e))?;
     Ok(vec![png, svg])
 }
 

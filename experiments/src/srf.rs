@@ -10,11 +10,11 @@ use serde::{Deserialize, Serialize};
 use shscale_field::{Emitter, Layout};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::MeshBvh;
-use shscale_lab::exp::probe::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::plots::{write_both, Labels};
-use shscale_lab::LabError;
+use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
+use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -29,7 +29,7 @@ pub struct Params {
     /// Angle between the two panels (degrees, in (0, 360)).
     pub hinge_deg: f64,
     /// Probe radii (× the bounding radius r, ≥ 1, distinct).
-    #[serde(with = "shscale_lab::exp::records::list")]
+    #[serde(with = "shscale_runner::records::list")]
     pub radii: Vec<f64>,
     /// T of the radiance truth (4T² stratified rays per probe).
     pub truth_res: usize,
@@ -74,6 +74,10 @@ impl Kind for Srf {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -165,7 +169,7 @@ impl Kind for Srf {
             Cost {
                 rays,
                 bytes: samples * (p.order * p.order) as f64 * 8.0 * 2.0,
-                seconds: rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND,
+                seconds: rays / shscale_runner::timing::CPU_RAYS_PER_SECOND,
                 drivers: format!(
                     "layout {} × hemisphere_res {}² × (1 + {} radii)",
                     p.layout,
@@ -180,11 +184,11 @@ impl Kind for Srf {
         p.radii.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
         let layout = Layout::parse(&p.layout)?;
         let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, p.hinge_deg.to_radians());
         let radiance: Vec<f64> = rgb.iter().map(|c| c[0] + c[1] + c[2]).collect();
@@ -224,11 +228,11 @@ impl Kind for Srf {
         ]
     }
 
-    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, LabError> {
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         Self::figure(dir, t, dir, "srf_error_vs_radius")
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         if t.rows.is_empty() {
             return Ok(String::new());
         }
@@ -269,11 +273,11 @@ error of the extrapolated radiance against ray-traced radiance (the converged st
         ))
     }
 
-    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
         // Error against radius: one series per η and per combination of the varying parameters.
-        let params = shscale_lab::exp::Erased::<Srf>::new();
+        let params = shscale_runner::Erased::<Srf>::new();
         let varying: Vec<String> = t
-            .varying(&shscale_lab::exp::DynKind::param_columns(&params))
+            .varying(&shscale_runner::DynKind::param_columns(&params))
             .into_iter()
             .filter(|c| c != "radii")
             .collect();
@@ -281,7 +285,7 @@ error of the extrapolated radiance against ray-traced radiance (the converged st
         for r in 0..t.rows.len() {
             let label = varying
                 .iter()
-                .map(|o| format!(", {} = {}", shscale_lab::plots::words(o), t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [
                 ("plain η", "plain_rel_l2"),
@@ -297,7 +301,7 @@ error of the extrapolated radiance against ray-traced radiance (the converged st
         for v in series.values_mut() {
             v.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        write_both(
+        Ok(write_both(
             out,
             stem,
             &Labels {
@@ -308,6 +312,6 @@ error of the extrapolated radiance against ray-traced radiance (the converged st
             &series,
             false,
             &[],
-        )
+        )?)
     }
 }

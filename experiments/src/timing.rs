@@ -2,17 +2,17 @@
 //! SH conversion, shadowing and FPS — on the CPU path and, where an adapter exists, the GPU path?
 //!
 //! One run is one bench sequence (`bird`, `egg`, `sponge`) on one path (`cpu` or `gpu`), measured
-//! by the Table 1 bench (`shscale_lab::bench`): per-stage medians over `frames` frames after
+//! by the Table 1 bench (`shscale_scene::bench`): per-stage medians over `frames` frames after
 //! `warmup` frames — the timing procedure of this kind, the frames being its repeats. A `gpu` run
 //! without an adapter writes no row (it says so in the summary, and a later run with an adapter
 //! fills it in). Time columns are only comparable when runs do not overlap: the configs of this
 //! kind set `parallel_runs = false`.
 
 use serde::{Deserialize, Serialize};
-use shscale_lab::bench::bench_scene;
-use shscale_lab::exp::records::Results;
-use shscale_lab::exp::{Cost, Ctx, KeyError, Kind};
-use shscale_lab::LabError;
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_scene::bench::bench_scene;
+use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 
 /// Parameters of one run.
@@ -74,6 +74,10 @@ impl Kind for Timing {
     type Params = Params;
     type Shared = ();
     type Row = Row;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -129,7 +133,7 @@ impl Kind for Timing {
             Cost {
                 rays,
                 bytes: 256e6,
-                seconds: rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND,
+                seconds: rays / shscale_runner::timing::CPU_RAYS_PER_SECOND,
                 drivers: format!(
                     "(frames {} + warmup {}) × 240 × 32² rays",
                     p.frames, p.warmup
@@ -142,13 +146,13 @@ impl Kind for Timing {
         1
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), LabError> {
+    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, LabError> {
+    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let gpu = if p.path == "gpu" {
-            match ctx.gpu {
+            match shscale_scene::gpu_path::gpu_of(ctx) {
                 Some(g) => Some(g),
                 None => return Ok(Vec::new()),
             }
@@ -204,7 +208,7 @@ impl Kind for Timing {
         ]
     }
 
-    fn discussion(t: &Results) -> Result<String, LabError> {
+    fn discussion(t: &Results) -> Result<String, Error> {
         if t.rows.is_empty() {
             return Ok(
                 "No rows: no run has finished (a gpu run without an adapter writes none).".into(),
@@ -249,7 +253,7 @@ so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, whic
         ))
     }
 
-    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, LabError> {
+    fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
         Ok(vec![crate::write_text(
             out,
             &format!("{stem}.md"),

@@ -9,9 +9,9 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2}
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use shscale_experiments::probe::ProbeParams;
 use shscale_field::{Frame, Layout, VisibilitySampler};
 use shscale_geometry::DVec3;
-use shscale_lab::exp::probe::ProbeParams;
 use shscale_scaling::{Eta, KTable, ScalingMatrix, TauFamily};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -149,7 +149,7 @@ fn sh_rotate<'py>(
 }
 
 fn family(tau: &str, alpha_deg: f64) -> PyResult<TauFamily> {
-    shscale_lab::vocab::tau_family(tau, alpha_deg).map_err(|e| bad(&e.key, e.message))
+    shscale_scene::vocab::tau_family(tau, alpha_deg).map_err(|e| bad(&e.key, e.message))
 }
 
 fn eta(energy: bool) -> Eta {
@@ -272,13 +272,13 @@ fn ktable(
 ) -> PyResult<KTableHandle> {
     guard(|| {
         check_order(order, 32)?;
-        let max = shscale_lab::exp::probe::MAX_K_COUNT;
+        let max = shscale_scene::vocab::MAX_K_COUNT;
         if !(2..=max).contains(&count) {
             return Err(bad("count", format!("{count} is outside 2..={max}")));
         }
         let f = family(tau, alpha_deg)?;
-        let s = shscale_lab::exp::probe::parse_spacing(spacing).map_err(|m| bad("spacing", m))?;
-        let i = shscale_lab::exp::probe::parse_interp(interp).map_err(|m| bad("interp", m))?;
+        let s = shscale_scene::vocab::parse_spacing(spacing).map_err(|m| bad("spacing", m))?;
+        let i = shscale_scene::vocab::parse_interp(interp).map_err(|m| bad("interp", m))?;
         let t = py
             .allow_threads(|| KTable::build(f, eta(energy), order, count, k_min, k_max, s, i))
             .map_err(|e| bad("k_min/k_max", e))?;
@@ -286,7 +286,7 @@ fn ktable(
     })
 }
 
-use shscale_lab::vocab::MAX_VISIBILITY_RES;
+use shscale_scene::vocab::MAX_VISIBILITY_RES;
 
 /// `(P, N²)` ray-traced visibility (1 = unoccluded) over the full sphere at each point: the
 /// converged stratified truth (`quadrature = "stratified"`, `4T²` rays, as `shscale visibility`)
@@ -324,8 +324,8 @@ fn visibility<'py>(
             }
         };
         let pts = rows3("points", &points)?;
-        let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
-        shscale_lab::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)
+        let occ = shscale_scene::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
+        shscale_scene::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)
             .map_err(|m| bad("points", m))?;
         let nn = order * order;
         let values: Vec<f64> = match quadrature {
@@ -382,7 +382,7 @@ fn inspect<'py>(py: Python<'py>, mesh: &str) -> PyResult<Bound<'py, PyDict>> {
             d.set_item("watertight", true)?;
             return Ok(d);
         }
-        let m = shscale_lab::vocab::mesh(mesh).map_err(|e| bad("mesh", e))?;
+        let m = shscale_scene::vocab::mesh(mesh).map_err(|e| bad("mesh", e))?;
         let r = py.allow_threads(|| m.inspect());
         d.set_item("mesh", mesh)?;
         d.set_item("vertices", r.vertices)?;
@@ -438,7 +438,7 @@ fn probe<'py>(
                 bad(&e.key, e.message)
             }
         })?;
-        let occ = shscale_lab::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
+        let occ = shscale_scene::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
         let analytic = (mesh == "sphere").then(|| shscale_geometry::AnalyticSphere::unit().sphere);
         let res = py
             .allow_threads(|| shscale_field::probe::probe(occ.as_ref(), analytic, &spec))
@@ -519,26 +519,25 @@ fn run_config(
 ) -> PyResult<(String, Vec<String>)> {
     guard(|| {
         let registry = shscale_experiments::registry();
-        let ov = shscale_lab::exp::config::Overrides { set, sweep, name };
-        let plan =
-            shscale_lab::exp::runner::Plan::load(std::path::Path::new(config), &ov, &registry)
-                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let ov = shscale_runner::config::Overrides { set, sweep, name };
+        let plan = shscale_runner::Plan::load(std::path::Path::new(config), &ov, &registry)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         plan.check_limits(allow_large)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let out = std::path::PathBuf::from(out_dir);
         let (dir, warnings) = py
             .allow_threads(|| {
                 let warnings = std::sync::Mutex::new(Vec::new());
-                let s = shscale_lab::exp::runner::run_plan(&plan, &out, None, &|ev| {
-                    if let shscale_lab::exp::runner::RunEvent::Warn(w) = ev {
+                let s = shscale_runner::run_plan(&plan, &out, None, &|ev| {
+                    if let shscale_runner::RunEvent::Warn(w) = ev {
                         warnings
                             .lock()
                             .unwrap_or_else(|e| e.into_inner())
                             .push(w.to_string());
                     }
                 })?;
-                shscale_lab::exp::runner::report(plan.kind, &s.dir)?;
-                Ok::<_, shscale_lab::LabError>((s.dir, warnings.into_inner().unwrap_or_default()))
+                shscale_runner::report(plan.kind, &s.dir)?;
+                Ok::<_, shscale_scene::Error>((s.dir, warnings.into_inner().unwrap_or_default()))
             })
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok((dir.display().to_string(), warnings))

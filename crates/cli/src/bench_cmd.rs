@@ -6,9 +6,10 @@ use crate::args::{
     BenchArgs, BenchFormat, BenchKernel, BenchScene, FigsArgs, KernelCommon, Precision, TextFormat,
     Workload,
 };
-use shscale_lab::bench::{bench_scene, to_csv, to_markdown};
-use shscale_lab::gpu_path::{open_gpu, GpuMode};
-use shscale_lab::kernels::{self, Protocol, RaySet};
+use shscale_runner::GpuMode;
+use shscale_scene::bench::{bench_scene, to_csv, to_markdown};
+use shscale_scene::gpu_path::open_gpu;
+use shscale_scene::kernels::{self, Protocol, RaySet};
 use std::process::ExitCode;
 
 pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
@@ -39,7 +40,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
     let paths = usize::from(cpu) + usize::from(ctx.is_some());
     let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
-    shscale_lab::limits::check_work(
+    shscale_runner::limits::check_work(
         "bench",
         rays,
         0.0,
@@ -63,7 +64,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
         }
-        shscale_lab::runner::write_atomic(path, &to_csv(&rows))?;
+        shscale_runner::write_atomic(path, &to_csv(&rows))?;
     }
     match a.format {
         BenchFormat::Markdown => {
@@ -162,7 +163,7 @@ fn threads(t: usize) -> anyhow::Result<usize> {
 }
 
 fn mesh(name: &str) -> anyhow::Result<shscale_geometry::Mesh> {
-    shscale_lab::vocab::mesh(name).map_err(|e| anyhow::anyhow!("--mesh: {e}"))
+    shscale_scene::vocab::mesh(name).map_err(|e| anyhow::anyhow!("--mesh: {e}"))
 }
 
 fn print<T: serde::Serialize>(format: TextFormat, row: &T, text: String) -> anyhow::Result<()> {
@@ -226,11 +227,11 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             let m = mesh(&a.mesh)?;
             let layout = shscale_field::bsv::Layout::parse(&a.layout)
                 .map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
-            if !(1..=shscale_lab::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
+            if !(1..=shscale_scene::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
                 anyhow::bail!(
                     "--hemisphere-res: {} is outside 1..={}",
                     a.hemisphere_res,
-                    shscale_lab::vocab::MAX_VISIBILITY_RES
+                    shscale_scene::vocab::MAX_VISIBILITY_RES
                 );
             }
             // The orders a scene may shade with (docs/config-reference.md).
@@ -239,7 +240,7 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             }
             let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
                 * (a.hemisphere_res * a.hemisphere_res) as f64;
-            shscale_lab::limits::check_work(
+            shscale_runner::limits::check_work(
                 "bench bsv",
                 rays,
                 0.0,
@@ -272,7 +273,7 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
             }
             let f32 = a.precision == Precision::F32;
             let bytes = a.points as f64 * (a.order * a.order) as f64 * if f32 { 4.0 } else { 8.0 };
-            shscale_lab::limits::check_work(
+            shscale_runner::limits::check_work(
                 "bench sh",
                 0.0,
                 bytes,

@@ -10,12 +10,12 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 /// Largest hemisphere resolution accepted (2H² rays; 1024 gives 2M rays).
-use shscale_lab::vocab::MAX_VISIBILITY_RES as MAX_H;
+use shscale_scene::vocab::MAX_VISIBILITY_RES as MAX_H;
 
 /// The analytic unit sphere, or a mesh (procedural, bundled or a path) behind a BVH, in its own
-/// coordinates — the one vocabulary of `shscale_lab::vocab`.
+/// coordinates — the one vocabulary of `shscale_scene::vocab`.
 pub fn occluder(spec: &str) -> anyhow::Result<Box<dyn Occluder>> {
-    Ok(shscale_lab::vocab::occluder(spec)?)
+    Ok(shscale_scene::vocab::occluder(spec)?)
 }
 
 #[derive(Serialize)]
@@ -54,7 +54,7 @@ pub fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
             unreferenced_vertices: 0,
         }
     } else {
-        let mesh = shscale_lab::vocab::mesh(&a.mesh)?;
+        let mesh = shscale_scene::vocab::mesh(&a.mesh)?;
         let r = mesh.inspect();
         InspectOut {
             mesh: a.mesh.clone(),
@@ -120,14 +120,19 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
     }
     let p = DVec3::new(p[0], p[1], p[2]);
     let occ = occluder(&a.mesh)?;
-    shscale_lab::vocab::check_query_points(occ.as_ref(), &a.mesh, &[p], a.frame == FrameArg::Local)
-        .map_err(|m| {
-            anyhow::anyhow!(
-                "--point: {}",
-                m.trim_start_matches("point 0 ")
-                    .trim_start_matches("point 0: ")
-            )
-        })?;
+    shscale_scene::vocab::check_query_points(
+        occ.as_ref(),
+        &a.mesh,
+        &[p],
+        a.frame == FrameArg::Local,
+    )
+    .map_err(|m| {
+        anyhow::anyhow!(
+            "--point: {}",
+            m.trim_start_matches("point 0 ")
+                .trim_start_matches("point 0: ")
+        )
+    })?;
     if a.truth_res == 0 || a.truth_res > shscale_field::truth::MAX_TRUTH_RES {
         bail!(
             "--truth-res: {} is outside 1..={}",

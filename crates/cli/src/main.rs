@@ -123,7 +123,10 @@ fn main() -> ExitCode {
         Command::ConfigReference => {
             print!(
                 "{}",
-                shscale_lab::exp::reference::markdown(&shscale_experiments::registry())
+                shscale_runner::reference::markdown(
+                    &shscale_experiments::registry(),
+                    shscale_scene::scene::SCENE_KEYS,
+                )
             );
             Ok(ExitCode::SUCCESS)
         }

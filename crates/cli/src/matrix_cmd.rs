@@ -4,10 +4,10 @@ use crate::args::{parse_list, Format, InterpArg, MatrixArgs, SpacingArg, TauArg}
 use crate::output::{print_json, print_matrix};
 use anyhow::{bail, Context};
 use serde::Serialize;
-use shscale_lab::exp::probe::MAX_K_COUNT;
 use shscale_scaling::{
     structural_nonzeros, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily,
 };
+use shscale_scene::vocab::MAX_K_COUNT;
 use std::process::ExitCode;
 use std::time::Instant;
 

@@ -5,9 +5,9 @@ use crate::geometry_cmd::occluder;
 use crate::output::print_json;
 use anyhow::anyhow;
 use serde::Serialize;
+use shscale_experiments::probe::ProbeParams;
 use shscale_field::probe::{probe, ProbeRow};
 use shscale_geometry::AnalyticSphere;
-use shscale_lab::exp::probe::ProbeParams;
 use std::process::ExitCode;
 
 #[derive(Serialize)]

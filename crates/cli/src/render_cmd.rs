@@ -2,8 +2,8 @@
 
 use crate::args::{MethodArg, RenderArgs, TextFormat};
 use anyhow::{bail, Context};
-use shscale_lab::render::{render, render_sequence, Method};
-use shscale_lab::scene::Scene;
+use shscale_scene::render::{render, render_sequence, Method};
+use shscale_scene::scene::Scene;
 use std::process::ExitCode;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
@@ -24,15 +24,15 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let method = to_method(a.method);
     // The work limits: the method, the reference (and its unshadowed image), every frame.
     let frames = a.frames.unwrap_or(1).max(1) as f64;
-    let (mut rays, mut bytes) = shscale_lab::render::estimated_work(&scene, method);
+    let (mut rays, mut bytes) = shscale_scene::render::estimated_work(&scene, method);
     rays *= frames;
     if let Some(r) = a.reference {
-        let (r2, b2) = shscale_lab::render::estimated_work(&scene, to_method(r));
-        let (r3, _) = shscale_lab::render::estimated_work(&scene, Method::RayTraced);
+        let (r2, b2) = shscale_scene::render::estimated_work(&scene, to_method(r));
+        let (r3, _) = shscale_scene::render::estimated_work(&scene, Method::RayTraced);
         rays += r2 + r3;
         bytes = bytes.max(b2);
     }
-    shscale_lab::limits::check_work(
+    shscale_runner::limits::check_work(
         "render",
         rays,
         bytes,
@@ -52,7 +52,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let t0 = std::time::Instant::now();
     // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
     // stderr every 10 s otherwise.
-    let est = rays / shscale_lab::exp::timing::CPU_RAYS_PER_SECOND;
+    let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
     let ticker = Ticker::start(&format!("{:?}", a.method), est);
     let img = render(&scene, method);
     ticker.stop();
@@ -60,14 +60,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let png = if a.camera {
         let cam = scene
             .camera
-            .unwrap_or_else(|| shscale_lab::camera::Camera::default_for(&scene));
-        let view = shscale_lab::camera::render_camera(&scene, &img, &cam)?;
-        shscale_lab::io::write_exr_and_png(
+            .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(&scene));
+        let view = shscale_scene::camera::render_camera(&scene, &img, &cam)?;
+        shscale_runner::image::write_exr_and_png(
             &a.out,
             cam.resolution[0],
             cam.resolution[1],
             &view,
-            shscale_lab::io::Png::Preview,
+            shscale_runner::image::Png::Preview,
         )
     } else {
         write_image(&a.out, &img)
@@ -84,7 +84,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             let mut open = scene.clone();
             open.occluders.clear();
             let unshadowed = render(&open, Method::RayTraced)?;
-            let flat = |img: &shscale_lab::render::RenderOutput| {
+            let flat = |img: &shscale_scene::render::RenderOutput| {
                 img.pixels
                     .iter()
                     .flat_map(|p| p.map(f64::from))
@@ -101,7 +101,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     };
     // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
     // channels of its per-pixel estimate; only the truth methods have one).
-    let truth_light = shscale_lab::render::truth_light(&scene)?;
+    let truth_light = shscale_scene::frame::truth_light(&scene)?;
     let truth_error_rms = (!img.error.is_empty()).then(|| {
         (img.error
             .iter()
@@ -235,7 +235,8 @@ fn sequence(
 }
 
 fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_lab::gpu_path::{open_gpu, render_sequence_gpu, GpuMode};
+    use shscale_runner::GpuMode;
+    use shscale_scene::gpu_path::{open_gpu, render_sequence_gpu};
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
     let run = render_sequence_gpu(scene, frames, &ctx)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
@@ -335,13 +336,13 @@ impl Ticker {
 /// A rendered receiver plane as EXR + PNG preview, written as a unit; the PNG's path.
 fn write_image(
     out: &std::path::Path,
-    img: &shscale_lab::render::RenderOutput,
-) -> Result<std::path::PathBuf, shscale_lab::LabError> {
-    shscale_lab::io::write_exr_and_png(
+    img: &shscale_scene::render::RenderOutput,
+) -> Result<std::path::PathBuf, shscale_runner::Error> {
+    shscale_runner::image::write_exr_and_png(
         out,
         img.width,
         img.height,
         &img.pixels,
-        shscale_lab::io::Png::Preview,
+        shscale_runner::image::Png::Preview,
     )
 }

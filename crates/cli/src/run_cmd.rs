@@ -1,9 +1,9 @@
-//! `shscale run`, `merge`, `slurm`: experiments through the one runner (`shscale_lab::exp`).
+//! `shscale run`, `merge`, `slurm`: experiments through the one runner (`shscale_scene::exp`).
 
 use crate::args::{MergeArgs, OverrideArgs, RunArgs, SlurmArgs};
 use anyhow::{bail, Context};
-use shscale_lab::exp::config::Overrides;
-use shscale_lab::exp::runner::{self, run_plan, Plan, RunEvent, SlurmOptions};
+use shscale_runner::config::Overrides;
+use shscale_runner::{self as runner, run_plan, Plan, RunEvent, SlurmOptions};
 use std::process::ExitCode;
 
 fn overrides(o: &OverrideArgs) -> Overrides {
@@ -198,7 +198,7 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The kind of a results directory, from its manifest.
-fn kind_of_dir(dir: &std::path::Path) -> anyhow::Result<&'static dyn shscale_lab::exp::DynKind> {
+fn kind_of_dir(dir: &std::path::Path) -> anyhow::Result<&'static dyn shscale_runner::DynKind> {
     let m = runner::Manifest::read(dir)?.with_context(|| {
         format!(
             "{}: no manifest.toml (not a results directory of shscale run)",
@@ -251,7 +251,7 @@ pub fn compare(
             .unwrap_or(std::path::Path::new("."))
             .join(format!("compare_{}_vs_{}", name(a), name(b)))
     });
-    let c = shscale_lab::exp::report::compare(ka, a, b, &out)?;
+    let c = shscale_runner::report::compare(ka, a, b, &out)?;
     if json {
         crate::output::print_json(&serde_json::json!({
             "experiment": ka.name(),
@@ -279,7 +279,7 @@ pub fn plot(
     linear_y: bool,
 ) -> anyhow::Result<ExitCode> {
     let kind = kind_of_dir(dir)?;
-    let t = shscale_lab::exp::records::Results::read(&dir.join("runs.csv"))?;
+    let t = shscale_runner::records::Results::read(&dir.join("runs.csv"))?;
     let log = if log_y {
         Some(true)
     } else if linear_y {
@@ -288,7 +288,7 @@ pub fn plot(
         None
     };
     let files =
-        shscale_lab::plots::plot_column(dir, &t, &kind.param_columns(), metric, x, series, log)
+        shscale_runner::plots::plot_column(dir, &t, &kind.param_columns(), metric, x, series, log)
             .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
     for f in files {
         println!("wrote {}", f.display());

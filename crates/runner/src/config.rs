@@ -1,0 +1,884 @@
+//! Experiment config files: the runner's own keys, command-line overrides, sweep expansion and
+//! errors that point at the exact place — the file and line of the value (inside a `[sweep]`
+//! list, an array of tables, a nested table) or the command-line flag that set it.
+//!
+//! A config is one TOML table. The runner's keys (`experiment`, `name`, `gpu`, `parallel_runs`,
+//! `timing_warmup`, `timing_repeats`, `title`, `claim`, `sweep`) are taken out; everything else is the kind's, and
+//! is deserialised into the kind's parameter struct once per combination of the sweep axes, so
+//! serde checks every value's type and no axis needs code of its own.
+//!
+//! ```toml
+//! [sweep]                       # cartesian product of every list below
+//! alpha_deg = [15, 30, 45]
+//! light.sun = [1.0, 8.0]        # a nested key (dotted) is an axis too
+//! [sweep.zip]                   # lists of equal length, varied together (one axis)
+//! order = [2, 4, 8]
+//! hemisphere_res = [8, 16, 32]
+//! ```
+//!
+//! Several products are united with `[[sweep]]` blocks (each one a `[sweep]` table as above, its
+//! runs added to the others'; a run in two blocks is an error), e.g. cone τ over k × α and the
+//! mid-range τ over its own k:
+//!
+//! ```toml
+//! [[sweep]]
+//! tau = ["cone"]
+//! k = [0.5, 2.0]
+//! alpha_deg = [20, 45]
+//! [[sweep]]
+//! tau = ["midrange"]
+//! k = [-0.5, 0.5]
+//! ```
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// Where a config value came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Place {
+    /// A line of a config file (1-based).
+    Line { file: String, line: usize },
+    /// A config file, when the key is not written in it (its default applies).
+    File(String),
+    /// A command-line flag, as given (`--set order=x`).
+    Flag(String),
+}
+
+/// A config error: where, which key, what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConfigError {
+    pub place: Place,
+    /// The key as a dotted path (`sweep.alpha_deg`, `occluder[1].radius`).
+    pub key: String,
+    pub message: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.place {
+            Place::Line { file, line } => {
+                write!(f, "{file}:{line}: {}: {}", self.key, self.message)
+            }
+            Place::File(file) => write!(f, "{file}: {}: {}", self.key, self.message),
+            Place::Flag(flag) => write!(f, "{flag}: {}: {}", self.key, self.message),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// One step of a key path.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Seg {
+    Key(String),
+    Index(usize),
+}
+
+/// A key path, e.g. `[Key("occluder"), Index(1), Key("radius")]`.
+pub type KeyPath = Vec<Seg>;
+
+/// `occluder[1].radius`.
+pub fn path_name(path: &[Seg]) -> String {
+    let mut s = String::new();
+    for seg in path {
+        match seg {
+            Seg::Key(k) => {
+                if !s.is_empty() {
+                    s.push('.');
+                }
+                s.push_str(k);
+            }
+            Seg::Index(i) => s.push_str(&format!("[{i}]")),
+        }
+    }
+    s
+}
+
+/// Parse `a.b[2].c` into a path.
+pub fn parse_path(s: &str) -> KeyPath {
+    let mut out = Vec::new();
+    for part in s.split('.') {
+        let (name, rest) = part.split_once('[').unwrap_or((part, ""));
+        if !name.is_empty() {
+            out.push(Seg::Key(name.to_string()));
+        }
+        for idx in rest.split('[') {
+            if let Ok(i) = idx.trim_end_matches(']').parse() {
+                out.push(Seg::Index(i));
+            }
+        }
+    }
+    out
+}
+
+/// The config text with the spans of every item, for error lines.
+pub struct Source {
+    pub file: String,
+    pub text: String,
+    doc: Option<toml_edit::ImDocument<String>>,
+}
+
+impl Source {
+    pub fn new(file: &str, text: &str) -> Self {
+        Self {
+            file: file.to_string(),
+            text: text.to_string(),
+            doc: toml_edit::ImDocument::parse(text.to_string()).ok(),
+        }
+    }
+
+    fn line_at(&self, byte: usize) -> usize {
+        self.text[..byte.min(self.text.len())].matches('\n').count() + 1
+    }
+
+    /// The line of the item at `path` in the file (or of its nearest written ancestor, with
+    /// `exact = false`); `None` when not even the first key is written.
+    pub fn line_of(&self, path: &[Seg]) -> Option<(usize, bool)> {
+        let doc = self.doc.as_ref()?;
+        let mut item: &toml_edit::Item = doc.as_item();
+        let mut best: Option<usize> = None;
+        for (depth, seg) in path.iter().enumerate() {
+            let (next, key_span) = match seg {
+                Seg::Key(k) => {
+                    let key_span = item
+                        .as_table_like()
+                        .and_then(|t| t.get_key_value(k))
+                        .and_then(|(key, _)| key.span());
+                    (item.get(k.as_str()), key_span)
+                }
+                Seg::Index(i) => (item.get(*i), None),
+            };
+            let Some(next) = next else {
+                return best.map(|b| (b, false));
+            };
+            item = next;
+            let span = item_span(item).or(key_span);
+            if let Some(s) = span {
+                best = Some(self.line_at(s.start));
+            }
+            if depth + 1 == path.len() {
+                return best.map(|b| (b, true));
+            }
+        }
+        best.map(|b| (b, true))
+    }
+}
+
+fn item_span(item: &toml_edit::Item) -> Option<std::ops::Range<usize>> {
+    match item {
+        toml_edit::Item::Value(v) => v.span(),
+        toml_edit::Item::Table(t) => t.span(),
+        toml_edit::Item::ArrayOfTables(a) => a.get(0).and_then(|t| t.span()),
+        toml_edit::Item::None => None,
+    }
+}
+
+/// A `--set` or `--sweep` given on the command line.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    /// `key=value` (dotted keys), applied in order.
+    pub set: Vec<String>,
+    /// `key=v1,v2,…`: adds or replaces the sweep axis `key`.
+    pub sweep: Vec<String>,
+    /// `--name NAME`.
+    pub name: Option<String>,
+}
+
+impl Overrides {
+    /// Every override as its flag, for the manifest.
+    pub fn flags(&self) -> Vec<String> {
+        let mut v: Vec<String> = self.set.iter().map(|s| format!("--set {s}")).collect();
+        v.extend(self.sweep.iter().map(|s| format!("--sweep {s}")));
+        if let Some(n) = &self.name {
+            v.push(format!("--name {n}"));
+        }
+        v
+    }
+}
+
+/// A value written on the command line: TOML when it parses as a TOML value, else a string.
+fn cli_value(text: &str) -> toml::Value {
+    let t = text.trim();
+    toml::from_str::<toml::Table>(&format!("v = {t}"))
+        .ok()
+        .and_then(|mut tab| tab.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(t.to_string()))
+}
+
+/// Split `a,b,[c,d],"e,f"` at top-level commas.
+fn split_top(s: &str) -> Vec<String> {
+    let (mut out, mut cur, mut depth, mut quote) = (Vec::new(), String::new(), 0i32, None);
+    for c in s.chars() {
+        match (c, quote) {
+            ('"' | '\'', None) => quote = Some(c),
+            (q, Some(open)) if q == open => quote = None,
+            ('[' | '{', None) => depth += 1,
+            (']' | '}', None) => depth -= 1,
+            (',', None) if depth == 0 => {
+                out.push(std::mem::take(&mut cur));
+                continue;
+            }
+            _ => {}
+        }
+        cur.push(c);
+    }
+    out.push(cur);
+    out
+}
+
+fn set_path(table: &mut toml::Table, path: &[Seg], value: toml::Value) -> Result<(), String> {
+    let Some((Seg::Key(first), rest)) = path.split_first() else {
+        return Err("the key must start with a name".into());
+    };
+    if rest.is_empty() {
+        table.insert(first.clone(), value);
+        return Ok(());
+    }
+    let entry = table
+        .entry(first.clone())
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    match (entry, &rest[0]) {
+        (toml::Value::Table(t), Seg::Key(_)) => set_path(t, rest, value),
+        (toml::Value::Array(a), Seg::Index(i)) => {
+            let slot = a
+                .get_mut(*i)
+                .ok_or_else(|| format!("index {i} is past the end of the list"))?;
+            match (slot, rest.get(1)) {
+                (slot, None) => {
+                    *slot = value;
+                    Ok(())
+                }
+                (toml::Value::Table(t), Some(_)) => set_path(t, &rest[1..], value),
+                _ => Err("not a table".into()),
+            }
+        }
+        _ => Err(format!("{first} is not a table")),
+    }
+}
+
+/// The runner's own keys of a config.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunnerKeys {
+    pub experiment: String,
+    pub name: Option<String>,
+    pub gpu: Option<String>,
+    pub parallel_runs: Option<bool>,
+    pub timing_warmup: Option<usize>,
+    pub timing_repeats: Option<usize>,
+    /// The results' title and the claim (a paper's, or the question) they test, in words: the
+    /// heading of `summary.md` and of a figure's section in `paper-figs/README.md`.
+    pub title: Option<String>,
+    pub claim: Option<String>,
+}
+
+/// The runner's keys (everything else belongs to the kind).
+pub const RUNNER_KEYS: &[&str] = &[
+    "experiment",
+    "name",
+    "gpu",
+    "parallel_runs",
+    "timing_warmup",
+    "timing_repeats",
+    "title",
+    "claim",
+    "sweep",
+];
+
+/// One combination of the sweep axes: the kind's table and where each swept value came from.
+#[derive(Clone, Debug)]
+pub struct Combination {
+    pub table: toml::Table,
+    /// Swept key path → the place of its value.
+    pub swept: Vec<(KeyPath, Place)>,
+}
+
+/// A config with overrides applied, split into runner keys and the kind's combinations.
+pub struct Expanded {
+    pub source: Source,
+    pub runner: RunnerKeys,
+    /// Key paths set by `--set`, with their flag.
+    pub set_places: Vec<(KeyPath, Place)>,
+    /// Sweep axes in expansion order (dotted names).
+    pub axes: Vec<String>,
+    pub combinations: Vec<Combination>,
+}
+
+/// The most combinations a config may expand to before its runs are even resolved.
+pub const MAX_COMBINATIONS: usize = 100_000;
+
+impl Expanded {
+    /// Where the value at `path` (of one combination) came from: its sweep list element, the
+    /// `--set` flag, its line in the file, or the file (a default).
+    pub fn place_of(&self, combo: &Combination, path: &[Seg]) -> Place {
+        for (p, place) in &combo.swept {
+            if path.starts_with(p) {
+                return place.clone();
+            }
+        }
+        for (p, place) in self.set_places.iter().rev() {
+            if path.starts_with(p) {
+                return place.clone();
+            }
+        }
+        match self.source.line_of(path) {
+            Some((line, _)) => Place::Line {
+                file: self.source.file.clone(),
+                line,
+            },
+            None => Place::File(self.source.file.clone()),
+        }
+    }
+
+    /// An error about `path` of a combination.
+    pub fn error(&self, combo: &Combination, path: &[Seg], message: String) -> ConfigError {
+        ConfigError {
+            place: self.place_of(combo, path),
+            key: path_name(path),
+            message,
+        }
+    }
+}
+
+/// `key=value` of a `--set` or `--sweep` flag, or an error at that flag saying what it expected.
+fn key_value<'a>(
+    s: &'a str,
+    flag: &Place,
+    expected: &str,
+) -> Result<(&'a str, &'a str), ConfigError> {
+    s.split_once('=').ok_or_else(|| ConfigError {
+        place: flag.clone(),
+        key: s.to_string(),
+        message: format!("expected {expected}"),
+    })
+}
+
+/// Read the config `text` of `file`, apply `ov`, split the runner's keys and expand the sweep.
+pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, ConfigError> {
+    let source = Source::new(file, text);
+    let mut doc: toml::Table = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| source.line_at(s.start));
+        let key = line
+            .and_then(|l| text.lines().nth(l - 1))
+            .and_then(|l| l.split_once('='))
+            .map(|(k, _)| k.trim().to_string())
+            .unwrap_or_default();
+        ConfigError {
+            place: line.map_or(Place::File(file.into()), |line| Place::Line {
+                file: file.into(),
+                line,
+            }),
+            key,
+            message: e.message().trim().to_string(),
+        }
+    })?;
+    let at = |path: &[Seg]| match source.line_of(path) {
+        Some((line, _)) => Place::Line {
+            file: file.into(),
+            line,
+        },
+        None => Place::File(file.into()),
+    };
+    let mut set_places = Vec::new();
+    for s in &ov.set {
+        let flag = Place::Flag(format!("--set {s}"));
+        let (k, v) = key_value(s, &flag, "key=value")?;
+        let path = parse_path(k.trim());
+        set_path(&mut doc, &path, cli_value(v)).map_err(|m| ConfigError {
+            place: flag.clone(),
+            key: k.trim().into(),
+            message: m,
+        })?;
+        set_places.push((path, flag));
+    }
+    let mut sweep_flag_places = Vec::new();
+    for s in &ov.sweep {
+        let flag = Place::Flag(format!("--sweep {s}"));
+        let (k, v) = key_value(s, &flag, "key=v1,v2,…")?;
+        let values: Vec<toml::Value> = split_top(v).iter().map(|x| cli_value(x)).collect();
+        // With `[[sweep]]` blocks the axis is added to (or replaced in) every block.
+        let roots: Vec<KeyPath> = match doc.get("sweep") {
+            Some(toml::Value::Array(list)) => (0..list.len())
+                .map(|i| vec![Seg::Key("sweep".into()), Seg::Index(i)])
+                .collect(),
+            _ => vec![vec![Seg::Key("sweep".into())]],
+        };
+        for root in roots {
+            let mut path = root;
+            path.extend(parse_path(k.trim()));
+            set_path(&mut doc, &path, toml::Value::Array(values.clone())).map_err(|m| {
+                ConfigError {
+                    place: flag.clone(),
+                    key: k.trim().into(),
+                    message: m,
+                }
+            })?;
+            sweep_flag_places.push((path, flag.clone()));
+        }
+    }
+    if let Some(n) = &ov.name {
+        doc.insert("name".into(), toml::Value::String(n.clone()));
+        set_places.push((
+            vec![Seg::Key("name".into())],
+            Place::Flag(format!("--name {n}")),
+        ));
+    }
+    // The runner's keys.
+    let mut runner_table = toml::Table::new();
+    for k in RUNNER_KEYS {
+        if let Some(v) = doc.remove(*k) {
+            runner_table.insert(k.to_string(), v);
+        }
+    }
+    let sweep = runner_table.remove("sweep");
+    let runner: RunnerKeys = serde_path_to_error::deserialize(toml::Value::Table(runner_table))
+        .map_err(|e| {
+            let path = serde_path(e.path());
+            let place = set_places
+                .iter()
+                .find(|(p, _)| path.starts_with(p))
+                .map(|(_, pl)| pl.clone())
+                .unwrap_or_else(|| at(&path));
+            ConfigError {
+                place,
+                key: if path.is_empty() {
+                    "experiment".into()
+                } else {
+                    path_name(&path)
+                },
+                message: e.into_inner().to_string().trim().to_string(),
+            }
+        })?;
+    // The sweep axes: every list under [sweep] (nested keys too), and [sweep.zip] as one axis.
+    let flag_place = |path: &[Seg]| {
+        sweep_flag_places
+            .iter()
+            .find(|(p, _)| path.starts_with(p))
+            .map(|(_, pl)| pl.clone())
+    };
+    let place_in_sweep = |path: &[Seg]| flag_place(path).unwrap_or_else(|| at(path));
+    struct Axis {
+        /// Key paths relative to the kind's table, and the path of their list in the config.
+        keys: Vec<(KeyPath, KeyPath)>,
+        values: Vec<Vec<toml::Value>>,
+    }
+    // One block (the `[sweep]` table, or one `[[sweep]]` table of several): its axes.
+    let block_axes = |sweep: &toml::Table, root: &KeyPath| -> Result<Vec<Axis>, ConfigError> {
+        let mut leaves: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
+        let mut zip: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
+        fn walk(
+            t: &toml::Table,
+            prefix: &KeyPath,
+            root_len: usize,
+            out: &mut Vec<(KeyPath, Vec<toml::Value>)>,
+            zip: Option<&mut Vec<(KeyPath, Vec<toml::Value>)>>,
+        ) -> Result<(), (KeyPath, String)> {
+            let mut zip = zip;
+            for (k, v) in t {
+                let mut p = prefix.clone();
+                p.push(Seg::Key(k.clone()));
+                match v {
+                    toml::Value::Array(a) => out.push((p, a.clone())),
+                    toml::Value::Table(sub) if k == "zip" && prefix.len() == root_len => {
+                        if let Some(z) = zip.as_deref_mut() {
+                            walk(sub, &p, root_len, z, None)?;
+                        }
+                    }
+                    toml::Value::Table(sub) => walk(sub, &p, root_len, out, None)?,
+                    other => {
+                        return Err((
+                            p,
+                            format!("a sweep axis must be a list of values, not {other}"),
+                        ))
+                    }
+                }
+            }
+            Ok(())
+        }
+        walk(sweep, root, root.len(), &mut leaves, Some(&mut zip)).map_err(|(p, m)| {
+            ConfigError {
+                place: place_in_sweep(&p),
+                key: path_name(&p),
+                message: m,
+            }
+        })?;
+        // Every list: not empty; no duplicate values (zipped lists: no duplicate tuples).
+        for (p, vals) in leaves.iter().chain(&zip) {
+            if vals.is_empty() {
+                return Err(ConfigError {
+                    place: place_in_sweep(p),
+                    key: path_name(p),
+                    message: "a sweep axis must not be empty".into(),
+                });
+            }
+        }
+        if let Some((p, _)) = zip.first() {
+            let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
+            for i in 0..n {
+                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j])))
+                {
+                    let mut ep = p.clone();
+                    ep.push(Seg::Index(i));
+                    return Err(ConfigError {
+                        place: place_in_sweep(&ep),
+                        key: path_name(p),
+                        message: format!(
+                            "the zipped values of items {} and {} are the same: each run would be done twice",
+                            j + 1,
+                            i + 1
+                        ),
+                    });
+                }
+            }
+        }
+        for (p, vals) in &leaves {
+            for (i, v) in vals.iter().enumerate() {
+                if let Some(j) = vals[..i].iter().position(|w| same_value(v, w)) {
+                    let mut ep = p.clone();
+                    ep.push(Seg::Index(i));
+                    return Err(ConfigError {
+                        place: place_in_sweep(&ep),
+                        key: path_name(p),
+                        message: format!(
+                            "value {v} appears twice (items {} and {}): each run would be done twice",
+                            j + 1,
+                            i + 1
+                        ),
+                    });
+                }
+            }
+        }
+        let rel = |p: &KeyPath| -> KeyPath {
+            let skip =
+                if p.get(root.len()) == Some(&Seg::Key("zip".into())) && p.len() > root.len() + 1 {
+                    root.len() + 1
+                } else {
+                    root.len()
+                };
+            p[skip..].to_vec()
+        };
+        let mut axes = Vec::new();
+        for (p, vals) in &leaves {
+            axes.push(Axis {
+                keys: vec![(rel(p), p.clone())],
+                values: vals.iter().map(|v| vec![v.clone()]).collect(),
+            });
+        }
+        if !zip.is_empty() {
+            let n = zip[0].1.len();
+            if let Some((p, v)) = zip.iter().find(|(_, v)| v.len() != n) {
+                return Err(ConfigError {
+                    place: place_in_sweep(p),
+                    key: path_name(p),
+                    message: format!(
+                        "zipped axes vary together and need lists of equal length: {} has {}, {} has {n}",
+                        path_name(p),
+                        v.len(),
+                        path_name(&zip[0].0)
+                    ),
+                });
+            }
+            axes.push(Axis {
+                keys: zip.iter().map(|(p, _)| (rel(p), p.clone())).collect(),
+                values: (0..n)
+                    .map(|i| zip.iter().map(|(_, v)| v[i].clone()).collect())
+                    .collect(),
+            });
+        }
+        // A key swept twice (in [sweep] and [sweep.zip]) is ambiguous.
+        let mut seen: BTreeMap<KeyPath, KeyPath> = BTreeMap::new();
+        for a in &axes {
+            for (k, full) in &a.keys {
+                if let Some(prev) = seen.insert(k.clone(), full.clone()) {
+                    return Err(ConfigError {
+                        place: place_in_sweep(full),
+                        key: path_name(full),
+                        message: format!(
+                            "{} is already swept by {}",
+                            path_name(k),
+                            path_name(&prev)
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(axes)
+    };
+    // The blocks: `[sweep]` is one; `[[sweep]]` tables are several, whose runs are united.
+    let sweep_root = vec![Seg::Key("sweep".into())];
+    let blocks: Vec<Vec<Axis>> = match sweep {
+        None => vec![Vec::new()],
+        Some(toml::Value::Table(t)) => vec![block_axes(&t, &sweep_root)?],
+        Some(toml::Value::Array(list)) if !list.is_empty() => {
+            let mut v = Vec::new();
+            for (i, b) in list.iter().enumerate() {
+                let mut root = sweep_root.clone();
+                root.push(Seg::Index(i));
+                let toml::Value::Table(t) = b else {
+                    return Err(ConfigError {
+                        place: place_in_sweep(&root),
+                        key: path_name(&root),
+                        message: "each [[sweep]] block must be a table of lists".into(),
+                    });
+                };
+                v.push(block_axes(t, &root)?);
+            }
+            v
+        }
+        Some(_) => {
+            return Err(ConfigError {
+                place: place_in_sweep(&sweep_root),
+                key: "sweep".into(),
+                message: "must be a table of lists ([sweep]) or blocks of them ([[sweep]])".into(),
+            })
+        }
+    };
+    let total = blocks.iter().try_fold(0usize, |sum, axes| {
+        axes.iter()
+            .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
+            .and_then(|n| sum.checked_add(n))
+    });
+    if total.is_none_or(|t| t > MAX_COMBINATIONS) {
+        return Err(ConfigError {
+            place: Place::File(file.into()),
+            key: "sweep".into(),
+            message: format!(
+                "the sweep expands to {} runs, more than the limit {MAX_COMBINATIONS}",
+                total.map_or("too many".into(), |t| t.to_string())
+            ),
+        });
+    }
+    let mut combinations = Vec::new();
+    let mut axis_names: Vec<String> = Vec::new();
+    for axes in &blocks {
+        let mut block = vec![Combination {
+            table: doc.clone(),
+            swept: Vec::new(),
+        }];
+        for a in axes {
+            let mut next = Vec::with_capacity(block.len() * a.values.len());
+            for c in &block {
+                for (i, vals) in a.values.iter().enumerate() {
+                    let mut c2 = c.clone();
+                    for ((rel, full), v) in a.keys.iter().zip(vals) {
+                        set_path(&mut c2.table, rel, v.clone()).map_err(|m| ConfigError {
+                            place: place_in_sweep(full),
+                            key: path_name(full),
+                            message: m,
+                        })?;
+                        let mut ep = full.clone();
+                        ep.push(Seg::Index(i));
+                        c2.swept.push((rel.clone(), place_in_sweep(&ep)));
+                    }
+                    next.push(c2);
+                }
+            }
+            block = next;
+        }
+        for a in axes {
+            for (k, _) in &a.keys {
+                let n = path_name(k);
+                if !axis_names.contains(&n) {
+                    axis_names.push(n);
+                }
+            }
+        }
+        combinations.extend(block);
+    }
+    Ok(Expanded {
+        source,
+        runner,
+        set_places,
+        axes: axis_names,
+        combinations,
+    })
+}
+
+/// Equal as values (integers and floats compare numerically: `[1, 1.0]` is a duplicate).
+fn same_value(a: &toml::Value, b: &toml::Value) -> bool {
+    let num = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    match (num(a), num(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// A serde_path_to_error path as ours.
+pub fn serde_path(p: &serde_path_to_error::Path) -> KeyPath {
+    p.iter()
+        .filter_map(|s| match s {
+            serde_path_to_error::Segment::Map { key } => Some(Seg::Key(key.clone())),
+            serde_path_to_error::Segment::Seq { index } => Some(Seg::Index(*index)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Deserialise one combination's table into `T`; errors name the place of the culprit value.
+pub fn deserialize<T: serde::de::DeserializeOwned>(
+    ex: &Expanded,
+    combo: &Combination,
+) -> Result<T, ConfigError> {
+    serde_path_to_error::deserialize(toml::Value::Table(combo.table.clone())).map_err(|e| {
+        let mut path = serde_path(e.path());
+        let message = e.into_inner().to_string().trim().to_string();
+        // An unknown field is reported at its own key.
+        if let Some(name) = message
+            .strip_prefix("unknown field `")
+            .and_then(|m| m.split('`').next())
+        {
+            if path.last() != Some(&Seg::Key(name.to_string())) {
+                path.push(Seg::Key(name.to_string()));
+            }
+        }
+        ex.error(combo, &path, message)
+    })
+}
+
+/// A TOML parse error of `file` (whose text is `text`) as a [`crate::Error::Config`] naming the file,
+/// the line and — when the message does not already — the field written on that line.
+pub fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> crate::Error {
+    let line = e.span().map_or(0, |s| {
+        text[..s.start.min(text.len())].matches('\n').count() + 1
+    });
+    let msg = e.message().trim();
+    let key = text
+        .lines()
+        .nth(line.saturating_sub(1))
+        .and_then(|l| l.split_once('='))
+        .map(|(k, _)| k.trim())
+        .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
+    match key {
+        Some(k) => crate::Error::Config(format!("{file}:{line}: {k}: {msg}")),
+        None => crate::Error::Config(format!("{file}:{line}: {msg}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sweep_list_error_names_the_element_line() {
+        let text =
+            "experiment = \"probe\"\norder = 4\n[sweep]\nalpha_deg = [\n  10,\n  20,\n  10,\n]\n";
+        let e = expand("c.toml", text, &Overrides::default())
+            .err()
+            .expect("duplicate must be refused");
+        assert_eq!(
+            e.place,
+            Place::Line {
+                file: "c.toml".into(),
+                line: 7
+            },
+            "{e}"
+        );
+        assert!(e.to_string().contains("sweep.alpha_deg"), "{e}");
+    }
+
+    #[test]
+    fn zip_and_product() {
+        let text = "experiment = \"x\"\n[sweep]\na = [1, 2]\n[sweep.zip]\nb = [1, 2, 3]\nc = [\"x\", \"y\", \"z\"]\n";
+        let ex = expand("c.toml", text, &Overrides::default()).unwrap();
+        assert_eq!(ex.combinations.len(), 6);
+        assert_eq!(ex.axes, vec!["a", "b", "c"]);
+        let pairs: Vec<(i64, String)> = ex
+            .combinations
+            .iter()
+            .map(|c| {
+                (
+                    c.table["b"].as_integer().unwrap(),
+                    c.table["c"].as_str().unwrap().to_string(),
+                )
+            })
+            .collect();
+        assert!(pairs.contains(&(3, "z".into())) && !pairs.contains(&(1, "y".into())));
+        let bad = "experiment = \"x\"\n[sweep.zip]\nb = [1, 2, 3]\nc = [1, 2]\n";
+        let e = expand("c.toml", bad, &Overrides::default()).err().unwrap();
+        assert!(e.message.contains("equal length"), "{e}");
+    }
+
+    #[test]
+    fn sweep_blocks_unite_their_products() {
+        let text = "experiment = \"x\"\nk = 1\n[[sweep]]\ntau = [\"cone\"]\nk = [0.5, 2.0]\nalpha_deg = [20, 45]\n[[sweep]]\ntau = [\"midrange\"]\nk = [\n  -0.5,\n  0.5,\n]\n";
+        let ex = expand("c.toml", text, &Overrides::default()).unwrap();
+        assert_eq!(ex.combinations.len(), 4 + 2);
+        let taus: Vec<&str> = ex
+            .combinations
+            .iter()
+            .map(|c| c.table["tau"].as_str().unwrap())
+            .collect();
+        assert_eq!(
+            taus,
+            ["cone", "cone", "cone", "cone", "midrange", "midrange"]
+        );
+        assert!(ex.combinations[5].table.get("alpha_deg").is_none());
+        // The second block's second k sits on line 11 of the file.
+        assert_eq!(
+            ex.place_of(&ex.combinations[5], &parse_path("k")),
+            Place::Line {
+                file: "c.toml".into(),
+                line: 11
+            }
+        );
+        assert_eq!(ex.axes, ["alpha_deg", "k", "tau"]);
+        // --sweep adds the axis to every block.
+        let ov = Overrides {
+            sweep: vec!["order=2,4".into()],
+            ..Overrides::default()
+        };
+        assert_eq!(expand("c.toml", text, &ov).unwrap().combinations.len(), 12);
+        // A duplicate inside a block is named at its element.
+        let dup = "experiment = \"x\"\n[[sweep]]\nk = [1]\n[[sweep]]\nk = [2,\n 2]\n";
+        let Err(e) = expand("c.toml", dup, &Overrides::default()) else {
+            panic!("a duplicate in a block must be refused")
+        };
+        assert!(e.to_string().contains("c.toml:6"), "{e}");
+        assert!(e.to_string().contains("sweep[1].k"), "{e}");
+    }
+
+    #[test]
+    fn overrides_set_and_sweep() {
+        let text = "experiment = \"x\"\norder = 4\n";
+        let ov = Overrides {
+            set: vec![
+                "order=6".into(),
+                "light.sun=2.5".into(),
+                "mesh=bunny".into(),
+            ],
+            sweep: vec!["radii=[1,2],[3]".into()],
+            name: Some("n1".into()),
+        };
+        let ex = expand("c.toml", text, &ov).unwrap();
+        assert_eq!(ex.runner.name.as_deref(), Some("n1"));
+        assert_eq!(ex.combinations.len(), 2);
+        let t = &ex.combinations[0].table;
+        assert_eq!(t["order"].as_integer(), Some(6));
+        assert_eq!(t["mesh"].as_str(), Some("bunny"));
+        assert_eq!(t["light"]["sun"].as_float(), Some(2.5));
+        assert_eq!(t["radii"].as_array().unwrap().len(), 2);
+        assert_eq!(
+            ex.place_of(&ex.combinations[1], &parse_path("radii")),
+            Place::Flag("--sweep radii=[1,2],[3]".into())
+        );
+        assert_eq!(
+            ex.place_of(&ex.combinations[1], &parse_path("order")),
+            Place::Flag("--set order=6".into())
+        );
+    }
+
+    #[test]
+    fn array_of_tables_line() {
+        let text = "experiment = \"x\"\n[[occluder]]\nmesh = \"a\"\n[[occluder]]\nmesh = \"b\"\nradius = -1\n";
+        let ex = expand("s.toml", text, &Overrides::default()).unwrap();
+        let p = parse_path("occluder[1].radius");
+        assert_eq!(
+            ex.place_of(&ex.combinations[0], &p),
+            Place::Line {
+                file: "s.toml".into(),
+                line: 6
+            }
+        );
+        assert_eq!(path_name(&p), "occluder[1].radius");
+    }
+}

@@ -1,0 +1,28 @@
+//! The runner's error: a config problem (the message names the file, line and key), a file that
+//! could not be read or written (named), or an error of a kind's own work, carried as it is.
+
+use std::path::Path;
+
+/// Errors of the runner and of the kinds it runs.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A config, parameter or input problem, in words that name the culprit.
+    #[error("{0}")]
+    Config(String),
+    /// A file or directory that could not be read or written.
+    #[error("{path}: {reason}")]
+    Io { path: String, reason: String },
+    /// An error of a kind's own work (its numerical crates, its device), shown as it is.
+    #[error(transparent)]
+    Kind(Box<dyn std::error::Error + Send + Sync>),
+}
+
+impl Error {
+    /// A file error naming `path`.
+    pub fn io(path: &Path, e: impl std::fmt::Display) -> Self {
+        Self::Io {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        }
+    }
+}

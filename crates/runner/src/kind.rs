@@ -1,0 +1,333 @@
+//! The seam between the runner and an experiment kind ([`Kind`]) and its type-erased form
+//! ([`DynKind`], made by [`Erased`]) that the registry lists.
+//!
+//! A kind is one type implementing [`Kind`]: its parameters (one struct, serde; the config's
+//! keys with their defaults, unknown keys rejected), what runs of a group share, its output row
+//! (one struct, serde: the CSV columns derive from it) and its report. A new parameter is one
+//! field of the parameter struct; every field can be a `[sweep]` axis without further code
+//! ([`crate::config`]). A new kind is one file plus one line in the registry
+//! (`shscale_experiments::registry`). The recipe is in `docs/ARCHITECTURE.md`.
+
+use crate::device::{Device, GpuMode};
+use crate::error::Error;
+use crate::{config, records, timing};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use std::any::Any;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A parameter problem found by [`Kind::validate`]: the key (dotted path) and what is wrong.
+#[derive(Clone, Debug)]
+pub struct KeyError {
+    pub key: String,
+    pub message: String,
+}
+
+impl KeyError {
+    pub fn new(key: &str, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Estimated cost of one run (or of a group's shared work), for `--dry-run` and the limits.
+#[derive(Clone, Debug, Default)]
+pub struct Cost {
+    /// Rays traced.
+    pub rays: f64,
+    /// Peak bytes held.
+    pub bytes: f64,
+    /// Seconds on this machine (from the measured rates in [`timing`]).
+    pub seconds: f64,
+    /// The keys that drive the cost, in words (`hemisphere_res = 256 → 131072 rays per probe`).
+    pub drivers: String,
+}
+
+/// What a kind's work sees of the runner.
+pub struct Ctx<'a> {
+    /// The results directory (per-run images go here).
+    pub dir: &'a Path,
+    /// The folder of the config file: paths in parameters (scenes, meshes) are relative to it.
+    pub config_dir: &'a Path,
+    /// The device the kind opened ([`Kind::open_device`]) under the config's `gpu` setting.
+    pub device: Option<&'a Device>,
+    /// The timing procedure every time column uses.
+    pub timing: timing::Procedure,
+}
+
+/// One experiment kind. See the module documentation.
+pub trait Kind: Send + Sync + 'static {
+    /// `experiment = "…"` in a config.
+    const NAME: &'static str;
+    /// The question the kind answers, in words (the summary's heading).
+    const QUESTION: &'static str;
+    /// One run's parameters: `#[serde(deny_unknown_fields, default)]`, flat (every field one
+    /// CSV cell; lists through [`records::list`]), `Default` = the documented defaults.
+    type Params: Serialize + DeserializeOwned + Default + Clone + Send + Sync + 'static;
+    /// What runs of one group share (computed once per group).
+    type Shared: Send + Sync;
+    /// One output row (flat, like the parameters).
+    type Row: Serialize + DeserializeOwned + Default + Send;
+    /// The kind's errors: its own work's, converted into the runner's [`Error`] at the seam.
+    type Error: Into<Error>;
+
+    /// Check one run's parameters (bounds included) before anything runs.
+    fn validate(p: &Self::Params) -> Result<(), KeyError>;
+    /// Runs with equal keys share one [`Kind::Shared`]. Default: none share.
+    fn group_key(p: &Self::Params) -> String {
+        records::canonical(p).unwrap_or_default()
+    }
+    /// The estimated cost of the work of a group (`shared`) and of each run.
+    fn cost(p: &Self::Params) -> (Cost, Cost);
+    /// Rows one run writes (resume treats a run with fewer as unfinished).
+    fn rows_per_run(p: &Self::Params) -> usize;
+    /// The shared work of a group, from its first run's parameters.
+    fn shared(p: &Self::Params, ctx: &Ctx) -> Result<Self::Shared, Self::Error>;
+    /// One run: its rows.
+    fn run(
+        p: &Self::Params,
+        run_id: &str,
+        shared: &Self::Shared,
+        ctx: &Ctx,
+    ) -> Result<Vec<Self::Row>, Self::Error>;
+    /// Open the device the kind's runs time their GPU path on, as the config's `gpu` setting
+    /// says (the manifest records its description, `none` without one). Default: none.
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Self::Error> {
+        let _ = mode;
+        Ok(None)
+    }
+    /// Columns of [`Kind::Row`] that hold times (excluded from comparisons of merged results).
+    fn time_columns() -> &'static [&'static str] {
+        &[]
+    }
+    /// The headline metric columns shown in the summary table (one per row).
+    fn summary_columns() -> &'static [&'static str];
+    /// Plots and images of a results directory beyond the summary; the files written.
+    fn report(dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, Self::Error> {
+        let _ = (dir, table);
+        Ok(Vec::new())
+    }
+    /// Every parameter key with its meaning, unit and valid range, in words: the config
+    /// reference (`shscale config-reference`, `docs/config-reference.md`); a test checks that
+    /// every field of [`Kind::Params`] is described.
+    fn describe() -> &'static [(&'static str, &'static str)];
+    /// Our numbers against the claim the results test, in words (Markdown, computed from the
+    /// rows so it never goes stale): appended to `summary.md`, and a figure's section of
+    /// `paper-figs/README.md`. Default: nothing.
+    fn discussion(table: &records::Results) -> Result<String, Self::Error> {
+        let _ = table;
+        Ok(String::new())
+    }
+    /// The paper figure of the results in `dir`: files written to `out`, named `<stem>.*`
+    /// (`shscale figs`). Default: none.
+    fn figure(
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, Self::Error> {
+        let _ = (dir, table, out, stem);
+        Ok(Vec::new())
+    }
+}
+
+/// A resolved run, kind-erased.
+#[derive(Clone)]
+pub struct Resolved {
+    pub id: String,
+    /// Canonical serialisation of the parameters (the run id's input).
+    pub canonical: String,
+    /// The parameter cells, in [`DynKind::param_columns`] order.
+    pub cells: Vec<String>,
+    pub group: String,
+    pub shared_cost: Cost,
+    pub cost: Cost,
+    pub rows: usize,
+    params: Arc<dyn Any + Send + Sync>,
+}
+
+/// Rows of one finished run, handed to the runner: cells in [`DynKind::row_columns`] order.
+pub type RowCells = Vec<Vec<String>>;
+
+/// A kind behind a vtable: what the runner needs.
+pub trait DynKind: Send + Sync {
+    fn name(&self) -> &'static str;
+    fn question(&self) -> &'static str;
+    fn param_columns(&self) -> Vec<String>;
+    fn row_columns(&self) -> Vec<String>;
+    fn time_columns(&self) -> &'static [&'static str];
+    fn summary_columns(&self) -> &'static [&'static str];
+    /// Deserialise and validate one combination.
+    fn resolve(
+        &self,
+        ex: &config::Expanded,
+        combo: &config::Combination,
+    ) -> Result<Resolved, config::ConfigError>;
+    /// Re-resolve a run from its CSV cells (`headers` and `cells` of the parameter columns),
+    /// for validating rows on resume and merge. Errors are reasons, in words.
+    fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String>;
+    /// Check that row cells have the row struct's types.
+    fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String>;
+    /// Run a group: the shared work once, then every run (in parallel when `parallel`);
+    /// `sink` gets each finished run's rows.
+    fn run_group(
+        &self,
+        runs: &[&Resolved],
+        ctx: &Ctx,
+        parallel: bool,
+        sink: &(dyn Fn(&Resolved, RowCells, f64) -> Result<(), Error> + Sync),
+    ) -> Result<(), Error>;
+    fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, Error>;
+    /// [`Kind::open_device`].
+    fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error>;
+    fn discussion(&self, table: &records::Results) -> Result<String, Error>;
+    fn describe(&self) -> &'static [(&'static str, &'static str)];
+    /// The parameter keys with their default cells (the CSV/TOML form).
+    fn defaults(&self) -> Vec<(String, String)>;
+    fn figure(
+        &self,
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, Error>;
+}
+
+/// The [`DynKind`] of a [`Kind`].
+pub struct Erased<K: Kind>(std::marker::PhantomData<K>);
+
+impl<K: Kind> Erased<K> {
+    pub const fn new() -> Self {
+        Self(std::marker::PhantomData)
+    }
+}
+
+impl<K: Kind> Default for Erased<K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<K: Kind> Erased<K> {
+    fn resolved(&self, p: K::Params) -> Result<Resolved, String> {
+        let (_, cells) = records::to_cells(&p)?;
+        let canonical = records::canonical(&p)?;
+        let (shared_cost, cost) = K::cost(&p);
+        Ok(Resolved {
+            id: records::run_id(K::NAME, &canonical),
+            canonical,
+            cells,
+            group: K::group_key(&p),
+            shared_cost,
+            cost,
+            rows: K::rows_per_run(&p),
+            params: Arc::new(p),
+        })
+    }
+}
+
+fn params_of<K: Kind>(r: &Resolved) -> Result<&K::Params, Error> {
+    r.params
+        .downcast_ref::<K::Params>()
+        .ok_or_else(|| Error::Config(format!("run {} is not of kind {}", r.id, K::NAME)))
+}
+
+impl<K: Kind> DynKind for Erased<K> {
+    fn name(&self) -> &'static str {
+        K::NAME
+    }
+    fn question(&self) -> &'static str {
+        K::QUESTION
+    }
+    fn param_columns(&self) -> Vec<String> {
+        records::to_cells(&K::Params::default())
+            .map(|(h, _)| h)
+            .unwrap_or_default()
+    }
+    fn row_columns(&self) -> Vec<String> {
+        records::to_cells(&K::Row::default())
+            .map(|(h, _)| h)
+            .unwrap_or_default()
+    }
+    fn time_columns(&self) -> &'static [&'static str] {
+        K::time_columns()
+    }
+    fn summary_columns(&self) -> &'static [&'static str] {
+        K::summary_columns()
+    }
+    fn resolve(
+        &self,
+        ex: &config::Expanded,
+        combo: &config::Combination,
+    ) -> Result<Resolved, config::ConfigError> {
+        let p: K::Params = config::deserialize(ex, combo)?;
+        K::validate(&p).map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
+        self.resolved(p)
+            .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
+    }
+    fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
+        let p: K::Params = records::from_cells(headers, cells)?;
+        K::validate(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
+        self.resolved(p)
+    }
+    fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String> {
+        records::from_cells::<K::Row>(headers, cells).map(|_| ())
+    }
+    fn run_group(
+        &self,
+        runs: &[&Resolved],
+        ctx: &Ctx,
+        parallel: bool,
+        sink: &(dyn Fn(&Resolved, RowCells, f64) -> Result<(), Error> + Sync),
+    ) -> Result<(), Error> {
+        use rayon::prelude::*;
+        let Some(first) = runs.first() else {
+            return Ok(());
+        };
+        let shared = K::shared(params_of::<K>(first)?, ctx).map_err(Into::into)?;
+        let one = |r: &&Resolved| -> Result<(), Error> {
+            let t0 = std::time::Instant::now();
+            let rows = K::run(params_of::<K>(r)?, &r.id, &shared, ctx).map_err(Into::into)?;
+            let cells = rows
+                .iter()
+                .map(|row| records::to_cells(row).map(|(_, c)| c))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(Error::Config)?;
+            sink(r, cells, t0.elapsed().as_secs_f64())
+        };
+        if parallel {
+            runs.par_iter().try_for_each(one)
+        } else {
+            runs.iter().try_for_each(one)
+        }
+    }
+    fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, Error> {
+        K::report(dir, table).map_err(Into::into)
+    }
+    fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error> {
+        K::open_device(mode).map_err(Into::into)
+    }
+    fn discussion(&self, table: &records::Results) -> Result<String, Error> {
+        K::discussion(table).map_err(Into::into)
+    }
+    fn describe(&self) -> &'static [(&'static str, &'static str)] {
+        K::describe()
+    }
+    fn defaults(&self) -> Vec<(String, String)> {
+        records::to_cells(&K::Params::default())
+            .map(|(h, c)| h.into_iter().zip(c).collect())
+            .unwrap_or_default()
+    }
+    fn figure(
+        &self,
+        dir: &Path,
+        table: &records::Results,
+        out: &Path,
+        stem: &str,
+    ) -> Result<Vec<PathBuf>, Error> {
+        K::figure(dir, table, out, stem).map_err(Into::into)
+    }
+}

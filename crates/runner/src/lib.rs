@@ -1,0 +1,53 @@
+//! The experiment core of shscale: every experiment kind behind one seam ([`Kind`]), run by one
+//! runner with run ids, resume, shards, merge, Slurm scripts, locking and a manifest — and nothing
+//! numerical. It knows configs, records, files and plots; what a kind computes, and on which
+//! device, is the kind's business ([`Kind::open_device`], [`Ctx::device`]).
+//!
+//! | module | what it owns |
+//! |---|---|
+//! | [`kind`] | the seam: [`Kind`], its type-erased [`DynKind`], [`Ctx`], [`Cost`], [`KeyError`] |
+//! | [`config`] | config expansion: overrides, `[sweep]` products and zips, places of errors |
+//! | [`records`] | rows as CSV cells, run ids, the results table |
+//! | [`plan`] | a config resolved into runs, its cost and limits |
+//! | [`store`] | a results directory's lock, header and validated rows |
+//! | [`manifest`] | provenance and `manifest.toml` |
+//! | [`run`] | running a plan (resume, shards, groups) |
+//! | [`merge`], [`slurm`] | joining shard files; job-array scripts |
+//! | [`report`] | the summary, `report.md` and `report.html` |
+//! | [`plots`], [`figure`], [`image`] | line plots, image grids, EXR/PNG files |
+//! | [`timing`], [`limits`] | the timing procedure; the work limits |
+//! | [`atomic`] | atomic file output |
+//! | [`reference`] | the config reference |
+//! | [`device`] | the `gpu` setting and an opened device |
+
+pub mod atomic;
+pub mod config;
+pub mod device;
+pub mod error;
+pub mod figure;
+pub mod image;
+pub mod kind;
+pub mod limits;
+pub mod manifest;
+pub mod merge;
+pub mod plan;
+pub mod plots;
+pub mod records;
+pub mod reference;
+pub mod report;
+pub mod run;
+pub mod slurm;
+pub mod store;
+pub mod timing;
+
+pub use atomic::{write_atomic, write_atomic_all};
+pub use device::{Device, GpuMode};
+pub use error::Error;
+pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells};
+pub use manifest::Manifest;
+pub use merge::{merge, MergeSummary};
+pub use plan::Plan;
+pub use report::{report, title_and_claim, Report};
+pub use run::{run_plan, RunEvent, RunSummary};
+pub use slurm::{shell_quote, slurm_script, SlurmOptions};
+pub use store::{header, load_rows};

@@ -1,0 +1,129 @@
+//! Provenance and `manifest.toml`: the columns the runner adds to every row, the machine and
+//! revision a config version ran on, and every config version that produced rows (appended once
+//! a run of it has succeeded, never rewritten).
+
+use crate::error::Error;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Columns the runner adds to every row after the kind's.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct RowProvenance {
+    pub threads: usize,
+    /// Whether the row's times were taken while other runs executed (not comparable).
+    pub timing_concurrent: bool,
+    pub timing_warmup: usize,
+    pub timing_repeats: usize,
+    pub git_revision: String,
+    pub git_dirty: bool,
+}
+
+/// Where a plan's run writes, and the machine.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Provenance {
+    pub git_revision: String,
+    /// Whether the checkout had local changes.
+    pub git_dirty: bool,
+    pub shscale_version: String,
+    pub cpu_model: String,
+    pub threads: usize,
+    pub gpu_device: String,
+    pub os: String,
+    pub arch: String,
+    pub unix_time: u64,
+}
+
+fn git(args: &[&str]) -> Option<String> {
+    std::process::Command::new("git")
+        .args(args)
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+}
+
+pub(crate) fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+impl Provenance {
+    /// Read off this process and machine.
+    pub fn here(gpu_device: &str) -> Self {
+        let rev = git(&["rev-parse", "--short", "HEAD"]);
+        let dirty = rev.is_some()
+            && git(&["status", "--porcelain", "--untracked-files=no"])
+                .is_some_and(|s| !s.is_empty());
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|t| {
+                t.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split_once(':'))
+                    .map(|(_, v)| v.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".into());
+        Self {
+            git_revision: rev.unwrap_or_else(|| "unknown".into()),
+            git_dirty: dirty,
+            shscale_version: env!("CARGO_PKG_VERSION").into(),
+            cpu_model: cpu,
+            threads: rayon::current_num_threads(),
+            gpu_device: gpu_device.into(),
+            os: std::env::consts::OS.into(),
+            arch: std::env::consts::ARCH.into(),
+            unix_time: unix_now(),
+        }
+    }
+}
+
+/// One config version that produced rows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Version {
+    /// Hash of the config text, the overrides and the revision.
+    pub id: String,
+    pub config_file: String,
+    pub overrides: Vec<String>,
+    pub axes: Vec<String>,
+    pub runs_in_plan: usize,
+    pub first_unix_time: u64,
+    pub last_unix_time: u64,
+    pub provenance: Provenance,
+    pub config_text: String,
+}
+
+/// `manifest.toml`: the kind, the name and every config version that produced rows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Manifest {
+    pub experiment: String,
+    pub name: String,
+    #[serde(default)]
+    pub versions: Vec<Version>,
+}
+
+impl Manifest {
+    /// Read `dir/manifest.toml` (`None` when absent).
+    pub fn read(dir: &Path) -> Result<Option<Self>, Error> {
+        let p = dir.join("manifest.toml");
+        if !p.exists() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+        toml::from_str(&text).map(Some).map_err(|e| Error::Io {
+            path: p.display().to_string(),
+            reason: format!(
+                "not a manifest of this shscale version ({}); move it (and its runs.csv) away or choose another name",
+                e.message().trim()
+            ),
+        })
+    }
+
+    pub(crate) fn add(&mut self, v: &Version) {
+        match self.versions.iter_mut().find(|x| x.id == v.id) {
+            Some(x) => x.last_unix_time = v.last_unix_time,
+            None => self.versions.push(v.clone()),
+        }
+    }
+}

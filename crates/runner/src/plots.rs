@@ -1,0 +1,432 @@
+//! Plots of a run directory's `runs.csv` (plotters; PNG and SVG, written to a temporary name and
+//! renamed): the error against the swept parameter with one series per probe radius, and the
+//! speed/accuracy scatter of all runs with its Pareto front. Every plot: the Okabe–Ito palette
+//! (colour-blind safe), a log y axis when the data span two decades or more ([`log_axis`]),
+//! integer ticks when x is an integer parameter, and a y range that never clips ([`y_range`]). Text uses the bundled DejaVu Sans
+//! (assets/fonts, Bitstream Vera licence), so nothing is needed from the system at run time.
+
+use crate::error::Error;
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+static FONT: std::sync::Once = std::sync::Once::new();
+
+/// Register the bundled DejaVu Sans as `sans-serif` (once); every plot calls it.
+pub fn ensure_font() {
+    FONT.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+        // Registration fails only for a malformed font, which the tests would catch.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+    });
+}
+
+/// A results CSV (read through the `csv` crate).
+pub type Table = crate::records::Results;
+
+fn err(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    }
+}
+
+fn finish(tmp: &Path, path: &Path) -> Result<(), Error> {
+    std::fs::rename(tmp, path).map_err(|e| err(path, e))
+}
+
+/// Title and axis labels (with units) of a plot.
+pub struct Labels<'a> {
+    pub title: &'a str,
+    pub x: &'a str,
+    pub y: &'a str,
+}
+
+/// Draw `series` (name → points) as lines with markers; x and y labelled with units.
+fn line_plot<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter_only: bool,
+    front: &[(f64, f64)],
+    log: Option<bool>,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE).map_err(|e| e.to_string())?;
+    let pts: Vec<(f64, f64)> = series
+        .values()
+        .flatten()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    if pts.is_empty() {
+        return Err("no finite data to plot".into());
+    }
+    // Data spanning two decades or more (all > 0) are drawn on a log axis: y becomes log10 y
+    // and the ticks are labelled as powers of ten.
+    let log_y = log.unwrap_or_else(|| log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>()));
+    if log_y && pts.iter().any(|p| p.1 <= 0.0) {
+        return Err("a log y axis needs values > 0".into());
+    }
+    let ty = |y: f64| if log_y { y.log10() } else { y };
+    let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, ty(y))).collect();
+    let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
+    let (mut x0, mut x1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut y0, mut y1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if x1 <= x0 {
+        x0 -= 0.5;
+        x1 += 0.5;
+    }
+    if y1 <= y0 {
+        y0 -= 0.5;
+        y1 += 0.5;
+    }
+    let (ylo, yhi) = if log_y {
+        let pad = 0.05 * (y1 - y0);
+        (y0 - pad, y1 + pad)
+    } else {
+        y_range(y0, y1)
+    };
+    let y_desc = if log_y {
+        format!("{} — log scale", labels.y)
+    } else {
+        labels.y.to_string()
+    };
+    // Integer parameters get integer ticks (one per value when there are few).
+    let x_ticks = if integer_x && x1 - x0 <= 12.0 {
+        (x1 - x0).round() as usize + 1
+    } else {
+        10
+    };
+    let mut chart = ChartBuilder::on(&area)
+        .caption(labels.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0..x1, ylo..yhi)
+        .map_err(|e| e.to_string())?;
+    let x_fmt = |v: &f64| {
+        if integer_x {
+            format!("{v:.0}")
+        } else {
+            format!("{}", (v * 1e6).round() / 1e6)
+        }
+    };
+    let y_fmt = |v: &f64| {
+        if log_y {
+            // Decades only (1e-3, 1e-2, …); the ticks between them stay unlabelled.
+            if (v - v.round()).abs() < 1e-9 {
+                format!("1e{}", v.round())
+            } else {
+                String::new()
+            }
+        } else {
+            format!("{}", (v * 1e6).round() / 1e6)
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc(labels.x)
+        .y_desc(y_desc)
+        .x_labels(x_ticks)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (i, (name, points)) in series.iter().enumerate() {
+        let color = palette(i);
+        let mut pts: Vec<(f64, f64)> = points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .map(|(x, y)| (x, ty(y)))
+            .filter(|(_, y)| y.is_finite())
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Colours repeat every eight series; the marker shape tells the repeats apart
+        // (circles, then triangles, then squares).
+        let shape = (i / 8) % 3;
+        if !scatter_only {
+            let line = chart
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(name.clone());
+            let seg = move |x: i32, y: i32| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            };
+            match shape {
+                0 => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y)) + seg(0, 0) + Circle::new((9, 0), 4, color.filled())
+                }),
+                1 => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + seg(0, 0)
+                        + TriangleMarker::new((9, 0), 6, color.filled())
+                }),
+                _ => line.legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + seg(0, 0)
+                        + Cross::new((9, 0), 5, color.stroke_width(2))
+                }),
+            };
+        }
+        let s = match shape {
+            0 => chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))),
+            1 => chart.draw_series(
+                pts.iter()
+                    .map(|p| TriangleMarker::new(*p, 6, color.filled())),
+            ),
+            _ => chart.draw_series(pts.iter().map(|p| Cross::new(*p, 5, color.stroke_width(2)))),
+        }
+        .map_err(|e| e.to_string())?;
+        if scatter_only {
+            s.label(name.clone())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+        }
+    }
+    if !front.is_empty() {
+        let front: Vec<(f64, f64)> = front.iter().map(|&(x, y)| (x, ty(y))).collect();
+        chart
+            .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?
+            .label("Pareto front")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(1)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// `shscale plot`: `metric` against `x` from a results table, one series per value of `series`
+/// (or, without it, per combination of every other parameter that varies), written as
+/// `plot_<metric>_vs_<x>.png/.svg` in `dir`. Rows whose cells are not numbers are left out.
+pub fn plot_column(
+    dir: &Path,
+    t: &Table,
+    params: &[String],
+    metric: &str,
+    x: &str,
+    series: Option<&str>,
+    log: Option<bool>,
+) -> Result<Vec<PathBuf>, Error> {
+    for c in [metric, x].into_iter().chain(series) {
+        if t.col(c).is_none() {
+            return Err(Error::Config(format!(
+                "{c:?} is not a column of {} (columns: {})",
+                dir.join("runs.csv").display(),
+                t.columns.join(", ")
+            )));
+        }
+    }
+    let groups: Vec<String> = match series {
+        Some(s) => vec![s.to_string()],
+        None => t
+            .varying(params)
+            .into_iter()
+            .filter(|c| c != x && c != metric)
+            .collect(),
+    };
+    let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        let (xv, yv) = (t.num(r, x), t.num(r, metric));
+        if !(xv.is_finite() && yv.is_finite()) {
+            continue;
+        }
+        let label = if groups.is_empty() {
+            metric.to_string()
+        } else {
+            groups
+                .iter()
+                .map(|g| format!("{g} = {}", t.cell(r, g)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        by.entry(label).or_default().push((xv, yv));
+    }
+    if by.is_empty() {
+        return Err(Error::Config(format!(
+            "no row has numbers in both {metric:?} and {x:?}"
+        )));
+    }
+    let title = format!("{metric} against {x}");
+    write_both_log(
+        dir,
+        &format!("plot_{metric}_vs_{x}"),
+        &Labels {
+            title: &title,
+            x,
+            y: metric,
+        },
+        &by,
+        false,
+        &[],
+        log,
+    )
+}
+
+/// A parameter's name in words, for titles and legends.
+pub fn words(key: &str) -> String {
+    match key {
+        "alpha_deg" => "cone angle α (°)".into(),
+        "order" => "SH order N".into(),
+        "hemisphere_res" => "hemisphere resolution H".into(),
+        "k_count" => "k-table size K".into(),
+        "k_spacing" => "k spacing".into(),
+        "k_interp" => "k interpolation".into(),
+        "sampling_radius" => "sampling radius s".into(),
+        "on_surface_eps" => "on-surface threshold ε".into(),
+        "layout" => "layout".into(),
+        "mesh" => "mesh".into(),
+        "radius" => "probe radius ρ".into(),
+        other => other.replace('_', " "),
+    }
+}
+
+/// The Okabe–Ito palette (colour-blind safe), in order; series beyond eight repeat it.
+const OKABE_ITO: [(u8, u8, u8); 8] = [
+    (0, 114, 178),
+    (230, 159, 0),
+    (0, 158, 115),
+    (213, 94, 0),
+    (86, 180, 233),
+    (204, 121, 167),
+    (240, 228, 66),
+    (0, 0, 0),
+];
+
+/// The colour of series `i`.
+pub fn palette(i: usize) -> RGBAColor {
+    let (r, g, b) = OKABE_ITO[i % OKABE_ITO.len()];
+    RGBColor(r, g, b).to_rgba()
+}
+
+/// Whether values should be drawn on a log axis: all finite and > 0, spanning ≥ 100×.
+pub fn log_axis(ys: &[f64]) -> bool {
+    let finite: Vec<f64> = ys.iter().copied().filter(|y| y.is_finite()).collect();
+    if finite.is_empty() || finite.iter().any(|y| *y <= 0.0) {
+        return false;
+    }
+    let (lo, hi) = finite
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(*y), b.max(*y)));
+    hi / lo >= 100.0
+}
+
+/// The drawn y range of data spanning `[y0, y1]` (`y0 < y1`): 5 % padding each side, the lower
+/// end not below 0 when the data are non-negative (errors start at the axis) — and never above
+/// the smallest value, so negative data are drawn where they are.
+pub fn y_range(y0: f64, y1: f64) -> (f64, f64) {
+    let pad = 0.05 * (y1 - y0);
+    let lo = if y0 >= 0.0 {
+        (y0 - pad).max(0.0)
+    } else {
+        y0 - pad
+    };
+    (lo, y1 + pad)
+}
+
+/// Write `stem.png` and `stem.svg` in `dir` (each to a temporary file, then renamed): one line
+/// (or, with `scatter`, marker) series per entry of `series`, plus an optional black `front`.
+pub fn write_both(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter: bool,
+    front: &[(f64, f64)],
+) -> Result<Vec<PathBuf>, Error> {
+    write_both_log(dir, stem, labels, series, scatter, front, None)
+}
+
+/// [`write_both`] with the y axis forced linear (`Some(false)`) or logarithmic (`Some(true)`);
+/// `None` decides by the data ([`log_axis`]).
+pub fn write_both_log(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    scatter: bool,
+    front: &[(f64, f64)],
+    log: Option<bool>,
+) -> Result<Vec<PathBuf>, Error> {
+    ensure_font();
+    let pid = std::process::id();
+    let png = dir.join(format!("{stem}.png"));
+    let tmp_png = dir.join(format!(".{stem}.tmp-{pid}.png"));
+    line_plot(
+        BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
+        labels,
+        series,
+        scatter,
+        front,
+        log,
+    )
+    .map_err(|e| err(&png, e))?;
+    finish(&tmp_png, &png)?;
+    let svg = dir.join(format!("{stem}.svg"));
+    let tmp_svg = dir.join(format!(".{stem}.tmp-{pid}.svg"));
+    line_plot(
+        SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
+        labels,
+        series,
+        scatter,
+        front,
+        log,
+    )
+    .map_err(|e| err(&svg, e))?;
+    finish(&tmp_svg, &svg)?;
+    Ok(vec![png, svg])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::y_range;
+
+    /// Data spanning two decades or more go on a log axis; negative, zero or narrow data do not.
+    #[test]
+    fn log_axis_when_data_span_decades() {
+        assert!(super::log_axis(&[1e-6, 3e-4, 1e-2]));
+        assert!(super::log_axis(&[1.0, 100.0]));
+        assert!(!super::log_axis(&[1.0, 99.0]));
+        assert!(!super::log_axis(&[0.0, 1e-6, 1.0]));
+        assert!(!super::log_axis(&[-1.0, 1e3]));
+        assert!(!super::log_axis(&[]));
+        assert!(super::log_axis(&[f64::NAN, 1e-3, 1.0]));
+    }
+
+    /// A series reaching −0.76 (an element of M_k, Fig. 3) stays inside the drawn range; data
+    /// that are non-negative keep their axis at or above 0.
+    #[test]
+    fn negative_values_stay_inside_the_drawn_range() {
+        for (y0, y1) in [
+            (-0.76, 1.09),
+            (-3.0, -1.0),
+            (0.0, 2.0),
+            (0.2, 0.3),
+            (1e-9, 1e-8),
+        ] {
+            let (lo, hi) = y_range(y0, y1);
+            println!("data [{y0}, {y1}] → drawn [{lo}, {hi}]");
+            assert!(
+                lo < y0 || (lo == 0.0 && y0 == 0.0),
+                "{y0} below the drawn {lo}"
+            );
+            assert!(hi > y1, "{y1} above the drawn {hi}");
+            if y0 >= 0.0 {
+                assert!(lo >= 0.0, "non-negative data drawn from {lo}");
+            }
+        }
+    }
+}

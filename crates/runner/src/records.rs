@@ -1,0 +1,289 @@
+//! CSV records through the `csv` crate: header and cells derived from a row or parameter struct
+//! (no hand-kept column list), reading and validating results files, run ids.
+
+use crate::error::Error;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use std::path::Path;
+
+/// Header and cells of one flat struct, as the `csv` crate writes them.
+pub fn to_cells<T: Serialize>(v: &T) -> Result<(Vec<String>, Vec<String>), String> {
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(true)
+        .from_writer(Vec::new());
+    w.serialize(v).map_err(|e| e.to_string())?;
+    let bytes = w.into_inner().map_err(|e| e.to_string())?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_reader(bytes.as_slice());
+    let headers: Vec<String> = r
+        .headers()
+        .map_err(|e| e.to_string())?
+        .iter()
+        .map(String::from)
+        .collect();
+    let rec = r
+        .records()
+        .next()
+        .ok_or("no record")?
+        .map_err(|e| e.to_string())?;
+    Ok((headers, rec.iter().map(String::from).collect()))
+}
+
+/// A flat struct from named cells (types checked by serde).
+pub fn from_cells<T: DeserializeOwned>(headers: &[String], cells: &[String]) -> Result<T, String> {
+    let h = csv::StringRecord::from(headers.to_vec());
+    let c = csv::StringRecord::from(cells.to_vec());
+    c.deserialize(Some(&h)).map_err(|e| {
+        let msg = e.to_string();
+        // csv's messages carry a byte position of our in-memory record; keep the reason.
+        msg.split_once(": ")
+            .filter(|(pre, _)| pre.starts_with("CSV deserialize error"))
+            .map_or(msg.clone(), |(_, rest)| rest.to_string())
+    })
+}
+
+/// The canonical serialisation of parameters: `name=cell;…` in field order.
+pub fn canonical<T: Serialize>(p: &T) -> Result<String, String> {
+    let (h, c) = to_cells(p)?;
+    Ok(h.iter()
+        .zip(&c)
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";"))
+}
+
+/// FNV-1a (64 bit) of `kind` and the canonical parameters, hex.
+pub fn run_id(kind: &str, canonical: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in kind.bytes().chain([b'\n']).chain(canonical.bytes()) {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// A list parameter in one CSV cell (`0.5;0.7;2`), read from a TOML list or that cell:
+/// `#[serde(with = "crate::records::list")]`.
+pub mod list {
+    use serde::de::{self, SeqAccess, Visitor};
+    use serde::{Deserializer, Serializer};
+    use std::fmt;
+    use std::str::FromStr;
+
+    pub fn serialize<S: Serializer, T: fmt::Display>(v: &[T], s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(
+            &v.iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(";"),
+        )
+    }
+
+    pub fn deserialize<'de, D, T>(d: D) -> Result<Vec<T>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: FromStr + serde::Deserialize<'de>,
+    {
+        struct V<T>(std::marker::PhantomData<T>);
+        impl<'de, T: FromStr + serde::Deserialize<'de>> Visitor<'de> for V<T> {
+            type Value = Vec<T>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a list of numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<Vec<T>, A::Error> {
+                let mut out = Vec::new();
+                while let Some(x) = a.next_element()? {
+                    out.push(x);
+                }
+                Ok(out)
+            }
+            // A one-element list in a CSV cell reads as a number.
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Vec<T>, E> {
+                self.visit_str(&v.to_string())
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<Vec<T>, E> {
+                if s.trim().is_empty() {
+                    return Ok(Vec::new());
+                }
+                s.split(';')
+                    .map(|x| {
+                        x.trim()
+                            .parse()
+                            .map_err(|_| E::custom(format!("{x:?} in list {s:?} is not a number")))
+                    })
+                    .collect()
+            }
+        }
+        d.deserialize_any(V(std::marker::PhantomData))
+    }
+}
+
+/// A results CSV read through the `csv` crate.
+#[derive(Clone, Debug, Default)]
+pub struct Results {
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Results {
+    /// Read a CSV; every row must have the header's length (else an error naming the line).
+    pub fn read(path: &Path) -> Result<Self, Error> {
+        let (columns, rows) = read_raw(path)?;
+        let mut out = Vec::new();
+        for (line, r) in rows {
+            if r.len() != columns.len() {
+                return Err(Error::Io {
+                    path: format!("{}:{line}", path.display()),
+                    reason: format!("{} cells, the header has {}", r.len(), columns.len()),
+                });
+            }
+            out.push(r);
+        }
+        Ok(Self { columns, rows: out })
+    }
+
+    pub fn col(&self, name: &str) -> Option<usize> {
+        self.columns.iter().position(|c| c == name)
+    }
+
+    /// The cell of `name` in row `r` ("" when the column is missing).
+    pub fn cell(&self, r: usize, name: &str) -> &str {
+        self.col(name)
+            .and_then(|c| self.rows[r].get(c))
+            .map_or("", String::as_str)
+    }
+
+    /// The distinct cells of column `name`, sorted (text order).
+    pub fn distinct(&self, name: &str) -> Vec<String> {
+        let mut v: Vec<String> = (0..self.rows.len())
+            .map(|r| self.cell(r, name).to_string())
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+
+    /// Numeric value (NaN when empty or not a number).
+    pub fn num(&self, r: usize, name: &str) -> f64 {
+        self.cell(r, name).parse().unwrap_or(f64::NAN)
+    }
+
+    /// The columns among `candidates` whose cells take more than one value, in order.
+    pub fn varying(&self, candidates: &[String]) -> Vec<String> {
+        candidates
+            .iter()
+            .filter(|c| {
+                let Some(i) = self.col(c) else { return false };
+                let first = self.rows.first().map(|r| &r[i]);
+                self.rows.iter().any(|r| Some(&r[i]) != first)
+            })
+            .cloned()
+            .collect()
+    }
+}
+
+/// One CSV record with its line number.
+pub type CsvLine = (u64, Vec<String>);
+
+/// Header and records with their line numbers (records of any length).
+pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<CsvLine>), Error> {
+    let io = |e: &dyn std::fmt::Display| Error::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    };
+    let bytes = std::fs::read(path).map_err(|e| io(&e))?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(bytes.as_slice());
+    let columns: Vec<String> = r
+        .headers()
+        .map_err(|e| io(&e))?
+        .iter()
+        .map(String::from)
+        .collect();
+    let mut rows = Vec::new();
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match r.read_record(&mut rec) {
+            Ok(false) => break,
+            Ok(true) => {
+                let line = rec.position().map_or(0, |p| p.line());
+                rows.push((line, rec.iter().map(String::from).collect()));
+            }
+            Err(e) => {
+                // Invalid UTF-8 or similar: report it as a row of no cells at that line.
+                let line = e.position().map_or(0, |p| p.line());
+                rows.push((line, Vec::new()));
+            }
+        }
+    }
+    Ok((columns, rows))
+}
+
+/// CSV text of a header and rows.
+pub fn write_text(columns: &[String], rows: &[Vec<String>]) -> Result<String, Error> {
+    let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
+    let e = |e: csv::Error| Error::Config(format!("writing CSV: {e}"));
+    w.write_record(columns).map_err(e)?;
+    for r in rows {
+        w.write_record(r).map_err(e)?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| Error::Config(format!("writing CSV: {e}")))?;
+    String::from_utf8(bytes).map_err(|e| Error::Config(format!("writing CSV: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(serde::Serialize, serde::Deserialize, Default, PartialEq, Debug)]
+    struct P {
+        a: usize,
+        b: f64,
+        c: Option<f64>,
+        s: String,
+        #[serde(with = "list")]
+        l: Vec<f64>,
+    }
+
+    #[test]
+    fn cells_round_trip_and_run_id_is_stable() {
+        let p = P {
+            a: 3,
+            b: 0.1,
+            c: None,
+            s: "x,\"y\"".into(),
+            l: vec![0.5, 1e-7, 2.0],
+        };
+        // A one-element list is a plain number in its cell.
+        let one = P {
+            l: vec![2.0],
+            ..Default::default()
+        };
+        let (h1, c1) = to_cells(&one).unwrap();
+        assert_eq!(from_cells::<P>(&h1, &c1).unwrap(), one);
+        let (h, c) = to_cells(&p).unwrap();
+        assert_eq!(h, ["a", "b", "c", "s", "l"]);
+        assert_eq!(c[2], "");
+        let back: P = from_cells(&h, &c).unwrap();
+        assert_eq!(back, p);
+        assert_eq!(canonical(&back).unwrap(), canonical(&p).unwrap());
+        let bad = from_cells::<P>(
+            &h,
+            &["x".into(), "1".into(), "".into(), "".into(), "".into()],
+        );
+        assert!(bad.is_err());
+        let text = write_text(&h, &[c]).unwrap();
+        assert!(text.contains("\"x,\"\"y\"\"\""), "{text}");
+    }
+}

@@ -1,0 +1,579 @@
+//! The report of a results directory: `report.md` and a self-contained `report.html` (every plot
+//! embedded as inline SVG, no external file or script needed) with the summary tables, each
+//! figure with a caption saying what it shows, the config and its overrides, the plan (axes and
+//! runs per config version) and the provenance of every version (revision, machine, GPU, time).
+//! Written by [`crate::report`] after every run and by `shscale report DIR`.
+
+use crate::atomic::{write_atomic, write_atomic_all};
+use crate::error::Error;
+use crate::kind::DynKind;
+use crate::manifest::Manifest;
+use crate::records::Results;
+use std::path::{Path, PathBuf};
+
+/// Escape text for HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Inline Markdown of the summaries: `**bold**` and `` `code` ``, escaped.
+fn inline(s: &str) -> String {
+    let mut out = String::new();
+    let (mut bold, mut code) = (false, false);
+    let mut rest = s;
+    while !rest.is_empty() {
+        if !code && rest.starts_with("**") {
+            out.push_str(if bold { "</strong>" } else { "<strong>" });
+            bold = !bold;
+            rest = &rest[2..];
+        } else if rest.starts_with('`') {
+            out.push_str(if code { "</code>" } else { "<code>" });
+            code = !code;
+            rest = &rest[1..];
+        } else {
+            let c = rest.chars().next().unwrap_or(' ');
+            out.push_str(&esc(&c.to_string()));
+            rest = &rest[c.len_utf8()..];
+        }
+    }
+    if code {
+        out.push_str("</code>");
+    }
+    if bold {
+        out.push_str("</strong>");
+    }
+    out
+}
+
+/// The Markdown the summaries use — headings, paragraphs, pipe tables, fenced code — as HTML.
+pub fn markdown_to_html(md: &str) -> String {
+    let mut html = String::new();
+    let mut para: Vec<&str> = Vec::new();
+    let mut table: Vec<Vec<String>> = Vec::new();
+    let mut fence: Option<Vec<&str>> = None;
+    let flush_para = |para: &mut Vec<&str>, html: &mut String| {
+        if !para.is_empty() {
+            html.push_str(&format!("<p>{}</p>\n", inline(&para.join(" "))));
+            para.clear();
+        }
+    };
+    let flush_table = |table: &mut Vec<Vec<String>>, html: &mut String| {
+        if !table.is_empty() {
+            html.push_str("<table>\n");
+            for (i, row) in table.iter().enumerate() {
+                let tag = if i == 0 { "th" } else { "td" };
+                html.push_str("<tr>");
+                for c in row {
+                    html.push_str(&format!("<{tag}>{}</{tag}>", inline(c)));
+                }
+                html.push_str("</tr>\n");
+            }
+            html.push_str("</table>\n");
+            table.clear();
+        }
+    };
+    for line in md.lines() {
+        if let Some(block) = fence.as_mut() {
+            if line.starts_with("```") {
+                html.push_str(&format!("<pre>{}</pre>\n", esc(&block.join("\n"))));
+                fence = None;
+            } else {
+                block.push(line);
+            }
+            continue;
+        }
+        let t = line.trim();
+        if t.starts_with("```") {
+            flush_para(&mut para, &mut html);
+            flush_table(&mut table, &mut html);
+            fence = Some(Vec::new());
+        } else if t.starts_with('|') {
+            flush_para(&mut para, &mut html);
+            let cells: Vec<String> = t
+                .trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_string())
+                .collect();
+            // The separator row (|---|---:|).
+            if !cells.iter().all(|c| c.chars().all(|ch| "-: ".contains(ch))) {
+                table.push(cells);
+            }
+        } else if t.is_empty() {
+            flush_para(&mut para, &mut html);
+            flush_table(&mut table, &mut html);
+        } else if let Some(level) = (1..=3).find(|&l| t.starts_with(&format!("{} ", "#".repeat(l))))
+        {
+            flush_para(&mut para, &mut html);
+            flush_table(&mut table, &mut html);
+            html.push_str(&format!(
+                "<h{level}>{}</h{level}>\n",
+                inline(&t[level + 1..])
+            ));
+        } else {
+            flush_table(&mut table, &mut html);
+            para.push(t);
+        }
+    }
+    flush_para(&mut para, &mut html);
+    flush_table(&mut table, &mut html);
+    if let Some(block) = fence {
+        html.push_str(&format!("<pre>{}</pre>\n", esc(&block.join("\n"))));
+    }
+    html
+}
+
+/// The caption of a plot: the title plotters drew first in its SVG (its first `<text>`).
+pub fn svg_title(svg: &str) -> Option<String> {
+    let start = svg.find("<text")?;
+    let open = start + svg[start..].find('>')? + 1;
+    let close = open + svg[open..].find("</text>")?;
+    let t = svg[open..close].trim();
+    (!t.is_empty()).then(|| {
+        t.replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&quot;", "\"")
+            .replace("&amp;", "&")
+    })
+}
+
+/// A caption for an image file without an SVG title, from its name.
+fn caption_of_name(p: &Path) -> String {
+    let stem = p
+        .file_stem()
+        .map_or(String::new(), |s| s.to_string_lossy().to_string());
+    stem.replace('_', " ")
+}
+
+/// Write `report.md` and `report.html` of `dir` from its summary text and the figure files
+/// written with it; returns both paths.
+pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+    let manifest = Manifest::read(dir)?;
+    let mut md = String::from(summary.trim_end());
+    md.push_str("\n\n## Figures\n\n");
+    let mut figures: Vec<(String, PathBuf, Option<String>)> = Vec::new();
+    for f in files {
+        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if ext == "svg" {
+            let svg = std::fs::read_to_string(f).map_err(|e| Error::Io {
+                path: f.display().to_string(),
+                reason: e.to_string(),
+            })?;
+            let cap = svg_title(&svg).unwrap_or_else(|| caption_of_name(f));
+            figures.push((cap, f.clone(), Some(svg)));
+        } else if ext == "png" && !files.contains(&f.with_extension("svg")) {
+            figures.push((caption_of_name(f), f.clone(), None));
+        }
+    }
+    let name = |p: &Path| {
+        p.file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().to_string())
+    };
+    if figures.is_empty() {
+        md.push_str("No figures for these results.\n");
+    }
+    for (i, (cap, f, svg)) in figures.iter().enumerate() {
+        md.push_str(&format!(
+            "Figure {}. {cap}. File: `{}`{}.\n\n",
+            i + 1,
+            name(f),
+            if svg.is_some() {
+                format!(" (PNG: `{}`)", name(&f.with_extension("png")))
+            } else {
+                String::new()
+            }
+        ));
+    }
+    let versions = manifest.as_ref().map_or(&[][..], |m| &m.versions[..]);
+    md.push_str("## Plan and provenance\n\n");
+    md.push_str("| version | config | overrides | axes | runs in plan | git revision | shscale | CPU | threads | GPU | first run (unix) | last run (unix) |\n|---|---|---|---|---:|---|---|---|---:|---|---:|---:|\n");
+    for v in versions {
+        let p = &v.provenance;
+        md.push_str(&format!(
+            "| `{}` | `{}` | {} | {} | {} | `{}{}` | {} | {} | {} | {} | {} | {} |\n",
+            v.id,
+            v.config_file,
+            if v.overrides.is_empty() {
+                "—".into()
+            } else {
+                v.overrides.join(" ")
+            },
+            if v.axes.is_empty() {
+                "—".into()
+            } else {
+                v.axes.join(", ")
+            },
+            v.runs_in_plan,
+            p.git_revision,
+            if p.git_dirty { "+dirty" } else { "" },
+            p.shscale_version,
+            p.cpu_model,
+            p.threads,
+            p.gpu_device,
+            v.first_unix_time,
+            v.last_unix_time
+        ));
+    }
+    if let Some(v) = versions.last() {
+        md.push_str(&format!(
+            "\n## Config (newest version)\n\n```toml\n{}\n```\n",
+            v.config_text.trim_end()
+        ));
+    }
+    // HTML: the same content, plots inline, and a check the browser test reads.
+    let title = summary
+        .lines()
+        .find(|l| l.starts_with("# "))
+        .map_or("shscale report".to_string(), |l| l[2..].to_string());
+    let mut html = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<script>window.shscaleErrors = 0; window.addEventListener('error', function () {{ window.shscaleErrors += 1; }});</script>\n<style>\nbody {{ font-family: sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222; }}\ntable {{ border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }}\nth, td {{ border: 1px solid #bbb; padding: 0.25em 0.5em; text-align: right; }}\nth {{ background: #eee; }}\nfigure {{ margin: 1.5em 0; }}\nfigure svg, figure img {{ max-width: 100%; height: auto; border: 1px solid #ddd; }}\nfigcaption {{ font-size: 0.9em; color: #444; }}\npre {{ background: #f6f6f6; padding: 0.75em; overflow-x: auto; }}\n</style>\n</head>\n<body>\n",
+        esc(&title)
+    );
+    html.push_str(&markdown_to_html(summary));
+    html.push_str("<h2>Figures</h2>\n");
+    for (i, (cap, f, svg)) in figures.iter().enumerate() {
+        html.push_str("<figure>\n");
+        match svg {
+            Some(s) => {
+                let body = s.find("<svg").map_or(s.as_str(), |at| &s[at..]);
+                html.push_str(body);
+            }
+            None => html.push_str(&format!(
+                "<img src=\"{}\" alt=\"{}\">",
+                esc(&name(f)),
+                esc(cap)
+            )),
+        }
+        html.push_str(&format!(
+            "\n<figcaption>Figure {}. {}. File: <code>{}</code>.</figcaption>\n</figure>\n",
+            i + 1,
+            esc(cap),
+            esc(&name(f))
+        ));
+    }
+    let tail = md
+        .split("## Plan and provenance")
+        .nth(1)
+        .map(|t| format!("## Plan and provenance{t}"))
+        .unwrap_or_default();
+    html.push_str(&markdown_to_html(&tail));
+    html.push_str(
+        "<p id=\"figure-check\">figures: not checked (the page's script did not run)</p>\n<script>\nwindow.addEventListener('load', function () {\n  var svgs = document.querySelectorAll('figure svg');\n  var ok = 0;\n  svgs.forEach(function (s) { var r = s.getBoundingClientRect(); if (r.width > 0 && r.height > 0 && s.querySelector('text')) { ok += 1; } });\n  document.getElementById('figure-check').textContent = 'figures: ' + ok + ' of ' + svgs.length + ' rendered, ' + window.shscaleErrors + ' script errors';\n});\n</script>\n</body>\n</html>\n",
+    );
+    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
+    write_atomic_all(&[(&pm, &md), (&ph, &html)])?;
+    Ok(vec![pm, ph])
+}
+
+/// What [`compare`] found: the Markdown table (also written as `compare.md`) and the files.
+pub struct Comparison {
+    pub markdown: String,
+    pub files: Vec<PathBuf>,
+}
+
+/// `shscale compare A B`: the kind's headline metrics of two results directories over the
+/// parameters both share, and their differences. Rows are matched on every parameter that varies
+/// in either directory (and on the kind's row coordinate — the first summary column, such as the
+/// probe radius — when both hold the same values of it); parameters fixed at different values in
+/// the two are listed. Writes `compare.md` and one plot per metric into `out`.
+pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Comparison, Error> {
+    use crate::records::Results;
+    use std::collections::{BTreeMap, BTreeSet};
+    let (ta, tb) = (
+        Results::read(&a.join("runs.csv"))?,
+        Results::read(&b.join("runs.csv"))?,
+    );
+    let params = kind.param_columns();
+    let distinct = |t: &Results, c: &str| -> BTreeSet<String> {
+        (0..t.rows.len())
+            .map(|r| t.cell(r, c).to_string())
+            .collect()
+    };
+    let mut keys: Vec<String> = Vec::new();
+    let mut differ = Vec::new();
+    for p in &params {
+        let (da, db) = (distinct(&ta, p), distinct(&tb, p));
+        if da.len() > 1 || db.len() > 1 {
+            keys.push(p.clone());
+        } else if da != db {
+            differ.push(format!(
+                "{p} (A: {}, B: {})",
+                da.iter().next().cloned().unwrap_or_default(),
+                db.iter().next().cloned().unwrap_or_default()
+            ));
+        }
+    }
+    let summary = kind.summary_columns();
+    let mut metrics: Vec<&str> = summary.to_vec();
+    if let Some(first) = summary.first() {
+        if !params.iter().any(|p| p == first)
+            && distinct(&ta, first) == distinct(&tb, first)
+            && distinct(&ta, first).len() <= 64
+        {
+            keys.push(first.to_string());
+            metrics.retain(|m| m != first);
+        }
+    }
+    metrics.retain(|m| {
+        !keys.iter().any(|k| k == m) && (0..ta.rows.len()).any(|r| ta.num(r, m).is_finite())
+    });
+    let key_of = |t: &Results, r: usize| -> Vec<String> {
+        keys.iter().map(|k| t.cell(r, k).to_string()).collect()
+    };
+    // Mean of each metric per key, in each directory.
+    let means = |t: &Results| {
+        let mut m: BTreeMap<Vec<String>, Vec<(f64, usize)>> = BTreeMap::new();
+        for r in 0..t.rows.len() {
+            let e = m
+                .entry(key_of(t, r))
+                .or_insert_with(|| vec![(0.0, 0); metrics.len()]);
+            for (i, c) in metrics.iter().enumerate() {
+                let v = t.num(r, c);
+                if v.is_finite() {
+                    e[i].0 += v;
+                    e[i].1 += 1;
+                }
+            }
+        }
+        m
+    };
+    let (ma, mb) = (means(&ta), means(&tb));
+    let name = |p: &Path| {
+        p.file_name()
+            .map_or(p.display().to_string(), |n| n.to_string_lossy().to_string())
+    };
+    let mut md = format!(
+        "# Comparison of {} results\n\nA: `{}` ({} rows), B: `{}` ({} rows). Rows matched on: {}. Parameters fixed at different values: {}.\n\n",
+        kind.name(),
+        a.display(),
+        ta.rows.len(),
+        b.display(),
+        tb.rows.len(),
+        if keys.is_empty() { "nothing (one row each)".to_string() } else { keys.join(", ") },
+        if differ.is_empty() { "none".to_string() } else { differ.join("; ") }
+    );
+    let mut head: Vec<String> = keys.clone();
+    for m in &metrics {
+        head.push(format!("{m} A"));
+        head.push(format!("{m} B"));
+        head.push(format!("{m} B − A"));
+    }
+    md.push_str(&format!(
+        "| {} |\n|{}\n",
+        head.join(" | "),
+        "---|".repeat(head.len())
+    ));
+    let avg = |v: (f64, usize)| if v.1 > 0 { v.0 / v.1 as f64 } else { f64::NAN };
+    let fmt = |x: f64| {
+        if !x.is_finite() {
+            "—".to_string()
+        } else if x != 0.0 && x.abs() < 1e-3 {
+            format!("{x:.3e}")
+        } else {
+            format!("{x:.4}")
+        }
+    };
+    let mut matched = 0;
+    let mut plots: Vec<BTreeMap<String, Vec<(f64, f64)>>> = vec![BTreeMap::new(); metrics.len()];
+    for (k, va) in &ma {
+        let Some(vb) = mb.get(k) else { continue };
+        matched += 1;
+        let mut cells: Vec<String> = k.clone();
+        for i in 0..metrics.len() {
+            let (x, y) = (avg(va[i]), avg(vb[i]));
+            cells.extend([fmt(x), fmt(y), fmt(y - x)]);
+            if let Some(xv) = k.first().and_then(|s| s.parse::<f64>().ok()) {
+                let rest = if k.len() > 1 {
+                    format!(
+                        ", {}",
+                        keys[1..]
+                            .iter()
+                            .zip(&k[1..])
+                            .map(|(n, v)| format!("{n} = {v}"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                } else {
+                    String::new()
+                };
+                plots[i]
+                    .entry(format!("A: {}{rest}", name(a)))
+                    .or_default()
+                    .push((xv, x));
+                plots[i]
+                    .entry(format!("B: {}{rest}", name(b)))
+                    .or_default()
+                    .push((xv, y));
+            }
+        }
+        md.push_str(&format!("| {} |\n", cells.join(" | ")));
+    }
+    md.push_str(&format!(
+        "\n{matched} matched row group(s); {} only in A, {} only in B.\n",
+        ma.keys().filter(|k| !mb.contains_key(*k)).count(),
+        mb.keys().filter(|k| !ma.contains_key(*k)).count()
+    ));
+    std::fs::create_dir_all(out).map_err(|e| Error::Io {
+        path: out.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let mut files = Vec::new();
+    for (i, m) in metrics.iter().enumerate() {
+        if plots[i].is_empty() || keys.is_empty() {
+            continue;
+        }
+        let title = format!("{m}: A vs B");
+        files.extend(crate::plots::write_both(
+            out,
+            &format!("compare_{m}"),
+            &crate::plots::Labels {
+                title: &title,
+                x: &keys[0],
+                y: m,
+            },
+            &plots[i],
+            false,
+            &[],
+        )?);
+    }
+    let p = out.join("compare.md");
+    write_atomic(&p, &md)?;
+    files.insert(0, p);
+    Ok(Comparison {
+        markdown: md,
+        files,
+    })
+}
+
+/// What [`report`] wrote: the summary text, the kind's discussion in it, and the files.
+pub struct Report {
+    pub summary: String,
+    pub discussion: String,
+    pub files: Vec<PathBuf>,
+}
+
+/// The summary table and the kind's plots of a results directory's `runs.csv`: one line per
+/// run, with every parameter that varies in the CSV and the kind's headline columns.
+pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
+    let csv = dir.join("runs.csv");
+    let t = Results::read(&csv)?;
+    let varying = t.varying(&kind.param_columns());
+    let (title, claim) = title_and_claim(dir);
+    let mut s = format!(
+        "# {}{} — {}\n\n{}{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
+        title.map_or(String::new(), |t| format!("{t}\n\nExperiment ")),
+        kind.name(),
+        dir.file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().to_string()),
+        claim.map_or(String::new(), |c| format!(
+            "**Claim.** {}\n\n**Question.** ",
+            c.trim()
+        )),
+        kind.question(),
+        t.rows.len(),
+        if varying.is_empty() {
+            "none".to_string()
+        } else {
+            varying.join(", ")
+        }
+    );
+    let mut cols: Vec<String> = std::iter::once("run_id".to_string())
+        .chain(varying.iter().cloned())
+        .collect();
+    for c in kind.summary_columns() {
+        if !cols.iter().any(|x| x == c) {
+            cols.push(c.to_string());
+        }
+    }
+    s.push_str(&format!("| {} |\n", cols.join(" | ")));
+    s.push_str(&format!("|{}\n", "---|".repeat(cols.len())));
+    for r in 0..t.rows.len() {
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|c| {
+                let v = t.cell(r, c);
+                match v.parse::<f64>() {
+                    Ok(x) if (v.contains('.') || v.contains('e')) && x != 0.0 && x.abs() < 1e-3 => {
+                        format!("{x:.3e}")
+                    }
+                    Ok(x) if v.contains('.') || v.contains('e') => format!("{x:.4}"),
+                    _ => v.to_string(),
+                }
+            })
+            .collect();
+        s.push_str(&format!("| {} |\n", cells.join(" | ")));
+    }
+    let concurrent = (0..t.rows.len())
+        .filter(|&r| t.cell(r, "timing_concurrent") == "true")
+        .count();
+    if concurrent > 0 {
+        s.push_str(&format!(
+            "\n{concurrent} row(s) were timed while other runs executed (`timing_concurrent`): their times are not comparable and are left out of speed plots.\n"
+        ));
+    }
+    let discussion = kind.discussion(&t)?;
+    if !discussion.trim().is_empty() {
+        s.push_str(&format!(
+            "\n## Our numbers against the claim\n\n{}\n",
+            discussion.trim_end()
+        ));
+    }
+    let p = dir.join("summary.md");
+    write_atomic(&p, &s)?;
+    let figures = kind.report(dir, &t)?;
+    let mut files = vec![p];
+    files.extend(write_report(dir, &s, &figures)?);
+    files.extend(figures);
+    Ok(Report {
+        summary: s,
+        discussion,
+        files,
+    })
+}
+
+/// `title` and `claim` of the newest config version in `dir/manifest.toml`.
+pub fn title_and_claim(dir: &Path) -> (Option<String>, Option<String>) {
+    let Some(text) = Manifest::read(dir)
+        .ok()
+        .flatten()
+        .and_then(|m| m.versions.last().map(|v| v.config_text.clone()))
+    else {
+        return (None, None);
+    };
+    let t: toml::Table = toml::from_str(&text).unwrap_or_default();
+    let get = |k: &str| t.get(k).and_then(|v| v.as_str()).map(String::from);
+    (get("title"), get("claim"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn markdown_subset_to_html() {
+        let h = markdown_to_html("# T <x>\n\nSome **bold** and `code`.\n\n| a | b |\n|---|---:|\n| 1 | 2 |\n\n```toml\nk = \"<v>\"\n```\n");
+        assert!(h.contains("<h1>T &lt;x&gt;</h1>"), "{h}");
+        assert!(
+            h.contains("<strong>bold</strong>") && h.contains("<code>code</code>"),
+            "{h}"
+        );
+        assert!(
+            h.contains("<tr><th>a</th><th>b</th></tr>") && h.contains("<td>2</td>"),
+            "{h}"
+        );
+        assert!(!h.contains("---"), "{h}");
+        assert!(h.contains("<pre>k = &quot;&lt;v&gt;&quot;</pre>"), "{h}");
+    }
+
+    #[test]
+    fn svg_titles() {
+        assert_eq!(
+            svg_title("<?xml?><svg><rect/><text x=\"1\">error &amp; k</text><text>y</text></svg>")
+                .as_deref(),
+            Some("error & k")
+        );
+        assert_eq!(svg_title("<svg></svg>"), None);
+    }
+}

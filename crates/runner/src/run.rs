@@ -1,0 +1,255 @@
+//! Running a plan: execution into `<out>/<kind>/<name>/` with resume, shards, an advisory lock,
+//! atomic CSV rewrites and a manifest of every config version. The plan is [`crate::plan`], the
+//! store [`crate::store`], the manifest [`crate::manifest`], the merge of shard files
+//! [`crate::merge`], Slurm scripts [`crate::slurm`] and the summary and report [`crate::report`].
+//!
+//! **Results never mix silently.** Every row carries every parameter of its run (swept or fixed)
+//! as a column and its run id is the hash of all of them, so editing a fixed key and rerunning
+//! under the same name adds rows that differ in that column; summaries and plots group by every
+//! parameter column that varies in the CSV, and `manifest.toml` keeps every config version that
+//! produced rows (appended once a run of it has succeeded, never rewritten).
+//!
+//! **Resume validates.** Existing rows are read with the `csv` crate; a row with the wrong cell
+//! count, a cell of the wrong type, or a run id that its own parameter cells do not reproduce is
+//! set aside (appended to `runs.csv.rejected`, never lost) with a warning, and a run with fewer
+//! rows than it writes is redone.
+//!
+//! **Concurrency.** Every read-modify-write of the CSV and the manifest holds an exclusive
+//! advisory lock on `<dir>/.lock` (`std::fs::File::lock`): a second process waits for it, re-reads
+//! the file and adds its rows, so two processes on one directory never lose a row.
+
+use crate::atomic::{write_atomic, write_atomic_all};
+use crate::error::Error;
+use crate::kind::{Ctx, Resolved, RowCells};
+use crate::manifest::{unix_now, Manifest, Provenance, RowProvenance, Version};
+use crate::plan::{plan_dir, Plan};
+use crate::records;
+use crate::store::{header, keep_rejected, load_rows, DirLock};
+use std::collections::{BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+
+/// Progress of [`run_plan`].
+#[derive(Clone, Copy, Debug)]
+pub enum RunEvent<'a> {
+    Begin {
+        total: usize,
+        pending: usize,
+    },
+    /// A shared computation starts.
+    Shared(&'a str),
+    /// A run finished (its rows are on disk).
+    Done(&'a str),
+    /// Something set aside or waited for.
+    Warn(&'a str),
+}
+
+/// What a runner invocation did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSummary {
+    pub dir: PathBuf,
+    pub csv: PathBuf,
+    pub in_shard: usize,
+    pub already_done: usize,
+    pub ran: usize,
+    pub redone: usize,
+}
+
+/// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` hears of every step.
+pub fn run_plan(
+    plan: &Plan,
+    out_root: &Path,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(RunEvent) + Sync),
+) -> Result<RunSummary, Error> {
+    if let Some((i, n)) = shard {
+        if n == 0 || i >= n {
+            return Err(Error::Config(format!("--shard {i}/{n}: need 0 ≤ I < N")));
+        }
+    }
+    let kind = plan.kind;
+    let dir = plan_dir(plan, out_root);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let csv = match shard {
+        Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
+        None => dir.join("runs.csv"),
+    };
+    let waiting = |p: &Path| {
+        progress(RunEvent::Warn(&format!(
+            "waiting for another shscale process holding {}",
+            p.display()
+        )))
+    };
+    // Check the manifest and the existing rows before any work.
+    let loaded = {
+        let _lock = DirLock::acquire(&dir, &waiting)?;
+        if let Some(m) = Manifest::read(&dir)? {
+            if m.experiment != kind.name() {
+                return Err(Error::Io {
+                    path: dir.join("manifest.toml").display().to_string(),
+                    reason: format!("belongs to experiment {:?}", m.experiment),
+                });
+            }
+        }
+        let l = load_rows(kind, &csv)?;
+        for (line, why, _) in &l.rejected {
+            progress(RunEvent::Warn(&format!(
+                "{}:{line}: row set aside ({why}); kept in {}.rejected",
+                csv.display(),
+                csv.display()
+            )));
+        }
+        if !l.rejected.is_empty() {
+            // Keep what was set aside, then leave only valid rows in the CSV.
+            keep_rejected(&csv, &l.rejected)?;
+            write_atomic(&csv, &records::write_text(&header(kind), &l.rows)?)?;
+        }
+        l
+    };
+    let device = kind.open_device(plan.gpu)?;
+    let gpu_device = device
+        .as_ref()
+        .map_or("none".to_string(), |d| d.description().to_string());
+    let prov = Provenance::here(&gpu_device);
+    let version = Version {
+        id: records::run_id(
+            "version",
+            &format!(
+                "{}\n{}\n{}{}",
+                plan.text,
+                plan.overrides.join(" "),
+                prov.git_revision,
+                if prov.git_dirty { "+dirty" } else { "" }
+            ),
+        ),
+        config_file: plan.file.clone(),
+        overrides: plan.overrides.clone(),
+        axes: plan.axes.clone(),
+        runs_in_plan: plan.runs.len(),
+        first_unix_time: prov.unix_time,
+        last_unix_time: prov.unix_time,
+        provenance: prov.clone(),
+        config_text: plan.text.clone(),
+    };
+    let mine: Vec<usize> = (0..plan.runs.len())
+        .filter(|i| shard.is_none_or(|(s, n)| i % n == s))
+        .collect();
+    let rejected_ids: BTreeSet<String> = loaded
+        .rejected
+        .iter()
+        .filter_map(|(_, _, r)| r.first().cloned())
+        .collect();
+    let pending: Vec<usize> = mine
+        .iter()
+        .copied()
+        .filter(|&i| !loaded.complete.contains(&plan.runs[i].id))
+        .collect();
+    let mut summary = RunSummary {
+        dir: dir.clone(),
+        csv: csv.clone(),
+        in_shard: mine.len(),
+        already_done: mine.len() - pending.len(),
+        ran: 0,
+        redone: pending
+            .iter()
+            .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
+            .count(),
+    };
+    progress(RunEvent::Begin {
+        total: mine.len(),
+        pending: pending.len(),
+    });
+    let order: HashMap<&str, usize> = plan
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (r.id.as_str(), i))
+        .collect();
+    let ran = std::sync::Mutex::new(0usize);
+    let concurrent_of = |group_len: usize| plan.parallel_runs && group_len > 1;
+    let threads = rayon::current_num_threads();
+    let write_run = |r: &Resolved, rows: RowCells, concurrent: bool| -> Result<(), Error> {
+        let mut count = ran.lock().unwrap_or_else(|e| e.into_inner());
+        let _lock = DirLock::acquire(&dir, &waiting)?;
+        // Re-read under the lock: another process may have added rows.
+        let mut cur = load_rows(kind, &csv)?;
+        if !cur.complete.contains(&r.id) {
+            let prov = RowProvenance {
+                threads,
+                timing_concurrent: concurrent,
+                timing_warmup: plan.timing.warmup,
+                timing_repeats: plan.timing.repeats,
+                git_revision: version.provenance.git_revision.clone(),
+                git_dirty: version.provenance.git_dirty,
+            };
+            let (_, pcells) = records::to_cells(&prov).map_err(Error::Config)?;
+            for row in rows {
+                let mut cells = vec![r.id.clone(), kind.name().to_string()];
+                cells.extend(r.cells.iter().cloned());
+                cells.extend(row);
+                cells.extend(pcells.iter().cloned());
+                cur.rows.push(cells);
+            }
+        }
+        // Rows of this plan in plan order, others (earlier versions, other processes) first in
+        // their order (a stable sort).
+        cur.rows.sort_by_key(|row| {
+            row.first()
+                .and_then(|id| order.get(id.as_str()))
+                .map_or(0, |i| i + 1)
+        });
+        let mut m = Manifest::read(&dir)?.unwrap_or(Manifest {
+            experiment: kind.name().into(),
+            name: plan.name.clone(),
+            versions: Vec::new(),
+        });
+        let mut v = version.clone();
+        v.last_unix_time = unix_now();
+        m.add(&v);
+        // The rows and the manifest that describes them, as a unit.
+        write_atomic_all(&[
+            (&csv, &records::write_text(&header(kind), &cur.rows)?),
+            (
+                &dir.join("manifest.toml"),
+                &toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?,
+            ),
+        ])?;
+        *count += 1;
+        Ok(())
+    };
+    let config_dir = Path::new(&plan.file)
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let ctx = Ctx {
+        dir: &dir,
+        config_dir,
+        device: device.as_ref(),
+        timing: plan.timing,
+    };
+    for g in plan.groups() {
+        let runs: Vec<&Resolved> = g
+            .iter()
+            .filter(|i| pending.contains(i))
+            .map(|&i| &plan.runs[i])
+            .collect();
+        if runs.is_empty() {
+            continue;
+        }
+        progress(RunEvent::Shared(&format!(
+            "shared work for {} run(s): {}",
+            runs.len(),
+            runs[0].group.chars().take(120).collect::<String>()
+        )));
+        let concurrent = concurrent_of(runs.len());
+        kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
+            write_run(r, rows, concurrent)?;
+            progress(RunEvent::Done(&format!(
+                "{} {} in {secs:.2} s",
+                r.id, r.canonical
+            )));
+            Ok(())
+        })?;
+    }
+    summary.ran = *ran.lock().unwrap_or_else(|e| e.into_inner());
+    Ok(summary)
+}

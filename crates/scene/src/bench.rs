@@ -1,0 +1,223 @@
+//! The papers' Table 1 reproduced: per-stage times and frames per second of the deforming
+//! sequences (flying bird ~1.1k vertices, egg ~0.5k, bending sponge ~8.4k, each over a 160×160
+//! receiver plane; N = 4, 12×20 base-sphere samples × 32² rays as in the TR), CPU path and GPU
+//! path side by side. One timing procedure (docs/ARCHITECTURE.md (habit 10)):
+//! warm-up frames are run and dropped, then every stage's median over the measured frames;
+//! the device is synchronised before each clock read (GPU stages by timestamp queries where the
+//! adapter has them).
+//!
+//! Stages: *BSV sampling* (ray casting at every base-sphere sample), *SH conversion* (projection
+//! of those rays to SH), *shadowing* (every receiver), plus the host's deformation and BVH update
+//! (and, for the GPU, the upload). The CPU path casts and projects in one loop per ray, so its SH
+//! conversion is inside its BSV sampling column (reported empty, not zero).
+
+use crate::error::Error;
+use crate::gpu_path::render_sequence_gpu;
+use crate::render::render_sequence;
+use crate::scene::Scene;
+use crate::vocab::placed_mesh;
+use serde::Serialize;
+use shscale_gpu::timing::median;
+use shscale_gpu::GpuContext;
+use std::path::Path;
+
+/// The bench scenes, embedded (the files in `configs/bench/` are the same text).
+pub const SCENES: &[(&str, &str)] = &[
+    ("bird", include_str!("../../../configs/bench/bird.toml")),
+    ("egg", include_str!("../../../configs/bench/egg.toml")),
+    ("sponge", include_str!("../../../configs/bench/sponge.toml")),
+];
+
+/// A bench scene by name.
+pub fn scene(name: &str) -> Result<Scene, Error> {
+    let (_, text) = SCENES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
+        Error::config(format!(
+            "--scene {name:?}: not one of bird, egg, sponge, all"
+        ))
+    })?;
+    Scene::parse(&format!("configs/bench/{name}.toml"), text, Path::new("."))
+}
+
+/// One row of the table: one scene on one path.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    /// `cpu` or `gpu`.
+    pub path: String,
+    /// CPU: `cpu (N threads)`; GPU: the adapter's name, backend and driver.
+    pub device: String,
+    pub threads: usize,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub samples: usize,
+    pub rays_per_sample: usize,
+    pub receivers: usize,
+    pub frames: usize,
+    pub warmup: usize,
+    pub timestamps: bool,
+    /// One-off setup (GPU: table, cache, buffers and pipelines).
+    pub setup_ms: Option<f64>,
+    pub deform_ms: f64,
+    pub bvh_update_ms: f64,
+    pub upload_ms: Option<f64>,
+    pub bsv_sampling_ms: f64,
+    /// `None` where it is inside `bsv_sampling_ms` (the CPU path).
+    pub sh_conversion_ms: Option<f64>,
+    pub shadowing_ms: f64,
+    /// Median wall clock of a whole frame.
+    pub frame_ms: f64,
+    pub fps: f64,
+}
+
+/// Measure `scene` over `warmup + frames` frames: the CPU path always (unless `cpu` is false),
+/// the GPU path when `gpu` is given.
+pub fn bench_scene(
+    name: &str,
+    frames: usize,
+    warmup: usize,
+    cpu: bool,
+    gpu: Option<&GpuContext>,
+) -> Result<Vec<BenchRow>, Error> {
+    let sc = scene(name)?;
+    let frames = frames.max(1);
+    let total = frames + warmup;
+    let o = &sc.occluders[0];
+    let mesh = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let threads = rayon::current_num_threads();
+    let base = BenchRow {
+        scene: name.to_string(),
+        path: String::new(),
+        device: String::new(),
+        threads,
+        vertices: mesh.positions.len(),
+        triangles: mesh.triangles.len(),
+        samples: sc.layout.directions().len(),
+        rays_per_sample: sc.hemisphere_res * sc.hemisphere_res,
+        receivers: sc.resolution[0] * sc.resolution[1],
+        frames,
+        warmup,
+        timestamps: false,
+        setup_ms: None,
+        deform_ms: 0.0,
+        bvh_update_ms: 0.0,
+        upload_ms: None,
+        bsv_sampling_ms: 0.0,
+        sh_conversion_ms: None,
+        shadowing_ms: 0.0,
+        frame_ms: 0.0,
+        fps: 0.0,
+    };
+    let ms = |v: Vec<f64>| 1e3 * median(&v);
+    let mut rows = Vec::new();
+    if cpu {
+        let (_, stats) = render_sequence(&sc, total)?;
+        let st = &stats[warmup.min(stats.len() - 1)..];
+        let frame: Vec<f64> = st
+            .iter()
+            .map(|s| {
+                s.deform_seconds + s.bvh_update_seconds + s.bsv_sampling_seconds + s.shading_seconds
+            })
+            .collect();
+        let frame_ms = ms(frame);
+        rows.push(BenchRow {
+            path: "cpu".into(),
+            device: format!("cpu ({threads} threads)"),
+            deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
+            bvh_update_ms: ms(st.iter().map(|s| s.bvh_update_seconds).collect()),
+            bsv_sampling_ms: ms(st.iter().map(|s| s.bsv_sampling_seconds).collect()),
+            shadowing_ms: ms(st.iter().map(|s| s.shading_seconds).collect()),
+            frame_ms,
+            fps: 1e3 / frame_ms,
+            ..base.clone()
+        });
+    }
+    if let Some(ctx) = gpu {
+        let run = render_sequence_gpu(&sc, total, ctx)?;
+        let (stats, setup) = (&run.frames, run.setup_seconds);
+        let st = &stats[warmup.min(stats.len() - 1)..];
+        let frame_ms = ms(st
+            .iter()
+            .map(|s| s.deform_seconds + s.gpu.frame_seconds)
+            .collect());
+        rows.push(BenchRow {
+            path: "gpu".into(),
+            device: ctx.describe(),
+            timestamps: st[0].gpu.timestamps,
+            setup_ms: Some(1e3 * setup),
+            deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
+            bvh_update_ms: ms(st.iter().map(|s| s.gpu.bvh_seconds).collect()),
+            upload_ms: Some(ms(st.iter().map(|s| s.gpu.upload_seconds).collect())),
+            bsv_sampling_ms: ms(st.iter().map(|s| s.gpu.sampling_seconds).collect()),
+            sh_conversion_ms: Some(ms(st.iter().map(|s| s.gpu.projection_seconds).collect())),
+            shadowing_ms: ms(st.iter().map(|s| s.gpu.shading_seconds).collect()),
+            frame_ms,
+            fps: 1e3 / frame_ms,
+            ..base.clone()
+        });
+    }
+    Ok(rows)
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or(String::new(), |x| format!("{x:.digits$}"))
+}
+
+/// The CSV columns of [`BenchRow`], in order.
+pub const CSV_COLUMNS: &str = "scene,path,device,threads,vertices,triangles,samples,rays_per_sample,receivers,frames,warmup,timestamps,setup_ms,deform_ms,bvh_update_ms,upload_ms,bsv_sampling_ms,sh_conversion_ms,shadowing_ms,frame_ms,fps";
+
+/// Rows as CSV (header first).
+pub fn to_csv(rows: &[BenchRow]) -> String {
+    let mut s = format!("{CSV_COLUMNS}\n");
+    for r in rows {
+        let device = format!("\"{}\"", r.device.replace('"', "\"\""));
+        s.push_str(&format!(
+            "{},{},{device},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{},{:.6},{},{:.6},{:.6},{:.3}\n",
+            r.scene,
+            r.path,
+            r.threads,
+            r.vertices,
+            r.triangles,
+            r.samples,
+            r.rays_per_sample,
+            r.receivers,
+            r.frames,
+            r.warmup,
+            r.timestamps,
+            opt(r.setup_ms, 6),
+            r.deform_ms,
+            r.bvh_update_ms,
+            opt(r.upload_ms, 6),
+            r.bsv_sampling_ms,
+            opt(r.sh_conversion_ms, 6),
+            r.shadowing_ms,
+            r.frame_ms,
+            r.fps
+        ));
+    }
+    s
+}
+
+/// Rows as the Markdown Table 1 (times in ms, medians).
+pub fn to_markdown(rows: &[BenchRow]) -> String {
+    let mut s = String::from(
+        "| scene | vertices | path | device | BSV sampling (ms) | SH conversion (ms) | shadowing (ms) | deform + BVH + upload (ms) | frame (ms) | FPS |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in rows {
+        let host = r.deform_ms + r.bvh_update_ms + r.upload_ms.unwrap_or(0.0);
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {:.3} | {} | {:.3} | {:.3} | {:.3} | {:.1} |\n",
+            r.scene,
+            r.vertices,
+            r.path,
+            r.device,
+            r.bsv_sampling_ms,
+            r.sh_conversion_ms
+                .map_or("(in sampling)".to_string(), |v| format!("{v:.3}")),
+            r.shadowing_ms,
+            host,
+            r.frame_ms,
+            r.fps
+        ));
+    }
+    s
+}

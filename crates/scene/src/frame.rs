@@ -1,0 +1,204 @@
+//! One frame's set-up, shared by the CPU ([`crate::render`]) and GPU ([`crate::gpu_path`])
+//! paths: the occluders built from their specs, the light (sky or map) projected to SH, the local
+//! lights' emitters, the receiver grid, the cone k-table covering every receiver, and the posed
+//! mesh of a deformer at time t with the sampling sphere fixed for a whole sequence.
+
+use crate::error::Error;
+use crate::scene::{LightSpec, Scene};
+use crate::vocab::placed_mesh;
+use glam::DVec3;
+use shscale_field::shading::EnvLight;
+use shscale_field::Emitter;
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
+
+/// Build an occluder: the analytic sphere, or a mesh (bundled or path) rotated to z-up, scaled and
+/// moved so its minimal bounding sphere is `(center, radius)`.
+pub fn build_occluder(
+    mesh: &str,
+    center: DVec3,
+    radius: f64,
+    up_is_y: bool,
+) -> Result<Box<dyn Occluder>, Error> {
+    let target = Sphere { center, radius };
+    if mesh == "sphere" {
+        return Ok(Box::new(AnalyticSphere { sphere: target }));
+    }
+    Ok(Box::new(MeshBvh::build(
+        &placed_mesh(mesh, center, radius, up_is_y)?,
+        UpdateStrategy::Rebuild,
+    )))
+}
+
+/// What the full-frequency truth of `scene` lights with ([`EnvLight::truth_light`]).
+pub fn truth_light(scene: &Scene) -> Result<&'static str, Error> {
+    Ok(light_of(scene)?.truth_light())
+}
+
+pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, Error> {
+    Ok(match &scene.light {
+        LightSpec::Sky {
+            ambient,
+            zenith,
+            sun,
+            sun_dir,
+            sun_radius,
+        } => EnvLight::sky(
+            scene.order,
+            *ambient,
+            *zenith,
+            DVec3::Z,
+            *sun,
+            *sun_dir,
+            *sun_radius,
+        )?,
+        LightSpec::Exr { path, intensity } => {
+            // Finite, ≥ 0 (ringing clamped) and within the image bounds: read_radiance_exr.
+            let (w, h, px) = shscale_runner::image::read_radiance_exr(path)?;
+            let max = px.iter().flatten().fold(0f32, |a, v| a.max(*v)) as f64;
+            if max * *intensity > crate::scene::MAX_RADIANCE {
+                return Err(Error::config(format!(
+                    "light.intensity: {} × the map's largest value {max:e} ({}) exceeds {:e}",
+                    crate::scene::num(*intensity),
+                    path.display(),
+                    crate::scene::MAX_RADIANCE
+                )));
+            }
+            let px: Vec<[f32; 3]> = px
+                .into_iter()
+                .map(|p| p.map(|v| v * *intensity as f32))
+                .collect();
+            EnvLight::from_latlong(scene.order, w, h, &px)?
+        }
+    })
+}
+
+/// The receiver plane's points (normal +z), row-major, row 0 at +y.
+pub fn receiver_grid(scene: &Scene) -> Vec<DVec3> {
+    let [w, h] = scene.resolution;
+    let [sx, sy] = scene.receiver_size;
+    let c = scene.receiver_center;
+    (0..w * h)
+        .map(|k| {
+            let (i, j) = (k % w, k / w);
+            DVec3::new(
+                c.x + sx * (i as f64 / (w - 1) as f64 - 0.5),
+                c.y + sy * (0.5 - j as f64 / (h - 1) as f64),
+                c.z,
+            )
+        })
+        .collect()
+}
+
+/// The cone k-table covering every receiver's `k = |p − c| / r_s` for a sampling sphere.
+pub(crate) fn table_for(
+    scene: &Scene,
+    sampling: Sphere,
+    recv: &[DVec3],
+    eta: Eta,
+) -> Result<KTable, Error> {
+    let (lo, hi) = recv
+        .iter()
+        .map(|p| (*p - sampling.center).length() / sampling.radius)
+        .fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
+    let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
+    KTable::build(
+        TauFamily::Cone { alpha: scene.alpha },
+        eta,
+        scene.order,
+        scene.k_count,
+        lo,
+        hi,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .map_err(|e| Error::config(format!("{}: k-table: {e}", scene.file)))
+}
+
+/// A local light: one emitter per non-black channel (radiance per triangle) and its bounds.
+pub struct LightSource {
+    pub channels: [Option<Emitter>; 3],
+    pub sphere: Sphere,
+    pub energy: bool,
+}
+
+/// Build the scene's local lights, emitting toward −z from their centres.
+pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, Error> {
+    let mut out = Vec::new();
+    for l in &scene.light_sources {
+        let (mut mesh, rgb) = if l.hinge {
+            shscale_field::srf::hinged_light(l.size, l.hinge_angle)
+        } else {
+            // Normal −z: the square emits downward.
+            (shapes::quad(l.size, false), vec![[1.0; 3]; 2])
+        };
+        if l.hinge {
+            // The hinge opens toward +z: turn it 180° about x so it emits downward.
+            for p in &mut mesh.positions {
+                *p = DVec3::new(p.x, -p.y, -p.z);
+            }
+        }
+        let centre = mesh.bounding_sphere().center;
+        for p in &mut mesh.positions {
+            *p += l.center - centre;
+        }
+        let mut channels: [Option<Emitter>; 3] = [None, None, None];
+        for (c, slot) in channels.iter_mut().enumerate() {
+            let rad: Vec<f64> = rgb.iter().map(|t| t[c] * l.radiance[c]).collect();
+            if rad.iter().all(|r| *r == 0.0) {
+                continue; // compute only what the scene requires
+            }
+            *slot = Some(Emitter::new(
+                &mesh,
+                MeshBvh::build(&mesh, UpdateStrategy::Rebuild),
+                rad,
+            )?);
+        }
+        out.push(LightSource {
+            channels,
+            sphere: mesh.bounding_sphere(),
+            energy: l.energy,
+        });
+    }
+    Ok(out)
+}
+
+/// Pose `rest` at time `t ∈ [0, 1)` of its deformer (strength `amount`) into `out`.
+pub fn pose_mesh(rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh) {
+    match kind {
+        deform::DeformerKind::Flap => {
+            let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
+            deform::flap(rest, out, y0, amount, t)
+        }
+        deform::DeformerKind::Bend => {
+            deform::bend(rest, out, amount / rest.bounding_sphere().radius, t)
+        }
+        deform::DeformerKind::Twist => deform::twist(rest, out, amount, t),
+        deform::DeformerKind::Morph => {
+            let s = rest.bounding_sphere();
+            let mut sphere = shapes::uv_sphere(1.0, 22, 24);
+            sphere.fit_to(&s);
+            deform::morph(rest, &sphere, out, t)
+        }
+    }
+}
+
+/// The minimal sphere enclosing every pose `t = f/frames` of a sequence (the rest pose alone
+/// without a deformer): a sampling sphere fixed for the whole sequence keeps per-receiver caches
+/// valid.
+pub fn sequence_sphere(
+    rest: &Mesh,
+    deformer: Option<(deform::DeformerKind, f64)>,
+    frames: usize,
+) -> Sphere {
+    let mut all = rest.positions.clone();
+    if let Some((kind, amount)) = deformer {
+        let mut p = rest.clone();
+        for f in 0..frames {
+            pose_mesh(rest, kind, amount, f as f64 / frames as f64, &mut p);
+            all.extend_from_slice(&p.positions);
+        }
+    }
+    shscale_geometry::min_enclosing_sphere(&all)
+}

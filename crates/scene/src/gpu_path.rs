@@ -1,0 +1,236 @@
+//! The GPU path of scenes and experiment kinds: under the `gpu = "auto" | "off" | "required"`
+//! setting ([`GpuMode`]) of scenes and experiments, opening the adapter (a one-line notice and the CPU path when there is none, an
+//! error when one is required), rendering a deforming single-mesh sequence on the GPU, and timing
+//! GPU BSV sampling for experiment runs.
+
+use crate::error::Error;
+use crate::frame::{light_of, pose_mesh, receiver_grid, sequence_sphere, table_for};
+use crate::render::RenderOutput;
+use crate::scene::Scene;
+use crate::vocab::placed_mesh;
+use glam::DVec3;
+use shscale_field::shading::Shader;
+use shscale_field::{Bsv, BsvSample, Layout};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{Mesh, Sphere};
+use shscale_gpu::{GpuContext, GpuSequence, GpuStageTimes, ReceiverSetup, Receivers};
+use shscale_runner::{Ctx, Device, GpuMode};
+use shscale_scaling::Eta;
+use std::time::Instant;
+
+/// Open the adapter as `mode` says: `Ok(None)` for `off`, and for `auto` without an adapter
+/// (after a one-line notice on stderr); an error for `required` without one.
+pub fn open_gpu(mode: GpuMode) -> Result<Option<GpuContext>, Error> {
+    match mode {
+        GpuMode::Off => Ok(None),
+        GpuMode::Auto => match GpuContext::new() {
+            Ok(c) => Ok(Some(c)),
+            Err(e) => {
+                eprintln!("notice: {e}; continuing with the CPU path");
+                Ok(None)
+            }
+        },
+        GpuMode::Required => GpuContext::new()
+            .map(Some)
+            .map_err(|e| Error::config(format!("gpu = \"required\": {e}"))),
+    }
+}
+
+/// [`open_gpu`] as the runner's [`Device`] (what a kind's [`shscale_runner::Kind::open_device`]
+/// returns): described as the adapter describes itself.
+pub fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+    Ok(open_gpu(mode)?.map(|c| Device::new(c.describe(), c)))
+}
+
+/// The GPU a kind's runs see: the device it opened, when that is a [`GpuContext`].
+pub fn gpu_of<'a>(ctx: &Ctx<'a>) -> Option<&'a GpuContext> {
+    ctx.device.and_then(|d| d.get::<GpuContext>())
+}
+
+/// Per-frame statistics of the GPU sequence.
+#[derive(Clone, Debug, Default)]
+pub struct GpuFrameStats {
+    pub frame: usize,
+    /// Host deformation (as the CPU path).
+    pub deform_seconds: f64,
+    pub gpu: GpuStageTimes,
+}
+
+/// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
+fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
+    match scene.occluders.as_slice() {
+        [o] if o.mesh != "sphere" => {
+            if scene.order > shscale_gpu::MAX_GPU_ORDER {
+                return Err(Error::config(format!(
+                    "{}: order {} exceeds the GPU path's {}",
+                    scene.file,
+                    scene.order,
+                    shscale_gpu::MAX_GPU_ORDER
+                )));
+            }
+            Ok(o)
+        }
+        _ => Err(Error::config(format!(
+            "{}: the GPU path renders scenes with exactly one mesh occluder (the analytic sphere has no triangles)",
+            scene.file
+        ))),
+    }
+}
+
+/// A BSV carrying only the layout's directions on `sphere` (no coefficients): enough to locate
+/// receivers in its spherical triangulation.
+fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, Error> {
+    let samples = layout
+        .directions()
+        .into_iter()
+        .map(|dir| BsvSample {
+            dir,
+            pos: sphere.center + sphere.radius * dir,
+            coeffs: Vec::new(),
+            on_surface: false,
+        })
+        .collect();
+    Ok(Bsv::from_samples(
+        layout,
+        sphere,
+        sphere.radius,
+        samples,
+        0,
+    )?)
+}
+
+/// Render `frames ≥ 1` frames of a deforming single-mesh scene with the extrapolated method on
+/// the GPU — the twin of [`crate::render::render_sequence`] for one occluder (same fixed sampling
+/// sphere, k-table, poses, and the same per-receiver `U`, built on the GPU). Returns the last
+/// frame's image, per-frame statistics and the one-off setup time (table, point location,
+/// buffers, pipelines, GPU receiver setup) in seconds.
+pub fn render_sequence_gpu(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+) -> Result<GpuSequenceRun, Error> {
+    let t_setup = Instant::now();
+    let frames = frames.max(1);
+    let o = single_mesh(scene)?;
+    let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let s = sequence_sphere(&rest, o.deformer, frames);
+    let sampling = Sphere {
+        center: s.center,
+        radius: s.radius * scene.sampling_radius,
+    };
+    let recv = receiver_grid(scene);
+    let table = table_for(scene, sampling, &recv, Eta::Plain)?;
+    let light = light_of(scene)?;
+    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+    // Point location in the spherical triangulation stays on the host; k-table scaling and the
+    // rotations of every receiver run on the GPU (ReceiverSetup).
+    let bsv = layout_only_bsv(scene.layout, sampling)?;
+    let locations: Vec<[(u32, f64); 3]> = recv
+        .iter()
+        .map(|p| {
+            let d = *p - sampling.center;
+            let d = if d.length() > 0.0 { d } else { DVec3::Z };
+            bsv.locate(d.normalize())
+        })
+        .collect();
+    let strategy = o
+        .deformer
+        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let dirs = scene.layout.directions();
+    let mut seq = GpuSequence::new(
+        ctx,
+        &rest,
+        strategy,
+        scene.order,
+        scene.hemisphere_res,
+        sampling,
+        &dirs,
+        Receivers::Build(ReceiverSetup {
+            table: &table,
+            transfer: &transfer,
+            receivers: &recv,
+            locations: &locations,
+            sampling,
+        }),
+    )?;
+    let setup = t_setup.elapsed().as_secs_f64();
+    let mut posed: Mesh = rest.clone();
+    let mut stats = Vec::with_capacity(frames);
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let t0 = Instant::now();
+        if let Some((kind, amount)) = o.deformer {
+            pose_mesh(&rest, kind, amount, t, &mut posed);
+        }
+        let deform_seconds = t0.elapsed().as_secs_f64();
+        let gpu = seq.frame(ctx, &posed)?;
+        stats.push(GpuFrameStats {
+            frame: f,
+            deform_seconds,
+            gpu,
+        });
+    }
+    let [w, h] = scene.resolution;
+    let out = RenderOutput {
+        width: w,
+        height: h,
+        pixels: seq.read_image(ctx)?,
+        stages: Vec::new(),
+        products: 0,
+        skipped: 0,
+        error: Vec::new(),
+    };
+    Ok(GpuSequenceRun {
+        image: out,
+        frames: stats,
+        setup_seconds: setup,
+        receiver_setup_seconds: seq.receiver_setup_seconds,
+    })
+}
+
+/// What [`render_sequence_gpu`] returns.
+pub struct GpuSequenceRun {
+    /// The last frame.
+    pub image: RenderOutput,
+    pub frames: Vec<GpuFrameStats>,
+    /// One-off setup, wall clock (includes `receiver_setup_seconds`).
+    pub setup_seconds: f64,
+    /// Device time of the per-receiver setup (k-table scaling and rotations, 25 600 receivers
+    /// for the bench scenes).
+    pub receiver_setup_seconds: f64,
+}
+
+/// Median GPU times of BSV sampling and SH conversion for one mesh, layout, order and `H` on a
+/// sampling sphere (`repeats` frames after one warm-up), for experiment rows.
+#[derive(Clone, Debug)]
+pub struct GpuBsvTiming {
+    pub sampling_seconds: f64,
+    pub conversion_seconds: f64,
+    pub device: String,
+}
+
+/// Time GPU BSV sampling of `mesh` (see [`GpuBsvTiming`]).
+pub fn time_gpu_bsv(
+    ctx: &GpuContext,
+    mesh: &Mesh,
+    layout: Layout,
+    order: usize,
+    h: usize,
+    sampling: Sphere,
+    repeats: usize,
+) -> Result<GpuBsvTiming, Error> {
+    let (a, b) = shscale_gpu::sequence::time_bsv(
+        ctx,
+        mesh,
+        order,
+        h,
+        sampling,
+        &layout.directions(),
+        repeats.max(1),
+    )?;
+    Ok(GpuBsvTiming {
+        sampling_seconds: a,
+        conversion_seconds: b,
+        device: ctx.describe(),
+    })
+}

@@ -1,0 +1,648 @@
+//! Scene files (TOML). Two stages (docs/ARCHITECTURE.md (habit 5)): [`RawScene`] mirrors the file exactly and rejects
+//! unknown fields; [`Scene::load`] resolves it — validates every range and names the file, the
+//! line and the field in every error.
+//!
+//! ```toml
+//! order = 4                 # SH order N
+//! alpha_deg = 45            # cone half-angle
+//! layout = "latlong:12x20"  # base-sphere layout
+//! hemisphere_res = 32       # H (H×H rays per BSV sample)
+//! truth_res = 32            # T of the truths (4T² stratified rays per receiver)
+//! k_count = 40              # tabulated k values
+//! sampling_radius = 1.0     # s ≥ 1
+//!
+//! [[occluder]]
+//! mesh = "bunny"            # bundled name, .obj/.ply path, "sphere" (analytic), or a
+//!                           # procedural shape: "bird", "egg", "sponge", "plane"
+//! center = [0, 0, 1]        # where the bounding-sphere centre goes
+//! radius = 1.0              # the bounding radius after scaling
+//! up = "y"                  # the mesh's up axis ("y" or "z"); mapped to +z
+//! deformer = "flap"         # optional: flap | bend | twist | morph, animated over the frames
+//! amount = 0.8              #   its strength
+//!
+//! [receiver]
+//! center = [0, 0, 0]        # plane z = center.z, normal +z
+//! size = [4, 4]
+//! resolution = [160, 160]
+//!
+//! [light]
+//! kind = "sky"              # "sky" (closed form) or "exr" (lat-long map, top row = +z)
+//! ambient = 0.3             # sky: a + b·max(0, z) + sun·[cap]
+//! zenith = 1.0
+//! sun = 20.0
+//! sun_dir = [0.3, 0.2, 1]
+//! sun_radius_deg = 5
+//! # path = "envmaps/city.exr"  (exr; relative to the scene file)
+//! # intensity = 1.0
+//!
+//! [[light_source]]          # optional local area lights, emitting toward −z
+//! kind = "hinge"            # "quad" (one-sided square) or "hinge" (red + green panels)
+//! center = [0, 0, 3]
+//! size = 1.0
+//! hinge_deg = 100
+//! intensity = 5.0           # scales `radiance` (quad, default [1, 1, 1]) or red/green (hinge)
+//! eta = "plain"             # source-radiance-field scaling: "plain" or "energy"
+//! ```
+
+use crate::error::Error;
+use glam::DVec3;
+use serde::Deserialize;
+use shscale_field::Layout;
+use std::path::{Path, PathBuf};
+
+/// The default truth resolution of a scene (`4T²` rays per receiver).
+pub const DEFAULT_SCENE_TRUTH_RES: usize = 32;
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawScene {
+    pub order: Option<usize>,
+    pub alpha_deg: Option<f64>,
+    pub layout: Option<String>,
+    pub hemisphere_res: Option<usize>,
+    pub truth_res: Option<usize>,
+    pub plausibility: Option<String>,
+    pub k_count: Option<usize>,
+    pub sampling_radius: Option<f64>,
+    #[serde(default)]
+    pub occluder: Vec<RawOccluder>,
+    pub receiver: RawReceiver,
+    pub light: RawLight,
+    #[serde(default)]
+    pub light_source: Vec<RawLightSource>,
+    pub camera: Option<RawCamera>,
+}
+
+/// `[camera]`: a perspective view for `shscale render --camera` (+z up).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCamera {
+    pub position: [f64; 3],
+    pub look_at: [f64; 3],
+    pub fov_deg: Option<f64>,
+    pub resolution: Option<[usize; 2]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLightSource {
+    /// "quad" (one-sided square) or "hinge" (the papers' red/green hinged light).
+    pub kind: String,
+    pub center: [f64; 3],
+    pub size: Option<f64>,
+    pub hinge_deg: Option<f64>,
+    /// Linear RGB radiance of a quad; the hinge is red and green scaled by `intensity`.
+    pub radiance: Option<[f64; 3]>,
+    pub intensity: Option<f64>,
+    /// "plain" (default; radiance is invariant along rays) or "energy" (the papers' prescription).
+    pub eta: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOccluder {
+    pub mesh: String,
+    pub center: [f64; 3],
+    pub radius: f64,
+    pub up: Option<String>,
+    /// "flap" (bird), "bend" / "twist" (sponge, plane, any mesh), "morph" (egg → sphere).
+    pub deformer: Option<String>,
+    /// Strength: flap amplitude (rad, default 0.8), bend curvature (default 1.2), twist turns
+    /// (default 0.25), morph egg parameter (default 0.5).
+    pub amount: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawReceiver {
+    pub center: [f64; 3],
+    pub size: [f64; 2],
+    pub resolution: [usize; 2],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLight {
+    pub kind: String,
+    pub ambient: Option<f64>,
+    pub zenith: Option<f64>,
+    pub sun: Option<f64>,
+    pub sun_dir: Option<[f64; 3]>,
+    pub sun_radius_deg: Option<f64>,
+    pub path: Option<String>,
+    pub intensity: Option<f64>,
+}
+
+/// An occluder as resolved.
+#[derive(Clone, Debug)]
+pub struct OccluderSpec {
+    pub mesh: String,
+    pub center: DVec3,
+    pub radius: f64,
+    pub up_is_y: bool,
+    pub deformer: Option<(shscale_geometry::deform::DeformerKind, f64)>,
+}
+
+/// The light as resolved.
+#[derive(Clone, Debug)]
+pub enum LightSpec {
+    Sky {
+        ambient: f64,
+        zenith: f64,
+        sun: f64,
+        sun_dir: DVec3,
+        sun_radius: f64,
+    },
+    Exr {
+        path: PathBuf,
+        intensity: f64,
+    },
+}
+
+/// A resolved scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub file: String,
+    pub order: usize,
+    pub alpha: f64,
+    pub layout: Layout,
+    pub hemisphere_res: usize,
+    /// T of the ray-traced truths (band-limited: `4T²` stratified rays per receiver and occluder;
+    /// full-frequency: `4T²` plus the sun's `4·max(4, T/2)²` per receiver).
+    pub truth_res: usize,
+    /// The extrapolation's plausibility mitigation (docs/conventions.md §6).
+    pub plausibility: shscale_field::extrapolate::Plausibility,
+    pub k_count: usize,
+    pub sampling_radius: f64,
+    pub occluders: Vec<OccluderSpec>,
+    pub receiver_center: DVec3,
+    pub receiver_size: [f64; 2],
+    pub resolution: [usize; 2],
+    pub light: LightSpec,
+    pub light_sources: Vec<LightSourceSpec>,
+    /// The `[camera]` table, if any (`render --camera` uses a default view otherwise).
+    pub camera: Option<Camera>,
+}
+
+/// A local area light, emitting downward (toward −z) from `center`.
+#[derive(Clone, Debug)]
+pub struct LightSourceSpec {
+    pub hinge: bool,
+    pub center: DVec3,
+    pub size: f64,
+    pub hinge_angle: f64,
+    pub radiance: [f64; 3],
+    pub energy: bool,
+}
+
+/// Every key of a scene file: (key path, type, default, meaning and range) — the config
+/// reference; a test checks the list against the schema (`RawScene` and its tables).
+pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
+    ("order", "integer", "4", "SH order N, 1..=16"),
+    ("alpha_deg", "number", "45", "cone half-angle α, degrees, (0, 90)"),
+    ("layout", "string", "`latlong:12x20`", "base-sphere layout, at most 10⁶ samples"),
+    ("hemisphere_res", "integer", "32", "H: H² rays per BSV sample, 1..=256"),
+    ("truth_res", "integer", "32", "T of the ray-traced truths: 4T² stratified rays per receiver (band-limited, per occluder; full-frequency, plus the sun's cap), with their own error estimate, 1..=256"),
+    ("plausibility", "string", "`none`", "the extrapolation's plausibility mitigation: `none` or `clamp` (visibility clamped to [0, 1] and 1 outside the bounding cone, re-projected)"),
+    ("k_count", "integer", "40", "k-table entries, 2..=10000"),
+    ("sampling_radius", "number", "1", "sampling sphere in bounding radii, [1, 1000]"),
+    ("occluder[i].mesh", "string", "(required)", "`sphere`, a procedural shape, a bundled mesh or a path (relative to the scene file)"),
+    ("occluder[i].center", "3 numbers", "(required)", "where the bounding-sphere centre goes, each within ±1e6"),
+    ("occluder[i].radius", "number", "(required)", "the bounding radius after scaling, [1e-6, 1e6]"),
+    ("occluder[i].up", "string", "`y`", "the mesh's up axis, `y` or `z`, mapped to +z"),
+    ("occluder[i].deformer", "string", "—", "`flap`, `bend`, `twist` or `morph`, animated over the frames (not for `sphere`)"),
+    ("occluder[i].amount", "number", "the deformer's own", "deformer strength, [−10, 10]"),
+    ("receiver.center", "3 numbers", "(required)", "centre of the receiver plane (normal +z), each within ±1e6"),
+    ("receiver.size", "2 numbers", "(required)", "extent in x and y, each [1e-6, 1e6]"),
+    ("receiver.resolution", "2 integers", "(required)", "receivers along x and y, 2..=4096 each"),
+    ("light.kind", "string", "(required)", "`sky` (closed form) or `exr` (lat-long map, top row +z)"),
+    ("light.ambient", "number", "0.3", "sky: constant term, [0, 1e12]"),
+    ("light.zenith", "number", "1", "sky: max(0, z) term, [0, 1e12]"),
+    ("light.sun", "number", "20", "sky: sun strength, [0, 1e12]"),
+    ("light.sun_dir", "3 numbers", "`[0.3, 0.2, 1]`", "sky: sun direction, not all 0"),
+    ("light.sun_radius_deg", "number", "5", "sky: sun angular radius, degrees, (0, 90]"),
+    ("light.path", "string", "(required for `exr`)", "the EXR map, relative to the scene file; pixels finite and ≥ 0 (ringing to −1e-3 × max clamped)"),
+    ("light.intensity", "number", "1", "exr: scale of the map, [0, 1e12], intensity × max ≤ 1e12"),
+    ("light_source[i].kind", "string", "(required)", "`quad` (one-sided square) or `hinge` (red and green panels), emitting toward −z"),
+    ("light_source[i].center", "3 numbers", "(required)", "centre, each within ±1e6"),
+    ("light_source[i].size", "number", "1", "side, [1e-6, 1e6]"),
+    ("light_source[i].hinge_deg", "number", "100", "hinge: angle between the panels, degrees, (0, 180)"),
+    ("light_source[i].radiance", "3 numbers", "`[1, 1, 1]`", "quad: RGB radiance, each [0, 1e12]"),
+    ("light_source[i].intensity", "number", "1", "scales the radiance, [0, 1e12], product ≤ 1e12"),
+    ("light_source[i].eta", "string", "`plain`", "source-radiance-field scaling: `plain` or `energy`"),
+    ("camera.position", "3 numbers", "(required in `[camera]`)", "`render --camera`: the eye, each within ±1e6 (+z up); without `[camera]` a default view of the receiver plane"),
+    ("camera.look_at", "3 numbers", "(required in `[camera]`)", "the point the camera looks at, not the position"),
+    ("camera.fov_deg", "number", "40", "vertical field of view, degrees, [1, 170]"),
+    ("camera.resolution", "2 integers", "`[480, 320]`", "image width and height, 2..=4096 each"),
+];
+
+/// The largest |coordinate| (and size) of anything placed in a scene: occluder centres and
+/// radii, the receiver plane, light sources (docs/limits.md).
+pub const MAX_SCENE_COORDINATE: f64 = 1e6;
+/// The smallest occluder radius, receiver size and light-source size.
+pub const MIN_SCENE_SIZE: f64 = 1e-6;
+/// The largest radiance-like value (sky terms, intensities, light-source radiance): irradiance
+/// sums stay far from f32 overflow in the images.
+pub const MAX_RADIANCE: f64 = 1e12;
+/// The most occluders (and light sources) of a scene.
+pub const MAX_OCCLUDERS: usize = 64;
+
+/// A number for messages: plain where short, scientific where `{}` would print hundreds of digits.
+pub fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Line of the first occurrence of `key =` (or the table header) in the text, for semantic errors.
+fn line_of_key(text: &str, key: &str) -> usize {
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.starts_with(&format!("{key} "))
+                || t.starts_with(&format!("{key}="))
+                || t.starts_with(&format!("[{key}]"))
+                || t.starts_with(&format!("[[{key}]]"))
+        })
+        .map_or(0, |i| i + 1)
+}
+
+/// A perspective camera; +z is up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: DVec3,
+    pub look_at: DVec3,
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+    pub resolution: [usize; 2],
+}
+
+impl Camera {
+    /// The default view of a scene: from the −y side, above the receiver plane, at its centre.
+    pub fn default_for(scene: &Scene) -> Self {
+        let c = scene.receiver_center;
+        let s = scene.receiver_size[0].max(scene.receiver_size[1]);
+        Self {
+            position: c + DVec3::new(0.0, -1.25 * s, 0.9 * s),
+            look_at: c + DVec3::new(0.0, 0.0, 0.1 * s),
+            fov_deg: 40.0,
+            resolution: [480, 320],
+        }
+    }
+}
+
+impl Scene {
+    /// Read and resolve a scene file.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::parse(
+            &path.display().to_string(),
+            &text,
+            path.parent().unwrap_or(Path::new(".")),
+        )
+    }
+
+    /// Resolve scene text; `file` names it in errors and `base` anchors relative paths.
+    pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, Error> {
+        let raw: RawScene = toml::from_str(text)
+            .map_err(|e| Error::from(shscale_runner::config::toml_error(file, text, &e)))?;
+        // Errors name the key as a path (`occluder[1].radius`) at its own line (toml_edit spans;
+        // the table's line when the key is absent, a default).
+        let source = shscale_runner::config::Source::new(file, text);
+        let err = |key: &str, msg: String| {
+            let path = shscale_runner::config::parse_path(key);
+            let line = source.line_of(&path).map_or_else(
+                || line_of_key(text, key.split('.').next_back().unwrap_or(key)),
+                |(l, _)| l,
+            );
+            Error::config(format!("{file}:{line}: {key}: {msg}"))
+        };
+        // Bounded values: finite and within [lo, hi] (docs/limits.md).
+        let within = |key: &str, v: f64, lo: f64, hi: f64| -> Result<f64, Error> {
+            if v.is_finite() && v >= lo && v <= hi {
+                Ok(v)
+            } else {
+                Err(err(
+                    key,
+                    format!("{} is outside [{}, {}]", num(v), num(lo), num(hi)),
+                ))
+            }
+        };
+        let coords = |key: &str, v: [f64; 3]| -> Result<DVec3, Error> {
+            if v.iter()
+                .all(|x| x.is_finite() && x.abs() <= MAX_SCENE_COORDINATE)
+            {
+                Ok(DVec3::from_array(v))
+            } else {
+                Err(err(
+                    key,
+                    format!(
+                        "[{}, {}, {}] must be finite, each within ±{MAX_SCENE_COORDINATE:e}",
+                        num(v[0]),
+                        num(v[1]),
+                        num(v[2])
+                    ),
+                ))
+            }
+        };
+        let order = raw.order.unwrap_or(4);
+        if !(1..=16).contains(&order) {
+            return Err(err("order", format!("{order} is outside 1..=16")));
+        }
+        let alpha_deg = raw.alpha_deg.unwrap_or(45.0);
+        if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
+            return Err(err("alpha_deg", format!("{alpha_deg} is outside (0, 90)")));
+        }
+        let layout = Layout::parse(raw.layout.as_deref().unwrap_or("latlong:12x20"))
+            .map_err(|e| err("layout", e.to_string()))?;
+        let hemisphere_res = raw.hemisphere_res.unwrap_or(32);
+        if !(1..=256).contains(&hemisphere_res) {
+            return Err(err(
+                "hemisphere_res",
+                format!("{hemisphere_res} is outside 1..=256"),
+            ));
+        }
+        let truth_res = raw.truth_res.unwrap_or(DEFAULT_SCENE_TRUTH_RES);
+        if !(1..=256).contains(&truth_res) {
+            return Err(err("truth_res", format!("{truth_res} is outside 1..=256")));
+        }
+        let plausibility = shscale_field::extrapolate::Plausibility::parse(
+            raw.plausibility.as_deref().unwrap_or("none"),
+        )
+        .map_err(|m| err("plausibility", m))?;
+        let k_count = raw.k_count.unwrap_or(40);
+        if !(2..=crate::vocab::MAX_K_COUNT).contains(&k_count) {
+            return Err(err(
+                "k_count",
+                format!("{k_count} is outside 2..={}", crate::vocab::MAX_K_COUNT),
+            ));
+        }
+        let sampling_radius = within(
+            "sampling_radius",
+            raw.sampling_radius.unwrap_or(1.0),
+            1.0,
+            1e3,
+        )?;
+        if raw.occluder.len() > MAX_OCCLUDERS {
+            return Err(err(
+                "occluder",
+                format!(
+                    "{} occluders, more than the limit {MAX_OCCLUDERS}",
+                    raw.occluder.len()
+                ),
+            ));
+        }
+        let mut occluders = Vec::new();
+        for (i, o) in raw.occluder.iter().enumerate() {
+            let center = coords(&format!("occluder[{i}].center"), o.center)?;
+            within(
+                &format!("occluder[{i}].radius"),
+                o.radius,
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
+            let up_is_y = match o.up.as_deref().unwrap_or("y") {
+                "y" => true,
+                "z" => false,
+                other => {
+                    return Err(err(
+                        &format!("occluder[{i}].up"),
+                        format!("{other:?} is not \"y\" or \"z\""),
+                    ))
+                }
+            };
+            use shscale_geometry::deform::DeformerKind as K;
+            let deformer = match o.deformer.as_deref() {
+                None => None,
+                Some(name) => {
+                    let (kind, default) = match name {
+                        "flap" => (K::Flap, 0.8),
+                        "bend" => (K::Bend, 1.2),
+                        "twist" => (K::Twist, 0.25),
+                        "morph" => (K::Morph, 0.5),
+                        other => {
+                            return Err(err(
+                                &format!("occluder[{i}].deformer"),
+                                format!("{other:?} is not flap, bend, twist or morph"),
+                            ))
+                        }
+                    };
+                    if o.mesh == "sphere" {
+                        return Err(err(
+                            &format!("occluder[{i}].deformer"),
+                            "the analytic sphere cannot deform".into(),
+                        ));
+                    }
+                    let amount = within(
+                        &format!("occluder[{i}].amount"),
+                        o.amount.unwrap_or(default),
+                        -10.0,
+                        10.0,
+                    )?;
+                    Some((kind, amount))
+                }
+            };
+            occluders.push(OccluderSpec {
+                mesh: o.mesh.clone(),
+                center,
+                radius: o.radius,
+                up_is_y,
+                deformer,
+            });
+        }
+        let r = &raw.receiver;
+        let receiver_center = coords("receiver.center", r.center)?;
+        for (j, v) in r.size.iter().enumerate() {
+            within(
+                &format!("receiver.size[{j}]"),
+                *v,
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
+        }
+        if !(r.resolution.iter().all(|n| (2..=4096).contains(n))) {
+            return Err(err(
+                "receiver.resolution",
+                format!("{:?} must be within 2..=4096 each", r.resolution),
+            ));
+        }
+        let l = &raw.light;
+        let nonneg = |key: &str, v: Option<f64>, default: f64| -> Result<f64, Error> {
+            within(
+                &format!("light.{key}"),
+                v.unwrap_or(default),
+                0.0,
+                MAX_RADIANCE,
+            )
+        };
+        let light = match l.kind.as_str() {
+            "sky" => {
+                let sun_dir = DVec3::from_array(l.sun_dir.unwrap_or([0.3, 0.2, 1.0]));
+                if !(sun_dir.is_finite() && sun_dir.length() > 0.0) {
+                    return Err(err(
+                        "light.sun_dir",
+                        format!("{sun_dir} must be a non-zero vector"),
+                    ));
+                }
+                let rad = l.sun_radius_deg.unwrap_or(5.0);
+                if !(rad > 0.0 && rad <= 90.0) {
+                    return Err(err(
+                        "light.sun_radius_deg",
+                        format!("{rad} is outside (0, 90]"),
+                    ));
+                }
+                LightSpec::Sky {
+                    ambient: nonneg("ambient", l.ambient, 0.3)?,
+                    zenith: nonneg("zenith", l.zenith, 1.0)?,
+                    sun: nonneg("sun", l.sun, 20.0)?,
+                    sun_dir: sun_dir.normalize(),
+                    sun_radius: rad.to_radians(),
+                }
+            }
+            "exr" => {
+                let p = l
+                    .path
+                    .as_deref()
+                    .ok_or_else(|| err("light.path", "light kind \"exr\" needs path".into()))?;
+                LightSpec::Exr {
+                    path: base.join(p),
+                    intensity: nonneg("intensity", l.intensity, 1.0)?,
+                }
+            }
+            other => {
+                return Err(err(
+                    "light.kind",
+                    format!("{other:?} is not \"sky\" or \"exr\""),
+                ))
+            }
+        };
+        let mut light_sources = Vec::new();
+        if raw.light_source.len() > MAX_OCCLUDERS {
+            return Err(err(
+                "light_source",
+                format!(
+                    "{} light sources, more than the limit {MAX_OCCLUDERS}",
+                    raw.light_source.len()
+                ),
+            ));
+        }
+        for (i, l) in raw.light_source.iter().enumerate() {
+            let key = |k: &str| format!("light_source[{i}].{k}");
+            let hinge = match l.kind.as_str() {
+                "quad" => false,
+                "hinge" => true,
+                other => {
+                    return Err(err(
+                        &key("kind"),
+                        format!("{other:?} is not \"quad\" or \"hinge\""),
+                    ))
+                }
+            };
+            let center = coords(&key("center"), l.center)?;
+            let size = within(
+                &key("size"),
+                l.size.unwrap_or(1.0),
+                MIN_SCENE_SIZE,
+                MAX_SCENE_COORDINATE,
+            )?;
+            let hinge_deg = l.hinge_deg.unwrap_or(100.0);
+            if !(hinge_deg > 0.0 && hinge_deg < 180.0) {
+                return Err(err(
+                    &key("hinge_deg"),
+                    format!("{hinge_deg} is outside (0, 180)"),
+                ));
+            }
+            let intensity = within(
+                &key("intensity"),
+                l.intensity.unwrap_or(1.0),
+                0.0,
+                MAX_RADIANCE,
+            )?;
+            let base = l.radiance.unwrap_or([1.0, 1.0, 1.0]);
+            for (j, v) in base.iter().enumerate() {
+                within(
+                    &format!("light_source[{i}].radiance[{j}]"),
+                    *v,
+                    0.0,
+                    MAX_RADIANCE,
+                )?;
+            }
+            let radiance = base.map(|v| v * intensity);
+            if radiance.iter().any(|v| *v > MAX_RADIANCE) {
+                return Err(err(
+                    &key("intensity"),
+                    format!(
+                        "intensity {} × radiance {base:?} exceeds {MAX_RADIANCE:e}",
+                        num(intensity)
+                    ),
+                ));
+            }
+            let energy = match l.eta.as_deref().unwrap_or("plain") {
+                "plain" => false,
+                "energy" => true,
+                other => {
+                    return Err(err(
+                        &key("eta"),
+                        format!("{other:?} is not \"plain\" or \"energy\""),
+                    ))
+                }
+            };
+            light_sources.push(LightSourceSpec {
+                hinge,
+                center,
+                size,
+                hinge_angle: hinge_deg.to_radians(),
+                radiance,
+                energy,
+            });
+        }
+        let camera = match &raw.camera {
+            None => None,
+            Some(c) => {
+                let position = coords("camera.position", c.position)?;
+                let look_at = coords("camera.look_at", c.look_at)?;
+                if (look_at - position).length() == 0.0 {
+                    return Err(err(
+                        "camera.look_at",
+                        "must differ from camera.position".into(),
+                    ));
+                }
+                let fov_deg = within("camera.fov_deg", c.fov_deg.unwrap_or(40.0), 1.0, 170.0)?;
+                let resolution = c.resolution.unwrap_or([480, 320]);
+                if !resolution.iter().all(|n| (2..=4096).contains(n)) {
+                    return Err(err(
+                        "camera.resolution",
+                        format!("{resolution:?} must be within 2..=4096 each"),
+                    ));
+                }
+                Some(Camera {
+                    position,
+                    look_at,
+                    fov_deg,
+                    resolution,
+                })
+            }
+        };
+        Ok(Self {
+            camera,
+            file: file.into(),
+            order,
+            alpha: alpha_deg.to_radians(),
+            layout,
+            hemisphere_res,
+            truth_res,
+            plausibility,
+            k_count,
+            sampling_radius,
+            occluders,
+            receiver_center,
+            receiver_size: r.size,
+            resolution: r.resolution,
+            light,
+            light_sources,
+        })
+    }
+}

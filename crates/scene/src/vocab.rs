@@ -1,0 +1,259 @@
+//! One vocabulary for every command, the runner and the figures: what a mesh name means
+//! (`sphere`, the procedural shapes, the bundled meshes, a file path) and the k range a set of
+//! probe radii needs, the angular scaling τ and η by name. Resolved here only.
+
+use crate::error::Error;
+use glam::DVec3;
+use shscale_field::Layout;
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::{bundled, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+use shscale_runner::KeyError;
+use shscale_scaling::{Interp, Spacing};
+
+/// The procedural shapes, by name.
+pub const PROCEDURAL: &[&str] = &["bird", "egg", "sponge", "plane"];
+
+/// Every name a mesh key accepts besides a file path, for messages.
+pub fn mesh_names() -> String {
+    format!(
+        "\"sphere\" (analytic), the procedural {} or the bundled {}",
+        PROCEDURAL.join(", "),
+        bundled::names().join(", ")
+    )
+}
+
+/// Whether `name` names a mesh: the analytic sphere, a procedural shape, a bundled mesh or an
+/// existing file.
+pub fn mesh_exists(name: &str) -> bool {
+    name == "sphere"
+        || PROCEDURAL.contains(&name)
+        || bundled::names().contains(&name)
+        || std::path::Path::new(name).is_file()
+}
+
+/// The mesh of a name as built or stored (not moved or scaled); not for `sphere`.
+pub fn mesh(name: &str) -> Result<Mesh, Error> {
+    Ok(match name {
+        "bird" => shapes::bird(),
+        "egg" => shapes::egg(1.0, 0.5, 22, 24),
+        "sponge" => shapes::box_block(glam::DVec3::new(1.0, 0.5, 0.3), 37),
+        "plane" => shapes::plane(2.0, 2.0, 92, 92),
+        "sphere" => {
+            return Err(Error::config(
+                "mesh \"sphere\" is the analytic sphere, not a triangle mesh".into(),
+            ))
+        }
+        _ => bundled::resolve(name)?,
+    })
+}
+
+/// An occluder by name in its own coordinates: the analytic unit sphere or a mesh behind a BVH.
+pub fn occluder(name: &str) -> Result<Box<dyn Occluder>, Error> {
+    if name == "sphere" {
+        return Ok(Box::new(AnalyticSphere::unit()));
+    }
+    Ok(Box::new(MeshBvh::build(
+        &mesh(name)?,
+        UpdateStrategy::Rebuild,
+    )))
+}
+
+/// An occluder placed in the unit sphere (its minimal bounding sphere centred at the origin with
+/// radius 1), as experiments use it (results are in units of r): the occluder, the closed-form
+/// sphere when analytic, and the mesh otherwise.
+pub struct UnitOccluder {
+    pub occ: Box<dyn Occluder>,
+    pub analytic: Option<Sphere>,
+    pub mesh: Option<Mesh>,
+}
+
+/// See [`UnitOccluder`].
+pub fn unit_occluder(name: &str) -> Result<UnitOccluder, Error> {
+    if name == "sphere" {
+        let s = AnalyticSphere::unit();
+        return Ok(UnitOccluder {
+            occ: Box::new(s),
+            analytic: Some(s.sphere),
+            mesh: None,
+        });
+    }
+    let m = crate::vocab::placed_mesh(name, glam::DVec3::ZERO, 1.0, false)?;
+    Ok(UnitOccluder {
+        occ: Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
+        analytic: None,
+        mesh: Some(m),
+    })
+}
+
+/// The k range a k-table needs for probe radii (× r) sampled at radius `s` (× r):
+/// [`shscale_field::probe::k_range`], re-exported so every caller finds it here.
+pub use shscale_field::probe::k_range;
+
+/// The family of angular scaling functions named in a config (`tau = "cone" | "midrange"`): the
+/// cone approximation with half-angle `alpha_deg` in (0, 90), or mid-range lighting (α unused).
+/// Errors name the key at fault.
+pub fn tau_family(tau: &str, alpha_deg: f64) -> Result<shscale_scaling::TauFamily, KeyError> {
+    use shscale_runner::KeyError;
+    match tau {
+        "cone" if !(alpha_deg > 0.0 && alpha_deg < 90.0) => Err(KeyError::new(
+            "alpha_deg",
+            format!("{alpha_deg} is outside (0, 90)"),
+        )),
+        "cone" => Ok(shscale_scaling::TauFamily::Cone {
+            alpha: alpha_deg.to_radians(),
+        }),
+        "midrange" => Ok(shscale_scaling::TauFamily::MidRange),
+        other => Err(KeyError::new(
+            "tau",
+            format!("{other:?} is not cone or midrange"),
+        )),
+    }
+}
+
+/// The angular scaling function τ of [`tau_family`] at k (k = d/r > 0 for the cone, k = d/R
+/// in (−1, 1) for mid-range lighting). Errors name the key at fault.
+pub fn scaling_tau(
+    tau: &str,
+    k: f64,
+    alpha_deg: f64,
+) -> Result<Box<dyn shscale_scaling::AngularScaling>, KeyError> {
+    tau_family(tau, alpha_deg)?
+        .at(k)
+        .map_err(|e| KeyError::new("k", e.to_string()))
+}
+
+/// The largest hemisphere resolution of a single-point visibility query (`shscale visibility`,
+/// Python `visibility`): 2·1024² rays per point.
+pub const MAX_VISIBILITY_RES: usize = 1024;
+
+/// Check query points against an occluder: each within
+/// [`shscale_geometry::ray::MAX_QUERY_DISTANCE`] bounding radii (beyond it the ray tracer loses
+/// its precision), and — for the `local` frame — not at the bounding-sphere centre, where the
+/// frame is undefined. The error names the point by its index.
+pub fn check_query_points(
+    occ: &dyn Occluder,
+    name: &str,
+    points: &[glam::DVec3],
+    local_frame: bool,
+) -> Result<(), String> {
+    let b = occ.bounding_sphere();
+    for (i, p) in points.iter().enumerate() {
+        let far = (*p - b.center).length() / b.radius;
+        if far.is_nan() || far > shscale_geometry::ray::MAX_QUERY_DISTANCE {
+            return Err(format!(
+                "point {i} ({:e}, {:e}, {:e}) is {far:.3e} bounding radii from {name}, more than {:e}, the farthest a query keeps its precision",
+                p.x,
+                p.y,
+                p.z,
+                shscale_geometry::ray::MAX_QUERY_DISTANCE
+            ));
+        }
+        if local_frame && (*p - b.center).length() == 0.0 {
+            return Err(format!(
+                "point {i}: the local frame is undefined at the bounding-sphere centre"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `plain` or `energy`: the name of η in configs and CSV columns.
+pub fn eta_name(eta: shscale_scaling::Eta) -> &'static str {
+    match eta {
+        shscale_scaling::Eta::Plain => "plain",
+        shscale_scaling::Eta::Energy => "energy",
+    }
+}
+
+/// A mesh by name — procedural (`bird`, `egg`, `sponge`, `plane`), bundled, or a path — rotated
+/// to z-up (bundled/path meshes with `up_is_y`), scaled and moved so its minimal bounding sphere
+/// is `(center, radius)`.
+pub fn placed_mesh(mesh: &str, center: DVec3, radius: f64, up_is_y: bool) -> Result<Mesh, Error> {
+    let mut m = self::mesh(mesh)?;
+    if up_is_y && !PROCEDURAL.contains(&mesh) {
+        for p in &mut m.positions {
+            *p = DVec3::new(p.x, -p.z, p.y);
+        }
+    }
+    m.fit_to(&Sphere { center, radius });
+    Ok(m)
+}
+
+// The sampling bounds every base-sphere kind shares (probe, alpha_fit, budget, shadows, srf).
+
+/// The most probe radii a run may have.
+pub const MAX_RADII: usize = 64;
+
+/// The largest SH order of a probe run.
+pub const MAX_ORDER: usize = 16;
+
+/// The largest hemisphere resolution H (H² rays per BSV sample).
+pub const MAX_HEMISPHERE_RES: usize = 256;
+
+/// The largest truth resolution T (4T² rays per probe).
+pub const MAX_TRUTH_RES: usize = shscale_field::truth::MAX_TRUTH_RES;
+
+/// The most tabulated k values.
+pub const MAX_K_COUNT: usize = 10_000;
+
+/// `"exp" | "uniform" | "chebyshev"`.
+pub fn parse_spacing(s: &str) -> Result<Spacing, String> {
+    match s {
+        "exp" => Ok(Spacing::Exp),
+        "uniform" => Ok(Spacing::Uniform),
+        "chebyshev" => Ok(Spacing::Chebyshev),
+        _ => Err(format!(
+            "{s:?} is not one of \"exp\", \"uniform\", \"chebyshev\""
+        )),
+    }
+}
+
+/// `"linear" | "cubic"`.
+pub fn parse_interp(s: &str) -> Result<Interp, String> {
+    match s {
+        "linear" => Ok(Interp::Linear),
+        "cubic" => Ok(Interp::Cubic),
+        _ => Err(format!("{s:?} is not one of \"linear\", \"cubic\"")),
+    }
+}
+
+/// The checks of the keys every base-sphere study shares (`probe`, `alpha_fit`, `budget`):
+/// `mesh` known, `order` in 1..=[`MAX_ORDER`], `alpha_deg` in (0, 90), `layout` parsed,
+/// `hemisphere_res` in 1..=[`MAX_HEMISPHERE_RES`]; the error names the first bad key.
+pub fn check_sampling_keys(
+    mesh: &str,
+    order: usize,
+    alpha_deg: f64,
+    layout: &str,
+    hemisphere_res: usize,
+) -> Result<(), KeyError> {
+    if !mesh_exists(mesh) {
+        return Err(KeyError::new(
+            "mesh",
+            format!(
+                "{mesh:?} is neither {} nor an existing .obj/.ply file",
+                mesh_names()
+            ),
+        ));
+    }
+    if !(1..=MAX_ORDER).contains(&order) {
+        return Err(KeyError::new(
+            "order",
+            format!("{order} is outside 1..={MAX_ORDER}"),
+        ));
+    }
+    if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
+        return Err(KeyError::new(
+            "alpha_deg",
+            format!("{alpha_deg} is outside (0, 90)"),
+        ));
+    }
+    Layout::parse(layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+    if !(1..=MAX_HEMISPHERE_RES).contains(&hemisphere_res) {
+        return Err(KeyError::new(
+            "hemisphere_res",
+            format!("{hemisphere_res} is outside 1..={MAX_HEMISPHERE_RES}"),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,714 @@
+//! The `probe` kind (SHS Fig. 5 / TR Fig. 1): extrapolated vs ray-traced visibility at probe
+//! radii along the probe directions (seeded, between the base-sphere samples, or on them), one row
+//! per run and radius. Runs sharing mesh, order, layout, H, sampling radius, ε, probe directions,
+//! truth resolution and seed, and radii share the BSV and the truth (computed once); α, the
+//! k-table, the contact threshold and the plausibility mitigation vary per run.
+
+use serde::{Deserialize, Serialize};
+use shscale_field::extrapolate::Plausibility;
+use shscale_field::probe::{
+    probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
+};
+use shscale_field::Layout;
+use shscale_runner::records::{list, Results};
+use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_scaling::Interp;
+use shscale_scene::vocab::{
+    check_sampling_keys, parse_interp, parse_spacing, MAX_K_COUNT, MAX_RADII, MAX_TRUTH_RES,
+};
+use shscale_scene::Error;
+use std::path::{Path, PathBuf};
+
+/// Parameters of one probe run (config keys; every one can be swept).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProbeParams {
+    /// `sphere`, a procedural shape, a bundled mesh or a path.
+    pub mesh: String,
+    pub order: usize,
+    /// Cone half-angle α in degrees, in (0, 90).
+    pub alpha_deg: f64,
+    /// `fixed` (α = alpha_deg at every distance) or `fit` (α by distance, the cone-angle law).
+    pub alpha_mode: String,
+    /// `latlong:RxC`, `cube:N` or `fib:P` (at most 10⁶ samples).
+    pub layout: String,
+    pub hemisphere_res: usize,
+    /// Sampling sphere radius as a multiple of the bounding radius, ≥ 1.
+    pub sampling_radius: f64,
+    pub k_count: usize,
+    /// `exp | uniform | chebyshev`.
+    pub k_spacing: String,
+    /// `linear | cubic` (in ln k).
+    pub k_interp: String,
+    /// The k-table's range; empty: the probes' range widened by 1.25 each way.
+    pub k_min: Option<f64>,
+    pub k_max: Option<f64>,
+    /// On-surface threshold ε (× r).
+    pub on_surface_eps: f64,
+    /// Contact threshold: occluded fraction of the facing hemisphere, [0, 1].
+    pub contact_occlusion: f64,
+    /// `random` (seeded, between the samples) or `samples` (on them).
+    pub probe_dirs: String,
+    pub probe_seed: u64,
+    /// Truth resolution T (4T² rays per probe) and the truth's seed.
+    pub truth_res: usize,
+    pub truth_seed: u64,
+    /// `none` or `clamp` (the plausibility mitigation).
+    pub plausibility: String,
+    /// Probe radii (× r).
+    #[serde(with = "list")]
+    pub radii: Vec<f64>,
+}
+
+impl Default for ProbeParams {
+    fn default() -> Self {
+        Self {
+            mesh: "sphere".into(),
+            order: 4,
+            alpha_deg: 45.0,
+            alpha_mode: "fixed".into(),
+            layout: "latlong:12x20".into(),
+            hemisphere_res: 32,
+            sampling_radius: 1.0,
+            k_count: 40,
+            k_spacing: "exp".into(),
+            k_interp: "linear".into(),
+            k_min: None,
+            k_max: None,
+            on_surface_eps: 1e-3,
+            contact_occlusion: shscale_field::probe::DEFAULT_CONTACT_OCCLUSION,
+            probe_dirs: "random".into(),
+            probe_seed: 1,
+            truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
+            truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
+            plausibility: "none".into(),
+            radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
+        }
+    }
+}
+
+/// `"fixed" | "fit"`: whether α is fitted by distance.
+pub fn parse_alpha_mode(s: &str) -> Result<bool, String> {
+    match s {
+        "fixed" => Ok(false),
+        "fit" => Ok(true),
+        _ => Err(format!("{s:?} is not one of \"fixed\", \"fit\"")),
+    }
+}
+
+/// `"random" | "samples"` with the seed of `random`.
+pub fn parse_probe_dirs(s: &str, seed: u64) -> Result<ProbeDirs, String> {
+    match s {
+        "random" => Ok(ProbeDirs::Random { seed }),
+        "samples" => Ok(ProbeDirs::Samples),
+        _ => Err(format!("{s:?} is not one of \"random\", \"samples\"")),
+    }
+}
+
+impl ProbeParams {
+    /// Validate (the kind's bounds), check the estimated work against the limits unless
+    /// `allow_large`, and give the field crate's spec: what `shscale probe` and the Python
+    /// `probe` do before any work. A bad parameter comes back as a [`KeyError`] naming it (the
+    /// key without an index: `radii`, not `radii[2]`); a plan over the limits as its message.
+    pub fn checked_spec(&self, allow_large: bool) -> Result<ProbeSpec, KeyError> {
+        <Probe as Kind>::validate(self)
+            .map_err(|e| KeyError::new(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
+        let (shared, run) = <Probe as Kind>::cost(self);
+        shscale_runner::limits::check_work(
+            "probe",
+            shared.rays + run.rays,
+            shared.bytes.max(run.bytes),
+            &shared.drivers,
+            allow_large,
+        )
+        .map_err(|e| KeyError::new("", e.to_string()))?;
+        self.spec().map_err(|e| KeyError::new("", e.to_string()))
+    }
+
+    /// The field crate's spec (parameters already validated).
+    pub fn spec(&self) -> Result<ProbeSpec, Error> {
+        let c = |m: String| Error::config(m);
+        Ok(ProbeSpec {
+            order: self.order,
+            alpha: self.alpha_deg.to_radians(),
+            layout: Layout::parse(&self.layout)?,
+            hemisphere_res: self.hemisphere_res,
+            sampling_radius: self.sampling_radius,
+            radii: self.radii.clone(),
+            k_count: self.k_count,
+            k_spacing: parse_spacing(&self.k_spacing).map_err(c)?,
+            k_interp: parse_interp(&self.k_interp).map_err(c)?,
+            k_min: self.k_min,
+            k_max: self.k_max,
+            on_surface_eps: self.on_surface_eps,
+            contact_occlusion: self.contact_occlusion,
+            probe_dirs: parse_probe_dirs(&self.probe_dirs, self.probe_seed).map_err(c)?,
+            truth_res: self.truth_res,
+            truth_seed: self.truth_seed,
+            plausibility: Plausibility::parse(&self.plausibility).map_err(c)?,
+            alpha_fit: parse_alpha_mode(&self.alpha_mode).map_err(c)?,
+        })
+    }
+}
+
+/// One row: a run at one probe radius (metric names of docs/conventions.md §6; the accuracy
+/// columns are those of [`shscale_field::probe::ProbeRow`], documented there).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct ProbeRow {
+    pub radius: f64,
+    pub k: f64,
+    pub k_node_offset: f64,
+    pub alpha_used_deg: f64,
+    /// The BSV's effective cap θ₀, degrees (what `alpha_mode = "fit"` uses).
+    pub effective_cap_deg: f64,
+    pub probes: usize,
+    pub inside_count: usize,
+    pub unoccluded_truth_count: usize,
+    pub clamped_count: usize,
+    pub vis_rel_l2_mean: Option<f64>,
+    pub vis_rel_l2_max: Option<f64>,
+    pub occ_rel_l2_mean: Option<f64>,
+    pub occ_rel_l2_max: Option<f64>,
+    pub truth_rel_err_mean: Option<f64>,
+    pub truth_rel_err_max: Option<f64>,
+    pub truth_limited_count: usize,
+    pub occ_rel_l2_exact_k_mean: Option<f64>,
+    pub occ_rel_l2_exact_dir_mean: Option<f64>,
+    pub occ_rel_l2_model_mean: Option<f64>,
+    pub band_limit_rel_mean: Option<f64>,
+    pub implausible_count: usize,
+    pub occ_solid_angle_min: Option<f64>,
+    pub occ_solid_angle_max: Option<f64>,
+    pub on_surface_count: usize,
+    pub vis_rel_l2_on_surface_mean: Option<f64>,
+    pub occ_rel_l2_on_surface_mean: Option<f64>,
+    pub occ_rel_l2_on_surface_max: Option<f64>,
+    pub contact_count: usize,
+    pub occ_rel_l2_contact_mean: Option<f64>,
+    pub occ_rel_l2_contact_max: Option<f64>,
+    pub bsv_rays: usize,
+    /// Rays per probe of the truth (0: closed form).
+    pub truth_rays: usize,
+    /// Median over the timing procedure; `*_spread` = (max − min) / median.
+    pub bsv_sampling_seconds: f64,
+    pub bsv_sampling_spread: f64,
+    pub table_build_seconds: f64,
+    pub table_build_spread: f64,
+    pub extrapolation_seconds: f64,
+    pub extrapolation_spread: f64,
+    /// The truth at this radius, measured once (it is the reference, not a method under test).
+    pub truth_seconds: f64,
+    pub gpu_bsv_sampling_seconds: Option<f64>,
+    pub gpu_sh_conversion_seconds: Option<f64>,
+    pub gpu_device: String,
+}
+
+/// What runs of a group share.
+pub struct ProbeShared {
+    occ: Box<dyn shscale_geometry::Occluder>,
+    base: ProbeBase,
+    bsv_timing: Timing,
+    gpu: (Option<f64>, Option<f64>, String),
+}
+
+/// The kind.
+pub struct Probe;
+
+fn base_key(p: &ProbeParams) -> String {
+    format!(
+        "mesh={};order={};layout={};hemisphere_res={};sampling_radius={};on_surface_eps={};dirs={}/{};truth={}/{};radii={:?}",
+        p.mesh, p.order, p.layout, p.hemisphere_res, p.sampling_radius, p.on_surface_eps,
+        p.probe_dirs, p.probe_seed, p.truth_res, p.truth_seed, p.radii
+    )
+}
+
+impl Kind for Probe {
+    const NAME: &'static str = "probe";
+    const QUESTION: &'static str = "How close is SH-scaling extrapolation of a base-sphere visibility field to ray-traced visibility at probe radii (occ_rel_l2 per radius, on-surface samples separately), and at what cost?";
+    type Params = ProbeParams;
+    type Shared = ProbeShared;
+    type Row = ProbeRow;
+    type Error = Error;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
+
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("mesh", "the occluder: `sphere` (analytic, closed-form truth), a procedural shape (`bird`, `egg`, `sponge`, `plane`), a bundled mesh (`bunny`, `duck`, `dragon_19k`, `knot`, `teapot`) or an .obj/.ply path"),
+            ("order", "SH order N (N² coefficients), 1..=16"),
+            ("alpha_deg", "cone half-angle α of the cone approximation τ, degrees, in (0, 90)"),
+            ("alpha_mode", "`fixed` (α = alpha_deg at every distance) or `fit` (α by distance: the law exact for a centred sphere, at the BSV's effective cap; docs/math.md §7)"),
+            ("layout", "base-sphere sample layout: `latlong:RxC`, `cube:N` or `fib:P`, at most 10⁶ samples"),
+            ("hemisphere_res", "H: H² rays per BSV sample (and per probe direction for the decomposition), 1..=256; the truth has its own `truth_res`"),
+            ("sampling_radius", "radius of the sampling sphere in bounding radii, [1, 1000]; > 1 mitigates the on-surface failure"),
+            ("k_count", "entries K of the k-table, 2..=10000 (≥ 4 for cubic)"),
+            ("k_spacing", "spacing of the tabulated k: `exp`, `uniform` or `chebyshev`"),
+            ("k_interp", "interpolation between table entries: `linear` or `cubic` (in ln k)"),
+            ("k_min", "smallest tabulated k (> 0); empty: the probes' smallest k ÷ 1.25, so no probe sits on an end node"),
+            ("k_max", "largest tabulated k (> k_min); empty: the probes' largest k × 1.25"),
+            ("on_surface_eps", "on-surface threshold ε in bounding radii, [0, 1): samples closer to the surface are reported separately"),
+            ("contact_occlusion", "contact threshold, [0, 1]: probe directions whose BSV occludes at least this fraction of the facing hemisphere are reported separately (docs/conventions.md §7)"),
+            ("probe_dirs", "`random` (as many seeded uniform directions as samples, between them: the BSV interpolation is measured) or `samples` (on the sample directions, the papers' design)"),
+            ("probe_seed", "seed of the `random` probe directions"),
+            ("truth_res", "resolution T of the converged truth (4T² rays per probe, stratified, its own error reported), 1..=1024, independent of hemisphere_res"),
+            ("truth_seed", "seed of the truth's per-probe rotations and jitter"),
+            ("plausibility", "`none` or `clamp`: visibility clamped to [0, 1] in the angular domain and 1 outside the bounding sphere's cone, re-projected (docs/conventions.md §6)"),
+            ("radii", "probe radii in bounding radii: 1 to 64 distinct values in (0, 1e6]"),
+        ]
+    }
+
+    fn validate(p: &ProbeParams) -> Result<(), KeyError> {
+        check_sampling_keys(&p.mesh, p.order, p.alpha_deg, &p.layout, p.hemisphere_res)?;
+        if !(p.sampling_radius.is_finite() && (1.0..=1e3).contains(&p.sampling_radius)) {
+            return Err(KeyError::new(
+                "sampling_radius",
+                format!("{} is outside [1, 1000]", p.sampling_radius),
+            ));
+        }
+        let interp = parse_interp(&p.k_interp).map_err(|m| KeyError::new("k_interp", m))?;
+        parse_spacing(&p.k_spacing).map_err(|m| KeyError::new("k_spacing", m))?;
+        let min_k = if interp == Interp::Cubic { 4 } else { 2 };
+        if !(min_k..=MAX_K_COUNT).contains(&p.k_count) {
+            return Err(KeyError::new(
+                "k_count",
+                format!(
+                    "{} is outside {min_k}..={MAX_K_COUNT} (≥ 4 for cubic)",
+                    p.k_count
+                ),
+            ));
+        }
+        if !(p.on_surface_eps.is_finite() && (0.0..1.0).contains(&p.on_surface_eps)) {
+            return Err(KeyError::new(
+                "on_surface_eps",
+                format!("{} is outside [0, 1)", p.on_surface_eps),
+            ));
+        }
+        if let Some(k) = p
+            .k_min
+            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
+        {
+            return Err(KeyError::new("k_min", format!("{k} is outside (0, 1e6]")));
+        }
+        if let Some(k) = p
+            .k_max
+            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
+        {
+            return Err(KeyError::new("k_max", format!("{k} is outside (0, 1e6]")));
+        }
+        if !(p.contact_occlusion.is_finite() && (0.0..=1.0).contains(&p.contact_occlusion)) {
+            return Err(KeyError::new(
+                "contact_occlusion",
+                format!("{} is outside [0, 1]", p.contact_occlusion),
+            ));
+        }
+        parse_probe_dirs(&p.probe_dirs, p.probe_seed)
+            .map_err(|m| KeyError::new("probe_dirs", m))?;
+        Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
+        parse_alpha_mode(&p.alpha_mode).map_err(|m| KeyError::new("alpha_mode", m))?;
+        if !(1..=MAX_TRUTH_RES).contains(&p.truth_res) {
+            return Err(KeyError::new(
+                "truth_res",
+                format!("{} is outside 1..={MAX_TRUTH_RES}", p.truth_res),
+            ));
+        }
+        if p.radii.is_empty() || p.radii.len() > MAX_RADII {
+            return Err(KeyError::new(
+                "radii",
+                format!("{} radii: give 1 to {MAX_RADII}", p.radii.len()),
+            ));
+        }
+        if let Some(r) = p
+            .radii
+            .iter()
+            .find(|r| !(r.is_finite() && **r > 0.0 && **r <= 1e6))
+        {
+            return Err(KeyError::new("radii", format!("{r} is outside (0, 1e6]")));
+        }
+        for (i, r) in p.radii.iter().enumerate() {
+            if p.radii[..i].contains(r) {
+                return Err(KeyError::new(
+                    &format!("radii[{i}]"),
+                    format!("radius {r} appears twice"),
+                ));
+            }
+        }
+        let (a, b) =
+            shscale_field::probe::table_range_of(p.k_min, p.k_max, &p.radii, p.sampling_radius);
+        if a >= b {
+            return Err(KeyError::new(
+                if p.k_max.is_some() { "k_max" } else { "k_min" },
+                format!("the table range [{a}, {b}] is empty: k_max must exceed k_min"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn group_key(p: &ProbeParams) -> String {
+        base_key(p)
+    }
+
+    fn cost(p: &ProbeParams) -> (Cost, Cost) {
+        let samples = Layout::parse(&p.layout)
+            .ok()
+            .and_then(|l| l.sample_count())
+            .unwrap_or(0) as f64;
+        let h2 = (p.hemisphere_res * p.hemisphere_res) as f64;
+        let nn = (p.order * p.order) as f64;
+        let radii = p.radii.len() as f64;
+        let t4 = 4.0 * (p.truth_res * p.truth_res) as f64;
+        // The truth at every probe and radius, and at each probe direction on the sampling
+        // sphere (the decomposition's converged BSV); the BSV at the probe directions when they
+        // are not the samples.
+        let truth_rays = if p.mesh == "sphere" {
+            0.0
+        } else {
+            (radii + 1.0) * samples * t4
+        };
+        let direct_rays = if p.probe_dirs == "samples" {
+            0.0
+        } else {
+            samples * h2
+        };
+        let bsv_rays = samples * h2 + direct_rays;
+        let rays = bsv_rays + truth_rays;
+        let shared = Cost {
+            rays,
+            bytes: (1.0 + radii) * samples * nn * 8.0 + 64e6,
+            seconds: rays / CPU_RAYS_PER_SECOND,
+            drivers: format!(
+                "mesh {} with layout = {:?} ({samples} samples) × hemisphere_res = {} ({h2} rays per BSV sample), truth_res = {} ({t4} rays per truth probe) × ({} radii + 1) → {rays:.3e} rays",
+                p.mesh,
+                p.layout,
+                p.hemisphere_res,
+                p.truth_res,
+                p.radii.len()
+            ),
+        };
+        let table = p.k_count as f64 * nn * nn * 8.0;
+        let run = Cost {
+            rays: 0.0,
+            bytes: table + radii * samples * nn * 8.0,
+            // Table build ≈ 70 ns per k and element pair at N = 4 (2.7 ms for K = 40),
+            // extrapolation ≈ 10 ns per probe and element.
+            seconds: p.k_count as f64 * nn * nn * 2.6e-7 + radii * samples * nn * 1e-8,
+            drivers: format!("k_count = {} × order² = {nn}", p.k_count),
+        };
+        (shared, run)
+    }
+
+    fn rows_per_run(p: &ProbeParams) -> usize {
+        p.radii.len()
+    }
+
+    fn shared(p: &ProbeParams, ctx: &Ctx) -> Result<ProbeShared, Error> {
+        let spec = p.spec()?;
+        let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
+        let (bsv, bsv_timing) = ctx.timing.measure(|| sample_bsv(u.occ.as_ref(), &spec))?;
+        let base = probe_base_on(bsv, bsv_timing.median, u.occ.as_ref(), u.analytic, &spec)?;
+        let gpu = match (shscale_scene::gpu_path::gpu_of(ctx), u.mesh.as_ref()) {
+            (Some(g), Some(m)) if p.order <= shscale_gpu::MAX_GPU_ORDER => {
+                let b = m.bounding_sphere();
+                let sphere = shscale_geometry::Sphere {
+                    center: b.center,
+                    radius: b.radius * p.sampling_radius,
+                };
+                let t = shscale_scene::gpu_path::time_gpu_bsv(
+                    g,
+                    m,
+                    spec.layout,
+                    p.order,
+                    p.hemisphere_res,
+                    sphere,
+                    ctx.timing.repeats.max(5),
+                )?;
+                (
+                    Some(t.sampling_seconds),
+                    Some(t.conversion_seconds),
+                    t.device,
+                )
+            }
+            _ => (None, None, String::new()),
+        };
+        Ok(ProbeShared {
+            occ: u.occ,
+            base,
+            bsv_timing,
+            gpu,
+        })
+    }
+
+    fn run(
+        p: &ProbeParams,
+        run_id: &str,
+        sh: &ProbeShared,
+        ctx: &Ctx,
+    ) -> Result<Vec<ProbeRow>, Error> {
+        let spec = p.spec()?;
+        // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
+        // extrapolation at each radius.
+        let mut results = Vec::new();
+        for i in 0..ctx.timing.warmup + ctx.timing.repeats.max(1) {
+            let r = probe_with(&sh.base, &spec)?;
+            if i >= ctx.timing.warmup {
+                results.push(r);
+            }
+        }
+        let table = Timing::of(
+            &results
+                .iter()
+                .map(|r| r.table_build_seconds)
+                .collect::<Vec<_>>(),
+        );
+        let res = results.pop().expect("one repeat at least");
+        crate::probe_figure::visibility_figure(
+            ctx.dir,
+            run_id,
+            p.order,
+            sh.occ.as_ref(),
+            &res.examples,
+        )?;
+        Ok(res
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(ri, r)| {
+                let mut ext: Vec<f64> = results
+                    .iter()
+                    .map(|x| x.rows[ri].extrapolation_seconds)
+                    .collect();
+                ext.push(r.extrapolation_seconds);
+                let ext = Timing::of(&ext);
+                ProbeRow {
+                    radius: r.radius,
+                    k: r.k,
+                    k_node_offset: r.k_node_offset,
+                    alpha_used_deg: r.alpha_used_deg,
+                    effective_cap_deg: res.effective_cap_deg,
+                    probes: r.probes,
+                    inside_count: r.inside_count,
+                    unoccluded_truth_count: r.unoccluded_truth_count,
+                    clamped_count: r.clamped_count,
+                    vis_rel_l2_mean: r.vis_rel_l2_mean,
+                    vis_rel_l2_max: r.vis_rel_l2_max,
+                    occ_rel_l2_mean: r.occ_rel_l2_mean,
+                    occ_rel_l2_max: r.occ_rel_l2_max,
+                    truth_rel_err_mean: r.truth_rel_err_mean,
+                    truth_rel_err_max: r.truth_rel_err_max,
+                    truth_limited_count: r.truth_limited_count,
+                    occ_rel_l2_exact_k_mean: r.occ_rel_l2_exact_k_mean,
+                    occ_rel_l2_exact_dir_mean: r.occ_rel_l2_exact_dir_mean,
+                    occ_rel_l2_model_mean: r.occ_rel_l2_model_mean,
+                    band_limit_rel_mean: r.band_limit_rel_mean,
+                    implausible_count: r.implausible_count,
+                    occ_solid_angle_min: r.occ_solid_angle_min,
+                    occ_solid_angle_max: r.occ_solid_angle_max,
+                    on_surface_count: r.on_surface_count,
+                    vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
+                    occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
+                    occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
+                    contact_count: r.contact_count,
+                    occ_rel_l2_contact_mean: r.occ_rel_l2_contact_mean,
+                    occ_rel_l2_contact_max: r.occ_rel_l2_contact_max,
+                    bsv_rays: res.bsv_rays,
+                    truth_rays: res.truth_rays_per_probe,
+                    bsv_sampling_seconds: sh.bsv_timing.median,
+                    bsv_sampling_spread: sh.bsv_timing.spread(),
+                    table_build_seconds: table.median,
+                    table_build_spread: table.spread(),
+                    extrapolation_seconds: ext.median,
+                    extrapolation_spread: ext.spread(),
+                    truth_seconds: r.truth_seconds,
+                    gpu_bsv_sampling_seconds: sh.gpu.0,
+                    gpu_sh_conversion_seconds: sh.gpu.1,
+                    gpu_device: sh.gpu.2.clone(),
+                }
+            })
+            .collect())
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &[
+            "bsv_sampling_seconds",
+            "bsv_sampling_spread",
+            "table_build_seconds",
+            "table_build_spread",
+            "extrapolation_seconds",
+            "extrapolation_spread",
+            "truth_seconds",
+            "gpu_bsv_sampling_seconds",
+            "gpu_sh_conversion_seconds",
+        ]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "radius",
+            "occ_rel_l2_mean",
+            "occ_rel_l2_on_surface_mean",
+            "table_build_seconds",
+        ]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
+        let params = super::Erased::<Probe>::new();
+        let varying = t.varying(&super::DynKind::param_columns(&params));
+        crate::probe_figure::probe_plots(dir, t, &varying)
+    }
+
+    fn discussion(t: &Results) -> Result<String, Error> {
+        // Per run: the radii where the extrapolation follows the actual occlusion.
+        let mut runs: Vec<(String, Vec<usize>)> = Vec::new();
+        for r in 0..t.rows.len() {
+            let id = t.cell(r, "run_id").to_string();
+            match runs.iter_mut().find(|x| x.0 == id) {
+                Some(x) => x.1.push(r),
+                None => runs.push((id, vec![r])),
+            }
+        }
+        let params = super::Erased::<Probe>::new();
+        let varying = t.varying(&super::DynKind::param_columns(&params));
+        let occ = |r: usize| t.num(r, "occ_rel_l2_mean");
+        let fmt = |v: f64| {
+            if v.is_finite() {
+                format!("{v:.3}")
+            } else {
+                "—".into()
+            }
+        };
+        let mut out = String::new();
+        if let [(_, rows)] = runs.as_slice() {
+            let r0 = rows[0];
+            out.push_str(&format!(
+                "**Ours.** Mesh `{}`, N = {}, α = {}°, BSV on `{}` × {}² rays, K = {} ({} k, {} interpolation). Mean errors over the \
+probe directions per radius (`probe_dirs = {}`: seeded directions between the samples unless `samples`; docs/conventions.md §6; \
+`occ_rel_l2` is relative to the occluded part; both compare coefficients with the converged truth projected to order N — its own \
+error is in the CSV's `truth_rel_err_mean` — so they measure the extrapolation alone, not band-limiting). Image: one probe direction \
+per radius (rows), actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated \
+visibility (right).\n\n\
+| radius (× r) | k | probes | vis_rel_l2 | occ_rel_l2 | inside the mesh |\n|---:|---:|---:|---:|---:|---:|\n",
+                t.cell(r0, "mesh"),
+                t.cell(r0, "order"),
+                t.cell(r0, "alpha_deg"),
+                t.cell(r0, "layout"),
+                t.cell(r0, "hemisphere_res"),
+                t.cell(r0, "k_count"),
+                t.cell(r0, "k_spacing"),
+                t.cell(r0, "k_interp"),
+                t.cell(r0, "probe_dirs"),
+            ));
+            for &r in rows {
+                out.push_str(&format!(
+                    "| {} | {:.2} | {} | {} | {} | {} |\n",
+                    t.cell(r, "radius"),
+                    t.num(r, "k"),
+                    t.cell(r, "probes"),
+                    fmt(t.num(r, "vis_rel_l2_mean")),
+                    fmt(occ(r)),
+                    t.cell(r, "inside_count")
+                ));
+            }
+            out.push_str("\n**Comparison.** ");
+        }
+        for (id, rows) in &runs {
+            let finite: Vec<usize> = rows
+                .iter()
+                .copied()
+                .filter(|&r| occ(r).is_finite())
+                .collect();
+            let list = |follows: bool| {
+                let v: Vec<String> = finite
+                    .iter()
+                    .filter(|&&r| (occ(r) < FOLLOWS) == follows)
+                    .map(|&r| format!("{}r", t.cell(r, "radius")))
+                    .collect();
+                if v.is_empty() {
+                    "no radius".to_string()
+                } else {
+                    v.join(", ")
+                }
+            };
+            let best = finite
+                .iter()
+                .copied()
+                .min_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let worst = finite
+                .iter()
+                .copied()
+                .max_by(|&a, &b| occ(a).total_cmp(&occ(b)));
+            let who = if runs.len() == 1 {
+                "The extrapolation".to_string()
+            } else {
+                format!(
+                    "Run `{id}` ({})",
+                    varying
+                        .iter()
+                        .filter(|c| *c != "radii")
+                        .map(|c| format!("{c} = {}", t.cell(rows[0], c)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
+            match (best, worst) {
+                (Some(b), Some(w)) => out.push_str(&format!(
+                    "{who} follows the actual occlusion (occ_rel_l2 < {FOLLOWS}) at {} and departs from it at {}: best at {}r ({:.3}), worst at {}r \
+({:.3}; above 1 is worse than predicting no occlusion).\n",
+                    list(true),
+                    list(false),
+                    t.cell(b, "radius"),
+                    occ(b),
+                    t.cell(w, "radius"),
+                    occ(w)
+                )),
+                _ => out.push_str(&format!("{who}: no radius has a finite occ_rel_l2 (no occluded truth).\n")),
+            }
+        }
+        // The truth's own error against the method's: rows where the truth does not resolve the
+        // error are flagged (docs/conventions.md §6).
+        let limited: Vec<String> = (0..t.rows.len())
+            .filter(|&r| t.num(r, "truth_limited_count") > 0.0)
+            .map(|r| {
+                format!(
+                    "run `{}` at {}r ({} probes)",
+                    t.cell(r, "run_id"),
+                    t.cell(r, "radius"),
+                    t.cell(r, "truth_limited_count")
+                )
+            })
+            .collect();
+        let worst = (0..t.rows.len())
+            .map(|r| t.num(r, "truth_rel_err_mean"))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if limited.is_empty() {
+            out.push_str(&format!(
+                "\n**Truth.** The converged truth's own error (mean per row) is at most {worst:.4} of the occlusion, and no probe's \
+occ_rel_l2 is within 3× of its truth's error.\n"
+            ));
+        } else {
+            out.push_str(&format!(
+                "\n**Truth-limited** (occ_rel_l2 within 3× of the truth's own error; raise `truth_res`): {}. The truth's mean \
+error per row is at most {worst:.4} of the occlusion.\n",
+                limited.join(", ")
+            ));
+        }
+        Ok(out)
+    }
+
+    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        // The first run's visibility image, under the figure's name.
+        let Some(r) = (0..t.rows.len()).next() else {
+            return Ok(Vec::new());
+        };
+        Ok(shscale_runner::image::copy_image(
+            dir,
+            &format!("visibility_truth_vs_extrapolated_{}", t.cell(r, "run_id")),
+            out,
+            stem,
+        )?)
+    }
+}
+
+/// occ_rel_l2 below which the discussion says the extrapolation follows the actual occlusion.
+pub const FOLLOWS: f64 = 0.5;

@@ -1,0 +1,223 @@
+//! The `probe` kind's pictures: the papers' Fig. 5 image of one run (true vs extrapolated
+//! visibility per probe radius) and the plots of a results directory (the error against every
+//! varying numeric parameter, and the speed/accuracy Pareto scatter).
+
+use shscale_geometry::Occluder;
+use shscale_runner::plots::{words, write_both, Labels};
+use shscale_runner::records::Results as Table;
+use shscale_scene::Error;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::path::PathBuf;
+
+/// The papers' Fig. 5 for one run: per probe radius (rows), the ray-traced full-frequency
+/// visibility (left) and the extrapolated band-limited visibility (right) at one probe point,
+/// lat-long maps in the entity frame (row 0 = +z). Written as
+/// `visibility_truth_vs_extrapolated_<run id>.exr` (the values, both columns side by side) and a
+/// `.png` with labelled panels (what each shows, the radius and the point's direction), φ/θ axes
+/// in degrees and a grey-scale bar (0 occluded … 1 visible; extrapolated values outside [0, 1]
+/// are clipped in the picture, not in the EXR).
+pub fn visibility_figure(
+    dir: &Path,
+    run_id: &str,
+    order: usize,
+    occ: &dyn Occluder,
+    examples: &[shscale_field::probe::ProbeExample],
+) -> Result<(), Error> {
+    const W: usize = 256;
+    const H: usize = 128;
+    if examples.is_empty() {
+        return Ok(());
+    }
+    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
+    let set = shscale_sh::DirectionSet::latlong(H, W);
+    let mut px = vec![[0f32; 3]; 2 * W * H * examples.len()];
+    let mut rows = Vec::new();
+    let mut y = vec![0.0; order * order];
+    let centre = occ.bounding_sphere().center;
+    for (row, ex) in examples.iter().enumerate() {
+        let truth = shscale_field::truth::visibility_map(occ, ex.point, W, H);
+        let mut extrapolated = vec![0f32; W * H];
+        for j in 0..H {
+            for i in 0..W {
+                let base = (row * H + j) * 2 * W;
+                let t = truth[j * W + i];
+                px[base + i] = [t; 3];
+                basis.eval(set.dirs[j * W + i], &mut y);
+                let v: f64 = ex.extrapolated.iter().zip(&y).map(|(a, b)| a * b).sum();
+                px[base + W + i] = [v as f32; 3];
+                extrapolated[j * W + i] = v as f32;
+            }
+        }
+        let d = (ex.point - centre).normalize_or_zero();
+        let where_ = format!(
+            "{}r, at θ = {:.0}°, φ = {:.0}°",
+            ex.radius,
+            d.z.clamp(-1.0, 1.0).acos().to_degrees(),
+            d.y.atan2(d.x).to_degrees().rem_euclid(360.0)
+        );
+        rows.push(vec![
+            shscale_runner::figure::Panel {
+                title: format!("ray-traced (full frequency), {where_}"),
+                width: W,
+                height: H,
+                values: truth.clone(),
+            },
+            shscale_runner::figure::Panel {
+                title: format!("extrapolated (SH order {order}), {where_}"),
+                width: W,
+                height: H,
+                values: extrapolated,
+            },
+        ]);
+    }
+    let exr = dir.join(format!("visibility_truth_vs_extrapolated_{run_id}.exr"));
+    shscale_runner::image::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
+    Ok(shscale_runner::figure::write_png(
+        &exr.with_extension("png"),
+        &shscale_runner::figure::Grid {
+            title:
+                "visibility at the probe radii: ray-traced vs extrapolated from the bounding sphere",
+            rows,
+            x: (0.0, 360.0, "azimuth φ (°)"),
+            y: (0.0, 180.0, "polar angle θ from +z (°)"),
+            colours: shscale_runner::figure::ColourMap::Grey,
+            range: (0.0, 1.0),
+            scale_label: "visibility (1 = unoccluded)",
+            panel_px: (384, 192),
+        },
+    )?)
+}
+
+/// The numeric parameters a probe sweep can plot against.
+pub const NUMERIC_PARAMS: &[&str] = &[
+    "order",
+    "hemisphere_res",
+    "k_count",
+    "alpha_deg",
+    "sampling_radius",
+    "on_surface_eps",
+];
+
+/// Plots of a probe results directory: for every numeric parameter P that varies in the CSV,
+/// `occ_rel_l2` against P — one series per combination of the other varying parameters
+/// (averaged over the probe radii), or one series per probe radius when nothing else varies —
+/// and the speed/accuracy scatter with its Pareto front (rows timed concurrently with other
+/// runs are left out of it). Returns the files written.
+pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Error> {
+    let numeric: Vec<&str> = varying
+        .iter()
+        .map(String::as_str)
+        .filter(|k| NUMERIC_PARAMS.contains(k))
+        .collect();
+    let params: Vec<&str> = if numeric.is_empty() {
+        vec!["radius"]
+    } else {
+        numeric.clone()
+    };
+    let mut files = Vec::new();
+    for &param in &params {
+        let others: Vec<&str> = varying
+            .iter()
+            .map(String::as_str)
+            .filter(|k| *k != param)
+            .collect();
+        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        // One series per combination of the other varying parameters and the probe radius:
+        // nothing is averaged.
+        let with_radius = param != "radius";
+        for r in 0..t.rows.len() {
+            let v = t.num(r, "occ_rel_l2_mean");
+            if !v.is_finite() {
+                continue;
+            }
+            let mut parts: Vec<String> = others
+                .iter()
+                .filter(|o| **o != "radii")
+                .map(|o| format!("{} = {}", words(o), t.cell(r, o)))
+                .collect();
+            if with_radius {
+                parts.push(format!("ρ = {} r", t.cell(r, "radius")));
+            }
+            let label = if parts.is_empty() {
+                "all runs".to_string()
+            } else {
+                parts.join(", ")
+            };
+            series.entry(label).or_default().push((t.num(r, param), v));
+        }
+        let y_desc = "occ_rel_l2: relative L2 error of the occluded part (1)";
+        let unit = match param {
+            "alpha_deg" => "α (degrees)",
+            "order" => "SH order N",
+            "hemisphere_res" => "hemisphere resolution H (H² rays per sample)",
+            "k_count" => "tabulated k values K",
+            "sampling_radius" => "sampling radius s (× bounding radius)",
+            "on_surface_eps" => "on-surface threshold ε (× r)",
+            _ => "probe radius ρ (× r)",
+        };
+        let title = format!("extrapolation error against {}", words(param));
+        files.extend(write_both(
+            dir,
+            &format!("occ_rel_l2_vs_{param}"),
+            &Labels {
+                title: &title,
+                x: unit,
+                y: y_desc,
+            },
+            &series,
+            false,
+            &[],
+        )?);
+    }
+    // Per run: total time of the extrapolation path vs its error averaged over radii.
+    let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        if t.cell(r, "timing_concurrent") == "true" {
+            continue;
+        }
+        let id = t.rows[r][0].clone();
+        let time = t.num(r, "bsv_sampling_seconds") + t.num(r, "table_build_seconds");
+        let e = runs.entry(id).or_insert((time, 0.0, 0));
+        let v = t.num(r, "occ_rel_l2_mean");
+        if v.is_finite() {
+            e.1 += v;
+            e.2 += 1;
+        }
+        e.0 += t.num(r, "extrapolation_seconds");
+    }
+    let pts: Vec<(f64, f64)> = runs
+        .values()
+        .filter(|v| v.2 > 0)
+        .map(|v| (v.0 * 1e3, v.1 / v.2 as f64))
+        .collect();
+    let mut sorted = pts.clone();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for p in sorted {
+        if p.1 < best {
+            best = p.1;
+            front.push(p);
+        }
+    }
+    if pts.is_empty() {
+        // Every run was timed alongside others (parallel_runs = true): no comparable times.
+        return Ok(files);
+    }
+    let mut series = BTreeMap::new();
+    series.insert("one point per run".to_string(), pts);
+    files.extend(write_both(
+        dir,
+        "pareto_time_vs_error",
+        &Labels {
+            title: "speed against accuracy per run, with the Pareto front",
+            x: "time per run (ms: BSV sampling + k-table + extrapolation)",
+            y: "occ_rel_l2, mean over the run's probe radii (1)",
+        },
+        &series,
+        true,
+        &front,
+    )?);
+    Ok(files)
+}
