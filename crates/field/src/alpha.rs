@@ -4,7 +4,7 @@
 pub use shscale_scaling::alpha_law::{cap_matching_alpha, fitted_alpha, sphere_alpha};
 
 use crate::bsv::Bsv;
-use crate::probe::facing_occlusion;
+use crate::metrics::facing_occlusion;
 
 /// The effective cap of a BSV: the half-angle θ₀ of the centred cap whose solid angle is the
 /// samples' mean occluded solid angle of the facing hemisphere, `Ω̄ = 2π(1 − cos θ₀)`. For the

@@ -36,4 +36,7 @@ pub enum FieldError {
     /// An SH-core error (order).
     #[error(transparent)]
     Sh(#[from] shscale_sh::ShError),
+    /// A scaling-operator error (τ, k, order, k-table).
+    #[error(transparent)]
+    Scaling(#[from] shscale_scaling::ScalingError),
 }

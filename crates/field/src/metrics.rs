@@ -29,6 +29,13 @@ pub fn occlusion(v: &[f64]) -> Vec<f64> {
     occ
 }
 
+/// The occluded fraction of the facing hemisphere of a sample's visibility `v` (entity frame,
+/// back hemisphere unoccluded): `(4π − √(4π) v₀) / 2π`.
+pub fn facing_occlusion(v: &[f64]) -> f64 {
+    let s0 = (4.0 * std::f64::consts::PI).sqrt();
+    (4.0 * std::f64::consts::PI - s0 * v[0]) / (2.0 * std::f64::consts::PI)
+}
+
 /// `vis_rel_l2`, or `None` when `‖S_true‖` is 0.
 pub fn vis_rel_l2(ext: &[f64], truth: &[f64]) -> Option<f64> {
     let d = l2(truth);

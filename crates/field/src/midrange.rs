@@ -24,12 +24,7 @@ pub fn light_at(env: &EnvLight, offset: DVec3, radius: f64) -> Result<EnvLight, 
         return Ok(env.clone());
     }
     let order = env.order();
-    let m = ScalingMatrix::compute(
-        &MidRange::new(d / radius).map_err(|e| FieldError::Spec(e.to_string()))?,
-        Eta::Plain,
-        order,
-    )
-    .map_err(|e| FieldError::Spec(e.to_string()))?;
+    let m = ScalingMatrix::compute(&MidRange::new(d / radius)?, Eta::Plain, order)?;
     let f = LocalFrame::from_z(offset / d);
     let rot = ShRotation::new(order, &f.matrix())?;
     let nn = order * order;

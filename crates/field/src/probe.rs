@@ -18,7 +18,7 @@ use crate::bsv::{Bsv, Layout};
 use crate::extrapolate::{
     bounding_cone, scale_to_with, Clamp, ExtrapolationKind, Extrapolator, Plausibility,
 };
-use crate::metrics::{mean_max, occ_rel_l2, occlusion, vis_rel_l2};
+use crate::metrics::{facing_occlusion, mean_max, occ_rel_l2, occlusion, vis_rel_l2};
 use crate::truth::{SplitMix, Truth, TruthSampler, DEFAULT_TRUTH_RES, DEFAULT_TRUTH_SEED};
 use crate::visibility::{Frame, VisibilitySampler};
 use crate::FieldError;
@@ -357,13 +357,6 @@ pub fn random_directions(seed: u64, n: usize) -> Vec<DVec3> {
     (0..n).map(|_| rng.direction()).collect()
 }
 
-/// The occluded fraction of the facing hemisphere of a sample's visibility `v` (entity frame,
-/// back hemisphere unoccluded): `(4π − √(4π) v₀) / 2π`.
-pub fn facing_occlusion(v: &[f64]) -> f64 {
-    let s0 = (4.0 * std::f64::consts::PI).sqrt();
-    (4.0 * std::f64::consts::PI - s0 * v[0]) / (2.0 * std::f64::consts::PI)
-}
-
 /// [`probe_base`] on a BSV sampled (and timed) by the caller: the truth at every probe point and
 /// the exact inputs of the error decomposition.
 pub fn probe_base_on(
@@ -522,8 +515,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         k_max,
         spec.k_spacing,
         spec.k_interp,
-    )
-    .map_err(|e| FieldError::Spec(e.to_string()))?;
+    )?;
     let table_build_seconds = t1.elapsed().as_secs_f64();
     let ex = Extrapolator::new(bsv, &table).with_plausibility(spec.plausibility);
     let clamp = (spec.plausibility == Plausibility::Clamp)
@@ -558,8 +550,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         // The decomposition's exact matrix at this k.
         let exact_m = family
             .at(k)
-            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))
-            .map_err(|e| FieldError::Spec(e.to_string()))?;
+            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))?;
         let truth = &base.truth[ri];
         let mut row = ProbeRow {
             radius: rho,

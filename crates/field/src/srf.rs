@@ -106,7 +106,7 @@ pub fn compare(
             Spacing::Exp,
             Interp::Cubic,
         )
-        .map_err(|x| FieldError::Spec(x.to_string()))
+        .map_err(FieldError::from)
     };
     let (tp, te) = (table(Eta::Plain)?, table(Eta::Energy)?);
     let (xp, xe) = (

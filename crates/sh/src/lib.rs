@@ -21,6 +21,7 @@ pub mod quadrature;
 pub mod real;
 pub mod rotation;
 pub mod simd;
+pub mod store;
 
 pub use cap::{cap_coeffs, cap_zonal};
 pub use error::ShError;

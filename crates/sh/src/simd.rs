@@ -19,6 +19,9 @@
 
 use std::sync::OnceLock;
 
+/// Directions per SIMD batch of [`crate::ShBasis::eval_batch`].
+pub const LANES: usize = 8;
+
 /// The instruction set a batched kernel runs with, in increasing order (each level's CPUs have
 /// every lower level's instructions).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
