@@ -1,4 +1,4 @@
-//! Property tests of the lab's readers: scene files and experiment configs with random damage
+//! Property tests of the readers of scenes and configs: scene files and experiment configs with random damage
 //! (values replaced by hostile ones, bytes overwritten, truncated), and EXR files of arbitrary
 //! bytes or with damaged headers, never panic; what they accept passes the documented bounds.
 //! Bounded: 128–256 cases per property (seconds).

@@ -389,7 +389,7 @@ pub enum MethodArg {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML; see crates/lab/src/scene.rs for the schema).
+    /// Scene file (TOML; see crates/scene/src/scene.rs for the schema).
     #[arg(long)]
     pub scene: std::path::PathBuf,
     #[arg(long, value_enum, default_value_t = MethodArg::Extrapolated)]

@@ -1,4 +1,4 @@
-//! `shscale bench`: the Table 1 reproduction (crates/lab/src/bench.rs) printed as Markdown, CSV
+//! `shscale bench`: the Table 1 reproduction (crates/scene/src/bench.rs) printed as Markdown, CSV
 //! or JSON, with the machine in a header line; `shscale figs`: the papers' figures
 //! (experiments/).
 

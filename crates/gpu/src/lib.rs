@@ -18,7 +18,7 @@
 //! `N²` accumulators per invocation and reduces them through 16 KiB of workgroup memory.
 //!
 //! This crate never decides what to do without an adapter: [`GpuContext::new`] returns
-//! [`GpuError::NoAdapter`] and the caller (the lab or the CLI) prints the notice and goes on with
+//! [`GpuError::NoAdapter`] and the caller (`shscale-scene` or the CLI) prints the notice and goes on with
 //! the CPU path, or fails when a GPU is required.
 
 pub mod bvh;

@@ -1,0 +1,370 @@
+//! The runner on a small kind of its own (no numerical crate, no GPU): sweep expansion and run
+//! ids, config errors at their place, validation through the kind, resume with rows set aside,
+//! shards that partition the plan and their merge, the manifest and its provenance, the summary,
+//! the Slurm script, and a kind's error carried through the seam.
+
+use serde::{Deserialize, Serialize};
+use shscale_runner::config::Overrides;
+use shscale_runner::{
+    header, load_rows, merge, run_plan, slurm_script, Cost, Ctx, DynKind, Erased, Error, KeyError,
+    Kind, Manifest, Plan, RunEvent, SlurmOptions,
+};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+/// `value = scale · n` per run, one row per `repeat`; `fail = true` makes the run fail.
+struct Product;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ProductParams {
+    scale: f64,
+    n: usize,
+    label: String,
+    repeat: usize,
+    fail: bool,
+}
+
+impl Default for ProductParams {
+    fn default() -> Self {
+        Self {
+            scale: 1.0,
+            n: 1,
+            label: "a".into(),
+            repeat: 1,
+            fail: false,
+        }
+    }
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct ProductRow {
+    index: usize,
+    value: f64,
+    seconds: f64,
+}
+
+/// The kind's own error type, converted at the seam.
+#[derive(Debug, thiserror::Error)]
+#[error("product failed for n = {0}")]
+struct ProductError(usize);
+
+impl From<ProductError> for Error {
+    fn from(e: ProductError) -> Self {
+        Error::Kind(Box::new(e))
+    }
+}
+
+impl Kind for Product {
+    const NAME: &'static str = "product";
+    const QUESTION: &'static str = "What is scale × n?";
+    type Params = ProductParams;
+    type Shared = f64;
+    type Row = ProductRow;
+    type Error = ProductError;
+
+    fn validate(p: &ProductParams) -> Result<(), KeyError> {
+        if !(p.scale.is_finite() && p.scale > 0.0) {
+            return Err(KeyError::new("scale", format!("{} is not > 0", p.scale)));
+        }
+        if !(1..=4).contains(&p.repeat) {
+            return Err(KeyError::new(
+                "repeat",
+                format!("{} is outside 1..=4", p.repeat),
+            ));
+        }
+        Ok(())
+    }
+    fn group_key(p: &ProductParams) -> String {
+        format!("scale={}", p.scale)
+    }
+    fn cost(p: &ProductParams) -> (Cost, Cost) {
+        let run = Cost {
+            seconds: 1e-6 * p.n as f64,
+            drivers: format!("n = {}", p.n),
+            ..Cost::default()
+        };
+        (Cost::default(), run)
+    }
+    fn rows_per_run(p: &ProductParams) -> usize {
+        p.repeat
+    }
+    fn shared(p: &ProductParams, _: &Ctx) -> Result<f64, ProductError> {
+        Ok(p.scale)
+    }
+    fn run(
+        p: &ProductParams,
+        _: &str,
+        shared: &f64,
+        ctx: &Ctx,
+    ) -> Result<Vec<ProductRow>, ProductError> {
+        assert!(ctx.device.is_none(), "the default opens no device");
+        if p.fail {
+            return Err(ProductError(p.n));
+        }
+        Ok((0..p.repeat)
+            .map(|index| ProductRow {
+                index,
+                value: shared * p.n as f64,
+                seconds: 0.0,
+            })
+            .collect())
+    }
+    fn time_columns() -> &'static [&'static str] {
+        &["seconds"]
+    }
+    fn summary_columns() -> &'static [&'static str] {
+        &["value"]
+    }
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("scale", "the factor, > 0"),
+            ("n", "the count"),
+            ("label", "a word"),
+            ("repeat", "rows per run, 1..=4"),
+            ("fail", "make the run fail"),
+        ]
+    }
+}
+
+static PRODUCT: Erased<Product> = Erased::new();
+
+fn registry() -> Vec<&'static dyn DynKind> {
+    vec![&PRODUCT]
+}
+
+const CONFIG: &str = r#"
+experiment = "product"
+scale = 2.0
+repeat = 2
+timing_repeats = 1
+
+[sweep]
+n = [1, 2, 3]
+label = ["a", "b"]
+"#;
+
+fn parse(text: &str) -> Result<Plan, String> {
+    Plan::parse("c.toml", "c", text, &Overrides::default(), &registry()).map_err(|e| e.to_string())
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shscale-runner-own-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn ids_in(csv: &Path) -> Vec<String> {
+    let l = load_rows(&PRODUCT, csv).unwrap();
+    assert!(l.rejected.is_empty(), "invalid rows: {:?}", l.rejected);
+    l.rows.iter().map(|r| r[0].clone()).collect()
+}
+
+#[test]
+fn sweeps_expand_into_unique_deterministic_ids_and_every_parameter_is_a_column() {
+    let (a, b) = (parse(CONFIG).unwrap(), parse(CONFIG).unwrap());
+    assert_eq!(a.runs.len(), 6);
+    let ids: Vec<&str> = a.runs.iter().map(|r| r.id.as_str()).collect();
+    assert_eq!(
+        ids,
+        b.runs.iter().map(|r| r.id.as_str()).collect::<Vec<_>>()
+    );
+    assert_eq!(ids.iter().collect::<HashSet<_>>().len(), 6);
+    // Axes in the order the runner expands them (sorted keys).
+    assert_eq!(a.axes, ["label", "n"]);
+    let h = header(&PRODUCT);
+    for k in [
+        "run_id",
+        "experiment",
+        "scale",
+        "n",
+        "label",
+        "repeat",
+        "fail",
+        "value",
+        "git_revision",
+    ] {
+        assert!(h.iter().any(|c| c == k), "{k} missing from {h:?}");
+    }
+    // One group: every run shares `scale`.
+    assert_eq!(a.groups().len(), 1);
+    // An override changes the ids (the fixed key is part of every run's parameters).
+    let ov = Overrides {
+        set: vec!["scale=3".into()],
+        ..Overrides::default()
+    };
+    let c = Plan::parse("c.toml", "c", CONFIG, &ov, &registry()).unwrap();
+    assert!(c.runs.iter().all(|r| !ids.contains(&r.id.as_str())));
+}
+
+#[test]
+fn config_errors_name_file_line_and_key() {
+    let cases = [
+        (
+            CONFIG.replace("repeat = 2", "repeat = 2\nbogus = 1"),
+            "c.toml:5: bogus: unknown field",
+        ),
+        (
+            CONFIG.replace("repeat = 2", "repeat = 9"),
+            "c.toml:4: repeat: 9 is outside 1..=4",
+        ),
+        (
+            CONFIG.replace("scale = 2.0", "scale = -1.0"),
+            "c.toml:3: scale: -1 is not > 0",
+        ),
+        (
+            CONFIG.replace("n = [1, 2, 3]", "n = [1, 2, 1]"),
+            "sweep.n: value 1 appears twice",
+        ),
+        (
+            CONFIG.replace("\"product\"", "\"paint\""),
+            "c.toml:2: experiment: \"paint\" is not a known experiment kind",
+        ),
+        (
+            CONFIG.replace("n = [1, 2, 3]", "n = [\"x\"]"),
+            "c.toml:8: n: invalid type",
+        ),
+    ];
+    for (text, want) in cases {
+        let e = parse(&text).err().unwrap_or_default();
+        println!("{e}");
+        assert!(e.contains(want), "want {want:?}, got {e:?}");
+    }
+}
+
+#[test]
+fn resume_sets_bad_rows_aside_and_redoes_their_runs() {
+    let plan = parse(CONFIG).unwrap();
+    let d = tmp("resume");
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
+    assert_eq!((s.ran, s.already_done), (6, 0));
+    assert_eq!(ids_in(&s.csv).len(), 12, "two rows per run");
+    let m = Manifest::read(&s.dir).unwrap().unwrap();
+    assert_eq!((m.experiment.as_str(), m.versions.len()), ("product", 1));
+    assert_eq!(m.versions[0].provenance.gpu_device, "none");
+    let again = run_plan(&plan, &d, None, &|_| {}).unwrap();
+    assert_eq!((again.ran, again.already_done), (0, 6));
+    // A torn last line and a garbage row: both set aside, the torn run redone.
+    let text = std::fs::read_to_string(&s.csv).unwrap();
+    std::fs::write(&s.csv, format!("{}\nnot,a,row\n", &text[..text.len() - 8])).unwrap();
+    let warns = std::sync::Mutex::new(Vec::new());
+    let r = run_plan(&plan, &d, None, &|ev| {
+        if let RunEvent::Warn(w) = ev {
+            warns.lock().unwrap().push(w.to_string());
+        }
+    })
+    .unwrap();
+    assert_eq!((r.ran, r.already_done, r.redone), (1, 5, 1));
+    let warns = warns.into_inner().unwrap();
+    assert!(
+        warns.iter().any(|w| w.contains("cells, the header has")),
+        "{warns:?}"
+    );
+    assert_eq!(ids_in(&s.csv).len(), 12);
+    let rejected = std::fs::read_to_string(s.dir.join("runs.csv.rejected")).unwrap();
+    assert!(rejected.contains("not,a,row"));
+    // A row whose cells no longer reproduce its run id is set aside.
+    let text = std::fs::read_to_string(&s.csv).unwrap();
+    std::fs::write(&s.csv, text.replacen(",2.0,", ",5.0,", 1)).unwrap();
+    let l = load_rows(&PRODUCT, &s.csv).unwrap();
+    assert!(
+        l.rejected
+            .iter()
+            .any(|(_, why, _)| why.contains("does not match its parameters")),
+        "{:?}",
+        l.rejected
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn shards_partition_the_plan_and_merge_joins_them() {
+    let plan = parse(CONFIG).unwrap();
+    let d = tmp("shards");
+    // As the Slurm array runs them: every shard into the same directory, a file each.
+    let shards: Vec<_> = (0..3)
+        .map(|i| run_plan(&plan, &d, Some((i, 3)), &|_| {}).unwrap())
+        .collect();
+    let sets: Vec<HashSet<String>> = shards
+        .iter()
+        .map(|s| ids_in(&s.csv).into_iter().collect())
+        .collect();
+    for i in 0..3 {
+        for j in i + 1..3 {
+            assert!(sets[i].is_disjoint(&sets[j]), "shards {i} and {j} overlap");
+        }
+    }
+    let all: HashSet<String> = plan.runs.iter().map(|r| r.id.clone()).collect();
+    assert_eq!(sets.iter().flatten().cloned().collect::<HashSet<_>>(), all);
+    assert!(run_plan(&plan, &d, Some((3, 3)), &|_| {}).is_err());
+    let dirs = vec![shards[0].dir.clone()];
+    let out = d.join("merged");
+    let m = merge(&dirs, Some(&out), &registry()).unwrap();
+    assert_eq!((m.files, m.rows), (3, 12));
+    assert_eq!(
+        ids_in(&out.join("runs.csv"))
+            .into_iter()
+            .collect::<HashSet<_>>(),
+        all
+    );
+    // A merge never overwrites its output.
+    let e = merge(&dirs, Some(&out), &registry())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("runs.csv"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_kinds_error_reaches_the_caller_and_no_row_is_written_for_it() {
+    let plan = parse(&CONFIG.replace("repeat = 2", "repeat = 2\nfail = true")).unwrap();
+    let d = tmp("fail");
+    let e = run_plan(&plan, &d, None, &|_| {}).unwrap_err();
+    assert!(matches!(e, Error::Kind(_)), "{e:?}");
+    assert!(e.to_string().starts_with("product failed for n = "), "{e}");
+    let csv = d.join("product").join("c").join("runs.csv");
+    assert!(!csv.exists() || ids_in(&csv).is_empty());
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn summary_and_slurm_script_of_a_plan() {
+    let plan = parse(CONFIG).unwrap();
+    let d = tmp("report");
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
+    let r = shscale_runner::report(&PRODUCT, &s.dir).unwrap();
+    // The kind's rows as computed: value = scale · n.
+    assert!(r.summary.contains("| 3 | b | 6.0000 |"), "{}", r.summary);
+    assert!(
+        r.summary.contains("parameters that vary: n, label"),
+        "{}",
+        r.summary
+    );
+    assert!(s.dir.join("report.html").exists() && s.dir.join("summary.md").exists());
+    let script = slurm_script(
+        Path::new("my configs/c.toml"),
+        &plan,
+        3,
+        "shscale",
+        &d,
+        &SlurmOptions::default(),
+    )
+    .unwrap();
+    assert!(script.contains("--array=0-2"), "{script}");
+    assert!(
+        script.contains("'my configs/c.toml'"),
+        "the path is shell-quoted: {script}"
+    );
+    assert!(slurm_script(
+        Path::new("c.toml"),
+        &plan,
+        0,
+        "shscale",
+        &d,
+        &SlurmOptions::default()
+    )
+    .is_err());
+    std::fs::remove_dir_all(&d).ok();
+}
