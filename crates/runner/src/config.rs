@@ -356,7 +356,29 @@ fn key_value<'a>(
 /// Read the config `text` of `file`, apply `ov`, split the runner's keys and expand the sweep.
 pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, ConfigError> {
     let source = Source::new(file, text);
-    let mut doc: toml::Table = toml::from_str(text).map_err(|e| {
+    let mut doc = parse_table(file, text, &source)?;
+    let (set_places, sweep_flags) = apply_overrides(&mut doc, ov)?;
+    let places = Places {
+        file,
+        source: &source,
+        sweep_flags,
+    };
+    let (runner, sweep) = runner_keys(&mut doc, &set_places, &places)?;
+    let blocks = places.blocks(sweep)?;
+    check_total(file, &blocks)?;
+    let (axes, combinations) = places.combine(&doc, &blocks)?;
+    Ok(Expanded {
+        source,
+        runner,
+        set_places,
+        axes,
+        combinations,
+    })
+}
+
+/// The config text as a TOML table; a syntax error at its line, naming the key written there.
+fn parse_table(file: &str, text: &str, source: &Source) -> Result<toml::Table, ConfigError> {
+    toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| source.line_at(s.start));
         let key = line
             .and_then(|l| text.lines().nth(l - 1))
@@ -371,27 +393,34 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             key,
             message: e.message().trim().to_string(),
         }
-    })?;
-    let at = |path: &[Seg]| match source.line_of(path) {
-        Some((line, _)) => Place::Line {
-            file: file.into(),
-            line,
-        },
-        None => Place::File(file.into()),
+    })
+}
+
+/// Apply `--set`, `--sweep` and `--name` to `doc`; the places of the values they set (`--set`,
+/// `--name`) and of the axes they add (`--sweep`).
+#[allow(clippy::type_complexity)]
+fn apply_overrides(
+    doc: &mut toml::Table,
+    ov: &Overrides,
+) -> Result<(Vec<(KeyPath, Place)>, Vec<(KeyPath, Place)>), ConfigError> {
+    let at_flag = |flag: &Place, k: &str| {
+        let flag = flag.clone();
+        let key = k.trim().to_string();
+        move |message: String| ConfigError {
+            place: flag,
+            key,
+            message,
+        }
     };
     let mut set_places = Vec::new();
     for s in &ov.set {
         let flag = Place::Flag(format!("--set {s}"));
         let (k, v) = key_value(s, &flag, "key=value")?;
         let path = parse_path(k.trim());
-        set_path(&mut doc, &path, cli_value(v)).map_err(|m| ConfigError {
-            place: flag.clone(),
-            key: k.trim().into(),
-            message: m,
-        })?;
+        set_path(doc, &path, cli_value(v)).map_err(at_flag(&flag, k))?;
         set_places.push((path, flag));
     }
-    let mut sweep_flag_places = Vec::new();
+    let mut sweep_flags = Vec::new();
     for s in &ov.sweep {
         let flag = Place::Flag(format!("--sweep {s}"));
         let (k, v) = key_value(s, &flag, "key=v1,v2,…")?;
@@ -406,14 +435,8 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
         for root in roots {
             let mut path = root;
             path.extend(parse_path(k.trim()));
-            set_path(&mut doc, &path, toml::Value::Array(values.clone())).map_err(|m| {
-                ConfigError {
-                    place: flag.clone(),
-                    key: k.trim().into(),
-                    message: m,
-                }
-            })?;
-            sweep_flag_places.push((path, flag.clone()));
+            set_path(doc, &path, toml::Value::Array(values.clone())).map_err(at_flag(&flag, k))?;
+            sweep_flags.push((path, flag.clone()));
         }
     }
     if let Some(n) = &ov.name {
@@ -423,7 +446,15 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             Place::Flag(format!("--name {n}")),
         ));
     }
-    // The runner's keys.
+    Ok((set_places, sweep_flags))
+}
+
+/// Take the runner's keys out of `doc`: them deserialised, and the `sweep` value.
+fn runner_keys(
+    doc: &mut toml::Table,
+    set_places: &[(KeyPath, Place)],
+    places: &Places,
+) -> Result<(RunnerKeys, Option<toml::Value>), ConfigError> {
     let mut runner_table = toml::Table::new();
     for k in RUNNER_KEYS {
         if let Some(v) = doc.remove(*k) {
@@ -431,14 +462,14 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
         }
     }
     let sweep = runner_table.remove("sweep");
-    let runner: RunnerKeys = serde_path_to_error::deserialize(toml::Value::Table(runner_table))
-        .map_err(|e| {
+    let runner =
+        serde_path_to_error::deserialize(toml::Value::Table(runner_table)).map_err(|e| {
             let path = serde_path(e.path());
             let place = set_places
                 .iter()
                 .find(|(p, _)| path.starts_with(p))
                 .map(|(_, pl)| pl.clone())
-                .unwrap_or_else(|| at(&path));
+                .unwrap_or_else(|| places.at(&path));
             ConfigError {
                 place,
                 key: if path.is_empty() {
@@ -449,190 +480,11 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
                 message: e.into_inner().to_string().trim().to_string(),
             }
         })?;
-    // The sweep axes: every list under [sweep] (nested keys too), and [sweep.zip] as one axis.
-    let flag_place = |path: &[Seg]| {
-        sweep_flag_places
-            .iter()
-            .find(|(p, _)| path.starts_with(p))
-            .map(|(_, pl)| pl.clone())
-    };
-    let place_in_sweep = |path: &[Seg]| flag_place(path).unwrap_or_else(|| at(path));
-    struct Axis {
-        /// Key paths relative to the kind's table, and the path of their list in the config.
-        keys: Vec<(KeyPath, KeyPath)>,
-        values: Vec<Vec<toml::Value>>,
-    }
-    // One block (the `[sweep]` table, or one `[[sweep]]` table of several): its axes.
-    let block_axes = |sweep: &toml::Table, root: &KeyPath| -> Result<Vec<Axis>, ConfigError> {
-        let mut leaves: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
-        let mut zip: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
-        fn walk(
-            t: &toml::Table,
-            prefix: &KeyPath,
-            root_len: usize,
-            out: &mut Vec<(KeyPath, Vec<toml::Value>)>,
-            zip: Option<&mut Vec<(KeyPath, Vec<toml::Value>)>>,
-        ) -> Result<(), (KeyPath, String)> {
-            let mut zip = zip;
-            for (k, v) in t {
-                let mut p = prefix.clone();
-                p.push(Seg::Key(k.clone()));
-                match v {
-                    toml::Value::Array(a) => out.push((p, a.clone())),
-                    toml::Value::Table(sub) if k == "zip" && prefix.len() == root_len => {
-                        if let Some(z) = zip.as_deref_mut() {
-                            walk(sub, &p, root_len, z, None)?;
-                        }
-                    }
-                    toml::Value::Table(sub) => walk(sub, &p, root_len, out, None)?,
-                    other => {
-                        return Err((
-                            p,
-                            format!("a sweep axis must be a list of values, not {other}"),
-                        ))
-                    }
-                }
-            }
-            Ok(())
-        }
-        walk(sweep, root, root.len(), &mut leaves, Some(&mut zip)).map_err(|(p, m)| {
-            ConfigError {
-                place: place_in_sweep(&p),
-                key: path_name(&p),
-                message: m,
-            }
-        })?;
-        // Every list: not empty; no duplicate values (zipped lists: no duplicate tuples).
-        for (p, vals) in leaves.iter().chain(&zip) {
-            if vals.is_empty() {
-                return Err(ConfigError {
-                    place: place_in_sweep(p),
-                    key: path_name(p),
-                    message: "a sweep axis must not be empty".into(),
-                });
-            }
-        }
-        if let Some((p, _)) = zip.first() {
-            let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
-            for i in 0..n {
-                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j])))
-                {
-                    let mut ep = p.clone();
-                    ep.push(Seg::Index(i));
-                    return Err(ConfigError {
-                        place: place_in_sweep(&ep),
-                        key: path_name(p),
-                        message: format!(
-                            "the zipped values of items {} and {} are the same: each run would be done twice",
-                            j + 1,
-                            i + 1
-                        ),
-                    });
-                }
-            }
-        }
-        for (p, vals) in &leaves {
-            for (i, v) in vals.iter().enumerate() {
-                if let Some(j) = vals[..i].iter().position(|w| same_value(v, w)) {
-                    let mut ep = p.clone();
-                    ep.push(Seg::Index(i));
-                    return Err(ConfigError {
-                        place: place_in_sweep(&ep),
-                        key: path_name(p),
-                        message: format!(
-                            "value {v} appears twice (items {} and {}): each run would be done twice",
-                            j + 1,
-                            i + 1
-                        ),
-                    });
-                }
-            }
-        }
-        let rel = |p: &KeyPath| -> KeyPath {
-            let skip =
-                if p.get(root.len()) == Some(&Seg::Key("zip".into())) && p.len() > root.len() + 1 {
-                    root.len() + 1
-                } else {
-                    root.len()
-                };
-            p[skip..].to_vec()
-        };
-        let mut axes = Vec::new();
-        for (p, vals) in &leaves {
-            axes.push(Axis {
-                keys: vec![(rel(p), p.clone())],
-                values: vals.iter().map(|v| vec![v.clone()]).collect(),
-            });
-        }
-        if !zip.is_empty() {
-            let n = zip[0].1.len();
-            if let Some((p, v)) = zip.iter().find(|(_, v)| v.len() != n) {
-                return Err(ConfigError {
-                    place: place_in_sweep(p),
-                    key: path_name(p),
-                    message: format!(
-                        "zipped axes vary together and need lists of equal length: {} has {}, {} has {n}",
-                        path_name(p),
-                        v.len(),
-                        path_name(&zip[0].0)
-                    ),
-                });
-            }
-            axes.push(Axis {
-                keys: zip.iter().map(|(p, _)| (rel(p), p.clone())).collect(),
-                values: (0..n)
-                    .map(|i| zip.iter().map(|(_, v)| v[i].clone()).collect())
-                    .collect(),
-            });
-        }
-        // A key swept twice (in [sweep] and [sweep.zip]) is ambiguous.
-        let mut seen: BTreeMap<KeyPath, KeyPath> = BTreeMap::new();
-        for a in &axes {
-            for (k, full) in &a.keys {
-                if let Some(prev) = seen.insert(k.clone(), full.clone()) {
-                    return Err(ConfigError {
-                        place: place_in_sweep(full),
-                        key: path_name(full),
-                        message: format!(
-                            "{} is already swept by {}",
-                            path_name(k),
-                            path_name(&prev)
-                        ),
-                    });
-                }
-            }
-        }
-        Ok(axes)
-    };
-    // The blocks: `[sweep]` is one; `[[sweep]]` tables are several, whose runs are united.
-    let sweep_root = vec![Seg::Key("sweep".into())];
-    let blocks: Vec<Vec<Axis>> = match sweep {
-        None => vec![Vec::new()],
-        Some(toml::Value::Table(t)) => vec![block_axes(&t, &sweep_root)?],
-        Some(toml::Value::Array(list)) if !list.is_empty() => {
-            let mut v = Vec::new();
-            for (i, b) in list.iter().enumerate() {
-                let mut root = sweep_root.clone();
-                root.push(Seg::Index(i));
-                let toml::Value::Table(t) = b else {
-                    return Err(ConfigError {
-                        place: place_in_sweep(&root),
-                        key: path_name(&root),
-                        message: "each [[sweep]] block must be a table of lists".into(),
-                    });
-                };
-                v.push(block_axes(t, &root)?);
-            }
-            v
-        }
-        Some(_) => {
-            return Err(ConfigError {
-                place: place_in_sweep(&sweep_root),
-                key: "sweep".into(),
-                message: "must be a table of lists ([sweep]) or blocks of them ([[sweep]])".into(),
-            })
-        }
-    };
+    Ok((runner, sweep))
+}
+
+/// The number of runs of `blocks` (their products, added) within [`MAX_COMBINATIONS`].
+fn check_total(file: &str, blocks: &[Vec<Axis>]) -> Result<(), ConfigError> {
     let total = blocks.iter().try_fold(0usize, |sum, axes| {
         axes.iter()
             .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
@@ -648,50 +500,256 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
             ),
         });
     }
-    let mut combinations = Vec::new();
-    let mut axis_names: Vec<String> = Vec::new();
-    for axes in &blocks {
-        let mut block = vec![Combination {
-            table: doc.clone(),
-            swept: Vec::new(),
-        }];
-        for a in axes {
-            let mut next = Vec::with_capacity(block.len() * a.values.len());
-            for c in &block {
-                for (i, vals) in a.values.iter().enumerate() {
-                    let mut c2 = c.clone();
-                    for ((rel, full), v) in a.keys.iter().zip(vals) {
-                        set_path(&mut c2.table, rel, v.clone()).map_err(|m| ConfigError {
-                            place: place_in_sweep(full),
-                            key: path_name(full),
-                            message: m,
-                        })?;
-                        let mut ep = full.clone();
-                        ep.push(Seg::Index(i));
-                        c2.swept.push((rel.clone(), place_in_sweep(&ep)));
-                    }
-                    next.push(c2);
+    Ok(())
+}
+
+/// One sweep axis: key paths relative to the kind's table with the path of their list in the
+/// config, and the values (one per key) of each step.
+struct Axis {
+    keys: Vec<(KeyPath, KeyPath)>,
+    values: Vec<Vec<toml::Value>>,
+}
+
+/// Lists under a sweep table, by path: `out` gets the plain lists, `zip` (at the block's top
+/// only) those of `[sweep.zip]`.
+fn walk_lists(
+    t: &toml::Table,
+    prefix: &KeyPath,
+    root_len: usize,
+    out: &mut Vec<(KeyPath, Vec<toml::Value>)>,
+    mut zip: Option<&mut Vec<(KeyPath, Vec<toml::Value>)>>,
+) -> Result<(), (KeyPath, String)> {
+    for (k, v) in t {
+        let mut p = prefix.clone();
+        p.push(Seg::Key(k.clone()));
+        match v {
+            toml::Value::Array(a) => out.push((p, a.clone())),
+            toml::Value::Table(sub) if k == "zip" && prefix.len() == root_len => {
+                if let Some(z) = zip.as_deref_mut() {
+                    walk_lists(sub, &p, root_len, z, None)?;
                 }
             }
-            block = next;
+            toml::Value::Table(sub) => walk_lists(sub, &p, root_len, out, None)?,
+            other => {
+                return Err((
+                    p,
+                    format!("a sweep axis must be a list of values, not {other}"),
+                ))
+            }
         }
-        for a in axes {
-            for (k, _) in &a.keys {
+    }
+    Ok(())
+}
+
+/// Where the values of one config came from, for errors: its lines, and the `--sweep` flags.
+struct Places<'a> {
+    file: &'a str,
+    source: &'a Source,
+    sweep_flags: Vec<(KeyPath, Place)>,
+}
+
+impl Places<'_> {
+    /// The line of `path` in the file, or the file.
+    fn at(&self, path: &[Seg]) -> Place {
+        match self.source.line_of(path) {
+            Some((line, _)) => Place::Line {
+                file: self.file.into(),
+                line,
+            },
+            None => Place::File(self.file.into()),
+        }
+    }
+
+    /// The `--sweep` flag that set `path`, or its line.
+    fn in_sweep(&self, path: &[Seg]) -> Place {
+        (self.sweep_flags.iter().find(|(p, _)| path.starts_with(p)))
+            .map_or_else(|| self.at(path), |(_, pl)| pl.clone())
+    }
+
+    fn error(&self, path: &[Seg], message: String) -> ConfigError {
+        ConfigError {
+            place: self.in_sweep(path),
+            key: path_name(path),
+            message,
+        }
+    }
+
+    /// The blocks: `[sweep]` is one; `[[sweep]]` tables are several, whose runs are united.
+    fn blocks(&self, sweep: Option<toml::Value>) -> Result<Vec<Vec<Axis>>, ConfigError> {
+        let sweep_root = vec![Seg::Key("sweep".into())];
+        match sweep {
+            None => Ok(vec![Vec::new()]),
+            Some(toml::Value::Table(t)) => Ok(vec![self.block_axes(&t, &sweep_root)?]),
+            Some(toml::Value::Array(list)) if !list.is_empty() => {
+                let mut v = Vec::new();
+                for (i, b) in list.iter().enumerate() {
+                    let mut root = sweep_root.clone();
+                    root.push(Seg::Index(i));
+                    let toml::Value::Table(t) = b else {
+                        let m = "each [[sweep]] block must be a table of lists";
+                        return Err(self.error(&root, m.into()));
+                    };
+                    v.push(self.block_axes(t, &root)?);
+                }
+                Ok(v)
+            }
+            Some(_) => Err(ConfigError {
+                place: self.in_sweep(&sweep_root),
+                key: "sweep".into(),
+                message: "must be a table of lists ([sweep]) or blocks of them ([[sweep]])".into(),
+            }),
+        }
+    }
+
+    /// One block (the `[sweep]` table, or one `[[sweep]]` table of several): its axes, every
+    /// list (nested keys too) one axis and `[sweep.zip]` one axis.
+    fn block_axes(&self, sweep: &toml::Table, root: &KeyPath) -> Result<Vec<Axis>, ConfigError> {
+        let mut leaves: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
+        let mut zip: Vec<(KeyPath, Vec<toml::Value>)> = Vec::new();
+        walk_lists(sweep, root, root.len(), &mut leaves, Some(&mut zip))
+            .map_err(|(p, m)| self.error(&p, m))?;
+        self.check_lists(&leaves, &zip)?;
+        let rel = |p: &KeyPath| -> KeyPath {
+            let skip =
+                if p.get(root.len()) == Some(&Seg::Key("zip".into())) && p.len() > root.len() + 1 {
+                    root.len() + 1
+                } else {
+                    root.len()
+                };
+            p[skip..].to_vec()
+        };
+        let mut axes: Vec<Axis> = (leaves.iter())
+            .map(|(p, vals)| Axis {
+                keys: vec![(rel(p), p.clone())],
+                values: vals.iter().map(|v| vec![v.clone()]).collect(),
+            })
+            .collect();
+        if !zip.is_empty() {
+            let n = zip[0].1.len();
+            if let Some((p, v)) = zip.iter().find(|(_, v)| v.len() != n) {
+                let m = format!(
+                    "zipped axes vary together and need lists of equal length: {} has {}, {} has {n}",
+                    path_name(p),
+                    v.len(),
+                    path_name(&zip[0].0)
+                );
+                return Err(self.error(p, m));
+            }
+            axes.push(Axis {
+                keys: zip.iter().map(|(p, _)| (rel(p), p.clone())).collect(),
+                values: (0..n)
+                    .map(|i| zip.iter().map(|(_, v)| v[i].clone()).collect())
+                    .collect(),
+            });
+        }
+        self.check_swept_once(&axes)?;
+        Ok(axes)
+    }
+
+    /// Every list: not empty; no duplicate values (zipped lists: no duplicate tuples).
+    fn check_lists(
+        &self,
+        leaves: &[(KeyPath, Vec<toml::Value>)],
+        zip: &[(KeyPath, Vec<toml::Value>)],
+    ) -> Result<(), ConfigError> {
+        if let Some((p, _)) = leaves.iter().chain(zip).find(|(_, v)| v.is_empty()) {
+            return Err(self.error(p, "a sweep axis must not be empty".into()));
+        }
+        let item = |p: &KeyPath, i: usize| {
+            let mut ep = p.clone();
+            ep.push(Seg::Index(i));
+            ep
+        };
+        if let Some((p, _)) = zip.first() {
+            let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
+            for i in 0..n {
+                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j])))
+                {
+                    return Err(ConfigError {
+                        key: path_name(p),
+                        ..self.error(&item(p, i), format!(
+                            "the zipped values of items {} and {} are the same: each run would be done twice",
+                            j + 1,
+                            i + 1
+                        ))
+                    });
+                }
+            }
+        }
+        for (p, vals) in leaves {
+            for (i, v) in vals.iter().enumerate() {
+                if let Some(j) = vals[..i].iter().position(|w| same_value(v, w)) {
+                    return Err(ConfigError {
+                        key: path_name(p),
+                        ..self.error(&item(p, i), format!(
+                            "value {v} appears twice (items {} and {}): each run would be done twice",
+                            j + 1,
+                            i + 1
+                        ))
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A key swept twice (in [sweep] and [sweep.zip]) is ambiguous.
+    fn check_swept_once(&self, axes: &[Axis]) -> Result<(), ConfigError> {
+        let mut seen: BTreeMap<KeyPath, KeyPath> = BTreeMap::new();
+        for (k, full) in axes.iter().flat_map(|a| &a.keys) {
+            if let Some(prev) = seen.insert(k.clone(), full.clone()) {
+                let m = format!("{} is already swept by {}", path_name(k), path_name(&prev));
+                return Err(self.error(full, m));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every combination of every block (the cartesian product of its axes, blocks united) and
+    /// the axis names in expansion order.
+    fn combine(
+        &self,
+        doc: &toml::Table,
+        blocks: &[Vec<Axis>],
+    ) -> Result<(Vec<String>, Vec<Combination>), ConfigError> {
+        let mut combinations = Vec::new();
+        let mut axis_names: Vec<String> = Vec::new();
+        for axes in blocks {
+            let mut block = vec![Combination {
+                table: doc.clone(),
+                swept: Vec::new(),
+            }];
+            for a in axes {
+                block = self.product(&block, a)?;
+            }
+            for (k, _) in axes.iter().flat_map(|a| &a.keys) {
                 let n = path_name(k);
                 if !axis_names.contains(&n) {
                     axis_names.push(n);
                 }
             }
+            combinations.extend(block);
         }
-        combinations.extend(block);
+        Ok((axis_names, combinations))
     }
-    Ok(Expanded {
-        source,
-        runner,
-        set_places,
-        axes: axis_names,
-        combinations,
-    })
+
+    /// Each combination of `block` with each step of axis `a`.
+    fn product(&self, block: &[Combination], a: &Axis) -> Result<Vec<Combination>, ConfigError> {
+        let mut next = Vec::with_capacity(block.len() * a.values.len());
+        for c in block {
+            for (i, vals) in a.values.iter().enumerate() {
+                let mut c2 = c.clone();
+                for ((rel, full), v) in a.keys.iter().zip(vals) {
+                    set_path(&mut c2.table, rel, v.clone()).map_err(|m| self.error(full, m))?;
+                    let mut ep = full.clone();
+                    ep.push(Seg::Index(i));
+                    c2.swept.push((rel.clone(), self.in_sweep(&ep)));
+                }
+                next.push(c2);
+            }
+        }
+        Ok(next)
+    }
 }
 
 /// Equal as values (integers and floats compare numerically: `[1, 1.0]` is a duplicate).

@@ -17,10 +17,12 @@
 //! | [`plots`], [`figure`], [`image`] | line plots, image grids, EXR/PNG files |
 //! | [`timing`], [`limits`] | the timing procedure; the work limits |
 //! | [`atomic`] | atomic file output |
+//! | [`check`] | range checks that state the range they test |
 //! | [`reference`] | the config reference |
 //! | [`device`] | the `gpu` setting and an opened device |
 
 pub mod atomic;
+pub mod check;
 pub mod config;
 pub mod device;
 pub mod error;

@@ -60,7 +60,7 @@ pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, Error> {
             if max * *intensity > crate::scene::MAX_RADIANCE {
                 return Err(Error::config(format!(
                     "light.intensity: {} × the map's largest value {max:e} ({}) exceeds {:e}",
-                    crate::scene::num(*intensity),
+                    shscale_runner::check::num(*intensity),
                     path.display(),
                     crate::scene::MAX_RADIANCE
                 )));

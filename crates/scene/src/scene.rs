@@ -45,9 +45,11 @@
 //! ```
 
 use crate::error::Error;
+use crate::vocab::MAX_K_COUNT;
 use glam::DVec3;
 use serde::Deserialize;
 use shscale_field::Layout;
+use shscale_runner::check::{self, num, Ends};
 use std::path::{Path, PathBuf};
 
 /// The default truth resolution of a scene (`4T²` rays per receiver).
@@ -248,15 +250,6 @@ pub const MAX_RADIANCE: f64 = 1e12;
 /// The most occluders (and light sources) of a scene.
 pub const MAX_OCCLUDERS: usize = 64;
 
-/// A number for messages: plain where short, scientific where `{}` would print hundreds of digits.
-pub fn num(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-4..1e15).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
-
 /// Line of the first occurrence of `key =` (or the table header) in the text, for semantic errors.
 fn line_of_key(text: &str, key: &str) -> usize {
     text.lines()
@@ -309,85 +302,14 @@ impl Scene {
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, Error> {
         let raw: RawScene = toml::from_str(text)
             .map_err(|e| Error::from(shscale_runner::config::toml_error(file, text, &e)))?;
-        // Errors name the key as a path (`occluder[1].radius`) at its own line (toml_edit spans;
-        // the table's line when the key is absent, a default).
-        let source = shscale_runner::config::Source::new(file, text);
-        let err = |key: &str, msg: String| {
-            let path = shscale_runner::config::parse_path(key);
-            let line = source.line_of(&path).map_or_else(
-                || line_of_key(text, key.split('.').next_back().unwrap_or(key)),
-                |(l, _)| l,
-            );
-            Error::config(format!("{file}:{line}: {key}: {msg}"))
+        let c = Checker {
+            file,
+            text,
+            source: shscale_runner::config::Source::new(file, text),
         };
-        // Bounded values: finite and within [lo, hi] (docs/limits.md).
-        let within = |key: &str, v: f64, lo: f64, hi: f64| -> Result<f64, Error> {
-            if v.is_finite() && v >= lo && v <= hi {
-                Ok(v)
-            } else {
-                Err(err(
-                    key,
-                    format!("{} is outside [{}, {}]", num(v), num(lo), num(hi)),
-                ))
-            }
-        };
-        let coords = |key: &str, v: [f64; 3]| -> Result<DVec3, Error> {
-            if v.iter()
-                .all(|x| x.is_finite() && x.abs() <= MAX_SCENE_COORDINATE)
-            {
-                Ok(DVec3::from_array(v))
-            } else {
-                Err(err(
-                    key,
-                    format!(
-                        "[{}, {}, {}] must be finite, each within ±{MAX_SCENE_COORDINATE:e}",
-                        num(v[0]),
-                        num(v[1]),
-                        num(v[2])
-                    ),
-                ))
-            }
-        };
-        let order = raw.order.unwrap_or(4);
-        if !(1..=16).contains(&order) {
-            return Err(err("order", format!("{order} is outside 1..=16")));
-        }
-        let alpha_deg = raw.alpha_deg.unwrap_or(45.0);
-        if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
-            return Err(err("alpha_deg", format!("{alpha_deg} is outside (0, 90)")));
-        }
-        let layout = Layout::parse(raw.layout.as_deref().unwrap_or("latlong:12x20"))
-            .map_err(|e| err("layout", e.to_string()))?;
-        let hemisphere_res = raw.hemisphere_res.unwrap_or(32);
-        if !(1..=256).contains(&hemisphere_res) {
-            return Err(err(
-                "hemisphere_res",
-                format!("{hemisphere_res} is outside 1..=256"),
-            ));
-        }
-        let truth_res = raw.truth_res.unwrap_or(DEFAULT_SCENE_TRUTH_RES);
-        if !(1..=256).contains(&truth_res) {
-            return Err(err("truth_res", format!("{truth_res} is outside 1..=256")));
-        }
-        let plausibility = shscale_field::extrapolate::Plausibility::parse(
-            raw.plausibility.as_deref().unwrap_or("none"),
-        )
-        .map_err(|m| err("plausibility", m))?;
-        let k_count = raw.k_count.unwrap_or(40);
-        if !(2..=crate::vocab::MAX_K_COUNT).contains(&k_count) {
-            return Err(err(
-                "k_count",
-                format!("{k_count} is outside 2..={}", crate::vocab::MAX_K_COUNT),
-            ));
-        }
-        let sampling_radius = within(
-            "sampling_radius",
-            raw.sampling_radius.unwrap_or(1.0),
-            1.0,
-            1e3,
-        )?;
+        let s = c.sampling(&raw)?;
         if raw.occluder.len() > MAX_OCCLUDERS {
-            return Err(err(
+            return Err(c.err(
                 "occluder",
                 format!(
                     "{} occluders, more than the limit {MAX_OCCLUDERS}",
@@ -395,133 +317,14 @@ impl Scene {
                 ),
             ));
         }
-        let mut occluders = Vec::new();
-        for (i, o) in raw.occluder.iter().enumerate() {
-            let center = coords(&format!("occluder[{i}].center"), o.center)?;
-            within(
-                &format!("occluder[{i}].radius"),
-                o.radius,
-                MIN_SCENE_SIZE,
-                MAX_SCENE_COORDINATE,
-            )?;
-            let up_is_y = match o.up.as_deref().unwrap_or("y") {
-                "y" => true,
-                "z" => false,
-                other => {
-                    return Err(err(
-                        &format!("occluder[{i}].up"),
-                        format!("{other:?} is not \"y\" or \"z\""),
-                    ))
-                }
-            };
-            use shscale_geometry::deform::DeformerKind as K;
-            let deformer = match o.deformer.as_deref() {
-                None => None,
-                Some(name) => {
-                    let (kind, default) = match name {
-                        "flap" => (K::Flap, 0.8),
-                        "bend" => (K::Bend, 1.2),
-                        "twist" => (K::Twist, 0.25),
-                        "morph" => (K::Morph, 0.5),
-                        other => {
-                            return Err(err(
-                                &format!("occluder[{i}].deformer"),
-                                format!("{other:?} is not flap, bend, twist or morph"),
-                            ))
-                        }
-                    };
-                    if o.mesh == "sphere" {
-                        return Err(err(
-                            &format!("occluder[{i}].deformer"),
-                            "the analytic sphere cannot deform".into(),
-                        ));
-                    }
-                    let amount = within(
-                        &format!("occluder[{i}].amount"),
-                        o.amount.unwrap_or(default),
-                        -10.0,
-                        10.0,
-                    )?;
-                    Some((kind, amount))
-                }
-            };
-            occluders.push(OccluderSpec {
-                mesh: o.mesh.clone(),
-                center,
-                radius: o.radius,
-                up_is_y,
-                deformer,
-            });
-        }
+        let occluders = (raw.occluder.iter().enumerate())
+            .map(|(i, o)| c.occluder(i, o))
+            .collect::<Result<_, _>>()?;
         let r = &raw.receiver;
-        let receiver_center = coords("receiver.center", r.center)?;
-        for (j, v) in r.size.iter().enumerate() {
-            within(
-                &format!("receiver.size[{j}]"),
-                *v,
-                MIN_SCENE_SIZE,
-                MAX_SCENE_COORDINATE,
-            )?;
-        }
-        if !(r.resolution.iter().all(|n| (2..=4096).contains(n))) {
-            return Err(err(
-                "receiver.resolution",
-                format!("{:?} must be within 2..=4096 each", r.resolution),
-            ));
-        }
-        let l = &raw.light;
-        let nonneg = |key: &str, v: Option<f64>, default: f64| -> Result<f64, Error> {
-            within(
-                &format!("light.{key}"),
-                v.unwrap_or(default),
-                0.0,
-                MAX_RADIANCE,
-            )
-        };
-        let light = match l.kind.as_str() {
-            "sky" => {
-                let sun_dir = DVec3::from_array(l.sun_dir.unwrap_or([0.3, 0.2, 1.0]));
-                if !(sun_dir.is_finite() && sun_dir.length() > 0.0) {
-                    return Err(err(
-                        "light.sun_dir",
-                        format!("{sun_dir} must be a non-zero vector"),
-                    ));
-                }
-                let rad = l.sun_radius_deg.unwrap_or(5.0);
-                if !(rad > 0.0 && rad <= 90.0) {
-                    return Err(err(
-                        "light.sun_radius_deg",
-                        format!("{rad} is outside (0, 90]"),
-                    ));
-                }
-                LightSpec::Sky {
-                    ambient: nonneg("ambient", l.ambient, 0.3)?,
-                    zenith: nonneg("zenith", l.zenith, 1.0)?,
-                    sun: nonneg("sun", l.sun, 20.0)?,
-                    sun_dir: sun_dir.normalize(),
-                    sun_radius: rad.to_radians(),
-                }
-            }
-            "exr" => {
-                let p = l
-                    .path
-                    .as_deref()
-                    .ok_or_else(|| err("light.path", "light kind \"exr\" needs path".into()))?;
-                LightSpec::Exr {
-                    path: base.join(p),
-                    intensity: nonneg("intensity", l.intensity, 1.0)?,
-                }
-            }
-            other => {
-                return Err(err(
-                    "light.kind",
-                    format!("{other:?} is not \"sky\" or \"exr\""),
-                ))
-            }
-        };
-        let mut light_sources = Vec::new();
+        let receiver_center = c.receiver(r)?;
+        let light = c.light(&raw.light, base)?;
         if raw.light_source.len() > MAX_OCCLUDERS {
-            return Err(err(
+            return Err(c.err(
                 "light_source",
                 format!(
                     "{} light sources, more than the limit {MAX_OCCLUDERS}",
@@ -529,120 +332,309 @@ impl Scene {
                 ),
             ));
         }
-        for (i, l) in raw.light_source.iter().enumerate() {
-            let key = |k: &str| format!("light_source[{i}].{k}");
-            let hinge = match l.kind.as_str() {
-                "quad" => false,
-                "hinge" => true,
-                other => {
-                    return Err(err(
-                        &key("kind"),
-                        format!("{other:?} is not \"quad\" or \"hinge\""),
-                    ))
-                }
-            };
-            let center = coords(&key("center"), l.center)?;
-            let size = within(
-                &key("size"),
-                l.size.unwrap_or(1.0),
-                MIN_SCENE_SIZE,
-                MAX_SCENE_COORDINATE,
-            )?;
-            let hinge_deg = l.hinge_deg.unwrap_or(100.0);
-            if !(hinge_deg > 0.0 && hinge_deg < 180.0) {
-                return Err(err(
-                    &key("hinge_deg"),
-                    format!("{hinge_deg} is outside (0, 180)"),
-                ));
-            }
-            let intensity = within(
-                &key("intensity"),
-                l.intensity.unwrap_or(1.0),
-                0.0,
-                MAX_RADIANCE,
-            )?;
-            let base = l.radiance.unwrap_or([1.0, 1.0, 1.0]);
-            for (j, v) in base.iter().enumerate() {
-                within(
-                    &format!("light_source[{i}].radiance[{j}]"),
-                    *v,
-                    0.0,
-                    MAX_RADIANCE,
-                )?;
-            }
-            let radiance = base.map(|v| v * intensity);
-            if radiance.iter().any(|v| *v > MAX_RADIANCE) {
-                return Err(err(
-                    &key("intensity"),
-                    format!(
-                        "intensity {} × radiance {base:?} exceeds {MAX_RADIANCE:e}",
-                        num(intensity)
-                    ),
-                ));
-            }
-            let energy = match l.eta.as_deref().unwrap_or("plain") {
-                "plain" => false,
-                "energy" => true,
-                other => {
-                    return Err(err(
-                        &key("eta"),
-                        format!("{other:?} is not \"plain\" or \"energy\""),
-                    ))
-                }
-            };
-            light_sources.push(LightSourceSpec {
-                hinge,
-                center,
-                size,
-                hinge_angle: hinge_deg.to_radians(),
-                radiance,
-                energy,
-            });
-        }
-        let camera = match &raw.camera {
-            None => None,
-            Some(c) => {
-                let position = coords("camera.position", c.position)?;
-                let look_at = coords("camera.look_at", c.look_at)?;
-                if (look_at - position).length() == 0.0 {
-                    return Err(err(
-                        "camera.look_at",
-                        "must differ from camera.position".into(),
-                    ));
-                }
-                let fov_deg = within("camera.fov_deg", c.fov_deg.unwrap_or(40.0), 1.0, 170.0)?;
-                let resolution = c.resolution.unwrap_or([480, 320]);
-                if !resolution.iter().all(|n| (2..=4096).contains(n)) {
-                    return Err(err(
-                        "camera.resolution",
-                        format!("{resolution:?} must be within 2..=4096 each"),
-                    ));
-                }
-                Some(Camera {
-                    position,
-                    look_at,
-                    fov_deg,
-                    resolution,
-                })
-            }
-        };
+        let light_sources = (raw.light_source.iter().enumerate())
+            .map(|(i, l)| c.light_source(i, l))
+            .collect::<Result<_, _>>()?;
+        let camera = raw.camera.as_ref().map(|r| c.camera(r)).transpose()?;
         Ok(Self {
             camera,
             file: file.into(),
-            order,
-            alpha: alpha_deg.to_radians(),
-            layout,
-            hemisphere_res,
-            truth_res,
-            plausibility,
-            k_count,
-            sampling_radius,
+            order: s.order,
+            alpha: s.alpha_deg.to_radians(),
+            layout: s.layout,
+            hemisphere_res: s.hemisphere_res,
+            truth_res: s.truth_res,
+            plausibility: s.plausibility,
+            k_count: s.k_count,
+            sampling_radius: s.sampling_radius,
             occluders,
             receiver_center,
             receiver_size: r.size,
             resolution: r.resolution,
             light,
             light_sources,
+        })
+    }
+}
+
+/// The top-level sampling keys of a scene, resolved.
+struct Sampling {
+    order: usize,
+    alpha_deg: f64,
+    layout: Layout,
+    hemisphere_res: usize,
+    truth_res: usize,
+    plausibility: shscale_field::extrapolate::Plausibility,
+    k_count: usize,
+    sampling_radius: f64,
+}
+
+/// Checks the values of one scene file: every error names the file, the key as a path
+/// (`occluder[1].radius`) and the key's own line (toml_edit spans; the table's line when the key
+/// is absent, a default). Ranges through [`shscale_runner::check`], so the message states the
+/// range tested (docs/limits.md).
+struct Checker<'a> {
+    file: &'a str,
+    text: &'a str,
+    source: shscale_runner::config::Source,
+}
+
+impl Checker<'_> {
+    fn err(&self, key: &str, msg: String) -> Error {
+        let path = shscale_runner::config::parse_path(key);
+        let line = self.source.line_of(&path).map_or_else(
+            || line_of_key(self.text, key.split('.').next_back().unwrap_or(key)),
+            |(l, _)| l,
+        );
+        Error::config(format!("{}:{line}: {key}: {msg}", self.file))
+    }
+
+    /// `v` within `lo..=hi` (integers).
+    fn int(&self, key: &str, v: usize, lo: usize, hi: usize) -> Result<usize, Error> {
+        check::int(v, lo, hi).map_err(|m| self.err(key, m))
+    }
+
+    /// `v` finite and within the interval.
+    fn real(&self, key: &str, v: f64, lo: f64, hi: f64, ends: Ends) -> Result<f64, Error> {
+        check::real(v, lo, hi, ends).map_err(|m| self.err(key, m))
+    }
+
+    /// `v` finite and within `[lo, hi]`.
+    fn within(&self, key: &str, v: f64, lo: f64, hi: f64) -> Result<f64, Error> {
+        self.real(key, v, lo, hi, Ends::Closed)
+    }
+
+    /// A point: every coordinate finite and within ±[`MAX_SCENE_COORDINATE`].
+    fn coords(&self, key: &str, v: [f64; 3]) -> Result<DVec3, Error> {
+        if v.iter()
+            .all(|x| x.is_finite() && x.abs() <= MAX_SCENE_COORDINATE)
+        {
+            return Ok(DVec3::from_array(v));
+        }
+        Err(self.err(
+            key,
+            format!(
+                "[{}, {}, {}] must be finite, each within ±{MAX_SCENE_COORDINATE:e}",
+                num(v[0]),
+                num(v[1]),
+                num(v[2])
+            ),
+        ))
+    }
+
+    /// A word that must be one of `choices` (its value), named in the message as `expected`.
+    fn choice<T: Copy>(
+        &self,
+        key: &str,
+        word: &str,
+        choices: &[(&str, T)],
+        expected: &str,
+    ) -> Result<T, Error> {
+        (choices.iter().find(|(w, _)| *w == word).map(|(_, v)| *v))
+            .ok_or_else(|| self.err(key, format!("{word:?} is not {expected}")))
+    }
+
+    fn sampling(&self, raw: &RawScene) -> Result<Sampling, Error> {
+        let layout = Layout::parse(raw.layout.as_deref().unwrap_or("latlong:12x20"))
+            .map_err(|e| self.err("layout", e.to_string()))?;
+        let plausibility = shscale_field::extrapolate::Plausibility::parse(
+            raw.plausibility.as_deref().unwrap_or("none"),
+        )
+        .map_err(|m| self.err("plausibility", m))?;
+        Ok(Sampling {
+            order: self.int("order", raw.order.unwrap_or(4), 1, 16)?,
+            alpha_deg: self.real(
+                "alpha_deg",
+                raw.alpha_deg.unwrap_or(45.0),
+                0.0,
+                90.0,
+                Ends::Open,
+            )?,
+            hemisphere_res: self.int("hemisphere_res", raw.hemisphere_res.unwrap_or(32), 1, 256)?,
+            truth_res: self.int(
+                "truth_res",
+                raw.truth_res.unwrap_or(DEFAULT_SCENE_TRUTH_RES),
+                1,
+                256,
+            )?,
+            layout,
+            plausibility,
+            k_count: self.int("k_count", raw.k_count.unwrap_or(40), 2, MAX_K_COUNT)?,
+            sampling_radius: self.within(
+                "sampling_radius",
+                raw.sampling_radius.unwrap_or(1.0),
+                1.0,
+                1e3,
+            )?,
+        })
+    }
+
+    fn occluder(&self, i: usize, o: &RawOccluder) -> Result<OccluderSpec, Error> {
+        let key = |k: &str| format!("occluder[{i}].{k}");
+        let center = self.coords(&key("center"), o.center)?;
+        self.within(
+            &key("radius"),
+            o.radius,
+            MIN_SCENE_SIZE,
+            MAX_SCENE_COORDINATE,
+        )?;
+        let up = o.up.as_deref().unwrap_or("y");
+        let up_is_y = self.choice(
+            &key("up"),
+            up,
+            &[("y", true), ("z", false)],
+            "\"y\" or \"z\"",
+        )?;
+        use shscale_geometry::deform::DeformerKind as K;
+        let deformer = match o.deformer.as_deref() {
+            None => None,
+            Some(name) => {
+                let kinds = [
+                    ("flap", (K::Flap, 0.8)),
+                    ("bend", (K::Bend, 1.2)),
+                    ("twist", (K::Twist, 0.25)),
+                    ("morph", (K::Morph, 0.5)),
+                ];
+                let expected = "flap, bend, twist or morph";
+                let (kind, default) = self.choice(&key("deformer"), name, &kinds, expected)?;
+                if o.mesh == "sphere" {
+                    return Err(
+                        self.err(&key("deformer"), "the analytic sphere cannot deform".into())
+                    );
+                }
+                let amount =
+                    self.within(&key("amount"), o.amount.unwrap_or(default), -10.0, 10.0)?;
+                Some((kind, amount))
+            }
+        };
+        Ok(OccluderSpec {
+            mesh: o.mesh.clone(),
+            center,
+            radius: o.radius,
+            up_is_y,
+            deformer,
+        })
+    }
+
+    /// The receiver plane's centre, its size and resolution checked.
+    fn receiver(&self, r: &RawReceiver) -> Result<DVec3, Error> {
+        let center = self.coords("receiver.center", r.center)?;
+        for (j, v) in r.size.iter().enumerate() {
+            let key = format!("receiver.size[{j}]");
+            self.within(&key, *v, MIN_SCENE_SIZE, MAX_SCENE_COORDINATE)?;
+        }
+        if !(r.resolution.iter().all(|n| (2..=4096).contains(n))) {
+            return Err(self.err(
+                "receiver.resolution",
+                format!("{:?} must be within 2..=4096 each", r.resolution),
+            ));
+        }
+        Ok(center)
+    }
+
+    fn light(&self, l: &RawLight, base: &Path) -> Result<LightSpec, Error> {
+        let nonneg = |key: &str, v: Option<f64>, default: f64| {
+            self.within(
+                &format!("light.{key}"),
+                v.unwrap_or(default),
+                0.0,
+                MAX_RADIANCE,
+            )
+        };
+        match l.kind.as_str() {
+            "sky" => {
+                let sun_dir = DVec3::from_array(l.sun_dir.unwrap_or([0.3, 0.2, 1.0]));
+                if !(sun_dir.is_finite() && sun_dir.length() > 0.0) {
+                    return Err(self.err(
+                        "light.sun_dir",
+                        format!("{sun_dir} must be a non-zero vector"),
+                    ));
+                }
+                let rad = l.sun_radius_deg.unwrap_or(5.0);
+                let rad = self.real("light.sun_radius_deg", rad, 0.0, 90.0, Ends::OpenClosed)?;
+                Ok(LightSpec::Sky {
+                    ambient: nonneg("ambient", l.ambient, 0.3)?,
+                    zenith: nonneg("zenith", l.zenith, 1.0)?,
+                    sun: nonneg("sun", l.sun, 20.0)?,
+                    sun_dir: sun_dir.normalize(),
+                    sun_radius: rad.to_radians(),
+                })
+            }
+            "exr" => {
+                let p = (l.path.as_deref()).ok_or_else(|| {
+                    self.err("light.path", "light kind \"exr\" needs path".into())
+                })?;
+                Ok(LightSpec::Exr {
+                    path: base.join(p),
+                    intensity: nonneg("intensity", l.intensity, 1.0)?,
+                })
+            }
+            other => Err(self.err("light.kind", format!("{other:?} is not \"sky\" or \"exr\""))),
+        }
+    }
+
+    fn light_source(&self, i: usize, l: &RawLightSource) -> Result<LightSourceSpec, Error> {
+        let key = |k: &str| format!("light_source[{i}].{k}");
+        let kinds = [("quad", false), ("hinge", true)];
+        let hinge = self.choice(&key("kind"), &l.kind, &kinds, "\"quad\" or \"hinge\"")?;
+        let center = self.coords(&key("center"), l.center)?;
+        let size = l.size.unwrap_or(1.0);
+        let size = self.within(&key("size"), size, MIN_SCENE_SIZE, MAX_SCENE_COORDINATE)?;
+        let hinge_deg = l.hinge_deg.unwrap_or(100.0);
+        let hinge_deg = self.real(&key("hinge_deg"), hinge_deg, 0.0, 180.0, Ends::Open)?;
+        let intensity = l.intensity.unwrap_or(1.0);
+        let intensity = self.within(&key("intensity"), intensity, 0.0, MAX_RADIANCE)?;
+        let base = l.radiance.unwrap_or([1.0, 1.0, 1.0]);
+        for (j, v) in base.iter().enumerate() {
+            self.within(
+                &format!("light_source[{i}].radiance[{j}]"),
+                *v,
+                0.0,
+                MAX_RADIANCE,
+            )?;
+        }
+        let radiance = base.map(|v| v * intensity);
+        if radiance.iter().any(|v| *v > MAX_RADIANCE) {
+            return Err(self.err(
+                &key("intensity"),
+                format!(
+                    "intensity {} × radiance {base:?} exceeds {MAX_RADIANCE:e}",
+                    num(intensity)
+                ),
+            ));
+        }
+        let etas = [("plain", false), ("energy", true)];
+        let eta = l.eta.as_deref().unwrap_or("plain");
+        let energy = self.choice(&key("eta"), eta, &etas, "\"plain\" or \"energy\"")?;
+        Ok(LightSourceSpec {
+            hinge,
+            center,
+            size,
+            hinge_angle: hinge_deg.to_radians(),
+            radiance,
+            energy,
+        })
+    }
+
+    fn camera(&self, c: &RawCamera) -> Result<Camera, Error> {
+        let position = self.coords("camera.position", c.position)?;
+        let look_at = self.coords("camera.look_at", c.look_at)?;
+        if (look_at - position).length() == 0.0 {
+            return Err(self.err("camera.look_at", "must differ from camera.position".into()));
+        }
+        let fov_deg = self.within("camera.fov_deg", c.fov_deg.unwrap_or(40.0), 1.0, 170.0)?;
+        let resolution = c.resolution.unwrap_or([480, 320]);
+        if !resolution.iter().all(|n| (2..=4096).contains(n)) {
+            return Err(self.err(
+                "camera.resolution",
+                format!("{resolution:?} must be within 2..=4096 each"),
+            ));
+        }
+        Ok(Camera {
+            position,
+            look_at,
+            fov_deg,
+            resolution,
         })
     }
 }
