@@ -521,31 +521,23 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
     let clamp = (spec.plausibility == Plausibility::Clamp)
         .then(|| Clamp::new(spec.order))
         .transpose()?;
-    let rot = EulerRotator::<f64>::new(spec.order)?;
+    let at = RadiusWork {
+        base,
+        spec,
+        clamp: clamp.as_ref(),
+        rot: EulerRotator::<f64>::new(spec.order)?,
+        nn: spec.order * spec.order,
+    };
     let s = bsv.sphere;
-    let nn = spec.order * spec.order;
-    let s0 = (4.0 * std::f64::consts::PI).sqrt();
     let mut rows = Vec::new();
     let mut examples = Vec::new();
     let mut example_index: Option<usize> = None;
     for (ri, (&rho, &k)) in spec.radii.iter().zip(&ks).enumerate() {
-        let points: Vec<DVec3> = base
-            .dirs
-            .iter()
+        let points: Vec<DVec3> = (base.dirs.iter())
             .map(|d| s.center + rho * s.radius * *d)
             .collect();
         let t2 = Instant::now();
-        let ext: Vec<(Vec<f64>, ExtrapolationKind)> = points
-            .par_iter()
-            .map_init(
-                || ScalingMatrix::identity(spec.order).expect("valid order"),
-                |m, p| {
-                    let mut out = vec![0.0; nn];
-                    let kind = ex.eval(*p, m, &mut out);
-                    (out, kind)
-                },
-            )
-            .collect();
+        let ext = at.extrapolate(&ex, &points);
         let extrapolation_seconds = t2.elapsed().as_secs_f64();
         // The decomposition's exact matrix at this k.
         let exact_m = family
@@ -567,16 +559,7 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
             ..Default::default()
         };
         if example_index.is_none() {
-            example_index = truth
-                .iter()
-                .zip(&ext)
-                .enumerate()
-                .filter_map(|(i, (t, (e, _)))| {
-                    let t = t.as_ref()?;
-                    occ_rel_l2(e, &t.coeffs).map(|_| (i, t.coeffs[0]))
-                })
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(i, _)| i);
+            example_index = example_of(truth, &ext);
         }
         if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
             examples.push(ProbeExample {
@@ -585,90 +568,8 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
                 extrapolated: ext[i].0.clone(),
             });
         }
-        let bound = max_occluded_solid_angle(rho) * (1.0 + 1e-9) + 1e-12;
-        let mut solid: Vec<f64> = Vec::new();
-        let mut per: Vec<PerProbe> = Vec::new();
-        let mut scaled = vec![0.0; nn];
-        for (i, ((e, kind), t)) in ext.iter().zip(truth).enumerate() {
-            if *kind == ExtrapolationKind::ClampedBelow {
-                row.clamped_count += 1;
-            }
-            let omega = 4.0 * std::f64::consts::PI - s0 * e[0];
-            solid.push(omega);
-            if !(-1e-12..=bound).contains(&omega) {
-                row.implausible_count += 1;
-            }
-            let Some(t) = t else {
-                row.inside_count += 1;
-                continue;
-            };
-            let occ = occ_rel_l2(e, &t.coeffs);
-            if occ.is_none() {
-                row.unoccluded_truth_count += 1;
-            }
-            let cone = bounding_cone(s.radius, (points[i] - s.center).length());
-            let mut with = |v: &[f64]| {
-                scale_to_with(
-                    &rot,
-                    v,
-                    points[i],
-                    s.center,
-                    &exact_m,
-                    clamp.as_ref().map(|c| (c, cone)),
-                    &mut scaled,
-                );
-                occ_rel_l2(&scaled, &t.coeffs)
-            };
-            let exact_k = with(&base.interpolated[i]);
-            let exact_dir = with(&base.direct[i]);
-            let model = with(&base.converged[i]);
-            let occ_n = occlusion(&t.coeffs);
-            let omega_t = s0 * occ_n[0];
-            let band = (omega_t > 1e-12).then(|| {
-                (1.0 - occ_n.iter().map(|x| x * x).sum::<f64>() / omega_t)
-                    .max(0.0)
-                    .sqrt()
-            });
-            let truth_err = t.rel_error();
-            if let (Some(o), Some(te)) = (occ, truth_err) {
-                if o < 3.0 * te {
-                    row.truth_limited_count += 1;
-                }
-            }
-            per.push(PerProbe {
-                on_surface: base.on_surface[i],
-                contact: base.facing_occlusion[i] >= spec.contact_occlusion,
-                vis: vis_rel_l2(e, &t.coeffs),
-                occ,
-                truth_err,
-                exact_k,
-                exact_dir,
-                model,
-                band,
-            });
-        }
-        row.occ_solid_angle_min = solid.iter().copied().reduce(f64::min);
-        row.occ_solid_angle_max = solid.iter().copied().reduce(f64::max);
-        (row.vis_rel_l2_mean, row.vis_rel_l2_max, _) = mean_max(per.iter().map(|x| x.vis));
-        (row.occ_rel_l2_mean, row.occ_rel_l2_max, _) = mean_max(per.iter().map(|x| x.occ));
-        (row.truth_rel_err_mean, row.truth_rel_err_max, _) =
-            mean_max(per.iter().map(|x| x.occ.and(x.truth_err)));
-        (row.occ_rel_l2_exact_k_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.exact_k)));
-        (row.occ_rel_l2_exact_dir_mean, _, _) =
-            mean_max(per.iter().map(|x| x.occ.and(x.exact_dir)));
-        (row.occ_rel_l2_model_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.model)));
-        (row.band_limit_rel_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.band)));
-        row.on_surface_count = per.iter().filter(|x| x.on_surface).count();
-        (row.vis_rel_l2_on_surface_mean, _, _) =
-            mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.vis));
-        (
-            row.occ_rel_l2_on_surface_mean,
-            row.occ_rel_l2_on_surface_max,
-            _,
-        ) = mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.occ));
-        row.contact_count = per.iter().filter(|x| x.contact).count();
-        (row.occ_rel_l2_contact_mean, row.occ_rel_l2_contact_max, _) =
-            mean_max(per.iter().filter(|x| x.contact).map(|x| x.occ));
+        let per = at.assess(&mut row, &ext, truth, &points, &exact_m);
+        summarise(&mut row, &per);
         rows.push(row);
     }
     Ok(ProbeResult {
@@ -689,6 +590,156 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         bsv_sampling_seconds,
         table_build_seconds,
     })
+}
+
+/// What every probe radius of [`probe_with`] shares.
+struct RadiusWork<'a> {
+    base: &'a ProbeBase,
+    spec: &'a ProbeSpec,
+    clamp: Option<&'a Clamp>,
+    rot: EulerRotator<f64>,
+    nn: usize,
+}
+
+impl RadiusWork<'_> {
+    /// The extrapolated visibility at every point, with how each was obtained.
+    fn extrapolate(
+        &self,
+        ex: &Extrapolator,
+        points: &[DVec3],
+    ) -> Vec<(Vec<f64>, ExtrapolationKind)> {
+        points
+            .par_iter()
+            .map_init(
+                || ScalingMatrix::identity(self.spec.order).expect("valid order"),
+                |m, p| {
+                    let mut out = vec![0.0; self.nn];
+                    let kind = ex.eval(*p, m, &mut out);
+                    (out, kind)
+                },
+            )
+            .collect()
+    }
+
+    /// Every probe of one radius against its truth: the error decomposition per probe, and the
+    /// counts (clamped, implausible, inside, unoccluded truth, truth-limited) and the occluded
+    /// solid angle's range in `row`.
+    fn assess(
+        &self,
+        row: &mut ProbeRow,
+        ext: &[(Vec<f64>, ExtrapolationKind)],
+        truth: &[Option<Truth>],
+        points: &[DVec3],
+        exact_m: &ScalingMatrix<f64>,
+    ) -> Vec<PerProbe> {
+        let s = self.base.bsv.sphere;
+        let s0 = (4.0 * std::f64::consts::PI).sqrt();
+        let bound = max_occluded_solid_angle(row.radius) * (1.0 + 1e-9) + 1e-12;
+        let mut solid: Vec<f64> = Vec::new();
+        let mut per: Vec<PerProbe> = Vec::new();
+        let mut scaled = vec![0.0; self.nn];
+        for (i, ((e, kind), t)) in ext.iter().zip(truth).enumerate() {
+            if *kind == ExtrapolationKind::ClampedBelow {
+                row.clamped_count += 1;
+            }
+            let omega = 4.0 * std::f64::consts::PI - s0 * e[0];
+            solid.push(omega);
+            if !(-1e-12..=bound).contains(&omega) {
+                row.implausible_count += 1;
+            }
+            let Some(t) = t else {
+                row.inside_count += 1;
+                continue;
+            };
+            let occ = occ_rel_l2(e, &t.coeffs);
+            if occ.is_none() {
+                row.unoccluded_truth_count += 1;
+            }
+            let cone = bounding_cone(s.radius, (points[i] - s.center).length());
+            let mut with = |v: &[f64]| {
+                let clamp = self.clamp.map(|c| (c, cone));
+                scale_to_with(
+                    &self.rot,
+                    v,
+                    points[i],
+                    s.center,
+                    exact_m,
+                    clamp,
+                    &mut scaled,
+                );
+                occ_rel_l2(&scaled, &t.coeffs)
+            };
+            let exact_k = with(&self.base.interpolated[i]);
+            let exact_dir = with(&self.base.direct[i]);
+            let model = with(&self.base.converged[i]);
+            let occ_n = occlusion(&t.coeffs);
+            let omega_t = s0 * occ_n[0];
+            let band = (omega_t > 1e-12).then(|| {
+                (1.0 - occ_n.iter().map(|x| x * x).sum::<f64>() / omega_t)
+                    .max(0.0)
+                    .sqrt()
+            });
+            let truth_err = t.rel_error();
+            if let (Some(o), Some(te)) = (occ, truth_err) {
+                if o < 3.0 * te {
+                    row.truth_limited_count += 1;
+                }
+            }
+            per.push(PerProbe {
+                on_surface: self.base.on_surface[i],
+                contact: self.base.facing_occlusion[i] >= self.spec.contact_occlusion,
+                vis: vis_rel_l2(e, &t.coeffs),
+                occ,
+                truth_err,
+                exact_k,
+                exact_dir,
+                model,
+                band,
+            });
+        }
+        row.occ_solid_angle_min = solid.iter().copied().reduce(f64::min);
+        row.occ_solid_angle_max = solid.iter().copied().reduce(f64::max);
+        per
+    }
+}
+
+/// The probe whose truth is the least visible among those with a defined error (the Fig. 5
+/// example), if any.
+fn example_of(truth: &[Option<Truth>], ext: &[(Vec<f64>, ExtrapolationKind)]) -> Option<usize> {
+    truth
+        .iter()
+        .zip(ext)
+        .enumerate()
+        .filter_map(|(i, (t, (e, _)))| {
+            let t = t.as_ref()?;
+            occ_rel_l2(e, &t.coeffs).map(|_| (i, t.coeffs[0]))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+/// A radius's means and maxima over its probes (the error decomposition, on-surface and
+/// contact subsets) into `row`.
+fn summarise(row: &mut ProbeRow, per: &[PerProbe]) {
+    (row.vis_rel_l2_mean, row.vis_rel_l2_max, _) = mean_max(per.iter().map(|x| x.vis));
+    (row.occ_rel_l2_mean, row.occ_rel_l2_max, _) = mean_max(per.iter().map(|x| x.occ));
+    (row.truth_rel_err_mean, row.truth_rel_err_max, _) =
+        mean_max(per.iter().map(|x| x.occ.and(x.truth_err)));
+    (row.occ_rel_l2_exact_k_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.exact_k)));
+    (row.occ_rel_l2_exact_dir_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.exact_dir)));
+    (row.occ_rel_l2_model_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.model)));
+    (row.band_limit_rel_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.band)));
+    row.on_surface_count = per.iter().filter(|x| x.on_surface).count();
+    (row.vis_rel_l2_on_surface_mean, _, _) =
+        mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.vis));
+    (
+        row.occ_rel_l2_on_surface_mean,
+        row.occ_rel_l2_on_surface_max,
+        _,
+    ) = mean_max(per.iter().filter(|x| x.on_surface).map(|x| x.occ));
+    row.contact_count = per.iter().filter(|x| x.contact).count();
+    (row.occ_rel_l2_contact_mean, row.occ_rel_l2_contact_max, _) =
+        mean_max(per.iter().filter(|x| x.contact).map(|x| x.occ));
 }
 
 #[cfg(test)]

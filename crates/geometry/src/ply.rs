@@ -78,19 +78,56 @@ struct Element {
 
 /// Parse PLY bytes into a validated mesh.
 pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
-    let perr = |line: usize, reason: String| GeometryError::Parse {
+    let (lines, pos) = header_lines(file, bytes)?;
+    let (le, elements) = parse_header(file, &lines)?;
+    let body = &bytes[pos..];
+    let text = le
+        .is_none()
+        .then(|| String::from_utf8_lossy(body).to_string());
+    let mut reader = match (&text, le) {
+        (Some(t), _) => Body::Ascii {
+            lines: Box::new(t.lines().enumerate().filter(|(_, l)| !l.trim().is_empty())),
+            header_lines: lines.len(),
+        },
+        (None, Some(le)) => Body::Binary { body, off: 0, le },
+        (None, None) => unreachable!("a format without text is binary"),
+    };
+    let mut out = (Vec::new(), Vec::new());
+    for el in &elements {
+        for idx in 0..el.count {
+            let v = reader.element(file, el, idx)?;
+            add_element(file, el, idx, &v, &mut out)?;
+        }
+    }
+    Mesh::new(file, out.0, out.1, false)
+}
+
+fn perr(file: &str, line: usize, reason: String) -> GeometryError {
+    GeometryError::Parse {
         file: file.into(),
         line,
         reason,
-    };
-    // Header: lines up to "end_header".
+    }
+}
+
+fn invalid(file: &str, element: &'static str, index: usize, reason: String) -> GeometryError {
+    GeometryError::Invalid {
+        file: file.into(),
+        element,
+        index,
+        reason,
+    }
+}
+
+/// The header's lines up to `end_header`, and the byte where the body starts.
+fn header_lines(file: &str, bytes: &[u8]) -> Result<(Vec<String>, usize), GeometryError> {
     let mut pos = 0;
     let mut lines = Vec::new();
     loop {
         let end = bytes[pos..]
             .iter()
             .position(|&c| c == b'\n')
-            .ok_or_else(|| perr(lines.len() + 1, "missing end_header".into()))?;
+            .ok_or_else(|| perr(file, lines.len() + 1, "missing end_header".into()))?;
         let line = String::from_utf8_lossy(&bytes[pos..pos + end])
             .trim_end_matches('\r')
             .to_string();
@@ -103,10 +140,19 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
     }
     if lines[0].trim() != "ply" {
         return Err(perr(
+            file,
             1,
             format!("not a PLY file (first line {:?})", lines[0]),
         ));
     }
+    Ok((lines, pos))
+}
+
+/// The format (`None` ASCII, `Some(little_endian)` binary) and the elements of a header.
+fn parse_header(
+    file: &str,
+    lines: &[String],
+) -> Result<(Option<bool>, Vec<Element>), GeometryError> {
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
     for (i, l) in lines.iter().enumerate().skip(1) {
@@ -116,6 +162,7 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
                 format = w.get(1).map(|s| s.to_string());
                 if w.get(2) != Some(&"1.0") {
                     return Err(perr(
+                        file,
                         i + 1,
                         format!(
                             "unsupported PLY version {:?} (only 1.0 exists)",
@@ -128,7 +175,7 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
                 let count = w
                     .get(2)
                     .and_then(|s| s.parse().ok())
-                    .ok_or_else(|| perr(i + 1, format!("bad element line {l:?}")))?;
+                    .ok_or_else(|| perr(file, i + 1, format!("bad element line {l:?}")))?;
                 elements.push(Element {
                     name: w.get(1).unwrap_or(&"").to_string(),
                     count,
@@ -138,23 +185,15 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
             Some("property") => {
                 let el = elements
                     .last_mut()
-                    .ok_or_else(|| perr(i + 1, "property before any element".into()))?;
-                let p = if w.get(1) == Some(&"list") {
-                    match (
-                        w.get(2).and_then(|s| Scalar::parse(s)),
-                        w.get(3).and_then(|s| Scalar::parse(s)),
-                        w.get(4),
-                    ) {
-                        (Some(c), Some(v), Some(n)) => Prop::List(n.to_string(), c, v),
-                        _ => return Err(perr(i + 1, format!("bad list property {l:?}"))),
-                    }
-                } else {
-                    match (w.get(1).and_then(|s| Scalar::parse(s)), w.get(2)) {
-                        (Some(t), Some(n)) => Prop::Scalar(n.to_string(), t),
-                        _ => return Err(perr(i + 1, format!("bad property {l:?}"))),
-                    }
-                };
-                el.props.push(p);
+                    .ok_or_else(|| perr(file, i + 1, "property before any element".into()))?;
+                el.props.push(parse_property(&w).ok_or_else(|| {
+                    let what = if w.get(1) == Some(&"list") {
+                        "list property"
+                    } else {
+                        "property"
+                    };
+                    perr(file, i + 1, format!("bad {what} {l:?}"))
+                })?);
             }
             _ => {}
         }
@@ -163,143 +202,165 @@ pub fn parse_ply(file: &str, bytes: &[u8]) -> Result<Mesh, GeometryError> {
         Some("ascii") => None,
         Some("binary_little_endian") => Some(true),
         Some("binary_big_endian") => Some(false),
-        other => return Err(perr(2, format!("unsupported format {other:?}"))),
+        other => return Err(perr(file, 2, format!("unsupported format {other:?}"))),
     };
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    let header_lines = lines.len();
-    let body = &bytes[pos..];
-    let text = if le.is_none() {
-        Some(String::from_utf8_lossy(body).to_string())
+    Ok((le, elements))
+}
+
+/// `property <type> <name>` or `property list <count type> <value type> <name>`.
+fn parse_property(w: &[&str]) -> Option<Prop> {
+    if w.get(1) == Some(&"list") {
+        let (c, v, n) = (
+            Scalar::parse(w.get(2)?)?,
+            Scalar::parse(w.get(3)?)?,
+            w.get(4)?,
+        );
+        Some(Prop::List(n.to_string(), c, v))
     } else {
-        None
-    };
-    let mut ascii_lines = text
-        .as_deref()
-        .map(|t| t.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()));
-    let mut off = 0usize;
-    for el in &elements {
-        for idx in 0..el.count {
-            // Read one element's values: scalars, and lists as vectors.
-            let mut scalars: Vec<(String, f64)> = Vec::new();
-            let mut lists: Vec<(String, Vec<f64>)> = Vec::new();
-            if let Some(lines) = ascii_lines.as_mut() {
+        Some(Prop::Scalar(
+            w.get(2)?.to_string(),
+            Scalar::parse(w.get(1)?)?,
+        ))
+    }
+}
+
+/// One element's values: scalars by name, and lists as vectors.
+#[derive(Default)]
+struct Values {
+    scalars: Vec<(String, f64)>,
+    lists: Vec<(String, Vec<f64>)>,
+}
+
+/// The body of a PLY file, read element by element.
+enum Body<'a> {
+    Ascii {
+        lines: Box<dyn Iterator<Item = (usize, &'a str)> + 'a>,
+        header_lines: usize,
+    },
+    Binary {
+        body: &'a [u8],
+        off: usize,
+        le: bool,
+    },
+}
+
+impl Body<'_> {
+    fn element(&mut self, file: &str, el: &Element, idx: usize) -> Result<Values, GeometryError> {
+        let mut v = Values::default();
+        match self {
+            Body::Ascii {
+                lines,
+                header_lines,
+            } => {
                 let (ln, line) = lines.next().ok_or_else(|| {
-                    perr(
-                        header_lines,
-                        format!("file ends inside element {} {idx}", el.name),
-                    )
+                    let m = format!("file ends inside element {} {idx}", el.name);
+                    perr(file, *header_lines, m)
                 })?;
-                let line_no = header_lines + ln + 1;
+                let line_no = *header_lines + ln + 1;
                 let mut toks = line.split_whitespace().map(|t| t.parse::<f64>());
                 let mut next = || -> Result<f64, GeometryError> {
+                    let m = |what: &str| perr(file, line_no, format!("{} {idx}: {what}", el.name));
                     toks.next()
-                        .ok_or_else(|| perr(line_no, format!("{} {idx}: too few values", el.name)))?
-                        .map_err(|_| perr(line_no, format!("{} {idx}: not a number", el.name)))
+                        .ok_or_else(|| m("too few values"))?
+                        .map_err(|_| m("not a number"))
                 };
                 for p in &el.props {
                     match p {
-                        Prop::Scalar(n, _) => scalars.push((n.clone(), next()?)),
+                        Prop::Scalar(n, _) => v.scalars.push((n.clone(), next()?)),
                         Prop::List(n, _, _) => {
                             let c = next()?;
                             if !(c >= 0.0 && c.fract() == 0.0) {
-                                return Err(perr(
-                                    line_no,
-                                    format!("{} {idx}: bad list length {c}", el.name),
-                                ));
+                                let m = format!("{} {idx}: bad list length {c}", el.name);
+                                return Err(perr(file, line_no, m));
                             }
-                            let v = (0..c as usize)
-                                .map(|_| next())
-                                .collect::<Result<Vec<_>, _>>()?;
-                            lists.push((n.clone(), v));
+                            let l = (0..c as usize).map(|_| next()).collect::<Result<_, _>>()?;
+                            v.lists.push((n.clone(), l));
                         }
                     }
                 }
-            } else {
-                let le = le.unwrap();
-                let short = || GeometryError::Invalid {
-                    file: file.into(),
-                    element: "element",
-                    index: idx,
-                    reason: format!("file ends inside {} {idx}", el.name),
-                };
+            }
+            Body::Binary { body, off, le } => {
                 let mut take = |t: Scalar| -> Result<f64, GeometryError> {
                     let s = t.size();
-                    let b = body.get(off..off + s).ok_or_else(short)?;
-                    off += s;
-                    Ok(t.read(b, le))
+                    let b = body.get(*off..*off + s).ok_or_else(|| {
+                        invalid(
+                            file,
+                            "element",
+                            idx,
+                            format!("file ends inside {} {idx}", el.name),
+                        )
+                    })?;
+                    *off += s;
+                    Ok(t.read(b, *le))
                 };
                 for p in &el.props {
                     match p {
-                        Prop::Scalar(n, t) => scalars.push((n.clone(), take(*t)?)),
+                        Prop::Scalar(n, t) => v.scalars.push((n.clone(), take(*t)?)),
                         Prop::List(n, c, t) => {
                             let count = take(*c)? as usize;
-                            let v = (0..count)
-                                .map(|_| take(*t))
-                                .collect::<Result<Vec<_>, _>>()?;
-                            lists.push((n.clone(), v));
+                            let l = (0..count).map(|_| take(*t)).collect::<Result<_, _>>()?;
+                            v.lists.push((n.clone(), l));
                         }
                     }
                 }
-            }
-            match el.name.as_str() {
-                "vertex" => {
-                    let get = |k: &str| scalars.iter().find(|(n, _)| n == k).map(|(_, v)| *v);
-                    match (get("x"), get("y"), get("z")) {
-                        (Some(x), Some(y), Some(z)) => positions.push(DVec3::new(x, y, z)),
-                        _ => {
-                            return Err(GeometryError::Invalid {
-                                file: file.into(),
-                                element: "vertex",
-                                index: idx,
-                                reason: "missing x, y or z property".into(),
-                            })
-                        }
-                    }
-                }
-                "face" => {
-                    let Some((_, v)) = lists
-                        .iter()
-                        .find(|(n, _)| n == "vertex_indices" || n == "vertex_index")
-                    else {
-                        return Err(GeometryError::Invalid {
-                            file: file.into(),
-                            element: "face",
-                            index: idx,
-                            reason: "no vertex_indices list".into(),
-                        });
-                    };
-                    if v.len() < 3 {
-                        return Err(GeometryError::Invalid {
-                            file: file.into(),
-                            element: "face",
-                            index: idx,
-                            reason: format!("{} vertices", v.len()),
-                        });
-                    }
-                    let known = if positions.is_empty() {
-                        u32::MAX as f64
-                    } else {
-                        positions.len() as f64 - 1.0
-                    };
-                    if let Some(bad) = v
-                        .iter()
-                        .find(|x| **x < 0.0 || x.fract() != 0.0 || **x > known)
-                    {
-                        return Err(GeometryError::Invalid {
-                            file: file.into(),
-                            element: "face",
-                            index: idx,
-                            reason: format!("bad vertex index {bad}"),
-                        });
-                    }
-                    for k in 1..v.len() - 1 {
-                        triangles.push([v[0] as u32, v[k] as u32, v[k + 1] as u32]);
-                    }
-                }
-                _ => {}
             }
         }
+        Ok(v)
     }
-    Mesh::new(file, positions, triangles, false)
+}
+
+/// Add a `vertex` (its x, y, z) or a `face` (fanned into triangles, every index checked) to
+/// `(positions, triangles)`; other elements are skipped.
+fn add_element(
+    file: &str,
+    el: &Element,
+    idx: usize,
+    v: &Values,
+    (positions, triangles): &mut (Vec<DVec3>, Vec<[u32; 3]>),
+) -> Result<(), GeometryError> {
+    match el.name.as_str() {
+        "vertex" => {
+            let get = |k: &str| v.scalars.iter().find(|(n, _)| n == k).map(|(_, v)| *v);
+            let (Some(x), Some(y), Some(z)) = (get("x"), get("y"), get("z")) else {
+                return Err(invalid(
+                    file,
+                    "vertex",
+                    idx,
+                    "missing x, y or z property".into(),
+                ));
+            };
+            positions.push(DVec3::new(x, y, z));
+        }
+        "face" => {
+            let Some((_, f)) =
+                (v.lists.iter()).find(|(n, _)| n == "vertex_indices" || n == "vertex_index")
+            else {
+                return Err(invalid(file, "face", idx, "no vertex_indices list".into()));
+            };
+            if f.len() < 3 {
+                return Err(invalid(file, "face", idx, format!("{} vertices", f.len())));
+            }
+            let known = if positions.is_empty() {
+                u32::MAX as f64
+            } else {
+                positions.len() as f64 - 1.0
+            };
+            if let Some(bad) = f
+                .iter()
+                .find(|x| **x < 0.0 || x.fract() != 0.0 || **x > known)
+            {
+                return Err(invalid(
+                    file,
+                    "face",
+                    idx,
+                    format!("bad vertex index {bad}"),
+                ));
+            }
+            for k in 1..f.len() - 1 {
+                triangles.push([f[0] as u32, f[k] as u32, f[k + 1] as u32]);
+            }
+        }
+        _ => {}
+    }
+    Ok(())
 }

@@ -79,46 +79,125 @@ pub fn run_plan(
             p.display()
         )))
     };
-    // Check the manifest and the existing rows before any work.
-    let loaded = {
-        let _lock = DirLock::acquire(&dir, &waiting)?;
-        if let Some(m) = Manifest::read(&dir)? {
-            if m.experiment != kind.name() {
-                return Err(Error::Io {
-                    path: dir.join("manifest.toml").display().to_string(),
-                    reason: format!("belongs to experiment {:?}", m.experiment),
-                });
-            }
-        }
-        let l = load_rows(kind, &csv)?;
-        for (line, why, _) in &l.rejected {
-            progress(RunEvent::Warn(&format!(
-                "{}:{line}: row set aside ({why}); kept in {}.rejected",
-                csv.display(),
-                csv.display()
-            )));
-        }
-        if !l.rejected.is_empty() {
-            // Keep what was set aside, then leave only valid rows in the CSV.
-            keep_rejected(&csv, &l.rejected)?;
-            write_atomic(&csv, &records::write_text(&header(kind), &l.rows)?)?;
-        }
-        l
-    };
+    let loaded = load_checked(plan, &dir, &csv, &waiting, progress)?;
     let device = kind.open_device(plan.gpu)?;
     let gpu_device = device
         .as_ref()
         .map_or("none".to_string(), |d| d.description().to_string());
-    let prov = Provenance::here(&gpu_device);
-    let version = Version {
+    let mine: Vec<usize> = (0..plan.runs.len())
+        .filter(|i| shard.is_none_or(|(s, n)| i % n == s))
+        .collect();
+    let pending: Vec<usize> = (mine.iter().copied())
+        .filter(|&i| !loaded.complete.contains(&plan.runs[i].id))
+        .collect();
+    let rejected_ids: BTreeSet<String> = (loaded.rejected.iter())
+        .filter_map(|(_, _, r)| r.first().cloned())
+        .collect();
+    let mut summary = RunSummary {
+        dir: dir.clone(),
+        csv: csv.clone(),
+        in_shard: mine.len(),
+        already_done: mine.len() - pending.len(),
+        ran: 0,
+        redone: (pending.iter())
+            .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
+            .count(),
+    };
+    progress(RunEvent::Begin {
+        total: mine.len(),
+        pending: pending.len(),
+    });
+    let writer = Writer {
+        plan,
+        dir: &dir,
+        csv: &csv,
+        version: version_of(plan, Provenance::here(&gpu_device)),
+        order: (plan.runs.iter().enumerate())
+            .map(|(i, r)| (r.id.as_str(), i))
+            .collect(),
+        threads: rayon::current_num_threads(),
+        ran: std::sync::Mutex::new(0),
+        waiting: &waiting,
+    };
+    let ctx = Ctx {
+        dir: &dir,
+        config_dir: config_dir(plan),
+        device: device.as_ref(),
+        timing: plan.timing,
+    };
+    for g in plan.groups() {
+        let runs: Vec<&Resolved> = (g.iter())
+            .filter(|i| pending.contains(i))
+            .map(|&i| &plan.runs[i])
+            .collect();
+        if runs.is_empty() {
+            continue;
+        }
+        progress(RunEvent::Shared(&format!(
+            "shared work for {} run(s): {}",
+            runs.len(),
+            runs[0].group.chars().take(120).collect::<String>()
+        )));
+        let concurrent = plan.parallel_runs && runs.len() > 1;
+        kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
+            writer.write_run(r, rows, concurrent)?;
+            progress(RunEvent::Done(&format!(
+                "{} {} in {secs:.2} s",
+                r.id, r.canonical
+            )));
+            Ok(())
+        })?;
+    }
+    summary.ran = *writer.ran.lock().unwrap_or_else(|e| e.into_inner());
+    Ok(summary)
+}
+
+/// Check the manifest and the existing rows before any work: a directory of another kind is
+/// refused; rows set aside are kept in `<csv>.rejected` (with a warning each) and the CSV keeps
+/// only the valid ones.
+fn load_checked(
+    plan: &Plan,
+    dir: &Path,
+    csv: &Path,
+    waiting: &dyn Fn(&Path),
+    progress: &(dyn Fn(RunEvent) + Sync),
+) -> Result<crate::store::Loaded, Error> {
+    let kind = plan.kind;
+    let _lock = DirLock::acquire(dir, waiting)?;
+    if let Some(m) = Manifest::read(dir)? {
+        if m.experiment != kind.name() {
+            return Err(Error::Io {
+                path: dir.join("manifest.toml").display().to_string(),
+                reason: format!("belongs to experiment {:?}", m.experiment),
+            });
+        }
+    }
+    let l = load_rows(kind, csv)?;
+    for (line, why, _) in &l.rejected {
+        progress(RunEvent::Warn(&format!(
+            "{}:{line}: row set aside ({why}); kept in {}.rejected",
+            csv.display(),
+            csv.display()
+        )));
+    }
+    if !l.rejected.is_empty() {
+        keep_rejected(csv, &l.rejected)?;
+        write_atomic(csv, &records::write_text(&header(kind), &l.rows)?)?;
+    }
+    Ok(l)
+}
+
+/// The config version a plan runs as: its id hashes the text, the overrides and the revision.
+fn version_of(plan: &Plan, prov: Provenance) -> Version {
+    let dirty = if prov.git_dirty { "+dirty" } else { "" };
+    Version {
         id: records::run_id(
             "version",
             &format!(
-                "{}\n{}\n{}{}",
+                "{}\n{}\n{}{dirty}",
                 plan.text,
                 plan.overrides.join(" "),
                 prov.git_revision,
-                if prov.git_dirty { "+dirty" } else { "" }
             ),
         ),
         config_file: plan.file.clone(),
@@ -127,59 +206,48 @@ pub fn run_plan(
         runs_in_plan: plan.runs.len(),
         first_unix_time: prov.unix_time,
         last_unix_time: prov.unix_time,
-        provenance: prov.clone(),
+        provenance: prov,
         config_text: plan.text.clone(),
-    };
-    let mine: Vec<usize> = (0..plan.runs.len())
-        .filter(|i| shard.is_none_or(|(s, n)| i % n == s))
-        .collect();
-    let rejected_ids: BTreeSet<String> = loaded
-        .rejected
-        .iter()
-        .filter_map(|(_, _, r)| r.first().cloned())
-        .collect();
-    let pending: Vec<usize> = mine
-        .iter()
-        .copied()
-        .filter(|&i| !loaded.complete.contains(&plan.runs[i].id))
-        .collect();
-    let mut summary = RunSummary {
-        dir: dir.clone(),
-        csv: csv.clone(),
-        in_shard: mine.len(),
-        already_done: mine.len() - pending.len(),
-        ran: 0,
-        redone: pending
-            .iter()
-            .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
-            .count(),
-    };
-    progress(RunEvent::Begin {
-        total: mine.len(),
-        pending: pending.len(),
-    });
-    let order: HashMap<&str, usize> = plan
-        .runs
-        .iter()
-        .enumerate()
-        .map(|(i, r)| (r.id.as_str(), i))
-        .collect();
-    let ran = std::sync::Mutex::new(0usize);
-    let concurrent_of = |group_len: usize| plan.parallel_runs && group_len > 1;
-    let threads = rayon::current_num_threads();
-    let write_run = |r: &Resolved, rows: RowCells, concurrent: bool| -> Result<(), Error> {
-        let mut count = ran.lock().unwrap_or_else(|e| e.into_inner());
-        let _lock = DirLock::acquire(&dir, &waiting)?;
+    }
+}
+
+/// The folder of the config file (`.` for a bare name): paths in parameters are relative to it.
+fn config_dir(plan: &Plan) -> &Path {
+    Path::new(&plan.file)
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// Writes a finished run's rows, with the manifest that describes them, under the lock.
+struct Writer<'a> {
+    plan: &'a Plan,
+    dir: &'a Path,
+    csv: &'a Path,
+    version: Version,
+    /// Plan order of the run ids (rows are kept in it).
+    order: HashMap<&'a str, usize>,
+    threads: usize,
+    /// Runs written by this process.
+    ran: std::sync::Mutex<usize>,
+    waiting: &'a (dyn Fn(&Path) + Sync),
+}
+
+impl Writer<'_> {
+    fn write_run(&self, r: &Resolved, rows: RowCells, concurrent: bool) -> Result<(), Error> {
+        let kind = self.plan.kind;
+        let mut count = self.ran.lock().unwrap_or_else(|e| e.into_inner());
+        let _lock = DirLock::acquire(self.dir, self.waiting)?;
         // Re-read under the lock: another process may have added rows.
-        let mut cur = load_rows(kind, &csv)?;
+        let mut cur = load_rows(kind, self.csv)?;
         if !cur.complete.contains(&r.id) {
             let prov = RowProvenance {
-                threads,
+                threads: self.threads,
                 timing_concurrent: concurrent,
-                timing_warmup: plan.timing.warmup,
-                timing_repeats: plan.timing.repeats,
-                git_revision: version.provenance.git_revision.clone(),
-                git_dirty: version.provenance.git_dirty,
+                timing_warmup: self.plan.timing.warmup,
+                timing_repeats: self.plan.timing.repeats,
+                git_revision: self.version.provenance.git_revision.clone(),
+                git_dirty: self.version.provenance.git_dirty,
             };
             let (_, pcells) = records::to_cells(&prov).map_err(Error::Config)?;
             for row in rows {
@@ -194,62 +262,26 @@ pub fn run_plan(
         // their order (a stable sort).
         cur.rows.sort_by_key(|row| {
             row.first()
-                .and_then(|id| order.get(id.as_str()))
+                .and_then(|id| self.order.get(id.as_str()))
                 .map_or(0, |i| i + 1)
         });
-        let mut m = Manifest::read(&dir)?.unwrap_or(Manifest {
+        let mut m = Manifest::read(self.dir)?.unwrap_or(Manifest {
             experiment: kind.name().into(),
-            name: plan.name.clone(),
+            name: self.plan.name.clone(),
             versions: Vec::new(),
         });
-        let mut v = version.clone();
+        let mut v = self.version.clone();
         v.last_unix_time = unix_now();
         m.add(&v);
         // The rows and the manifest that describes them, as a unit.
         write_atomic_all(&[
-            (&csv, &records::write_text(&header(kind), &cur.rows)?),
+            (self.csv, &records::write_text(&header(kind), &cur.rows)?),
             (
-                &dir.join("manifest.toml"),
+                &self.dir.join("manifest.toml"),
                 &toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?,
             ),
         ])?;
         *count += 1;
         Ok(())
-    };
-    let config_dir = Path::new(&plan.file)
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let ctx = Ctx {
-        dir: &dir,
-        config_dir,
-        device: device.as_ref(),
-        timing: plan.timing,
-    };
-    for g in plan.groups() {
-        let runs: Vec<&Resolved> = g
-            .iter()
-            .filter(|i| pending.contains(i))
-            .map(|&i| &plan.runs[i])
-            .collect();
-        if runs.is_empty() {
-            continue;
-        }
-        progress(RunEvent::Shared(&format!(
-            "shared work for {} run(s): {}",
-            runs.len(),
-            runs[0].group.chars().take(120).collect::<String>()
-        )));
-        let concurrent = concurrent_of(runs.len());
-        kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
-            write_run(r, rows, concurrent)?;
-            progress(RunEvent::Done(&format!(
-                "{} {} in {secs:.2} s",
-                r.id, r.canonical
-            )));
-            Ok(())
-        })?;
     }
-    summary.ran = *ran.lock().unwrap_or_else(|e| e.into_inner());
-    Ok(summary)
 }

@@ -8,6 +8,7 @@
 use crate::error::Error;
 use crate::frame::{
     build_emitters, build_occluder, light_of, pose_mesh, receiver_grid, sequence_sphere, table_for,
+    LightSource,
 };
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
@@ -15,7 +16,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
-use shscale_field::shading::Shader;
+use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
@@ -84,66 +85,18 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
 
 /// Render `scene` with `method`.
 pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
-    let mut stages = Vec::new();
-    let t = Instant::now();
-    let light = light_of(scene)?;
-    stages.push(("light_projection".to_string(), t.elapsed().as_secs_f64()));
-    let t = Instant::now();
-    let occs: Vec<Box<dyn Occluder>> = scene
-        .occluders
-        .iter()
-        .map(|o| build_occluder(&o.mesh, o.center, o.radius, o.up_is_y))
-        .collect::<Result<_, _>>()?;
-    stages.push(("bvh_build".to_string(), t.elapsed().as_secs_f64()));
-    let [w, h] = scene.resolution;
+    let mut stages = Stages::default();
+    let light = stages.time("light_projection", || light_of(scene))?;
+    let occs: Vec<Box<dyn Occluder>> = stages.time("bvh_build", || {
+        (scene.occluders.iter())
+            .map(|o| build_occluder(&o.mesh, o.center, o.radius, o.up_is_y))
+            .collect::<Result<_, _>>()
+    })?;
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
-    let mut bsvs = Vec::new();
-    let mut tables = Vec::new();
-    let mut fulls = Vec::new();
-    match method {
-        Method::Extrapolated => {
-            let t = Instant::now();
-            for o in &occs {
-                bsvs.push(Bsv::sample(
-                    o.as_ref(),
-                    scene.layout,
-                    &sampler,
-                    scene.sampling_radius,
-                    0.0,
-                )?);
-            }
-            stages.push(("bsv_sampling".to_string(), t.elapsed().as_secs_f64()));
-            let t = Instant::now();
-            for (o, b) in occs.iter().zip(&bsvs) {
-                let s = Sphere {
-                    center: o.bounding_sphere().center,
-                    radius: b.sampling_radius,
-                };
-                tables.push(table_for(scene, s, &recv, Eta::Plain)?);
-            }
-            stages.push(("table_build".to_string(), t.elapsed().as_secs_f64()));
-        }
-        Method::FullField => {
-            let t = Instant::now();
-            for o in &occs {
-                fulls.push(FullField::build(
-                    o.as_ref(),
-                    scene.layout,
-                    &sampler,
-                    16,
-                    scene.sampling_radius,
-                    8.0 * scene.sampling_radius,
-                )?);
-            }
-            stages.push(("full_field_build".to_string(), t.elapsed().as_secs_f64()));
-        }
-        Method::RayTraced | Method::FullFrequency => {}
-    }
-    let exs: Vec<Extrapolator> = bsvs
-        .iter()
-        .zip(&tables)
+    let built = build_fields(scene, method, &occs, &sampler, &recv, &mut stages)?;
+    let exs: Vec<Extrapolator> = (built.bsvs.iter().zip(&built.tables))
         .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(scene.plausibility))
         .collect();
     let truth = shscale_field::truth::TruthSampler::new(
@@ -151,175 +104,312 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         scene.truth_res,
         shscale_field::truth::DEFAULT_TRUTH_SEED,
     )?;
-    let rts: Vec<ConvergedTruth> = if method == Method::RayTraced {
-        occs.iter()
+    let rts: Vec<ConvergedTruth> = match method {
+        Method::RayTraced => (occs.iter())
             .map(|o| ConvergedTruth {
                 occ: o.as_ref(),
                 truth: &truth,
             })
-            .collect()
-    } else {
-        Vec::new()
+            .collect(),
+        _ => Vec::new(),
     };
     let fields: Vec<&dyn VisibilityField> = match method {
         Method::Extrapolated => exs.iter().map(|e| e as &dyn VisibilityField).collect(),
-        Method::FullField => fulls.iter().map(|f| f as &dyn VisibilityField).collect(),
+        Method::FullField => (built.fulls.iter())
+            .map(|f| f as &dyn VisibilityField)
+            .collect(),
         Method::RayTraced => rts.iter().map(|r| r as &dyn VisibilityField).collect(),
         Method::FullFrequency => Vec::new(),
     };
-    let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
     if !emitters.is_empty() {
-        stages.push(("light_sources_build".to_string(), t.elapsed().as_secs_f64()));
+        stages.push("light_sources_build", t);
     }
     if method == Method::FullFrequency {
-        let t = Instant::now();
-        let refs: Vec<&dyn Occluder> = occs.iter().map(|o| o.as_ref()).collect();
-        let ems: Vec<[Option<&Emitter>; 3]> = emitters
-            .iter()
-            .map(|e| [0, 1, 2].map(|c| e.channels[c].as_ref()))
-            .collect();
-        let both: Vec<shscale_field::shading::Irradiance> = recv
-            .par_iter()
-            .map(|p| {
-                shscale_field::shading::irradiance_exact(
-                    &light,
-                    &refs,
-                    &ems,
-                    *p,
-                    DVec3::Z,
-                    scene.truth_res,
-                    shscale_field::truth::DEFAULT_TRUTH_SEED,
-                )
-            })
-            .collect();
-        let pixels = both.iter().map(|x| x.e.map(|v| v as f32)).collect();
-        let error = both.iter().map(|x| x.err.map(|v| v as f32)).collect();
-        stages.push((
-            "full_frequency_truth".to_string(),
-            t.elapsed().as_secs_f64(),
+        return Ok(render_full_frequency(
+            scene, &light, &occs, &emitters, &recv, stages,
         ));
-        return Ok(RenderOutput {
-            width: w,
-            height: h,
-            pixels,
-            stages,
-            products: 0,
-            skipped: 0,
-            error,
-        });
     }
-    // Source radiance fields of the local lights (docs/conventions.md §4).
     let t = Instant::now();
-    let mut light_fields: Vec<LightField> = Vec::new();
+    let light_fields = light_fields(scene, method, &emitters, &sampler, &recv)?;
     if !emitters.is_empty() {
-        if method == Method::FullField {
-            return Err(Error::config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
-        }
-        for e in &emitters {
-            let mut lf = LightField {
-                bsvs: [None, None, None],
-                table: None,
-            };
-            for c in 0..3 {
-                if let (Some(em), Method::Extrapolated) = (&e.channels[c], method) {
-                    lf.bsvs[c] = Some(shscale_field::srf::radiance_bsv(
-                        em,
-                        scene.layout,
-                        &sampler,
-                        1.0,
-                    )?);
-                }
-            }
-            if method == Method::Extrapolated {
-                let eta = if e.energy { Eta::Energy } else { Eta::Plain };
-                lf.table = Some(table_for(scene, e.sphere, &recv, eta)?);
-            }
-            light_fields.push(lf);
-        }
-        stages.push(("light_fields".to_string(), t.elapsed().as_secs_f64()));
+        stages.push("light_fields", t);
     }
     let t = Instant::now();
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
-    let extrapolators: Vec<[Option<Extrapolator>; 3]> = light_fields
-        .iter()
-        .map(|lf| {
-            [0, 1, 2].map(|c| {
-                lf.bsvs[c].as_ref().map(|b| {
-                    Extrapolator::for_light(b, lf.table.as_ref().expect("table with BSVs"))
-                })
-            })
-        })
-        .collect();
-    let nn = scene.order * scene.order;
     // Band-limited truth of one occluder and no local lights: the truth's own error per receiver,
     // |⟨T, (A − B)/2⟩| (irradiance is linear in the visibility), beside the pixel.
     if let (Method::RayTraced, [o], true) = (method, occs.as_slice(), emitters.is_empty()) {
-        let both: Vec<([f32; 3], [f32; 3], usize)> = recv
-            .par_iter()
-            .map(|p| {
-                let t = truth.sample(o.as_ref(), *p);
-                let e = Shader::shade(&transfer, &t.coeffs);
-                let d = Shader::shade(&transfer, &t.half_diff);
-                (
-                    e.map(|x| x as f32),
-                    d.map(|x| x.abs() as f32),
-                    usize::from(t.escaped == t.rays),
-                )
-            })
-            .collect();
-        stages.push(("shading".to_string(), t.elapsed().as_secs_f64()));
+        let out = truth_with_error(scene, o.as_ref(), &truth, &transfer, &recv);
+        stages.push("shading", t);
         return Ok(RenderOutput {
-            width: w,
-            height: h,
-            pixels: both.iter().map(|x| x.0).collect(),
-            stages,
-            products: 0,
-            skipped: both.iter().map(|x| x.2).sum(),
-            error: both.iter().map(|x| x.1).collect(),
+            stages: stages.0,
+            ..out
         });
     }
+    let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
+    let local = LocalLights {
+        emitters: &emitters,
+        extrapolators: (light_fields.iter())
+            .map(|lf| {
+                [0, 1, 2].map(|c| {
+                    lf.bsvs[c].as_ref().map(|b| {
+                        Extrapolator::for_light(b, lf.table.as_ref().expect("table with BSVs"))
+                    })
+                })
+            })
+            .collect(),
+        sampler: &sampler,
+    };
     let shaded: Vec<([f32; 3], usize, usize)> = recv
         .par_iter()
         .map(|p| {
             let (v, products, skipped) = shader.combined_visibility_counted(&fields, &centers, *p);
             let mut e = Shader::shade(&transfer, &v);
-            // Local lights: radiance at p (extrapolated or ray traced), contracted with the lobe.
-            let mut l = vec![0.0; nn];
-            let mut m = shscale_scaling::ScalingMatrix::identity(scene.order).expect("valid order");
-            for (k, em) in emitters.iter().enumerate() {
-                for c in 0..3 {
-                    let Some(emitter) = &em.channels[c] else {
-                        continue;
-                    };
-                    match &extrapolators.get(k).and_then(|x| x[c].as_ref()) {
-                        Some(x) => {
-                            x.eval(*p, &mut m, &mut l);
-                        }
-                        None => l.copy_from_slice(
-                            &sampler
-                                .radiance_full_sphere(emitter, *p, shscale_field::Frame::Entity)
-                                .0,
-                        ),
-                    }
-                    e[c] += shader.shade_local(&l, DVec3::Z, &v);
-                }
-            }
+            local.add(scene.order, &shader, *p, &v, &mut e);
             (e.map(|x| x as f32), products, skipped)
         })
         .collect();
-    stages.push(("shading".to_string(), t.elapsed().as_secs_f64()));
+    stages.push("shading", t);
     Ok(RenderOutput {
-        width: w,
-        height: h,
+        width: scene.resolution[0],
+        height: scene.resolution[1],
         pixels: shaded.iter().map(|s| s.0).collect(),
-        stages,
+        stages: stages.0,
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
         error: Vec::new(),
     })
+}
+
+/// `(stage, seconds)` in execution order.
+#[derive(Default)]
+struct Stages(Vec<(String, f64)>);
+
+impl Stages {
+    /// Record the stage `name` as begun at `t0` and ended now.
+    fn push(&mut self, name: &str, t0: Instant) {
+        self.0.push((name.to_string(), t0.elapsed().as_secs_f64()));
+    }
+
+    /// Run `f` as the stage `name`.
+    fn time<T>(&mut self, name: &str, f: impl FnOnce() -> Result<T, Error>) -> Result<T, Error> {
+        let t = Instant::now();
+        let out = f()?;
+        self.push(name, t);
+        Ok(out)
+    }
+}
+
+/// The per-occluder fields a method needs: BSVs and k-tables (extrapolated) or full fields.
+#[derive(Default)]
+struct Built {
+    bsvs: Vec<Bsv>,
+    tables: Vec<KTable>,
+    fulls: Vec<FullField>,
+}
+
+fn build_fields(
+    scene: &Scene,
+    method: Method,
+    occs: &[Box<dyn Occluder>],
+    sampler: &VisibilitySampler,
+    recv: &[DVec3],
+    stages: &mut Stages,
+) -> Result<Built, Error> {
+    let mut b = Built::default();
+    match method {
+        Method::Extrapolated => {
+            b.bsvs = stages.time("bsv_sampling", || {
+                (occs.iter())
+                    .map(|o| {
+                        let r = scene.sampling_radius;
+                        Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?)
+                    })
+                    .collect::<Result<_, Error>>()
+            })?;
+            let bsvs = &b.bsvs;
+            b.tables = stages.time("table_build", || {
+                (occs.iter().zip(bsvs))
+                    .map(|(o, b)| {
+                        let s = Sphere {
+                            center: o.bounding_sphere().center,
+                            radius: b.sampling_radius,
+                        };
+                        table_for(scene, s, recv, Eta::Plain)
+                    })
+                    .collect()
+            })?;
+        }
+        Method::FullField => {
+            let r = scene.sampling_radius;
+            b.fulls = stages.time("full_field_build", || {
+                (occs.iter())
+                    .map(|o| {
+                        Ok(FullField::build(
+                            o.as_ref(),
+                            scene.layout,
+                            sampler,
+                            16,
+                            r,
+                            8.0 * r,
+                        )?)
+                    })
+                    .collect::<Result<_, Error>>()
+            })?;
+        }
+        Method::RayTraced | Method::FullFrequency => {}
+    }
+    Ok(b)
+}
+
+/// Full-frequency truth: `∫ L Π V cos⁺` by direct quadrature with exact visibility per receiver,
+/// with the quadrature's own error estimate.
+fn render_full_frequency(
+    scene: &Scene,
+    light: &EnvLight,
+    occs: &[Box<dyn Occluder>],
+    emitters: &[LightSource],
+    recv: &[DVec3],
+    mut stages: Stages,
+) -> RenderOutput {
+    let t = Instant::now();
+    let refs: Vec<&dyn Occluder> = occs.iter().map(|o| o.as_ref()).collect();
+    let ems: Vec<[Option<&Emitter>; 3]> = (emitters.iter())
+        .map(|e| [0, 1, 2].map(|c| e.channels[c].as_ref()))
+        .collect();
+    let both: Vec<shscale_field::shading::Irradiance> = recv
+        .par_iter()
+        .map(|p| {
+            shscale_field::shading::irradiance_exact(
+                light,
+                &refs,
+                &ems,
+                *p,
+                DVec3::Z,
+                scene.truth_res,
+                shscale_field::truth::DEFAULT_TRUTH_SEED,
+            )
+        })
+        .collect();
+    stages.push("full_frequency_truth", t);
+    RenderOutput {
+        width: scene.resolution[0],
+        height: scene.resolution[1],
+        pixels: both.iter().map(|x| x.e.map(|v| v as f32)).collect(),
+        stages: stages.0,
+        products: 0,
+        skipped: 0,
+        error: both.iter().map(|x| x.err.map(|v| v as f32)).collect(),
+    }
+}
+
+/// Source radiance fields of the local lights (docs/conventions.md §4): per channel a radiance
+/// BSV and the η k-table for the extrapolated method; nothing to build for ray tracing.
+fn light_fields(
+    scene: &Scene,
+    method: Method,
+    emitters: &[LightSource],
+    sampler: &VisibilitySampler,
+    recv: &[DVec3],
+) -> Result<Vec<LightField>, Error> {
+    if emitters.is_empty() {
+        return Ok(Vec::new());
+    }
+    if method == Method::FullField {
+        return Err(Error::config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
+    }
+    let mut out = Vec::new();
+    for e in emitters {
+        let mut lf = LightField {
+            bsvs: [None, None, None],
+            table: None,
+        };
+        if method == Method::Extrapolated {
+            for c in 0..3 {
+                if let Some(em) = &e.channels[c] {
+                    let b = shscale_field::srf::radiance_bsv(em, scene.layout, sampler, 1.0)?;
+                    lf.bsvs[c] = Some(b);
+                }
+            }
+            let eta = if e.energy { Eta::Energy } else { Eta::Plain };
+            lf.table = Some(table_for(scene, e.sphere, recv, eta)?);
+        }
+        out.push(lf);
+    }
+    Ok(out)
+}
+
+/// The band-limited truth of one occluder shaded per receiver, with its own error estimate
+/// `|⟨T, (A − B)/2⟩|` and, as `skipped`, the receivers it leaves unoccluded.
+fn truth_with_error(
+    scene: &Scene,
+    o: &dyn Occluder,
+    truth: &shscale_field::truth::TruthSampler,
+    transfer: &[Vec<f64>; 3],
+    recv: &[DVec3],
+) -> RenderOutput {
+    let both: Vec<([f32; 3], [f32; 3], usize)> = recv
+        .par_iter()
+        .map(|p| {
+            let t = truth.sample(o, *p);
+            let e = Shader::shade(transfer, &t.coeffs);
+            let d = Shader::shade(transfer, &t.half_diff);
+            (
+                e.map(|x| x as f32),
+                d.map(|x| x.abs() as f32),
+                usize::from(t.escaped == t.rays),
+            )
+        })
+        .collect();
+    RenderOutput {
+        width: scene.resolution[0],
+        height: scene.resolution[1],
+        pixels: both.iter().map(|x| x.0).collect(),
+        stages: Vec::new(),
+        products: 0,
+        skipped: both.iter().map(|x| x.2).sum(),
+        error: both.iter().map(|x| x.1).collect(),
+    }
+}
+
+/// The local lights of a render as the shading loop sees them.
+struct LocalLights<'a> {
+    emitters: &'a [LightSource],
+    extrapolators: Vec<[Option<Extrapolator<'a>>; 3]>,
+    sampler: &'a VisibilitySampler,
+}
+
+impl LocalLights<'_> {
+    /// Add every local light's radiance at `p` (extrapolated, or ray traced where no field was
+    /// built), contracted with the lobe under visibility `v`, to the irradiance `e`.
+    fn add(&self, order: usize, shader: &Shader, p: DVec3, v: &[f64], e: &mut [f64; 3]) {
+        if self.emitters.is_empty() {
+            return;
+        }
+        let mut l = vec![0.0; order * order];
+        let mut m = shscale_scaling::ScalingMatrix::identity(order).expect("valid order");
+        for (k, em) in self.emitters.iter().enumerate() {
+            for c in 0..3 {
+                let Some(emitter) = &em.channels[c] else {
+                    continue;
+                };
+                match self.extrapolators.get(k).and_then(|x| x[c].as_ref()) {
+                    Some(x) => {
+                        x.eval(p, &mut m, &mut l);
+                    }
+                    None => l.copy_from_slice(
+                        &(self.sampler)
+                            .radiance_full_sphere(emitter, p, shscale_field::Frame::Entity)
+                            .0,
+                    ),
+                }
+                e[c] += shader.shade_local(&l, DVec3::Z, v);
+            }
+        }
+    }
 }
 
 struct LightField {
