@@ -91,6 +91,145 @@ fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
+/// A truth's own error: RMS over receivers and channels of its per-pixel estimate `e`, over the
+/// mean unshadowed irradiance (NaN where the render has no estimate).
+fn own_err(e: &[[f32; 3]], mean_open: f64) -> f64 {
+    let ms = e
+        .iter()
+        .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
+        .sum::<f64>()
+        / (3 * e.len()).max(1) as f64;
+    if mean_open > 0.0 && !e.is_empty() {
+        ms.sqrt() / mean_open
+    } else {
+        f64::NAN
+    }
+}
+
+/// The values side by side (full field | extrapolated | full-frequency truth) as one EXR.
+fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
+    let (w, h) = (imgs[0].width, imgs[0].height);
+    let mut px = vec![[0f32; 3]; 3 * w * h];
+    for (slot, img) in imgs.iter().enumerate() {
+        for y in 0..h {
+            for x in 0..w {
+                px[y * 3 * w + slot * w + x] = img.pixels[y * w + x];
+            }
+        }
+    }
+    Ok(shscale_runner::image::write_exr(exr, 3 * w, h, &px)?)
+}
+
+/// Mean of the three channels per pixel.
+fn lum(pixels: &[[f32; 3]]) -> Vec<f32> {
+    pixels.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect()
+}
+
+/// The labelled figure of the receiver plane: the three irradiance images (full field,
+/// extrapolated, full-frequency truth) on one scale, then the differences of the two fields from
+/// the truth on a symmetric diverging scale.
+fn write_field_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
+    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    let (w, h) = (imgs[0].width, imgs[0].height);
+    let [ff, ex, tr] = imgs.map(|i| lum(&i.pixels));
+    let max = ff.iter().chain(&ex).chain(&tr).fold(0f32, |a, v| a.max(*v)) as f64;
+    let diff = |a: &[f32]| -> Vec<f32> { a.iter().zip(&tr).map(|(x, t)| x - t).collect() };
+    let (dff, dex) = (diff(&ff), diff(&ex));
+    let dmax = dff.iter().chain(&dex).fold(0f32, |a, v| a.max(v.abs())) as f64;
+    let c = scene.receiver_center;
+    let [sx, sy] = scene.receiver_size;
+    let xr = (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)");
+    let yr = (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)");
+    let panel = |title: String, values: Vec<f32>| Panel {
+        title,
+        width: w,
+        height: h,
+        values,
+    };
+    let rms = |e: &[f32]| {
+        let num: f64 = e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64;
+        num.sqrt()
+    };
+    let images = Grid {
+        title: "irradiance on the receiver plane",
+        rows: vec![vec![
+            panel("fully sampled shadow field (16 shells)".into(), ff),
+            panel(
+                format!("SH-scaling extrapolation (N = {})", scene.order),
+                ex,
+            ),
+            panel("full-frequency ray-traced truth".into(), tr),
+        ]],
+        x: xr,
+        y: yr,
+        colours: ColourMap::Heat,
+        range: (0.0, max),
+        scale_label: "irradiance (scene radiance units)",
+        panel_px: (320, 320),
+    };
+    let differences = Grid {
+        title: "difference from the full-frequency truth",
+        rows: vec![vec![
+            panel(format!("full field − truth (RMS {:.3})", rms(&dff)), dff),
+            panel(format!("extrapolation − truth (RMS {:.3})", rms(&dex)), dex),
+        ]],
+        x: xr,
+        y: yr,
+        colours: ColourMap::Diverging,
+        range: (-dmax, dmax),
+        scale_label: "irradiance difference",
+        panel_px: (320, 320),
+    };
+    Ok(shscale_runner::figure::write_png_stack(
+        png,
+        &[images, differences],
+    )?)
+}
+
+/// The same comparison seen through the scene's camera (or the default view), as the papers
+/// show it: the plane shaded with each method's irradiance.
+fn write_camera_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
+    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    let cam = scene
+        .camera
+        .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(scene));
+    let titles = [
+        "fully sampled shadow field",
+        "SH-scaling extrapolation",
+        "full-frequency ray-traced truth",
+    ];
+    let mut views = Vec::new();
+    for (img, title) in imgs.iter().zip(titles) {
+        let v = shscale_scene::camera::render_camera(scene, img, &cam)?;
+        views.push((title, lum(&v)));
+    }
+    let vmax = views
+        .iter()
+        .flat_map(|(_, v)| v.iter().copied())
+        .fold(0f32, f32::max) as f64;
+    let [cw, ch] = cam.resolution;
+    let grid = Grid {
+        title:
+            "the scene through its camera: the receiver plane shaded with each method's irradiance",
+        rows: vec![views
+            .into_iter()
+            .map(|(t, values)| Panel {
+                title: t.into(),
+                width: cw,
+                height: ch,
+                values,
+            })
+            .collect()],
+        x: (0.0, cw as f64, "image x (pixels)"),
+        y: (0.0, ch as f64, "image y (pixels)"),
+        colours: ColourMap::Grey,
+        range: (0.0, vmax),
+        scale_label: "radiance (scene units)",
+        panel_px: (360, (360 * ch / cw.max(1)) as u32),
+    };
+    Ok(shscale_runner::figure::write_png(png, &grid)?)
+}
+
 fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
     let mut s = Scene::load(&config_dir.join(&p.scene))?;
     if let Some(n) = p.order {
@@ -206,141 +345,24 @@ impl Kind for Shadows {
         let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
         let truth_light = shscale_scene::frame::truth_light(&scene)?;
         let mean_open = unshadowed.iter().sum::<f64>() / unshadowed.len().max(1) as f64;
-        // A truth's own error: RMS over receivers and channels of its per-pixel estimate, over
-        // the mean unshadowed irradiance (NaN where the render has no estimate).
-        let own_err = |e: &[[f32; 3]]| {
-            let ms = e
-                .iter()
-                .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
-                .sum::<f64>()
-                / (3 * e.len()).max(1) as f64;
-            if mean_open > 0.0 && !e.is_empty() {
-                ms.sqrt() / mean_open
-            } else {
-                f64::NAN
-            }
-        };
-        let (ff_err, bl_err) = (own_err(&imgs[3].1.error), own_err(&imgs[2].1.error));
+        let (ff_err, bl_err) = (
+            own_err(&imgs[3].1.error, mean_open),
+            own_err(&imgs[2].1.error, mean_open),
+        );
         let err = |img: &RenderOutput, truth: &[f64]| {
             shade_rmse_rel(&flat(img), truth, &unshadowed).ok_or_else(|| {
                 Error::config(format!("scene: {}: the unshadowed image is black", p.scene))
             })
         };
-        // The values side by side (full field | extrapolated | full-frequency truth) as EXR, and
-        // the labelled figure: the three irradiance images on one scale, then the differences
-        // of the two fields from the truth on a symmetric diverging scale.
+        let shown = [&imgs[0].1, &imgs[1].1, &imgs[3].1];
         let (w, h) = (imgs[0].1.width, imgs[0].1.height);
-        let mut px = vec![[0f32; 3]; 3 * w * h];
-        for (slot, idx) in [0usize, 1, 3].into_iter().enumerate() {
-            for y in 0..h {
-                for x in 0..w {
-                    px[y * 3 * w + slot * w + x] = imgs[idx].1.pixels[y * w + x];
-                }
-            }
-        }
-        let stem = format!("shadows_fullfield_extrapolated_truth_{run_id}");
-        let exr = ctx.dir.join(format!("{stem}.exr"));
-        shscale_runner::image::write_exr(&exr, 3 * w, h, &px)?;
-        let lum = |img: &RenderOutput| -> Vec<f32> {
-            img.pixels
-                .iter()
-                .map(|p| (p[0] + p[1] + p[2]) / 3.0)
-                .collect()
-        };
-        let (ff, ex, tr) = (lum(&imgs[0].1), lum(&imgs[1].1), lum(&imgs[3].1));
-        let max = ff.iter().chain(&ex).chain(&tr).fold(0f32, |a, v| a.max(*v)) as f64;
-        let diff = |a: &[f32]| -> Vec<f32> { a.iter().zip(&tr).map(|(x, t)| x - t).collect() };
-        let (dff, dex) = (diff(&ff), diff(&ex));
-        let dmax = dff.iter().chain(&dex).fold(0f32, |a, v| a.max(v.abs())) as f64;
-        let c = scene.receiver_center;
-        let [sx, sy] = scene.receiver_size;
-        let xr = (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)");
-        let yr = (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)");
-        let panel = |title: String, values: Vec<f32>| shscale_runner::figure::Panel {
-            title,
-            width: w,
-            height: h,
-            values,
-        };
-        let rel = |e: &[f32]| {
-            let num: f64 = e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64;
-            num.sqrt()
-        };
-        shscale_runner::figure::write_png_stack(
-            &exr.with_extension("png"),
-            &[
-                shscale_runner::figure::Grid {
-                    title: "irradiance on the receiver plane",
-                    rows: vec![vec![
-                        panel("fully sampled shadow field (16 shells)".into(), ff.clone()),
-                        panel(
-                            format!("SH-scaling extrapolation (N = {})", scene.order),
-                            ex.clone(),
-                        ),
-                        panel("full-frequency ray-traced truth".into(), tr.clone()),
-                    ]],
-                    x: xr,
-                    y: yr,
-                    colours: shscale_runner::figure::ColourMap::Heat,
-                    range: (0.0, max),
-                    scale_label: "irradiance (scene radiance units)",
-                    panel_px: (320, 320),
-                },
-                shscale_runner::figure::Grid {
-                    title: "difference from the full-frequency truth",
-                    rows: vec![vec![
-                        panel(format!("full field − truth (RMS {:.3})", rel(&dff)), dff),
-                        panel(format!("extrapolation − truth (RMS {:.3})", rel(&dex)), dex),
-                    ]],
-                    x: xr,
-                    y: yr,
-                    colours: shscale_runner::figure::ColourMap::Diverging,
-                    range: (-dmax, dmax),
-                    scale_label: "irradiance difference",
-                    panel_px: (320, 320),
-                },
-            ],
-        )?;
-        // The same comparison seen through the scene's camera (or the default view), as the
-        // papers show it: the plane shaded with each method's irradiance.
-        let cam = scene
-            .camera
-            .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(&scene));
-        let mut views = Vec::new();
-        for (idx, title) in [
-            (0usize, "fully sampled shadow field"),
-            (1, "SH-scaling extrapolation"),
-            (3, "full-frequency ray-traced truth"),
-        ] {
-            let v = shscale_scene::camera::render_camera(&scene, &imgs[idx].1, &cam)?;
-            views.push((title, v));
-        }
-        let vmax = views
-            .iter()
-            .flat_map(|(_, v)| v.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0))
-            .fold(0f32, f32::max) as f64;
-        let [cw, ch] = cam.resolution;
-        shscale_runner::figure::write_png(
-            &ctx.dir.join(format!("shadows_camera_view_{run_id}.png")),
-            &shscale_runner::figure::Grid {
-                title: "the scene through its camera: the receiver plane shaded with each method's irradiance",
-                rows: vec![views
-                    .into_iter()
-                    .map(|(t, v)| shscale_runner::figure::Panel {
-                        title: t.into(),
-                        width: cw,
-                        height: ch,
-                        values: v.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect(),
-                    })
-                    .collect()],
-                x: (0.0, cw as f64, "image x (pixels)"),
-                y: (0.0, ch as f64, "image y (pixels)"),
-                colours: shscale_runner::figure::ColourMap::Grey,
-                range: (0.0, vmax),
-                scale_label: "radiance (scene units)",
-                panel_px: (360, (360 * ch / cw.max(1)) as u32),
-            },
-        )?;
+        let exr = ctx
+            .dir
+            .join(format!("shadows_fullfield_extrapolated_truth_{run_id}.exr"));
+        write_side_by_side(&exr, shown)?;
+        write_field_figure(&exr.with_extension("png"), &scene, shown)?;
+        let camera_png = ctx.dir.join(format!("shadows_camera_view_{run_id}.png"));
+        write_camera_figure(&camera_png, &scene, shown)?;
         imgs.iter()
             .map(|(name, img, t)| {
                 Ok(Row {

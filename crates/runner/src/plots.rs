@@ -42,6 +42,82 @@ pub struct Labels<'a> {
     pub y: &'a str,
 }
 
+/// The axes of a line plot: ranges, whether y is drawn as log10 y, and the x ticks.
+struct Axes {
+    log_y: bool,
+    integer_x: bool,
+    x: (f64, f64),
+    y: (f64, f64),
+    x_ticks: usize,
+}
+
+impl Axes {
+    /// The axes of the finite points of `series`. Data spanning two decades or more (all > 0)
+    /// are drawn on a log axis unless `log` says otherwise: y becomes log10 y and the ticks are
+    /// labelled as powers of ten.
+    fn of(series: &BTreeMap<String, Vec<(f64, f64)>>, log: Option<bool>) -> Result<Self, String> {
+        let pts: Vec<(f64, f64)> = (series.values().flatten().copied())
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        if pts.is_empty() {
+            return Err("no finite data to plot".into());
+        }
+        let log_y = log.unwrap_or_else(|| log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>()));
+        if log_y && pts.iter().any(|p| p.1 <= 0.0) {
+            return Err("a log y axis needs values > 0".into());
+        }
+        let pts: Vec<(f64, f64)> = pts
+            .iter()
+            .map(|&(x, y)| (x, if log_y { y.log10() } else { y }))
+            .collect();
+        let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
+        let span = |f: fn(&(f64, f64)) -> f64| {
+            let (lo, hi) =
+                (pts.iter().map(f)).fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+            if hi <= lo {
+                (lo - 0.5, hi + 0.5)
+            } else {
+                (lo, hi)
+            }
+        };
+        let (x, (y0, y1)) = (span(|p| p.0), span(|p| p.1));
+        let y = if log_y {
+            let pad = 0.05 * (y1 - y0);
+            (y0 - pad, y1 + pad)
+        } else {
+            y_range(y0, y1)
+        };
+        // Integer parameters get integer ticks (one per value when there are few).
+        let x_ticks = if integer_x && x.1 - x.0 <= 12.0 {
+            (x.1 - x.0).round() as usize + 1
+        } else {
+            10
+        };
+        Ok(Self {
+            log_y,
+            integer_x,
+            x,
+            y,
+            x_ticks,
+        })
+    }
+
+    /// A y value as drawn.
+    fn ty(&self, y: f64) -> f64 {
+        if self.log_y {
+            y.log10()
+        } else {
+            y
+        }
+    }
+}
+
+type Chart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
 /// Draw `series` (name → points) as lines with markers; x and y labelled with units.
 fn line_plot<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
@@ -55,71 +131,28 @@ where
     DB::ErrorType: 'static,
 {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let pts: Vec<(f64, f64)> = series
-        .values()
-        .flatten()
-        .copied()
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
-    if pts.is_empty() {
-        return Err("no finite data to plot".into());
-    }
-    // Data spanning two decades or more (all > 0) are drawn on a log axis: y becomes log10 y
-    // and the ticks are labelled as powers of ten.
-    let log_y = log.unwrap_or_else(|| log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>()));
-    if log_y && pts.iter().any(|p| p.1 <= 0.0) {
-        return Err("a log y axis needs values > 0".into());
-    }
-    let ty = |y: f64| if log_y { y.log10() } else { y };
-    let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, ty(y))).collect();
-    let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
-    let (mut x0, mut x1) = pts
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (mut y0, mut y1) = pts
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    if x1 <= x0 {
-        x0 -= 0.5;
-        x1 += 0.5;
-    }
-    if y1 <= y0 {
-        y0 -= 0.5;
-        y1 += 0.5;
-    }
-    let (ylo, yhi) = if log_y {
-        let pad = 0.05 * (y1 - y0);
-        (y0 - pad, y1 + pad)
-    } else {
-        y_range(y0, y1)
-    };
-    let y_desc = if log_y {
+    let ax = Axes::of(series, log)?;
+    let y_desc = if ax.log_y {
         format!("{} — log scale", labels.y)
     } else {
         labels.y.to_string()
-    };
-    // Integer parameters get integer ticks (one per value when there are few).
-    let x_ticks = if integer_x && x1 - x0 <= 12.0 {
-        (x1 - x0).round() as usize + 1
-    } else {
-        10
     };
     let mut chart = ChartBuilder::on(&area)
         .caption(labels.title, ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(64)
-        .build_cartesian_2d(x0..x1, ylo..yhi)
+        .build_cartesian_2d(ax.x.0..ax.x.1, ax.y.0..ax.y.1)
         .map_err(|e| e.to_string())?;
     let x_fmt = |v: &f64| {
-        if integer_x {
+        if ax.integer_x {
             format!("{v:.0}")
         } else {
             format!("{}", (v * 1e6).round() / 1e6)
         }
     };
     let y_fmt = |v: &f64| {
-        if log_y {
+        if ax.log_y {
             // Decades only (1e-3, 1e-2, …); the ticks between them stay unlabelled.
             if (v - v.round()).abs() < 1e-9 {
                 format!("1e{}", v.round())
@@ -134,65 +167,23 @@ where
         .configure_mesh()
         .x_desc(labels.x)
         .y_desc(y_desc)
-        .x_labels(x_ticks)
+        .x_labels(ax.x_ticks)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(|e| e.to_string())?;
     for (i, (name, points)) in series.iter().enumerate() {
-        let color = palette(i);
-        let mut pts: Vec<(f64, f64)> = points
-            .iter()
-            .copied()
+        let mut pts: Vec<(f64, f64)> = (points.iter().copied())
             .filter(|(x, y)| x.is_finite() && y.is_finite())
-            .map(|(x, y)| (x, ty(y)))
+            .map(|(x, y)| (x, ax.ty(y)))
             .filter(|(_, y)| y.is_finite())
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // Colours repeat every eight series; the marker shape tells the repeats apart
-        // (circles, then triangles, then squares).
-        let shape = (i / 8) % 3;
-        if !scatter_only {
-            let line = chart
-                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                .map_err(|e| e.to_string())?
-                .label(name.clone());
-            let seg = move |x: i32, y: i32| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-            };
-            match shape {
-                0 => line.legend(move |(x, y)| {
-                    EmptyElement::at((x, y)) + seg(0, 0) + Circle::new((9, 0), 4, color.filled())
-                }),
-                1 => line.legend(move |(x, y)| {
-                    EmptyElement::at((x, y))
-                        + seg(0, 0)
-                        + TriangleMarker::new((9, 0), 6, color.filled())
-                }),
-                _ => line.legend(move |(x, y)| {
-                    EmptyElement::at((x, y))
-                        + seg(0, 0)
-                        + Cross::new((9, 0), 5, color.stroke_width(2))
-                }),
-            };
-        }
-        let s = match shape {
-            0 => chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))),
-            1 => chart.draw_series(
-                pts.iter()
-                    .map(|p| TriangleMarker::new(*p, 6, color.filled())),
-            ),
-            _ => chart.draw_series(pts.iter().map(|p| Cross::new(*p, 5, color.stroke_width(2)))),
-        }
-        .map_err(|e| e.to_string())?;
-        if scatter_only {
-            s.label(name.clone())
-                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
-        }
+        draw_series(&mut chart, i, name, &pts, scatter_only)?;
     }
     if !front.is_empty() {
-        let front: Vec<(f64, f64)> = front.iter().map(|&(x, y)| (x, ty(y))).collect();
+        let front: Vec<(f64, f64)> = front.iter().map(|&(x, y)| (x, ax.ty(y))).collect();
         chart
             .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
             .map_err(|e| e.to_string())?
@@ -207,6 +198,59 @@ where
         .draw()
         .map_err(|e| e.to_string())?;
     area.present().map_err(|e| e.to_string())
+}
+
+/// Series `i` (`pts` as drawn, sorted by x): a line with its legend entry unless
+/// `scatter_only`, and markers. Colours repeat every eight series; the marker shape tells the
+/// repeats apart (circles, then triangles, then crosses).
+fn draw_series<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    i: usize,
+    name: &str,
+    pts: &[(f64, f64)],
+    scatter_only: bool,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let color = palette(i);
+    let shape = (i / 8) % 3;
+    if !scatter_only {
+        let line = chart
+            .draw_series(LineSeries::new(pts.to_vec(), color.stroke_width(2)))
+            .map_err(|e| e.to_string())?
+            .label(name);
+        let seg = move |x: i32, y: i32| {
+            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+        };
+        match shape {
+            0 => line.legend(move |(x, y)| {
+                EmptyElement::at((x, y)) + seg(0, 0) + Circle::new((9, 0), 4, color.filled())
+            }),
+            1 => line.legend(move |(x, y)| {
+                EmptyElement::at((x, y))
+                    + seg(0, 0)
+                    + TriangleMarker::new((9, 0), 6, color.filled())
+            }),
+            _ => line.legend(move |(x, y)| {
+                EmptyElement::at((x, y)) + seg(0, 0) + Cross::new((9, 0), 5, color.stroke_width(2))
+            }),
+        };
+    }
+    let s = match shape {
+        0 => chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))),
+        1 => chart.draw_series(
+            pts.iter()
+                .map(|p| TriangleMarker::new(*p, 6, color.filled())),
+        ),
+        _ => chart.draw_series(pts.iter().map(|p| Cross::new(*p, 5, color.stroke_width(2)))),
+    }
+    .map_err(|e| e.to_string())?;
+    if scatter_only {
+        s.label(name)
+            .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+    }
+    Ok(())
 }
 
 /// `shscale plot`: `metric` against `x` from a results table, one series per value of `series`

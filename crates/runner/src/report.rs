@@ -9,6 +9,7 @@ use crate::error::Error;
 use crate::kind::DynKind;
 use crate::manifest::Manifest;
 use crate::records::Results;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Escape text for HTML.
@@ -279,71 +280,12 @@ pub struct Comparison {
 /// probe radius — when both hold the same values of it); parameters fixed at different values in
 /// the two are listed. Writes `compare.md` and one plot per metric into `out`.
 pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Comparison, Error> {
-    use crate::records::Results;
-    use std::collections::{BTreeMap, BTreeSet};
     let (ta, tb) = (
         Results::read(&a.join("runs.csv"))?,
         Results::read(&b.join("runs.csv"))?,
     );
-    let params = kind.param_columns();
-    let distinct = |t: &Results, c: &str| -> BTreeSet<String> {
-        (0..t.rows.len())
-            .map(|r| t.cell(r, c).to_string())
-            .collect()
-    };
-    let mut keys: Vec<String> = Vec::new();
-    let mut differ = Vec::new();
-    for p in &params {
-        let (da, db) = (distinct(&ta, p), distinct(&tb, p));
-        if da.len() > 1 || db.len() > 1 {
-            keys.push(p.clone());
-        } else if da != db {
-            differ.push(format!(
-                "{p} (A: {}, B: {})",
-                da.iter().next().cloned().unwrap_or_default(),
-                db.iter().next().cloned().unwrap_or_default()
-            ));
-        }
-    }
-    let summary = kind.summary_columns();
-    let mut metrics: Vec<&str> = summary.to_vec();
-    if let Some(first) = summary.first() {
-        if !params.iter().any(|p| p == first)
-            && distinct(&ta, first) == distinct(&tb, first)
-            && distinct(&ta, first).len() <= 64
-        {
-            keys.push(first.to_string());
-            metrics.retain(|m| m != first);
-        }
-    }
-    metrics.retain(|m| {
-        !keys.iter().any(|k| k == m) && (0..ta.rows.len()).any(|r| ta.num(r, m).is_finite())
-    });
-    let key_of = |t: &Results, r: usize| -> Vec<String> {
-        keys.iter().map(|k| t.cell(r, k).to_string()).collect()
-    };
-    // Mean of each metric per key, in each directory.
-    let means = |t: &Results| {
-        let mut m: BTreeMap<Vec<String>, Vec<(f64, usize)>> = BTreeMap::new();
-        for r in 0..t.rows.len() {
-            let e = m
-                .entry(key_of(t, r))
-                .or_insert_with(|| vec![(0.0, 0); metrics.len()]);
-            for (i, c) in metrics.iter().enumerate() {
-                let v = t.num(r, c);
-                if v.is_finite() {
-                    e[i].0 += v;
-                    e[i].1 += 1;
-                }
-            }
-        }
-        m
-    };
-    let (ma, mb) = (means(&ta), means(&tb));
-    let name = |p: &Path| {
-        p.file_name()
-            .map_or(p.display().to_string(), |n| n.to_string_lossy().to_string())
-    };
+    let m = Matching::of(kind, &ta, &tb);
+    let (ma, mb) = (m.means(&ta), m.means(&tb));
     let mut md = format!(
         "# Comparison of {} results\n\nA: `{}` ({} rows), B: `{}` ({} rows). Rows matched on: {}. Parameters fixed at different values: {}.\n\n",
         kind.name(),
@@ -351,14 +293,12 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         ta.rows.len(),
         b.display(),
         tb.rows.len(),
-        if keys.is_empty() { "nothing (one row each)".to_string() } else { keys.join(", ") },
-        if differ.is_empty() { "none".to_string() } else { differ.join("; ") }
+        if m.keys.is_empty() { "nothing (one row each)".to_string() } else { m.keys.join(", ") },
+        if m.differ.is_empty() { "none".to_string() } else { m.differ.join("; ") }
     );
-    let mut head: Vec<String> = keys.clone();
-    for m in &metrics {
-        head.push(format!("{m} A"));
-        head.push(format!("{m} B"));
-        head.push(format!("{m} B − A"));
+    let mut head: Vec<String> = m.keys.clone();
+    for c in &m.metrics {
+        head.extend([format!("{c} A"), format!("{c} B"), format!("{c} B − A")]);
     }
     md.push_str(&format!(
         "| {} |\n|{}\n",
@@ -366,44 +306,25 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         "---|".repeat(head.len())
     ));
     let avg = |v: (f64, usize)| if v.1 > 0 { v.0 / v.1 as f64 } else { f64::NAN };
-    let fmt = |x: f64| {
-        if !x.is_finite() {
-            "—".to_string()
-        } else if x != 0.0 && x.abs() < 1e-3 {
-            format!("{x:.3e}")
-        } else {
-            format!("{x:.4}")
-        }
-    };
+    let (na, nb) = (dir_name(a), dir_name(b));
     let mut matched = 0;
-    let mut plots: Vec<BTreeMap<String, Vec<(f64, f64)>>> = vec![BTreeMap::new(); metrics.len()];
+    let mut plots: Vec<BTreeMap<String, Vec<(f64, f64)>>> = vec![BTreeMap::new(); m.metrics.len()];
     for (k, va) in &ma {
         let Some(vb) = mb.get(k) else { continue };
         matched += 1;
         let mut cells: Vec<String> = k.clone();
-        for i in 0..metrics.len() {
+        for i in 0..m.metrics.len() {
             let (x, y) = (avg(va[i]), avg(vb[i]));
-            cells.extend([fmt(x), fmt(y), fmt(y - x)]);
+            cells.extend([compare_cell(x), compare_cell(y), compare_cell(y - x)]);
             if let Some(xv) = k.first().and_then(|s| s.parse::<f64>().ok()) {
-                let rest = if k.len() > 1 {
-                    format!(
-                        ", {}",
-                        keys[1..]
-                            .iter()
-                            .zip(&k[1..])
-                            .map(|(n, v)| format!("{n} = {v}"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                } else {
-                    String::new()
-                };
-                plots[i]
-                    .entry(format!("A: {}{rest}", name(a)))
+                let rest = m.rest_of(k);
+                let series = &mut plots[i];
+                series
+                    .entry(format!("A: {na}{rest}"))
                     .or_default()
                     .push((xv, x));
-                plots[i]
-                    .entry(format!("B: {}{rest}", name(b)))
+                series
+                    .entry(format!("B: {nb}{rest}"))
                     .or_default()
                     .push((xv, y));
             }
@@ -415,24 +336,23 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         ma.keys().filter(|k| !mb.contains_key(*k)).count(),
         mb.keys().filter(|k| !ma.contains_key(*k)).count()
     ));
-    std::fs::create_dir_all(out).map_err(|e| Error::Io {
-        path: out.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let mut files = Vec::new();
-    for (i, m) in metrics.iter().enumerate() {
-        if plots[i].is_empty() || keys.is_empty() {
+    for (i, c) in m.metrics.iter().enumerate() {
+        if plots[i].is_empty() || m.keys.is_empty() {
             continue;
         }
-        let title = format!("{m}: A vs B");
+        let title = format!("{c}: A vs B");
+        let labels = crate::plots::Labels {
+            title: &title,
+            x: &m.keys[0],
+            y: c,
+        };
+        let stem = format!("compare_{c}");
         files.extend(crate::plots::write_both(
             out,
-            &format!("compare_{m}"),
-            &crate::plots::Labels {
-                title: &title,
-                x: &keys[0],
-                y: m,
-            },
+            &stem,
+            &labels,
             &plots[i],
             false,
             &[],
@@ -445,6 +365,106 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         markdown: md,
         files,
     })
+}
+
+/// The last component of a directory, for series names.
+fn dir_name(p: &Path) -> String {
+    p.file_name()
+        .map_or(p.display().to_string(), |n| n.to_string_lossy().to_string())
+}
+
+/// A compared mean: `—` when undefined, `e` notation below 10⁻³, else four decimals.
+fn compare_cell(x: f64) -> String {
+    if !x.is_finite() {
+        "—".to_string()
+    } else if x != 0.0 && x.abs() < 1e-3 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+/// How the rows of two results directories are matched: on the parameters that vary in either
+/// (and the first summary column when it is a shared key of few values), the parameters fixed at
+/// different values (reported), and the metrics compared.
+struct Matching<'a> {
+    keys: Vec<String>,
+    differ: Vec<String>,
+    metrics: Vec<&'a str>,
+}
+
+impl<'a> Matching<'a> {
+    fn of(kind: &'a dyn DynKind, ta: &Results, tb: &Results) -> Self {
+        let params = kind.param_columns();
+        let distinct = |t: &Results, c: &str| -> BTreeSet<String> {
+            (0..t.rows.len())
+                .map(|r| t.cell(r, c).to_string())
+                .collect()
+        };
+        let mut keys: Vec<String> = Vec::new();
+        let mut differ = Vec::new();
+        for p in &params {
+            let (da, db) = (distinct(ta, p), distinct(tb, p));
+            if da.len() > 1 || db.len() > 1 {
+                keys.push(p.clone());
+            } else if da != db {
+                differ.push(format!(
+                    "{p} (A: {}, B: {})",
+                    da.iter().next().cloned().unwrap_or_default(),
+                    db.iter().next().cloned().unwrap_or_default()
+                ));
+            }
+        }
+        let summary = kind.summary_columns();
+        let mut metrics: Vec<&str> = summary.to_vec();
+        if let Some(first) = summary.first() {
+            if !params.iter().any(|p| p == first)
+                && distinct(ta, first) == distinct(tb, first)
+                && distinct(ta, first).len() <= 64
+            {
+                keys.push(first.to_string());
+                metrics.retain(|m| m != first);
+            }
+        }
+        metrics.retain(|m| {
+            !keys.iter().any(|k| k == m) && (0..ta.rows.len()).any(|r| ta.num(r, m).is_finite())
+        });
+        Self {
+            keys,
+            differ,
+            metrics,
+        }
+    }
+
+    /// Sum and count of each metric per key.
+    fn means(&self, t: &Results) -> BTreeMap<Vec<String>, Vec<(f64, usize)>> {
+        let mut m: BTreeMap<Vec<String>, Vec<(f64, usize)>> = BTreeMap::new();
+        for r in 0..t.rows.len() {
+            let key = self.keys.iter().map(|k| t.cell(r, k).to_string()).collect();
+            let e = m
+                .entry(key)
+                .or_insert_with(|| vec![(0.0, 0); self.metrics.len()]);
+            for (i, c) in self.metrics.iter().enumerate() {
+                let v = t.num(r, c);
+                if v.is_finite() {
+                    e[i].0 += v;
+                    e[i].1 += 1;
+                }
+            }
+        }
+        m
+    }
+
+    /// `, key = value, …` of a key's values after the first (a series' name).
+    fn rest_of(&self, k: &[String]) -> String {
+        if k.len() <= 1 {
+            return String::new();
+        }
+        let pairs: Vec<String> = (self.keys[1..].iter().zip(&k[1..]))
+            .map(|(n, v)| format!("{n} = {v}"))
+            .collect();
+        format!(", {}", pairs.join(", "))
+    }
 }
 
 /// What [`report`] wrote: the summary text, the kind's discussion in it, and the files.
