@@ -2,11 +2,62 @@
 
 use crate::args::{MethodArg, RenderArgs, TextFormat};
 use anyhow::{bail, Context};
-use shscale_scene::render::{render, render_sequence, Method};
+use shscale_scene::render::{render, render_sequence, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
+    check_args(&a)?;
+    let scene = Scene::load(&a.scene)?;
+    let method = to_method(a.method);
+    let rays = check_limits(&a, &scene, method)?;
+    if let Some(frames) = a.frames {
+        return sequence(&a, &scene, method, frames);
+    }
+    let t0 = std::time::Instant::now();
+    // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
+    // stderr every 10 s otherwise.
+    let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
+    let ticker = Ticker::start(&format!("{:?}", a.method), est);
+    let img = render(&scene, method);
+    ticker.stop();
+    let img = img?;
+    let png = write_output(&a, &scene, &img).context("--out")?;
+    let total = t0.elapsed().as_secs_f64();
+    let reference = match a.reference {
+        None => None,
+        Some(r) => Some(reference_error(&scene, &img, r)?),
+    };
+    // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
+    // channels of its per-pixel estimate; only the truth methods have one).
+    let truth_light = shscale_scene::frame::truth_light(&scene)?;
+    let truth_error_rms = (!img.error.is_empty()).then(|| {
+        (img.error
+            .iter()
+            .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
+            .sum::<f64>()
+            / (3 * img.error.len()) as f64)
+            .sqrt()
+    });
+    let done = Rendered {
+        scene: &scene,
+        img: &img,
+        png: &png,
+        total,
+        reference,
+        truth_light,
+        truth_error_rms,
+    };
+    if a.format == TextFormat::Json {
+        done.print_json(&a)?;
+    } else {
+        done.print_text(&a);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--out` (an `.exr` in an existing directory) and `--frames`.
+fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
     if a.out.extension().and_then(|e| e.to_str()) != Some("exr") {
         bail!("--out: {} must end in .exr", a.out.display());
     }
@@ -20,15 +71,18 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             bail!("--frames: {frames} is outside 1..=10000");
         }
     }
-    let scene = Scene::load(&a.scene)?;
-    let method = to_method(a.method);
-    // The work limits: the method, the reference (and its unshadowed image), every frame.
+    Ok(())
+}
+
+/// The work limits: the method, the reference (and its unshadowed image), every frame. Returns
+/// the estimated rays.
+fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result<f64> {
     let frames = a.frames.unwrap_or(1).max(1) as f64;
-    let (mut rays, mut bytes) = shscale_scene::render::estimated_work(&scene, method);
+    let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, method);
     rays *= frames;
     if let Some(r) = a.reference {
-        let (r2, b2) = shscale_scene::render::estimated_work(&scene, to_method(r));
-        let (r3, _) = shscale_scene::render::estimated_work(&scene, Method::RayTraced);
+        let (r2, b2) = shscale_scene::render::estimated_work(scene, to_method(r));
+        let (r3, _) = shscale_scene::render::estimated_work(scene, Method::RayTraced);
         rays += r2 + r3;
         bytes = bytes.max(b2);
     }
@@ -46,71 +100,70 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         ),
         a.allow_large,
     )?;
-    if let Some(frames) = a.frames {
-        return sequence(&a, &scene, method, frames);
+    Ok(rays)
+}
+
+/// The receiver plane (or, with `--camera`, the camera's view of it) as EXR + PNG; the PNG.
+fn write_output(
+    a: &RenderArgs,
+    scene: &Scene,
+    img: &RenderOutput,
+) -> Result<std::path::PathBuf, shscale_runner::Error> {
+    if !a.camera {
+        return write_image(&a.out, img);
     }
-    let t0 = std::time::Instant::now();
-    // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
-    // stderr every 10 s otherwise.
-    let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
-    let ticker = Ticker::start(&format!("{:?}", a.method), est);
-    let img = render(&scene, method);
-    ticker.stop();
-    let img = img?;
-    let png = if a.camera {
-        let cam = scene
-            .camera
-            .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(&scene));
-        let view = shscale_scene::camera::render_camera(&scene, &img, &cam)?;
-        shscale_runner::image::write_exr_and_png(
-            &a.out,
-            cam.resolution[0],
-            cam.resolution[1],
-            &view,
-            shscale_runner::image::Png::Preview,
-        )
-    } else {
-        write_image(&a.out, &img)
-    }
-    .context("--out")?;
-    let total = t0.elapsed().as_secs_f64();
-    // The reference, rendered on the same scene, and the error against it.
-    let reference = match a.reference {
-        None => None,
-        Some(r) => {
-            let t = std::time::Instant::now();
-            let truth = render(&scene, to_method(r))?;
-            // Unshadowed irradiance: the same scene without occluders (docs/conventions.md §6).
-            let mut open = scene.clone();
-            open.occluders.clear();
-            let unshadowed = render(&open, Method::RayTraced)?;
-            let flat = |img: &shscale_scene::render::RenderOutput| {
-                img.pixels
-                    .iter()
-                    .flat_map(|p| p.map(f64::from))
-                    .collect::<Vec<f64>>()
-            };
-            let rel = shscale_field::shading::shade_rmse_rel(
-                &flat(&img),
-                &flat(&truth),
-                &flat(&unshadowed),
-            )
-            .context("shade_rmse_rel: the unshadowed image is black")?;
-            Some((r, rel, t.elapsed().as_secs_f64()))
-        }
-    };
-    // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
-    // channels of its per-pixel estimate; only the truth methods have one).
-    let truth_light = shscale_scene::frame::truth_light(&scene)?;
-    let truth_error_rms = (!img.error.is_empty()).then(|| {
-        (img.error
+    let cam = scene
+        .camera
+        .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(scene));
+    let view = shscale_scene::camera::render_camera(scene, img, &cam)
+        .map_err(shscale_runner::Error::from)?;
+    shscale_runner::image::write_exr_and_png(
+        &a.out,
+        cam.resolution[0],
+        cam.resolution[1],
+        &view,
+        shscale_runner::image::Png::Preview,
+    )
+}
+
+/// The reference `r` rendered on the same scene and `img`'s error against it (relative to the
+/// unshadowed irradiance: the scene without occluders, docs/conventions.md §6), with the
+/// reference's render time.
+fn reference_error(
+    scene: &Scene,
+    img: &RenderOutput,
+    r: MethodArg,
+) -> anyhow::Result<(MethodArg, f64, f64)> {
+    let t = std::time::Instant::now();
+    let truth = render(scene, to_method(r))?;
+    let mut open = scene.clone();
+    open.occluders.clear();
+    let unshadowed = render(&open, Method::RayTraced)?;
+    let flat = |img: &RenderOutput| {
+        img.pixels
             .iter()
-            .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
-            .sum::<f64>()
-            / (3 * img.error.len()) as f64)
-            .sqrt()
-    });
-    if a.format == TextFormat::Json {
+            .flat_map(|p| p.map(f64::from))
+            .collect::<Vec<f64>>()
+    };
+    let rel = shscale_field::shading::shade_rmse_rel(&flat(img), &flat(&truth), &flat(&unshadowed))
+        .context("shade_rmse_rel: the unshadowed image is black")?;
+    Ok((r, rel, t.elapsed().as_secs_f64()))
+}
+
+/// What one render did, for printing.
+struct Rendered<'a> {
+    scene: &'a Scene,
+    img: &'a RenderOutput,
+    png: &'a std::path::Path,
+    total: f64,
+    reference: Option<(MethodArg, f64, f64)>,
+    truth_light: &'static str,
+    truth_error_rms: Option<f64>,
+}
+
+impl Rendered<'_> {
+    fn print_json(&self, a: &RenderArgs) -> anyhow::Result<()> {
+        let img = self.img;
         let stages: serde_json::Map<String, serde_json::Value> = img
             .stages
             .iter()
@@ -121,53 +174,55 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "method": format!("{:?}", a.method),
             "width": img.width,
             "height": img.height,
-            "occluders": scene.occluders.len(),
+            "occluders": self.scene.occluders.len(),
             "threads": rayon::current_num_threads(),
             "stages_ms": stages,
-            "total_ms": total * 1e3,
+            "total_ms": self.total * 1e3,
             "sh_products": img.products,
             "skipped_unoccluded": img.skipped,
-            "full_frequency_light": truth_light,
-            "truth_error_rms": truth_error_rms,
-            "reference": reference.map(|(r, rel, secs)| serde_json::json!({
+            "full_frequency_light": self.truth_light,
+            "truth_error_rms": self.truth_error_rms,
+            "reference": self.reference.map(|(r, rel, secs)| serde_json::json!({
                 "method": format!("{r:?}"),
                 "shade_rmse_rel": rel,
                 "render_ms": secs * 1e3,
             })),
-            "files": [a.out.display().to_string(), png.display().to_string()],
+            "files": [a.out.display().to_string(), self.png.display().to_string()],
         });
-        crate::output::print_json(&out)?;
-        return Ok(ExitCode::SUCCESS);
+        crate::output::print_json(&out)
     }
-    println!(
-        "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
-        a.scene.display(),
-        img.width,
-        img.height,
-        scene.occluders.len(),
-        a.method,
-        rayon::current_num_threads()
-    );
-    for (stage, s) in &img.stages {
-        println!("  {stage:<18} {:>10.3} ms", s * 1e3);
-    }
-    println!("  {:<18} {:>10.3} ms", "total", total * 1e3);
-    println!(
-        "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
-        img.products, img.skipped
-    );
-    println!("  full-frequency truth lights with: {truth_light}");
-    if let Some(e) = truth_error_rms {
-        println!("  the truth's own error (RMS of its per-pixel estimate): {e:.3e}");
-    }
-    if let Some((r, rel, secs)) = reference {
+
+    fn print_text(&self, a: &RenderArgs) {
+        let img = self.img;
         println!(
-            "shade_rmse_rel vs {r:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
-            secs * 1e3
+            "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
+            a.scene.display(),
+            img.width,
+            img.height,
+            self.scene.occluders.len(),
+            a.method,
+            rayon::current_num_threads()
         );
+        for (stage, s) in &img.stages {
+            println!("  {stage:<18} {:>10.3} ms", s * 1e3);
+        }
+        println!("  {:<18} {:>10.3} ms", "total", self.total * 1e3);
+        println!(
+            "  SH products computed: {}, occluder evaluations skipped as unoccluded: {}",
+            img.products, img.skipped
+        );
+        println!("  full-frequency truth lights with: {}", self.truth_light);
+        if let Some(e) = self.truth_error_rms {
+            println!("  the truth's own error (RMS of its per-pixel estimate): {e:.3e}");
+        }
+        if let Some((r, rel, secs)) = self.reference {
+            println!(
+                "shade_rmse_rel vs {r:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
+                secs * 1e3
+            );
+        }
+        println!("wrote {} and {}", a.out.display(), self.png.display());
     }
-    println!("wrote {} and {}", a.out.display(), png.display());
-    Ok(ExitCode::SUCCESS)
 }
 
 fn to_method(m: MethodArg) -> Method {

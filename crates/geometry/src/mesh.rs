@@ -57,43 +57,7 @@ impl Mesh {
                 triangles: triangles.len(),
             });
         }
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(GeometryError::Invalid {
-                file: name.into(),
-                element: "vertex",
-                index: i,
-                reason: format!("non-finite coordinate {:?}", positions[i]),
-            });
-        }
-        if let Some(i) = positions
-            .iter()
-            .position(|p| p.abs().max_element() > Self::MAX_COORDINATE)
-        {
-            return Err(GeometryError::Invalid {
-                file: name.into(),
-                element: "vertex",
-                index: i,
-                reason: format!(
-                    "coordinate {:?} is beyond ±{:e}, the supported range (rescale the mesh)",
-                    positions[i],
-                    Self::MAX_COORDINATE
-                ),
-            });
-        }
-        let (lo, hi) = positions.iter().fold(
-            (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
-        let extent = (hi - lo).max_element();
-        if extent < Self::MIN_EXTENT {
-            return Err(GeometryError::Domain {
-                file: name.into(),
-                reason: format!(
-                    "the mesh spans {extent:e}, below {:e}, the smallest supported size (rescale the mesh)",
-                    Self::MIN_EXTENT
-                ),
-            });
-        }
+        Self::check_positions(name, &positions)?;
         if triangles.len() > Self::MAX_TRIANGLES {
             return Err(GeometryError::Domain {
                 file: name.into(),
@@ -133,6 +97,49 @@ impl Mesh {
         Ok(mesh)
     }
 
+    /// Every coordinate finite and within ±[`Mesh::MAX_COORDINATE`], and an extent of at least
+    /// [`Mesh::MIN_EXTENT`].
+    fn check_positions(name: &str, positions: &[DVec3]) -> Result<(), GeometryError> {
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(GeometryError::Invalid {
+                file: name.into(),
+                element: "vertex",
+                index: i,
+                reason: format!("non-finite coordinate {:?}", positions[i]),
+            });
+        }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| p.abs().max_element() > Self::MAX_COORDINATE)
+        {
+            return Err(GeometryError::Invalid {
+                file: name.into(),
+                element: "vertex",
+                index: i,
+                reason: format!(
+                    "coordinate {:?} is beyond ±{:e}, the supported range (rescale the mesh)",
+                    positions[i],
+                    Self::MAX_COORDINATE
+                ),
+            });
+        }
+        let (lo, hi) = positions.iter().fold(
+            (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let extent = (hi - lo).max_element();
+        if extent < Self::MIN_EXTENT {
+            return Err(GeometryError::Domain {
+                file: name.into(),
+                reason: format!(
+                    "the mesh spans {extent:e}, below {:e}, the smallest supported size (rescale the mesh)",
+                    Self::MIN_EXTENT
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Load an OBJ (tobj, triangulated) or PLY file; the extension decides.
     pub fn load(path: &Path) -> Result<Self, GeometryError> {
         let name = path.display().to_string();
@@ -167,119 +174,13 @@ impl Mesh {
             reason: format!("not UTF-8 text: {e}"),
         })?;
         // Every statement is checked here, so that errors carry their line (tobj's do not).
-        let (mut vcount, mut vtcount, mut vncount) = (0usize, 0usize, 0usize);
+        let mut counts = ObjCounts::default();
         for (i, line) in text.lines().enumerate() {
-            let mut it = line.split_whitespace();
-            match it.next() {
-                Some("v") => {
-                    let nums: Vec<&str> = it.collect();
-                    if nums.len() < 3 || nums[..3].iter().any(|s| s.parse::<f64>().is_err()) {
-                        return Err(GeometryError::Parse {
-                            file: name.into(),
-                            line: i + 1,
-                            reason: format!("bad vertex line {line:?}"),
-                        });
-                    }
-                    if let Some(bad) = nums[..3]
-                        .iter()
-                        .map(|s| s.parse::<f64>().unwrap())
-                        .find(|v| !v.is_finite())
-                    {
-                        return Err(GeometryError::Parse {
-                            file: name.into(),
-                            line: i + 1,
-                            reason: format!("non-finite coordinate {bad}"),
-                        });
-                    }
-                    if let Some(bad) = nums[..3]
-                        .iter()
-                        .map(|s| s.parse::<f64>().unwrap())
-                        .find(|v| v.abs() > Self::MAX_COORDINATE)
-                    {
-                        return Err(GeometryError::Parse {
-                            file: name.into(),
-                            line: i + 1,
-                            reason: format!(
-                                "coordinate {bad:e} is beyond ±{:e}, the supported range (rescale the mesh)",
-                                Self::MAX_COORDINATE
-                            ),
-                        });
-                    }
-                    vcount += 1;
-                }
-                Some("f") => {
-                    let refs: Vec<&str> = it.collect();
-                    if refs.len() < 3 {
-                        return Err(GeometryError::Parse {
-                            file: name.into(),
-                            line: i + 1,
-                            reason: format!("face with fewer than 3 vertices: {line:?}"),
-                        });
-                    }
-                    for r in refs {
-                        let mut parts = r.split('/');
-                        let idx = parts.next().unwrap_or("");
-                        match idx.parse::<i64>() {
-                            Ok(v) if v > 0 && (v as usize) <= vcount => {}
-                            Ok(v) if v < 0 && (v.unsigned_abs() as usize) <= vcount => {}
-                            _ => {
-                                return Err(GeometryError::Parse {
-                                    file: name.into(),
-                                    line: i + 1,
-                                    reason: format!("vertex reference {r:?} out of range (1..={vcount} defined so far)"),
-                                })
-                            }
-                        }
-                        // Texture and normal references: empty, or in range of those defined.
-                        for (what, count) in [("texture", vtcount), ("normal", vncount)] {
-                            let Some(p) = parts.next().filter(|p| !p.is_empty()) else {
-                                continue;
-                            };
-                            match p.parse::<i64>() {
-                                Ok(v) if v != 0 && (v.unsigned_abs() as usize) <= count => {}
-                                _ => {
-                                    return Err(GeometryError::Parse {
-                                        file: name.into(),
-                                        line: i + 1,
-                                        reason: format!("{what} reference {p:?} in {r:?} is not one of the {count} defined so far"),
-                                    })
-                                }
-                            }
-                        }
-                        if parts.next().is_some() {
-                            return Err(GeometryError::Parse {
-                                file: name.into(),
-                                line: i + 1,
-                                reason: format!("face vertex {r:?} has more than v/vt/vn"),
-                            });
-                        }
-                    }
-                }
-                Some(kind @ ("vn" | "vt")) => {
-                    let need = if kind == "vn" { 3 } else { 1 };
-                    let nums: Vec<&str> = it.collect();
-                    if nums.len() < need
-                        || nums
-                            .iter()
-                            .any(|s| !s.parse::<f64>().is_ok_and(f64::is_finite))
-                    {
-                        return Err(GeometryError::Parse {
-                            file: name.into(),
-                            line: i + 1,
-                            reason: format!(
-                                "bad {} line {line:?}",
-                                if kind == "vn" { "normal" } else { "texture" }
-                            ),
-                        });
-                    }
-                    if kind == "vn" {
-                        vncount += 1;
-                    } else {
-                        vtcount += 1;
-                    }
-                }
-                _ => {}
-            }
+            counts.check(line).map_err(|reason| GeometryError::Parse {
+                file: name.into(),
+                line: i + 1,
+                reason,
+            })?;
         }
         let opts = tobj::LoadOptions {
             triangulate: true,
@@ -382,4 +283,103 @@ impl Mesh {
             *p = target.center + (*p - s.center) * f;
         }
     }
+}
+
+/// The OBJ statements seen so far (vertices, texture coordinates, normals), against which each
+/// new line is checked; an error is the reason, in words.
+#[derive(Default)]
+struct ObjCounts {
+    v: usize,
+    vt: usize,
+    vn: usize,
+}
+
+impl ObjCounts {
+    fn check(&mut self, line: &str) -> Result<(), String> {
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                check_obj_vertex(line, &it.collect::<Vec<_>>())?;
+                self.v += 1;
+            }
+            Some("f") => self.check_face(line, &it.collect::<Vec<_>>())?,
+            Some(kind @ ("vn" | "vt")) => {
+                let need = if kind == "vn" { 3 } else { 1 };
+                let nums: Vec<&str> = it.collect();
+                if nums.len() < need
+                    || (nums.iter()).any(|s| !s.parse::<f64>().is_ok_and(f64::is_finite))
+                {
+                    let what = if kind == "vn" { "normal" } else { "texture" };
+                    return Err(format!("bad {what} line {line:?}"));
+                }
+                if kind == "vn" {
+                    self.vn += 1;
+                } else {
+                    self.vt += 1;
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Three or more `v[/vt[/vn]]` references, each in range of those defined so far.
+    fn check_face(&self, line: &str, refs: &[&str]) -> Result<(), String> {
+        if refs.len() < 3 {
+            return Err(format!("face with fewer than 3 vertices: {line:?}"));
+        }
+        let vcount = self.v;
+        for r in refs {
+            let mut parts = r.split('/');
+            let idx = parts.next().unwrap_or("");
+            match idx.parse::<i64>() {
+                Ok(v) if v > 0 && (v as usize) <= vcount => {}
+                Ok(v) if v < 0 && (v.unsigned_abs() as usize) <= vcount => {}
+                _ => {
+                    return Err(format!(
+                        "vertex reference {r:?} out of range (1..={vcount} defined so far)"
+                    ))
+                }
+            }
+            // Texture and normal references: empty, or in range of those defined.
+            for (what, count) in [("texture", self.vt), ("normal", self.vn)] {
+                let Some(p) = parts.next().filter(|p| !p.is_empty()) else {
+                    continue;
+                };
+                match p.parse::<i64>() {
+                    Ok(v) if v != 0 && (v.unsigned_abs() as usize) <= count => {}
+                    _ => {
+                        return Err(format!(
+                        "{what} reference {p:?} in {r:?} is not one of the {count} defined so far"
+                    ))
+                    }
+                }
+            }
+            if parts.next().is_some() {
+                return Err(format!("face vertex {r:?} has more than v/vt/vn"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A `v` line: three finite numbers within ±[`Mesh::MAX_COORDINATE`].
+fn check_obj_vertex(line: &str, nums: &[&str]) -> Result<(), String> {
+    if nums.len() < 3 || nums[..3].iter().any(|s| s.parse::<f64>().is_err()) {
+        return Err(format!("bad vertex line {line:?}"));
+    }
+    let xyz: Vec<f64> = nums[..3]
+        .iter()
+        .map(|s| s.parse::<f64>().unwrap())
+        .collect();
+    if let Some(bad) = xyz.iter().find(|v| !v.is_finite()) {
+        return Err(format!("non-finite coordinate {bad}"));
+    }
+    if let Some(bad) = xyz.iter().find(|v| v.abs() > Mesh::MAX_COORDINATE) {
+        return Err(format!(
+            "coordinate {bad:e} is beyond ±{:e}, the supported range (rescale the mesh)",
+            Mesh::MAX_COORDINATE
+        ));
+    }
+    Ok(())
 }
