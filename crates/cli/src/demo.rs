@@ -42,15 +42,51 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let alpha = a.alpha_deg.to_radians();
     let t0 = Instant::now();
     let mut failures = Vec::new();
-    let radii = [0.5, 0.7, 0.9, 1.3, 2.0];
-    let orders: Vec<usize> = [2usize, 4, 8, 16, 32]
-        .into_iter()
-        .filter(|&n| n <= a.order)
-        .collect();
     say(format!(
         "shscale demo — cone model α = {}°, radii k = d/r of the papers' Fig. 5\n",
         a.alpha_deg
     ));
+    let operator = operator_accuracy(a.order, alpha, &say, &mut failures)?;
+    say(String::new());
+    let on_surface = on_surface_failure(alpha, &say)?;
+    say(String::new());
+    let identities = identities(a.order.min(16), alpha, &say, &mut failures)?;
+    let secs = t0.elapsed().as_secs_f64();
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "alpha_deg": a.alpha_deg,
+            "operator_accuracy": operator,
+            "on_surface": on_surface,
+            "identities": identities,
+            "seconds": secs,
+            "failures": failures,
+        }))?;
+    } else {
+        println!();
+        println!("done in {secs:.2} s");
+    }
+    if failures.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for f in &failures {
+            eprintln!("check failed: {f}");
+        }
+        Ok(ExitCode::from(1))
+    }
+}
+
+/// Check 1: `‖M_k·cap(40°) − cap(τ_k⁻¹(40°))‖ / ‖cap(τ_k⁻¹(40°))‖` at the papers' radii for every
+/// order up to `max_order`; a failure when it does not decrease with N.
+fn operator_accuracy(
+    max_order: usize,
+    alpha: f64,
+    say: &dyn Fn(String),
+    failures: &mut Vec<String>,
+) -> anyhow::Result<Vec<serde_json::Value>> {
+    let orders: Vec<usize> = [2usize, 4, 8, 16, 32]
+        .into_iter()
+        .filter(|&n| n <= max_order)
+        .collect();
     say("1. Operator accuracy: ‖M_k·cap(40°) − cap(τ_k⁻¹(40°))‖₂ / ‖cap(τ_k⁻¹(40°))‖₂ (band-limiting only)".into());
     let mut head = format!("{:>6}", "k");
     for n in &orders {
@@ -59,7 +95,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     say(head);
     let cap_angle = 40f64.to_radians();
     let mut operator = Vec::new();
-    for &k in &radii {
+    for &k in &[0.5, 0.7, 0.9, 1.3, 2.0] {
         let tau = Cone::new(k, alpha)?;
         let target = tau.inverse(cap_angle);
         let mut line = format!("{k:>6}");
@@ -82,7 +118,12 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         }
         operator.push(serde_json::json!({"k": k, "orders": orders, "relative_error": errs}));
     }
-    say(String::new());
+    Ok(operator)
+}
+
+/// Check 2: the on-surface failure case: a solid sphere sampled on its surface sees a half sphere,
+/// which the cone model maps to a wrong cap (N = 4).
+fn on_surface_failure(alpha: f64, say: &dyn Fn(String)) -> anyhow::Result<Vec<serde_json::Value>> {
     say("2. On-surface failure case: solid sphere, samples on its surface (visibility = half sphere)".into());
     say(format!(
         "{:>6}  {:>14}  {:>16}  {:>12}",
@@ -114,15 +155,11 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             "occ_rel_l2": occ,
         }));
     }
-    say(String::new());
-    say("3. Identities".into());
-    let n = a.order.min(16);
-    let m1 = ScalingMatrix::compute(&Cone::new(1.0, alpha)?, Eta::Plain, n)?;
-    let e_id = m1.max_abs_diff(&ScalingMatrix::identity(n)?);
-    let me = ScalingMatrix::compute(&Cone::new(3.0, alpha)?, Eta::Energy, n)?.to_dense();
-    let e_energy = (me[0][0] - 1.0)
-        .abs()
-        .max(me[0][1..].iter().fold(0.0f64, |s, v| s.max(v.abs())));
+    Ok(on_surface)
+}
+
+/// The largest deviation of the Gram matrix of the order-`n` basis on its exact quadrature from I.
+fn orthonormality_error(n: usize) -> anyhow::Result<f64> {
     let basis = ShBasis::<f64>::new(n)?;
     let set = DirectionSet::gauss_sphere_for_order(n);
     let mut gram = vec![0.0; n * n * n * n];
@@ -135,11 +172,27 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let e_orth = (0..n * n)
+    Ok((0..n * n)
         .flat_map(|i| (0..n * n).map(move |j| (i, j)))
         .map(|(i, j)| (gram[i * n * n + j] - if i == j { 1.0 } else { 0.0 }).abs())
-        .fold(0.0f64, f64::max);
-    const TOL: f64 = 1e-12;
+        .fold(0.0f64, f64::max))
+}
+
+/// Check 3: the operator's identities at order `n`, each against [`TOL`].
+fn identities(
+    n: usize,
+    alpha: f64,
+    say: &dyn Fn(String),
+    failures: &mut Vec<String>,
+) -> anyhow::Result<Vec<serde_json::Value>> {
+    say("3. Identities".into());
+    let m1 = ScalingMatrix::compute(&Cone::new(1.0, alpha)?, Eta::Plain, n)?;
+    let e_id = m1.max_abs_diff(&ScalingMatrix::identity(n)?);
+    let me = ScalingMatrix::compute(&Cone::new(3.0, alpha)?, Eta::Energy, n)?.to_dense();
+    let e_energy = (me[0][0] - 1.0)
+        .abs()
+        .max(me[0][1..].iter().fold(0.0f64, |s, v| s.max(v.abs())));
+    let e_orth = orthonormality_error(n)?;
     let mut identities = Vec::new();
     for (name, e) in [
         ("M at k = 1 equals I", e_id),
@@ -159,26 +212,8 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         }
         identities.push(serde_json::json!({"check": name, "order": n, "max_error": e, "tolerance": TOL, "ok": ok}));
     }
-    let secs = t0.elapsed().as_secs_f64();
-    if json {
-        crate::output::print_json(&serde_json::json!({
-            "alpha_deg": a.alpha_deg,
-            "operator_accuracy": operator,
-            "on_surface": on_surface,
-            "identities": identities,
-            "seconds": secs,
-            "failures": failures,
-        }))?;
-    } else {
-        println!();
-        println!("done in {secs:.2} s");
-    }
-    if failures.is_empty() {
-        Ok(ExitCode::SUCCESS)
-    } else {
-        for f in &failures {
-            eprintln!("check failed: {f}");
-        }
-        Ok(ExitCode::from(1))
-    }
+    Ok(identities)
 }
+
+/// The identities' tolerance: each holds to rounding (exact quadrature, exact matrices).
+const TOL: f64 = 1e-12;

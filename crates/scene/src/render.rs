@@ -150,38 +150,48 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         });
     }
     let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
-    let local = LocalLights {
-        emitters: &emitters,
-        extrapolators: (light_fields.iter())
-            .map(|lf| {
-                [0, 1, 2].map(|c| {
-                    lf.bsvs[c].as_ref().map(|b| {
-                        Extrapolator::for_light(b, lf.table.as_ref().expect("table with BSVs"))
-                    })
-                })
-            })
-            .collect(),
-        sampler: &sampler,
-    };
+    let local = LocalLights::new(&emitters, &light_fields, &sampler);
+    let mut out = shade_all(
+        scene,
+        &fields,
+        &centers,
+        (&shader, &transfer),
+        &local,
+        &recv,
+    );
+    stages.push("shading", t);
+    out.stages = stages.0;
+    Ok(out)
+}
+
+/// Every receiver shaded by the product of the occluders' visibility fields under the light's
+/// transfer, plus the local lights.
+fn shade_all(
+    scene: &Scene,
+    fields: &[&dyn VisibilityField],
+    centers: &[DVec3],
+    (shader, transfer): (&Shader, &[Vec<f64>; 3]),
+    local: &LocalLights,
+    recv: &[DVec3],
+) -> RenderOutput {
     let shaded: Vec<([f32; 3], usize, usize)> = recv
         .par_iter()
         .map(|p| {
-            let (v, products, skipped) = shader.combined_visibility_counted(&fields, &centers, *p);
-            let mut e = Shader::shade(&transfer, &v);
-            local.add(scene.order, &shader, *p, &v, &mut e);
+            let (v, products, skipped) = shader.combined_visibility_counted(fields, centers, *p);
+            let mut e = Shader::shade(transfer, &v);
+            local.add(scene.order, shader, *p, &v, &mut e);
             (e.map(|x| x as f32), products, skipped)
         })
         .collect();
-    stages.push("shading", t);
-    Ok(RenderOutput {
+    RenderOutput {
         width: scene.resolution[0],
         height: scene.resolution[1],
         pixels: shaded.iter().map(|s| s.0).collect(),
-        stages: stages.0,
+        stages: Vec::new(),
         products: shaded.iter().map(|s| s.1).sum(),
         skipped: shaded.iter().map(|s| s.2).sum(),
         error: Vec::new(),
-    })
+    }
 }
 
 /// `(stage, seconds)` in execution order.
@@ -382,7 +392,29 @@ struct LocalLights<'a> {
     sampler: &'a VisibilitySampler,
 }
 
-impl LocalLights<'_> {
+impl<'a> LocalLights<'a> {
+    /// The lights with the extrapolators of their fields (built once for every receiver).
+    fn new(
+        emitters: &'a [LightSource],
+        fields: &'a [LightField],
+        sampler: &'a VisibilitySampler,
+    ) -> Self {
+        let extrapolators = (fields.iter())
+            .map(|lf| {
+                [0, 1, 2].map(|c| {
+                    lf.bsvs[c].as_ref().map(|b| {
+                        Extrapolator::for_light(b, lf.table.as_ref().expect("table with BSVs"))
+                    })
+                })
+            })
+            .collect();
+        Self {
+            emitters,
+            extrapolators,
+            sampler,
+        }
+    }
+
     /// Add every local light's radiance at `p` (extrapolated, or ray traced where no field was
     /// built), contracted with the lobe under visibility `v`, to the irradiance `e`.
     fn add(&self, order: usize, shader: &Shader, p: DVec3, v: &[f64], e: &mut [f64; 3]) {
@@ -448,54 +480,9 @@ pub fn render_sequence(
     let [w, h] = scene.resolution;
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
-    struct Entity {
-        rest: Option<Mesh>,
-        posed: Option<Mesh>,
-        occ: Box<dyn Occluder>,
-        bvh: Option<MeshBvh>,
-        deformer: Option<(deform::DeformerKind, f64)>,
-        sampling: Sphere,
-        bsv: Option<Bsv>,
-    }
-    let mut ents = Vec::new();
-    for o in &scene.occluders {
-        if o.mesh == "sphere" {
-            let occ = build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?;
-            let sampling = Sphere {
-                center: o.center,
-                radius: o.radius * scene.sampling_radius,
-            };
-            ents.push(Entity {
-                rest: None,
-                posed: None,
-                occ,
-                bvh: None,
-                deformer: None,
-                sampling,
-                bsv: None,
-            });
-            continue;
-        }
-        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
-        let s = sequence_sphere(&rest, o.deformer, frames);
-        let sampling = Sphere {
-            center: s.center,
-            radius: s.radius * scene.sampling_radius,
-        };
-        let strategy = o
-            .deformer
-            .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
-        let bvh = MeshBvh::build(&rest, strategy);
-        ents.push(Entity {
-            posed: Some(rest.clone()),
-            rest: Some(rest),
-            occ: Box::new(AnalyticSphere { sphere: s }),
-            bvh: Some(bvh),
-            deformer: o.deformer,
-            sampling,
-            bsv: None,
-        });
-    }
+    let mut ents = (scene.occluders.iter())
+        .map(|o| Entity::new(scene, o, frames))
+        .collect::<Result<Vec<_>, _>>()?;
     // Tables: one per occluder over the receivers' k range.
     let tables: Vec<KTable> = ents
         .iter()
@@ -515,35 +502,7 @@ pub fn render_sequence(
             ..Default::default()
         };
         for e in ents.iter_mut() {
-            let changed = e.deformer.is_some() || e.bsv.is_none();
-            if let (Some((kind, amount)), Some(rest), Some(posed)) =
-                (e.deformer, e.rest.as_ref(), e.posed.as_mut())
-            {
-                let t0 = Instant::now();
-                pose_mesh(rest, kind, amount, t, posed);
-                st.deform_seconds += t0.elapsed().as_secs_f64();
-                let t0 = Instant::now();
-                e.bvh.as_mut().expect("meshes have a BVH").update(posed);
-                st.bvh_update_seconds += t0.elapsed().as_secs_f64();
-            }
-            if !changed {
-                st.reused += 1;
-                continue;
-            }
-            let t0 = Instant::now();
-            let occ: &dyn Occluder = match &e.bvh {
-                Some(b) => b,
-                None => e.occ.as_ref(),
-            };
-            e.bsv = Some(Bsv::sample_on(
-                occ,
-                scene.layout,
-                &sampler,
-                e.sampling,
-                0.0,
-            )?);
-            st.bsv_sampling_seconds += t0.elapsed().as_secs_f64();
-            st.resampled += 1;
+            e.advance(scene, &sampler, t, &mut st)?;
         }
         let t0 = Instant::now();
         // The receiver cache is linear in the visibility; the clamp mitigation is not, so a
@@ -557,27 +516,8 @@ pub fn render_sequence(
             c.shade(bsv, &mut out);
             pixels = out.iter().map(|e| e.map(|x| x as f32)).collect();
         } else {
-            let exs: Vec<Extrapolator> = ents
-                .iter()
-                .zip(&tables)
-                .map(|(e, t)| {
-                    Extrapolator::new(e.bsv.as_ref().expect("sampled"), t)
-                        .with_plausibility(scene.plausibility)
-                })
-                .collect();
-            let fields: Vec<&dyn VisibilityField> =
-                exs.iter().map(|e| e as &dyn VisibilityField).collect();
-            let centers: Vec<DVec3> = ents.iter().map(|e| e.sampling.center).collect();
-            let shaded: Vec<([f32; 3], usize, usize)> = recv
-                .par_iter()
-                .map(|p| {
-                    let (v, pr, sk) = shader.combined_visibility_counted(&fields, &centers, *p);
-                    (Shader::shade(&transfer, &v).map(|x| x as f32), pr, sk)
-                })
-                .collect();
-            pixels = shaded.iter().map(|s| s.0).collect();
-            products = shaded.iter().map(|s| s.1).sum();
-            skipped = shaded.iter().map(|s| s.2).sum();
+            (pixels, products, skipped) =
+                shade_direct(scene, &ents, &tables, &shader, &transfer, &recv);
         }
         st.shading_seconds = t0.elapsed().as_secs_f64();
         stats.push(st);
@@ -592,4 +532,124 @@ pub fn render_sequence(
         error: Vec::new(),
     };
     Ok((out, stats))
+}
+
+/// One occluder of a sequence: its rest and posed mesh with their BVH and deformer (none for the
+/// analytic sphere), the sampling sphere fixed for the sequence, and its current BSV.
+struct Entity {
+    rest: Option<Mesh>,
+    posed: Option<Mesh>,
+    occ: Box<dyn Occluder>,
+    bvh: Option<MeshBvh>,
+    deformer: Option<(deform::DeformerKind, f64)>,
+    sampling: Sphere,
+    bsv: Option<Bsv>,
+}
+
+impl Entity {
+    fn new(scene: &Scene, o: &crate::scene::OccluderSpec, frames: usize) -> Result<Self, Error> {
+        if o.mesh == "sphere" {
+            return Ok(Entity {
+                rest: None,
+                posed: None,
+                occ: build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?,
+                bvh: None,
+                deformer: None,
+                sampling: Sphere {
+                    center: o.center,
+                    radius: o.radius * scene.sampling_radius,
+                },
+                bsv: None,
+            });
+        }
+        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+        let s = sequence_sphere(&rest, o.deformer, frames);
+        let strategy = (o.deformer).map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+        let bvh = MeshBvh::build(&rest, strategy);
+        Ok(Entity {
+            posed: Some(rest.clone()),
+            rest: Some(rest),
+            occ: Box::new(AnalyticSphere { sphere: s }),
+            bvh: Some(bvh),
+            deformer: o.deformer,
+            sampling: Sphere {
+                center: s.center,
+                radius: s.radius * scene.sampling_radius,
+            },
+            bsv: None,
+        })
+    }
+
+    /// Pose the occluder at time `t` (deformers only), update its BVH, and resample its BSV
+    /// when its shape changed (or was never sampled); the times and counts go to `st`.
+    fn advance(
+        &mut self,
+        scene: &Scene,
+        sampler: &VisibilitySampler,
+        t: f64,
+        st: &mut FrameStats,
+    ) -> Result<(), Error> {
+        let changed = self.deformer.is_some() || self.bsv.is_none();
+        if let (Some((kind, amount)), Some(rest), Some(posed)) =
+            (self.deformer, self.rest.as_ref(), self.posed.as_mut())
+        {
+            let t0 = Instant::now();
+            pose_mesh(rest, kind, amount, t, posed);
+            st.deform_seconds += t0.elapsed().as_secs_f64();
+            let t0 = Instant::now();
+            self.bvh.as_mut().expect("meshes have a BVH").update(posed);
+            st.bvh_update_seconds += t0.elapsed().as_secs_f64();
+        }
+        if !changed {
+            st.reused += 1;
+            return Ok(());
+        }
+        let t0 = Instant::now();
+        let occ: &dyn Occluder = match &self.bvh {
+            Some(b) => b,
+            None => self.occ.as_ref(),
+        };
+        self.bsv = Some(Bsv::sample_on(
+            occ,
+            scene.layout,
+            sampler,
+            self.sampling,
+            0.0,
+        )?);
+        st.bsv_sampling_seconds += t0.elapsed().as_secs_f64();
+        st.resampled += 1;
+        Ok(())
+    }
+}
+
+/// A frame shaded receiver by receiver through the extrapolators of every occluder (no cache):
+/// the pixels, SH products computed and evaluations skipped.
+fn shade_direct(
+    scene: &Scene,
+    ents: &[Entity],
+    tables: &[KTable],
+    shader: &Shader,
+    transfer: &[Vec<f64>; 3],
+    recv: &[DVec3],
+) -> (Vec<[f32; 3]>, usize, usize) {
+    let exs: Vec<Extrapolator> = (ents.iter().zip(tables))
+        .map(|(e, t)| {
+            Extrapolator::new(e.bsv.as_ref().expect("sampled"), t)
+                .with_plausibility(scene.plausibility)
+        })
+        .collect();
+    let fields: Vec<&dyn VisibilityField> = exs.iter().map(|e| e as &dyn VisibilityField).collect();
+    let centers: Vec<DVec3> = ents.iter().map(|e| e.sampling.center).collect();
+    let shaded: Vec<([f32; 3], usize, usize)> = recv
+        .par_iter()
+        .map(|p| {
+            let (v, pr, sk) = shader.combined_visibility_counted(&fields, &centers, *p);
+            (Shader::shade(transfer, &v).map(|x| x as f32), pr, sk)
+        })
+        .collect();
+    (
+        shaded.iter().map(|s| s.0).collect(),
+        shaded.iter().map(|s| s.1).sum(),
+        shaded.iter().map(|s| s.2).sum(),
+    )
 }
