@@ -85,6 +85,66 @@ pub struct GpuSampler {
     project_bind: wgpu::BindGroup,
 }
 
+/// The `H × H` Gauss hemisphere as `[x, y, z, weight]` rays, after checking the order, the
+/// sample count and that a frame's visibility fits the adapter's storage binding.
+fn hemisphere_rays(
+    ctx: &GpuContext,
+    order: usize,
+    h: usize,
+    samples: usize,
+) -> Result<Vec<[f32; 4]>, GpuError> {
+    check_gpu_order(order)?;
+    if h == 0 || samples == 0 || samples > 65_535 {
+        return Err(GpuError::Input(format!(
+            "need H ≥ 1 and 1..=65535 samples, got H = {h}, {samples} samples"
+        )));
+    }
+    let hemi = DirectionSet::gauss_hemisphere(h);
+    let total = samples as u64 * hemi.dirs.len() as u64;
+    let max_binding = ctx.device.limits().max_storage_buffer_binding_size;
+    if 4 * total > max_binding {
+        return Err(GpuError::Input(format!(
+            "{total} rays per frame need {} bytes of visibility, above the adapter's {max_binding}",
+            4 * total
+        )));
+    }
+    Ok((hemi.dirs.iter().zip(&hemi.weights))
+        .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
+        .collect())
+}
+
+/// Per sample at `center + radius · dir`: its position and local frame (z toward the centre),
+/// and the back hemisphere's closed-form visibility (the zonal half-sphere cap rotated to −z of
+/// the frame) in f32.
+fn sample_frames(
+    order: usize,
+    center: DVec3,
+    radius: f64,
+    dirs: &[DVec3],
+) -> Result<(Vec<GpuSample>, Vec<f32>), GpuError> {
+    let nn = order * order;
+    let basis = ShBasis::<f64>::new(order).map_err(|e| GpuError::Input(e.to_string()))?;
+    let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)
+        .map_err(|e| GpuError::Input(e.to_string()))?;
+    let mut samples = Vec::with_capacity(dirs.len());
+    let mut back = Vec::with_capacity(dirs.len() * nn);
+    let mut b = vec![0.0; nn];
+    for &d in dirs {
+        let pos = center + radius * d;
+        let f = LocalFrame::toward(pos, center);
+        samples.push(GpuSample {
+            pos: v4(pos, 1.0),
+            fx: v4(f.x, 0.0),
+            fy: v4(f.y, 0.0),
+            fz: v4(f.z, 0.0),
+        });
+        rotate_zonal(&basis, &cap, (-f.z).to_array(), &mut b)
+            .map_err(|e| GpuError::Input(e.to_string()))?;
+        back.extend(b.iter().map(|&x| x as f32));
+    }
+    Ok((samples, back))
+}
+
 impl GpuSampler {
     /// Set up for samples at `center + radius · dir` (unit `dirs`), order `N ≤ 8`, `H × H` rays
     /// per sample; `capacity` is the largest BVH (nodes, triangles) the sequence will upload.
@@ -97,41 +157,11 @@ impl GpuSampler {
         dirs: &[DVec3],
         capacity: (usize, usize),
     ) -> Result<Self, GpuError> {
-        check_gpu_order(order)?;
-        if h == 0 || dirs.is_empty() || dirs.len() > 65_535 {
-            return Err(GpuError::Input(format!(
-                "need H ≥ 1 and 1..=65535 samples, got H = {h}, {} samples",
-                dirs.len()
-            )));
-        }
         let nn = order * order;
-        let hemi = DirectionSet::gauss_hemisphere(h);
-        let basis = ShBasis::<f64>::new(order).map_err(|e| GpuError::Input(e.to_string()))?;
-        let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)
-            .map_err(|e| GpuError::Input(e.to_string()))?;
-        let mut samples = Vec::with_capacity(dirs.len());
-        let mut back = Vec::with_capacity(dirs.len() * nn);
-        let mut b = vec![0.0; nn];
-        for &d in dirs {
-            let pos = center + radius * d;
-            let f = LocalFrame::toward(pos, center);
-            samples.push(GpuSample {
-                pos: v4(pos, 1.0),
-                fx: v4(f.x, 0.0),
-                fy: v4(f.y, 0.0),
-                fz: v4(f.z, 0.0),
-            });
-            rotate_zonal(&basis, &cap, (-f.z).to_array(), &mut b)
-                .map_err(|e| GpuError::Input(e.to_string()))?;
-            back.extend(b.iter().map(|&x| x as f32));
-        }
-        let hemi4: Vec<[f32; 4]> = hemi
-            .dirs
-            .iter()
-            .zip(&hemi.weights)
-            .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
-            .collect();
+        let hemi4 = hemisphere_rays(ctx, order, h, dirs.len())?;
+        let (samples, back) = sample_frames(order, center, radius, dirs)?;
         let rays = hemi4.len();
+        let total = dirs.len() as u64 * rays as u64;
         let params = GpuParams {
             order: order as u32,
             nn: nn as u32,
@@ -139,14 +169,6 @@ impl GpuSampler {
             rays: rays as u32,
             ..Default::default()
         };
-        let total = dirs.len() as u64 * rays as u64;
-        let max_binding = ctx.device.limits().max_storage_buffer_binding_size;
-        if 4 * total > max_binding {
-            return Err(GpuError::Input(format!(
-                "{total} rays per frame need {} bytes of visibility, above the adapter's {max_binding}",
-                4 * total
-            )));
-        }
         use wgpu::util::DeviceExt;
         let params_buf = ctx
             .device
@@ -165,28 +187,30 @@ impl GpuSampler {
         let coeffs_buf = ctx.storage("coeffs", 4 * (dirs.len() * nn) as u64);
         let cast = ctx.pipeline("cast", &cast_source(), "cast_rays");
         let project = ctx.pipeline("project", &project_source(), "project");
-        let cast_bind = ctx.bind(
-            &cast,
-            &[
-                &params_buf,
-                &samples_buf,
-                &hemi_buf,
-                &nodes_buf,
-                &tris_buf,
-                &vis_buf,
-            ],
-        );
-        let project_bind = ctx.bind(
-            &project,
-            &[
-                &params_buf,
-                &samples_buf,
-                &hemi_buf,
-                &vis_buf,
-                &knorm_buf,
-                &back_buf,
-                &coeffs_buf,
-            ],
+        let (cast_bind, project_bind) = (
+            ctx.bind(
+                &cast,
+                &[
+                    &params_buf,
+                    &samples_buf,
+                    &hemi_buf,
+                    &nodes_buf,
+                    &tris_buf,
+                    &vis_buf,
+                ],
+            ),
+            ctx.bind(
+                &project,
+                &[
+                    &params_buf,
+                    &samples_buf,
+                    &hemi_buf,
+                    &vis_buf,
+                    &knorm_buf,
+                    &back_buf,
+                    &coeffs_buf,
+                ],
+            ),
         );
         Ok(Self {
             order,

@@ -65,6 +65,118 @@ pub struct GpuShader {
     _cache: [wgpu::Buffer; 2],
 }
 
+/// The receiver setup checked against the sampler: a linear k-table of a GPU order matching
+/// `params`, and one location per receiver. Returns the order and the receiver count.
+fn check_setup(setup: &ReceiverSetup<'_>, params: &GpuParams) -> Result<(usize, usize), GpuError> {
+    let table = setup.table;
+    let (_, _, _, interp) = table.spec();
+    if interp != Interp::Linear {
+        return Err(GpuError::Input(
+            "the GPU receiver setup interpolates k-tables linearly; this table is cubic".into(),
+        ));
+    }
+    let order = table.order();
+    crate::sampling::check_gpu_order(order)?;
+    let nn = order * order;
+    if params.nn as usize != nn {
+        return Err(GpuError::Input(format!(
+            "k-table of order {order} for a sampler of N² = {}",
+            params.nn
+        )));
+    }
+    let n = setup.receivers.len();
+    if n == 0 || setup.locations.len() != n {
+        return Err(GpuError::Input(format!(
+            "{n} receivers with {} locations",
+            setup.locations.len()
+        )));
+    }
+    Ok((order, n))
+}
+
+/// The inputs of the cache-building pass in f32: the table's nodes (`ln k` for a log table) and
+/// dense matrices, the transfer of `channels` channels, the exact quadrature, the receivers and
+/// their BSV locations.
+struct CacheInputs {
+    xs: Vec<f32>,
+    mats: Vec<f32>,
+    transfer: Vec<f32>,
+    quad: Vec<[f32; 4]>,
+    points: Vec<[f32; 4]>,
+    rows: Vec<GpuReceiver>,
+}
+
+impl CacheInputs {
+    fn of(setup: &ReceiverSetup<'_>, channels: usize) -> Self {
+        let table = setup.table;
+        let order = table.order();
+        let nn = order * order;
+        let log_k = table.log_k();
+        let xs: Vec<f32> = (table.ks().iter())
+            .map(|&k| if log_k { k.ln() as f32 } else { k as f32 })
+            .collect();
+        let mut mats = Vec::with_capacity(xs.len() * nn * nn);
+        for m in table.matrices() {
+            for row in m.to_dense() {
+                mats.extend(row.iter().map(|&v| v as f32));
+            }
+        }
+        let transfer: Vec<f32> = (setup.transfer[..channels].iter())
+            .flat_map(|c| c.iter().map(|&v| v as f32))
+            .collect();
+        let q = DirectionSet::gauss_sphere_for_order(order);
+        let quad: Vec<[f32; 4]> = (q.dirs.iter().zip(&q.weights))
+            .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
+            .collect();
+        let points: Vec<[f32; 4]> = (setup.receivers.iter())
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        let rows: Vec<GpuReceiver> = (setup.locations.iter())
+            .map(|l| GpuReceiver {
+                idx: l.map(|x| x.0),
+                flag: 0,
+                w: [l[0].1 as f32, l[1].1 as f32, l[2].1 as f32, 0.0],
+                constant: [0.0; 4],
+            })
+            .collect();
+        Self {
+            xs,
+            mats,
+            transfer,
+            quad,
+            points,
+            rows,
+        }
+    }
+}
+
+/// One pass of the cache-building pipeline over `n` receivers; its device time in seconds
+/// (timestamps where available, else the synchronised wall clock).
+fn run_setup_pass(
+    ctx: &GpuContext,
+    pipe: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    n: usize,
+) -> Result<f64, GpuError> {
+    let timer = crate::timing::StageTimer::new(ctx, 1);
+    let t0 = std::time::Instant::now();
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = enc.begin_compute_pass(&timer.pass("receiver setup", 0));
+        let (x, y) = grid_64(n as u32);
+        pass.set_pipeline(pipe);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+    timer.resolve(&mut enc);
+    ctx.queue.submit([enc.finish()]);
+    ctx.wait()?;
+    let wall = t0.elapsed().as_secs_f64();
+    Ok(timer.read(ctx)?.map_or(wall, |s| s[0]))
+}
+
 impl GpuShader {
     /// Build the receiver cache on the GPU (k-table scaling and both rotations per receiver;
     /// see cache.wgsl) and set up shading from it. Returns the shader and the device time of the
@@ -76,69 +188,20 @@ impl GpuShader {
         params: &mut GpuParams,
         coeffs_buf: &wgpu::Buffer,
     ) -> Result<(Self, f64), GpuError> {
-        let table = setup.table;
-        let (_, _, _, interp) = table.spec();
-        if interp != Interp::Linear {
-            return Err(GpuError::Input(
-                "the GPU receiver setup interpolates k-tables linearly; this table is cubic".into(),
-            ));
-        }
-        let order = table.order();
-        crate::sampling::check_gpu_order(order)?;
+        let (order, n) = check_setup(setup, params)?;
         let nn = order * order;
-        if params.nn as usize != nn {
-            return Err(GpuError::Input(format!(
-                "k-table of order {order} for a sampler of N² = {}",
-                params.nn
-            )));
-        }
-        let n = setup.receivers.len();
-        if n == 0 || setup.locations.len() != n {
-            return Err(GpuError::Input(format!(
-                "{n} receivers with {} locations",
-                setup.locations.len()
-            )));
-        }
+        let table = setup.table;
         let t = setup.transfer;
         let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
         let log_k = table.log_k();
-        let xs: Vec<f32> = table
-            .ks()
-            .iter()
-            .map(|&k| if log_k { k.ln() as f32 } else { k as f32 })
-            .collect();
-        let mut mats = Vec::with_capacity(xs.len() * nn * nn);
-        for m in table.matrices() {
-            for row in m.to_dense() {
-                mats.extend(row.iter().map(|&v| v as f32));
-            }
-        }
-        let transfer: Vec<f32> = t[..channels]
-            .iter()
-            .flat_map(|c| c.iter().map(|&v| v as f32))
-            .collect();
-        let q = DirectionSet::gauss_sphere_for_order(order);
-        let quad: Vec<[f32; 4]> = q
-            .dirs
-            .iter()
-            .zip(&q.weights)
-            .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
-            .collect();
-        let points: Vec<[f32; 4]> = setup
-            .receivers
-            .iter()
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
-            .collect();
-        let rows: Vec<GpuReceiver> = setup
-            .locations
-            .iter()
-            .map(|l| GpuReceiver {
-                idx: l.map(|x| x.0),
-                flag: 0,
-                w: [l[0].1 as f32, l[1].1 as f32, l[2].1 as f32, 0.0],
-                constant: [0.0; 4],
-            })
-            .collect();
+        let CacheInputs {
+            xs,
+            mats,
+            transfer,
+            quad,
+            points,
+            rows,
+        } = CacheInputs::of(setup, channels);
         let c = setup.sampling.center;
         let cp = GpuCacheParams {
             center: [
@@ -184,23 +247,7 @@ impl GpuShader {
                 &u_buf,
             ],
         );
-        let timer = crate::timing::StageTimer::new(ctx, 1);
-        let t0 = std::time::Instant::now();
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        {
-            let mut pass = enc.begin_compute_pass(&timer.pass("receiver setup", 0));
-            let (x, y) = grid_64(n as u32);
-            pass.set_pipeline(&pipe);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        ctx.wait()?;
-        let wall = t0.elapsed().as_secs_f64();
-        let seconds = timer.read(ctx)?.map_or(wall, |s| s[0]);
+        let seconds = run_setup_pass(ctx, &pipe, &bind, n)?;
         let shader = Self::from_buffers(
             ctx, rec_buf, u_buf, n, channels, params_buf, params, coeffs_buf,
         );
