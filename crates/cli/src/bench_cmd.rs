@@ -177,122 +177,129 @@ fn print<T: serde::Serialize>(format: TextFormat, row: &T, text: String) -> anyh
 fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
     let level = shscale_sh::simd::level();
     match k {
-        BenchKernel::Rays(a) => {
-            let p = protocol(&a.common)?;
-            let t = threads(a.threads)?;
-            let m = mesh(&a.mesh)?;
-            let (set, workload) = match &a.rays {
-                Some(f) => (
-                    RaySet::from_file(f, a.hits.as_deref())
-                        .map_err(|e| anyhow::anyhow!("--rays: {e}"))?,
-                    f.display().to_string(),
-                ),
-                None => match a.workload {
-                    Workload::Bsv => (RaySet::bsv(&m, 12, 20, 32), "bsv".to_string()),
-                    Workload::Random => {
-                        if !(1..=MAX_KERNEL_RAYS).contains(&a.count) {
-                            anyhow::bail!("--count: {} is outside 1..={MAX_KERNEL_RAYS}", a.count);
-                        }
-                        (RaySet::random(&m, a.count, 20261122), "random".to_string())
-                    }
-                },
-            };
-            let r = kernels::bench_rays(&m, &a.mesh, &workload, &set, t, level, p)?;
-            let text = format!(
-                "rays {} {} ({} triangles; tree of {} nodes, {:.1} of 8 slots used, {} packs of {:.2} triangles, depth {}): {} rays, {:.2} Mrays/s (median of {} in {:.3} s; min {:.3} ms, max {:.3} ms), {} thread(s), {}, hit fraction {:.4}{}",
-                r.mesh,
-                r.workload,
-                r.triangles,
-                r.tree.nodes,
-                r.tree.slots_used,
-                r.tree.packs,
-                r.tree.pack_fill,
-                r.tree.depth,
-                r.rays,
-                r.rays_per_second / 1e6,
-                r.timing.reps,
-                r.median_seconds,
-                r.timing.min_seconds * 1e3,
-                r.timing.max_seconds * 1e3,
-                r.threads,
-                r.simd,
-                r.hits as f64 / r.rays as f64,
-                r.mismatches.map_or(String::new(), |m| format!(", {m} disagreements with the file's answers"))
-            );
-            print(a.common.format, &r, text)?;
-        }
-        BenchKernel::Bsv(a) => {
-            let p = protocol(&a.common)?;
-            let t = threads(a.threads)?;
-            let m = mesh(&a.mesh)?;
-            let layout = shscale_field::bsv::Layout::parse(&a.layout)
-                .map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
-            if !(1..=shscale_scene::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
-                anyhow::bail!(
-                    "--hemisphere-res: {} is outside 1..={}",
-                    a.hemisphere_res,
-                    shscale_scene::vocab::MAX_VISIBILITY_RES
-                );
-            }
-            // The orders a scene may shade with (docs/config-reference.md).
-            if !(1..=16).contains(&a.order) {
-                anyhow::bail!("--order: {} is outside 1..=16", a.order);
-            }
-            let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
-                * (a.hemisphere_res * a.hemisphere_res) as f64;
-            shscale_runner::limits::check_work(
-                "bench bsv",
-                rays,
-                0.0,
-                "layout samples × H²",
-                a.common.allow_large,
-            )?;
-            let r =
-                kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
-            let text = format!(
-                "bsv {} {} ({} triangles): {} rays in {:.3} ms (median of {}; min {:.3}, max {:.3}), {:.2} Mrays/s, {} thread(s), {}",
-                r.mesh,
-                r.workload,
-                r.triangles,
-                r.rays,
-                r.median_seconds * 1e3,
-                r.timing.reps,
-                r.timing.min_seconds * 1e3,
-                r.timing.max_seconds * 1e3,
-                r.rays_per_second / 1e6,
-                r.threads,
-                r.simd
-            );
-            print(a.common.format, &r, text)?;
-        }
-        BenchKernel::Sh(a) => {
-            let p = protocol(&a.common)?;
-            shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
-            if a.points == 0 {
-                anyhow::bail!("--points: 0; at least one direction is needed");
-            }
-            let f32 = a.precision == Precision::F32;
-            let bytes = a.points as f64 * (a.order * a.order) as f64 * if f32 { 4.0 } else { 8.0 };
-            shscale_runner::limits::check_work(
-                "bench sh",
-                0.0,
-                bytes,
-                "--points × N² values",
-                a.common.allow_large,
-            )?;
-            let r = kernels::bench_sh(a.order, f32, a.points, level, p)?;
-            let text = format!(
-                "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",
-                r.order,
-                r.precision,
-                r.ns_per_point,
-                r.points,
-                r.timing.reps,
-                r.median_seconds,
-                r.simd
-            );
-            print(a.common.format, &r, text)?;
-        }
+        BenchKernel::Rays(a) => bench_rays(&a, level)?,
+        BenchKernel::Bsv(a) => bench_bsv(&a, level)?,
+        BenchKernel::Sh(a) => bench_sh(&a, level)?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `bench rays`: a ray set (a file, the BSV workload or random rays) through the BVH.
+fn bench_rays(
+    a: &crate::args::BenchRaysArgs,
+    level: shscale_sh::simd::Level,
+) -> anyhow::Result<()> {
+    let p = protocol(&a.common)?;
+    let t = threads(a.threads)?;
+    let m = mesh(&a.mesh)?;
+    let (set, workload) = match &a.rays {
+        Some(f) => (
+            RaySet::from_file(f, a.hits.as_deref()).map_err(|e| anyhow::anyhow!("--rays: {e}"))?,
+            f.display().to_string(),
+        ),
+        None => match a.workload {
+            Workload::Bsv => (RaySet::bsv(&m, 12, 20, 32), "bsv".to_string()),
+            Workload::Random => {
+                if !(1..=MAX_KERNEL_RAYS).contains(&a.count) {
+                    anyhow::bail!("--count: {} is outside 1..={MAX_KERNEL_RAYS}", a.count);
+                }
+                (RaySet::random(&m, a.count, 20261122), "random".to_string())
+            }
+        },
+    };
+    let r = kernels::bench_rays(&m, &a.mesh, &workload, &set, t, level, p)?;
+    let text = format!(
+        "rays {} {} ({} triangles; tree of {} nodes, {:.1} of 8 slots used, {} packs of {:.2} triangles, depth {}): {} rays, {:.2} Mrays/s (median of {} in {:.3} s; min {:.3} ms, max {:.3} ms), {} thread(s), {}, hit fraction {:.4}{}",
+        r.mesh,
+        r.workload,
+        r.triangles,
+        r.tree.nodes,
+        r.tree.slots_used,
+        r.tree.packs,
+        r.tree.pack_fill,
+        r.tree.depth,
+        r.rays,
+        r.rays_per_second / 1e6,
+        r.timing.reps,
+        r.median_seconds,
+        r.timing.min_seconds * 1e3,
+        r.timing.max_seconds * 1e3,
+        r.threads,
+        r.simd,
+        r.hits as f64 / r.rays as f64,
+        r.mismatches.map_or(String::new(), |m| format!(", {m} disagreements with the file's answers"))
+    );
+    print(a.common.format, &r, text)?;
+    Ok(())
+}
+
+/// `bench bsv`: one base-sphere visibility sampling of a mesh.
+fn bench_bsv(a: &crate::args::BenchBsvArgs, level: shscale_sh::simd::Level) -> anyhow::Result<()> {
+    let p = protocol(&a.common)?;
+    let t = threads(a.threads)?;
+    let m = mesh(&a.mesh)?;
+    let layout = shscale_field::bsv::Layout::parse(&a.layout)
+        .map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
+    if !(1..=shscale_scene::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
+        anyhow::bail!(
+            "--hemisphere-res: {} is outside 1..={}",
+            a.hemisphere_res,
+            shscale_scene::vocab::MAX_VISIBILITY_RES
+        );
+    }
+    // The orders a scene may shade with (docs/config-reference.md).
+    if !(1..=16).contains(&a.order) {
+        anyhow::bail!("--order: {} is outside 1..=16", a.order);
+    }
+    let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
+        * (a.hemisphere_res * a.hemisphere_res) as f64;
+    shscale_runner::limits::check_work(
+        "bench bsv",
+        rays,
+        0.0,
+        "layout samples × H²",
+        a.common.allow_large,
+    )?;
+    let r = kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
+    let text = format!(
+        "bsv {} {} ({} triangles): {} rays in {:.3} ms (median of {}; min {:.3}, max {:.3}), {:.2} Mrays/s, {} thread(s), {}",
+        r.mesh,
+        r.workload,
+        r.triangles,
+        r.rays,
+        r.median_seconds * 1e3,
+        r.timing.reps,
+        r.timing.min_seconds * 1e3,
+        r.timing.max_seconds * 1e3,
+        r.rays_per_second / 1e6,
+        r.threads,
+        r.simd
+    );
+    print(a.common.format, &r, text)?;
+    Ok(())
+}
+
+/// `bench sh`: the SH basis at `--points` directions.
+fn bench_sh(a: &crate::args::BenchShArgs, level: shscale_sh::simd::Level) -> anyhow::Result<()> {
+    let p = protocol(&a.common)?;
+    shscale_sh::check_order(a.order).map_err(|e| anyhow::anyhow!("--order: {e}"))?;
+    if a.points == 0 {
+        anyhow::bail!("--points: 0; at least one direction is needed");
+    }
+    let f32 = a.precision == Precision::F32;
+    let bytes = a.points as f64 * (a.order * a.order) as f64 * if f32 { 4.0 } else { 8.0 };
+    shscale_runner::limits::check_work(
+        "bench sh",
+        0.0,
+        bytes,
+        "--points × N² values",
+        a.common.allow_large,
+    )?;
+    let r = kernels::bench_sh(a.order, f32, a.points, level, p)?;
+    let text = format!(
+        "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",
+        r.order, r.precision, r.ns_per_point, r.points, r.timing.reps, r.median_seconds, r.simd
+    );
+    print(a.common.format, &r, text)?;
+    Ok(())
 }

@@ -58,60 +58,9 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
                 .unwrap_or_default()
         );
     }
-    // A progress bar with ETA over the pending runs (drawn on stderr only when it is a
-    // terminal); every finished run is also logged as a line on stdout.
-    let bar: std::sync::OnceLock<indicatif::ProgressBar> = std::sync::OnceLock::new();
-    let log = |line: &str| match bar.get() {
-        _ if json => {}
-        Some(b) if !b.is_hidden() => b.println(format!("  {line}")),
-        _ => println!("  {line}"),
-    };
-    let start = std::time::Instant::now();
-    let last = std::sync::Mutex::new(start);
-    let s = run_plan(&plan, &a.out_dir, shard, &|ev| match ev {
-        RunEvent::Begin { total, pending } => {
-            log(&format!(
-                "{} of {total} run(s) to do, {} already done",
-                pending,
-                total - pending
-            ));
-            let b = indicatif::ProgressBar::new(pending as u64);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "  [{elapsed_precise}] {bar:30} {pos}/{len} runs, ETA {eta} {msg}",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            let _ = bar.set(b);
-        }
-        RunEvent::Shared(what) => {
-            if let Some(b) = bar.get() {
-                b.set_message(what.chars().take(60).collect::<String>());
-            }
-            log(what);
-        }
-        RunEvent::Done(line) => {
-            log(line);
-            if let Some(b) = bar.get() {
-                b.inc(1);
-                // Off a terminal: one progress line on stderr at most every 10 s.
-                let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
-                if b.is_hidden() && l.elapsed() >= crate::output::Progress::every() {
-                    *l = std::time::Instant::now();
-                    let (pos, len) = (b.position(), b.length().unwrap_or(0));
-                    let secs = start.elapsed().as_secs_f64();
-                    eprintln!(
-                        "progress: {pos}/{len} runs, {secs:.0} s elapsed, ETA {:.0} s",
-                        secs / pos.max(1) as f64 * len.saturating_sub(pos) as f64
-                    );
-                }
-            }
-        }
-        RunEvent::Warn(line) => eprintln!("warning: {line}"),
-    })?;
-    if let Some(b) = bar.get() {
-        b.finish_and_clear();
-    }
+    let progress = RunProgress::new(json);
+    let s = run_plan(&plan, &a.out_dir, shard, &|ev| progress.on(ev))?;
+    progress.finish();
     if !json {
         println!(
         "ran {}, skipped {} already done ({} redone after invalid rows), of {} in this shard → {}",
@@ -151,6 +100,89 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A progress bar with ETA over the pending runs (drawn on stderr only when it is a terminal);
+/// every finished run is also logged as a line on stdout (nothing with `--format json`).
+struct RunProgress {
+    json: bool,
+    bar: std::sync::OnceLock<indicatif::ProgressBar>,
+    start: std::time::Instant,
+    last: std::sync::Mutex<std::time::Instant>,
+}
+
+impl RunProgress {
+    fn new(json: bool) -> Self {
+        let start = std::time::Instant::now();
+        Self {
+            json,
+            bar: std::sync::OnceLock::new(),
+            start,
+            last: std::sync::Mutex::new(start),
+        }
+    }
+
+    fn log(&self, line: &str) {
+        match self.bar.get() {
+            _ if self.json => {}
+            Some(b) if !b.is_hidden() => b.println(format!("  {line}")),
+            _ => println!("  {line}"),
+        }
+    }
+
+    fn on(&self, ev: RunEvent) {
+        match ev {
+            RunEvent::Begin { total, pending } => {
+                self.log(&format!(
+                    "{} of {total} run(s) to do, {} already done",
+                    pending,
+                    total - pending
+                ));
+                let b = indicatif::ProgressBar::new(pending as u64);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "  [{elapsed_precise}] {bar:30} {pos}/{len} runs, ETA {eta} {msg}",
+                    )
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                );
+                let _ = self.bar.set(b);
+            }
+            RunEvent::Shared(what) => {
+                if let Some(b) = self.bar.get() {
+                    b.set_message(what.chars().take(60).collect::<String>());
+                }
+                self.log(what);
+            }
+            RunEvent::Done(line) => {
+                self.log(line);
+                if let Some(b) = self.bar.get() {
+                    b.inc(1);
+                    self.line_off_terminal(b);
+                }
+            }
+            RunEvent::Warn(line) => eprintln!("warning: {line}"),
+        }
+    }
+
+    /// Off a terminal: one progress line on stderr at most every 10 s.
+    fn line_off_terminal(&self, b: &indicatif::ProgressBar) {
+        let mut l = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        if b.is_hidden() && l.elapsed() >= crate::output::Progress::every() {
+            *l = std::time::Instant::now();
+            let (pos, len) = (b.position(), b.length().unwrap_or(0));
+            let secs = self.start.elapsed().as_secs_f64();
+            eprintln!(
+                "progress: {pos}/{len} runs, {secs:.0} s elapsed, ETA {:.0} s",
+                secs / pos.max(1) as f64 * len.saturating_sub(pos) as f64
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = self.bar.get() {
+            b.finish_and_clear();
+        }
+    }
 }
 
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
