@@ -60,42 +60,58 @@ fn main() -> ExitCode {
         .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
     let cli = match parsed {
         Ok(c) => c,
-        Err(e) => {
-            use clap::error::ErrorKind;
-            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
-                let _ = e.print();
-                return ExitCode::SUCCESS;
-            }
-            if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
-                let _ = e.print();
-                return ExitCode::from(2);
-            }
-            // One line with all of clap's message (the arguments it names, its suggestions),
-            // without the usage block and the pointer to --help.
-            let text = e.render().to_string();
-            let mut parts = Vec::new();
-            for l in text.lines().map(str::trim) {
-                if l.is_empty() || l.starts_with("For more information") {
-                    continue;
-                }
-                if l.starts_with("Usage:") {
-                    break;
-                }
-                parts.push(l);
-            }
-            let line = parts.join(" ");
-            eprintln!(
-                "{}",
-                if line.is_empty() {
-                    "error: invalid arguments"
-                } else {
-                    &line
-                }
-            );
-            return ExitCode::from(2);
-        }
+        Err(e) => return clap_failure(e),
     };
-    let result = match cli.command {
+    let result = dispatch(cli.command);
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {msg}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Help and version on stdout (exit 0); a missing subcommand's help (exit 2); any other
+/// argument error as one line with all of clap's message (the arguments it names, its
+/// suggestions), without the usage block and the pointer to --help (exit 2).
+fn clap_failure(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+        let _ = e.print();
+        return ExitCode::SUCCESS;
+    }
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let _ = e.print();
+        return ExitCode::from(2);
+    }
+    let text = e.render().to_string();
+    let mut parts = Vec::new();
+    for l in text.lines().map(str::trim) {
+        if l.is_empty() || l.starts_with("For more information") {
+            continue;
+        }
+        if l.starts_with("Usage:") {
+            break;
+        }
+        parts.push(l);
+    }
+    let line = parts.join(" ");
+    eprintln!(
+        "{}",
+        if line.is_empty() {
+            "error: invalid arguments"
+        } else {
+            &line
+        }
+    );
+    ExitCode::from(2)
+}
+
+/// Run one command.
+fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
+    match command {
         Command::Sh(cmd) => sh_cmd::run(cmd),
         Command::Matrix(cmd) => matrix_cmd::run(cmd),
         Command::Demo(cmd) => demo::run(cmd),
@@ -134,14 +150,6 @@ fn main() -> ExitCode {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(shell, &mut cmd, "shscale", &mut std::io::stdout());
             Ok(ExitCode::SUCCESS)
-        }
-    };
-    match result {
-        Ok(code) => code,
-        Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
-            eprintln!("error: {msg}");
-            ExitCode::from(2)
         }
     }
 }

@@ -181,7 +181,12 @@ fn table(
         max_interp_error: err,
         max_interp_error_k: at,
     };
-    match a.format {
+    print_table(a.format, &out)
+}
+
+/// A k-table's report in `format`.
+fn print_table(format: Format, out: &TableOut) -> anyhow::Result<()> {
+    match format {
         Format::Json => print_json(&out)?,
         Format::Csv => {
             println!("order,tau,alpha_deg,energy,k_count,k_min,k_max,spacing,interp,size_bytes,build_seconds,max_interp_error,max_interp_error_k");
@@ -189,7 +194,7 @@ fn table(
                 "{},{},{},{},{},{},{},{},{},{},{},{:e},{}",
                 out.order,
                 out.tau,
-                alpha_deg.map(|v| v.to_string()).unwrap_or_default(),
+                out.alpha_deg.map(|v| v.to_string()).unwrap_or_default(),
                 out.energy,
                 out.k_count,
                 out.k_min,
@@ -205,13 +210,13 @@ fn table(
         Format::Pretty => {
             println!(
                 "k-table: {} matrices of order {} over k ∈ [{}, {}] ({} spacing, {} interpolation)",
-                count, a.order, r[0], r[1], out.spacing, out.interp
+                out.k_count, out.order, out.k_min, out.k_max, out.spacing, out.interp
             );
             println!("  size                 {} bytes", out.size_bytes);
-            println!("  build time           {:.3} ms", build_seconds * 1e3);
+            println!("  build time           {:.3} ms", out.build_seconds * 1e3);
             println!(
                 "  worst interp. error  {:.3e} (max |ΔM_ij|) at k = {:.6}",
-                err, at
+                out.max_interp_error, out.max_interp_error_k
             );
         }
     }

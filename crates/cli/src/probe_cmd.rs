@@ -102,48 +102,7 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
     };
     match a.format {
         Format::Json => print_json(&out)?,
-        _ => {
-            let v = serde_json::to_value(&out.rows)?;
-            let rows = v.as_array().expect("array");
-            let keys: Vec<String> = rows[0]
-                .as_object()
-                .expect("object")
-                .keys()
-                .cloned()
-                .collect();
-            let head = [
-                "mesh",
-                "order",
-                "alpha_deg",
-                "layout",
-                "hemisphere_res",
-                "sampling_radius",
-                "k_count",
-            ];
-            // Rows keep the struct's field order (serde_json preserve_order).
-            println!("{},{}", head.join(","), keys.join(","));
-            for r in rows {
-                let cells: Vec<String> = keys
-                    .iter()
-                    .map(|k| match &r[k] {
-                        serde_json::Value::Null => String::new(),
-                        serde_json::Value::String(x) => x.clone(),
-                        v => v.to_string(),
-                    })
-                    .collect();
-                println!(
-                    "{},{},{},{},{},{},{},{}",
-                    out.mesh,
-                    out.order,
-                    out.alpha_deg,
-                    out.layout,
-                    out.hemisphere_res,
-                    out.sampling_radius,
-                    out.k_count,
-                    cells.join(",")
-                );
-            }
-        }
+        _ => print_csv(&out)?,
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -152,4 +111,49 @@ fn rayon_threads() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
+}
+
+/// The rows as CSV: the run's keys, then every column of a row in the struct's field order.
+fn print_csv(out: &ProbeOut) -> anyhow::Result<()> {
+    let v = serde_json::to_value(&out.rows)?;
+    let rows = v.as_array().expect("array");
+    let keys: Vec<String> = rows[0]
+        .as_object()
+        .expect("object")
+        .keys()
+        .cloned()
+        .collect();
+    let head = [
+        "mesh",
+        "order",
+        "alpha_deg",
+        "layout",
+        "hemisphere_res",
+        "sampling_radius",
+        "k_count",
+    ];
+    // Rows keep the struct's field order (serde_json preserve_order).
+    println!("{},{}", head.join(","), keys.join(","));
+    for r in rows {
+        let cells: Vec<String> = keys
+            .iter()
+            .map(|k| match &r[k] {
+                serde_json::Value::Null => String::new(),
+                serde_json::Value::String(x) => x.clone(),
+                v => v.to_string(),
+            })
+            .collect();
+        println!(
+            "{},{},{},{},{},{},{},{}",
+            out.mesh,
+            out.order,
+            out.alpha_deg,
+            out.layout,
+            out.hemisphere_res,
+            out.sampling_radius,
+            out.k_count,
+            cells.join(",")
+        );
+    }
+    Ok(())
 }
