@@ -117,60 +117,66 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
     };
     let mut files = Vec::new();
     for &param in &params {
-        let others: Vec<&str> = varying
-            .iter()
-            .map(String::as_str)
-            .filter(|k| *k != param)
-            .collect();
-        let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        // One series per combination of the other varying parameters and the probe radius:
-        // nothing is averaged.
-        let with_radius = param != "radius";
-        for r in 0..t.rows.len() {
-            let v = t.num(r, "occ_rel_l2_mean");
-            if !v.is_finite() {
-                continue;
-            }
-            let mut parts: Vec<String> = others
-                .iter()
-                .filter(|o| **o != "radii")
-                .map(|o| format!("{} = {}", words(o), t.cell(r, o)))
-                .collect();
-            if with_radius {
-                parts.push(format!("ρ = {} r", t.cell(r, "radius")));
-            }
-            let label = if parts.is_empty() {
-                "all runs".to_string()
-            } else {
-                parts.join(", ")
-            };
-            series.entry(label).or_default().push((t.num(r, param), v));
-        }
-        let y_desc = "occ_rel_l2: relative L2 error of the occluded part (1)";
-        let unit = match param {
-            "alpha_deg" => "α (degrees)",
-            "order" => "SH order N",
-            "hemisphere_res" => "hemisphere resolution H (H² rays per sample)",
-            "k_count" => "tabulated k values K",
-            "sampling_radius" => "sampling radius s (× bounding radius)",
-            "on_surface_eps" => "on-surface threshold ε (× r)",
-            _ => "probe radius ρ (× r)",
-        };
-        let title = format!("extrapolation error against {}", words(param));
-        files.extend(write_both(
-            dir,
-            &format!("occ_rel_l2_vs_{param}"),
-            &Labels {
-                title: &title,
-                x: unit,
-                y: y_desc,
-            },
-            &series,
-            false,
-            &[],
-        )?);
+        files.extend(error_against(dir, t, varying, param)?);
     }
-    // Per run: total time of the extrapolation path vs its error averaged over radii.
+    files.extend(pareto(dir, t)?);
+    Ok(files)
+}
+
+/// `occ_rel_l2` against `param`: one series per combination of the other varying parameters and
+/// the probe radius (nothing is averaged).
+fn error_against(
+    dir: &Path,
+    t: &Table,
+    varying: &[String],
+    param: &str,
+) -> Result<Vec<PathBuf>, Error> {
+    let others: Vec<&str> = (varying.iter().map(String::as_str))
+        .filter(|k| *k != param)
+        .collect();
+    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let with_radius = param != "radius";
+    for r in 0..t.rows.len() {
+        let v = t.num(r, "occ_rel_l2_mean");
+        if !v.is_finite() {
+            continue;
+        }
+        let mut parts: Vec<String> = (others.iter())
+            .filter(|o| **o != "radii")
+            .map(|o| format!("{} = {}", words(o), t.cell(r, o)))
+            .collect();
+        if with_radius {
+            parts.push(format!("ρ = {} r", t.cell(r, "radius")));
+        }
+        let label = if parts.is_empty() {
+            "all runs".to_string()
+        } else {
+            parts.join(", ")
+        };
+        series.entry(label).or_default().push((t.num(r, param), v));
+    }
+    let unit = match param {
+        "alpha_deg" => "α (degrees)",
+        "order" => "SH order N",
+        "hemisphere_res" => "hemisphere resolution H (H² rays per sample)",
+        "k_count" => "tabulated k values K",
+        "sampling_radius" => "sampling radius s (× bounding radius)",
+        "on_surface_eps" => "on-surface threshold ε (× r)",
+        _ => "probe radius ρ (× r)",
+    };
+    let title = format!("extrapolation error against {}", words(param));
+    let labels = Labels {
+        title: &title,
+        x: unit,
+        y: "occ_rel_l2: relative L2 error of the occluded part (1)",
+    };
+    let stem = format!("occ_rel_l2_vs_{param}");
+    Ok(write_both(dir, &stem, &labels, &series, false, &[])?)
+}
+
+/// Per run: total time of the extrapolation path against its error averaged over radii, with
+/// the Pareto front; rows timed alongside other runs are left out (none when all were).
+fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
     let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
     for r in 0..t.rows.len() {
         if t.cell(r, "timing_concurrent") == "true" {
@@ -186,11 +192,14 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
         }
         e.0 += t.num(r, "extrapolation_seconds");
     }
-    let pts: Vec<(f64, f64)> = runs
-        .values()
+    let pts: Vec<(f64, f64)> = (runs.values())
         .filter(|v| v.2 > 0)
         .map(|v| (v.0 * 1e3, v.1 / v.2 as f64))
         .collect();
+    if pts.is_empty() {
+        // Every run was timed alongside others (parallel_runs = true): no comparable times.
+        return Ok(Vec::new());
+    }
     let mut sorted = pts.clone();
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut front = Vec::new();
@@ -201,23 +210,19 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
             front.push(p);
         }
     }
-    if pts.is_empty() {
-        // Every run was timed alongside others (parallel_runs = true): no comparable times.
-        return Ok(files);
-    }
     let mut series = BTreeMap::new();
     series.insert("one point per run".to_string(), pts);
-    files.extend(write_both(
+    let labels = Labels {
+        title: "speed against accuracy per run, with the Pareto front",
+        x: "time per run (ms: BSV sampling + k-table + extrapolation)",
+        y: "occ_rel_l2, mean over the run's probe radii (1)",
+    };
+    Ok(write_both(
         dir,
         "pareto_time_vs_error",
-        &Labels {
-            title: "speed against accuracy per run, with the Pareto front",
-            x: "time per run (ms: BSV sampling + k-table + extrapolation)",
-            y: "occ_rel_l2, mean over the run's probe radii (1)",
-        },
+        &labels,
         &series,
         true,
         &front,
-    )?);
-    Ok(files)
+    )?)
 }

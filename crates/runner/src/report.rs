@@ -154,24 +154,7 @@ pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<
     let manifest = Manifest::read(dir)?;
     let mut md = String::from(summary.trim_end());
     md.push_str("\n\n## Figures\n\n");
-    let mut figures: Vec<(String, PathBuf, Option<String>)> = Vec::new();
-    for f in files {
-        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if ext == "svg" {
-            let svg = std::fs::read_to_string(f).map_err(|e| Error::Io {
-                path: f.display().to_string(),
-                reason: e.to_string(),
-            })?;
-            let cap = svg_title(&svg).unwrap_or_else(|| caption_of_name(f));
-            figures.push((cap, f.clone(), Some(svg)));
-        } else if ext == "png" && !files.contains(&f.with_extension("svg")) {
-            figures.push((caption_of_name(f), f.clone(), None));
-        }
-    }
-    let name = |p: &Path| {
-        p.file_name()
-            .map_or(String::new(), |n| n.to_string_lossy().to_string())
-    };
+    let figures = figures_of(files)?;
     if figures.is_empty() {
         md.push_str("No figures for these results.\n");
     }
@@ -179,15 +162,49 @@ pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<
         md.push_str(&format!(
             "Figure {}. {cap}. File: `{}`{}.\n\n",
             i + 1,
-            name(f),
+            file_name(f),
             if svg.is_some() {
-                format!(" (PNG: `{}`)", name(&f.with_extension("png")))
+                format!(" (PNG: `{}`)", file_name(&f.with_extension("png")))
             } else {
                 String::new()
             }
         ));
     }
     let versions = manifest.as_ref().map_or(&[][..], |m| &m.versions[..]);
+    md.push_str(&provenance_md(versions));
+    let html = report_html(summary, &md, &figures);
+    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
+    write_atomic_all(&[(&pm, &md), (&ph, &html)])?;
+    Ok(vec![pm, ph])
+}
+
+/// A figure of a report: its caption, its file, and its SVG text (inlined in the HTML).
+type Figure = (String, PathBuf, Option<String>);
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().to_string())
+}
+
+/// The figures among `files`: every SVG (captioned by its title), and PNGs without an SVG twin.
+fn figures_of(files: &[PathBuf]) -> Result<Vec<Figure>, Error> {
+    let mut figures: Vec<Figure> = Vec::new();
+    for f in files {
+        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if ext == "svg" {
+            let svg = std::fs::read_to_string(f).map_err(|e| Error::io(f, e))?;
+            let cap = svg_title(&svg).unwrap_or_else(|| caption_of_name(f));
+            figures.push((cap, f.clone(), Some(svg)));
+        } else if ext == "png" && !files.contains(&f.with_extension("svg")) {
+            figures.push((caption_of_name(f), f.clone(), None));
+        }
+    }
+    Ok(figures)
+}
+
+/// `## Plan and provenance`: one row per config version, then the newest version's config.
+fn provenance_md(versions: &[crate::manifest::Version]) -> String {
+    let mut md = String::new();
     md.push_str("## Plan and provenance\n\n");
     md.push_str("| version | config | overrides | axes | runs in plan | git revision | shscale | CPU | threads | GPU | first run (unix) | last run (unix) |\n|---|---|---|---|---:|---|---|---|---:|---|---:|---:|\n");
     for v in versions {
@@ -223,7 +240,13 @@ pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<
             v.config_text.trim_end()
         ));
     }
-    // HTML: the same content, plots inline, and a check the browser test reads.
+    md
+}
+
+/// The report as a self-contained page: the summary, every figure inline (SVG) or linked (PNG),
+/// the plan and provenance of `md`, and a check the browser test reads.
+fn report_html(summary: &str, md: &str, figures: &[Figure]) -> String {
+    let name = file_name;
     let title = summary
         .lines()
         .find(|l| l.starts_with("# "))
@@ -263,9 +286,7 @@ pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<
     html.push_str(
         "<p id=\"figure-check\">figures: not checked (the page's script did not run)</p>\n<script>\nwindow.addEventListener('load', function () {\n  var svgs = document.querySelectorAll('figure svg');\n  var ok = 0;\n  svgs.forEach(function (s) { var r = s.getBoundingClientRect(); if (r.width > 0 && r.height > 0 && s.querySelector('text')) { ok += 1; } });\n  document.getElementById('figure-check').textContent = 'figures: ' + ok + ' of ' + svgs.length + ' rendered, ' + window.shscaleErrors + ' script errors';\n});\n</script>\n</body>\n</html>\n",
     );
-    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
-    write_atomic_all(&[(&pm, &md), (&ph, &html)])?;
-    Ok(vec![pm, ph])
+    html
 }
 
 /// What [`compare`] found: the Markdown table (also written as `compare.md`) and the files.
