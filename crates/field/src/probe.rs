@@ -527,50 +527,16 @@ pub fn probe_with(base: &ProbeBase, spec: &ProbeSpec) -> Result<ProbeResult, Fie
         clamp: clamp.as_ref(),
         rot: EulerRotator::<f64>::new(spec.order)?,
         nn: spec.order * spec.order,
+        family,
+        table: &table,
+        ex,
+        theta0,
     };
-    let s = bsv.sphere;
     let mut rows = Vec::new();
     let mut examples = Vec::new();
     let mut example_index: Option<usize> = None;
     for (ri, (&rho, &k)) in spec.radii.iter().zip(&ks).enumerate() {
-        let points: Vec<DVec3> = (base.dirs.iter())
-            .map(|d| s.center + rho * s.radius * *d)
-            .collect();
-        let t2 = Instant::now();
-        let ext = at.extrapolate(&ex, &points);
-        let extrapolation_seconds = t2.elapsed().as_secs_f64();
-        // The decomposition's exact matrix at this k.
-        let exact_m = family
-            .at(k)
-            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))?;
-        let truth = &base.truth[ri];
-        let mut row = ProbeRow {
-            radius: rho,
-            k,
-            k_node_offset: node_offset(table.ks(), k, table.log_k()),
-            alpha_used_deg: if spec.alpha_fit {
-                shscale_scaling::alpha_law::fitted_alpha(theta0, k).to_degrees()
-            } else {
-                spec.alpha.to_degrees()
-            },
-            probes: points.len(),
-            extrapolation_seconds,
-            truth_seconds: base.truth_seconds[ri],
-            ..Default::default()
-        };
-        if example_index.is_none() {
-            example_index = example_of(truth, &ext);
-        }
-        if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
-            examples.push(ProbeExample {
-                radius: rho,
-                point: points[i],
-                extrapolated: ext[i].0.clone(),
-            });
-        }
-        let per = at.assess(&mut row, &ext, truth, &points, &exact_m);
-        summarise(&mut row, &per);
-        rows.push(row);
+        rows.push(at.radius(ri, rho, k, &mut example_index, &mut examples)?);
     }
     Ok(ProbeResult {
         rows,
@@ -599,9 +565,67 @@ struct RadiusWork<'a> {
     clamp: Option<&'a Clamp>,
     rot: EulerRotator<f64>,
     nn: usize,
+    family: TauFamily,
+    table: &'a KTable,
+    ex: Extrapolator<'a>,
+    /// The BSV's effective cap (the fitted cone angle's input).
+    theta0: f64,
 }
 
 impl RadiusWork<'_> {
+    /// One probe radius `rho` (`k = rho / s`, index `ri`): extrapolate at every probe point,
+    /// assess against the truths and summarise into its row; the Fig. 5 example (chosen at the
+    /// first radius that has one) is added to `examples`.
+    fn radius(
+        &self,
+        ri: usize,
+        rho: f64,
+        k: f64,
+        example_index: &mut Option<usize>,
+        examples: &mut Vec<ProbeExample>,
+    ) -> Result<ProbeRow, FieldError> {
+        let s = self.base.bsv.sphere;
+        let points: Vec<DVec3> = (self.base.dirs.iter())
+            .map(|d| s.center + rho * s.radius * *d)
+            .collect();
+        let t2 = Instant::now();
+        let ext = self.extrapolate(&self.ex, &points);
+        let extrapolation_seconds = t2.elapsed().as_secs_f64();
+        // The decomposition's exact matrix at this k.
+        let exact_m = self
+            .family
+            .at(k)
+            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, self.spec.order))?;
+        let truth = &self.base.truth[ri];
+        let mut row = ProbeRow {
+            radius: rho,
+            k,
+            k_node_offset: node_offset(self.table.ks(), k, self.table.log_k()),
+            alpha_used_deg: if self.spec.alpha_fit {
+                shscale_scaling::alpha_law::fitted_alpha(self.theta0, k).to_degrees()
+            } else {
+                self.spec.alpha.to_degrees()
+            },
+            probes: points.len(),
+            extrapolation_seconds,
+            truth_seconds: self.base.truth_seconds[ri],
+            ..Default::default()
+        };
+        if example_index.is_none() {
+            *example_index = example_of(truth, &ext);
+        }
+        if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
+            examples.push(ProbeExample {
+                radius: rho,
+                point: points[i],
+                extrapolated: ext[i].0.clone(),
+            });
+        }
+        let per = self.assess(&mut row, &ext, truth, &points, &exact_m);
+        summarise(&mut row, &per);
+        Ok(row)
+    }
+
     /// The extrapolated visibility at every point, with how each was obtained.
     fn extrapolate(
         &self,
