@@ -142,35 +142,43 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
             s.ran,
             s.already_done
         ));
-        let (title, claim) = runner::title_and_claim(&s.dir);
-        let title = title.unwrap_or_else(|| stem.clone());
-        index.push_str(&format!("## {title}\n\nConfig: `{}`\n\n", p.display()));
-        if let Some(c) = claim {
-            index.push_str(&format!("**Paper.** {}\n\n", c.trim()));
-        }
-        index.push_str(report.discussion.trim_end());
-        index.push_str("\n\nFiles: ");
-        let names: Vec<String> = files
-            .iter()
-            .filter_map(|x| x.file_name().map(|n| format!("`{}`", n.to_string_lossy())))
-            .collect();
-        index.push_str(&names.join(", "));
-        index.push_str("\n\n");
-        if let Some(png) = files
-            .iter()
-            .find(|x| x.extension().is_some_and(|e| e == "png"))
-        {
-            index.push_str(&format!(
-                "![{title}]({})\n\n",
-                png.file_name().unwrap_or_default().to_string_lossy()
-            ));
-        }
+        index.push_str(&index_section(p, &stem, &s.dir, &report.discussion, &files));
         all.extend(files);
     }
     let readme = out.join("README.md");
     shscale_runner::write_atomic(&readme, &index)?;
     all.push(readme);
     Ok(all)
+}
+
+/// A figure's section of `paper-figs/README.md`: its title, config, the paper's claim, our
+/// discussion (computed from the rows), the files and the picture.
+fn index_section(p: &Path, stem: &str, dir: &Path, discussion: &str, files: &[PathBuf]) -> String {
+    let mut index = String::new();
+    let (title, claim) = runner::title_and_claim(dir);
+    let title = title.unwrap_or_else(|| stem.to_string());
+    index.push_str(&format!("## {title}\n\nConfig: `{}`\n\n", p.display()));
+    if let Some(c) = claim {
+        index.push_str(&format!("**Paper.** {}\n\n", c.trim()));
+    }
+    index.push_str(discussion.trim_end());
+    index.push_str("\n\nFiles: ");
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|x| x.file_name().map(|n| format!("`{}`", n.to_string_lossy())))
+        .collect();
+    index.push_str(&names.join(", "));
+    index.push_str("\n\n");
+    if let Some(png) = files
+        .iter()
+        .find(|x| x.extension().is_some_and(|e| e == "png"))
+    {
+        index.push_str(&format!(
+            "![{title}]({})\n\n",
+            png.file_name().unwrap_or_default().to_string_lossy()
+        ));
+    }
+    index
 }
 
 /// The cost of a run that computes the plain and the energy matrix of one τ at `order` by

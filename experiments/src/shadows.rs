@@ -91,6 +91,51 @@ fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
+/// The errors of one run's rows that its truths do not resolve (within 3× of the truth's own
+/// error), as a sentence of the discussion.
+fn truth_limits(t: &Results, rows: &[usize]) -> String {
+    let (bl, fq) = (
+        rows.iter()
+            .map(|&r| t.num(r, "band_limited_truth_err"))
+            .find(|v| v.is_finite()),
+        rows.iter()
+            .map(|&r| t.num(r, "full_frequency_truth_err"))
+            .find(|v| v.is_finite()),
+    );
+    let limited: Vec<String> = rows
+        .iter()
+        .flat_map(|&r| {
+            let m = t.cell(r, "method").to_string();
+            let mut v = Vec::new();
+            if let Some(e) =
+                bl.filter(|e| m != "ray_traced" && t.num(r, "rmse_vs_band_limited") < 3.0 * e)
+            {
+                v.push(format!(
+                    "{m} against band-limited truth ({:.4} vs its {e:.4})",
+                    t.num(r, "rmse_vs_band_limited")
+                ));
+            }
+            if let Some(e) =
+                fq.filter(|e| m != "full_frequency" && t.num(r, "rmse_vs_full_frequency") < 3.0 * e)
+            {
+                v.push(format!(
+                    "{m} against full-frequency truth ({:.4} vs its {e:.4})",
+                    t.num(r, "rmse_vs_full_frequency")
+                ));
+            }
+            v
+        })
+        .collect();
+    if limited.is_empty() {
+        " Every error here is more than 3× its truth's own error.".to_string()
+    } else {
+        format!(
+            " **Truth-limited** (within 3× of the truth's own error; raise `truth_res`): {}.",
+            limited.join("; ")
+        )
+    }
+}
+
 /// A truth's own error: RMS over receivers and channels of its per-pixel estimate `e`, over the
 /// mean unshadowed irradiance (NaN where the render has no estimate).
 fn own_err(e: &[[f32; 3]], mean_open: f64) -> f64 {
@@ -468,32 +513,7 @@ per-frame resampling, docs/BENCHMARKS.md).{}\n\n",
                 },
                 t.num(ff, "rmse_vs_full_frequency"),
                 t.num(ex, "rmse_vs_full_frequency"),
-                {
-                    // Errors within 3× of the truth's own are not resolved by it.
-                    let (bl, fq) = (
-                        rows.iter().map(|&r| t.num(r, "band_limited_truth_err")).find(|v| v.is_finite()),
-                        rows.iter().map(|&r| t.num(r, "full_frequency_truth_err")).find(|v| v.is_finite()),
-                    );
-                    let limited: Vec<String> = rows
-                        .iter()
-                        .flat_map(|&r| {
-                            let m = t.cell(r, "method").to_string();
-                            let mut v = Vec::new();
-                            if let Some(e) = bl.filter(|e| m != "ray_traced" && t.num(r, "rmse_vs_band_limited") < 3.0 * e) {
-                                v.push(format!("{m} against band-limited truth ({:.4} vs its {e:.4})", t.num(r, "rmse_vs_band_limited")));
-                            }
-                            if let Some(e) = fq.filter(|e| m != "full_frequency" && t.num(r, "rmse_vs_full_frequency") < 3.0 * e) {
-                                v.push(format!("{m} against full-frequency truth ({:.4} vs its {e:.4})", t.num(r, "rmse_vs_full_frequency")));
-                            }
-                            v
-                        })
-                        .collect();
-                    if limited.is_empty() {
-                        " Every error here is more than 3× its truth's own error.".to_string()
-                    } else {
-                        format!(" **Truth-limited** (within 3× of the truth's own error; raise `truth_res`): {}.", limited.join("; "))
-                    }
-                },
+                truth_limits(t, &rows),
             ));
         }
         Ok(out)

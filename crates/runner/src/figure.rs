@@ -150,8 +150,22 @@ where
             }
         }
     }
-    // The colour bar.
-    let mut cb = ChartBuilder::on(&bar)
+    colour_bar(&bar, g, lo, hi)?;
+    root.present().map_err(|x| e(&x))
+}
+
+/// The colour bar of a grid, `lo..hi` with its label.
+fn colour_bar<DB: DrawingBackend>(
+    bar: &DrawingArea<DB, plotters::coord::Shift>,
+    g: &Grid,
+    lo: f64,
+    hi: f64,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let mut cb = ChartBuilder::on(bar)
         .margin_top(30)
         .margin_bottom(50)
         .margin_right(4)
@@ -188,7 +202,7 @@ where
         .label_style(("sans-serif", 12))
         .draw()
         .map_err(|x| e(&x))?;
-    root.present().map_err(|x| e(&x))
+    Ok(())
 }
 
 /// The pixel size of a grid.
