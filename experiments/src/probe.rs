@@ -83,7 +83,7 @@ impl Default for ProbeParams {
             truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
             truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
             plausibility: "none".into(),
-            radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
+            radii: shscale_field::probe::DEFAULT_RADII.to_vec(),
         }
     }
 }

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -154,14 +154,15 @@ def probe(
     layout: str = "latlong:12x20",
     hemisphere_res: int = 32,
     sampling_radius: float = 1.0,
-    radii: Sequence[float] = (0.5, 0.7, 0.9, 1.3, 2.0),
+    radii: Optional[Sequence[float]] = None,
     k_count: int = 40,
     on_surface_eps: float = 1e-3,
     allow_large: bool = False,
 ) -> dict:
     """Extrapolated vs ray-traced visibility at probe radii (``shscale probe``): the run's
     scalars and ``rows``, a dict of arrays with one element per radius (NaN where a metric is
-    undefined)."""
+    undefined): every column of the CLI's rows. ``radii`` defaults to the papers' Fig. 5 radii
+    (0.5, 0.7, 0.9, 1.3, 2 × the bounding radius)."""
     return _native.probe(
         str(mesh),
         _count("order", order),
@@ -169,7 +170,7 @@ def probe(
         layout,
         _count("hemisphere_res", hemisphere_res),
         float(sampling_radius),
-        [float(r) for r in radii],
+        None if radii is None else [float(r) for r in radii],
         _count("k_count", k_count),
         float(on_surface_eps),
         bool(allow_large),

@@ -10,7 +10,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use shscale_experiments::probe::ProbeParams;
-use shscale_field::{Frame, Layout, VisibilitySampler};
+use shscale_field::{Frame, Layout};
 use shscale_geometry::DVec3;
 use shscale_scaling::{Eta, KTable, ScalingMatrix, TauFamily};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -328,32 +328,25 @@ fn visibility<'py>(
         shscale_scene::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)
             .map_err(|m| bad("points", m))?;
         let nn = order * order;
-        let values: Vec<f64> = match quadrature {
-            "gauss" => {
-                let sampler =
-                    VisibilitySampler::new(order, hemisphere_res).map_err(|e| bad("order", e))?;
-                py.allow_threads(|| {
-                    pts.iter()
-                        .flat_map(|p| sampler.full_sphere(occ.as_ref(), *p, frame).0)
-                        .collect()
-                })
-            }
-            "stratified" => {
-                let ts = shscale_field::truth::TruthSampler::new(order, truth_res, seed)
-                    .map_err(|e| bad("truth_res", e))?;
-                py.allow_threads(|| {
-                    pts.iter()
-                        .flat_map(|p| ts.sample_in(occ.as_ref(), *p, frame).coeffs)
-                        .collect()
-                })
-            }
-            other => {
-                return Err(bad(
-                    "quadrature",
-                    format!("{other:?} is not \"stratified\" or \"gauss\""),
-                ))
-            }
-        };
+        let quadrature = shscale_scene::vocab::Quadrature::parse(quadrature)
+            .map_err(|m| bad("quadrature", m))?;
+        // The CLI's query (`shscale visibility`), set up once for every point.
+        let query = shscale_scene::vocab::VisibilityQuery::new(
+            quadrature,
+            order,
+            hemisphere_res,
+            truth_res,
+            seed,
+        )
+        .map_err(|e| match quadrature {
+            shscale_scene::vocab::Quadrature::Gauss => bad("order", e),
+            shscale_scene::vocab::Quadrature::Stratified => bad("truth_res", e),
+        })?;
+        let values: Vec<f64> = py.allow_threads(|| {
+            pts.iter()
+                .flat_map(|p| query.at(occ.as_ref(), *p, frame).coeffs)
+                .collect()
+        });
         Ok(Array2::from_shape_vec((pts.len(), nn), values)
             .map_err(|e| bad("points", e))?
             .into_pyarray(py))
@@ -402,7 +395,7 @@ fn inspect<'py>(py: Python<'py>, mesh: &str) -> PyResult<Bound<'py, PyDict>> {
 /// scalars and `rows`, a dict of NumPy arrays (one entry per column, one element per radius;
 /// undefined metrics are NaN).
 #[pyfunction]
-#[pyo3(signature = (mesh, order, alpha_deg, layout="latlong:12x20", hemisphere_res=32, sampling_radius=1.0, radii=vec![0.5, 0.7, 0.9, 1.3, 2.0], k_count=40, on_surface_eps=1e-3, allow_large=false))]
+#[pyo3(signature = (mesh, order, alpha_deg, layout="latlong:12x20", hemisphere_res=32, sampling_radius=1.0, radii=None, k_count=40, on_surface_eps=1e-3, allow_large=false))]
 #[allow(clippy::too_many_arguments)]
 fn probe<'py>(
     py: Python<'py>,
@@ -412,7 +405,7 @@ fn probe<'py>(
     layout: &str,
     hemisphere_res: usize,
     sampling_radius: f64,
-    radii: Vec<f64>,
+    radii: Option<Vec<f64>>,
     k_count: usize,
     on_surface_eps: f64,
     allow_large: bool,
@@ -428,7 +421,7 @@ fn probe<'py>(
             sampling_radius,
             k_count,
             on_surface_eps,
-            radii,
+            radii: radii.unwrap_or_else(|| shscale_field::probe::DEFAULT_RADII.to_vec()),
             ..ProbeParams::default()
         };
         let spec = params.checked_spec(allow_large).map_err(|e| {
@@ -461,47 +454,34 @@ fn probe<'py>(
         d.set_item("bsv_rays", res.bsv_rays)?;
         d.set_item("bsv_sampling_seconds", res.bsv_sampling_seconds)?;
         d.set_item("table_build_seconds", res.table_build_seconds)?;
-        let rows = PyDict::new(py);
-        let f = |g: &dyn Fn(&shscale_field::probe::ProbeRow) -> f64| -> Vec<f64> {
-            res.rows.iter().map(g).collect()
-        };
-        let o = |v: Option<f64>| v.unwrap_or(f64::NAN);
-        let cols: Vec<(&str, Vec<f64>)> = vec![
-            ("radius", f(&|r| r.radius)),
-            ("k", f(&|r| r.k)),
-            ("probes", f(&|r| r.probes as f64)),
-            ("inside_count", f(&|r| r.inside_count as f64)),
-            (
-                "unoccluded_truth_count",
-                f(&|r| r.unoccluded_truth_count as f64),
-            ),
-            ("clamped_count", f(&|r| r.clamped_count as f64)),
-            ("vis_rel_l2_mean", f(&|r| o(r.vis_rel_l2_mean))),
-            ("vis_rel_l2_max", f(&|r| o(r.vis_rel_l2_max))),
-            ("occ_rel_l2_mean", f(&|r| o(r.occ_rel_l2_mean))),
-            ("occ_rel_l2_max", f(&|r| o(r.occ_rel_l2_max))),
-            ("on_surface_count", f(&|r| r.on_surface_count as f64)),
-            (
-                "vis_rel_l2_on_surface_mean",
-                f(&|r| o(r.vis_rel_l2_on_surface_mean)),
-            ),
-            (
-                "occ_rel_l2_on_surface_mean",
-                f(&|r| o(r.occ_rel_l2_on_surface_mean)),
-            ),
-            (
-                "occ_rel_l2_on_surface_max",
-                f(&|r| o(r.occ_rel_l2_on_surface_max)),
-            ),
-            ("extrapolation_seconds", f(&|r| r.extrapolation_seconds)),
-            ("truth_seconds", f(&|r| r.truth_seconds)),
-        ];
-        for (k, v) in cols {
-            rows.set_item(k, v.into_pyarray(py))?;
-        }
+        let rows = probe_columns(py, &res.rows)?;
         d.set_item("rows", rows)?;
         Ok(d)
     })
+}
+
+/// The probe's rows as columns, one NumPy array per field of the row struct (through serde, in
+/// its field order: the same columns as `shscale probe`), undefined metrics as NaN.
+fn probe_columns<'py>(
+    py: Python<'py>,
+    rows: &[shscale_field::probe::ProbeRow],
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let values = serde_json::to_value(rows).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let list = values.as_array().map(Vec::as_slice).unwrap_or_default();
+    let keys: Vec<String> = list
+        .first()
+        .and_then(|r| r.as_object())
+        .map(|o| o.keys().cloned().collect())
+        .unwrap_or_default();
+    for k in keys {
+        let col: Vec<f64> = list
+            .iter()
+            .map(|r| r[&k].as_f64().unwrap_or(f64::NAN))
+            .collect();
+        out.set_item(k, col.into_pyarray(py))?;
+    }
+    Ok(out)
 }
 
 /// Run an experiment config through the runner (`shscale run`): `set` and `sweep` are the

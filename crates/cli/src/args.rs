@@ -447,9 +447,10 @@ pub struct ProbeArgs {
     /// Sampling sphere radius as a multiple of the bounding radius (≥ 1; > 1 mitigates on-surface samples).
     #[arg(long, default_value_t = 1.0)]
     pub sampling_radius: f64,
-    /// Probe radii as multiples of the bounding radius.
-    #[arg(long, default_value = "0.5,0.7,0.9,1.3,2")]
-    pub radii: String,
+    /// Probe radii as multiples of the bounding radius, comma-separated [default: the papers'
+    /// Fig. 5 radii, 0.5,0.7,0.9,1.3,2].
+    #[arg(long)]
+    pub radii: Option<String>,
     /// Number of tabulated k values (exponential spacing over the probed k range).
     #[arg(value_parser = whole, long, default_value_t = 40)]
     pub k_count: usize,

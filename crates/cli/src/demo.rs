@@ -95,7 +95,7 @@ fn operator_accuracy(
     say(head);
     let cap_angle = 40f64.to_radians();
     let mut operator = Vec::new();
-    for &k in &[0.5, 0.7, 0.9, 1.3, 2.0] {
+    for &k in &shscale_field::probe::DEFAULT_RADII {
         let tau = Cone::new(k, alpha)?;
         let target = tau.inverse(cap_angle);
         let mut line = format!("{k:>6}");

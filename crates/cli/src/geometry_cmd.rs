@@ -145,19 +145,19 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
         FrameArg::Local => Frame::Local,
     };
     let t0 = Instant::now();
-    let (values, rays, error, rel) = match a.quadrature {
-        Quadrature::Gauss => {
-            let sampler = VisibilitySampler::new(a.order, a.hemisphere_res)?;
-            let (v, rays) = sampler.full_sphere(occ.as_ref(), p, frame);
-            (v, rays, None, None)
-        }
-        Quadrature::Stratified => {
-            let t = shscale_field::truth::TruthSampler::new(a.order, a.truth_res, a.seed)?
-                .sample_in(occ.as_ref(), p, frame);
-            let rel = t.rel_error();
-            (t.coeffs, t.rays, Some(t.error), rel)
-        }
+    let quadrature = match a.quadrature {
+        Quadrature::Gauss => shscale_scene::vocab::Quadrature::Gauss,
+        Quadrature::Stratified => shscale_scene::vocab::Quadrature::Stratified,
     };
+    let query = shscale_scene::vocab::VisibilityQuery::new(
+        quadrature,
+        a.order,
+        a.hemisphere_res,
+        a.truth_res,
+        a.seed,
+    )?;
+    let vis = query.at(occ.as_ref(), p, frame);
+    let (values, rays, error, rel) = (vis.coeffs, vis.rays, vis.error, vis.rel_error);
     let seconds = t0.elapsed().as_secs_f64();
     if a.format.is_json() {
         print_json(&VisOut {
@@ -167,10 +167,7 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
             } else {
                 "local"
             },
-            quadrature: match a.quadrature {
-                Quadrature::Gauss => "gauss",
-                Quadrature::Stratified => "stratified",
-            },
+            quadrature: quadrature.name(),
             rays,
             seconds,
             error_estimate: error,

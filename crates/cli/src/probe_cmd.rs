@@ -57,7 +57,10 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
         on_surface_eps: a.on_surface_eps,
         truth_res: a.truth_res,
         probe_dirs: a.probe_dirs.clone(),
-        radii: parse_list("radii", &a.radii)?,
+        radii: match &a.radii {
+            Some(r) => parse_list("radii", r)?,
+            None => shscale_field::probe::DEFAULT_RADII.to_vec(),
+        },
         ..ProbeParams::default()
     };
     let spec = params.checked_spec(a.allow_large).map_err(|e| {

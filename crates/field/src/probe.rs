@@ -79,6 +79,10 @@ pub struct ProbeSpec {
 /// The default contact threshold (docs/conventions.md §7, calibrated on the bundled meshes).
 pub const DEFAULT_CONTACT_OCCLUSION: f64 = 0.4;
 
+/// The probe radii (× the bounding radius) of the papers' Fig. 5: the default of every probe
+/// (`shscale probe`, the `probe` kind, the Python `probe`).
+pub const DEFAULT_RADII: [f64; 5] = [0.5, 0.7, 0.9, 1.3, 2.0];
+
 impl Default for ProbeSpec {
     /// The documented defaults (those of the `probe` kind).
     fn default() -> Self {
@@ -88,7 +92,7 @@ impl Default for ProbeSpec {
             layout: Layout::LatLong { rows: 12, cols: 20 },
             hemisphere_res: 32,
             sampling_radius: 1.0,
-            radii: vec![0.5, 0.7, 0.9, 1.3, 2.0],
+            radii: DEFAULT_RADII.to_vec(),
             k_count: 40,
             k_spacing: Spacing::Exp,
             k_interp: Interp::Linear,

@@ -257,3 +257,91 @@ pub fn check_sampling_keys(
     }
     Ok(())
 }
+
+/// How visibility at a point is ray traced (`shscale visibility --quadrature`, the Python
+/// `visibility`): the converged stratified truth (`4T²` rays, with its own error estimate) or
+/// the method's Gauss–Legendre rings (`2H²` rays).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quadrature {
+    Stratified,
+    Gauss,
+}
+
+impl Quadrature {
+    /// `"stratified"` or `"gauss"`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "stratified" => Ok(Self::Stratified),
+            "gauss" => Ok(Self::Gauss),
+            other => Err(format!("{other:?} is not \"stratified\" or \"gauss\"")),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Stratified => "stratified",
+            Self::Gauss => "gauss",
+        }
+    }
+}
+
+/// Ray-traced visibility at one point, projected to SH.
+pub struct PointVisibility {
+    pub coeffs: Vec<f64>,
+    pub rays: usize,
+    /// The stratified truth's own error estimate (absolute, and relative to the occlusion).
+    pub error: Option<f64>,
+    pub rel_error: Option<f64>,
+}
+
+/// The one visibility query of the CLI and the Python package, set up once for many points.
+pub enum VisibilityQuery {
+    Stratified(shscale_field::truth::TruthSampler),
+    Gauss(shscale_field::VisibilitySampler),
+}
+
+impl VisibilityQuery {
+    /// The query of `quadrature` at `order`: `hemisphere_res` H for Gauss, `truth_res` T and
+    /// `seed` for the stratified truth (each checked by its sampler).
+    pub fn new(
+        quadrature: Quadrature,
+        order: usize,
+        hemisphere_res: usize,
+        truth_res: usize,
+        seed: u64,
+    ) -> Result<Self, Error> {
+        Ok(match quadrature {
+            Quadrature::Gauss => Self::Gauss(shscale_field::VisibilitySampler::new(
+                order,
+                hemisphere_res,
+            )?),
+            Quadrature::Stratified => Self::Stratified(shscale_field::truth::TruthSampler::new(
+                order, truth_res, seed,
+            )?),
+        })
+    }
+
+    /// Visibility of `occ` at `p` over the full sphere, in `frame`.
+    pub fn at(&self, occ: &dyn Occluder, p: DVec3, frame: shscale_field::Frame) -> PointVisibility {
+        match self {
+            Self::Gauss(s) => {
+                let (coeffs, rays) = s.full_sphere(occ, p, frame);
+                PointVisibility {
+                    coeffs,
+                    rays,
+                    error: None,
+                    rel_error: None,
+                }
+            }
+            Self::Stratified(ts) => {
+                let t = ts.sample_in(occ, p, frame);
+                PointVisibility {
+                    rel_error: t.rel_error(),
+                    error: Some(t.error),
+                    rays: t.rays,
+                    coeffs: t.coeffs,
+                }
+            }
+        }
+    }
+}
