@@ -4,7 +4,7 @@ use crate::args::{parse_list, FormatArgsExt, FrameArg, InspectArgs, Quadrature, 
 use crate::output::{print_coeffs, print_json};
 use anyhow::{bail, Context};
 use serde::Serialize;
-use shscale_field::{Frame, VisibilitySampler};
+use shscale_field::Frame;
 use shscale_geometry::{DVec3, Occluder};
 use std::process::ExitCode;
 use std::time::Instant;
