@@ -52,6 +52,58 @@ pub fn kind_of(text: &str) -> Option<String> {
     t.get("experiment")?.as_str().map(String::from)
 }
 
+/// The timing procedure of the config's `timing_warmup` and `timing_repeats`, within their limits.
+fn timing_of(
+    ex: &config::Expanded,
+    at_key: &dyn Fn(&'static str) -> Box<dyn FnOnce(String) -> ConfigError>,
+) -> Result<Procedure, Error> {
+    let mut timing = Procedure::default();
+    if let Some(w) = ex.runner.timing_warmup {
+        timing.warmup = w;
+    }
+    if let Some(r) = ex.runner.timing_repeats {
+        timing.repeats = r;
+    }
+    if timing.warmup > timing::MAX_REPEATS {
+        return Err(cfg(at_key("timing_warmup")(format!(
+            "{} is more than the limit {}",
+            timing.warmup,
+            timing::MAX_REPEATS
+        ))));
+    }
+    if !(1..=timing::MAX_REPEATS).contains(&timing.repeats) {
+        return Err(cfg(at_key("timing_repeats")(format!(
+            "{} is outside 1..={}",
+            timing.repeats,
+            timing::MAX_REPEATS
+        ))));
+    }
+    Ok(timing)
+}
+
+/// Every combination resolved by `kind` into a run; two combinations of one run are an error.
+fn resolve_runs(
+    file: &str,
+    kind: &dyn DynKind,
+    ex: &config::Expanded,
+) -> Result<Vec<Resolved>, Error> {
+    let mut runs: Vec<Resolved> = Vec::with_capacity(ex.combinations.len());
+    let mut ids = HashMap::new();
+    for (i, c) in ex.combinations.iter().enumerate() {
+        let r = kind.resolve(ex, c).map_err(cfg)?;
+        if let Some(j) = ids.insert(r.id.clone(), i) {
+            return Err(Error::Config(format!(
+                "{file}: sweep: combinations {} and {} resolve to the same run ({})",
+                j + 1,
+                i + 1,
+                r.canonical
+            )));
+        }
+        runs.push(r);
+    }
+    Ok(runs)
+}
+
 impl Plan {
     /// Read and resolve a config file with overrides against the registry of kinds.
     pub fn load(
@@ -93,11 +145,11 @@ impl Plan {
                     },
                     None => Place::File(file.into()),
                 });
-            move |message: String| ConfigError {
+            Box::new(move |message: String| ConfigError {
                 place,
                 key: key.into(),
                 message,
-            }
+            }) as Box<dyn FnOnce(String) -> ConfigError>
         };
         let kind = *registry
             .iter()
@@ -119,41 +171,8 @@ impl Plan {
             None => GpuMode::Auto,
             Some(g) => GpuMode::parse(g).map_err(|m| cfg(at_key("gpu")(m)))?,
         };
-        let mut timing = Procedure::default();
-        if let Some(w) = ex.runner.timing_warmup {
-            timing.warmup = w;
-        }
-        if let Some(r) = ex.runner.timing_repeats {
-            timing.repeats = r;
-        }
-        if timing.warmup > timing::MAX_REPEATS {
-            return Err(cfg(at_key("timing_warmup")(format!(
-                "{} is more than the limit {}",
-                timing.warmup,
-                timing::MAX_REPEATS
-            ))));
-        }
-        if !(1..=timing::MAX_REPEATS).contains(&timing.repeats) {
-            return Err(cfg(at_key("timing_repeats")(format!(
-                "{} is outside 1..={}",
-                timing.repeats,
-                timing::MAX_REPEATS
-            ))));
-        }
-        let mut runs: Vec<Resolved> = Vec::with_capacity(ex.combinations.len());
-        let mut ids = HashMap::new();
-        for (i, c) in ex.combinations.iter().enumerate() {
-            let r = kind.resolve(&ex, c).map_err(cfg)?;
-            if let Some(j) = ids.insert(r.id.clone(), i) {
-                return Err(Error::Config(format!(
-                    "{file}: sweep: combinations {} and {} resolve to the same run ({})",
-                    j + 1,
-                    i + 1,
-                    r.canonical
-                )));
-            }
-            runs.push(r);
-        }
+        let timing = timing_of(&ex, &at_key)?;
+        let runs = resolve_runs(file, kind, &ex)?;
         Ok(Self {
             kind,
             file: file.into(),

@@ -84,27 +84,10 @@ pub fn run_plan(
     let gpu_device = device
         .as_ref()
         .map_or("none".to_string(), |d| d.description().to_string());
-    let mine: Vec<usize> = (0..plan.runs.len())
-        .filter(|i| shard.is_none_or(|(s, n)| i % n == s))
-        .collect();
-    let pending: Vec<usize> = (mine.iter().copied())
-        .filter(|&i| !loaded.complete.contains(&plan.runs[i].id))
-        .collect();
-    let rejected_ids: BTreeSet<String> = (loaded.rejected.iter())
-        .filter_map(|(_, _, r)| r.first().cloned())
-        .collect();
-    let mut summary = RunSummary {
-        dir: dir.clone(),
-        csv: csv.clone(),
-        in_shard: mine.len(),
-        already_done: mine.len() - pending.len(),
-        ran: 0,
-        redone: (pending.iter())
-            .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
-            .count(),
-    };
+    let (summary, pending) = plan_progress(plan, shard, &loaded, &dir, &csv);
+    let mut summary = summary;
     progress(RunEvent::Begin {
-        total: mine.len(),
+        total: summary.in_shard,
         pending: pending.len(),
     });
     let writer = Writer {
@@ -150,6 +133,37 @@ pub fn run_plan(
     }
     summary.ran = *writer.ran.lock().unwrap_or_else(|e| e.into_inner());
     Ok(summary)
+}
+
+/// The runs of this shard still to do (not complete in `loaded`), and the summary so far: how
+/// many are in the shard, already done, and redone because their rows were set aside.
+fn plan_progress(
+    plan: &Plan,
+    shard: Option<(usize, usize)>,
+    loaded: &crate::store::Loaded,
+    dir: &Path,
+    csv: &Path,
+) -> (RunSummary, Vec<usize>) {
+    let mine: Vec<usize> = (0..plan.runs.len())
+        .filter(|i| shard.is_none_or(|(s, n)| i % n == s))
+        .collect();
+    let pending: Vec<usize> = (mine.iter().copied())
+        .filter(|&i| !loaded.complete.contains(&plan.runs[i].id))
+        .collect();
+    let rejected_ids: BTreeSet<String> = (loaded.rejected.iter())
+        .filter_map(|(_, _, r)| r.first().cloned())
+        .collect();
+    let summary = RunSummary {
+        dir: dir.to_path_buf(),
+        csv: csv.to_path_buf(),
+        in_shard: mine.len(),
+        already_done: mine.len() - pending.len(),
+        ran: 0,
+        redone: (pending.iter())
+            .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
+            .count(),
+    };
+    (summary, pending)
 }
 
 /// Check the manifest and the existing rows before any work: a directory of another kind is
