@@ -307,25 +307,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
     );
     let m = Matching::of(kind, &ta, &tb);
     let (ma, mb) = (m.means(&ta), m.means(&tb));
-    let mut md = format!(
-        "# Comparison of {} results\n\nA: `{}` ({} rows), B: `{}` ({} rows). Rows matched on: {}. Parameters fixed at different values: {}.\n\n",
-        kind.name(),
-        a.display(),
-        ta.rows.len(),
-        b.display(),
-        tb.rows.len(),
-        if m.keys.is_empty() { "nothing (one row each)".to_string() } else { m.keys.join(", ") },
-        if m.differ.is_empty() { "none".to_string() } else { m.differ.join("; ") }
-    );
-    let mut head: Vec<String> = m.keys.clone();
-    for c in &m.metrics {
-        head.extend([format!("{c} A"), format!("{c} B"), format!("{c} B − A")]);
-    }
-    md.push_str(&format!(
-        "| {} |\n|{}\n",
-        head.join(" | "),
-        "---|".repeat(head.len())
-    ));
+    let mut md = m.header_md(kind, (a, &ta), (b, &tb));
     let avg = |v: (f64, usize)| if v.1 > 0 { v.0 / v.1 as f64 } else { f64::NAN };
     let (na, nb) = (dir_name(a), dir_name(b));
     let mut matched = 0;
@@ -455,6 +437,35 @@ impl<'a> Matching<'a> {
             differ,
             metrics,
         }
+    }
+
+    /// The comparison's heading (what was matched and what differs) and its table header.
+    fn header_md(
+        &self,
+        kind: &dyn DynKind,
+        (a, ta): (&Path, &Results),
+        (b, tb): (&Path, &Results),
+    ) -> String {
+        let mut md = format!(
+            "# Comparison of {} results\n\nA: `{}` ({} rows), B: `{}` ({} rows). Rows matched on: {}. Parameters fixed at different values: {}.\n\n",
+            kind.name(),
+            a.display(),
+            ta.rows.len(),
+            b.display(),
+            tb.rows.len(),
+            if self.keys.is_empty() { "nothing (one row each)".to_string() } else { self.keys.join(", ") },
+            if self.differ.is_empty() { "none".to_string() } else { self.differ.join("; ") }
+        );
+        let mut head: Vec<String> = self.keys.clone();
+        for c in &self.metrics {
+            head.extend([format!("{c} A"), format!("{c} B"), format!("{c} B − A")]);
+        }
+        md.push_str(&format!(
+            "| {} |\n|{}\n",
+            head.join(" | "),
+            "---|".repeat(head.len())
+        ));
+        md
     }
 
     /// Sum and count of each metric per key.

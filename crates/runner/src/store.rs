@@ -70,23 +70,7 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
     }
     let (columns, raw) = records::read_raw(path)?;
     let want = header(kind);
-    if columns != want {
-        let diff = want
-            .iter()
-            .zip(columns.iter().chain(std::iter::repeat(&String::new())))
-            .position(|(a, b)| a != b)
-            .unwrap_or(want.len().min(columns.len()));
-        return Err(Error::Io {
-            path: path.display().to_string(),
-            reason: format!(
-                "its columns are not this version's {} columns (column {}: {:?}, expected {:?}); it is left untouched — move it away or choose another name",
-                kind.name(),
-                diff + 1,
-                columns.get(diff).map_or("", String::as_str),
-                want.get(diff).map_or("", String::as_str),
-            ),
-        });
-    }
+    check_header(kind, path, &columns, &want)?;
     let np = kind.param_columns().len();
     let nr = kind.row_columns().len();
     let (ph, rh, vh) = (
@@ -146,6 +130,33 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
         }
     }
     Ok(out)
+}
+
+/// A results file whose header is not this version's `want` is an error: it is left untouched.
+fn check_header(
+    kind: &dyn DynKind,
+    path: &Path,
+    columns: &[String],
+    want: &[String],
+) -> Result<(), Error> {
+    if columns != want {
+        let diff = want
+            .iter()
+            .zip(columns.iter().chain(std::iter::repeat(&String::new())))
+            .position(|(a, b)| a != b)
+            .unwrap_or(want.len().min(columns.len()));
+        return Err(Error::Io {
+            path: path.display().to_string(),
+            reason: format!(
+                "its columns are not this version's {} columns (column {}: {:?}, expected {:?}); it is left untouched — move it away or choose another name",
+                kind.name(),
+                diff + 1,
+                columns.get(diff).map_or("", String::as_str),
+                want.get(diff).map_or("", String::as_str),
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Append set-aside rows to `<csv>.rejected` (never lost).
