@@ -141,12 +141,7 @@ impl Kind for Extremes {
     }
 
     fn validate(p: &Params) -> Result<(), KeyError> {
-        if !(1..=MAX_ORDER).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..={MAX_ORDER}", p.order),
-            ));
-        }
+        KeyError::int("order", p.order, 1, MAX_ORDER)?;
         tau_of(p).map(|_| ())
     }
 

@@ -7,6 +7,7 @@
 //! parameter but the element). Sweep the elements with `[sweep.zip] row = […], col = […]`.
 
 use serde::{Deserialize, Serialize};
+use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
@@ -123,15 +124,8 @@ impl Kind for MElements {
 
     fn validate(p: &Params) -> Result<(), KeyError> {
         let n = p.order;
-        if !(1..=16).contains(&n) {
-            return Err(KeyError::new("order", format!("{n} is outside 1..=16")));
-        }
-        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
-            return Err(KeyError::new(
-                "alpha_deg",
-                format!("{} is outside (0, 90)", p.alpha_deg),
-            ));
-        }
+        KeyError::int("order", n, 1, 16)?;
+        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
         if !(p.k_min >= 1e-6 && p.k_max > p.k_min && p.k_max <= 1e6) {
             return Err(KeyError::new(
                 "k_min",

@@ -12,6 +12,7 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::EnvLight;
+use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
@@ -181,12 +182,7 @@ impl Kind for MidRange {
     }
 
     fn validate(p: &Params) -> Result<(), KeyError> {
-        if !(1..=16).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..=16", p.order),
-            ));
-        }
+        KeyError::int("order", p.order, 1, 16)?;
         if !(0.0..1.0).contains(&p.k) {
             return Err(KeyError::new("k", format!("{} is outside [0, 1)", p.k)));
         }
@@ -211,12 +207,13 @@ impl Kind for MidRange {
                 format!("{:?} must be three finite numbers, not all 0", p.sun_dir),
             ));
         }
-        if !(p.sun_radius_deg > 0.0 && p.sun_radius_deg <= 90.0) {
-            return Err(KeyError::new(
-                "sun_radius_deg",
-                format!("{} is outside (0, 90]", p.sun_radius_deg),
-            ));
-        }
+        KeyError::real(
+            "sun_radius_deg",
+            p.sun_radius_deg,
+            0.0,
+            90.0,
+            Ends::OpenClosed,
+        )?;
         Ok(())
     }
 

@@ -10,6 +10,7 @@ use shscale_field::probe::{
     probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
 };
 use shscale_field::Layout;
+use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
 use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND};
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
@@ -261,79 +262,39 @@ impl Kind for Probe {
 
     fn validate(p: &ProbeParams) -> Result<(), KeyError> {
         check_sampling_keys(&p.mesh, p.order, p.alpha_deg, &p.layout, p.hemisphere_res)?;
-        if !(p.sampling_radius.is_finite() && (1.0..=1e3).contains(&p.sampling_radius)) {
-            return Err(KeyError::new(
-                "sampling_radius",
-                format!("{} is outside [1, 1000]", p.sampling_radius),
-            ));
-        }
+        KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
         let interp = parse_interp(&p.k_interp).map_err(|m| KeyError::new("k_interp", m))?;
         parse_spacing(&p.k_spacing).map_err(|m| KeyError::new("k_spacing", m))?;
         let min_k = if interp == Interp::Cubic { 4 } else { 2 };
-        if !(min_k..=MAX_K_COUNT).contains(&p.k_count) {
-            return Err(KeyError::new(
-                "k_count",
-                format!(
-                    "{} is outside {min_k}..={MAX_K_COUNT} (≥ 4 for cubic)",
-                    p.k_count
-                ),
-            ));
+        KeyError::int("k_count", p.k_count, min_k, MAX_K_COUNT).map_err(|e| KeyError {
+            message: format!("{} (≥ 4 for cubic)", e.message),
+            ..e
+        })?;
+        KeyError::real(
+            "on_surface_eps",
+            p.on_surface_eps,
+            0.0,
+            1.0,
+            Ends::ClosedOpen,
+        )?;
+        for (key, k) in [("k_min", p.k_min), ("k_max", p.k_max)] {
+            if let Some(k) = k {
+                KeyError::real(key, k, 0.0, 1e6, Ends::OpenClosed)?;
+            }
         }
-        if !(p.on_surface_eps.is_finite() && (0.0..1.0).contains(&p.on_surface_eps)) {
-            return Err(KeyError::new(
-                "on_surface_eps",
-                format!("{} is outside [0, 1)", p.on_surface_eps),
-            ));
-        }
-        if let Some(k) = p
-            .k_min
-            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
-        {
-            return Err(KeyError::new("k_min", format!("{k} is outside (0, 1e6]")));
-        }
-        if let Some(k) = p
-            .k_max
-            .filter(|k| !(k.is_finite() && *k > 0.0 && *k <= 1e6))
-        {
-            return Err(KeyError::new("k_max", format!("{k} is outside (0, 1e6]")));
-        }
-        if !(p.contact_occlusion.is_finite() && (0.0..=1.0).contains(&p.contact_occlusion)) {
-            return Err(KeyError::new(
-                "contact_occlusion",
-                format!("{} is outside [0, 1]", p.contact_occlusion),
-            ));
-        }
+        KeyError::real(
+            "contact_occlusion",
+            p.contact_occlusion,
+            0.0,
+            1.0,
+            Ends::Closed,
+        )?;
         parse_probe_dirs(&p.probe_dirs, p.probe_seed)
             .map_err(|m| KeyError::new("probe_dirs", m))?;
         Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
         parse_alpha_mode(&p.alpha_mode).map_err(|m| KeyError::new("alpha_mode", m))?;
-        if !(1..=MAX_TRUTH_RES).contains(&p.truth_res) {
-            return Err(KeyError::new(
-                "truth_res",
-                format!("{} is outside 1..={MAX_TRUTH_RES}", p.truth_res),
-            ));
-        }
-        if p.radii.is_empty() || p.radii.len() > MAX_RADII {
-            return Err(KeyError::new(
-                "radii",
-                format!("{} radii: give 1 to {MAX_RADII}", p.radii.len()),
-            ));
-        }
-        if let Some(r) = p
-            .radii
-            .iter()
-            .find(|r| !(r.is_finite() && **r > 0.0 && **r <= 1e6))
-        {
-            return Err(KeyError::new("radii", format!("{r} is outside (0, 1e6]")));
-        }
-        for (i, r) in p.radii.iter().enumerate() {
-            if p.radii[..i].contains(r) {
-                return Err(KeyError::new(
-                    &format!("radii[{i}]"),
-                    format!("radius {r} appears twice"),
-                ));
-            }
-        }
+        KeyError::int("truth_res", p.truth_res, 1, MAX_TRUTH_RES)?;
+        check_radii(&p.radii)?;
         let (a, b) =
             shscale_field::probe::table_range_of(p.k_min, p.k_max, &p.radii, p.sampling_radius);
         if a >= b {
@@ -606,6 +567,28 @@ impl Kind for Probe {
             stem,
         )?)
     }
+}
+
+/// 1 to [`MAX_RADII`] distinct probe radii, each in (0, 1e6].
+fn check_radii(radii: &[f64]) -> Result<(), KeyError> {
+    if radii.is_empty() || radii.len() > MAX_RADII {
+        return Err(KeyError::new(
+            "radii",
+            format!("{} radii: give 1 to {MAX_RADII}", radii.len()),
+        ));
+    }
+    for r in radii {
+        KeyError::real("radii", *r, 0.0, 1e6, Ends::OpenClosed)?;
+    }
+    for (i, r) in radii.iter().enumerate() {
+        if radii[..i].contains(r) {
+            return Err(KeyError::new(
+                &format!("radii[{i}]"),
+                format!("radius {r} appears twice"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A finite error to three decimals, `—` otherwise.

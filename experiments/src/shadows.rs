@@ -14,6 +14,7 @@
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
 use shscale_field::Layout;
+use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
 use shscale_scene::render::{render, Method, RenderOutput};
@@ -323,31 +324,16 @@ impl Kind for Shadows {
             return Err(KeyError::new("scene", "give a scene file"));
         }
         if let Some(n) = p.order {
-            if !(1..=MAX_ORDER).contains(&n) {
-                return Err(KeyError::new(
-                    "order",
-                    format!("{n} is outside 1..={MAX_ORDER}"),
-                ));
-            }
+            KeyError::int("order", n, 1, MAX_ORDER)?;
         }
         if let Some(a) = p.alpha_deg {
-            if !(a > 0.0 && a < 90.0) {
-                return Err(KeyError::new(
-                    "alpha_deg",
-                    format!("{a} is outside (0, 90)"),
-                ));
-            }
+            KeyError::real("alpha_deg", a, 0.0, 90.0, Ends::Open)?;
         }
         if let Some(l) = &p.layout {
             Layout::parse(l).map_err(|e| KeyError::new("layout", e.to_string()))?;
         }
         if let Some(h) = p.hemisphere_res {
-            if !(1..=MAX_HEMISPHERE_RES).contains(&h) {
-                return Err(KeyError::new(
-                    "hemisphere_res",
-                    format!("{h} is outside 1..={MAX_HEMISPHERE_RES}"),
-                ));
-            }
+            KeyError::int("hemisphere_res", h, 1, MAX_HEMISPHERE_RES)?;
         }
         if let Some(m) = &p.plausibility {
             shscale_field::extrapolate::Plausibility::parse(m)

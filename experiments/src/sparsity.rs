@@ -121,12 +121,7 @@ impl Kind for Sparsity {
     }
 
     fn validate(p: &Params) -> Result<(), KeyError> {
-        if !(1..=16).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..=16", p.order),
-            ));
-        }
+        KeyError::int("order", p.order, 1, 16)?;
         tau_of(p).map(|_| ())
     }
 

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use shscale_field::{Emitter, Layout};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::MeshBvh;
+use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
@@ -111,31 +112,11 @@ impl Kind for Srf {
                 ),
             ));
         }
-        if !(1..=MAX_ORDER).contains(&p.order) {
-            return Err(KeyError::new(
-                "order",
-                format!("{} is outside 1..={MAX_ORDER}", p.order),
-            ));
-        }
+        KeyError::int("order", p.order, 1, MAX_ORDER)?;
         Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
-        if !(1..=MAX_HEMISPHERE_RES).contains(&p.hemisphere_res) {
-            return Err(KeyError::new(
-                "hemisphere_res",
-                format!("{} is outside 1..={MAX_HEMISPHERE_RES}", p.hemisphere_res),
-            ));
-        }
-        if !(p.alpha_deg > 0.0 && p.alpha_deg < 90.0) {
-            return Err(KeyError::new(
-                "alpha_deg",
-                format!("{} is outside (0, 90)", p.alpha_deg),
-            ));
-        }
-        if !(p.hinge_deg > 0.0 && p.hinge_deg < 360.0) {
-            return Err(KeyError::new(
-                "hinge_deg",
-                format!("{} is outside (0, 360)", p.hinge_deg),
-            ));
-        }
+        KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
+        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
+        KeyError::real("hinge_deg", p.hinge_deg, 0.0, 360.0, Ends::Open)?;
         if p.radii.is_empty() || p.radii.len() > MAX_RADII {
             return Err(KeyError::new(
                 "radii",

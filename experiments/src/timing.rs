@@ -110,12 +110,7 @@ impl Kind for Timing {
                 format!("{:?} is not cpu or gpu", p.path),
             ));
         }
-        if !(1..=MAX_FRAMES).contains(&p.frames) {
-            return Err(KeyError::new(
-                "frames",
-                format!("{} is outside 1..={MAX_FRAMES}", p.frames),
-            ));
-        }
+        KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
         if p.warmup > MAX_FRAMES {
             return Err(KeyError::new(
                 "warmup",

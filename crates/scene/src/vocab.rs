@@ -7,6 +7,7 @@ use glam::DVec3;
 use shscale_field::Layout;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{bundled, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+use shscale_runner::check::Ends;
 use shscale_runner::KeyError;
 use shscale_scaling::{Interp, Spacing};
 
@@ -236,25 +237,10 @@ pub fn check_sampling_keys(
             ),
         ));
     }
-    if !(1..=MAX_ORDER).contains(&order) {
-        return Err(KeyError::new(
-            "order",
-            format!("{order} is outside 1..={MAX_ORDER}"),
-        ));
-    }
-    if !(alpha_deg > 0.0 && alpha_deg < 90.0) {
-        return Err(KeyError::new(
-            "alpha_deg",
-            format!("{alpha_deg} is outside (0, 90)"),
-        ));
-    }
+    KeyError::int("order", order, 1, MAX_ORDER)?;
+    KeyError::real("alpha_deg", alpha_deg, 0.0, 90.0, Ends::Open)?;
     Layout::parse(layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
-    if !(1..=MAX_HEMISPHERE_RES).contains(&hemisphere_res) {
-        return Err(KeyError::new(
-            "hemisphere_res",
-            format!("{hemisphere_res} is outside 1..={MAX_HEMISPHERE_RES}"),
-        ));
-    }
+    KeyError::int("hemisphere_res", hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
     Ok(())
 }
 
