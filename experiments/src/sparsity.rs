@@ -195,52 +195,7 @@ impl Kind for Sparsity {
             .map(|r| t.num(r, "outside_pattern") as usize)
             .sum();
         let taus = t.rows.len() / 2;
-        // Per η: the groups of τ with the same structural zeros.
-        let mut text = Vec::new();
-        let mut plain_zeros = 0usize;
-        for eta in ["plain", "energy"] {
-            let mut groups: Vec<(String, Vec<String>)> = Vec::new();
-            for r in (0..t.rows.len()).filter(|&r| t.cell(r, "eta") == eta) {
-                let z = t.cell(r, "structural_zeros").to_string();
-                match groups.iter_mut().find(|g| g.0 == z) {
-                    Some(g) => g.1.push(label(t, r)),
-                    None => groups.push((z, vec![label(t, r)])),
-                }
-            }
-            if eta == "plain" {
-                plain_zeros = groups
-                    .first()
-                    .map_or(0, |g| g.0.split(") (").filter(|s| !s.is_empty()).count());
-            }
-            text.push(format!(
-                "{} η ({}): pattern {} across τ: {}",
-                if eta == "plain" { "Plain" } else { "Energy" },
-                if eta == "plain" {
-                    "visibility"
-                } else {
-                    "radiance"
-                },
-                if groups.len() == 1 {
-                    "identical"
-                } else {
-                    "not identical"
-                },
-                groups
-                    .iter()
-                    .map(|(z, names)| format!(
-                        "{} structural zeros {} for {}",
-                        if z.is_empty() {
-                            0
-                        } else {
-                            z.split(") (").count()
-                        },
-                        if z.is_empty() { "(none)" } else { z.as_str() },
-                        names.join("; ")
-                    ))
-                    .collect::<Vec<_>>()
-                    .join(" — ")
-            ));
-        }
+        let (text, plain_zeros) = eta_groups(t);
         let verdict = if outside == 0 && structural_count == formula {
             format!("Confirmed where it matters: no τ has a non-zero outside the paper's {formula} positions, so the sparse product over those positions is exact for every τ. \
 The paper counts all {formula} as non-zero; numerically {plain_zeros} of them vanish identically for the plain matrix (and, for the energy matrix, the groups above), \
@@ -323,6 +278,91 @@ fn draw(
     Ok(vec![png, svg])
 }
 
+/// Per η, the groups of τ with the same structural zeros, in words; and how many structural
+/// positions vanish for the plain matrix.
+fn eta_groups(t: &Results) -> (Vec<String>, usize) {
+    let mut text = Vec::new();
+    let mut plain_zeros = 0usize;
+    for eta in ["plain", "energy"] {
+        let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+        for r in (0..t.rows.len()).filter(|&r| t.cell(r, "eta") == eta) {
+            let z = t.cell(r, "structural_zeros").to_string();
+            match groups.iter_mut().find(|g| g.0 == z) {
+                Some(g) => g.1.push(label(t, r)),
+                None => groups.push((z, vec![label(t, r)])),
+            }
+        }
+        if eta == "plain" {
+            plain_zeros = groups
+                .first()
+                .map_or(0, |g| g.0.split(") (").filter(|s| !s.is_empty()).count());
+        }
+        text.push(format!(
+            "{} η ({}): pattern {} across τ: {}",
+            if eta == "plain" { "Plain" } else { "Energy" },
+            if eta == "plain" {
+                "visibility"
+            } else {
+                "radiance"
+            },
+            if groups.len() == 1 {
+                "identical"
+            } else {
+                "not identical"
+            },
+            groups
+                .iter()
+                .map(|(z, names)| format!(
+                    "{} structural zeros {} for {}",
+                    if z.is_empty() {
+                        0
+                    } else {
+                        z.split(") (").count()
+                    },
+                    if z.is_empty() { "(none)" } else { z.as_str() },
+                    names.join("; ")
+                ))
+                .collect::<Vec<_>>()
+                .join(" — ")
+        ));
+    }
+    (text, plain_zeros)
+}
+
+/// The legend of the pattern: black, grey and white cells.
+fn paint_legend<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, plotters::coord::Shift>,
+    grey: RGBColor,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let style = ("sans-serif", 13).into_font();
+    for ((x, y), (fill, text)) in [(20, 10), (210, 10), (20, 28)].into_iter().zip([
+        (BLACK, "numerically non-zero"),
+        (grey, "structurally allowed (same m), numerically zero"),
+        (WHITE, "zero by structure (different m)"),
+    ]) {
+        legend
+            .draw(&Rectangle::new(
+                [(x, y - 6), (x + 12, y + 6)],
+                fill.filled(),
+            ))
+            .map_err(|x| e(&x))?;
+        legend
+            .draw(&Rectangle::new(
+                [(x, y - 6), (x + 12, y + 6)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|x| e(&x))?;
+        legend
+            .draw(&Text::new(text, (x + 18, y - 7), style.clone()))
+            .map_err(|x| e(&x))?;
+    }
+    Ok(())
+}
+
 /// Draw the pattern grid: black non-zero, grey structural zero, white zero — with row and
 /// column indices (i = l² + l + m), axis labels and a legend.
 fn paint<DB: DrawingBackend>(
@@ -400,27 +440,6 @@ where
             )
         }))
         .map_err(|x| e(&x))?;
-    let style = ("sans-serif", 13).into_font();
-    for ((x, y), (fill, text)) in [(20, 10), (210, 10), (20, 28)].into_iter().zip([
-        (BLACK, "numerically non-zero"),
-        (grey, "structurally allowed (same m), numerically zero"),
-        (WHITE, "zero by structure (different m)"),
-    ]) {
-        legend
-            .draw(&Rectangle::new(
-                [(x, y - 6), (x + 12, y + 6)],
-                fill.filled(),
-            ))
-            .map_err(|x| e(&x))?;
-        legend
-            .draw(&Rectangle::new(
-                [(x, y - 6), (x + 12, y + 6)],
-                BLACK.stroke_width(1),
-            ))
-            .map_err(|x| e(&x))?;
-        legend
-            .draw(&Text::new(text, (x + 18, y - 7), style.clone()))
-            .map_err(|x| e(&x))?;
-    }
+    paint_legend(&legend, grey)?;
     body.present().map_err(|x| e(&x))
 }
