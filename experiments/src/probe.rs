@@ -440,51 +440,7 @@ impl Kind for Probe {
                     .map(|x| x.rows[ri].extrapolation_seconds)
                     .collect();
                 ext.push(r.extrapolation_seconds);
-                let ext = Timing::of(&ext);
-                ProbeRow {
-                    radius: r.radius,
-                    k: r.k,
-                    k_node_offset: r.k_node_offset,
-                    alpha_used_deg: r.alpha_used_deg,
-                    effective_cap_deg: res.effective_cap_deg,
-                    probes: r.probes,
-                    inside_count: r.inside_count,
-                    unoccluded_truth_count: r.unoccluded_truth_count,
-                    clamped_count: r.clamped_count,
-                    vis_rel_l2_mean: r.vis_rel_l2_mean,
-                    vis_rel_l2_max: r.vis_rel_l2_max,
-                    occ_rel_l2_mean: r.occ_rel_l2_mean,
-                    occ_rel_l2_max: r.occ_rel_l2_max,
-                    truth_rel_err_mean: r.truth_rel_err_mean,
-                    truth_rel_err_max: r.truth_rel_err_max,
-                    truth_limited_count: r.truth_limited_count,
-                    occ_rel_l2_exact_k_mean: r.occ_rel_l2_exact_k_mean,
-                    occ_rel_l2_exact_dir_mean: r.occ_rel_l2_exact_dir_mean,
-                    occ_rel_l2_model_mean: r.occ_rel_l2_model_mean,
-                    band_limit_rel_mean: r.band_limit_rel_mean,
-                    implausible_count: r.implausible_count,
-                    occ_solid_angle_min: r.occ_solid_angle_min,
-                    occ_solid_angle_max: r.occ_solid_angle_max,
-                    on_surface_count: r.on_surface_count,
-                    vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
-                    occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
-                    occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
-                    contact_count: r.contact_count,
-                    occ_rel_l2_contact_mean: r.occ_rel_l2_contact_mean,
-                    occ_rel_l2_contact_max: r.occ_rel_l2_contact_max,
-                    bsv_rays: res.bsv_rays,
-                    truth_rays: res.truth_rays_per_probe,
-                    bsv_sampling_seconds: sh.bsv_timing.median,
-                    bsv_sampling_spread: sh.bsv_timing.spread(),
-                    table_build_seconds: table.median,
-                    table_build_spread: table.spread(),
-                    extrapolation_seconds: ext.median,
-                    extrapolation_spread: ext.spread(),
-                    truth_seconds: r.truth_seconds,
-                    gpu_bsv_sampling_seconds: sh.gpu.0,
-                    gpu_sh_conversion_seconds: sh.gpu.1,
-                    gpu_device: sh.gpu.2.clone(),
-                }
+                row_of(r, &res, sh, &table, &Timing::of(&ext))
             })
             .collect())
     }
@@ -566,6 +522,61 @@ impl Kind for Probe {
             out,
             stem,
         )?)
+    }
+}
+
+/// One radius's row of a run: the field's row `r` of the last repeat `res`, with the shared
+/// work's rays and times and the timed stages' medians and spreads.
+fn row_of(
+    r: &shscale_field::probe::ProbeRow,
+    res: &shscale_field::probe::ProbeResult,
+    sh: &ProbeShared,
+    table: &Timing,
+    ext: &Timing,
+) -> ProbeRow {
+    ProbeRow {
+        radius: r.radius,
+        k: r.k,
+        k_node_offset: r.k_node_offset,
+        alpha_used_deg: r.alpha_used_deg,
+        effective_cap_deg: res.effective_cap_deg,
+        probes: r.probes,
+        inside_count: r.inside_count,
+        unoccluded_truth_count: r.unoccluded_truth_count,
+        clamped_count: r.clamped_count,
+        vis_rel_l2_mean: r.vis_rel_l2_mean,
+        vis_rel_l2_max: r.vis_rel_l2_max,
+        occ_rel_l2_mean: r.occ_rel_l2_mean,
+        occ_rel_l2_max: r.occ_rel_l2_max,
+        truth_rel_err_mean: r.truth_rel_err_mean,
+        truth_rel_err_max: r.truth_rel_err_max,
+        truth_limited_count: r.truth_limited_count,
+        occ_rel_l2_exact_k_mean: r.occ_rel_l2_exact_k_mean,
+        occ_rel_l2_exact_dir_mean: r.occ_rel_l2_exact_dir_mean,
+        occ_rel_l2_model_mean: r.occ_rel_l2_model_mean,
+        band_limit_rel_mean: r.band_limit_rel_mean,
+        implausible_count: r.implausible_count,
+        occ_solid_angle_min: r.occ_solid_angle_min,
+        occ_solid_angle_max: r.occ_solid_angle_max,
+        on_surface_count: r.on_surface_count,
+        vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
+        occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
+        occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
+        contact_count: r.contact_count,
+        occ_rel_l2_contact_mean: r.occ_rel_l2_contact_mean,
+        occ_rel_l2_contact_max: r.occ_rel_l2_contact_max,
+        bsv_rays: res.bsv_rays,
+        truth_rays: res.truth_rays_per_probe,
+        bsv_sampling_seconds: sh.bsv_timing.median,
+        bsv_sampling_spread: sh.bsv_timing.spread(),
+        table_build_seconds: table.median,
+        table_build_spread: table.spread(),
+        extrapolation_seconds: ext.median,
+        extrapolation_spread: ext.spread(),
+        truth_seconds: r.truth_seconds,
+        gpu_bsv_sampling_seconds: sh.gpu.0,
+        gpu_sh_conversion_seconds: sh.gpu.1,
+        gpu_device: sh.gpu.2.clone(),
     }
 }
 
