@@ -396,19 +396,7 @@ pub fn probe_base_on(
         truth_seconds.push(t.elapsed().as_secs_f64());
     }
     let on_sampling = |d: &DVec3| s.center + bsv.sampling_radius * *d;
-    let direct: Vec<Vec<f64>> = match spec.probe_dirs {
-        ProbeDirs::Samples => bsv.samples.iter().map(|x| x.coeffs.clone()).collect(),
-        ProbeDirs::Random { .. } => {
-            let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
-            dirs.par_iter()
-                .map(|d| {
-                    sampler
-                        .facing_hemisphere(occ, on_sampling(d), s.center, Frame::Entity)
-                        .0
-                })
-                .collect()
-        }
-    };
+    let direct = direct_visibility(&bsv, &dirs, occ, spec)?;
     let last = spec.radii.len() as u64 * np;
     let converged: Vec<Vec<f64>> = dirs
         .par_iter()
@@ -449,6 +437,32 @@ pub fn probe_base_on(
         },
         bsv_sampling_seconds,
         key: base_key(spec),
+    })
+}
+
+/// The visibility sampled directly at each probe direction on the sampling sphere (the
+/// decomposition's "exact direction" input): the samples themselves for `probe_dirs =
+/// samples`, else the facing hemisphere ray traced there.
+fn direct_visibility(
+    bsv: &Bsv,
+    dirs: &[DVec3],
+    occ: &dyn Occluder,
+    spec: &ProbeSpec,
+) -> Result<Vec<Vec<f64>>, FieldError> {
+    let s = bsv.sphere;
+    let on_sampling = |d: &DVec3| s.center + bsv.sampling_radius * *d;
+    Ok(match spec.probe_dirs {
+        ProbeDirs::Samples => bsv.samples.iter().map(|x| x.coeffs.clone()).collect(),
+        ProbeDirs::Random { .. } => {
+            let sampler = VisibilitySampler::new(spec.order, spec.hemisphere_res)?;
+            dirs.par_iter()
+                .map(|d| {
+                    sampler
+                        .facing_hemisphere(occ, on_sampling(d), s.center, Frame::Entity)
+                        .0
+                })
+                .collect()
+        }
     })
 }
 
