@@ -491,61 +491,8 @@ pub fn irradiance_exact(
     };
     let mut rng = crate::truth::SplitMix::at(seed, p);
     let mut est = [[0.0f64; 3]; 2];
-    match source {
-        EnvSource::Sky {
-            a,
-            b,
-            up,
-            sun,
-            sun_dir,
-            sun_radius,
-        } => {
-            let fh = crate::frame::LocalFrame::from_z(n);
-            let fs = crate::frame::LocalFrame::from_z(*sun_dir);
-            let rs = sun_bands(res);
-            let cap = 1.0 - sun_radius.cos();
-            for e in est.iter_mut() {
-                // Hemisphere about n (z = cos θ ∈ [0, 1]), then the sun disc over its own cap.
-                let mut acc = stratified_cap(&fh, 1.0, res, &mut rng, |d, z| {
-                    if visible(d) {
-                        (a + b * d.dot(*up).max(0.0)) * z
-                    } else {
-                        0.0
-                    }
-                });
-                if *sun > 0.0 && *sun_radius > 0.0 {
-                    acc += stratified_cap(&fs, cap, rs, &mut rng, |d, _| {
-                        let c = d.dot(n);
-                        if c > 0.0 && visible(d) {
-                            sun * c
-                        } else {
-                            0.0
-                        }
-                    });
-                }
-                *e = [acc; 3];
-            }
-        }
-        EnvSource::Map(map) => {
-            let m = 2 * res * res;
-            for e in est.iter_mut() {
-                let mut acc = [0.0; 3];
-                for i in 0..res {
-                    for j in 0..2 * res {
-                        let u = (i as f64 + rng.unit()) / res as f64;
-                        let v = (j as f64 + rng.unit()) / (2 * res) as f64;
-                        let (d, l, pdf) = map.sample(u, v, rng.unit(), rng.unit());
-                        let c = d.dot(n);
-                        if c > 0.0 && pdf > 0.0 && visible(d) {
-                            for k in 0..3 {
-                                acc[k] += l[k] * c / pdf;
-                            }
-                        }
-                    }
-                }
-                *e = acc.map(|x| x / m as f64);
-            }
-        }
+    for e in est.iter_mut() {
+        *e = source_estimate(source, n, res, &mut rng, &visible);
     }
     let local = if emitters.is_empty() {
         [0.0; 3]
@@ -559,6 +506,69 @@ pub fn irradiance_exact(
     Irradiance {
         e: [0, 1, 2].map(|c| 0.5 * (est[0][c] + est[1][c]) + local[c]),
         err: [0, 1, 2].map(|c| 0.5 * (est[0][c] - est[1][c]).abs()),
+    }
+}
+
+/// One stratified estimate of `∫ L V max(0, n·ω) dω` of the environment's full-frequency
+/// source (see [`irradiance_exact`]): the sky's smooth part over the hemisphere about `n` and
+/// its sun over the sun's own cap, or the map by luminance-proportional sampling.
+fn source_estimate(
+    source: &EnvSource,
+    n: DVec3,
+    res: usize,
+    rng: &mut crate::truth::SplitMix,
+    visible: &dyn Fn(DVec3) -> bool,
+) -> [f64; 3] {
+    match source {
+        EnvSource::Sky {
+            a,
+            b,
+            up,
+            sun,
+            sun_dir,
+            sun_radius,
+        } => {
+            let fh = crate::frame::LocalFrame::from_z(n);
+            let fs = crate::frame::LocalFrame::from_z(*sun_dir);
+            // Hemisphere about n (z = cos θ ∈ [0, 1]), then the sun disc over its own cap.
+            let mut acc = stratified_cap(&fh, 1.0, res, rng, |d, z| {
+                if visible(d) {
+                    (a + b * d.dot(*up).max(0.0)) * z
+                } else {
+                    0.0
+                }
+            });
+            if *sun > 0.0 && *sun_radius > 0.0 {
+                let cap = 1.0 - sun_radius.cos();
+                acc += stratified_cap(&fs, cap, sun_bands(res), rng, |d, _| {
+                    let c = d.dot(n);
+                    if c > 0.0 && visible(d) {
+                        sun * c
+                    } else {
+                        0.0
+                    }
+                });
+            }
+            [acc; 3]
+        }
+        EnvSource::Map(map) => {
+            let m = 2 * res * res;
+            let mut acc = [0.0; 3];
+            for i in 0..res {
+                for j in 0..2 * res {
+                    let u = (i as f64 + rng.unit()) / res as f64;
+                    let v = (j as f64 + rng.unit()) / (2 * res) as f64;
+                    let (d, l, pdf) = map.sample(u, v, rng.unit(), rng.unit());
+                    let c = d.dot(n);
+                    if c > 0.0 && pdf > 0.0 && visible(d) {
+                        for k in 0..3 {
+                            acc[k] += l[k] * c / pdf;
+                        }
+                    }
+                }
+            }
+            acc.map(|x| x / m as f64)
+        }
     }
 }
 
