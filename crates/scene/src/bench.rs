@@ -107,55 +107,76 @@ pub fn bench_scene(
         frame_ms: 0.0,
         fps: 0.0,
     };
-    let ms = |v: Vec<f64>| 1e3 * median(&v);
     let mut rows = Vec::new();
     if cpu {
-        let (_, stats) = render_sequence(&sc, total)?;
-        let st = &stats[warmup.min(stats.len() - 1)..];
-        let frame: Vec<f64> = st
-            .iter()
-            .map(|s| {
-                s.deform_seconds + s.bvh_update_seconds + s.bsv_sampling_seconds + s.shading_seconds
-            })
-            .collect();
-        let frame_ms = ms(frame);
-        rows.push(BenchRow {
-            path: "cpu".into(),
-            device: format!("cpu ({threads} threads)"),
-            deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
-            bvh_update_ms: ms(st.iter().map(|s| s.bvh_update_seconds).collect()),
-            bsv_sampling_ms: ms(st.iter().map(|s| s.bsv_sampling_seconds).collect()),
-            shadowing_ms: ms(st.iter().map(|s| s.shading_seconds).collect()),
-            frame_ms,
-            fps: 1e3 / frame_ms,
-            ..base.clone()
-        });
+        rows.push(cpu_row(&sc, total, warmup, &base)?);
     }
     if let Some(ctx) = gpu {
-        let run = render_sequence_gpu(&sc, total, ctx)?;
-        let (stats, setup) = (&run.frames, run.setup_seconds);
-        let st = &stats[warmup.min(stats.len() - 1)..];
-        let frame_ms = ms(st
-            .iter()
-            .map(|s| s.deform_seconds + s.gpu.frame_seconds)
-            .collect());
-        rows.push(BenchRow {
-            path: "gpu".into(),
-            device: ctx.describe(),
-            timestamps: st[0].gpu.timestamps,
-            setup_ms: Some(1e3 * setup),
-            deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
-            bvh_update_ms: ms(st.iter().map(|s| s.gpu.bvh_seconds).collect()),
-            upload_ms: Some(ms(st.iter().map(|s| s.gpu.upload_seconds).collect())),
-            bsv_sampling_ms: ms(st.iter().map(|s| s.gpu.sampling_seconds).collect()),
-            sh_conversion_ms: Some(ms(st.iter().map(|s| s.gpu.projection_seconds).collect())),
-            shadowing_ms: ms(st.iter().map(|s| s.gpu.shading_seconds).collect()),
-            frame_ms,
-            fps: 1e3 / frame_ms,
-            ..base.clone()
-        });
+        rows.push(gpu_row(&sc, total, warmup, ctx, &base)?);
     }
     Ok(rows)
+}
+
+/// The median of `v` in milliseconds.
+fn ms(v: Vec<f64>) -> f64 {
+    1e3 * median(&v)
+}
+
+/// The CPU sequence's row: per-stage medians over the frames after `warmup`.
+fn cpu_row(sc: &Scene, total: usize, warmup: usize, base: &BenchRow) -> Result<BenchRow, Error> {
+    let threads = base.threads;
+    let (_, stats) = render_sequence(sc, total)?;
+    let st = &stats[warmup.min(stats.len() - 1)..];
+    let frame: Vec<f64> = st
+        .iter()
+        .map(|s| {
+            s.deform_seconds + s.bvh_update_seconds + s.bsv_sampling_seconds + s.shading_seconds
+        })
+        .collect();
+    let frame_ms = ms(frame);
+    Ok(BenchRow {
+        path: "cpu".into(),
+        device: format!("cpu ({threads} threads)"),
+        deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
+        bvh_update_ms: ms(st.iter().map(|s| s.bvh_update_seconds).collect()),
+        bsv_sampling_ms: ms(st.iter().map(|s| s.bsv_sampling_seconds).collect()),
+        shadowing_ms: ms(st.iter().map(|s| s.shading_seconds).collect()),
+        frame_ms,
+        fps: 1e3 / frame_ms,
+        ..base.clone()
+    })
+}
+
+/// The GPU sequence's row on `ctx`: per-stage device times (timestamps where available).
+fn gpu_row(
+    sc: &Scene,
+    total: usize,
+    warmup: usize,
+    ctx: &GpuContext,
+    base: &BenchRow,
+) -> Result<BenchRow, Error> {
+    let run = render_sequence_gpu(sc, total, ctx)?;
+    let (stats, setup) = (&run.frames, run.setup_seconds);
+    let st = &stats[warmup.min(stats.len() - 1)..];
+    let frame_ms = ms(st
+        .iter()
+        .map(|s| s.deform_seconds + s.gpu.frame_seconds)
+        .collect());
+    Ok(BenchRow {
+        path: "gpu".into(),
+        device: ctx.describe(),
+        timestamps: st[0].gpu.timestamps,
+        setup_ms: Some(1e3 * setup),
+        deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
+        bvh_update_ms: ms(st.iter().map(|s| s.gpu.bvh_seconds).collect()),
+        upload_ms: Some(ms(st.iter().map(|s| s.gpu.upload_seconds).collect())),
+        bsv_sampling_ms: ms(st.iter().map(|s| s.gpu.sampling_seconds).collect()),
+        sh_conversion_ms: Some(ms(st.iter().map(|s| s.gpu.projection_seconds).collect())),
+        shadowing_ms: ms(st.iter().map(|s| s.gpu.shading_seconds).collect()),
+        frame_ms,
+        fps: 1e3 / frame_ms,
+        ..base.clone()
+    })
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {
