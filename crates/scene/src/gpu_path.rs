@@ -99,6 +99,24 @@ fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, Error> {
     )?)
 }
 
+/// Point location of every receiver's direction in the spherical triangulation of the layout
+/// (on the host): the three samples and weights each receiver interpolates.
+fn receiver_locations(
+    scene: &Scene,
+    sampling: Sphere,
+    recv: &[DVec3],
+) -> Result<Vec<[(u32, f64); 3]>, Error> {
+    let bsv = layout_only_bsv(scene.layout, sampling)?;
+    Ok(recv
+        .iter()
+        .map(|p| {
+            let d = *p - sampling.center;
+            let d = if d.length() > 0.0 { d } else { DVec3::Z };
+            bsv.locate(d.normalize())
+        })
+        .collect())
+}
+
 /// Render `frames ≥ 1` frames of a deforming single-mesh scene with the extrapolated method on
 /// the GPU — the twin of [`crate::render::render_sequence`] for one occluder (same fixed sampling
 /// sphere, k-table, poses, and the same per-receiver `U`, built on the GPU). Returns the last
@@ -124,15 +142,7 @@ pub fn render_sequence_gpu(
     let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
     // Point location in the spherical triangulation stays on the host; k-table scaling and the
     // rotations of every receiver run on the GPU (ReceiverSetup).
-    let bsv = layout_only_bsv(scene.layout, sampling)?;
-    let locations: Vec<[(u32, f64); 3]> = recv
-        .iter()
-        .map(|p| {
-            let d = *p - sampling.center;
-            let d = if d.length() > 0.0 { d } else { DVec3::Z };
-            bsv.locate(d.normalize())
-        })
-        .collect();
+    let locations = receiver_locations(scene, sampling, &recv)?;
     let strategy = o
         .deformer
         .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
