@@ -196,6 +196,10 @@ unsafe fn batch_avx2<T: Real>(leg: &Legendre<T>, dirs: &[[T; 3]], out: &mut [T],
 
 /// Whole batches of [`LANES`] directions through the lane kernel (literal orders compiled one by
 /// one), the remainder through the one-direction kernel.
+///
+/// A hot dispatch of ~95 lines: most of it is the one `match` that lists every literal order the
+/// fixed kernels are compiled for (each arm a different monomorphisation); splitting the list
+/// would only add a call level between the caller and the kernel.
 #[inline(always)]
 fn batch_dispatch<T: Real, const FMA: bool>(
     leg: &Legendre<T>,
@@ -426,6 +430,9 @@ fn lane_kernel<T: Real, const CAP: usize, const FMA: bool>(
 /// count, so LLVM can unroll the recurrence into straight-line SIMD code on a tile of
 /// `NN × LANES` values (at N = 8, 12 and 16 it leaves loops rolled, hence the slices below),
 /// which is then written out point by point. The same operations as [`lane_kernel`].
+///
+/// A hot kernel of ~85 lines kept whole: the recurrence's tile lives in registers and on the
+/// stack frame of this one function (per order, so each is optimised alone).
 #[inline(always)]
 fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, const FMA: bool>(
     leg: &Legendre<T>,

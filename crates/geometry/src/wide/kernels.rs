@@ -468,6 +468,12 @@ pub(super) unsafe fn packet_occluded_avx512(
 
 /// The packet kernel's code, inlined into [`packet_occluded`] and [`packet_occluded_avx512`]
 /// (only into functions that enable AVX2, FMA, POPCNT, BMI1 and BMI2).
+///
+/// A hot kernel, kept as one body of ~165 lines on purpose: the traversal loop holds the packet's
+/// slab vectors and lane masks in registers across the box test, the leaf test and the solo
+/// hand-over, and every piece moved into a function of its own was either left out of line by
+/// LLVM (25 % more instructions for the slab macro as a function, module doc) or had to pass
+/// the register state through memory.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(super) unsafe fn packet_body(
