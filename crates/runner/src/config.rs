@@ -55,6 +55,9 @@ pub struct ConfigError {
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            return write!(f, "{}: {}", self.place, self.message);
+        }
         match &self.place {
             Place::Line { file, line } => {
                 write!(f, "{file}:{line}: {}: {}", self.key, self.message)
@@ -66,6 +69,22 @@ impl fmt::Display for ConfigError {
 }
 
 impl std::error::Error for ConfigError {}
+
+impl fmt::Display for Place {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Place::Line { file, line } => write!(f, "{file}:{line}"),
+            Place::File(file) => write!(f, "{file}"),
+            Place::Flag(flag) => write!(f, "{flag}"),
+        }
+    }
+}
+
+impl From<ConfigError> for crate::error::Error {
+    fn from(e: ConfigError) -> Self {
+        crate::error::Error::Config(e.to_string())
+    }
+}
 
 /// One step of a key path.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -124,6 +143,31 @@ impl Source {
             file: file.to_string(),
             text: text.to_string(),
             doc: toml_edit::ImDocument::parse(text.to_string()).ok(),
+        }
+    }
+
+    /// Where the key `key` (a dotted path, `occluder[1].radius`) is written: its own line, else
+    /// the first line that writes its last segment (`radius = …`, `[camera]`), else the file.
+    pub fn place_of_key(&self, key: &str) -> Place {
+        let last = key.split('.').next_back().unwrap_or(key);
+        let line = self.line_of(&parse_path(key)).map(|(l, _)| l).or_else(|| {
+            self.text
+                .lines()
+                .position(|l| {
+                    let t = l.trim_start();
+                    t.starts_with(&format!("{last} "))
+                        || t.starts_with(&format!("{last}="))
+                        || t.starts_with(&format!("[{last}]"))
+                        || t.starts_with(&format!("[[{last}]]"))
+                })
+                .map(|i| i + 1)
+        });
+        match line {
+            Some(line) => Place::Line {
+                file: self.file.clone(),
+                line,
+            },
+            None => Place::File(self.file.clone()),
         }
     }
 
@@ -356,7 +400,7 @@ fn key_value<'a>(
 /// Read the config `text` of `file`, apply `ov`, split the runner's keys and expand the sweep.
 pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, ConfigError> {
     let source = Source::new(file, text);
-    let mut doc = parse_table(file, text, &source)?;
+    let mut doc = parse_table(file, text)?;
     let (set_places, sweep_flags) = apply_overrides(&mut doc, ov)?;
     let places = Places {
         file,
@@ -377,23 +421,8 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
 }
 
 /// The config text as a TOML table; a syntax error at its line, naming the key written there.
-fn parse_table(file: &str, text: &str, source: &Source) -> Result<toml::Table, ConfigError> {
-    toml::from_str(text).map_err(|e| {
-        let line = e.span().map(|s| source.line_at(s.start));
-        let key = line
-            .and_then(|l| text.lines().nth(l - 1))
-            .and_then(|l| l.split_once('='))
-            .map(|(k, _)| k.trim().to_string())
-            .unwrap_or_default();
-        ConfigError {
-            place: line.map_or(Place::File(file.into()), |line| Place::Line {
-                file: file.into(),
-                line,
-            }),
-            key,
-            message: e.message().trim().to_string(),
-        }
-    })
+fn parse_table(file: &str, text: &str) -> Result<toml::Table, ConfigError> {
+    toml::from_str(text).map_err(|e| toml_error(file, text, &e))
 }
 
 /// Apply `--set`, `--sweep` and `--name` to `doc`; the places of the values they set (`--set`,
@@ -793,22 +822,26 @@ pub fn deserialize<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// A TOML parse error of `file` (whose text is `text`) as a [`crate::Error::Config`] naming the file,
-/// the line and — when the message does not already — the field written on that line.
-pub fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> crate::Error {
-    let line = e.span().map_or(0, |s| {
-        text[..s.start.min(text.len())].matches('\n').count() + 1
-    });
-    let msg = e.message().trim();
-    let key = text
-        .lines()
-        .nth(line.saturating_sub(1))
+/// A TOML parse error of `file` (whose text is `text`) at its place: the line, and — when the
+/// message does not already name it — the key written on that line.
+pub fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> ConfigError {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let message = e.message().trim().to_string();
+    let key = line
+        .and_then(|l| text.lines().nth(l - 1))
         .and_then(|l| l.split_once('='))
-        .map(|(k, _)| k.trim())
-        .filter(|k| line > 0 && !k.is_empty() && !msg.contains(k));
-    match key {
-        Some(k) => crate::Error::Config(format!("{file}:{line}: {k}: {msg}")),
-        None => crate::Error::Config(format!("{file}:{line}: {msg}")),
+        .map(|(k, _)| k.trim().to_string())
+        .filter(|k| !k.is_empty() && !message.contains(k.as_str()))
+        .unwrap_or_default();
+    ConfigError {
+        place: line.map_or(Place::File(file.into()), |line| Place::Line {
+            file: file.into(),
+            line,
+        }),
+        key,
+        message,
     }
 }
 

@@ -250,19 +250,6 @@ pub const MAX_RADIANCE: f64 = 1e12;
 /// The most occluders (and light sources) of a scene.
 pub const MAX_OCCLUDERS: usize = 64;
 
-/// Line of the first occurrence of `key =` (or the table header) in the text, for semantic errors.
-fn line_of_key(text: &str, key: &str) -> usize {
-    text.lines()
-        .position(|l| {
-            let t = l.trim_start();
-            t.starts_with(&format!("{key} "))
-                || t.starts_with(&format!("{key}="))
-                || t.starts_with(&format!("[{key}]"))
-                || t.starts_with(&format!("[[{key}]]"))
-        })
-        .map_or(0, |i| i + 1)
-}
-
 /// A perspective camera; +z is up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -300,11 +287,10 @@ impl Scene {
 
     /// Resolve scene text; `file` names it in errors and `base` anchors relative paths.
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, Error> {
-        let raw: RawScene = toml::from_str(text)
-            .map_err(|e| Error::from(shscale_runner::config::toml_error(file, text, &e)))?;
+        let raw: RawScene = toml::from_str(text).map_err(|e| {
+            Error::config(shscale_runner::config::toml_error(file, text, &e).to_string())
+        })?;
         let c = Checker {
-            file,
-            text,
             source: shscale_runner::config::Source::new(file, text),
         };
         let s = c.sampling(&raw)?;
@@ -373,20 +359,18 @@ struct Sampling {
 /// (`occluder[1].radius`) and the key's own line (toml_edit spans; the table's line when the key
 /// is absent, a default). Ranges through [`shscale_runner::check`], so the message states the
 /// range tested (docs/limits.md).
-struct Checker<'a> {
-    file: &'a str,
-    text: &'a str,
+struct Checker {
     source: shscale_runner::config::Source,
 }
 
-impl Checker<'_> {
-    fn err(&self, key: &str, msg: String) -> Error {
-        let path = shscale_runner::config::parse_path(key);
-        let line = self.source.line_of(&path).map_or_else(
-            || line_of_key(self.text, key.split('.').next_back().unwrap_or(key)),
-            |(l, _)| l,
-        );
-        Error::config(format!("{}:{line}: {key}: {msg}", self.file))
+impl Checker {
+    fn err(&self, key: &str, message: String) -> Error {
+        let e = shscale_runner::config::ConfigError {
+            place: self.source.place_of_key(key),
+            key: key.into(),
+            message,
+        };
+        Error::config(e.to_string())
     }
 
     /// `v` within `lo..=hi` (integers).
