@@ -146,7 +146,7 @@ impl Kind for Extremes {
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
-        crate::two_matrices_cost(p.order)
+        crate::common::two_matrices_cost(p.order)
     }
 
     fn rows_per_run(_: &Params) -> usize {

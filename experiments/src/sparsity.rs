@@ -126,7 +126,7 @@ impl Kind for Sparsity {
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
-        crate::two_matrices_cost(p.order)
+        crate::common::two_matrices_cost(p.order)
     }
 
     fn rows_per_run(_: &Params) -> usize {
@@ -240,7 +240,11 @@ Picture and its `.txt`: the plain pattern of the first τ, X non-zero, grey/o st
             }
             txt.push('\n');
         }
-        let mut files = vec![crate::write_text(out, &format!("{stem}.txt"), &txt)?];
+        let mut files = vec![crate::common::write_text(
+            out,
+            &format!("{stem}.txt"),
+            &txt,
+        )?];
         files.extend(draw(out, stem, n, &plain, &structural)?);
         Ok(files)
     }

@@ -249,7 +249,7 @@ so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, whic
     }
 
     fn figure(_: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
-        Ok(vec![crate::write_text(
+        Ok(vec![crate::common::write_text(
             out,
             &format!("{stem}.md"),
             &table(t),

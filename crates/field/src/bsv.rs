@@ -11,8 +11,8 @@
 //! interpolation on the lat-long and cube grids is not implemented).
 
 use crate::delaunay::SphericalTriangulation;
+use crate::error::FieldError;
 use crate::visibility::{Frame, VisibilitySampler};
-use crate::FieldError;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::{Occluder, Sphere};

@@ -4,9 +4,9 @@
 
 use crate::bsv::Layout;
 use crate::delaunay::SphericalTriangulation;
+use crate::error::FieldError;
 use crate::extrapolate::Extrapolator;
 use crate::visibility::{Frame, VisibilitySampler};
-use crate::FieldError;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::{Occluder, Sphere};

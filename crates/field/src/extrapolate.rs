@@ -89,7 +89,7 @@ pub struct Clamp {
 }
 
 impl Clamp {
-    pub fn new(order: usize) -> Result<Self, crate::FieldError> {
+    pub fn new(order: usize) -> Result<Self, crate::error::FieldError> {
         Ok(Self {
             basis: shscale_sh::ShBasis::new(order)?,
             gl: shscale_sh::GaussLegendre::new(2 * order + 16),

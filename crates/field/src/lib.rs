@@ -7,6 +7,7 @@
 pub mod alpha;
 pub mod bsv;
 pub mod delaunay;
+pub mod error;
 pub mod evaluator;
 pub mod extrapolate;
 pub mod frame;
@@ -27,16 +28,4 @@ pub use radiance::Emitter;
 pub use shscale_geometry::Occluder;
 pub use visibility::{Frame, VisibilitySampler};
 
-/// Errors of the field crate.
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
-pub enum FieldError {
-    /// A layout string or parameter is invalid.
-    #[error("{0}")]
-    Spec(String),
-    /// An SH-core error (order).
-    #[error(transparent)]
-    Sh(#[from] shscale_sh::ShError),
-    /// A scaling-operator error (τ, k, order, k-table).
-    #[error(transparent)]
-    Scaling(#[from] shscale_scaling::ScalingError),
-}
+pub use error::FieldError;

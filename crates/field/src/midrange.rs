@@ -7,9 +7,9 @@
 //! intensity is spread over the scaled solid angle, which an environment is not).
 //! The "distant lighting" assumption uses `L_c` unchanged at every point.
 
+use crate::error::FieldError;
 use crate::frame::LocalFrame;
 use crate::shading::EnvLight;
-use crate::FieldError;
 use glam::DVec3;
 use shscale_scaling::{Eta, MidRange, ScalingMatrix};
 use shscale_sh::ShRotation;

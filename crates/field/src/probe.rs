@@ -15,13 +15,13 @@
 //! occluded have no `occ_rel_l2` and are counted too.
 
 use crate::bsv::{Bsv, Layout};
+use crate::error::FieldError;
 use crate::extrapolate::{
     bounding_cone, scale_to_with, Clamp, ExtrapolationKind, Extrapolator, Plausibility,
 };
 use crate::metrics::{facing_occlusion, mean_max, occ_rel_l2, occlusion, vis_rel_l2};
 use crate::truth::{SplitMix, Truth, TruthSampler, DEFAULT_TRUTH_RES, DEFAULT_TRUTH_SEED};
 use crate::visibility::{Frame, VisibilitySampler};
-use crate::FieldError;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::{Occluder, Sphere};

@@ -19,16 +19,20 @@ pub struct Emitter {
 
 impl Emitter {
     /// `radiance` has one value per triangle (≥ 0, finite).
-    pub fn new(mesh: &Mesh, bvh: MeshBvh, radiance: Vec<f64>) -> Result<Self, crate::FieldError> {
+    pub fn new(
+        mesh: &Mesh,
+        bvh: MeshBvh,
+        radiance: Vec<f64>,
+    ) -> Result<Self, crate::error::FieldError> {
         if radiance.len() != mesh.triangles.len() {
-            return Err(crate::FieldError::Spec(format!(
+            return Err(crate::error::FieldError::Spec(format!(
                 "{} radiance values for {} triangles",
                 radiance.len(),
                 mesh.triangles.len()
             )));
         }
         if let Some(i) = radiance.iter().position(|r| !(r.is_finite() && *r >= 0.0)) {
-            return Err(crate::FieldError::Spec(format!(
+            return Err(crate::error::FieldError::Spec(format!(
                 "triangle {i}: radiance {} must be finite and ≥ 0",
                 radiance[i]
             )));

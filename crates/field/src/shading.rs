@@ -138,9 +138,9 @@ impl EnvLight {
         width: usize,
         height: usize,
         rgb: &[[f32; 3]],
-    ) -> Result<Self, crate::FieldError> {
+    ) -> Result<Self, crate::error::FieldError> {
         if rgb.len() != width * height || width == 0 || height == 0 {
-            return Err(crate::FieldError::Spec(format!(
+            return Err(crate::error::FieldError::Spec(format!(
                 "lat-long map: {} texels for {width}×{height}",
                 rgb.len()
             )));
@@ -149,7 +149,7 @@ impl EnvLight {
             .iter()
             .position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0))
         {
-            return Err(crate::FieldError::Spec(format!(
+            return Err(crate::error::FieldError::Spec(format!(
                 "lat-long map: texel {i} (row {}, column {}) is negative or not finite",
                 i / width,
                 i % width
@@ -201,7 +201,7 @@ impl EnvLight {
         sun: f64,
         sun_dir: DVec3,
         sun_radius: f64,
-    ) -> Result<Self, crate::FieldError> {
+    ) -> Result<Self, crate::error::FieldError> {
         let basis = ShBasis::<f64>::new(order)?;
         let mut l = vec![0.0; order * order];
         l[0] = a * (4.0 * std::f64::consts::PI).sqrt();
@@ -243,7 +243,7 @@ pub struct Shader {
 
 impl Shader {
     /// Tables for order N (≤ 32, the Gaunt tensor's limit).
-    pub fn new(order: usize) -> Result<Self, crate::FieldError> {
+    pub fn new(order: usize) -> Result<Self, crate::error::FieldError> {
         Ok(Self {
             order,
             gaunt: GauntTensor::new(order)?,

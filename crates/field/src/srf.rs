@@ -4,11 +4,11 @@
 //! framework reports which variant matches (the papers prescribe energy preservation).
 
 use crate::bsv::{Bsv, BsvSample, Layout};
+use crate::error::FieldError;
 use crate::extrapolate::Extrapolator;
 use crate::metrics::l2_diff;
 use crate::radiance::Emitter;
 use crate::visibility::{Frame, VisibilitySampler};
-use crate::FieldError;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::Occluder;

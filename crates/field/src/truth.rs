@@ -156,10 +156,10 @@ pub const MAX_TRUTH_RES: usize = 1024;
 
 impl TruthSampler {
     /// Order `N`, resolution `1 ≤ T ≤` [`MAX_TRUTH_RES`] (`4T²` rays per point), seed.
-    pub fn new(order: usize, res: usize, seed: u64) -> Result<Self, crate::FieldError> {
+    pub fn new(order: usize, res: usize, seed: u64) -> Result<Self, crate::error::FieldError> {
         let basis = ShBasis::new(order)?;
         if !(1..=MAX_TRUTH_RES).contains(&res) {
-            return Err(crate::FieldError::Spec(format!(
+            return Err(crate::error::FieldError::Spec(format!(
                 "truth resolution {res} is outside 1..={MAX_TRUTH_RES}"
             )));
         }

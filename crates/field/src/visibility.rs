@@ -75,10 +75,10 @@ struct LocalTable {
 
 impl VisibilitySampler {
     /// Order `N` and hemisphere resolution `H ≥ 1` (`H × H` rays per hemisphere).
-    pub fn new(order: usize, h: usize) -> Result<Self, crate::FieldError> {
+    pub fn new(order: usize, h: usize) -> Result<Self, crate::error::FieldError> {
         let basis = ShBasis::new(order)?;
         if h == 0 {
-            return Err(crate::FieldError::Spec(
+            return Err(crate::error::FieldError::Spec(
                 "hemisphere resolution must be ≥ 1".into(),
             ));
         }

@@ -1,7 +1,9 @@
 //! Meshes bundled with the binary (assets/meshes, attribution in assets/SOURCES.md), addressable
 //! by name.
 
-use crate::{GeometryError, Mesh};
+use crate::error::GeometryError;
+
+use crate::mesh::Mesh;
 
 /// `(name, OBJ text)` of every bundled mesh.
 pub const BUNDLED: &[(&str, &str)] = &[

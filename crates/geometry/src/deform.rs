@@ -1,8 +1,8 @@
 //! Deformers: deterministic functions of a time parameter `t` that rewrite positions only
 //! (topology fixed), applied to a rest pose.
 
+use crate::mesh::Mesh;
 use crate::ray::UpdateStrategy;
-use crate::Mesh;
 use glam::DVec3;
 use std::f64::consts::PI;
 

@@ -6,6 +6,7 @@ pub mod bsphere;
 pub mod bundled;
 pub mod deform;
 pub mod error;
+mod load;
 pub mod mesh;
 pub mod ply;
 pub mod ray;

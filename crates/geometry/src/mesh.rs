@@ -1,10 +1,11 @@
 //! Triangle meshes as flat arrays with fixed topology: positions (f64) and index triples.
 //! Deformers rewrite `positions` only.
 
-use crate::{GeometryError, Sphere};
+use crate::bsphere::Sphere;
+
+use crate::error::GeometryError;
 use glam::DVec3;
 use std::collections::HashMap;
-use std::path::Path;
 
 /// A triangle mesh.
 #[derive(Clone, Debug, PartialEq)]
@@ -140,27 +141,6 @@ impl Mesh {
         Ok(())
     }
 
-    /// Load an OBJ (tobj, triangulated) or PLY file; the extension decides.
-    pub fn load(path: &Path) -> Result<Self, GeometryError> {
-        let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| GeometryError::Io {
-            file: name.clone(),
-            reason: e.to_string(),
-        })?;
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref()
-        {
-            Some("obj") => Self::from_obj_bytes(&name, &bytes),
-            Some("ply") => crate::ply::parse_ply(&name, &bytes),
-            _ => Err(GeometryError::Unknown(format!(
-                "{name}: unsupported mesh format (expected .obj or .ply)"
-            ))),
-        }
-    }
-
     /// Parse OBJ text. tobj's parse errors carry no line, so lines are pre-checked here: every
     /// `v` line needs three numbers and every `f` line three or more vertex references.
     pub fn from_obj_bytes(name: &str, bytes: &[u8]) -> Result<Self, GeometryError> {
@@ -234,7 +214,7 @@ impl Mesh {
 
     /// The minimal enclosing sphere of the vertices.
     pub fn bounding_sphere(&self) -> Sphere {
-        crate::min_enclosing_sphere(&self.positions)
+        crate::bsphere::min_enclosing_sphere(&self.positions)
     }
 
     /// Topology and validity findings.

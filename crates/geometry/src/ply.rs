@@ -2,7 +2,9 @@
 //! vertex-index lists; other elements and properties are skipped. Polygons are fan-triangulated.
 //! Errors name the file and the header line, the ASCII line, or the binary element.
 
-use crate::{GeometryError, Mesh};
+use crate::error::GeometryError;
+
+use crate::mesh::Mesh;
 use glam::DVec3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -21,8 +21,9 @@
 //! rounding error of ~1e-16 × the distance, 1e-4·r at the limit). Mesh coordinates themselves
 //! are bounded by `Mesh::MAX_COORDINATE` (checked when a mesh is built).
 
+use crate::bsphere::Sphere;
+use crate::mesh::Mesh;
 use crate::wide::{WideBvh, WideRay};
-use crate::{Mesh, Sphere};
 use glam::{DVec3, Vec3A};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;

@@ -2,7 +2,7 @@
 //! egg, and a procedural bird. Sizes are chosen to match the papers' Table 1 vertex counts where
 //! the papers give them.
 
-use crate::Mesh;
+use crate::mesh::Mesh;
 use glam::DVec3;
 use std::f64::consts::PI;
 

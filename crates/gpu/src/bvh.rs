@@ -4,8 +4,8 @@
 //! either rebuilt or refit, as the deformer prescribes (`DeformerKind::preferred_update`); a refit
 //! keeps the node count, so the GPU buffers are written in place.
 
+use crate::error::GpuError;
 use crate::layout::{GpuNode, GpuTri};
-use crate::GpuError;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;

@@ -1,7 +1,7 @@
 //! The wgpu context: instance, adapter (reported by name, backend and driver), device and queue,
 //! with timestamp queries enabled where the adapter has them.
 
-use crate::GpuError;
+use crate::error::GpuError;
 
 /// A device ready for the shscale kernels.
 pub struct GpuContext {

@@ -23,6 +23,7 @@
 
 pub mod bvh;
 pub mod context;
+pub mod error;
 pub mod layout;
 pub mod sampling;
 pub mod sequence;
@@ -33,21 +34,6 @@ pub use context::{require_gpu_from_env, GpuContext};
 pub use sequence::{GpuSequence, GpuStageTimes, Receivers};
 pub use shading::ReceiverSetup;
 
-/// Highest SH order the GPU kernels support (`N² ≤ 64` accumulators).
-pub const MAX_GPU_ORDER: usize = 8;
+pub use sampling::MAX_GPU_ORDER;
 
-/// Errors of the GPU path.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No adapter: no GPU and no software device (install `mesa-vulkan-drivers` for lavapipe).
-    #[error(
-        "no GPU adapter found (install mesa-vulkan-drivers for the lavapipe software device): {0}"
-    )]
-    NoAdapter(String),
-    #[error("GPU device request failed: {0}")]
-    Device(String),
-    #[error("GPU input: {0}")]
-    Input(String),
-    #[error("GPU readback failed: {0}")]
-    Readback(String),
-}
+pub use error::GpuError;

@@ -8,12 +8,16 @@
 //! and the ray offset `tmin = RAY_EPS · r`.
 
 use crate::bvh::FlatBvh;
+use crate::context::GpuContext;
+use crate::error::GpuError;
 use crate::layout::{shader, GpuParams, GpuSample, SH_WGSL};
 use crate::timing::grid_64;
-use crate::{GpuContext, GpuError, MAX_GPU_ORDER};
 use glam::DVec3;
 use shscale_field::LocalFrame;
 use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
+
+/// Highest SH order the GPU kernels support (`N² ≤ 64` accumulators).
+pub const MAX_GPU_ORDER: usize = 8;
 
 const CAST_WGSL: &str = include_str!("sampling.wgsl");
 const PROJECT_WGSL: &str = include_str!("projection.wgsl");

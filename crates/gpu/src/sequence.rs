@@ -4,10 +4,11 @@
 //! them, submitted alone and timed by the synchronised wall clock).
 
 use crate::bvh::FlatBvh;
+use crate::context::GpuContext;
+use crate::error::GpuError;
 use crate::sampling::GpuSampler;
 use crate::shading::{GpuShader, ReceiverSetup};
 use crate::timing::StageTimer;
-use crate::{GpuContext, GpuError};
 use glam::DVec3;
 use shscale_field::receivers::ReceiverCache;
 use shscale_geometry::ray::UpdateStrategy;

@@ -3,9 +3,10 @@
 //! host between stages. The cache (indices, weights, `U = R M_kᵀ Rᵀ T`) is uploaded once per
 //! sequence; per frame only the coefficients change.
 
+use crate::context::GpuContext;
+use crate::error::GpuError;
 use crate::layout::{shader, GpuCacheParams, GpuParams, GpuReceiver, SH_WGSL};
 use crate::timing::grid_64;
-use crate::{GpuContext, GpuError};
 use glam::DVec3;
 use shscale_field::receivers::ReceiverCache;
 use shscale_geometry::Sphere;

@@ -1,9 +1,11 @@
 //! One timing procedure for GPU stages (docs/ARCHITECTURE.md (habit 10)): timestamp queries at the beginning and end
 //! of every compute pass where the adapter supports `TIMESTAMP_QUERY`; otherwise each stage is
 //! submitted on its own and timed by the wall clock between synchronisations. Warm-up, repeats and
-//! medians are the caller's ([`crate::sequence`]).
+//! medians are the caller's (the sequence module).
 
-use crate::{GpuContext, GpuError};
+use crate::context::GpuContext;
+
+use crate::error::GpuError;
 
 /// Timestamp slots for `stages` compute passes.
 pub struct StageTimer {

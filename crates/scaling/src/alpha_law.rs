@@ -72,7 +72,7 @@ pub fn fitted_alpha(theta0: f64, k: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{AngularScaling, Cone};
+    use crate::tau::{AngularScaling, Cone};
 
     /// Oracle: the cone τ at the returned α maps the exact cap edge θ_e back onto θ₀, for inflated
     /// and on-surface sampling, k below and above 1; the on-surface case equals ½ arccos(1/k).

@@ -29,8 +29,9 @@
 //! of a uniform grid in `u = τ(θ)` — so panels start dense where τ changes fast (the boundary
 //! layers of width ~1/k at large k, around `π − α` at small k, and the needle of small α).
 
+use crate::error::ScalingError;
 use crate::quad::{integrate_vec, QuadReport};
-use crate::{AngularScaling, ScalingError};
+use crate::tau::AngularScaling;
 use shscale_sh::legendre::{tri_count, tri_index, Legendre};
 use shscale_sh::{check_coeffs, check_order, coeff_count, GaussLegendre, Real};
 use std::f64::consts::PI;

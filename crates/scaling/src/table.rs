@@ -11,8 +11,10 @@
 //!   sample is used; above `k_max` the matrix at `k_max` is returned but the rule is that the
 //!   entity does not occlude (visibility 1) — the field layer applies that, not this table.
 
+use crate::error::ScalingError;
+use crate::matrix::{Eta, ScalingMatrix};
 use crate::tau::{check_alpha, check_cone_k, check_midrange_k};
-use crate::{AngularScaling, Cone, Eta, MidRange, ScalingError, ScalingMatrix};
+use crate::tau::{AngularScaling, Cone, MidRange};
 use std::f64::consts::PI;
 
 /// How the K sample values of k are placed.

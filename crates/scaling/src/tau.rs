@@ -4,7 +4,7 @@
 //! Every τ here is a strictly increasing bijection of `[0, π]` with `τ(0) = 0`, `τ(π) = π`, and
 //! `τ′ > 0`; the matrix integrator relies on this (it partitions θ at preimages `τ⁻¹(u)`).
 
-use crate::ScalingError;
+use crate::error::ScalingError;
 use std::f64::consts::PI;
 
 /// An angular scaling function: τ, its derivative and its inverse on `[0, π]`.

@@ -13,7 +13,9 @@
 //! which has no cancellation of O(1) terms, so the coefficients keep ~full *relative* accuracy
 //! down to `A = 1e-6` rad and below. Domain: `A ∈ [0, π]` (A = π is the full sphere, `c_0 = √(4π)`).
 
-use crate::{check_order, coeff_count, sh_index, ShError};
+use crate::error::ShError;
+
+use crate::index::{check_order, coeff_count, sh_index};
 use std::f64::consts::PI;
 
 /// Zonal coefficients `c_l^0`, `l = 0..N−1`, of the cap of half-angle `angle` (radians).

@@ -5,7 +5,7 @@ use thiserror::Error;
 /// What can go wrong when calling into the SH core with user-supplied values.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ShError {
-    /// The order is 0 or above [`crate::MAX_ORDER`].
+    /// The order is 0 or above `MAX_ORDER` (the `index` module).
     #[error("order {order} is outside the supported range 1..={max}")]
     Order { order: usize, max: usize },
     /// A coefficient vector does not have `N²` entries.

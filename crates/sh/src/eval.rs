@@ -15,12 +15,14 @@
 //! Domain: unit directions (callers with raw vectors use [`ShBasis::eval_dir`], which normalises
 //! and rejects zero or non-finite input), any order up to [`crate::MAX_ORDER`].
 
+use crate::error::ShError;
+use crate::index::{check_order, coeff_count};
 use crate::legendre::Legendre;
+use crate::real::Real;
 use crate::simd::LANES;
 #[cfg(target_arch = "x86_64")]
 use crate::store::{is, write_tile_avx2};
 use crate::store::{Store, STREAM_BYTES};
-use crate::{check_order, coeff_count, Real, ShError};
 
 /// Evaluator of the real SH basis of one order, holding its recurrence tables.
 #[derive(Clone, Debug)]
@@ -69,7 +71,7 @@ impl<T: Real> ShBasis<T> {
             n if n <= 8 => eval_kernel::<T, 8>(leg, n, d, out),
             n if n <= 16 => eval_kernel::<T, 16>(leg, n, d, out),
             n if n <= 32 => eval_kernel::<T, 32>(leg, n, d, out),
-            n => eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, d, out),
+            n => eval_kernel::<T, { crate::index::MAX_ORDER }>(leg, n, d, out),
         }
     }
 
@@ -281,7 +283,7 @@ fn batch_dispatch<T: Real, const FMA: bool>(
         16 => fixed!(16, 256),
         n if n <= 16 => run!(16, n),
         n if n <= 32 => run!(32, n),
-        n => run!({ crate::MAX_ORDER }, n),
+        n => run!({ crate::index::MAX_ORDER }, n),
     }
     #[cfg(target_arch = "x86_64")]
     if store == Some(Store::Stream) {
@@ -291,9 +293,9 @@ fn batch_dispatch<T: Real, const FMA: bool>(
     }
     for (d, o) in tail.iter().zip(out_tail.chunks_exact_mut(nn)) {
         if FMA {
-            eval_kernel_fma::<T, { crate::MAX_ORDER }, FMA>(leg, n, *d, o)
+            eval_kernel_fma::<T, { crate::index::MAX_ORDER }, FMA>(leg, n, *d, o)
         } else {
-            eval_kernel::<T, { crate::MAX_ORDER }>(leg, n, *d, o)
+            eval_kernel::<T, { crate::index::MAX_ORDER }>(leg, n, *d, o)
         }
     }
 }
@@ -528,8 +530,8 @@ fn lane_kernel_fixed<T: Real, const N: usize, const NN: usize, const W: usize, c
 #[cfg(target_arch = "x86_64")]
 mod order4 {
     use crate::legendre::Legendre;
+    use crate::real::Real;
     use crate::store::{ahead_of, stream_copy, transpose4_pd, transpose8_ps, Store};
-    use crate::Real;
     use std::arch::x86_64::*;
 
     /// A 256-bit vector of `W` lanes of `S`.

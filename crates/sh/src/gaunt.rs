@@ -13,8 +13,11 @@
 //! (triangle inequality, even `l_i+l_j+l_k`, `|m_k| ∈ {|m_i|+|m_j|, ||m_i|−|m_j||}`) skip the zeros.
 //! Entries are kept with `i ≤ j` only (the tensor is symmetric).
 
+use crate::error::ShError;
+use crate::index::{check_coeffs, check_order, coeff_count, sh_lm};
 use crate::legendre::{tri_count, tri_index, Legendre};
-use crate::{check_coeffs, check_order, coeff_count, sh_lm, GaussLegendre, Real, ShError};
+use crate::quadrature::GaussLegendre;
+use crate::real::Real;
 use std::f64::consts::PI;
 
 /// Sparse Gaunt tensor of one order; entries with `i ≤ j`, sorted by `k`.

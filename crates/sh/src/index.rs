@@ -1,6 +1,6 @@
 //! Coefficient indexing: `i = l·l + l + m` for band `l` and `m = -l..=l` (docs/conventions.md §1).
 
-use crate::ShError;
+use crate::error::ShError;
 
 /// Largest order accepted by the public API. Evaluation, projection and rotation are tested to be
 /// orthonormal at `N = 64` and finite at this bound; above it the Gaunt tensor and rotation

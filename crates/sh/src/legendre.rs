@@ -18,7 +18,11 @@
 //! overflows; `s^m` may underflow to zero for `s ≲ 1e-300^(1/m)`, where the true value is below
 //! the smallest normal number anyway.
 
-use crate::{check_order, Real, ShError};
+use crate::error::ShError;
+
+use crate::index::check_order;
+
+use crate::real::Real;
 
 /// Index of `(l, m)`, `0 ≤ m ≤ l`, in a triangular array: `l(l+1)/2 + m`.
 #[inline(always)]

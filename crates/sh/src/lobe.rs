@@ -8,7 +8,17 @@
 //! Irradiance at normal `n` under lighting `L`: `E(n) = ∫ L(ω) max(0, n·ω) dω = Σ L_i c_i(n)` with
 //! `c(n)` the lobe rotated onto `n` ([`crate::rotate_zonal`]).
 
-use crate::{check_coeffs, dot, rotate_zonal, Real, ShBasis, ShError};
+use crate::error::ShError;
+
+use crate::eval::ShBasis;
+
+use crate::index::check_coeffs;
+
+use crate::project::dot;
+
+use crate::real::Real;
+
+use crate::rotation::rotate_zonal;
 use std::f64::consts::PI;
 
 /// Zonal coefficients `z_l`, `l = 0..N−1`, of `max(0, cosθ)` about +z.

@@ -4,7 +4,15 @@
 //! [`DirectionSet::gauss_sphere_for_order`] set); `f(ω) ≈ Σ_i c_i Y_i(ω)`; by orthonormality
 //! `∫ f g dω = Σ_i f_i g_i` for band-limited `f, g` (Parseval).
 
-use crate::{check_coeffs, DirectionSet, Real, ShBasis, ShError};
+use crate::error::ShError;
+
+use crate::eval::ShBasis;
+
+use crate::index::check_coeffs;
+
+use crate::quadrature::DirectionSet;
+
+use crate::real::Real;
 
 /// Project sampled values `values[j] = f(set.dirs[j])` onto order `basis.order()`.
 pub fn project_samples<T: Real>(

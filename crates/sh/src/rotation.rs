@@ -12,7 +12,13 @@
 //! orbitals, so no sign fix-ups are needed; the tests check every band against re-projection of
 //! the rotated function on an exact quadrature grid.
 
-use crate::{check_coeffs, check_order, coeff_count, Real, ShBasis, ShError};
+use crate::error::ShError;
+
+use crate::eval::ShBasis;
+
+use crate::index::{check_coeffs, check_order, coeff_count};
+
+use crate::real::Real;
 
 /// A 3×3 rotation matrix, row-major: `R[row][col]`.
 pub type Mat3<T> = [[T; 3]; 3];

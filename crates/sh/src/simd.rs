@@ -19,7 +19,7 @@
 
 use std::sync::OnceLock;
 
-/// Directions per SIMD batch of [`crate::ShBasis::eval_batch`].
+/// Directions per SIMD batch of `ShBasis::eval_batch` (the `eval` module).
 pub const LANES: usize = 8;
 
 /// The instruction set a batched kernel runs with, in increasing order (each level's CPUs have

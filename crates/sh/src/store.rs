@@ -1,7 +1,7 @@
 //! Memory movement of the SH kernels: how a tile of `N² × lanes` values computed lane-major is
 //! written out point-major — AVX2 in-register transposes (8×8 f32, 4×4 f64) straight into the
 //! output, or into an aligned staging copy streamed out with non-temporal stores for outputs
-//! far larger than the caches ([`STREAM_BYTES`]). The recurrences are in [`crate::eval`].
+//! far larger than the caches ([`STREAM_BYTES`]). The recurrences are in the `eval` module.
 
 use crate::real::Real;
 #[cfg(target_arch = "x86_64")]

@@ -1,0 +1,29 @@
+//! Loading a mesh file: the extension chooses the reader (OBJ in [`crate::mesh`], PLY in
+//! [`crate::ply`]).
+
+use crate::error::GeometryError;
+use crate::mesh::Mesh;
+use std::path::Path;
+
+impl Mesh {
+    /// Load an OBJ (tobj, triangulated) or PLY file; the extension decides.
+    pub fn load(path: &Path) -> Result<Self, GeometryError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| GeometryError::Io {
+            file: name.clone(),
+            reason: e.to_string(),
+        })?;
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("obj") => Self::from_obj_bytes(&name, &bytes),
+            Some("ply") => crate::ply::parse_ply(&name, &bytes),
+            _ => Err(GeometryError::Unknown(format!(
+                "{name}: unsupported mesh format (expected .obj or .ply)"
+            ))),
+        }
+    }
+}
