@@ -195,14 +195,7 @@ impl GpuShader {
         let t = setup.transfer;
         let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
         let log_k = table.log_k();
-        let CacheInputs {
-            xs,
-            mats,
-            transfer,
-            quad,
-            points,
-            rows,
-        } = CacheInputs::of(setup, channels);
+        let inputs = CacheInputs::of(setup, channels);
         let c = setup.sampling.center;
         let cp = GpuCacheParams {
             center: [
@@ -215,8 +208,8 @@ impl GpuShader {
             order: order as u32,
             nn: nn as u32,
             channels: channels as u32,
-            k_count: xs.len() as u32,
-            quad: quad.len() as u32,
+            k_count: inputs.xs.len() as u32,
+            quad: inputs.quad.len() as u32,
             log_k: u32::from(log_k),
             pad: 0,
         };
@@ -228,18 +221,18 @@ impl GpuShader {
                 contents: bytemuck::bytes_of(&cp),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
-        let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&rows));
+        let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&inputs.rows));
         let u_buf = ctx.storage("u", 4 * (n * channels * nn) as u64);
         let pipe = ctx.pipeline("build_cache", &cache_source(), "build_cache");
         let bind = ctx.bind(
             &pipe,
             &[
                 &cp_buf,
-                &ctx.storage_init("points", bytemuck::cast_slice(&points)),
-                &ctx.storage_init("xs", bytemuck::cast_slice(&xs)),
-                &ctx.storage_init("mats", bytemuck::cast_slice(&mats)),
-                &ctx.storage_init("transfer", bytemuck::cast_slice(&transfer)),
-                &ctx.storage_init("quad", bytemuck::cast_slice(&quad)),
+                &ctx.storage_init("points", bytemuck::cast_slice(&inputs.points)),
+                &ctx.storage_init("xs", bytemuck::cast_slice(&inputs.xs)),
+                &ctx.storage_init("mats", bytemuck::cast_slice(&inputs.mats)),
+                &ctx.storage_init("transfer", bytemuck::cast_slice(&inputs.transfer)),
+                &ctx.storage_init("quad", bytemuck::cast_slice(&inputs.quad)),
                 &ctx.storage_init(
                     "knorm",
                     bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
