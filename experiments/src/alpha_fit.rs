@@ -19,9 +19,10 @@ use shscale_field::alpha::{cap_matching_alpha, effective_cap_angle};
 use shscale_field::metrics::{l2, occ_rel_l2, occlusion};
 use shscale_field::probe::{probe_base, ProbeBase};
 use shscale_field::LocalFrame;
+use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::{list, Results};
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{Eta, ScalingMatrix, TauFamily};
 use shscale_scene::Error;
 use shscale_sh::EulerRotator;
@@ -165,6 +166,7 @@ impl Kind for AlphaFit {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, shscale_field::probe::ProbeSpec>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -194,17 +196,20 @@ impl Kind for AlphaFit {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
-        <Probe as Kind>::validate(&p.probe())?;
-        if !(p.alpha_step_deg.is_finite()
-            && (MIN_ALPHA_STEP_DEG..=10.0).contains(&p.alpha_step_deg))
-        {
-            return Err(KeyError::new(
-                "alpha_step_deg",
-                format!("{} is outside [{MIN_ALPHA_STEP_DEG}, 10]", p.alpha_step_deg),
-            ));
-        }
-        Ok(())
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
+        let probe = <Probe as Kind>::resolve(&p.probe())?;
+        let step = p.alpha_step_deg;
+        KeyError::real(
+            "alpha_step_deg",
+            step,
+            MIN_ALPHA_STEP_DEG,
+            10.0,
+            Ends::Closed,
+        )?;
+        Ok(Typed {
+            params: p.clone(),
+            typed: probe.typed,
+        })
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -229,14 +234,14 @@ impl Kind for AlphaFit {
         p.radii.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
-        let spec = p.probe().spec()?;
+    fn run(p: &Self::Spec, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
+        let spec = &p.typed;
         let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
-        let base = probe_base(u.occ.as_ref(), u.analytic, &spec)?;
+        let base = probe_base(u.occ.as_ref(), u.analytic, spec)?;
         let theta0 = effective_cap_angle(&base.bsv);
         let steps = ((90.0 / p.alpha_step_deg).ceil() as usize).saturating_sub(1);
         let grid: Vec<f64> = (1..=steps)

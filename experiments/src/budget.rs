@@ -23,10 +23,11 @@ use shscale_field::metrics::occ_rel_l2;
 use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Bsv, Layout, VisibilitySampler};
+use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::{list, Results};
 use shscale_runner::timing::CPU_RAYS_PER_SECOND;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -133,6 +134,7 @@ impl Kind for Budget {
     type Shared = Shared;
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, Layout>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -156,7 +158,7 @@ impl Kind for Budget {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
         shscale_scene::vocab::check_sampling_keys(
             &p.mesh,
             p.order,
@@ -182,16 +184,9 @@ impl Kind for Budget {
             ("receivers", p.receivers, 1, MAX_RECEIVERS),
         ];
         for (k, v, lo, hi) in checks {
-            if !(lo..=hi).contains(&v) {
-                return Err(KeyError::new(k, format!("{v} is outside {lo}..={hi}")));
-            }
+            KeyError::int(k, v, lo, hi)?;
         }
-        if !(2..=10_000).contains(&p.k_count) {
-            return Err(KeyError::new(
-                "k_count",
-                format!("{} is outside 2..=10000", p.k_count),
-            ));
-        }
+        KeyError::int("k_count", p.k_count, 2, shscale_scene::vocab::MAX_K_COUNT)?;
         if p.radii.is_empty() || p.radii.len() > 64 {
             return Err(KeyError::new(
                 "radii",
@@ -199,14 +194,17 @@ impl Kind for Budget {
             ));
         }
         for (i, r) in p.radii.iter().enumerate() {
-            if !(r.is_finite() && *r > 1.0 && *r <= 1e3) {
-                return Err(KeyError::new("radii", format!("{r} is outside (1, 1e3]")));
-            }
+            KeyError::real("radii", *r, 1.0, 1e3, Ends::OpenClosed)?;
             if p.radii[..i].contains(r) {
                 return Err(KeyError::new("radii", format!("radius {r} appears twice")));
             }
         }
-        Ok(())
+        let layout =
+            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        Ok(Typed {
+            params: p.clone(),
+            typed: layout,
+        })
     }
 
     fn group_key(p: &Params) -> String {
@@ -260,7 +258,7 @@ impl Kind for Budget {
         1
     }
 
-    fn shared(p: &Params, _: &Ctx) -> Result<Shared, Error> {
+    fn shared(p: &Self::Spec, _: &Ctx) -> Result<Shared, Error> {
         let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
         let occ = u.occ;
         let s = occ.bounding_sphere();
@@ -288,9 +286,9 @@ impl Kind for Budget {
         Ok(Shared { occ, points, truth })
     }
 
-    fn run(p: &Params, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
+    fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let occ = sh.occ.as_ref();
-        let layout = Layout::parse(&p.layout)?;
+        let layout = p.typed;
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
         let rho_max = p.radii.iter().copied().fold(1.0, f64::max);

@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{AngularScaling, Eta, QuadOptions, ScalingMatrix};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -121,6 +121,7 @@ impl Kind for Extremes {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, Box<dyn AngularScaling>>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -140,9 +141,12 @@ impl Kind for Extremes {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
         KeyError::int("order", p.order, 1, MAX_ORDER)?;
-        tau_of(p).map(|_| ())
+        Ok(Typed {
+            params: p.clone(),
+            typed: tau_of(p)?,
+        })
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -153,12 +157,12 @@ impl Kind for Extremes {
         2
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
-        let tau = tau_of(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
+    fn run(p: &Self::Spec, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
+        let tau = &p.typed;
         let (tau_bad, trip) = tau_checks(tau.as_ref());
         [Eta::Plain, Eta::Energy]
             .into_iter()

@@ -93,6 +93,7 @@ impl Kind for MElements {
     type Shared = (KTable, f64, f64);
     type Row = Row;
     type Error = Error;
+    type Spec = Params;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -122,7 +123,7 @@ impl Kind for MElements {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Params, KeyError> {
         let n = p.order;
         KeyError::int("order", n, 1, 16)?;
         KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
@@ -136,12 +137,7 @@ impl Kind for MElements {
             ));
         }
         for (key, v) in [("k_count", p.k_count), ("curve_points", p.curve_points)] {
-            if !(2..=MAX_POINTS).contains(&v) {
-                return Err(KeyError::new(
-                    key,
-                    format!("{v} is outside 2..={MAX_POINTS}"),
-                ));
-            }
+            KeyError::int(key, v, 2, MAX_POINTS)?;
         }
         for (key, v) in [("row", p.row), ("col", p.col)] {
             if v >= n * n {
@@ -165,7 +161,7 @@ impl Kind for MElements {
                 ),
             ));
         }
-        Ok(())
+        Ok(p.clone())
     }
 
     fn group_key(p: &Params) -> String {

@@ -153,6 +153,7 @@ impl Kind for MidRange {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Params;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -181,25 +182,13 @@ impl Kind for MidRange {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Params, KeyError> {
         KeyError::int("order", p.order, 1, 16)?;
-        if !(0.0..1.0).contains(&p.k) {
-            return Err(KeyError::new("k", format!("{} is outside [0, 1)", p.k)));
-        }
+        KeyError::real("k", p.k, 0.0, 1.0, Ends::ClosedOpen)?;
         for (key, v) in [("points", p.points), ("normals", p.normals)] {
-            if !(1..=MAX_POINTS).contains(&v) {
-                return Err(KeyError::new(
-                    key,
-                    format!("{v} is outside 1..={MAX_POINTS}"),
-                ));
-            }
+            KeyError::int(key, v, 1, MAX_POINTS)?;
         }
-        if !(p.sun.is_finite() && p.sun >= 0.0 && p.sun <= 1e6) {
-            return Err(KeyError::new(
-                "sun",
-                format!("{} is outside [0, 1e6]", p.sun),
-            ));
-        }
+        KeyError::real("sun", p.sun, 0.0, 1e6, Ends::Closed)?;
         let len = p.sun_dir.iter().map(|x| x * x).sum::<f64>().sqrt();
         if p.sun_dir.len() != 3 || !(len.is_finite() && len > 0.0) {
             return Err(KeyError::new(
@@ -214,7 +203,7 @@ impl Kind for MidRange {
             90.0,
             Ends::OpenClosed,
         )?;
-        Ok(())
+        Ok(p.clone())
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {

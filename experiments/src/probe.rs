@@ -13,7 +13,7 @@ use shscale_field::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
 use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND};
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::Interp;
 use shscale_scene::vocab::{
     check_sampling_keys, parse_interp, parse_spacing, MAX_K_COUNT, MAX_RADII, MAX_TRUTH_RES,
@@ -113,7 +113,7 @@ impl ProbeParams {
     /// `probe` do before any work. A bad parameter comes back as a [`KeyError`] naming it (the
     /// key without an index: `radii`, not `radii[2]`); a plan over the limits as its message.
     pub fn checked_spec(&self, allow_large: bool) -> Result<ProbeSpec, KeyError> {
-        <Probe as Kind>::validate(self)
+        let resolved = <Probe as Kind>::resolve(self)
             .map_err(|e| KeyError::new(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
         let (shared, run) = <Probe as Kind>::cost(self);
         shscale_runner::limits::check_work(
@@ -124,10 +124,11 @@ impl ProbeParams {
             allow_large,
         )
         .map_err(|e| KeyError::new("", e.to_string()))?;
-        self.spec().map_err(|e| KeyError::new("", e.to_string()))
+        Ok(resolved.typed)
     }
 
-    /// The field crate's spec (parameters already validated).
+    /// The field crate's spec, every enum-like value parsed (parameters already validated: the
+    /// kind's [`Kind::resolve`] calls it once).
     pub fn spec(&self) -> Result<ProbeSpec, Error> {
         let c = |m: String| Error::config(m);
         Ok(ProbeSpec {
@@ -231,6 +232,7 @@ impl Kind for Probe {
     type Shared = ProbeShared;
     type Row = ProbeRow;
     type Error = Error;
+    type Spec = Typed<ProbeParams, ProbeSpec>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -260,7 +262,7 @@ impl Kind for Probe {
         ]
     }
 
-    fn validate(p: &ProbeParams) -> Result<(), KeyError> {
+    fn resolve(p: &ProbeParams) -> Result<Self::Spec, KeyError> {
         check_sampling_keys(&p.mesh, p.order, p.alpha_deg, &p.layout, p.hemisphere_res)?;
         KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
         let interp = parse_interp(&p.k_interp).map_err(|m| KeyError::new("k_interp", m))?;
@@ -303,7 +305,11 @@ impl Kind for Probe {
                 format!("the table range [{a}, {b}] is empty: k_max must exceed k_min"),
             ));
         }
-        Ok(())
+        let typed = p.spec().map_err(|e| KeyError::new("", e.to_string()))?;
+        Ok(Typed {
+            params: p.clone(),
+            typed,
+        })
     }
 
     fn group_key(p: &ProbeParams) -> String {
@@ -363,11 +369,11 @@ impl Kind for Probe {
         p.radii.len()
     }
 
-    fn shared(p: &ProbeParams, ctx: &Ctx) -> Result<ProbeShared, Error> {
-        let spec = p.spec()?;
+    fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<ProbeShared, Error> {
+        let spec = &p.typed;
         let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
-        let (bsv, bsv_timing) = ctx.timing.measure(|| sample_bsv(u.occ.as_ref(), &spec))?;
-        let base = probe_base_on(bsv, bsv_timing.median, u.occ.as_ref(), u.analytic, &spec)?;
+        let (bsv, bsv_timing) = ctx.timing.measure(|| sample_bsv(u.occ.as_ref(), spec))?;
+        let base = probe_base_on(bsv, bsv_timing.median, u.occ.as_ref(), u.analytic, spec)?;
         let gpu = match (shscale_scene::gpu_path::gpu_of(ctx), u.mesh.as_ref()) {
             (Some(g), Some(m)) if p.order <= shscale_gpu::MAX_GPU_ORDER => {
                 let b = m.bounding_sphere();
@@ -401,17 +407,17 @@ impl Kind for Probe {
     }
 
     fn run(
-        p: &ProbeParams,
+        p: &Self::Spec,
         run_id: &str,
         sh: &ProbeShared,
         ctx: &Ctx,
     ) -> Result<Vec<ProbeRow>, Error> {
-        let spec = p.spec()?;
+        let spec = &p.typed;
         // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
         // extrapolation at each radius.
         let mut results = Vec::new();
         for i in 0..ctx.timing.warmup + ctx.timing.repeats.max(1) {
-            let r = probe_with(&sh.base, &spec)?;
+            let r = probe_with(&sh.base, spec)?;
             if i >= ctx.timing.warmup {
                 results.push(r);
             }

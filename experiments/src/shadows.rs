@@ -16,7 +16,7 @@ use shscale_field::shading::shade_rmse_rel;
 use shscale_field::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
@@ -276,7 +276,14 @@ fn write_camera_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> R
     Ok(shscale_runner::figure::write_png(png, &grid)?)
 }
 
-fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
+/// The scene's own values a run overrides, parsed once at resolve time.
+pub struct Overrides {
+    layout: Option<Layout>,
+    plausibility: Option<shscale_field::extrapolate::Plausibility>,
+}
+
+/// The run's scene: the file with the run's overrides applied.
+fn scene_of(p: &Typed<Params, Overrides>, config_dir: &Path) -> Result<Scene, Error> {
     let mut s = Scene::load(&config_dir.join(&p.scene))?;
     if let Some(n) = p.order {
         s.order = n;
@@ -284,15 +291,14 @@ fn scene_of(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
     if let Some(a) = p.alpha_deg {
         s.alpha = a.to_radians();
     }
-    if let Some(l) = &p.layout {
-        s.layout = Layout::parse(l)?;
+    if let Some(l) = p.typed.layout {
+        s.layout = l;
     }
     if let Some(h) = p.hemisphere_res {
         s.hemisphere_res = h;
     }
-    if let Some(m) = &p.plausibility {
-        s.plausibility =
-            shscale_field::extrapolate::Plausibility::parse(m).map_err(Error::config)?;
+    if let Some(m) = p.typed.plausibility {
+        s.plausibility = m;
     }
     Ok(s)
 }
@@ -304,6 +310,7 @@ impl Kind for Shadows {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, Overrides>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -319,7 +326,7 @@ impl Kind for Shadows {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
         if p.scene.trim().is_empty() {
             return Err(KeyError::new("scene", "give a scene file"));
         }
@@ -329,17 +336,24 @@ impl Kind for Shadows {
         if let Some(a) = p.alpha_deg {
             KeyError::real("alpha_deg", a, 0.0, 90.0, Ends::Open)?;
         }
-        if let Some(l) = &p.layout {
-            Layout::parse(l).map_err(|e| KeyError::new("layout", e.to_string()))?;
-        }
+        let layout = (p.layout.as_deref())
+            .map(Layout::parse)
+            .transpose()
+            .map_err(|e| KeyError::new("layout", e.to_string()))?;
         if let Some(h) = p.hemisphere_res {
             KeyError::int("hemisphere_res", h, 1, MAX_HEMISPHERE_RES)?;
         }
-        if let Some(m) = &p.plausibility {
-            shscale_field::extrapolate::Plausibility::parse(m)
-                .map_err(|e| KeyError::new("plausibility", e))?;
-        }
-        Ok(())
+        let plausibility = (p.plausibility.as_deref())
+            .map(shscale_field::extrapolate::Plausibility::parse)
+            .transpose()
+            .map_err(|e| KeyError::new("plausibility", e))?;
+        Ok(Typed {
+            params: p.clone(),
+            typed: Overrides {
+                layout,
+                plausibility,
+            },
+        })
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -359,11 +373,11 @@ impl Kind for Shadows {
         METHODS.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
+    fn run(p: &Self::Spec, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = scene_of(p, ctx.config_dir)?;
         let mut imgs = Vec::new();
         for (m, name) in METHODS {

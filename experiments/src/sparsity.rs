@@ -10,7 +10,7 @@
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{AngularScaling, Eta, ScalingMatrix};
 use shscale_scene::Error;
 use shscale_sh::sh_lm;
@@ -71,9 +71,8 @@ fn tau_of(p: &Params) -> Result<Box<dyn AngularScaling>, KeyError> {
 }
 
 /// The numerical non-zero pattern (row-major, N² × N²) and max |M|.
-fn pattern(p: &Params, eta: Eta) -> Result<(Vec<bool>, f64), Error> {
-    let tau = tau_of(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
-    let m = ScalingMatrix::<f64>::compute(tau.as_ref(), eta, p.order)
+fn pattern(p: &Params, tau: &dyn AngularScaling, eta: Eta) -> Result<(Vec<bool>, f64), Error> {
+    let m = ScalingMatrix::<f64>::compute(tau, eta, p.order)
         .map_err(|e| Error::config(format!("order: {e}")))?;
     let d = m.to_dense();
     let nn = p.order * p.order;
@@ -101,6 +100,7 @@ impl Kind for Sparsity {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, Box<dyn AngularScaling>>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -120,9 +120,12 @@ impl Kind for Sparsity {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
         KeyError::int("order", p.order, 1, 16)?;
-        tau_of(p).map(|_| ())
+        Ok(Typed {
+            params: p.clone(),
+            typed: tau_of(p)?,
+        })
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -133,17 +136,17 @@ impl Kind for Sparsity {
         2
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
+    fn run(p: &Self::Spec, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
         let nn = p.order * p.order;
         let count = (0..nn * nn).filter(|&x| structural(x / nn, x % nn)).count();
         [Eta::Plain, Eta::Energy]
             .into_iter()
             .map(|eta| {
-                let (pat, max) = pattern(p, eta)?;
+                let (pat, max) = pattern(p, p.typed.as_ref(), eta)?;
                 let zeros: Vec<String> = (0..nn * nn)
                     .filter(|&x| structural(x / nn, x % nn) && !pat[x])
                     .map(|x| format!("({}, {})", x / nn, x % nn))
@@ -225,7 +228,8 @@ Picture and its `.txt`: the plain pattern of the first τ, X non-zero, grey/o st
             k: t.num(0, "k"),
             alpha_deg: t.num(0, "alpha_deg"),
         };
-        let (plain, _) = pattern(&p, Eta::Plain)?;
+        let tau = tau_of(&p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
+        let (plain, _) = pattern(&p, tau.as_ref(), Eta::Plain)?;
         let (n, nn) = (p.order, p.order * p.order);
         let mut txt = String::new();
         for i in 0..nn {

@@ -13,7 +13,7 @@ use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -76,6 +76,7 @@ impl Kind for Srf {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Typed<Params, Layout>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -101,17 +102,13 @@ impl Kind for Srf {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
-        if !(1..=shscale_field::truth::MAX_TRUTH_RES).contains(&p.truth_res) {
-            return Err(KeyError::new(
-                "truth_res",
-                format!(
-                    "{} is outside 1..={}",
-                    p.truth_res,
-                    shscale_field::truth::MAX_TRUTH_RES
-                ),
-            ));
-        }
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
+        KeyError::int(
+            "truth_res",
+            p.truth_res,
+            1,
+            shscale_field::truth::MAX_TRUTH_RES,
+        )?;
         KeyError::int("order", p.order, 1, MAX_ORDER)?;
         Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
@@ -124,17 +121,20 @@ impl Kind for Srf {
             ));
         }
         for (i, r) in p.radii.iter().enumerate() {
-            if !(r.is_finite() && (1.0..=1e6).contains(r)) {
-                return Err(KeyError::new(
-                    "radii",
-                    format!("{r} is outside [1, 1e6] (× the bounding radius)"),
-                ));
-            }
+            KeyError::real("radii", *r, 1.0, 1e6, Ends::Closed).map_err(|e| KeyError {
+                message: format!("{} (× the bounding radius)", e.message),
+                ..e
+            })?;
             if p.radii[..i].contains(r) {
                 return Err(KeyError::new("radii", format!("{r} appears twice")));
             }
         }
-        Ok(())
+        let layout =
+            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        Ok(Typed {
+            params: p.clone(),
+            typed: layout,
+        })
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -165,12 +165,12 @@ impl Kind for Srf {
         p.radii.len()
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
-        let layout = Layout::parse(&p.layout)?;
+    fn run(p: &Self::Spec, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
+        let layout = p.typed;
         let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, p.hinge_deg.to_radians());
         let radiance: Vec<f64> = rgb.iter().map(|c| c[0] + c[1] + c[2]).collect();
         let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);

@@ -75,6 +75,7 @@ impl Kind for Timing {
     type Shared = ();
     type Row = Row;
     type Error = Error;
+    type Spec = Params;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -97,7 +98,7 @@ impl Kind for Timing {
         ]
     }
 
-    fn validate(p: &Params) -> Result<(), KeyError> {
+    fn resolve(p: &Params) -> Result<Params, KeyError> {
         if !matches!(p.scene.as_str(), "bird" | "egg" | "sponge") {
             return Err(KeyError::new(
                 "scene",
@@ -117,7 +118,7 @@ impl Kind for Timing {
                 format!("{} is more than the limit {MAX_FRAMES}", p.warmup),
             ));
         }
-        Ok(())
+        Ok(p.clone())
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {

@@ -17,7 +17,7 @@ use std::any::Any;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// A parameter problem found by [`Kind::validate`]: the key (dotted path) and what is wrong.
+/// A parameter problem found by [`Kind::resolve`]: the key (dotted path) and what is wrong.
 #[derive(Clone, Debug)]
 pub struct KeyError {
     pub key: String,
@@ -58,6 +58,21 @@ pub struct Ctx<'a> {
     pub timing: timing::Procedure,
 }
 
+/// A kind's parameters together with what was parsed from them at resolve time (the enums of
+/// its enum-like values); it derefs to the parameters, so the work reads `p.order` as before and
+/// `p.typed` for the parsed values.
+pub struct Typed<P, T> {
+    pub params: P,
+    pub typed: T,
+}
+
+impl<P, T> std::ops::Deref for Typed<P, T> {
+    type Target = P;
+    fn deref(&self) -> &P {
+        &self.params
+    }
+}
+
 /// One experiment kind. See the module documentation.
 pub trait Kind: Send + Sync + 'static {
     /// `experiment = "…"` in a config.
@@ -73,9 +88,14 @@ pub trait Kind: Send + Sync + 'static {
     type Row: Serialize + DeserializeOwned + Default + Send;
     /// The kind's errors: its own work's, converted into the runner's [`Error`] at the seam.
     type Error: Into<Error>;
+    /// One run's parameters as its work uses them, resolved once before anything runs:
+    /// enum-like values parsed into their enums ([`Typed`]: the parameters with what was parsed
+    /// from them), or the parameters themselves for a kind without any.
+    type Spec: Send + Sync + 'static;
 
-    /// Check one run's parameters (bounds included) before anything runs.
-    fn validate(p: &Self::Params) -> Result<(), KeyError>;
+    /// Check one run's parameters (bounds included) and resolve them, before anything runs;
+    /// the work sees only the result.
+    fn resolve(p: &Self::Params) -> Result<Self::Spec, KeyError>;
     /// Runs with equal keys share one [`Kind::Shared`]. Default: none share.
     fn group_key(p: &Self::Params) -> String {
         records::canonical(p).unwrap_or_default()
@@ -85,10 +105,10 @@ pub trait Kind: Send + Sync + 'static {
     /// Rows one run writes (resume treats a run with fewer as unfinished).
     fn rows_per_run(p: &Self::Params) -> usize;
     /// The shared work of a group, from its first run's parameters.
-    fn shared(p: &Self::Params, ctx: &Ctx) -> Result<Self::Shared, Self::Error>;
+    fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<Self::Shared, Self::Error>;
     /// One run: its rows.
     fn run(
-        p: &Self::Params,
+        p: &Self::Spec,
         run_id: &str,
         shared: &Self::Shared,
         ctx: &Ctx,
@@ -212,7 +232,7 @@ impl<K: Kind> Default for Erased<K> {
 }
 
 impl<K: Kind> Erased<K> {
-    fn resolved(&self, p: K::Params) -> Result<Resolved, String> {
+    fn resolved(&self, p: K::Params, spec: K::Spec) -> Result<Resolved, String> {
         let (_, cells) = records::to_cells(&p)?;
         let canonical = records::canonical(&p)?;
         let (shared_cost, cost) = K::cost(&p);
@@ -224,14 +244,14 @@ impl<K: Kind> Erased<K> {
             shared_cost,
             cost,
             rows: K::rows_per_run(&p),
-            params: Arc::new(p),
+            params: Arc::new(spec),
         })
     }
 }
 
-fn params_of<K: Kind>(r: &Resolved) -> Result<&K::Params, Error> {
+fn params_of<K: Kind>(r: &Resolved) -> Result<&K::Spec, Error> {
     r.params
-        .downcast_ref::<K::Params>()
+        .downcast_ref::<K::Spec>()
         .ok_or_else(|| Error::Config(format!("run {} is not of kind {}", r.id, K::NAME)))
 }
 
@@ -264,14 +284,15 @@ impl<K: Kind> DynKind for Erased<K> {
         combo: &config::Combination,
     ) -> Result<Resolved, config::ConfigError> {
         let p: K::Params = config::deserialize(ex, combo)?;
-        K::validate(&p).map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
-        self.resolved(p)
+        let spec =
+            K::resolve(&p).map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
+        self.resolved(p, spec)
             .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
     }
     fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
         let p: K::Params = records::from_cells(headers, cells)?;
-        K::validate(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
-        self.resolved(p)
+        let spec = K::resolve(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
+        self.resolved(p, spec)
     }
     fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String> {
         records::from_cells::<K::Row>(headers, cells).map(|_| ())

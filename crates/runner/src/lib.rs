@@ -45,7 +45,7 @@ pub mod timing;
 pub use atomic::{write_atomic, write_atomic_all};
 pub use device::{Device, GpuMode};
 pub use error::Error;
-pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells};
+pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells, Typed};
 pub use manifest::Manifest;
 pub use merge::{merge, MergeSummary};
 pub use plan::Plan;

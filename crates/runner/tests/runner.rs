@@ -62,8 +62,9 @@ impl Kind for Product {
     type Shared = f64;
     type Row = ProductRow;
     type Error = ProductError;
+    type Spec = ProductParams;
 
-    fn validate(p: &ProductParams) -> Result<(), KeyError> {
+    fn resolve(p: &ProductParams) -> Result<ProductParams, KeyError> {
         if !(p.scale.is_finite() && p.scale > 0.0) {
             return Err(KeyError::new("scale", format!("{} is not > 0", p.scale)));
         }
@@ -73,7 +74,7 @@ impl Kind for Product {
                 format!("{} is outside 1..=4", p.repeat),
             ));
         }
-        Ok(())
+        Ok(p.clone())
     }
     fn group_key(p: &ProductParams) -> String {
         format!("scale={}", p.scale)

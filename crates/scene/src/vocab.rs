@@ -96,12 +96,8 @@ pub use shscale_field::probe::k_range;
 pub fn tau_family(tau: &str, alpha_deg: f64) -> Result<shscale_scaling::TauFamily, KeyError> {
     use shscale_runner::KeyError;
     match tau {
-        "cone" if !(alpha_deg > 0.0 && alpha_deg < 90.0) => Err(KeyError::new(
-            "alpha_deg",
-            format!("{alpha_deg} is outside (0, 90)"),
-        )),
         "cone" => Ok(shscale_scaling::TauFamily::Cone {
-            alpha: alpha_deg.to_radians(),
+            alpha: KeyError::real("alpha_deg", alpha_deg, 0.0, 90.0, Ends::Open)?.to_radians(),
         }),
         "midrange" => Ok(shscale_scaling::TauFamily::MidRange),
         other => Err(KeyError::new(
