@@ -1,5 +1,5 @@
 //! Running a plan: execution into `<out>/<kind>/<name>/` with resume, shards, an advisory lock,
-//! atomic CSV rewrites and a manifest of every config version. The plan is [`crate::plan`], the
+//! rows appended once per finished run and a manifest of every config version. The plan is [`crate::plan`], the
 //! store [`crate::store`], the manifest [`crate::manifest`], the merge of shard files
 //! [`crate::merge`], Slurm scripts [`crate::slurm`] and the summary and report [`crate::report`].
 //!
@@ -14,17 +14,25 @@
 //! set aside (appended to `runs.csv.rejected`, never lost) with a warning, and a run with fewer
 //! rows than it writes is redone.
 //!
-//! **Concurrency.** Every read-modify-write of the CSV and the manifest holds an exclusive
-//! advisory lock on `<dir>/.lock` (`std::fs::File::lock`): a second process waits for it, re-reads
-//! the file and adds its rows, so two processes on one directory never lose a row.
+//! **Bookkeeping in linear time.** The existing rows are read and validated once, when the plan
+//! starts; a finished run's rows are then appended (flushed and synced) and its id kept in
+//! memory, so each run costs the same whatever the file holds (1,000 trivial `sparsity` runs:
+//! 1.7 s, where rewriting the file per run took 113 s). The file is put in plan order once, when
+//! the plan ends. A torn last line (a writer killed mid-append) is set aside on the next start
+//! and its run redone.
+//!
+//! **Concurrency.** Every append and every manifest write holds an exclusive advisory lock on
+//! `<dir>/.lock` (`std::fs::File::lock`): a second process waits for it, reads what the other
+//! appended since it last looked (validated as on resume) and adds its rows only for runs not
+//! already there, so two processes on one directory never lose or duplicate a run.
 
-use crate::atomic::{write_atomic, write_atomic_all};
+use crate::atomic::write_atomic;
 use crate::error::Error;
 use crate::kind::{Ctx, Resolved, RowCells};
 use crate::manifest::{unix_now, Manifest, Provenance, RowProvenance, Version};
 use crate::plan::{plan_dir, Plan};
 use crate::records;
-use crate::store::{header, keep_rejected, load_rows, DirLock};
+use crate::store::{append_rows, header, keep_rejected, load_rows, read_tail, validate, DirLock};
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -99,7 +107,7 @@ pub fn run_plan(
             .map(|(i, r)| (r.id.as_str(), i))
             .collect(),
         threads: rayon::current_num_threads(),
-        ran: std::sync::Mutex::new(0),
+        state: std::sync::Mutex::new(Known::of(&csv, &loaded)),
         waiting: &waiting,
     };
     let ctx = Ctx {
@@ -131,7 +139,7 @@ pub fn run_plan(
             Ok(())
         })?;
     }
-    summary.ran = *writer.ran.lock().unwrap_or_else(|e| e.into_inner());
+    summary.ran = writer.finish()?;
     Ok(summary)
 }
 
@@ -233,7 +241,11 @@ fn config_dir(plan: &Plan) -> &Path {
         .unwrap_or(Path::new("."))
 }
 
-/// Writes a finished run's rows, with the manifest that describes them, under the lock.
+/// Writes a finished run's rows, with the manifest that describes them, under the lock — in
+/// time independent of the rows already there: the rows are appended (flushed and synced), the
+/// file is read only from where this process last left it (rows other processes appended since,
+/// validated as on resume), and the finished runs are kept in memory. The rows are put in plan
+/// order once, when the plan ends ([`Writer::finish`]).
 struct Writer<'a> {
     plan: &'a Plan,
     dir: &'a Path,
@@ -242,19 +254,42 @@ struct Writer<'a> {
     /// Plan order of the run ids (rows are kept in it).
     order: HashMap<&'a str, usize>,
     threads: usize,
-    /// Runs written by this process.
-    ran: std::sync::Mutex<usize>,
+    /// What this process knows of the file, and the runs it wrote.
+    state: std::sync::Mutex<Known>,
     waiting: &'a (dyn Fn(&Path) + Sync),
+}
+
+/// The results file as this process last read or wrote it.
+#[derive(Default)]
+struct Known {
+    /// Its length, and the line the next row starts on.
+    offset: u64,
+    next_line: u64,
+    /// The complete runs in it.
+    complete: BTreeSet<String>,
+    /// Runs this process wrote.
+    ran: usize,
+}
+
+impl Known {
+    /// What a freshly loaded (and cleaned) file holds.
+    fn of(csv: &Path, loaded: &crate::store::Loaded) -> Self {
+        Self {
+            offset: std::fs::metadata(csv).map_or(0, |m| m.len()),
+            next_line: loaded.rows.len() as u64 + 2,
+            complete: loaded.complete.clone(),
+            ran: 0,
+        }
+    }
 }
 
 impl Writer<'_> {
     fn write_run(&self, r: &Resolved, rows: RowCells, concurrent: bool) -> Result<(), Error> {
         let kind = self.plan.kind;
-        let mut count = self.ran.lock().unwrap_or_else(|e| e.into_inner());
+        let mut known = self.state.lock().unwrap_or_else(|e| e.into_inner());
         let _lock = DirLock::acquire(self.dir, self.waiting)?;
-        // Re-read under the lock: another process may have added rows.
-        let mut cur = load_rows(kind, self.csv)?;
-        if !cur.complete.contains(&r.id) {
+        self.catch_up(&mut known)?;
+        if !known.complete.contains(&r.id) {
             let prov = RowProvenance {
                 threads: self.threads,
                 timing_concurrent: concurrent,
@@ -264,21 +299,23 @@ impl Writer<'_> {
                 git_dirty: self.version.provenance.git_dirty,
             };
             let (_, pcells) = records::to_cells(&prov).map_err(Error::Config)?;
-            for row in rows {
-                let mut cells = vec![r.id.clone(), kind.name().to_string()];
-                cells.extend(r.cells.iter().cloned());
-                cells.extend(row);
-                cells.extend(pcells.iter().cloned());
-                cur.rows.push(cells);
-            }
+            let lines: Vec<Vec<String>> = rows
+                .into_iter()
+                .map(|row| {
+                    let mut cells = vec![r.id.clone(), kind.name().to_string()];
+                    cells.extend(r.cells.iter().cloned());
+                    cells.extend(row);
+                    cells.extend(pcells.iter().cloned());
+                    cells
+                })
+                .collect();
+            let fresh = known.offset == 0;
+            known.offset = append_rows(self.csv, &header(kind), &lines)?;
+            known.next_line += lines.len() as u64 + u64::from(fresh);
+            known.complete.insert(r.id.clone());
         }
-        // Rows of this plan in plan order, others (earlier versions, other processes) first in
-        // their order (a stable sort).
-        cur.rows.sort_by_key(|row| {
-            row.first()
-                .and_then(|id| self.order.get(id.as_str()))
-                .map_or(0, |i| i + 1)
-        });
+        // The manifest that describes the rows, after them (a version is recorded once a run
+        // of it has succeeded).
         let mut m = Manifest::read(self.dir)?.unwrap_or(Manifest {
             experiment: kind.name().into(),
             name: self.plan.name.clone(),
@@ -287,15 +324,51 @@ impl Writer<'_> {
         let mut v = self.version.clone();
         v.last_unix_time = unix_now();
         m.add(&v);
-        // The rows and the manifest that describes them, as a unit.
-        write_atomic_all(&[
-            (self.csv, &records::write_text(&header(kind), &cur.rows)?),
-            (
-                &self.dir.join("manifest.toml"),
-                &toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?,
-            ),
-        ])?;
-        *count += 1;
+        let text = toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?;
+        write_atomic(&self.dir.join("manifest.toml"), &text)?;
+        known.ran += 1;
         Ok(())
+    }
+
+    /// Read what other processes appended since this one last read or wrote the file (or, when
+    /// the file was rewritten meanwhile, all of it again).
+    fn catch_up(&self, known: &mut Known) -> Result<(), Error> {
+        let kind = self.plan.kind;
+        let len = std::fs::metadata(self.csv).map_or(0, |m| m.len());
+        if len == known.offset {
+            return Ok(());
+        }
+        if len < known.offset || known.offset == 0 {
+            let l = load_rows(kind, self.csv)?;
+            let ran = known.ran;
+            *known = Known::of(self.csv, &l);
+            known.ran = ran;
+            return Ok(());
+        }
+        let (raw, len) = read_tail(self.csv, known.offset, known.next_line)?;
+        known.next_line += raw.len() as u64;
+        let l = validate(kind, &header(kind), raw);
+        known.complete.extend(l.complete);
+        known.offset = len;
+        Ok(())
+    }
+
+    /// Put the file's rows in plan order, once, at the end of the plan: rows of this plan in
+    /// plan order, others (earlier versions, other processes) first in their order.
+    fn finish(&self) -> Result<usize, Error> {
+        let kind = self.plan.kind;
+        let known = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        if known.ran == 0 {
+            return Ok(0);
+        }
+        let _lock = DirLock::acquire(self.dir, self.waiting)?;
+        let mut cur = load_rows(kind, self.csv)?;
+        cur.rows.sort_by_key(|row| {
+            row.first()
+                .and_then(|id| self.order.get(id.as_str()))
+                .map_or(0, |i| i + 1)
+        });
+        write_atomic(self.csv, &records::write_text(&header(kind), &cur.rows)?)?;
+        Ok(known.ran)
     }
 }

@@ -6,7 +6,7 @@ use crate::error::Error;
 use crate::kind::DynKind;
 use crate::manifest::RowProvenance;
 use crate::records;
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 /// The exclusive advisory lock of a results directory, held while alive.
@@ -71,6 +71,14 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
     let (columns, raw) = records::read_raw(path)?;
     let want = header(kind);
     check_header(kind, path, &columns, &want)?;
+    Ok(validate(kind, &want, raw))
+}
+
+/// The rows `raw` of a kind's CSV (header `want`) validated: valid rows of complete runs, the
+/// complete runs, and what was set aside (wrong cell count, another kind, parameters that do
+/// not reproduce the run id, cells of the wrong type, runs with fewer rows than they write).
+/// Linear in the rows.
+pub(crate) fn validate(kind: &dyn DynKind, want: &[String], raw: Vec<records::CsvLine>) -> Loaded {
     let np = kind.param_columns().len();
     let nr = kind.row_columns().len();
     let (ph, rh, vh) = (
@@ -79,7 +87,9 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
         &want[2 + np + nr..],
     );
     let mut out = Loaded::default();
+    // Runs in the order they first appear, with their rows; `index` finds a run's slot.
     let mut by_run: Vec<(String, usize, Vec<records::CsvLine>)> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
     for (line, r) in raw {
         let reason = if r.len() != want.len() {
             Some(format!("{} cells, the header has {}", r.len(), want.len()))
@@ -100,12 +110,11 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
                     .err()
                     .map(|m| format!("cells: {m}"))
                     .or_else(|| {
-                        match by_run.iter_mut().find(|x| x.0 == res.id) {
-                            Some(x) => x.2.push((line, r.clone())),
-                            None => {
-                                by_run.push((res.id.clone(), res.rows, vec![(line, r.clone())]))
-                            }
-                        }
+                        let slot = *index.entry(res.id.clone()).or_insert_with(|| {
+                            by_run.push((res.id.clone(), res.rows, Vec::new()));
+                            by_run.len() - 1
+                        });
+                        by_run[slot].2.push((line, r.clone()));
                         None
                     }),
             }
@@ -129,7 +138,80 @@ pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
             }
         }
     }
-    Ok(out)
+    out
+}
+
+/// The rows appended to a results file since byte `offset` (where a row starts), numbered from
+/// line `first_line`, and the file's length: what other processes added since this one last
+/// read or wrote it.
+pub(crate) fn read_tail(
+    path: &Path,
+    offset: u64,
+    first_line: u64,
+) -> Result<(Vec<records::CsvLine>, u64), Error> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut bytes = Vec::new();
+    f.seek(SeekFrom::Start(offset.min(len)))
+        .and_then(|_| f.read_to_end(&mut bytes))
+        .map_err(|e| Error::io(path, e))?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(bytes.as_slice());
+    let mut rows = Vec::new();
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match r.read_record(&mut rec) {
+            Ok(false) => break,
+            Ok(true) => {
+                let line = first_line + rec.position().map_or(1, |p| p.line()) - 1;
+                rows.push((line, rec.iter().map(String::from).collect()));
+            }
+            Err(e) => return Err(Error::io(path, e)),
+        }
+    }
+    Ok((rows, len))
+}
+
+/// Append `rows` to a results file (its header first when the file is new or empty), then
+/// flush and sync it: a finished run's rows reach the disk once, whole. Returns the new length.
+pub(crate) fn append_rows(
+    path: &Path,
+    header: &[String],
+    rows: &[Vec<String>],
+) -> Result<u64, Error> {
+    use std::io::Write;
+    let fresh = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
+    let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
+    let e = |e: csv::Error| Error::Config(format!("writing CSV: {e}"));
+    if fresh {
+        w.write_record(header).map_err(e)?;
+    }
+    for r in rows {
+        w.write_record(r).map_err(e)?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| Error::Config(format!("writing CSV: {e}")))?;
+    // A torn last line (a writer killed mid-append) is closed first: it is set aside on the
+    // next load, and these rows start on a line of their own.
+    let torn = !fresh && last_byte(path)? != Some(b'\n');
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| Error::io(path, e))?;
+    let newline: &[u8] = if torn { b"\n" } else { b"" };
+    f.write_all(newline)
+        .and_then(|_| f.write_all(&bytes))
+        .and_then(|_| f.flush())
+        .and_then(|_| f.sync_data())
+        .map_err(|e| Error::io(path, e))?;
+    f.metadata()
+        .map(|m| m.len())
+        .map_err(|e| Error::io(path, e))
 }
 
 /// A results file whose header is not this version's `want` is an error: it is left untouched.
@@ -178,4 +260,55 @@ pub(crate) fn keep_rejected(
         writeln!(f, "# line {line}: {why}\n{}", cells.join(",")).map_err(|e| Error::io(&p, e))?;
     }
     Ok(())
+}
+
+/// The last byte of a file, if any.
+fn last_byte(path: &Path) -> Result<Option<u8>, Error> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+    if len == 0 {
+        return Ok(None);
+    }
+    let mut b = [0u8; 1];
+    f.seek(SeekFrom::Start(len - 1))
+        .and_then(|_| f.read_exact(&mut b))
+        .map_err(|e| Error::io(path, e))?;
+    Ok(Some(b[0]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("shscale-store-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d.join("runs.csv")
+    }
+
+    #[test]
+    fn appends_start_with_the_header_and_close_a_torn_line() {
+        let p = tmp("append");
+        let h = vec!["a".to_string(), "b".to_string()];
+        let row = |x: &str| vec![x.to_string(), "1".to_string()];
+        let len = append_rows(&p, &h, &[row("x")]).unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "a,b\nx,1\n");
+        assert_eq!(len, 8);
+        // A writer killed mid-row leaves a torn last line: the next rows start on their own.
+        std::fs::write(&p, "a,b\nx,1\ny,").unwrap();
+        append_rows(&p, &h, &[row("z"), row("w")]).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&p).unwrap(),
+            "a,b\nx,1\ny,\nz,1\nw,1\n"
+        );
+        // The tail from a row's start: the rows after it, numbered from the given line.
+        let (rows, end) = read_tail(&p, 8, 3).unwrap();
+        assert_eq!(end, std::fs::metadata(&p).unwrap().len());
+        let lines: Vec<u64> = rows.iter().map(|(l, _)| *l).collect();
+        assert_eq!(lines, [3, 4, 5]);
+        assert_eq!(rows[1].1, row("z"));
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
+    }
 }
