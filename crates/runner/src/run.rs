@@ -16,9 +16,9 @@
 //!
 //! **Bookkeeping in linear time.** The existing rows are read and validated once, when the plan
 //! starts; a finished run's rows are then appended (flushed and synced) and its id kept in
-//! memory, so each run costs the same whatever the file holds (1,000 trivial `sparsity` runs:
-//! 1.7 s, where rewriting the file per run took 113 s). The file is put in plan order once, when
-//! the plan ends. A torn last line (a writer killed mid-append) is set aside on the next start
+//! memory, so each run costs the same whatever the file holds (docs/BENCHMARKS.md, "Sweep
+//! bookkeeping": 1,000 trivial runs in 1.0 s, where rewriting the file per run took 113 s). The
+//! file is put in plan order once, and the manifest's last time moved, when the plan ends. A torn last line (a writer killed mid-append) is set aside on the next start
 //! and its run redone.
 //!
 //! **Concurrency.** Every append and every manifest write holds an exclusive advisory lock on
@@ -314,10 +314,19 @@ impl Writer<'_> {
             known.next_line += lines.len() as u64 + u64::from(fresh);
             known.complete.insert(r.id.clone());
         }
-        // The manifest that describes the rows, after them (a version is recorded once a run
-        // of it has succeeded).
+        // The manifest that describes the rows, after them: the version is recorded once its
+        // first run has succeeded, and its last time when the plan ends.
+        if known.ran == 0 {
+            self.record_version()?;
+        }
+        known.ran += 1;
+        Ok(())
+    }
+
+    /// Add this plan's config version to `manifest.toml` (or move its last time to now).
+    fn record_version(&self) -> Result<(), Error> {
         let mut m = Manifest::read(self.dir)?.unwrap_or(Manifest {
-            experiment: kind.name().into(),
+            experiment: self.plan.kind.name().into(),
             name: self.plan.name.clone(),
             versions: Vec::new(),
         });
@@ -325,9 +334,7 @@ impl Writer<'_> {
         v.last_unix_time = unix_now();
         m.add(&v);
         let text = toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?;
-        write_atomic(&self.dir.join("manifest.toml"), &text)?;
-        known.ran += 1;
-        Ok(())
+        write_atomic(&self.dir.join("manifest.toml"), &text)
     }
 
     /// Read what other processes appended since this one last read or wrote the file (or, when
@@ -369,6 +376,7 @@ impl Writer<'_> {
                 .map_or(0, |i| i + 1)
         });
         write_atomic(self.csv, &records::write_text(&header(kind), &cur.rows)?)?;
+        self.record_version()?;
         Ok(known.ran)
     }
 }
