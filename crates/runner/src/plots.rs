@@ -394,6 +394,32 @@ pub fn write_both(
     write_both_log(dir, stem, labels, series, scatter, front, None)
 }
 
+/// The most series one plot draws: a legend of more is unreadable (and the file grows with it).
+pub const MAX_SERIES: usize = 24;
+
+/// At most [`MAX_SERIES`] of `series`, evenly spaced over their (sorted) names so the first and
+/// the last are kept, and the title saying how many were drawn when some were left out.
+fn capped(
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    title: &str,
+) -> (BTreeMap<String, Vec<(f64, f64)>>, String) {
+    let n = series.len();
+    if n <= MAX_SERIES {
+        return (series.clone(), title.to_string());
+    }
+    let keep: Vec<usize> = (0..MAX_SERIES)
+        .map(|i| i * (n - 1) / (MAX_SERIES - 1))
+        .collect();
+    let kept = (series.iter().enumerate())
+        .filter(|(i, _)| keep.contains(i))
+        .map(|(_, (k, v))| (k.clone(), v.clone()))
+        .collect();
+    (
+        kept,
+        format!("{title} ({MAX_SERIES} of {n} series shown, evenly spaced)"),
+    )
+}
+
 /// [`write_both`] with the y axis forced linear (`Some(false)`) or logarithmic (`Some(true)`);
 /// `None` decides by the data ([`log_axis`]).
 pub fn write_both_log(
@@ -406,6 +432,14 @@ pub fn write_both_log(
     log: Option<bool>,
 ) -> Result<Vec<PathBuf>, Error> {
     ensure_font();
+    let (series, title) = capped(series, labels.title);
+    let (series, labels) = (
+        &series,
+        &Labels {
+            title: &title,
+            ..*labels
+        },
+    );
     let pid = std::process::id();
     let png = dir.join(format!("{stem}.png"));
     let tmp_png = dir.join(format!(".{stem}.tmp-{pid}.png"));
@@ -436,6 +470,21 @@ pub fn write_both_log(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn plots_cap_their_series_and_say_so() {
+        use std::collections::BTreeMap;
+        let series: BTreeMap<String, Vec<(f64, f64)>> = (0..100)
+            .map(|i| (format!("s{i:03}"), vec![(0.0, i as f64)]))
+            .collect();
+        let (kept, title) = super::capped(&series, "t");
+        assert_eq!(kept.len(), super::MAX_SERIES);
+        assert!(kept.contains_key("s000") && kept.contains_key("s099"));
+        assert_eq!(title, "t (24 of 100 series shown, evenly spaced)");
+        let few: BTreeMap<String, Vec<(f64, f64)>> = series.into_iter().take(24).collect();
+        let (kept, title) = super::capped(&few, "t");
+        assert_eq!((kept.len(), title.as_str()), (24, "t"));
+    }
+
     use super::y_range;
 
     /// Data spanning two decades or more go on a log axis; negative, zero or narrow data do not.

@@ -539,23 +539,10 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
             cols.push(c.to_string());
         }
     }
-    s.push_str(&format!("| {} |\n", cols.join(" | ")));
-    s.push_str(&format!("|{}\n", "---|".repeat(cols.len())));
-    for r in 0..t.rows.len() {
-        let cells: Vec<String> = cols
-            .iter()
-            .map(|c| {
-                let v = t.cell(r, c);
-                match v.parse::<f64>() {
-                    Ok(x) if (v.contains('.') || v.contains('e')) && x != 0.0 && x.abs() < 1e-3 => {
-                        format!("{x:.3e}")
-                    }
-                    Ok(x) if v.contains('.') || v.contains('e') => format!("{x:.4}"),
-                    _ => v.to_string(),
-                }
-            })
-            .collect();
-        s.push_str(&format!("| {} |\n", cells.join(" | ")));
+    if t.rows.len() <= MAX_LISTED_ROWS {
+        s.push_str(&row_table(&t, &cols));
+    } else {
+        s.push_str(&distribution_tables(&t, &varying, kind.summary_columns()));
     }
     let concurrent = (0..t.rows.len())
         .filter(|&r| t.cell(r, "timing_concurrent") == "true")
@@ -583,6 +570,101 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         discussion,
         files,
     })
+}
+
+/// The most rows the summary lists one by one; a larger table is summarised by distributions
+/// ([`distribution_tables`]), so `summary.md` and `report.html` stay small at 10⁵ rows.
+pub const MAX_LISTED_ROWS: usize = 200;
+
+/// The most values of one parameter the distribution tables list; a parameter with more is
+/// summarised over all rows only.
+pub const MAX_LISTED_VALUES: usize = 24;
+
+/// A summary cell: small numbers in `e` notation, other decimals to four places.
+fn summary_cell(v: &str) -> String {
+    match v.parse::<f64>() {
+        Ok(x) if (v.contains('.') || v.contains('e')) && x != 0.0 && x.abs() < 1e-3 => {
+            format!("{x:.3e}")
+        }
+        Ok(x) if v.contains('.') || v.contains('e') => format!("{x:.4}"),
+        _ => v.to_string(),
+    }
+}
+
+/// Every row, the columns `cols`.
+fn row_table(t: &Results, cols: &[String]) -> String {
+    let mut s = format!("| {} |\n|{}\n", cols.join(" | "), "---|".repeat(cols.len()));
+    for r in 0..t.rows.len() {
+        let cells: Vec<String> = cols.iter().map(|c| summary_cell(t.cell(r, c))).collect();
+        s.push_str(&format!("| {} |\n", cells.join(" | ")));
+    }
+    s
+}
+
+/// Count, mean and the 10th, 50th and 90th percentiles of the finite values (nearest rank).
+fn distribution(mut v: Vec<f64>) -> Option<(usize, f64, f64, f64, f64)> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    Some((v.len(), mean, q(0.1), q(0.5), q(0.9)))
+}
+
+/// The rows summarised: for every numeric headline column, its distribution over all rows and,
+/// per varying parameter with at most [`MAX_LISTED_VALUES`] values, per value of it.
+fn distribution_tables(t: &Results, varying: &[String], headline: &[&str]) -> String {
+    let numeric: Vec<&str> = (headline.iter().copied())
+        .filter(|c| (0..t.rows.len()).any(|r| t.num(r, c).is_finite()))
+        .collect();
+    let mut s = format!(
+        "{} rows are too many to list (more than {MAX_LISTED_ROWS}); `runs.csv` has them all. The headline columns' distributions \
+(count of finite values, mean, 10th / 50th / 90th percentile):\n\n",
+        t.rows.len()
+    );
+    let head = "| column | count | mean | p10 | median | p90 |\n|---|---:|---:|---:|---:|---:|\n";
+    let fmt = |x: f64| summary_cell(&format!("{x:e}"));
+    let line = |label: &str, rows: &[usize], c: &str| {
+        let d = distribution(rows.iter().map(|&r| t.num(r, c)).collect());
+        d.map_or(
+            format!("| {label} | 0 | — | — | — | — |\n"),
+            |(n, m, a, b, z)| {
+                format!(
+                    "| {label} | {n} | {} | {} | {} | {} |\n",
+                    fmt(m),
+                    fmt(a),
+                    fmt(b),
+                    fmt(z)
+                )
+            },
+        )
+    };
+    let all: Vec<usize> = (0..t.rows.len()).collect();
+    s.push_str("All rows:\n\n");
+    s.push_str(head);
+    for c in &numeric {
+        s.push_str(&line(c, &all, c));
+    }
+    for p in varying {
+        let values = t.distinct(p);
+        if values.len() > MAX_LISTED_VALUES {
+            s.push_str(&format!(
+                "\n`{p}` takes {} values (more than {MAX_LISTED_VALUES}): see the plots and `runs.csv`.\n",
+                values.len()
+            ));
+            continue;
+        }
+        for c in &numeric {
+            s.push_str(&format!("\n`{c}` by `{p}`:\n\n| {p} | count | mean | p10 | median | p90 |\n|---|---:|---:|---:|---:|---:|\n"));
+            for v in &values {
+                let rows: Vec<usize> = all.iter().copied().filter(|&r| t.cell(r, p) == v).collect();
+                s.push_str(&line(v, &rows, c));
+            }
+        }
+    }
+    s
 }
 
 /// `title` and `claim` of the newest config version in `dir/manifest.toml`.

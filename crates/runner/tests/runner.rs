@@ -369,3 +369,38 @@ fn summary_and_slurm_script_of_a_plan() {
     .is_err());
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn large_results_are_summarised_by_distributions_not_listed() {
+    // 300 runs (one row each): more than the summary lists one by one.
+    let ns: Vec<String> = (1..=300).map(|n| n.to_string()).collect();
+    let text = format!(
+        "experiment = \"product\"\nscale = 2.0\n[sweep]\nn = [{}]\n",
+        ns.join(", ")
+    );
+    let plan = parse(&text).unwrap();
+    let d = tmp("large");
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
+    assert_eq!(s.ran, 300);
+    let r = shscale_runner::report(&PRODUCT, &s.dir).unwrap();
+    println!("{}", r.summary);
+    assert!(
+        r.summary.contains("300 rows are too many to list"),
+        "{}",
+        r.summary
+    );
+    // value = 2n for n = 1..=300: mean 301, nearest-rank median 2·151, p10 2·31, p90 2·270.
+    assert!(
+        r.summary
+            .contains("| value | 300 | 301.0000 | 62.0000 | 302.0000 | 540.0000 |"),
+        "{}",
+        r.summary
+    );
+    assert!(r.summary.contains("`n` takes 300 values"), "{}", r.summary);
+    assert!(r.summary.len() < 4_000, "{} bytes", r.summary.len());
+    // Rows are still one per run in runs.csv, in plan order.
+    let ids = ids_in(&s.csv);
+    let want: Vec<String> = plan.runs.iter().map(|r| r.id.clone()).collect();
+    assert_eq!(ids, want);
+    std::fs::remove_dir_all(&d).ok();
+}
