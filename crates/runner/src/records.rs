@@ -230,16 +230,22 @@ pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<CsvLine>), Error> {
 
 /// CSV text of a header and rows.
 pub fn write_text(columns: &[String], rows: &[Vec<String>]) -> Result<String, Error> {
+    String::from_utf8(csv_bytes(Some(columns), rows)?)
+        .map_err(|e| Error::Config(format!("writing CSV: {e}")))
+}
+
+/// CSV bytes of rows, after the header when one is given.
+pub fn csv_bytes(columns: Option<&[String]>, rows: &[Vec<String>]) -> Result<Vec<u8>, Error> {
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     let e = |e: csv::Error| Error::Config(format!("writing CSV: {e}"));
-    w.write_record(columns).map_err(e)?;
+    if let Some(c) = columns {
+        w.write_record(c).map_err(e)?;
+    }
     for r in rows {
         w.write_record(r).map_err(e)?;
     }
-    let bytes = w
-        .into_inner()
-        .map_err(|e| Error::Config(format!("writing CSV: {e}")))?;
-    String::from_utf8(bytes).map_err(|e| Error::Config(format!("writing CSV: {e}")))
+    w.into_inner()
+        .map_err(|e| Error::Config(format!("writing CSV: {e}")))
 }
 
 #[cfg(test)]

@@ -184,17 +184,7 @@ pub(crate) fn append_rows(
 ) -> Result<u64, Error> {
     use std::io::Write;
     let fresh = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
-    let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
-    let e = |e: csv::Error| Error::Config(format!("writing CSV: {e}"));
-    if fresh {
-        w.write_record(header).map_err(e)?;
-    }
-    for r in rows {
-        w.write_record(r).map_err(e)?;
-    }
-    let bytes = w
-        .into_inner()
-        .map_err(|e| Error::Config(format!("writing CSV: {e}")))?;
+    let bytes = records::csv_bytes(fresh.then_some(header), rows)?;
     // A torn last line (a writer killed mid-append) is closed first: it is set aside on the
     // next load, and these rows start on a line of their own.
     let torn = !fresh && last_byte(path)? != Some(b'\n');
