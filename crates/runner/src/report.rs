@@ -583,11 +583,17 @@ pub const MAX_LISTED_VALUES: usize = 24;
 /// A summary cell: small numbers in `e` notation, other decimals to four places.
 fn summary_cell(v: &str) -> String {
     match v.parse::<f64>() {
-        Ok(x) if (v.contains('.') || v.contains('e')) && x != 0.0 && x.abs() < 1e-3 => {
-            format!("{x:.3e}")
-        }
-        Ok(x) if v.contains('.') || v.contains('e') => format!("{x:.4}"),
+        Ok(x) if v.contains('.') || v.contains('e') => summary_decimal(x),
         _ => v.to_string(),
+    }
+}
+
+/// A real number of the summary: below 10⁻³ (and not 0) in `e` notation, else four decimals.
+fn summary_decimal(x: f64) -> String {
+    if x != 0.0 && x.abs() < 1e-3 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.4}")
     }
 }
 
@@ -625,7 +631,7 @@ fn distribution_tables(t: &Results, varying: &[String], headline: &[&str]) -> St
         t.rows.len()
     );
     let head = "| column | count | mean | p10 | median | p90 |\n|---|---:|---:|---:|---:|---:|\n";
-    let fmt = |x: f64| summary_cell(&format!("{x:e}"));
+    let fmt = summary_decimal;
     let line = |label: &str, rows: &[usize], c: &str| {
         let d = distribution(rows.iter().map(|&r| t.num(r, c)).collect());
         d.map_or(

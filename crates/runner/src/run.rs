@@ -106,6 +106,7 @@ pub fn run_plan(
         order: (plan.runs.iter().enumerate())
             .map(|(i, r)| (r.id.as_str(), i))
             .collect(),
+        header: header(plan.kind),
         threads: rayon::current_num_threads(),
         state: std::sync::Mutex::new(Known::of(&csv, &loaded)),
         waiting: &waiting,
@@ -253,6 +254,8 @@ struct Writer<'a> {
     version: Version,
     /// Plan order of the run ids (rows are kept in it).
     order: HashMap<&'a str, usize>,
+    /// The kind's CSV header.
+    header: Vec<String>,
     threads: usize,
     /// What this process knows of the file, and the runs it wrote.
     state: std::sync::Mutex<Known>,
@@ -310,7 +313,7 @@ impl Writer<'_> {
                 })
                 .collect();
             let fresh = known.offset == 0;
-            known.offset = append_rows(self.csv, &header(kind), &lines)?;
+            known.offset = append_rows(self.csv, &self.header, &lines)?;
             known.next_line += lines.len() as u64 + u64::from(fresh);
             known.complete.insert(r.id.clone());
         }
@@ -354,7 +357,7 @@ impl Writer<'_> {
         }
         let (raw, len) = read_tail(self.csv, known.offset, known.next_line)?;
         known.next_line += raw.len() as u64;
-        let l = validate(kind, &header(kind), raw);
+        let l = validate(kind, &self.header, raw);
         known.complete.extend(l.complete);
         known.offset = len;
         Ok(())

@@ -185,14 +185,15 @@ pub(crate) fn append_rows(
     use std::io::Write;
     let fresh = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
     let bytes = records::csv_bytes(fresh.then_some(header), rows)?;
-    // A torn last line (a writer killed mid-append) is closed first: it is set aside on the
-    // next load, and these rows start on a line of their own.
-    let torn = !fresh && last_byte(path)? != Some(b'\n');
     let mut f = std::fs::OpenOptions::new()
         .create(true)
+        .read(true)
         .append(true)
         .open(path)
         .map_err(|e| Error::io(path, e))?;
+    // A torn last line (a writer killed mid-append) is closed first: it is set aside on the
+    // next load, and these rows start on a line of their own.
+    let torn = !fresh && last_byte(&mut f).map_err(|e| Error::io(path, e))? != Some(b'\n');
     let newline: &[u8] = if torn { b"\n" } else { b"" };
     f.write_all(newline)
         .and_then(|_| f.write_all(&bytes))
@@ -252,18 +253,16 @@ pub(crate) fn keep_rejected(
     Ok(())
 }
 
-/// The last byte of a file, if any.
-fn last_byte(path: &Path) -> Result<Option<u8>, Error> {
+/// The last byte of an open file, if any (appends still go to the end after the seek).
+fn last_byte(f: &mut std::fs::File) -> std::io::Result<Option<u8>> {
     use std::io::{Read, Seek, SeekFrom};
-    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+    let len = f.metadata()?.len();
     if len == 0 {
         return Ok(None);
     }
     let mut b = [0u8; 1];
-    f.seek(SeekFrom::Start(len - 1))
-        .and_then(|_| f.read_exact(&mut b))
-        .map_err(|e| Error::io(path, e))?;
+    f.seek(SeekFrom::Start(len - 1))?;
+    f.read_exact(&mut b)?;
     Ok(Some(b[0]))
 }
 
