@@ -3,6 +3,7 @@
 //! output, or into an aligned staging copy streamed out with non-temporal stores for outputs
 //! far larger than the caches ([`STREAM_BYTES`]). The recurrences are in the `eval` module.
 
+#[cfg(target_arch = "x86_64")]
 use crate::real::Real;
 #[cfg(target_arch = "x86_64")]
 use crate::simd::LANES;

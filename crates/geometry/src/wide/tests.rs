@@ -8,7 +8,6 @@ use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
-use shscale_sh::simd::Level;
 
 /// Every pack, no tree: what the traversal must reproduce exactly.
 fn scan(w: &WideBvh, ray: &WideRay) -> Option<(f32, u32)> {
@@ -473,7 +472,7 @@ fn traversal_equals_scan_of_every_pack() {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn packet_lane_slabs_equal_the_one_ray_ones() {
-    if shscale_sh::simd::detected() < Level::Avx2Fma {
+    if shscale_sh::simd::detected() < shscale_sh::simd::Level::Avx2Fma {
         eprintln!("notice: no AVX2 + FMA level here; the packet kernel is not used");
         return;
     }
