@@ -185,6 +185,10 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
         "lab's",
         "--set",
         "order=3",
+        "--array-parallel",
+        "2",
+        "--dependency",
+        "afterok:17:18",
     ]);
     let text = String::from_utf8_lossy(&gen.stdout).to_string();
     for needle in [
@@ -194,40 +198,22 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
         "--cpus-per-task=4",
         "--account='lab'\\''s'",
         "--set",
+        "--array=0-1%2 --dependency='afterok:17:18'",
+        "--replace",
     ] {
         assert!(text.contains(needle), "{needle} missing:\n{text}");
     }
+    // A throttle above the tasks, a dependency with spaces: refused, naming the flag.
+    let c = cfg.to_str().unwrap();
+    fails(
+        &["slurm", c, "--tasks", "2", "--array-parallel", "3"],
+        "--array-parallel: 3 is outside 1..=2",
+    );
+    fails(
+        &["slurm", c, "--tasks", "2", "--dependency", "afterok:1 rm"],
+        "--dependency",
+    );
     std::fs::remove_dir_all(&d).ok();
-}
-
-/// The cells of a runs.csv (read with the csv crate), without the columns that legitimately
-/// differ between two executions of the same runs (times and their spreads, threads, GPU
-/// timings, revision, whether timed concurrently), sorted.
-fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
-    let mut r = ::csv::Reader::from_path(csv).unwrap();
-    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    let keep: Vec<usize> = header
-        .iter()
-        .enumerate()
-        .filter(|(_, h)| {
-            !(h.ends_with("_seconds")
-                || h.ends_with("_spread")
-                || h.starts_with("timing_")
-                || *h == "threads"
-                || h.starts_with("gpu_")
-                || h.starts_with("git_"))
-        })
-        .map(|(i, _)| i)
-        .collect();
-    let mut rows: Vec<Vec<String>> = r
-        .records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            keep.iter().map(|&i| rec[i].to_string()).collect()
-        })
-        .collect();
-    rows.sort();
-    rows
 }
 
 const SWEEP: &str = "experiment = \"probe\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 6\nradii = [0.8, 1.5]\ngpu = \"off\"\n[sweep]\nalpha_deg = [20, 40, 60]\nsampling_radius = [1.0, 1.2]\n";

@@ -61,3 +61,33 @@ pub fn values(v: &serde_json::Value) -> Vec<f64> {
         .map(|x| x.as_f64().expect("number"))
         .collect()
 }
+
+/// The cells of a runs.csv (read with the csv crate), without the columns that legitimately
+/// differ between two executions of the same runs (times and their spreads, threads, GPU
+/// timings, revision, whether timed concurrently), sorted.
+pub fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
+    let mut r = ::csv::Reader::from_path(csv).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let keep: Vec<usize> = header
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| {
+            !(h.ends_with("_seconds")
+                || h.ends_with("_spread")
+                || h.starts_with("timing_")
+                || *h == "threads"
+                || h.starts_with("gpu_")
+                || h.starts_with("git_"))
+        })
+        .map(|(i, _)| i)
+        .collect();
+    let mut rows: Vec<Vec<String>> = r
+        .records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            keep.iter().map(|&i| rec[i].to_string()).collect()
+        })
+        .collect();
+    rows.sort();
+    rows
+}

@@ -200,6 +200,28 @@ pub enum BenchKernel {
     /// All N² real SH at P random directions, one thread.
     /// Example: shscale bench sh --order 8 --precision f32 --format json
     Sh(BenchShArgs),
+    /// The runner's own cost per run (plan, store, resume, report, merge) on a kind that does
+    /// no work, or of a config of yours against its runs' own work.
+    /// Example: shscale bench runner --runs 1000,10000 --shards 100
+    Runner(BenchRunnerArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct BenchRunnerArgs {
+    /// Sweep sizes of the do-nothing kind, comma-separated (each 1..=100000).
+    #[arg(long, default_value = "1000,10000,100000")]
+    pub runs: String,
+    /// Merge the largest sweep's rows dealt into this many shard files (0: no merge).
+    #[arg(long, default_value_t = 1000)]
+    pub shards: usize,
+    /// Instead, time this config (any kind): the whole sweep against its runs' own work.
+    #[arg(long, conflicts_with_all = ["runs", "shards"])]
+    pub config: Option<std::path::PathBuf>,
+    /// Where the results go (default: a temporary folder, removed afterwards).
+    #[arg(long)]
+    pub out_dir: Option<std::path::PathBuf>,
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -296,9 +318,16 @@ pub struct MergeArgs {
     #[arg(required = true)]
     pub dirs: Vec<std::path::PathBuf>,
     /// Output directory (new; default <first DIR>/merged): runs.csv, manifest.toml, summary and
-    /// plots. An existing runs.csv there is never overwritten.
+    /// plots. An existing runs.csv there is never overwritten, unless --replace.
     #[arg(long)]
     pub out: Option<std::path::PathBuf>,
+    /// Replace an existing merged runs.csv and manifest.toml, atomically (what the merge job of
+    /// a `shscale slurm` script does, so a resubmitted script can merge again).
+    #[arg(long)]
+    pub replace: bool,
+    /// Merge inputs of several config versions or code revisions (refused without it).
+    #[arg(long)]
+    pub allow_mixed: bool,
     /// `json`: one JSON object (the merged directory, files, rows, report files).
     #[arg(long, value_enum, default_value_t = TextFormat::Text)]
     pub format: TextFormat,
@@ -333,6 +362,13 @@ pub struct SlurmArgs {
     /// sbatch --account.
     #[arg(long)]
     pub account: Option<String>,
+    /// At most this many array tasks at once (sbatch --array=0-N%K).
+    #[arg(value_parser = whole, long)]
+    pub array_parallel: Option<usize>,
+    /// sbatch --dependency of the array job (e.g. afterok:12345); the merge always waits for
+    /// the array.
+    #[arg(long)]
+    pub dependency: Option<String>,
 }
 
 /// Command-line overrides of an experiment config (Hydra style).

@@ -6,6 +6,8 @@ use crate::args::{
     BenchArgs, BenchFormat, BenchKernel, BenchScene, FigsArgs, KernelCommon, Precision, TextFormat,
     Workload,
 };
+use crate::flags;
+use shscale_runner::check::Ends;
 use shscale_runner::GpuMode;
 use shscale_scene::bench::{bench_scene, to_csv, to_markdown};
 use shscale_scene::gpu_path::open_gpu;
@@ -31,9 +33,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     };
     // The same bounds as the timing kind's `frames` and `warmup`.
     let max = shscale_experiments::timing::MAX_FRAMES;
-    if !(1..=max).contains(&a.frames) {
-        anyhow::bail!("--frames: {} is outside 1..={max}", a.frames);
-    }
+    flags::int("--frames", a.frames, 1, max)?;
     if a.warmup > max {
         anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
     }
@@ -142,9 +142,7 @@ const MAX_KERNEL_RAYS: usize = 100_000_000;
 const MAX_THREADS: usize = 1024;
 
 fn protocol(c: &KernelCommon) -> anyhow::Result<Protocol> {
-    if !(c.min_time.is_finite() && c.min_time > 0.0 && c.min_time <= 600.0) {
-        anyhow::bail!("--min-time: {} is outside (0, 600] seconds", c.min_time);
-    }
+    flags::real("--min-time", c.min_time, 0.0, 600.0, Ends::OpenClosed)?;
     if c.warmup > 100 {
         anyhow::bail!("--warmup: {} is more than the limit 100", c.warmup);
     }
@@ -156,10 +154,7 @@ fn protocol(c: &KernelCommon) -> anyhow::Result<Protocol> {
 }
 
 fn threads(t: usize) -> anyhow::Result<usize> {
-    if !(1..=MAX_THREADS).contains(&t) {
-        anyhow::bail!("--threads: {t} is outside 1..={MAX_THREADS}");
-    }
-    Ok(t)
+    flags::int("--threads", t, 1, MAX_THREADS)
 }
 
 fn mesh(name: &str) -> anyhow::Result<shscale_geometry::Mesh> {
@@ -180,8 +175,120 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
         BenchKernel::Rays(a) => bench_rays(&a, level)?,
         BenchKernel::Bsv(a) => bench_bsv(&a, level)?,
         BenchKernel::Sh(a) => bench_sh(&a, level)?,
+        BenchKernel::Runner(a) => bench_runner(&a)?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `bench runner`: the bookkeeping cost per run of sweeps of the do-nothing kind (and the merge
+/// of the largest one's shards), or of one config against its runs' own work.
+fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
+    use shscale_runner::bench::{self, TALLY};
+    use shscale_runner::config::MAX_COMBINATIONS;
+    let sizes: Vec<usize> = match &a.config {
+        Some(_) => Vec::new(),
+        None => crate::args::parse_list("runs", &a.runs)?
+            .into_iter()
+            .map(|v| {
+                let n = v as usize;
+                if v.fract() != 0.0 || v < 1.0 {
+                    anyhow::bail!("--runs: {v} is not a whole number ≥ 1");
+                }
+                flags::int("--runs", n, 1, MAX_COMBINATIONS)
+            })
+            .collect::<anyhow::Result<_>>()?,
+    };
+    flags::int("--shards", a.shards, 0, 100_000)?;
+    let root = a.out_dir.clone().unwrap_or_else(|| {
+        std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()))
+    });
+    if root.exists() && std::fs::read_dir(&root)?.next().is_some() {
+        anyhow::bail!(
+            "--out-dir {}: not empty; the bench needs an empty folder",
+            root.display()
+        );
+    }
+    struct Cleanup(Option<std::path::PathBuf>);
+    impl Drop for Cleanup {
+        fn drop(&mut self) {
+            if let Some(d) = &self.0 {
+                let _ = std::fs::remove_dir_all(d);
+            }
+        }
+    }
+    let _cleanup = Cleanup(a.out_dir.is_none().then(|| root.clone()));
+    let json = a.format == crate::args::TextFormat::Json;
+    let mut sweeps = Vec::new();
+    if let Some(cfg) = &a.config {
+        let text = std::fs::read_to_string(cfg)
+            .map_err(|e| anyhow::anyhow!("--config {}: {e}", cfg.display()))?;
+        let registry = shscale_experiments::registry();
+        sweeps.push(bench::sweep(&text, &registry, &root.join("config"))?);
+    }
+    for &n in &sizes {
+        sweeps.push(bench::sweep(
+            &bench::tally_config(n),
+            &[&TALLY],
+            &root.join(n.to_string()),
+        )?);
+        if !json {
+            eprintln!("{} runs done", n);
+        }
+    }
+    let merge = match sizes.iter().max() {
+        Some(&n) if a.shards > 0 => Some(bench::merge_shards(
+            &root
+                .join(n.to_string())
+                .join("tally")
+                .join(format!("tally-{n}")),
+            a.shards,
+        )?),
+        _ => None,
+    };
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "threads": rayon::current_num_threads(),
+            "sweeps": sweeps,
+            "merge": merge,
+        }))?;
+        return Ok(());
+    }
+    println!(
+        "runner bookkeeping — {}, {} rayon threads; seconds of wall time",
+        if a.config.is_some() {
+            "the config's sweep"
+        } else {
+            "a kind that does no work"
+        },
+        rayon::current_num_threads()
+    );
+    println!();
+    println!("| runs | plan | run | runs' work | report | total / work | overhead per run | resume (nothing to do) | runs.csv | report.html | peak RSS |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for s in &sweeps {
+        println!(
+            "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} µs | {:.3} | {:.1} MB | {:.0} kB | {:.0} MB |",
+            s.runs,
+            s.plan_s,
+            s.run_s,
+            s.work_s,
+            s.report_s,
+            s.total_over_work,
+            s.overhead_per_run_s * 1e6,
+            s.resume_s,
+            s.csv_bytes as f64 / 1e6,
+            s.html_bytes as f64 / 1e3,
+            s.peak_rss_bytes as f64 / 1e6,
+        );
+    }
+    if let Some(m) = merge {
+        println!();
+        println!(
+            "merge of {} shard files ({} rows): {:.3} s, then its report {:.3} s",
+            m.shards, m.rows, m.merge_s, m.report_s
+        );
+    }
+    Ok(())
 }
 
 /// `bench rays`: a ray set (a file, the BSV workload or random rays) through the BVH.
@@ -200,9 +307,7 @@ fn bench_rays(
         None => match a.workload {
             Workload::Bsv => (RaySet::bsv(&m, 12, 20, 32), "bsv".to_string()),
             Workload::Random => {
-                if !(1..=MAX_KERNEL_RAYS).contains(&a.count) {
-                    anyhow::bail!("--count: {} is outside 1..={MAX_KERNEL_RAYS}", a.count);
-                }
+                flags::int("--count", a.count, 1, MAX_KERNEL_RAYS)?;
                 (RaySet::random(&m, a.count, 20261122), "random".to_string())
             }
         },
@@ -240,17 +345,14 @@ fn bench_bsv(a: &crate::args::BenchBsvArgs, level: shscale_sh::simd::Level) -> a
     let m = mesh(&a.mesh)?;
     let layout = shscale_field::bsv::Layout::parse(&a.layout)
         .map_err(|e| anyhow::anyhow!("--layout: {e}"))?;
-    if !(1..=shscale_scene::vocab::MAX_VISIBILITY_RES).contains(&a.hemisphere_res) {
-        anyhow::bail!(
-            "--hemisphere-res: {} is outside 1..={}",
-            a.hemisphere_res,
-            shscale_scene::vocab::MAX_VISIBILITY_RES
-        );
-    }
+    flags::int(
+        "--hemisphere-res",
+        a.hemisphere_res,
+        1,
+        shscale_scene::vocab::MAX_VISIBILITY_RES,
+    )?;
     // The orders a scene may shade with (docs/config-reference.md).
-    if !(1..=16).contains(&a.order) {
-        anyhow::bail!("--order: {} is outside 1..=16", a.order);
-    }
+    flags::int("--order", a.order, 1, 16)?;
     let rays = layout.sample_count().unwrap_or(usize::MAX) as f64
         * (a.hemisphere_res * a.hemisphere_res) as f64;
     shscale_runner::limits::check_work(

@@ -11,7 +11,8 @@
 //! 3. Identities: `M_1 = I`, energy preservation of the energy-preserving M, orthonormality.
 
 use crate::args::DemoArgs;
-use anyhow::bail;
+use crate::flags;
+use shscale_runner::check::Ends;
 use shscale_scaling::{AngularScaling, Cone, Eta, ScalingMatrix};
 use shscale_sh::{cap_coeffs, DirectionSet, ShBasis};
 use std::f64::consts::PI;
@@ -27,12 +28,8 @@ fn l2(a: &[f64], b: &[f64]) -> f64 {
 }
 
 pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
-    if !(2..=32).contains(&a.order) {
-        bail!("--order: {} is outside 2..=32", a.order);
-    }
-    if !(a.alpha_deg > 0.0 && a.alpha_deg < 90.0) {
-        bail!("--alpha-deg: {} is outside (0, 90)", a.alpha_deg);
-    }
+    flags::int("--order", a.order, 2, 32)?;
+    flags::real("--alpha-deg", a.alpha_deg, 0.0, 90.0, Ends::Open)?;
     let json = a.format == crate::args::TextFormat::Json;
     let say = |line: String| {
         if !json {

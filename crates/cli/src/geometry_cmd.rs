@@ -1,6 +1,7 @@
 //! `shscale inspect` and `shscale visibility`.
 
 use crate::args::{parse_list, FormatArgsExt, FrameArg, InspectArgs, Quadrature, VisibilityArgs};
+use crate::flags;
 use crate::output::{print_coeffs, print_json};
 use anyhow::{bail, Context};
 use serde::Serialize;
@@ -105,12 +106,7 @@ struct VisOut<'a> {
 
 pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
     shscale_sh::check_order(a.order).context("--order")?;
-    if a.hemisphere_res == 0 || a.hemisphere_res > MAX_H {
-        bail!(
-            "--hemisphere-res: {} is outside 1..={MAX_H}",
-            a.hemisphere_res
-        );
-    }
+    flags::int("--hemisphere-res", a.hemisphere_res, 1, MAX_H)?;
     let p = parse_list("point", &a.point)?;
     if p.len() != 3 || p.iter().any(|v| !v.is_finite()) {
         bail!(
@@ -133,13 +129,12 @@ pub fn visibility(a: VisibilityArgs) -> anyhow::Result<ExitCode> {
                 .trim_start_matches("point 0: ")
         )
     })?;
-    if a.truth_res == 0 || a.truth_res > shscale_field::truth::MAX_TRUTH_RES {
-        bail!(
-            "--truth-res: {} is outside 1..={}",
-            a.truth_res,
-            shscale_field::truth::MAX_TRUTH_RES
-        );
-    }
+    flags::int(
+        "--truth-res",
+        a.truth_res,
+        1,
+        shscale_field::truth::MAX_TRUTH_RES,
+    )?;
     let frame = match a.frame {
         FrameArg::Entity => Frame::Entity,
         FrameArg::Local => Frame::Local,

@@ -6,6 +6,7 @@
 mod args;
 mod bench_cmd;
 mod demo;
+mod flags;
 mod geometry_cmd;
 mod matrix_cmd;
 mod output;

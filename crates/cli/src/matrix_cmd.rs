@@ -1,9 +1,11 @@
 //! `shscale matrix`: one dense scaling matrix, or a k-table with its interpolation error.
 
 use crate::args::{parse_list, Format, InterpArg, MatrixArgs, SpacingArg, TauArg};
+use crate::flags;
 use crate::output::{print_json, print_matrix};
 use anyhow::{bail, Context};
 use serde::Serialize;
+use shscale_runner::check::Ends;
 use shscale_scaling::{
     structural_nonzeros, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily,
 };
@@ -49,9 +51,7 @@ struct TableOut {
 }
 
 pub fn run(a: MatrixArgs) -> anyhow::Result<ExitCode> {
-    if a.order == 0 || a.order > MATRIX_MAX_ORDER {
-        bail!("--order: {} is outside 1..={MATRIX_MAX_ORDER}", a.order);
-    }
+    flags::int("--order", a.order, 1, MATRIX_MAX_ORDER)?;
     let family = family_of(&a)?;
     let alpha_deg = if a.tau == TauArg::Cone {
         a.alpha_deg
@@ -75,9 +75,7 @@ fn family_of(a: &MatrixArgs) -> anyhow::Result<TauFamily> {
             let alpha = a
                 .alpha_deg
                 .context("--alpha-deg is required for --tau cone")?;
-            if !(alpha > 0.0 && alpha < 90.0) {
-                bail!("--alpha-deg: {alpha} is outside (0, 90)");
-            }
+            flags::real("--alpha-deg", alpha, 0.0, 90.0, Ends::Open)?;
             TauFamily::Cone {
                 alpha: alpha.to_radians(),
             }
@@ -141,9 +139,7 @@ fn table(
 ) -> anyhow::Result<()> {
     // The same bound as `k_count` of the experiment kinds: at N = 32 a table of 10⁴
     // matrices (≈ 0.06 s each here, ×4 with the error check) takes ≈ 40 min and 1.7 GB.
-    if !(2..=MAX_K_COUNT).contains(&count) {
-        bail!("--table: {count} is outside 2..={MAX_K_COUNT}");
-    }
+    flags::int("--table", count, 2, MAX_K_COUNT)?;
     let range = a
         .k_range
         .as_deref()

@@ -1,10 +1,14 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
 use crate::args::{MethodArg, RenderArgs, TextFormat};
+use crate::flags;
 use anyhow::{bail, Context};
 use shscale_scene::render::{render, render_sequence, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
+
+/// The most frames `render --frames` renders.
+const MAX_FRAMES: usize = 10_000;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_args(&a)?;
@@ -67,9 +71,7 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(frames) = a.frames {
-        if frames == 0 || frames > 10_000 {
-            bail!("--frames: {frames} is outside 1..=10000");
-        }
+        flags::int("--frames", frames, 1, MAX_FRAMES)?;
     }
     Ok(())
 }
@@ -243,9 +245,7 @@ fn sequence(
     if method != Method::Extrapolated {
         bail!("--frames: sequences are rendered with --method extrapolated only");
     }
-    if frames == 0 || frames > 10_000 {
-        bail!("--frames: {frames} is outside 1..=10000");
-    }
+    flags::int("--frames", frames, 1, MAX_FRAMES)?;
     if a.gpu {
         return gpu_sequence(a, scene, frames);
     }

@@ -153,7 +153,7 @@ impl RunProgress {
                 }
                 self.log(what);
             }
-            RunEvent::Done(line) => {
+            RunEvent::Done { line, .. } => {
                 self.log(line);
                 if let Some(b) = self.bar.get() {
                     b.inc(1);
@@ -187,7 +187,11 @@ impl RunProgress {
 
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
     let registry = shscale_experiments::registry();
-    let m = runner::merge(&a.dirs, a.out.as_deref(), &registry)?;
+    let opts = runner::MergeOptions {
+        replace: a.replace,
+        allow_mixed: a.allow_mixed,
+    };
+    let m = runner::merge(&a.dirs, a.out.as_deref(), &registry, opts)?;
     let r = runner::report(m.kind, &m.out)?;
     if a.format == crate::args::TextFormat::Json {
         crate::output::print_json(&serde_json::json!({
@@ -221,6 +225,8 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         partition: a.partition,
         cpus_per_task: a.cpus_per_task,
         account: a.account,
+        array_parallel: a.array_parallel,
+        dependency: a.dependency,
     };
     print!(
         "{}",

@@ -30,7 +30,7 @@
 //! k = [-0.5, 0.5]
 //! ```
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 
 /// Where a config value came from.
@@ -691,9 +691,10 @@ impl Places<'_> {
         };
         if let Some((p, _)) = zip.first() {
             let n = zip.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
+            let mut first = HashMap::with_capacity(n);
             for i in 0..n {
-                if let Some(j) = (0..i).find(|&j| zip.iter().all(|(_, v)| same_value(&v[i], &v[j])))
-                {
+                let tuple: Vec<String> = zip.iter().map(|(_, v)| value_key(&v[i])).collect();
+                if let Some(&j) = first.get(&tuple) {
                     return Err(ConfigError {
                         key: path_name(p),
                         ..self.error(&item(p, i), format!(
@@ -703,11 +704,13 @@ impl Places<'_> {
                         ))
                     });
                 }
+                first.insert(tuple, i);
             }
         }
         for (p, vals) in leaves {
+            let mut first = HashMap::with_capacity(vals.len());
             for (i, v) in vals.iter().enumerate() {
-                if let Some(j) = vals[..i].iter().position(|w| same_value(v, w)) {
+                if let Some(&j) = first.get(&value_key(v)) {
                     return Err(ConfigError {
                         key: path_name(p),
                         ..self.error(&item(p, i), format!(
@@ -717,6 +720,7 @@ impl Places<'_> {
                         ))
                     });
                 }
+                first.insert(value_key(v), i);
             }
         }
         Ok(())
@@ -781,12 +785,14 @@ impl Places<'_> {
     }
 }
 
-/// Equal as values (integers and floats compare numerically: `[1, 1.0]` is a duplicate).
-fn same_value(a: &toml::Value, b: &toml::Value) -> bool {
-    let num = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
-    match (num(a), num(b)) {
-        (Some(x), Some(y)) => x == y,
-        _ => a == b,
+/// A key equal for two values exactly when they are the same sweep value: numbers by value
+/// (`1` and `1.0` are one value, so are `-0` and `0`), everything else as written. The
+/// duplicate checks of sweep lists hash it, so a list of n values is checked in O(n).
+fn value_key(v: &toml::Value) -> String {
+    match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+        // -0 and 0 are the same value.
+        Some(x) => format!("n{}", if x == 0.0 { 0.0 } else { x }),
+        None => format!("v{v}"),
     }
 }
 

@@ -189,6 +189,9 @@ pub trait DynKind: Send + Sync {
     /// Re-resolve a run from its CSV cells (`headers` and `cells` of the parameter columns),
     /// for validating rows on resume and merge. Errors are reasons, in words.
     fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String>;
+    /// The run id and rows per run of parameter cells: [`DynKind::resolve_cells`] without the
+    /// cost, group and parameters, for validating rows (once per row read on resume and merge).
+    fn id_of_cells(&self, headers: &[String], cells: &[String]) -> Result<(String, usize), String>;
     /// Check that row cells have the row struct's types.
     fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String>;
     /// Run a group: the shared work once, then every run (in parallel when `parallel`);
@@ -233,8 +236,8 @@ impl<K: Kind> Default for Erased<K> {
 
 impl<K: Kind> Erased<K> {
     fn resolved(&self, p: K::Params, spec: K::Spec) -> Result<Resolved, String> {
-        let (_, cells) = records::to_cells(&p)?;
-        let canonical = records::canonical(&p)?;
+        let (headers, cells) = records::to_cells(&p)?;
+        let canonical = records::canonical_of(&headers, &cells);
         let (shared_cost, cost) = K::cost(&p);
         Ok(Resolved {
             id: records::run_id(K::NAME, &canonical),
@@ -293,6 +296,13 @@ impl<K: Kind> DynKind for Erased<K> {
         let p: K::Params = records::from_cells(headers, cells)?;
         let spec = K::resolve(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
         self.resolved(p, spec)
+    }
+    fn id_of_cells(&self, headers: &[String], cells: &[String]) -> Result<(String, usize), String> {
+        let p: K::Params = records::from_cells(headers, cells)?;
+        K::resolve(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
+        let (h, c) = records::to_cells(&p)?;
+        let id = records::run_id(K::NAME, &records::canonical_of(&h, &c));
+        Ok((id, K::rows_per_run(&p)))
     }
     fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String> {
         records::from_cells::<K::Row>(headers, cells).map(|_| ())

@@ -16,12 +16,14 @@
 //! | [`report`] | the summary, `report.md` and `report.html` |
 //! | [`plots`], [`figure`], [`image`] | line plots, image grids, EXR/PNG files |
 //! | [`timing`], [`limits`] | the timing procedure; the work limits |
+//! | [`bench`] | the runner's own cost per run (`shscale bench runner`) |
 //! | [`atomic`] | atomic file output |
 //! | [`check`] | range checks that state the range they test |
 //! | [`reference`] | the config reference |
 //! | [`device`] | the `gpu` setting and an opened device |
 
 pub mod atomic;
+pub mod bench;
 pub mod check;
 pub mod config;
 pub mod device;
@@ -47,7 +49,7 @@ pub use device::{Device, GpuMode};
 pub use error::Error;
 pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells, Typed};
 pub use manifest::Manifest;
-pub use merge::{merge, MergeSummary};
+pub use merge::{merge, MergeOptions, MergeSummary};
 pub use plan::Plan;
 pub use report::{report, title_and_claim, Report};
 pub use run::{run_plan, RunEvent, RunSummary};

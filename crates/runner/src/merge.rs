@@ -1,5 +1,15 @@
 //! The merge of shard files: every row validated as on resume, runs deduplicated by id, the
-//! manifests' versions united, then the report.
+//! manifests' versions united, then the report. Linear in the rows: each file is read and
+//! validated once, and the runs already taken are a hash set.
+//!
+//! **Never mixed silently.** Shards of different config versions (text, overrides or code
+//! revision, as `manifest.toml` records them) or rows of different code revisions (their
+//! `git_revision` and `git_dirty` cells) are refused, naming both, unless the caller allows
+//! mixing ([`MergeOptions::allow_mixed`]: the rows still carry every parameter and revision).
+//!
+//! **Never overwrites by accident.** An existing `<out>/runs.csv` is refused unless
+//! [`MergeOptions::replace`] (the merge job of a script `shscale slurm` wrote, which owns its
+//! output): then `runs.csv` and `manifest.toml` are replaced together, atomically.
 
 use crate::atomic::write_atomic_all;
 use crate::error::Error;
@@ -7,8 +17,17 @@ use crate::kind::DynKind;
 use crate::manifest::Manifest;
 use crate::records;
 use crate::store::{header, load_rows};
-use std::collections::BTreeSet;
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+
+/// How [`merge`] treats an existing output and mixed inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MergeOptions {
+    /// Replace an existing `<out>/runs.csv` (and its manifest) atomically instead of refusing.
+    pub replace: bool,
+    /// Merge inputs of different config versions or code revisions.
+    pub allow_mixed: bool,
+}
 
 /// What [`merge`] did.
 pub struct MergeSummary {
@@ -21,11 +40,13 @@ pub struct MergeSummary {
 /// Merge the `runs*.csv` of `dirs` into `out` (default `<dirs[0]>/merged`), a new directory:
 /// every row validated as on resume (an invalid one is an error naming its file and line), runs
 /// deduplicated by id (the first file's rows win), the manifests' versions united, then the
-/// report. Never overwrites an input: `out/runs.csv` must not exist.
+/// report. `out/runs.csv` must not exist unless `opts.replace`; inputs of several config
+/// versions or code revisions are refused unless `opts.allow_mixed` (module documentation).
 pub fn merge(
     dirs: &[PathBuf],
     out: Option<&Path>,
     registry: &[&'static dyn DynKind],
+    opts: MergeOptions,
 ) -> Result<MergeSummary, Error> {
     let first = dirs
         .first()
@@ -33,7 +54,7 @@ pub fn merge(
     let out = out.map_or_else(|| first.join("merged"), Path::to_path_buf);
     let files = shard_files(dirs)?;
     let target = out.join("runs.csv");
-    if target.exists() {
+    if target.exists() && !opts.replace {
         return Err(Error::Io {
             path: target.display().to_string(),
             reason: "exists; merge never overwrites — choose another --out".into(),
@@ -41,7 +62,7 @@ pub fn merge(
     }
     let kind = kind_of(first, &files[0], registry)?;
     let kind_name = kind.name().to_string();
-    let mut seen = BTreeSet::new();
+    let mut seen: HashSet<String> = HashSet::new();
     let mut rows = Vec::new();
     let mut manifest = Manifest {
         experiment: kind_name.clone(),
@@ -51,6 +72,13 @@ pub fn merge(
         versions: Vec::new(),
     };
     unite_manifests(dirs, &kind_name, &mut manifest)?;
+    if !opts.allow_mixed {
+        one_version(&manifest)?;
+    }
+    let want = header(kind);
+    let revision_at = want.iter().position(|c| c == "git_revision");
+    let dirty_at = want.iter().position(|c| c == "git_dirty");
+    let mut revision: Option<(String, PathBuf)> = None;
     for f in &files {
         let l = load_rows(kind, f)?;
         if let Some((line, why, _)) = l.rejected.first() {
@@ -59,7 +87,12 @@ pub fn merge(
                 reason: format!("{why}; nothing merged"),
             });
         }
-        let mut ids_here = BTreeSet::new();
+        if !opts.allow_mixed {
+            if let (Some(ri), Some(di)) = (revision_at, dirty_at) {
+                one_revision(&l.rows, ri, di, f, &mut revision)?;
+            }
+        }
+        let mut ids_here = HashSet::new();
         for r in l.rows {
             if !seen.contains(&r[0]) {
                 ids_here.insert(r[0].clone());
@@ -82,6 +115,61 @@ pub fn merge(
         rows: rows.len(),
         kind,
     })
+}
+
+/// The united manifest holds one config version, else an error naming two of them.
+fn one_version(m: &Manifest) -> Result<(), Error> {
+    if let [a, b, ..] = m.versions.as_slice() {
+        let what = |v: &crate::manifest::Version| {
+            format!(
+                "{} ({}{}, revision {}{})",
+                v.id,
+                v.config_file,
+                if v.overrides.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {}", v.overrides.join(" "))
+                },
+                v.provenance.git_revision,
+                if v.provenance.git_dirty { "+dirty" } else { "" }
+            )
+        };
+        return Err(Error::Config(format!(
+            "merge: the inputs hold {} config versions, e.g. {} and {}: results of different configs or code revisions are not merged silently; merge each apart, or pass --allow-mixed (every row keeps its parameters and revision)",
+            m.versions.len(),
+            what(a),
+            what(b)
+        )));
+    }
+    Ok(())
+}
+
+/// Every row of `file` has the code revision (`git_revision` at `ri`, `git_dirty` at `di`) of
+/// the rows before it (`first`: the first one seen, with its file).
+fn one_revision(
+    rows: &[Vec<String>],
+    ri: usize,
+    di: usize,
+    file: &Path,
+    first: &mut Option<(String, PathBuf)>,
+) -> Result<(), Error> {
+    for r in rows {
+        let rev = format!("{}{}", r[ri], if r[di] == "true" { "+dirty" } else { "" });
+        match first {
+            None => *first = Some((rev, file.to_path_buf())),
+            Some((want, f0)) if *want != rev => {
+                return Err(Error::Io {
+                    path: file.display().to_string(),
+                    reason: format!(
+                        "holds rows of code revision {rev}, {} rows of {want}: results of different code revisions are not merged silently; merge each apart, or pass --allow-mixed",
+                        f0.display()
+                    ),
+                })
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 /// The `runs*.csv` files of `dirs`, sorted within each directory; at least one.

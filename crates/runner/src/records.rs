@@ -8,13 +8,17 @@ use std::path::Path;
 
 /// Header and cells of one flat struct, as the `csv` crate writes them.
 pub fn to_cells<T: Serialize>(v: &T) -> Result<(Vec<String>, Vec<String>), String> {
+    // Small buffers: one flat record, written and read once per call (per run and per row
+    // validated, so the default 8 KiB buffers would dominate its cost).
     let mut w = csv::WriterBuilder::new()
         .has_headers(true)
+        .buffer_capacity(512)
         .from_writer(Vec::new());
     w.serialize(v).map_err(|e| e.to_string())?;
     let bytes = w.into_inner().map_err(|e| e.to_string())?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
+        .buffer_capacity(512)
         .from_reader(bytes.as_slice());
     let headers: Vec<String> = r
         .headers()
@@ -32,8 +36,8 @@ pub fn to_cells<T: Serialize>(v: &T) -> Result<(Vec<String>, Vec<String>), Strin
 
 /// A flat struct from named cells (types checked by serde).
 pub fn from_cells<T: DeserializeOwned>(headers: &[String], cells: &[String]) -> Result<T, String> {
-    let h = csv::StringRecord::from(headers.to_vec());
-    let c = csv::StringRecord::from(cells.to_vec());
+    let h: csv::StringRecord = headers.iter().collect();
+    let c: csv::StringRecord = cells.iter().collect();
     c.deserialize(Some(&h)).map_err(|e| {
         let msg = e.to_string();
         // csv's messages carry a byte position of our in-memory record; keep the reason.
@@ -46,11 +50,21 @@ pub fn from_cells<T: DeserializeOwned>(headers: &[String], cells: &[String]) -> 
 /// The canonical serialisation of parameters: `name=cell;…` in field order.
 pub fn canonical<T: Serialize>(p: &T) -> Result<String, String> {
     let (h, c) = to_cells(p)?;
-    Ok(h.iter()
-        .zip(&c)
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect::<Vec<_>>()
-        .join(";"))
+    Ok(canonical_of(&h, &c))
+}
+
+/// [`canonical`] of parameters already in cells.
+pub fn canonical_of(headers: &[String], cells: &[String]) -> String {
+    let mut s = String::new();
+    for (i, (k, v)) in headers.iter().zip(cells).enumerate() {
+        if i > 0 {
+            s.push(';');
+        }
+        s.push_str(k);
+        s.push('=');
+        s.push_str(v);
+    }
+    s
 }
 
 /// FNV-1a (64 bit) of `kind` and the canonical parameters, hex.

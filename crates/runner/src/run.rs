@@ -45,8 +45,12 @@ pub enum RunEvent<'a> {
     },
     /// A shared computation starts.
     Shared(&'a str),
-    /// A run finished (its rows are on disk).
-    Done(&'a str),
+    /// A run finished (its rows are on disk): a line saying which, and the seconds its work
+    /// took.
+    Done {
+        line: &'a str,
+        secs: f64,
+    },
     /// Something set aside or waited for.
     Warn(&'a str),
 }
@@ -133,10 +137,10 @@ pub fn run_plan(
         let concurrent = plan.parallel_runs && runs.len() > 1;
         kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
             writer.write_run(r, rows, concurrent)?;
-            progress(RunEvent::Done(&format!(
-                "{} {} in {secs:.2} s",
-                r.id, r.canonical
-            )));
+            progress(RunEvent::Done {
+                line: &format!("{} {} in {secs:.2} s", r.id, r.canonical),
+                secs,
+            });
             Ok(())
         })?;
     }

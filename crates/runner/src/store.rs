@@ -87,40 +87,43 @@ pub(crate) fn validate(kind: &dyn DynKind, want: &[String], raw: Vec<records::Cs
         &want[2 + np + nr..],
     );
     let mut out = Loaded::default();
+    // Each row checked on its own (in parallel: this is most of a resume's or merge's time),
+    // then grouped in file order.
+    use rayon::prelude::*;
+    let check = |r: &Vec<String>| -> Result<usize, String> {
+        if r.len() != want.len() {
+            return Err(format!("{} cells, the header has {}", r.len(), want.len()));
+        }
+        if r[1] != kind.name() {
+            return Err(format!("experiment {:?} is not {:?}", r[1], kind.name()));
+        }
+        let (id, rows) =
+            (kind.id_of_cells(ph, &r[2..2 + np])).map_err(|m| format!("parameters: {m}"))?;
+        if id != r[0] {
+            return Err(format!(
+                "run id {} does not match its parameters (they hash to {id})",
+                r[0]
+            ));
+        }
+        kind.check_row(rh, &r[2 + np..2 + np + nr])
+            .and_then(|_| records::from_cells::<RowProvenance>(vh, &r[2 + np + nr..]).map(|_| ()))
+            .map_err(|m| format!("cells: {m}"))?;
+        Ok(rows)
+    };
+    let verdicts: Vec<Result<usize, String>> = raw.par_iter().map(|(_, r)| check(r)).collect();
     // Runs in the order they first appear, with their rows; `index` finds a run's slot.
     let mut by_run: Vec<(String, usize, Vec<records::CsvLine>)> = Vec::new();
     let mut index: HashMap<String, usize> = HashMap::new();
-    for (line, r) in raw {
-        let reason = if r.len() != want.len() {
-            Some(format!("{} cells, the header has {}", r.len(), want.len()))
-        } else if r[1] != kind.name() {
-            Some(format!("experiment {:?} is not {:?}", r[1], kind.name()))
-        } else {
-            match kind.resolve_cells(ph, &r[2..2 + np]) {
-                Err(m) => Some(format!("parameters: {m}")),
-                Ok(res) if res.id != r[0] => Some(format!(
-                    "run id {} does not match its parameters (they hash to {})",
-                    r[0], res.id
-                )),
-                Ok(res) => kind
-                    .check_row(rh, &r[2 + np..2 + np + nr])
-                    .and_then(|_| {
-                        records::from_cells::<RowProvenance>(vh, &r[2 + np + nr..]).map(|_| ())
-                    })
-                    .err()
-                    .map(|m| format!("cells: {m}"))
-                    .or_else(|| {
-                        let slot = *index.entry(res.id.clone()).or_insert_with(|| {
-                            by_run.push((res.id.clone(), res.rows, Vec::new()));
-                            by_run.len() - 1
-                        });
-                        by_run[slot].2.push((line, r.clone()));
-                        None
-                    }),
+    for ((line, r), verdict) in raw.into_iter().zip(verdicts) {
+        match verdict {
+            Err(why) => out.rejected.push((line, why, r)),
+            Ok(rows) => {
+                let slot = *index.entry(r[0].clone()).or_insert_with(|| {
+                    by_run.push((r[0].clone(), rows, Vec::new()));
+                    by_run.len() - 1
+                });
+                by_run[slot].2.push((line, r));
             }
-        };
-        if let Some(why) = reason {
-            out.rejected.push((line, why, r));
         }
     }
     for (id, want_rows, rows) in by_run {

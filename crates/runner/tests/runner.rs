@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use shscale_runner::config::Overrides;
 use shscale_runner::{
     header, load_rows, merge, run_plan, slurm_script, Cost, Ctx, DynKind, Erased, Error, KeyError,
-    Kind, Manifest, Plan, RunEvent, SlurmOptions,
+    Kind, Manifest, MergeOptions, Plan, RunEvent, SlurmOptions,
 };
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -301,7 +301,7 @@ fn shards_partition_the_plan_and_merge_joins_them() {
     assert!(run_plan(&plan, &d, Some((3, 3)), &|_| {}).is_err());
     let dirs = vec![shards[0].dir.clone()];
     let out = d.join("merged");
-    let m = merge(&dirs, Some(&out), &registry()).unwrap();
+    let m = merge(&dirs, Some(&out), &registry(), MergeOptions::default()).unwrap();
     assert_eq!((m.files, m.rows), (3, 12));
     assert_eq!(
         ids_in(&out.join("runs.csv"))
@@ -310,11 +310,87 @@ fn shards_partition_the_plan_and_merge_joins_them() {
         all
     );
     // A merge never overwrites its output.
-    let e = merge(&dirs, Some(&out), &registry())
+    let e = merge(&dirs, Some(&out), &registry(), MergeOptions::default())
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("runs.csv"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn merge_refuses_mixed_versions_and_revisions_and_replaces_only_when_asked() {
+    let plan = parse(CONFIG).unwrap();
+    let d = tmp("mixed");
+    for i in 0..2 {
+        run_plan(&plan, &d, Some((i, 2)), &|_| {}).unwrap();
+    }
+    let dir = d.join("product").join("c");
+    let out = d.join("merged");
+    let dirs = vec![dir.clone()];
+    let replace = MergeOptions {
+        replace: true,
+        ..MergeOptions::default()
+    };
+    // The merge a script owns replaces its own output, atomically and with the same rows.
+    merge(&dirs, Some(&out), &registry(), MergeOptions::default()).unwrap();
+    let first = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    let m = merge(&dirs, Some(&out), &registry(), replace).unwrap();
+    assert_eq!(m.rows, 12);
+    assert_eq!(
+        std::fs::read_to_string(out.join("runs.csv")).unwrap(),
+        first
+    );
+    // Rows of another code revision in one shard: refused, naming both files.
+    let shard = dir.join("runs.shard-1-of-2.csv");
+    let text = std::fs::read_to_string(&shard).unwrap();
+    let rev = &load_rows(&PRODUCT, &shard).unwrap().rows[0];
+    let at = header(&PRODUCT)
+        .iter()
+        .position(|c| c == "git_revision")
+        .unwrap();
+    let other = text.replace(&format!(",{},", rev[at]), ",0123abc,");
+    assert_ne!(other, text, "the revision cell was not found to change");
+    std::fs::write(&shard, other).unwrap();
+    let e = merge(&dirs, Some(&out), &registry(), replace)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("code revision")
+            && e.contains("runs.shard-1-of-2.csv")
+            && e.contains("runs.shard-0-of-2.csv"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("runs.csv")).unwrap(),
+        first,
+        "a refused merge changes nothing"
+    );
+    let mixed = MergeOptions {
+        replace: true,
+        allow_mixed: true,
+    };
+    assert_eq!(
+        merge(&dirs, Some(&out), &registry(), mixed).unwrap().rows,
+        12
+    );
+    std::fs::write(&shard, text).unwrap();
+    // A second config version in the same directory (an edited fixed key): refused.
+    let edited = parse(&CONFIG.replace("scale = 2.0", "scale = 3.0")).unwrap();
+    run_plan(&edited, &d, None, &|_| {}).unwrap();
+    let e = merge(&dirs, Some(&out), &registry(), replace)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("2 config versions") && e.contains("--allow-mixed"),
+        "{e}"
+    );
+    assert_eq!(
+        merge(&dirs, Some(&out), &registry(), mixed).unwrap().rows,
+        24
+    );
     std::fs::remove_dir_all(&d).ok();
 }
 

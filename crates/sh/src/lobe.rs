@@ -6,7 +6,7 @@
 //! "An efficient representation for irradiance environment maps", Eq. 8; there `Â_l = 2π·∫`).
 //! `C(l, l/2)/2^l` is formed as a running product so nothing overflows at any order.
 //! Irradiance at normal `n` under lighting `L`: `E(n) = ∫ L(ω) max(0, n·ω) dω = Σ L_i c_i(n)` with
-//! `c(n)` the lobe rotated onto `n` ([`crate::rotate_zonal`]).
+//! `c(n)` the lobe rotated onto `n` ([`crate::rotation::rotate_zonal`]).
 
 use crate::error::ShError;
 
@@ -77,7 +77,7 @@ impl<T: Real> ClampedCosine<T> {
 
 /// One-shot irradiance: `E(n)` for lighting `light` (length `N²`) at unit normal `n`.
 pub fn irradiance(light: &[f64], n: [f64; 3]) -> Result<f64, ShError> {
-    let order = crate::order_of_len(light.len()).ok_or(ShError::CoeffCount {
+    let order = crate::index::order_of_len(light.len()).ok_or(ShError::CoeffCount {
         order: 0,
         expected: 0,
         got: light.len(),

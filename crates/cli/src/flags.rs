@@ -1,0 +1,16 @@
+//! Range checks of command-line flags through the runner's one range-check helper
+//! (`shscale_runner::check`), so every "is outside" message states the range it tests:
+//! `--order: 0 is outside 1..=16`.
+
+use shscale_runner::check::{self, Ends};
+use std::fmt::Display;
+
+/// `v` when `lo ≤ v ≤ hi`, else the error `"{flag}: {v} is outside {lo}..={hi}"`.
+pub fn int<T: PartialOrd + Display + Copy>(flag: &str, v: T, lo: T, hi: T) -> anyhow::Result<T> {
+    check::int(v, lo, hi).map_err(|m| anyhow::anyhow!("{flag}: {m}"))
+}
+
+/// `v` when it is finite and in the interval, else `"{flag}: {v} is outside {interval}"`.
+pub fn real(flag: &str, v: f64, lo: f64, hi: f64, ends: Ends) -> anyhow::Result<f64> {
+    check::real(v, lo, hi, ends).map_err(|m| anyhow::anyhow!("{flag}: {m}"))
+}
