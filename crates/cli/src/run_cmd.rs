@@ -39,12 +39,14 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
     let registry = shscale_experiments::registry();
-    let plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
     if a.dry_run {
-        print!("{}", plan.describe(shard));
-        plan.check_limits(a.allow_large)?;
+        // Surveyed run by run, never held: a plan of 10⁶ runs answers in seconds.
+        let s = runner::plan::survey_file(&config, &overrides(&a.overrides), &registry)?;
+        print!("{}", s.describe(shard));
+        s.estimate.check_limits(&s.file, a.allow_large)?;
         return Ok(ExitCode::SUCCESS);
     }
+    let plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
     plan.check_limits(a.allow_large)?;
     let json = a.format == crate::args::TextFormat::Json;
     if !json {

@@ -337,7 +337,9 @@ pub struct Combination {
     pub swept: Vec<(KeyPath, Place)>,
 }
 
-/// A config with overrides applied, split into runner keys and the kind's combinations.
+/// A config with overrides applied, split into runner keys and the kind's combinations —
+/// which are made one at a time, on demand ([`Expanded::combination`]): a sweep of 10⁶
+/// combinations holds its axes, not 10⁶ tables.
 pub struct Expanded {
     pub source: Source,
     pub runner: RunnerKeys,
@@ -345,13 +347,72 @@ pub struct Expanded {
     pub set_places: Vec<(KeyPath, Place)>,
     /// Sweep axes in expansion order (dotted names).
     pub axes: Vec<String>,
-    pub combinations: Vec<Combination>,
+    /// The kind's table before any sweep value is set.
+    doc: toml::Table,
+    /// The `[sweep]` blocks, and how many combinations each makes.
+    blocks: Vec<(Vec<Axis>, usize)>,
 }
 
-/// The most combinations a config may expand to before its runs are even resolved.
-pub const MAX_COMBINATIONS: usize = 100_000;
+/// The most combinations a config may expand to at all (`--dry-run` surveys plans up to this
+/// size; a plan that runs holds at most [`crate::plan::MAX_RUNS`]).
+pub const MAX_COMBINATIONS: usize = 10_000_000;
 
 impl Expanded {
+    /// The number of combinations (every block's product, added).
+    pub fn len(&self) -> usize {
+        self.blocks.iter().map(|(_, n)| n).sum()
+    }
+
+    /// Whether the sweep makes no combination (never: an empty axis is refused).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Combination `i` (`i < len()`), in expansion order: the blocks in turn, within a block
+    /// the cartesian product of its axes with the first axis varying slowest.
+    pub fn combination(&self, i: usize) -> Result<Combination, ConfigError> {
+        let mut rest = i;
+        let (axes, _) = (self.blocks.iter())
+            .find(|(_, n)| {
+                let here = rest < *n;
+                if !here {
+                    rest -= n;
+                }
+                here
+            })
+            .ok_or_else(|| ConfigError {
+                place: Place::File(self.source.file.clone()),
+                key: "sweep".into(),
+                message: format!("combination {i} is beyond the {} of the sweep", self.len()),
+            })?;
+        let mut steps = vec![0; axes.len()];
+        for (a, step) in axes.iter().zip(steps.iter_mut()).rev() {
+            *step = rest % a.values.len();
+            rest /= a.values.len();
+        }
+        let mut c = Combination {
+            table: self.doc.clone(),
+            swept: Vec::new(),
+        };
+        for (a, &step) in axes.iter().zip(&steps) {
+            for (((rel, full), v), place) in a.keys.iter().zip(&a.values[step]).zip(&a.places[step])
+            {
+                set_path(&mut c.table, rel, v.clone()).map_err(|message| ConfigError {
+                    place: place.clone(),
+                    key: path_name(full),
+                    message,
+                })?;
+                c.swept.push((rel.clone(), place.clone()));
+            }
+        }
+        Ok(c)
+    }
+
+    /// Every combination, in order ([`Expanded::combination`]).
+    pub fn combinations(&self) -> impl Iterator<Item = Result<Combination, ConfigError>> + '_ {
+        (0..self.len()).map(|i| self.combination(i))
+    }
+
     /// Where the value at `path` (of one combination) came from: its sweep list element, the
     /// `--set` flag, its line in the file, or the file (a default).
     pub fn place_of(&self, combo: &Combination, path: &[Seg]) -> Place {
@@ -408,16 +469,34 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
         sweep_flags,
     };
     let (runner, sweep) = runner_keys(&mut doc, &set_places, &places)?;
-    let blocks = places.blocks(sweep)?;
-    check_total(file, &blocks)?;
-    let (axes, combinations) = places.combine(&doc, &blocks)?;
-    Ok(Expanded {
-        source,
+    let mut blocks = places.blocks(sweep)?;
+    let counts = check_total(file, &blocks)?;
+    let mut axis_names: Vec<String> = Vec::new();
+    for a in blocks.iter_mut().flatten() {
+        a.places = places.step_places(a);
+        for (k, _) in &a.keys {
+            let n = path_name(k);
+            if !axis_names.contains(&n) {
+                axis_names.push(n);
+            }
+        }
+    }
+    let ex = Expanded {
         runner,
         set_places,
-        axes,
-        combinations,
-    })
+        axes: axis_names,
+        doc,
+        blocks: blocks.into_iter().zip(counts).collect(),
+        source,
+    };
+    // A swept key that cannot be set (its parent is not a table) is an error of the config,
+    // found now: the first combination of every block sets every key of its axes.
+    let mut first = 0;
+    for (_, n) in &ex.blocks {
+        ex.combination(first)?;
+        first += n;
+    }
+    Ok(ex)
 }
 
 /// The config text as a TOML table; a syntax error at its line, naming the key written there.
@@ -512,13 +591,18 @@ fn runner_keys(
     Ok((runner, sweep))
 }
 
-/// The number of runs of `blocks` (their products, added) within [`MAX_COMBINATIONS`].
-fn check_total(file: &str, blocks: &[Vec<Axis>]) -> Result<(), ConfigError> {
-    let total = blocks.iter().try_fold(0usize, |sum, axes| {
-        axes.iter()
-            .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
-            .and_then(|n| sum.checked_add(n))
-    });
+/// The number of runs of each block (its product) when all of them add up to at most
+/// [`MAX_COMBINATIONS`].
+fn check_total(file: &str, blocks: &[Vec<Axis>]) -> Result<Vec<usize>, ConfigError> {
+    let counts: Option<Vec<usize>> = (blocks.iter())
+        .map(|axes| {
+            axes.iter()
+                .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
+        })
+        .collect();
+    let total = counts
+        .as_ref()
+        .and_then(|c| c.iter().try_fold(0usize, |s, &n| s.checked_add(n)));
     if total.is_none_or(|t| t > MAX_COMBINATIONS) {
         return Err(ConfigError {
             place: Place::File(file.into()),
@@ -529,7 +613,7 @@ fn check_total(file: &str, blocks: &[Vec<Axis>]) -> Result<(), ConfigError> {
             ),
         });
     }
-    Ok(())
+    Ok(counts.unwrap_or_default())
 }
 
 /// One sweep axis: key paths relative to the kind's table with the path of their list in the
@@ -537,6 +621,9 @@ fn check_total(file: &str, blocks: &[Vec<Axis>]) -> Result<(), ConfigError> {
 struct Axis {
     keys: Vec<(KeyPath, KeyPath)>,
     values: Vec<Vec<toml::Value>>,
+    /// Where each step's value of each key came from (its list element or `--sweep` flag),
+    /// found once per step, not once per combination.
+    places: Vec<Vec<Place>>,
 }
 
 /// Lists under a sweep table, by path: `out` gets the plain lists, `zip` (at the block's top
@@ -651,6 +738,7 @@ impl Places<'_> {
             .map(|(p, vals)| Axis {
                 keys: vec![(rel(p), p.clone())],
                 values: vals.iter().map(|v| vec![v.clone()]).collect(),
+                places: Vec::new(),
             })
             .collect();
         if !zip.is_empty() {
@@ -669,6 +757,7 @@ impl Places<'_> {
                 values: (0..n)
                     .map(|i| zip.iter().map(|(_, v)| v[i].clone()).collect())
                     .collect(),
+                places: Vec::new(),
             });
         }
         self.check_swept_once(&axes)?;
@@ -738,50 +827,20 @@ impl Places<'_> {
         Ok(())
     }
 
-    /// Every combination of every block (the cartesian product of its axes, blocks united) and
-    /// the axis names in expansion order.
-    fn combine(
-        &self,
-        doc: &toml::Table,
-        blocks: &[Vec<Axis>],
-    ) -> Result<(Vec<String>, Vec<Combination>), ConfigError> {
-        let mut combinations = Vec::new();
-        let mut axis_names: Vec<String> = Vec::new();
-        for axes in blocks {
-            let mut block = vec![Combination {
-                table: doc.clone(),
-                swept: Vec::new(),
-            }];
-            for a in axes {
-                block = self.product(&block, a)?;
-            }
-            for (k, _) in axes.iter().flat_map(|a| &a.keys) {
-                let n = path_name(k);
-                if !axis_names.contains(&n) {
-                    axis_names.push(n);
-                }
-            }
-            combinations.extend(block);
-        }
-        Ok((axis_names, combinations))
-    }
-
-    /// Each combination of `block` with each step of axis `a`.
-    fn product(&self, block: &[Combination], a: &Axis) -> Result<Vec<Combination>, ConfigError> {
-        let mut next = Vec::with_capacity(block.len() * a.values.len());
-        for c in block {
-            for (i, vals) in a.values.iter().enumerate() {
-                let mut c2 = c.clone();
-                for ((rel, full), v) in a.keys.iter().zip(vals) {
-                    set_path(&mut c2.table, rel, v.clone()).map_err(|m| self.error(full, m))?;
-                    let mut ep = full.clone();
-                    ep.push(Seg::Index(i));
-                    c2.swept.push((rel.clone(), self.in_sweep(&ep)));
-                }
-                next.push(c2);
-            }
-        }
-        Ok(next)
+    /// Where each step's value of each key of `a` came from: its list element, or the
+    /// `--sweep` flag that set the axis.
+    fn step_places(&self, a: &Axis) -> Vec<Vec<Place>> {
+        (0..a.values.len())
+            .map(|i| {
+                (a.keys.iter())
+                    .map(|(_, full)| {
+                        let mut ep = full.clone();
+                        ep.push(Seg::Index(i));
+                        self.in_sweep(&ep)
+                    })
+                    .collect()
+            })
+            .collect()
     }
 }
 
@@ -877,11 +936,11 @@ mod tests {
     fn zip_and_product() {
         let text = "experiment = \"x\"\n[sweep]\na = [1, 2]\n[sweep.zip]\nb = [1, 2, 3]\nc = [\"x\", \"y\", \"z\"]\n";
         let ex = expand("c.toml", text, &Overrides::default()).unwrap();
-        assert_eq!(ex.combinations.len(), 6);
+        assert_eq!(ex.len(), 6);
         assert_eq!(ex.axes, vec!["a", "b", "c"]);
         let pairs: Vec<(i64, String)> = ex
-            .combinations
-            .iter()
+            .combinations()
+            .map(Result::unwrap)
             .map(|c| {
                 (
                     c.table["b"].as_integer().unwrap(),
@@ -899,20 +958,20 @@ mod tests {
     fn sweep_blocks_unite_their_products() {
         let text = "experiment = \"x\"\nk = 1\n[[sweep]]\ntau = [\"cone\"]\nk = [0.5, 2.0]\nalpha_deg = [20, 45]\n[[sweep]]\ntau = [\"midrange\"]\nk = [\n  -0.5,\n  0.5,\n]\n";
         let ex = expand("c.toml", text, &Overrides::default()).unwrap();
-        assert_eq!(ex.combinations.len(), 4 + 2);
-        let taus: Vec<&str> = ex
-            .combinations
-            .iter()
-            .map(|c| c.table["tau"].as_str().unwrap())
+        assert_eq!(ex.len(), 4 + 2);
+        let taus: Vec<String> = ex
+            .combinations()
+            .map(Result::unwrap)
+            .map(|c| c.table["tau"].as_str().unwrap().to_string())
             .collect();
         assert_eq!(
             taus,
             ["cone", "cone", "cone", "cone", "midrange", "midrange"]
         );
-        assert!(ex.combinations[5].table.get("alpha_deg").is_none());
+        assert!(ex.combination(5).unwrap().table.get("alpha_deg").is_none());
         // The second block's second k sits on line 11 of the file.
         assert_eq!(
-            ex.place_of(&ex.combinations[5], &parse_path("k")),
+            ex.place_of(&ex.combination(5).unwrap(), &parse_path("k")),
             Place::Line {
                 file: "c.toml".into(),
                 line: 11
@@ -924,7 +983,7 @@ mod tests {
             sweep: vec!["order=2,4".into()],
             ..Overrides::default()
         };
-        assert_eq!(expand("c.toml", text, &ov).unwrap().combinations.len(), 12);
+        assert_eq!(expand("c.toml", text, &ov).unwrap().len(), 12);
         // A duplicate inside a block is named at its element.
         let dup = "experiment = \"x\"\n[[sweep]]\nk = [1]\n[[sweep]]\nk = [2,\n 2]\n";
         let Err(e) = expand("c.toml", dup, &Overrides::default()) else {
@@ -948,18 +1007,18 @@ mod tests {
         };
         let ex = expand("c.toml", text, &ov).unwrap();
         assert_eq!(ex.runner.name.as_deref(), Some("n1"));
-        assert_eq!(ex.combinations.len(), 2);
-        let t = &ex.combinations[0].table;
+        assert_eq!(ex.len(), 2);
+        let t = &ex.combination(0).unwrap().table;
         assert_eq!(t["order"].as_integer(), Some(6));
         assert_eq!(t["mesh"].as_str(), Some("bunny"));
         assert_eq!(t["light"]["sun"].as_float(), Some(2.5));
         assert_eq!(t["radii"].as_array().unwrap().len(), 2);
         assert_eq!(
-            ex.place_of(&ex.combinations[1], &parse_path("radii")),
+            ex.place_of(&ex.combination(1).unwrap(), &parse_path("radii")),
             Place::Flag("--sweep radii=[1,2],[3]".into())
         );
         assert_eq!(
-            ex.place_of(&ex.combinations[1], &parse_path("order")),
+            ex.place_of(&ex.combination(1).unwrap(), &parse_path("order")),
             Place::Flag("--set order=6".into())
         );
     }
@@ -970,7 +1029,7 @@ mod tests {
         let ex = expand("s.toml", text, &Overrides::default()).unwrap();
         let p = parse_path("occluder[1].radius");
         assert_eq!(
-            ex.place_of(&ex.combinations[0], &p),
+            ex.place_of(&ex.combination(0).unwrap(), &p),
             Place::Line {
                 file: "s.toml".into(),
                 line: 6

@@ -8,7 +8,7 @@
 //! | [`kind`] | the seam: [`Kind`], its type-erased [`DynKind`], [`Ctx`], [`Cost`], [`KeyError`] |
 //! | [`config`] | config expansion: overrides, `[sweep]` products and zips, places of errors |
 //! | [`records`] | rows as CSV cells, run ids, the results table |
-//! | [`plan`] | a config resolved into runs, its cost and limits |
+//! | [`plan`], [`cost`] | a config resolved into runs (or surveyed for `--dry-run`); its cost and limits |
 //! | [`store`] | a results directory's lock, header and validated rows |
 //! | [`manifest`] | provenance and `manifest.toml` |
 //! | [`run`] | running a plan (resume, shards, groups) |
@@ -26,6 +26,7 @@ pub mod atomic;
 pub mod bench;
 pub mod check;
 pub mod config;
+pub mod cost;
 pub mod device;
 pub mod error;
 pub mod figure;

@@ -1,7 +1,10 @@
 //! Plans: a config with overrides resolved against the registry of kinds into validated runs with
-//! ids, their estimated cost (checked against the limits) and the results directory.
+//! ids, their estimated cost (checked against the limits, [`crate::cost`]) and the results
+//! directory; and the survey of a plan for `--dry-run`, which resolves the runs one at a time
+//! and keeps only the estimate.
 
 use crate::config::{self, ConfigError, Overrides, Place};
+use crate::cost::{Estimate, Tally};
 use crate::device::GpuMode;
 use crate::error::Error;
 use crate::kind::{DynKind, Resolved};
@@ -81,6 +84,11 @@ fn timing_of(
     Ok(timing)
 }
 
+/// The most runs one plan holds and runs (its runs are resolved and kept in memory, ≈ 2.4 kB
+/// each at 10⁵); `--dry-run` surveys plans up to [`config::MAX_COMBINATIONS`] without keeping
+/// them ([`survey`]).
+pub const MAX_RUNS: usize = 100_000;
+
 /// Every combination resolved by `kind` into a run; two combinations of one run are an error.
 fn resolve_runs(
     file: &str,
@@ -88,10 +96,17 @@ fn resolve_runs(
     ex: &config::Expanded,
 ) -> Result<Vec<Resolved>, Error> {
     use rayon::prelude::*;
+    if ex.len() > MAX_RUNS {
+        return Err(Error::Config(format!(
+            "{file}: sweep: the plan has {} runs, more than the limit {MAX_RUNS} one plan runs; split the sweep into several configs (or [[sweep]] blocks run as separate names), and see its cost with --dry-run",
+            ex.len()
+        )));
+    }
     // Resolved in parallel (a plan of 10⁵ runs spends seconds here), checked in order: the
     // first bad combination is the one reported.
-    let resolved: Vec<Result<Resolved, ConfigError>> = (ex.combinations.par_iter())
-        .map(|c| kind.resolve(ex, c))
+    let resolved: Vec<Result<Resolved, ConfigError>> = (0..ex.len())
+        .into_par_iter()
+        .map(|i| kind.resolve(ex, &ex.combination(i)?))
         .collect();
     let runs: Vec<Resolved> = resolved
         .into_iter()
@@ -111,33 +126,22 @@ fn resolve_runs(
     Ok(runs)
 }
 
-impl Plan {
-    /// Read and resolve a config file with overrides against the registry of kinds.
-    pub fn load(
-        path: &Path,
-        ov: &Overrides,
-        registry: &[&'static dyn DynKind],
-    ) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })?;
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_else(|| "experiment".into());
-        Self::parse(&path.display().to_string(), &stem, &text, ov, registry)
-    }
+/// What a plan takes from the runner's keys: its kind, name, `gpu` setting and timing.
+struct Head {
+    kind: &'static dyn DynKind,
+    name: String,
+    gpu: GpuMode,
+    timing: Procedure,
+}
 
-    /// Resolve config text (`file` names it in errors; `stem` is the default name).
-    pub fn parse(
+impl Head {
+    /// The runner's keys of `ex` resolved against `registry`, errors at their places.
+    fn of(
         file: &str,
         stem: &str,
-        text: &str,
-        ov: &Overrides,
+        ex: &config::Expanded,
         registry: &[&'static dyn DynKind],
     ) -> Result<Self, Error> {
-        let ex = config::expand(file, text, ov).map_err(cfg)?;
         let at_key = |key: &'static str| {
             let p = config::parse_path(key);
             let place = ex
@@ -178,7 +182,42 @@ impl Plan {
             None => GpuMode::Auto,
             Some(g) => GpuMode::parse(g).map_err(|m| cfg(at_key("gpu")(m)))?,
         };
-        let timing = timing_of(&ex, &at_key)?;
+        let timing = timing_of(ex, &at_key)?;
+        Ok(Self {
+            kind,
+            name,
+            gpu,
+            timing,
+        })
+    }
+}
+
+impl Plan {
+    /// Read and resolve a config file with overrides against the registry of kinds.
+    pub fn load(
+        path: &Path,
+        ov: &Overrides,
+        registry: &[&'static dyn DynKind],
+    ) -> Result<Self, Error> {
+        let (file, stem, text) = read_config(path)?;
+        Self::parse(&file, &stem, &text, ov, registry)
+    }
+
+    /// Resolve config text (`file` names it in errors; `stem` is the default name).
+    pub fn parse(
+        file: &str,
+        stem: &str,
+        text: &str,
+        ov: &Overrides,
+        registry: &[&'static dyn DynKind],
+    ) -> Result<Self, Error> {
+        let ex = config::expand(file, text, ov).map_err(cfg)?;
+        let Head {
+            kind,
+            name,
+            gpu,
+            timing,
+        } = Head::of(file, stem, &ex, registry)?;
         let runs = resolve_runs(file, kind, &ex)?;
         Ok(Self {
             kind,
@@ -209,68 +248,133 @@ impl Plan {
         groups
     }
 
-    /// The plan's estimated cost: total rays and seconds, the largest group's bytes.
+    /// The plan's estimated cost: total rays and seconds (bookkeeping included), the largest
+    /// group's bytes.
     pub fn estimate(&self) -> Estimate {
-        let mut e = Estimate {
-            runs: self.runs.len(),
-            ..Default::default()
-        };
-        for g in self.groups() {
-            e.groups += 1;
-            let first = &self.runs[g[0]];
-            let mut bytes = first.shared_cost.bytes;
-            e.rays += first.shared_cost.rays;
-            e.seconds += first.shared_cost.seconds * self.timing_factor();
-            for &i in &g {
-                let c = &self.runs[i].cost;
-                e.rays += c.rays;
-                e.seconds += c.seconds * self.timing_factor();
-                bytes = bytes.max(first.shared_cost.bytes + c.bytes);
-            }
-            if bytes > e.bytes {
-                e.bytes = bytes;
-                e.bytes_driver = first.shared_cost.drivers.clone();
-            }
-            if first.shared_cost.rays > e.max_group_rays {
-                e.max_group_rays = first.shared_cost.rays;
-                e.rays_driver = first.shared_cost.drivers.clone();
-            }
+        let mut t = Tally::default();
+        for (i, r) in self.runs.iter().enumerate() {
+            t.add(i, r);
         }
-        e
-    }
-
-    fn timing_factor(&self) -> f64 {
-        (self.timing.warmup + self.timing.repeats) as f64
+        t.estimate(self.timing)
     }
 
     /// Refuse plans beyond the documented limits unless `allow_large`.
     pub fn check_limits(&self, allow_large: bool) -> Result<(), Error> {
-        if allow_large {
-            return Ok(());
-        }
-        let e = self.estimate();
-        if e.rays > timing::MAX_PLAN_RAYS {
-            return Err(Error::Config(format!(
-                "{}: the plan would trace an estimated {:.2e} rays, more than the limit {:.0e} (largest group: {}); reduce it or pass --allow-large",
-                self.file, e.rays, timing::MAX_PLAN_RAYS, e.rays_driver
-            )));
-        }
-        if e.bytes > timing::MAX_PLAN_BYTES {
-            return Err(Error::Config(format!(
-                "{}: a group of the plan would hold an estimated {:.1} GiB, more than the limit 8 GiB ({}); reduce it or pass --allow-large",
-                self.file,
-                e.bytes / (1u64 << 30) as f64,
-                e.bytes_driver
-            )));
-        }
-        Ok(())
+        self.estimate().check_limits(&self.file, allow_large)
     }
 
     /// The dry-run description: runs, groups, estimates.
     pub fn describe(&self, shard: Option<(usize, usize)>) -> String {
-        let e = self.estimate();
+        let mut t = Tally::default();
+        for (i, r) in self.runs.iter().enumerate() {
+            t.add(i, r);
+        }
+        Survey {
+            kind: self.kind,
+            file: self.file.clone(),
+            name: self.name.clone(),
+            overrides: self.overrides.clone(),
+            axes: self.axes.clone(),
+            timing: self.timing,
+            estimate: t.estimate(self.timing),
+            first: t.first,
+        }
+        .describe(shard)
+    }
+}
+
+/// A plan surveyed for `--dry-run` without keeping its runs ([`survey`]).
+pub struct Survey {
+    pub kind: &'static dyn DynKind,
+    pub file: String,
+    pub name: String,
+    pub overrides: Vec<String>,
+    pub axes: Vec<String>,
+    pub timing: Procedure,
+    pub estimate: Estimate,
+    /// The first runs: index, id, canonical parameters.
+    pub first: Vec<(usize, String, String)>,
+}
+
+/// A config file's name (for errors), stem (the default plan name) and text.
+fn read_config(path: &Path) -> Result<(String, String, String), Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "experiment".into());
+    Ok((path.display().to_string(), stem, text))
+}
+
+/// [`survey`] of a config file.
+pub fn survey_file(
+    path: &Path,
+    ov: &Overrides,
+    registry: &[&'static dyn DynKind],
+) -> Result<Survey, Error> {
+    let (file, stem, text) = read_config(path)?;
+    survey(&file, &stem, &text, ov, registry)
+}
+
+/// Resolve config text as [`Plan::parse`] does, run by run, keeping only the estimate: memory
+/// independent of the runs but for a few numbers per group and run id, so plans of up to
+/// [`config::MAX_COMBINATIONS`] runs are surveyed in seconds (a plan over [`MAX_RUNS`] is
+/// surveyed, not run). The same errors as [`Plan::parse`]: the first bad combination, two
+/// combinations of one run.
+pub fn survey(
+    file: &str,
+    stem: &str,
+    text: &str,
+    ov: &Overrides,
+    registry: &[&'static dyn DynKind],
+) -> Result<Survey, Error> {
+    use rayon::prelude::*;
+    let ex = config::expand(file, text, ov).map_err(cfg)?;
+    let head = Head::of(file, stem, &ex, registry)?;
+    const CHUNK: usize = 4096;
+    let chunks = ex.len().div_ceil(CHUNK);
+    let tallies: Vec<Result<Tally, ConfigError>> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut t = Tally::default();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(ex.len()) {
+                t.add(i, &head.kind.resolve(&ex, &ex.combination(i)?)?);
+            }
+            Ok(t)
+        })
+        .collect();
+    let mut all = Tally::default();
+    for t in tallies {
+        all = all.merge(t.map_err(cfg)?);
+    }
+    if let Some((j, i)) = all.duplicate() {
+        return Err(Error::Config(format!(
+            "{file}: sweep: combinations {} and {} resolve to the same run",
+            j + 1,
+            i + 1
+        )));
+    }
+    Ok(Survey {
+        kind: head.kind,
+        file: file.into(),
+        name: head.name,
+        overrides: ov.flags(),
+        axes: ex.axes.clone(),
+        timing: head.timing,
+        estimate: all.estimate(head.timing),
+        first: all.first,
+    })
+}
+
+impl Survey {
+    /// The dry-run description: runs, groups, estimates, the first runs.
+    pub fn describe(&self, shard: Option<(usize, usize)>) -> String {
+        let e = &self.estimate;
         let mut s = format!(
-            "plan {:?} of kind {:?} from {}{}\n  {} run(s) in {} group(s) sharing work{}\n  estimated: {:.3e} rays, {:.1} MiB peak, {:.1} s on the development VM ({} warm-up + {} timed repeat(s) each)\n",
+            "plan {:?} of kind {:?} from {}{}\n  {} run(s) in {} group(s) sharing work{}\n  estimated: {:.3e} rays, {:.1} MiB peak, {:.1} s on the development VM ({} warm-up + {} timed repeat(s) each; {:.1} s of it the runner's bookkeeping)\n",
             self.name,
             self.kind.name(),
             self.file,
@@ -283,13 +387,14 @@ impl Plan {
             e.groups,
             shard.map_or(String::new(), |(i, n)| format!(
                 "; shard {i}/{n} holds {}",
-                (0..self.runs.len()).filter(|j| j % n == i).count()
+                e.runs / n + usize::from(i < e.runs % n)
             )),
             e.rays,
             e.bytes / (1u64 << 20) as f64,
             e.seconds,
             self.timing.warmup,
             self.timing.repeats,
+            e.bookkeeping_seconds,
         );
         if !e.rays_driver.is_empty() {
             s.push_str(&format!("  largest group: {}\n", e.rays_driver));
@@ -302,28 +407,20 @@ impl Plan {
                 self.axes.join(", ")
             }
         ));
-        for (i, r) in self.runs.iter().enumerate().take(20) {
-            s.push_str(&format!("  run {i:>3} {} {}\n", r.id, r.canonical));
+        for (i, id, canonical) in &self.first {
+            s.push_str(&format!("  run {i:>3} {id} {canonical}\n"));
         }
-        if self.runs.len() > 20 {
-            s.push_str(&format!("  … and {} more\n", self.runs.len() - 20));
+        if e.runs > self.first.len() {
+            s.push_str(&format!("  … and {} more\n", e.runs - self.first.len()));
+        }
+        if e.runs > MAX_RUNS {
+            s.push_str(&format!(
+                "  note: more than the {MAX_RUNS} runs one plan runs; split the sweep into several configs to run it\n"
+            ));
         }
         s.push_str("  (dry run: nothing written)\n");
         s
     }
-}
-
-/// A plan's estimated cost.
-#[derive(Clone, Debug, Default)]
-pub struct Estimate {
-    pub runs: usize,
-    pub groups: usize,
-    pub rays: f64,
-    pub bytes: f64,
-    pub seconds: f64,
-    pub max_group_rays: f64,
-    pub rays_driver: String,
-    pub bytes_driver: String,
 }
 
 /// The results directory of a plan.

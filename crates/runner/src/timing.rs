@@ -115,6 +115,12 @@ impl Procedure {
 /// 12×20 × 32² rays in ≈ 29 ms, docs/BENCHMARKS.md).
 pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 
+/// What the runner itself spends per run on the development VM (2 threads): the plan, the
+/// run's rows appended and synced, resume, summary and report — 0.40–0.43 ms per run from 10³
+/// to 10⁵ runs of a kind that does no work (`shscale bench runner`, docs/BENCHMARKS.md "Sweep
+/// bookkeeping"), most of it the per-run `fsync`. Part of every plan's estimated seconds.
+pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 4.5e-4;
+
 /// The most rays a plan may trace without `--allow-large`.
 pub const MAX_PLAN_RAYS: f64 = 1e10;
 
