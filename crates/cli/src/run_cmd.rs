@@ -40,7 +40,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
     let registry = shscale_experiments::registry();
     if a.dry_run {
-        // Surveyed run by run, never held: a plan of 10⁶ runs answers in seconds.
+        // Surveyed run by run, never held: a plan of 10⁶ runs in bounded memory.
         let s = runner::plan::survey_file(&config, &overrides(&a.overrides), &registry)?;
         print!("{}", s.describe(shard));
         s.estimate.check_limits(&s.file, a.allow_large)?;
