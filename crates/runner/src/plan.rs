@@ -251,11 +251,16 @@ impl Plan {
     /// The plan's estimated cost: total rays and seconds (bookkeeping included), the largest
     /// group's bytes.
     pub fn estimate(&self) -> Estimate {
+        self.tally().estimate(self.timing)
+    }
+
+    /// Every run folded into the estimate's tally.
+    fn tally(&self) -> Tally {
         let mut t = Tally::default();
         for (i, r) in self.runs.iter().enumerate() {
             t.add(i, r);
         }
-        t.estimate(self.timing)
+        t
     }
 
     /// Refuse plans beyond the documented limits unless `allow_large`.
@@ -265,10 +270,7 @@ impl Plan {
 
     /// The dry-run description: runs, groups, estimates.
     pub fn describe(&self, shard: Option<(usize, usize)>) -> String {
-        let mut t = Tally::default();
-        for (i, r) in self.runs.iter().enumerate() {
-            t.add(i, r);
-        }
+        let t = self.tally();
         Survey {
             kind: self.kind,
             file: self.file.clone(),
