@@ -50,6 +50,65 @@ fn browser() -> Option<PathBuf> {
         })
 }
 
+/// Open `html` in headless Chromium and check its own script's verdict: `svgs` figures rendered,
+/// no script error (skipped with a notice without Chromium, unless SHSCALE_REQUIRE_BROWSER=1).
+/// Prints how long Chromium took (a measurement, not asserted: machines differ).
+fn check_in_browser(html: &Path, svgs: usize) {
+    let Some(chromium) = browser() else {
+        assert!(
+            std::env::var("SHSCALE_REQUIRE_BROWSER").as_deref() != Ok("1"),
+            "SHSCALE_REQUIRE_BROWSER=1 but no chromium is installed"
+        );
+        eprintln!("notice: no chromium: the report's browser check is skipped (install Debian's chromium, as .ci/run does)");
+        return;
+    };
+    // Headless, sandbox off (CI runs as root), /dev/shm not needed; killed after 120 s.
+    let mut child = std::process::Command::new(&chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-dev-shm-usage",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(format!("file://{}", html.display()))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("chromium runs");
+    // Read the DOM while it is written (it is larger than a pipe's buffer).
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
+        s
+    });
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > std::time::Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("{chromium:?} did not finish within 120 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let dom = reader.join().unwrap();
+    println!(
+        "chromium loaded and rendered {} in {:.2} s",
+        html.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    let want = format!("figures: {svgs} of {svgs} rendered, 0 script errors");
+    assert!(
+        dom.contains(&want),
+        "{chromium:?} did not report {want:?}: {}",
+        dom.lines()
+            .filter(|l| l.contains("figure-check"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+}
+
 #[test]
 fn every_run_writes_a_report_that_renders_in_a_browser() {
     let d = tmp("html");
@@ -77,54 +136,74 @@ fn every_run_writes_a_report_that_renders_in_a_browser() {
         !html.contains("src=\"http"),
         "the report must not load anything from outside"
     );
-    let Some(chromium) = browser() else {
-        assert!(
-            std::env::var("SHSCALE_REQUIRE_BROWSER").as_deref() != Ok("1"),
-            "SHSCALE_REQUIRE_BROWSER=1 but no chromium is installed"
-        );
-        eprintln!("notice: no chromium: the report's browser check is skipped (install Debian's chromium, as .ci/run does)");
-        return;
-    };
-    // Headless, sandbox off (CI runs as root), /dev/shm not needed; killed after 120 s.
-    let mut child = std::process::Command::new(&chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-dev-shm-usage",
-            "--virtual-time-budget=5000",
-            "--dump-dom",
-        ])
-        .arg(format!("file://{}", dir.join("report.html").display()))
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("chromium runs");
-    // Read the DOM while it is written (it is larger than a pipe's buffer).
-    let mut stdout = child.stdout.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
-        s
-    });
-    let t0 = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > std::time::Duration::from_secs(120) {
-            let _ = child.kill();
-            panic!("{chromium:?} did not finish within 120 s");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
+    check_in_browser(&dir.join("report.html"), svgs);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_report_of_100k_rows_stays_small_and_renders_in_a_browser() {
+    // The tiny sweep's rows dealt out to 10⁵ rows (5·10⁴ runs: 500 cone angles × 100 radii), as a
+    // large sweep would leave them; `report` regenerates everything from the CSV alone.
+    let d = tmp("big");
+    let dir = run(&d, &[]);
+    let csv = dir.join("runs.csv");
+    let mut r = csv::Reader::from_path(&csv).unwrap();
+    let header = r.headers().unwrap().clone();
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    let col = |name: &str| header.iter().position(|c| c == name).unwrap();
+    let (id, alpha, radius) = (col("run_id"), col("alpha_deg"), col("radius"));
+    let mut w = csv::Writer::from_path(&csv).unwrap();
+    w.write_record(&header).unwrap();
+    const ROWS: usize = 100_000;
+    for n in 0..ROWS {
+        let mut cells: Vec<String> = rows[n % rows.len()].iter().map(String::from).collect();
+        cells[id] = format!("{:016x}", n / 2);
+        cells[alpha] = format!("{}", 1.0 + (n / 200) as f64 * 0.17);
+        cells[radius] = format!("{}", 1.1 + (n % 100) as f64 * 0.03);
+        w.write_record(&cells).unwrap();
     }
-    let dom = reader.join().unwrap();
-    let want = format!("figures: {svgs} of {svgs} rendered, 0 script errors");
-    assert!(
-        dom.contains(&want),
-        "{chromium:?} did not report {want:?}: {}",
-        dom.lines()
-            .filter(|l| l.contains("figure-check"))
-            .collect::<Vec<_>>()
-            .join(" ")
+    w.flush().unwrap();
+    drop(w);
+    let t0 = std::time::Instant::now();
+    let o = shscale(&["report", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    println!("report of {ROWS} rows: {:.2} s", t0.elapsed().as_secs_f64());
+    let size = |f: &str| std::fs::metadata(dir.join(f)).unwrap().len();
+    // Bounds (bytes): the summary aggregates, the discussion's sentence per run goes to its own
+    // file, and each plot draws at most MAX_POINTS points.
+    const HTML_MAX: u64 = 3 << 20;
+    const SUMMARY_MAX: u64 = 128 << 10;
+    const SVG_MAX: u64 = 1 << 20;
+    let (html, summary) = (size("report.html"), size("summary.md"));
+    println!(
+        "report.html {html} B, summary.md {summary} B, discussion.md {} B",
+        size("discussion.md")
     );
+    assert!(
+        html <= HTML_MAX,
+        "report.html is {html} bytes at {ROWS} rows"
+    );
+    assert!(summary <= SUMMARY_MAX, "summary.md is {summary} bytes");
+    let text = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    assert!(
+        text.contains("100000 rows are too many to list"),
+        "{}",
+        &text[..text.len().min(2000)]
+    );
+    assert!(text.contains("more line(s) of the discussion (one per run) are in `discussion.md`"));
+    for f in std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()) {
+        if f.extension().is_some_and(|e| e == "svg") {
+            let n = std::fs::metadata(&f).unwrap().len();
+            assert!(n <= SVG_MAX, "{} is {n} bytes", f.display());
+        }
+    }
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let svgs = std::fs::read_to_string(dir.join("report.html"))
+        .unwrap()
+        .matches("<svg")
+        .count();
+    assert_eq!(svgs, md.matches("\nFigure ").count());
+    check_in_browser(&dir.join("report.html"), svgs);
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -482,13 +482,16 @@ impl Kind for Probe {
 
     fn discussion(t: &Results) -> Result<String, Error> {
         // Per run: the radii where the extrapolation follows the actual occlusion.
+        // Rows grouped by run, in order of first appearance (linear in the rows).
         let mut runs: Vec<(String, Vec<usize>)> = Vec::new();
+        let mut slot = std::collections::HashMap::new();
         for r in 0..t.rows.len() {
-            let id = t.cell(r, "run_id").to_string();
-            match runs.iter_mut().find(|x| x.0 == id) {
-                Some(x) => x.1.push(r),
-                None => runs.push((id, vec![r])),
-            }
+            let id = t.cell(r, "run_id");
+            let i = *slot.entry(id).or_insert_with(|| {
+                runs.push((id.to_string(), Vec::new()));
+                runs.len() - 1
+            });
+            runs[i].1.push(r);
         }
         let params = shscale_runner::Erased::<Probe>::new();
         let varying = t.varying(&shscale_runner::DynKind::param_columns(&params));

@@ -163,6 +163,10 @@ impl RunProgress {
                 }
             }
             RunEvent::Warn(line) => eprintln!("warning: {line}"),
+            RunEvent::Interim(dir) => self.log(&format!(
+                "summary and report of the rows so far: {}",
+                dir.join("report.html").display()
+            )),
         }
     }
 

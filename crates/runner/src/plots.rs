@@ -397,27 +397,49 @@ pub fn write_both(
 /// The most series one plot draws: a legend of more is unreadable (and the file grows with it).
 pub const MAX_SERIES: usize = 24;
 
+/// The most points one plot draws (markers, and the vertices of its lines): a plot of 10⁵ rows
+/// would otherwise be an SVG of megabytes that a browser draws slowly and nobody can read.
+pub const MAX_POINTS: usize = 4000;
+
 /// At most [`MAX_SERIES`] of `series`, evenly spaced over their (sorted) names so the first and
-/// the last are kept, and the title saying how many were drawn when some were left out.
+/// the last are kept; then, when they hold more than [`MAX_POINTS`] points, every `s`-th point of
+/// each (in x order, its first and last kept); the title says what was left out.
 fn capped(
     series: &BTreeMap<String, Vec<(f64, f64)>>,
     title: &str,
 ) -> (BTreeMap<String, Vec<(f64, f64)>>, String) {
     let n = series.len();
-    if n <= MAX_SERIES {
-        return (series.clone(), title.to_string());
+    let (mut kept, mut title) = if n <= MAX_SERIES {
+        (series.clone(), title.to_string())
+    } else {
+        let keep: Vec<usize> = (0..MAX_SERIES)
+            .map(|i| i * (n - 1) / (MAX_SERIES - 1))
+            .collect();
+        let kept = (series.iter().enumerate())
+            .filter(|(i, _)| keep.contains(i))
+            .map(|(_, (k, v))| (k.clone(), v.clone()))
+            .collect();
+        (
+            kept,
+            format!("{title} ({MAX_SERIES} of {n} series shown, evenly spaced)"),
+        )
+    };
+    let total: usize = kept.values().map(Vec::len).sum();
+    if total > MAX_POINTS {
+        let step = total.div_ceil(MAX_POINTS);
+        let mut drawn = 0;
+        for pts in kept.values_mut() {
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let last = pts.len().saturating_sub(1);
+            *pts = (pts.iter().enumerate())
+                .filter(|(i, _)| i % step == 0 || *i == last)
+                .map(|(_, p)| *p)
+                .collect();
+            drawn += pts.len();
+        }
+        title = format!("{title} (1 point in {step} drawn: {drawn} of {total})");
     }
-    let keep: Vec<usize> = (0..MAX_SERIES)
-        .map(|i| i * (n - 1) / (MAX_SERIES - 1))
-        .collect();
-    let kept = (series.iter().enumerate())
-        .filter(|(i, _)| keep.contains(i))
-        .map(|(_, (k, v))| (k.clone(), v.clone()))
-        .collect();
-    (
-        kept,
-        format!("{title} ({MAX_SERIES} of {n} series shown, evenly spaced)"),
-    )
+    (kept, title)
 }
 
 /// [`write_both`] with the y axis forced linear (`Some(false)`) or logarithmic (`Some(true)`);
@@ -483,6 +505,23 @@ mod tests {
         let few: BTreeMap<String, Vec<(f64, f64)>> = series.into_iter().take(24).collect();
         let (kept, title) = super::capped(&few, "t");
         assert_eq!((kept.len(), title.as_str()), (24, "t"));
+        // 3 × 5000 points: 1 in 4 drawn per series (x order), first and last kept.
+        let many: BTreeMap<String, Vec<(f64, f64)>> = (0..3)
+            .map(|s| {
+                let pts = (0..5000).rev().map(|i| (i as f64, s as f64)).collect();
+                (format!("s{s}"), pts)
+            })
+            .collect();
+        let (kept, title) = super::capped(&many, "t");
+        let drawn: usize = kept.values().map(Vec::len).sum();
+        assert!(drawn <= super::MAX_POINTS, "{drawn}");
+        assert_eq!(title, format!("t (1 point in 4 drawn: {drawn} of 15000)"));
+        for pts in kept.values() {
+            assert_eq!(
+                (pts[0].0, pts[pts.len() - 1].0, pts[1].0),
+                (0.0, 4999.0, 4.0)
+            );
+        }
     }
 
     use super::y_range;

@@ -553,16 +553,30 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         ));
     }
     let discussion = kind.discussion(&t)?;
+    let full = dir.join("discussion.md");
     if !discussion.trim().is_empty() {
-        s.push_str(&format!(
-            "\n## Our numbers against the claim\n\n{}\n",
-            discussion.trim_end()
-        ));
+        let (shown, cut) = cap_lines(discussion.trim_end(), MAX_DISCUSSION_BYTES);
+        s.push_str(&format!("\n## Our numbers against the claim\n\n{shown}\n"));
+        if cut > 0 {
+            s.push_str(&format!(
+                "\n… {cut} more line(s) of the discussion (one per run) are in `discussion.md`.\n"
+            ));
+        }
     }
     let p = dir.join("summary.md");
+    let mut files = vec![p.clone()];
+    if discussion.len() > MAX_DISCUSSION_BYTES {
+        write_atomic(
+            &full,
+            &format!("# Our numbers against the claim\n\n{discussion}"),
+        )?;
+        files.push(full);
+    } else if full.exists() {
+        // A discussion that now fits in the summary: an older, longer one would mislead.
+        std::fs::remove_file(&full).map_err(|e| Error::io(&full, e))?;
+    }
     write_atomic(&p, &s)?;
     let figures = kind.report(dir, &t)?;
-    let mut files = vec![p];
     files.extend(write_report(dir, &s, &figures)?);
     files.extend(figures);
     Ok(Report {
@@ -570,6 +584,26 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         discussion,
         files,
     })
+}
+
+/// The most bytes of a kind's discussion the summary (and so `report.html`) holds: a longer
+/// one — a sentence per run at 10⁵ runs is megabytes — is cut at a line and written whole to
+/// `discussion.md`.
+pub const MAX_DISCUSSION_BYTES: usize = 32 * 1024;
+
+/// The first lines of `text` within `max` bytes (at least one line), and how many were left out.
+fn cap_lines(text: &str, max: usize) -> (&str, usize) {
+    if text.len() <= max {
+        return (text, 0);
+    }
+    let end = text[..max]
+        .rfind('\n')
+        .unwrap_or_else(|| text.find('\n').unwrap_or(text.len()));
+    let shown = &text[..end];
+    (
+        shown,
+        text[end..].lines().filter(|l| !l.trim().is_empty()).count(),
+    )
 }
 
 /// The most rows the summary lists one by one; a larger table is summarised by distributions

@@ -23,6 +23,7 @@ struct ProductParams {
     label: String,
     repeat: usize,
     fail: bool,
+    sleep_ms: u64,
 }
 
 impl Default for ProductParams {
@@ -33,6 +34,7 @@ impl Default for ProductParams {
             label: "a".into(),
             repeat: 1,
             fail: false,
+            sleep_ms: 0,
         }
     }
 }
@@ -100,6 +102,7 @@ impl Kind for Product {
         ctx: &Ctx,
     ) -> Result<Vec<ProductRow>, ProductError> {
         assert!(ctx.device.is_none(), "the default opens no device");
+        std::thread::sleep(std::time::Duration::from_millis(p.sleep_ms));
         if p.fail {
             return Err(ProductError(p.n));
         }
@@ -124,6 +127,7 @@ impl Kind for Product {
             ("label", "a word"),
             ("repeat", "rows per run, 1..=4"),
             ("fail", "make the run fail"),
+            ("sleep_ms", "milliseconds the run sleeps"),
         ]
     }
 }
@@ -404,6 +408,75 @@ fn a_kinds_error_reaches_the_caller_and_no_row_is_written_for_it() {
     let csv = d.join("product").join("c").join("runs.csv");
     assert!(!csv.exists() || ids_in(&csv).is_empty());
     std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn runs_finished_before_an_error_are_committed_not_lost() {
+    // Sequential fast runs wait for the next group commit (100 ms); the fourth fails, and the
+    // three before it must still reach the file, whole and valid.
+    let text = "experiment = \"product\"\nparallel_runs = false\n\n[[sweep]]\nn = [1, 2, 3]\n\n[[sweep]]\nn = [4]\nfail = [true]\n";
+    let plan = parse(text).unwrap();
+    let d = tmp("commit-on-error");
+    let e = run_plan(&plan, &d, None, &|_| {}).unwrap_err();
+    assert!(e.to_string().starts_with("product failed for n = 4"), "{e}");
+    let csv = d.join("product").join("c").join("runs.csv");
+    let ids = ids_in(&csv);
+    let want: Vec<String> = plan.runs[..3].iter().map(|r| r.id.clone()).collect();
+    assert_eq!(ids, want, "the three finished runs, once each");
+    // A resume redoes only the failed run (and fails again), adding nothing twice.
+    let e = run_plan(&plan, &d, None, &|_| {}).unwrap_err();
+    assert!(e.to_string().starts_with("product failed for n = 4"), "{e}");
+    assert_eq!(ids_in(&csv), want);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_long_plan_writes_its_report_while_it_runs_never_per_run_when_fast() {
+    // Runs of 150 ms are each committed at once; with the interim interval at zero, the summary
+    // of the rows so far follows each commit, and says how many rows it saw.
+    let text = "experiment = \"product\"\nparallel_runs = false\nsleep_ms = 150\n\n[sweep]\nn = [1, 2, 3]\n";
+    let mut plan = parse(text).unwrap();
+    plan.interim_report = Some(std::time::Duration::ZERO);
+    let d = tmp("interim");
+    let dir = d.join("product").join("c");
+    let seen = std::sync::Mutex::new(Vec::new());
+    run_plan(&plan, &d, None, &|ev| {
+        if let RunEvent::Interim(p) = ev {
+            assert_eq!(p, dir);
+            let s = std::fs::read_to_string(p.join("summary.md")).unwrap();
+            let rows = s
+                .split("Rows: ")
+                .nth(1)
+                .and_then(|t| t.split(' ').next())
+                .and_then(|n| n.parse::<usize>().ok())
+                .unwrap_or_else(|| panic!("no row count in {s}"));
+            assert!(p.join("report.html").exists());
+            seen.lock().unwrap().push(rows);
+        }
+    })
+    .unwrap();
+    let seen = seen.into_inner().unwrap();
+    println!("interim reports saw {seen:?} rows");
+    assert_eq!(
+        seen,
+        [1, 2, 3],
+        "one interim report after each run's commit"
+    );
+    // Fast runs are committed together and the default interval (30 s) is never reached: no
+    // interim report.
+    let fast = parse(&text.replace("sleep_ms = 150", "sleep_ms = 0")).unwrap();
+    let d2 = tmp("interim-fast");
+    let n = std::sync::atomic::AtomicUsize::new(0);
+    run_plan(&fast, &d2, None, &|ev| {
+        if matches!(ev, RunEvent::Interim(_)) {
+            n.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    })
+    .unwrap();
+    assert_eq!(n.into_inner(), 0);
+    assert!(!d2.join("product").join("c").join("summary.md").exists());
+    std::fs::remove_dir_all(&d).ok();
+    std::fs::remove_dir_all(&d2).ok();
 }
 
 #[test]
