@@ -117,11 +117,11 @@ pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 
 /// What the runner itself spends per run on the development VM (2 threads): the plan, the
 /// rows appended and synced (group commits, about ten a second), resume, summary and report —
-/// 0.08–0.12 ms per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench
-/// runner`, docs/BENCHMARKS.md "The runner alone"), and 0.15 ms per run through `shscale run`,
-/// which also logs a line per run (a 10⁴-run `sparsity` sweep: 3.3 s, of which 1.8 s the runs'
-/// own work). Part of every plan's estimated seconds.
-pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 1.5e-4;
+/// 12–21 µs per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench runner`,
+/// docs/BENCHMARKS.md "Group commits"), and about 50 µs per run through `shscale run`, which
+/// also logs two lines per run (a 10⁴-run `sparsity` sweep: 1.7 s, of which 1.1 s the runs' own
+/// work). Part of every plan's estimated seconds.
+pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;
 
 /// The most rays a plan may trace without `--allow-large`.
 pub const MAX_PLAN_RAYS: f64 = 1e10;
