@@ -849,3 +849,69 @@ fn a_truth_limited_probe_is_flagged_in_the_summary() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn provenance_is_the_binarys_revision_not_the_working_directorys_repository() {
+    // Run from inside another git repository: its HEAD must not reach the manifest or the rows.
+    let d = dir("provenance");
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args([
+                "-c",
+                "user.name=t",
+                "-c",
+                "user.email=t@t",
+                "-c",
+                "init.defaultBranch=main",
+            ])
+            .args(args)
+            .current_dir(&d)
+            .output()
+    };
+    let Ok(o) = git(&["init", "-q"]) else {
+        eprintln!("notice: no git: the provenance check is skipped");
+        return;
+    };
+    assert!(o.status.success());
+    std::fs::write(d.join("f"), "x").unwrap();
+    assert!(git(&["add", "f"]).unwrap().status.success());
+    assert!(git(&["commit", "-qm", "x"]).unwrap().status.success());
+    let other =
+        String::from_utf8(git(&["rev-parse", "--short=12", "HEAD"]).unwrap().stdout).unwrap();
+    std::fs::write(
+        d.join("c.toml"),
+        "experiment = \"sparsity\"\norder = 2\nk = 2.0\n",
+    )
+    .unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
+        .args(["run", "c.toml", "--out-dir", "out"])
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let version = String::from_utf8(shscale(&["--version"]).stdout).unwrap();
+    let built = version
+        .split("(git ")
+        .nth(1)
+        .and_then(|v| v.split(')').next())
+        .unwrap()
+        .to_string();
+    let (rev, dirty) = match built.strip_suffix("+dirty") {
+        Some(r) => (r.to_string(), true),
+        None => (built.clone(), false),
+    };
+    let m = std::fs::read_to_string(d.join("out/sparsity/c/manifest.toml")).unwrap();
+    println!(
+        "binary built from {built}; the working directory's repository is at {}",
+        other.trim()
+    );
+    assert!(m.contains(&format!("git_revision = \"{rev}\"")), "{m}");
+    assert!(m.contains(&format!("git_dirty = {dirty}")), "{m}");
+    assert!(
+        !m.contains(other.trim()),
+        "the working directory's HEAD leaked into {m}"
+    );
+    let rows = std::fs::read_to_string(d.join("out/sparsity/c/runs.csv")).unwrap();
+    assert!(rows.lines().skip(1).all(|l| l.contains(&rev)), "{rows}");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -5,17 +5,18 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 /// `--version`: the crate version and the git revision it was built from (`+dirty` when the
 /// checkout had local changes at build time).
-pub const VERSION: &str = concat!(
-    env!("CARGO_PKG_VERSION"),
-    " (git ",
-    env!("SHSCALE_GIT_REVISION"),
-    ")"
-);
+pub static VERSION: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    format!(
+        "{} (git {})",
+        env!("CARGO_PKG_VERSION"),
+        shscale_runner::manifest::BUILD_REVISION
+    )
+});
 
 #[derive(Parser, Debug)]
 #[command(
     name = "shscale",
-    version = VERSION,
+    version = VERSION.as_str(),
     about = "Spherical-harmonics scaling and shadow fields for deformable objects: an evaluation framework",
     after_help = "Examples:\n  shscale demo\n  shscale sh eval --order 4 --dir 0,0,1\n  shscale sh cap --order 4 --angle-deg 30\n  shscale sh rotate --order 2 --coeffs 1,0,1,0 --euler-zyz-deg 0,90,0\n  shscale matrix --order 4 --tau cone --alpha-deg 45 --k 2\n  shscale matrix --order 8 --tau cone --alpha-deg 45 --table 40 --k-range 0.1,10\n  shscale inspect bunny\n  shscale visibility --mesh sphere --point 0,0,2 --order 4\n  shscale probe --mesh bunny --order 4 --alpha-deg 45\n  shscale render --scene configs/scene_bunny.toml --method extrapolated --out results/bunny.exr\n  shscale run configs/probe_alpha_sweep.toml\n  shscale slurm configs/probe_alpha_sweep.toml --tasks 8 > sweep.sh"
 )]

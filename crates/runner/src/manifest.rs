@@ -33,15 +33,10 @@ pub struct Provenance {
     pub unix_time: u64,
 }
 
-fn git(args: &[&str]) -> Option<String> {
-    std::process::Command::new("git")
-        .args(args)
-        .stderr(std::process::Stdio::null())
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-}
+/// The git revision this crate was built from (12 hex digits, `+dirty` when the checkout had
+/// changes to tracked files at build time; "unknown" outside a checkout), recorded by the build
+/// script. Provenance is the binary's, whatever repository the working directory is in.
+pub const BUILD_REVISION: &str = env!("SHSCALE_GIT_REVISION");
 
 pub(crate) fn unix_now() -> u64 {
     std::time::SystemTime::now()
@@ -50,12 +45,12 @@ pub(crate) fn unix_now() -> u64 {
 }
 
 impl Provenance {
-    /// Read off this process and machine.
+    /// Read off this process and machine; the revision is the binary's ([`BUILD_REVISION`]).
     pub fn here(gpu_device: &str) -> Self {
-        let rev = git(&["rev-parse", "--short", "HEAD"]);
-        let dirty = rev.is_some()
-            && git(&["status", "--porcelain", "--untracked-files=no"])
-                .is_some_and(|s| !s.is_empty());
+        let (rev, dirty) = match BUILD_REVISION.strip_suffix("+dirty") {
+            Some(r) => (r, true),
+            None => (BUILD_REVISION, false),
+        };
         let cpu = std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|t| {
@@ -66,7 +61,7 @@ impl Provenance {
             })
             .unwrap_or_else(|| "unknown".into());
         Self {
-            git_revision: rev.unwrap_or_else(|| "unknown".into()),
+            git_revision: rev.into(),
             git_dirty: dirty,
             shscale_version: env!("CARGO_PKG_VERSION").into(),
             cpu_model: cpu,

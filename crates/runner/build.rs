@@ -1,5 +1,7 @@
-//! Build script: the git revision of the checkout (and whether it had local changes) for
-//! `shscale --version`, recorded at build time; "unknown" outside a git checkout.
+//! Build script: the git revision of the checkout this crate is built from (and whether it had
+//! local changes), recorded at build time for `shscale --version` and for the provenance of every
+//! manifest and row (`manifest::BUILD_REVISION`); "unknown" outside a git checkout. The
+//! repository around the working directory at run time is never consulted.
 
 use std::process::Command;
 
@@ -11,6 +13,7 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
+    // Run in the crate's own folder (cargo's working directory for build scripts).
     let rev = git(&["rev-parse", "--short=12", "HEAD"]).filter(|r| !r.is_empty());
     let dirty =
         git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
