@@ -113,7 +113,65 @@ pub fn path_name(path: &[Seg]) -> String {
     s
 }
 
-/// Parse `a.b[2].c` into a path.
+/// The most segments (names and indices) of a key given on the command line.
+pub const MAX_KEY_DEPTH: usize = 16;
+/// The most bytes of a key given on the command line.
+pub const MAX_KEY_LEN: usize = 256;
+
+/// A key written on the command line (`--set`, `--sweep`): dotted names, each a letter or `_`
+/// then letters, digits, `_` or `-`, each optionally followed by list indices `[N]`; at most
+/// [`MAX_KEY_DEPTH`] segments and [`MAX_KEY_LEN`] bytes. Anything else is refused, saying why
+/// (never read loosely: `order[abc]` or `.order` are not `order`).
+pub fn parse_flag_key(s: &str) -> Result<KeyPath, String> {
+    if s.len() > MAX_KEY_LEN {
+        return Err(format!(
+            "the key is {} bytes long, more than the limit {MAX_KEY_LEN}",
+            s.len()
+        ));
+    }
+    let mut out = Vec::new();
+    for part in s.split('.') {
+        let (name, rest) = part.split_once('[').map_or((part, ""), |(n, r)| (n, r));
+        let ok_name = name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !ok_name {
+            return Err(format!(
+                "{s:?} is not a key: {name:?} is not a name (a key is dotted names — a letter or '_', then letters, digits, '_' or '-' — each with optional [N] indices, e.g. occluder[1].radius)"
+            ));
+        }
+        out.push(Seg::Key(name.to_string()));
+        if !rest.is_empty() {
+            let Some(inner) = rest.strip_suffix(']') else {
+                return Err(format!(
+                    "{s:?} is not a key: {part:?} does not end with ']'"
+                ));
+            };
+            for idx in inner.split("][") {
+                let i: usize = (idx.len() <= 9 && idx.bytes().all(|b| b.is_ascii_digit()))
+                    .then(|| idx.parse().ok())
+                    .flatten()
+                    .ok_or_else(|| {
+                        format!("{s:?} is not a key: [{idx}] is not a list index (a whole number, e.g. [0])")
+                    })?;
+                out.push(Seg::Index(i));
+            }
+        }
+        if out.len() > MAX_KEY_DEPTH {
+            return Err(format!(
+                "{s:?} has more than {MAX_KEY_DEPTH} segments, the limit of a key"
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Parse `a.b[2].c` into a path (keys the code or a config wrote; see [`parse_flag_key`] for
+/// keys from the command line).
 pub fn parse_path(s: &str) -> KeyPath {
     let mut out = Vec::new();
     for part in s.split('.') {
@@ -504,6 +562,15 @@ fn parse_table(file: &str, text: &str) -> Result<toml::Table, ConfigError> {
     toml::from_str(text).map_err(|e| toml_error(file, text, &e))
 }
 
+/// A flag as errors name it: the flag and its value, cut after 120 characters (a value can be
+/// arbitrarily long; the message should not be).
+fn flag_text(flag: &str, value: &str) -> String {
+    match value.char_indices().nth(120) {
+        Some((i, _)) => format!("{flag} {}… ({} bytes)", &value[..i], value.len()),
+        None => format!("{flag} {value}"),
+    }
+}
+
 /// Apply `--set`, `--sweep` and `--name` to `doc`; the places of the values they set (`--set`,
 /// `--name`) and of the axes they add (`--sweep`).
 #[allow(clippy::type_complexity)]
@@ -513,7 +580,10 @@ fn apply_overrides(
 ) -> Result<(Vec<(KeyPath, Place)>, Vec<(KeyPath, Place)>), ConfigError> {
     let at_flag = |flag: &Place, k: &str| {
         let flag = flag.clone();
-        let key = k.trim().to_string();
+        let key = match k.trim().char_indices().nth(60) {
+            Some((i, _)) => format!("{}…", &k.trim()[..i]),
+            None => k.trim().to_string(),
+        };
         move |message: String| ConfigError {
             place: flag,
             key,
@@ -522,15 +592,15 @@ fn apply_overrides(
     };
     let mut set_places = Vec::new();
     for s in &ov.set {
-        let flag = Place::Flag(format!("--set {s}"));
+        let flag = Place::Flag(flag_text("--set", s));
         let (k, v) = key_value(s, &flag, "key=value")?;
-        let path = parse_path(k.trim());
+        let path = parse_flag_key(k.trim()).map_err(at_flag(&flag, k))?;
         set_path(doc, &path, cli_value(v)).map_err(at_flag(&flag, k))?;
         set_places.push((path, flag));
     }
     let mut sweep_flags = Vec::new();
     for s in &ov.sweep {
-        let flag = Place::Flag(format!("--sweep {s}"));
+        let flag = Place::Flag(flag_text("--sweep", s));
         let (k, v) = key_value(s, &flag, "key=v1,v2,…")?;
         let values: Vec<toml::Value> = split_top(v).iter().map(|x| cli_value(x)).collect();
         // With `[[sweep]]` blocks the axis is added to (or replaced in) every block.
@@ -542,7 +612,7 @@ fn apply_overrides(
         };
         for root in roots {
             let mut path = root;
-            path.extend(parse_path(k.trim()));
+            path.extend(parse_flag_key(k.trim()).map_err(at_flag(&flag, k))?);
             set_path(doc, &path, toml::Value::Array(values.clone())).map_err(at_flag(&flag, k))?;
             sweep_flags.push((path, flag.clone()));
         }
@@ -991,6 +1061,67 @@ mod tests {
         };
         assert!(e.to_string().contains("c.toml:6"), "{e}");
         assert!(e.to_string().contains("sweep[1].k"), "{e}");
+    }
+
+    #[test]
+    fn flag_keys_are_dotted_names_with_indices_and_nothing_else() {
+        let ok = |k: &str| parse_flag_key(k).unwrap_or_else(|e| panic!("{k}: {e}"));
+        assert_eq!(ok("order"), vec![Seg::Key("order".into())]);
+        assert_eq!(
+            ok("occluder[1].radius"),
+            vec![
+                Seg::Key("occluder".into()),
+                Seg::Index(1),
+                Seg::Key("radius".into())
+            ]
+        );
+        assert_eq!(ok("a[0][2]").len(), 3);
+        assert_eq!(ok("k_count"), parse_path("k_count"));
+        for (bad, why) in [
+            ("order[abc]", "[abc] is not a list index"),
+            (".order", "\"\" is not a name"),
+            ("order.", "\"\" is not a name"),
+            ("a..b", "\"\" is not a name"),
+            ("", "\"\" is not a name"),
+            ("1st", "\"1st\" is not a name"),
+            ("a b", "\"a b\" is not a name"),
+            ("a/../b", "is not a name"),
+            ("order[1", "does not end with ']'"),
+            ("order[-1]", "[-1] is not a list index"),
+            ("order[]", "[] is not a list index"),
+            ("order[99999999999]", "is not a list index"),
+            ("radii[0]x", "does not end with ']'"),
+        ] {
+            let e = parse_flag_key(bad).expect_err(bad);
+            assert!(e.contains(why), "{bad}: {e}");
+        }
+        // Depth and length are bounded before any table is built (30,000 levels once
+        // overflowed the stack).
+        let deep = vec!["a"; 17].join(".");
+        assert!(parse_flag_key(&deep)
+            .unwrap_err()
+            .contains("more than 16 segments"));
+        assert_eq!(ok(&vec!["a"; 16].join(".")).len(), 16);
+        let huge = vec!["a"; 30_000].join(".");
+        assert!(parse_flag_key(&huge)
+            .unwrap_err()
+            .contains("more than the limit 256"));
+        let ov = Overrides {
+            set: vec![format!("{huge}=1")],
+            ..Overrides::default()
+        };
+        let e = expand("c.toml", "experiment = \"x\"\n", &ov).err().unwrap();
+        assert!(e.to_string().starts_with("--set a.a.a"), "{e}");
+        assert!(
+            e.to_string().len() < 400,
+            "the message holds the whole key: {e}"
+        );
+        let ov = Overrides {
+            sweep: vec!["order[abc]=1,2".into()],
+            ..Overrides::default()
+        };
+        let e = expand("c.toml", "experiment = \"x\"\n", &ov).err().unwrap();
+        assert!(e.to_string().contains("--sweep order[abc]=1,2"), "{e}");
     }
 
     #[test]
