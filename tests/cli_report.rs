@@ -368,3 +368,76 @@ fn the_config_reference_matches_the_code() {
         assert_eq!(schema, listed(prefix), "scene table {table:?}");
     }
 }
+
+/// Every file of `dir` (name → bytes).
+fn snapshot(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().to_string(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_report_that_fails_changes_nothing_and_leaves_no_temporary() {
+    // Every metric cell not a number: the kind's plot refuses ("no finite data to plot"). Before,
+    // summary.md had already been rewritten and a `.name.tmp-PID.png` was left behind.
+    let d = tmp("fail");
+    let dir = run(&d, &[]);
+    let csv = dir.join("runs.csv");
+    let mut r = csv::Reader::from_path(&csv).unwrap();
+    let header = r.headers().unwrap().clone();
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    let metric = header.iter().position(|c| c == "occ_rel_l2_mean").unwrap();
+    let mut w = csv::Writer::from_path(&csv).unwrap();
+    w.write_record(&header).unwrap();
+    for row in &rows {
+        let mut cells: Vec<&str> = row.iter().collect();
+        cells[metric] = "NaN";
+        w.write_record(&cells).unwrap();
+    }
+    drop(w);
+    let before = snapshot(&dir);
+    let o = shscale(&["report", dir.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no finite data to plot"), "{err}");
+    let after = snapshot(&dir);
+    let changed: Vec<&String> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(changed.is_empty(), "a failed report changed {changed:?}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_column_name_is_data_never_a_path() {
+    // A crafted runs.csv column `../../escape`: once the plot's PNG and SVG were written two
+    // levels above the results directory.
+    let d = tmp("escape");
+    let dir = run(&d, &[]);
+    let csv = dir.join("runs.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    std::fs::write(&csv, text.replacen("occ_rel_l2_mean", "../../escape", 1)).unwrap();
+    let o = shscale(&[
+        "plot",
+        dir.to_str().unwrap(),
+        "--metric",
+        "../../escape",
+        "--x",
+        "alpha_deg",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.join("plot_.._.._escape_vs_alpha_deg.svg").exists());
+    let up = dir.parent().unwrap().parent().unwrap();
+    for f in ["escape_vs_alpha_deg.png", "escape_vs_alpha_deg.svg"] {
+        assert!(!up.join(f).exists(), "{f} escaped to {}", up.display());
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

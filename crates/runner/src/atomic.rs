@@ -14,6 +14,36 @@ pub fn tmp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
+/// Temporary files that must not outlive an error: each path handed out by
+/// [`Temporaries::beside`] is removed when the guard drops, on every path out — a temporary
+/// already renamed into place no longer exists, so its removal is a no-op.
+#[derive(Default)]
+pub struct Temporaries(Vec<PathBuf>);
+
+impl Temporaries {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The temporary beside `path`, `.<stem>.tmp-<pid>.<extension>` (the extension kept: image
+    /// encoders choose their format by it), removed when the guard drops.
+    pub fn beside(&mut self, path: &Path) -> PathBuf {
+        let stem = (path.file_stem()).map_or(String::new(), |n| n.to_string_lossy().to_string());
+        let ext = (path.extension()).map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
+        let t = path.with_file_name(format!(".{stem}.tmp-{}{ext}", std::process::id()));
+        self.0.push(t.clone());
+        t
+    }
+}
+
+impl Drop for Temporaries {
+    fn drop(&mut self) {
+        for t in &self.0 {
+            let _ = std::fs::remove_file(t);
+        }
+    }
+}
+
 /// Write `text` to `path` through a temporary file and a rename; the temporary is removed when
 /// either step fails.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {

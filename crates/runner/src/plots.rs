@@ -57,10 +57,12 @@ impl Axes {
     /// labelled as powers of ten.
     fn of(series: &BTreeMap<String, Vec<(f64, f64)>>, log: Option<bool>) -> Result<Self, String> {
         let pts: Vec<(f64, f64)> = (series.values().flatten().copied())
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .filter(|&(x, y)| drawable(x) && drawable(y))
             .collect();
         if pts.is_empty() {
-            return Err("no finite data to plot".into());
+            return Err(format!(
+                "no finite data to plot (values beyond ±{MAX_DRAWN:e} are left out)"
+            ));
         }
         let log_y = log.unwrap_or_else(|| log_axis(&pts.iter().map(|p| p.1).collect::<Vec<_>>()));
         if log_y && pts.iter().any(|p| p.1 <= 0.0) {
@@ -71,11 +73,17 @@ impl Axes {
             .map(|&(x, y)| (x, if log_y { y.log10() } else { y }))
             .collect();
         let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
+        // A span narrower than 10⁻⁹ of its magnitude (one value, or values equal to the last
+        // digits) is widened to a drawable one: plotters' tick search needs a finite, non-empty
+        // range.
         let span = |f: fn(&(f64, f64)) -> f64| {
             let (lo, hi) =
                 (pts.iter().map(f)).fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-            if hi <= lo {
-                (lo - 0.5, hi + 0.5)
+            let least = 1e-9 * lo.abs().max(hi.abs());
+            if hi - lo <= least {
+                let half = (0.5f64).max(least);
+                let mid = 0.5 * lo + 0.5 * hi;
+                (mid - half, mid + half)
             } else {
                 (lo, hi)
             }
@@ -175,7 +183,7 @@ where
         .map_err(|e| e.to_string())?;
     for (i, (name, points)) in series.iter().enumerate() {
         let mut pts: Vec<(f64, f64)> = (points.iter().copied())
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .filter(|&(x, y)| drawable(x) && drawable(y))
             .map(|(x, y)| (x, ax.ty(y)))
             .filter(|(_, y)| y.is_finite())
             .collect();
@@ -183,7 +191,10 @@ where
         draw_series(&mut chart, i, name, &pts, scatter_only)?;
     }
     if !front.is_empty() {
-        let front: Vec<(f64, f64)> = front.iter().map(|&(x, y)| (x, ax.ty(y))).collect();
+        let front: Vec<(f64, f64)> = (front.iter())
+            .filter(|&&(x, y)| drawable(x) && drawable(y))
+            .map(|&(x, y)| (x, ax.ty(y)))
+            .collect();
         chart
             .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
             .map_err(|e| e.to_string())?
@@ -307,7 +318,7 @@ pub fn plot_column(
     let title = format!("{metric} against {x}");
     write_both_log(
         dir,
-        &format!("plot_{metric}_vs_{x}"),
+        &format!("plot_{}_vs_{}", stem_part(metric), stem_part(x)),
         &Labels {
             title: &title,
             x,
@@ -318,6 +329,41 @@ pub fn plot_column(
         &[],
         log,
     )
+}
+
+/// A column name as part of a file name: letters, digits, `_`, `-` and `.` kept, anything else
+/// (a `/`, a space) as `_`, at most 64 characters. Column names come from files; they are data,
+/// never path parts.
+pub fn stem_part(name: &str) -> String {
+    name.chars()
+        .take(64)
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// A file stem written into a results directory: a plain name — not empty, no path separator,
+/// not starting with `.` — so the file stays in that directory.
+fn check_stem(dir: &Path, stem: &str) -> Result<(), Error> {
+    let plain = !stem.is_empty()
+        && !stem.starts_with('.')
+        && !stem.contains(['/', '\\', '\0'])
+        && Path::new(stem).components().count() == 1;
+    if plain {
+        Ok(())
+    } else {
+        Err(Error::Io {
+            path: dir.display().to_string(),
+            reason: format!(
+                "{stem:?} is not a plain file name: a plot is written only inside its directory"
+            ),
+        })
+    }
 }
 
 /// A parameter's name in words, for titles and legends.
@@ -354,6 +400,16 @@ const OKABE_ITO: [(u8, u8, u8); 8] = [
 pub fn palette(i: usize) -> RGBAColor {
     let (r, g, b) = OKABE_ITO[i % OKABE_ITO.len()];
     RGBColor(r, g, b).to_rgba()
+}
+
+/// The largest magnitude a plot draws: beyond it a padded range would overflow to infinity
+/// (±1e308 once made plotters' tick search spin forever). Larger values are left out, as
+/// non-finite ones are.
+pub const MAX_DRAWN: f64 = 1e300;
+
+/// Whether a value can be drawn: finite and within ±[`MAX_DRAWN`].
+fn drawable(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_DRAWN
 }
 
 /// Whether values should be drawn on a log axis: all finite and > 0, spanning ≥ 100×.
@@ -453,6 +509,7 @@ pub fn write_both_log(
     front: &[(f64, f64)],
     log: Option<bool>,
 ) -> Result<Vec<PathBuf>, Error> {
+    check_stem(dir, stem)?;
     ensure_font();
     let (series, title) = capped(series, labels.title);
     let (series, labels) = (
@@ -462,9 +519,12 @@ pub fn write_both_log(
             ..*labels
         },
     );
-    let pid = std::process::id();
+    // Both files to temporaries first, then both renamed: a failure leaves neither a new
+    // file nor a temporary (the guard removes them on every path out).
+    let mut tmps = crate::atomic::Temporaries::new();
     let png = dir.join(format!("{stem}.png"));
-    let tmp_png = dir.join(format!(".{stem}.tmp-{pid}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
     line_plot(
         BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
         labels,
@@ -474,9 +534,6 @@ pub fn write_both_log(
         log,
     )
     .map_err(|e| err(&png, e))?;
-    finish(&tmp_png, &png)?;
-    let svg = dir.join(format!("{stem}.svg"));
-    let tmp_svg = dir.join(format!(".{stem}.tmp-{pid}.svg"));
     line_plot(
         SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
         labels,
@@ -486,6 +543,7 @@ pub fn write_both_log(
         log,
     )
     .map_err(|e| err(&svg, e))?;
+    finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
 }
@@ -522,6 +580,54 @@ mod tests {
                 (0.0, 4999.0, 4.0)
             );
         }
+    }
+
+    #[test]
+    fn extreme_values_and_hostile_names_never_hang_or_escape() {
+        use std::collections::BTreeMap;
+        let d = std::env::temp_dir().join(format!("shscale-plots-extreme-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        let labels = super::Labels {
+            title: "t",
+            x: "x",
+            y: "y",
+        };
+        // ±1e308 once spun plotters' tick search forever: left out, the rest drawn.
+        for pts in [
+            vec![(0.0, 1e308), (1.0, -1e308), (2.0, 1.0), (3.0, 2.0)],
+            vec![(0.0, 1e300), (1.0, -1e300)],
+            vec![(1e300, 1.0), (1e300, 1.0)],
+            vec![(0.0, 1.0), (1.0, 1.0 + 1e-15)],
+            vec![(5.0, 3.0)],
+        ] {
+            let series: BTreeMap<String, Vec<(f64, f64)>> = [("s".to_string(), pts.clone())].into();
+            let files = super::write_both(&d, "p", &labels, &series, false, &pts).unwrap();
+            assert_eq!(files.len(), 2, "{pts:?}");
+        }
+        let only_huge: BTreeMap<String, Vec<(f64, f64)>> =
+            [("s".to_string(), vec![(0.0, 1e308), (1.0, f64::MAX)])].into();
+        let e = super::write_both(&d, "p", &labels, &only_huge, false, &[]).unwrap_err();
+        assert!(e.to_string().contains("no finite data to plot"), "{e}");
+        // A stem is a plain name; a column name is made one.
+        let ok: BTreeMap<String, Vec<(f64, f64)>> = [("s".to_string(), vec![(0.0, 1.0)])].into();
+        for bad in ["../up", "a/b", "", ".hidden", ".."] {
+            let e = super::write_both(&d, bad, &labels, &ok, false, &[]).unwrap_err();
+            assert!(
+                e.to_string().contains("not a plain file name"),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(super::stem_part("../../x y"), ".._.._x_y");
+        assert!(!d.parent().unwrap().join("up.png").exists());
+        // No temporary left behind by a refusal.
+        let left: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .filter(|n| n.contains(".tmp-"))
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
+        std::fs::remove_dir_all(&d).ok();
     }
 
     use super::y_range;

@@ -151,6 +151,14 @@ fn caption_of_name(p: &Path) -> String {
 /// Write `report.md` and `report.html` of `dir` from its summary text and the figure files
 /// written with it; returns both paths.
 pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+    let (md, html) = report_texts(dir, summary, files)?;
+    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
+    write_atomic_all(&[(&pm, &md), (&ph, &html)])?;
+    Ok(vec![pm, ph])
+}
+
+/// The texts of `report.md` and `report.html` ([`write_report`]), not written.
+fn report_texts(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<(String, String), Error> {
     let manifest = Manifest::read(dir)?;
     let mut md = String::from(summary.trim_end());
     md.push_str("\n\n## Figures\n\n");
@@ -173,9 +181,7 @@ pub fn write_report(dir: &Path, summary: &str, files: &[PathBuf]) -> Result<Vec<
     let versions = manifest.as_ref().map_or(&[][..], |m| &m.versions[..]);
     md.push_str(&provenance_md(versions));
     let html = report_html(summary, &md, &figures);
-    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
-    write_atomic_all(&[(&pm, &md), (&ph, &html)])?;
-    Ok(vec![pm, ph])
+    Ok((md, html))
 }
 
 /// A figure of a report: its caption, its file, and its SVG text (inlined in the HTML).
@@ -563,21 +569,23 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
             ));
         }
     }
+    // The kind's figures first (each written as a unit); the texts that describe them — summary,
+    // discussion, report.md and report.html — only when every figure succeeded, together.
+    let figures = kind.report(dir, &t)?;
+    let (md, html) = report_texts(dir, &s, &figures)?;
     let p = dir.join("summary.md");
-    let mut files = vec![p.clone()];
+    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
+    let long = format!("# Our numbers against the claim\n\n{discussion}");
+    let mut texts: Vec<(&Path, &str)> = vec![(&p, &s), (&pm, &md), (&ph, &html)];
     if discussion.len() > MAX_DISCUSSION_BYTES {
-        write_atomic(
-            &full,
-            &format!("# Our numbers against the claim\n\n{discussion}"),
-        )?;
-        files.push(full);
-    } else if full.exists() {
+        texts.push((&full, &long));
+    }
+    write_atomic_all(&texts)?;
+    let mut files: Vec<PathBuf> = texts.iter().map(|(f, _)| f.to_path_buf()).collect();
+    if discussion.len() <= MAX_DISCUSSION_BYTES && full.exists() {
         // A discussion that now fits in the summary: an older, longer one would mislead.
         std::fs::remove_file(&full).map_err(|e| Error::io(&full, e))?;
     }
-    write_atomic(&p, &s)?;
-    let figures = kind.report(dir, &t)?;
-    files.extend(write_report(dir, &s, &figures)?);
     files.extend(figures);
     Ok(Report {
         summary: s,
