@@ -220,8 +220,8 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     let json = a.format == crate::args::TextFormat::Json;
     let mut sweeps = Vec::new();
     if let Some(cfg) = &a.config {
-        let text = std::fs::read_to_string(cfg)
-            .map_err(|e| anyhow::anyhow!("--config {}: {e}", cfg.display()))?;
+        let text = shscale_runner::input::read_regular_string(cfg)
+            .map_err(|e| anyhow::anyhow!("--config: {e}"))?;
         let registry = shscale_experiments::registry();
         sweeps.push(bench::sweep(&text, &registry, &root.join("config"))?);
     }

@@ -9,6 +9,19 @@ impl Mesh {
     /// Load an OBJ (tobj, triangulated) or PLY file; the extension decides.
     pub fn load(path: &Path) -> Result<Self, GeometryError> {
         let name = path.display().to_string();
+        // Only a regular file is read: a FIFO would block, a device never end.
+        let meta = std::fs::metadata(path).map_err(|e| GeometryError::Io {
+            file: name.clone(),
+            reason: e.to_string(),
+        })?;
+        if !meta.is_file() {
+            return Err(GeometryError::Io {
+                file: name,
+                reason:
+                    "is not a regular file (a directory, FIFO or device); a mesh must be a file"
+                        .into(),
+            });
+        }
         let bytes = std::fs::read(path).map_err(|e| GeometryError::Io {
             file: name.clone(),
             reason: e.to_string(),

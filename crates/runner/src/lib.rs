@@ -31,6 +31,7 @@ pub mod device;
 pub mod error;
 pub mod figure;
 pub mod image;
+pub mod input;
 pub mod kind;
 pub mod limits;
 pub mod manifest;

@@ -102,10 +102,10 @@ impl Manifest {
     /// Read `dir/manifest.toml` (`None` when absent).
     pub fn read(dir: &Path) -> Result<Option<Self>, Error> {
         let p = dir.join("manifest.toml");
-        if !p.exists() {
+        if !crate::input::regular_file(&p)? {
             return Ok(None);
         }
-        let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+        let text = crate::input::read_regular_string(&p)?;
         toml::from_str(&text).map(Some).map_err(|e| Error::Io {
             path: p.display().to_string(),
             reason: format!(

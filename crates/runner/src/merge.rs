@@ -183,9 +183,14 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
                 let n = (p.file_name())
                     .map(|n| n.to_string_lossy().to_string())
                     .unwrap_or_default();
-                n.starts_with("runs") && n.ends_with(".csv") && p.is_file()
+                n.starts_with("runs") && n.ends_with(".csv")
             })
             .collect();
+        // A shard that is a FIFO, a device, a symlink loop or a link to nothing is an error
+        // naming it, never skipped.
+        for p in &here {
+            crate::input::regular_file(p)?;
+        }
         here.sort();
         files.extend(here);
     }

@@ -308,10 +308,7 @@ pub struct Survey {
 
 /// A config file's name (for errors), stem (the default plan name) and text.
 fn read_config(path: &Path) -> Result<(String, String, String), Error> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    let text = crate::input::read_regular_string(path)?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())

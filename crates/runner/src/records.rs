@@ -250,7 +250,7 @@ pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<CsvLine>), Error> {
         path: path.display().to_string(),
         reason: e.to_string(),
     };
-    let bytes = std::fs::read(path).map_err(|e| io(&e))?;
+    let bytes = crate::input::read_regular(path)?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)

@@ -65,7 +65,7 @@ pub struct Loaded {
 /// Read and validate a kind's CSV (`Ok(default)` when absent). A header of another version is an
 /// error (the file is left alone); invalid rows are returned in `rejected`.
 pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
-    if !path.exists() {
+    if !crate::input::regular_file(path)? {
         return Ok(Loaded::default());
     }
     let (columns, raw) = records::read_raw(path)?;
@@ -153,6 +153,7 @@ pub(crate) fn read_tail(
     first_line: u64,
 ) -> Result<(Vec<records::CsvLine>, u64), Error> {
     use std::io::{Read, Seek, SeekFrom};
+    crate::input::regular_file(path)?;
     let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
     let mut bytes = Vec::new();

@@ -277,7 +277,7 @@ impl Camera {
 impl Scene {
     /// Read and resolve a scene file.
     pub fn load(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = shscale_runner::input::read_regular_string(path)?;
         Self::parse(
             &path.display().to_string(),
             &text,
