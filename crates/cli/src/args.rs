@@ -341,7 +341,7 @@ pub struct SlurmArgs {
     #[arg(value_parser = whole, long)]
     pub tasks: usize,
     /// Path of the shscale binary on the cluster.
-    #[arg(long, default_value = "shscale")]
+    #[arg(long, default_value = "shscale", allow_hyphen_values = true)]
     pub binary: String,
     #[arg(long, default_value = "results")]
     pub out_dir: std::path::PathBuf,
@@ -349,26 +349,26 @@ pub struct SlurmArgs {
     #[command(flatten)]
     pub overrides: OverrideArgs,
     /// sbatch --time (e.g. 02:00:00).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub time: Option<String>,
     /// sbatch --mem (e.g. 8G).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub mem: Option<String>,
     /// sbatch --partition.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub partition: Option<String>,
     /// sbatch --cpus-per-task.
     #[arg(value_parser = whole, long)]
     pub cpus_per_task: Option<usize>,
     /// sbatch --account.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub account: Option<String>,
     /// At most this many array tasks at once (sbatch --array=0-N%K).
     #[arg(value_parser = whole, long)]
     pub array_parallel: Option<usize>,
     /// sbatch --dependency of the array job (e.g. afterok:12345); the merge always waits for
     /// the array.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dependency: Option<String>,
 }
 

@@ -73,6 +73,14 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(frames) = a.frames {
         flags::int("--frames", frames, 1, MAX_FRAMES)?;
     }
+    if let Some(r @ (MethodArg::Extrapolated | MethodArg::FullField)) = a.reference {
+        let name = if r == MethodArg::Extrapolated {
+            "extrapolated"
+        } else {
+            "full-field"
+        };
+        bail!("--reference {name}: only the truths are references — raytraced (band-limited) or raytraced-full (full-frequency)");
+    }
     Ok(())
 }
 

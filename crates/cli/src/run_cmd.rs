@@ -234,10 +234,16 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         array_parallel: a.array_parallel,
         dependency: a.dependency,
     };
-    print!(
-        "{}",
-        runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir, &opts)?
-    );
+    let script = runner::slurm_script(&a.config, &plan, a.tasks, &a.binary, &a.out_dir, &opts)?;
+    if a.tasks > plan.runs.len() {
+        eprintln!(
+            "notice: --tasks {} is more than the plan's {} run(s); the array has {} task(s)",
+            a.tasks,
+            plan.runs.len(),
+            plan.runs.len().max(1)
+        );
+    }
+    print!("{script}");
     Ok(ExitCode::SUCCESS)
 }
 

@@ -29,6 +29,62 @@ pub fn shell_quote(s: &str) -> String {
 ///
 /// Submitting the script again after a failure completes only the missing runs (each shard
 /// resumes its own file) and merges again: the merge job owns `<dir>/merged` and replaces its
+/// The values `sbatch` is given, checked: each a word (not empty, no whitespace or control
+/// character); `--cpus-per-task` ≥ 1; `--time` in one of Slurm's forms (minutes, `MM:SS`,
+/// `HH:MM:SS`, `D-HH[:MM[:SS]]`, or `UNLIMITED`); `--mem` a whole number with an optional
+/// unit K, M, G or T; `--binary` not empty.
+fn check_options(binary: &str, opts: &SlurmOptions) -> Result<(), Error> {
+    let word = |flag: &str, v: &str| -> Result<(), Error> {
+        if v.is_empty() || v.chars().any(|c| c.is_whitespace() || c.is_control()) {
+            return Err(Error::Config(format!(
+                "slurm: {flag} {v:?}: needs a value without spaces"
+            )));
+        }
+        Ok(())
+    };
+    word("--binary", binary)?;
+    for (flag, v) in [
+        ("--time", &opts.time),
+        ("--mem", &opts.mem),
+        ("--partition", &opts.partition),
+        ("--account", &opts.account),
+    ] {
+        if let Some(v) = v {
+            word(flag, v)?;
+        }
+    }
+    if let Some(t) = &opts.time {
+        let unlimited = t.eq_ignore_ascii_case("unlimited") || t.eq_ignore_ascii_case("infinite");
+        let (days, rest) = t.split_once('-').map_or((None, t.as_str()), |(d, r)| (Some(d), r));
+        let digits = |s: &str| !s.is_empty() && s.len() <= 6 && s.bytes().all(|b| b.is_ascii_digit());
+        let parts: Vec<&str> = rest.split(':').collect();
+        let ok = unlimited
+            || (days.is_none_or(digits) && parts.len() <= 3 && parts.iter().all(|p| digits(p)));
+        if !ok {
+            return Err(Error::Config(format!(
+                "slurm: --time {t:?}: expected minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS or UNLIMITED"
+            )));
+        }
+    }
+    if let Some(m) = &opts.mem {
+        let num = m.trim_end_matches(['K', 'M', 'G', 'T', 'k', 'm', 'g', 't']);
+        let ok = !num.is_empty()
+            && m.len() - num.len() <= 1
+            && num.len() <= 12
+            && num.bytes().all(|b| b.is_ascii_digit());
+        if !ok {
+            return Err(Error::Config(format!(
+                "slurm: --mem {m:?}: expected a whole number with an optional unit K, M, G or T (e.g. 8G)"
+            )));
+        }
+    }
+    if let Some(c) = opts.cpus_per_task {
+        crate::check::int(c, 1, 4096)
+            .map_err(|m| Error::Config(format!("slurm: --cpus-per-task: {m}")))?;
+    }
+    Ok(())
+}
+
 /// own earlier output atomically (`merge --replace`).
 pub fn slurm_script(
     config: &Path,
@@ -51,6 +107,9 @@ pub fn slurm_script(
             )));
         }
     }
+    check_options(binary, opts)?;
+    // More tasks than runs would leave array tasks with nothing to do: capped (the caller says so).
+    let tasks = tasks.min(plan.runs.len().max(1));
     let q = shell_quote;
     let dir = plan_dir(plan, out_root);
     let mut sb = Vec::new();
