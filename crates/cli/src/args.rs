@@ -329,6 +329,10 @@ pub struct MergeArgs {
     /// Merge inputs of several config versions or code revisions (refused without it).
     #[arg(long)]
     pub allow_mixed: bool,
+    /// Merge although shard files or runs of the plan are missing (refused without it); the
+    /// merged manifest.toml records what is missing.
+    #[arg(long)]
+    pub allow_partial: bool,
     /// `json`: one JSON object (the merged directory, files, rows, report files).
     #[arg(long, value_enum, default_value_t = TextFormat::Text)]
     pub format: TextFormat,

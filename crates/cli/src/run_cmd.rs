@@ -196,6 +196,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
     let opts = runner::MergeOptions {
         replace: a.replace,
         allow_mixed: a.allow_mixed,
+        allow_partial: a.allow_partial,
     };
     let m = runner::merge(&a.dirs, a.out.as_deref(), &registry, opts)?;
     let r = runner::report(m.kind, &m.out)?;

@@ -96,6 +96,10 @@ pub struct Manifest {
     pub name: String,
     #[serde(default)]
     pub versions: Vec<Version>,
+    /// What a merge run with `--allow-partial` left out (missing shard files, runs of the plan
+    /// without rows), in words; empty for a complete result.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missing: Vec<String>,
 }
 
 impl Manifest {

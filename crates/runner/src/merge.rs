@@ -27,6 +27,9 @@ pub struct MergeOptions {
     pub replace: bool,
     /// Merge inputs of different config versions or code revisions.
     pub allow_mixed: bool,
+    /// Merge although shard files or runs of the plan are missing (recorded in the manifest's
+    /// `missing`), instead of refusing.
+    pub allow_partial: bool,
 }
 
 /// What [`merge`] did.
@@ -70,6 +73,7 @@ pub fn merge(
             .file_name()
             .map_or("merged".into(), |n| n.to_string_lossy().to_string()),
         versions: Vec::new(),
+        missing: Vec::new(),
     };
     unite_manifests(dirs, &kind_name, &mut manifest)?;
     if !opts.allow_mixed {
@@ -100,6 +104,23 @@ pub fn merge(
             }
         }
         seen.extend(ids_here);
+    }
+    // The plan is known: every shard of an `N`-way split, and every run of a one-version plan.
+    manifest.missing = missing_shards(&files);
+    if let [v] = manifest.versions.as_slice() {
+        if seen.len() < v.runs_in_plan {
+            manifest.missing.push(format!(
+                "{} of the plan's {} runs have no rows",
+                v.runs_in_plan - seen.len(),
+                v.runs_in_plan
+            ));
+        }
+    }
+    if !manifest.missing.is_empty() && !opts.allow_partial {
+        return Err(Error::Config(format!(
+            "merge: the result would be partial: {}; nothing merged — complete the missing shards (resubmitting their runs), or pass --allow-partial to merge the rows there are (the manifest then records what is missing)",
+            manifest.missing.join("; ")
+        )));
     }
     std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
     write_atomic_all(&[
@@ -170,6 +191,43 @@ fn one_revision(
         }
     }
     Ok(())
+}
+
+/// The shard files an `N`-way split lacks, in words: for each `N` among the
+/// `runs.shard-I-of-N.csv` names of `files`, every `I` in `0..N` not among them.
+fn missing_shards(files: &[PathBuf]) -> Vec<String> {
+    let mut seen: std::collections::BTreeMap<usize, std::collections::BTreeSet<usize>> =
+        Default::default();
+    for f in files {
+        let n = f.file_name().map(|n| n.to_string_lossy().to_string());
+        let parsed = n.as_deref().and_then(|n| {
+            let (i, n) = n
+                .strip_prefix("runs.shard-")?
+                .strip_suffix(".csv")?
+                .split_once("-of-")?;
+            Some((i.parse::<usize>().ok()?, n.parse::<usize>().ok()?))
+        });
+        if let Some((i, n)) = parsed {
+            seen.entry(n).or_default().insert(i);
+        }
+    }
+    let mut out = Vec::new();
+    for (n, have) in seen {
+        let lacking: Vec<String> = (0..n)
+            .filter(|i| !have.contains(i))
+            .take(20)
+            .map(|i| format!("runs.shard-{i}-of-{n}.csv"))
+            .collect();
+        let count = (0..n).filter(|i| !have.contains(i)).count();
+        if count > 0 {
+            out.push(format!(
+                "{count} of {n} shard files missing ({}{})",
+                lacking.join(", "),
+                if count > lacking.len() { ", …" } else { "" }
+            ));
+        }
+    }
+    out
 }
 
 /// The `runs*.csv` files of `dirs`, sorted within each directory; at least one.

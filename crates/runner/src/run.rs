@@ -438,6 +438,7 @@ impl Writer<'_> {
             experiment: self.plan.kind.name().into(),
             name: self.plan.name.clone(),
             versions: Vec::new(),
+            missing: Vec::new(),
         });
         let mut v = self.version.clone();
         v.last_unix_time = unix_now();

@@ -55,8 +55,11 @@ fn check_options(binary: &str, opts: &SlurmOptions) -> Result<(), Error> {
     }
     if let Some(t) = &opts.time {
         let unlimited = t.eq_ignore_ascii_case("unlimited") || t.eq_ignore_ascii_case("infinite");
-        let (days, rest) = t.split_once('-').map_or((None, t.as_str()), |(d, r)| (Some(d), r));
-        let digits = |s: &str| !s.is_empty() && s.len() <= 6 && s.bytes().all(|b| b.is_ascii_digit());
+        let (days, rest) = t
+            .split_once('-')
+            .map_or((None, t.as_str()), |(d, r)| (Some(d), r));
+        let digits =
+            |s: &str| !s.is_empty() && s.len() <= 6 && s.bytes().all(|b| b.is_ascii_digit());
         let parts: Vec<&str> = rest.split(':').collect();
         let ok = unlimited
             || (days.is_none_or(digits) && parts.len() <= 3 && parts.iter().all(|p| digits(p)));

@@ -319,6 +319,45 @@ fn shards_partition_the_plan_and_merge_joins_them() {
         .unwrap()
         .to_string();
     assert!(e.contains("runs.csv"), "{e}");
+    // A merge knows its plan: a missing shard file (or runs without rows) is refused, naming
+    // it, unless --allow-partial, which records what is missing in the manifest. Before, the
+    // merge exited 0 with 8 of 12 rows.
+    std::fs::remove_file(shards[1].csv.clone()).unwrap();
+    let out2 = d.join("merged2");
+    let e = merge(&dirs, Some(&out2), &registry(), MergeOptions::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("1 of 3 shard files missing (runs.shard-1-of-3.csv)")
+            && e.contains("2 of the plan's 6 runs have no rows")
+            && e.contains("--allow-partial"),
+        "{e}"
+    );
+    assert!(!out2.exists(), "a refused merge writes nothing");
+    let partial = MergeOptions {
+        allow_partial: true,
+        ..MergeOptions::default()
+    };
+    let m = merge(&dirs, Some(&out2), &registry(), partial).unwrap();
+    assert_eq!(m.rows, 8);
+    let manifest = Manifest::read(&out2).unwrap().unwrap();
+    assert_eq!(manifest.missing.len(), 2, "{:?}", manifest.missing);
+    // A shard whose runs are all there but whose file lost a run's rows: refused too.
+    let text = std::fs::read_to_string(&shards[2].csv).unwrap();
+    let kept: Vec<&str> = text.lines().take(text.lines().count() - 2).collect();
+    std::fs::write(&shards[2].csv, kept.join("\n") + "\n").unwrap();
+    run_plan(&plan, &d, Some((1, 3)), &|_| {}).unwrap();
+    let e = merge(
+        &dirs,
+        Some(&d.join("merged3")),
+        &registry(),
+        MergeOptions::default(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("1 of the plan's 6 runs have no rows"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
 
@@ -374,6 +413,7 @@ fn merge_refuses_mixed_versions_and_revisions_and_replaces_only_when_asked() {
     let mixed = MergeOptions {
         replace: true,
         allow_mixed: true,
+        ..MergeOptions::default()
     };
     assert_eq!(
         merge(&dirs, Some(&out), &registry(), mixed).unwrap().rows,
