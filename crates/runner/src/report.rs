@@ -311,6 +311,23 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         Results::read(&a.join("runs.csv"))?,
         Results::read(&b.join("runs.csv"))?,
     );
+    // A headline metric column on one side only is an error naming it, never a column of "—".
+    // (A metric present on both sides but without a number on one — e.g. no on-surface samples —
+    // is a result, shown as "—".)
+    for metric in kind.summary_columns() {
+        let sides = [(&ta, a, "A"), (&tb, b, "B")];
+        let has = sides.map(|(t, _, _)| t.col(metric).is_some());
+        for (i, (_, dir, side)) in sides.iter().enumerate() {
+            if has[1 - i] && !has[i] {
+                return Err(Error::Io {
+                    path: dir.join("runs.csv").display().to_string(),
+                    reason: format!(
+                        "compare: {side} has no column {metric:?}, which the other has"
+                    ),
+                });
+            }
+        }
+    }
     let m = Matching::of(kind, &ta, &tb);
     let (ma, mb) = (m.means(&ta), m.means(&tb));
     let mut md = m.header_md(kind, (a, &ta), (b, &tb));

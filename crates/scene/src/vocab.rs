@@ -224,6 +224,11 @@ pub fn check_sampling_keys(
     layout: &str,
     hemisphere_res: usize,
 ) -> Result<(), KeyError> {
+    if let Err(e) = shscale_runner::input::regular_file(std::path::Path::new(mesh)) {
+        // Something is there, but not a file a mesh can be read from (a FIFO, a directory, a
+        // symlink loop): say that, not "unknown".
+        return Err(KeyError::new("mesh", e.to_string()));
+    }
     if !mesh_exists(mesh) {
         return Err(KeyError::new(
             "mesh",

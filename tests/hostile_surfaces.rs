@@ -1,0 +1,422 @@
+//! Hostile input, round two: the surfaces added after the first hardening pass — command-line
+//! overrides, merge, report, compare, plot, Slurm options, render references — and inputs that
+//! are not regular files (FIFOs, devices, symlink loops, dangling links). Every case must exit
+//! with status 2 within its time limit, print one stderr line naming the culprit, never panic or
+//! hang (a FIFO once blocked `run`, `report` and `compare` forever), and leave every file of the
+//! fixture byte-identical.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const LIMIT: Duration = Duration::from_secs(60);
+
+const CONFIG: &str = "experiment = \"sparsity\"\norder = 2\n\n[sweep]\nk = [1.5, 2.0, 3.0]\n";
+
+fn shscale(d: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_shscale"))
+        .args(args)
+        .current_dir(d)
+        .output()
+        .unwrap()
+}
+
+fn mkfifo(p: &Path) -> bool {
+    Command::new("mkfifo")
+        .arg(p)
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The fixture: a config, a finished results directory, its shards, and copies of them with a
+/// FIFO, a symlink loop or a dangling link where a file should be.
+fn fixture(tag: &str) -> Option<PathBuf> {
+    let d = std::env::temp_dir().join(format!("shscale-hostile2-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("o")).unwrap();
+    std::fs::write(d.join("c.toml"), CONFIG).unwrap();
+    let ok = |args: &[&str]| {
+        let o = shscale(&d, args);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    ok(&["run", "c.toml", "--out-dir", "r"]);
+    for i in 0..3 {
+        ok(&[
+            "run",
+            "c.toml",
+            "--out-dir",
+            "s",
+            "--shard",
+            &format!("{i}/3"),
+        ]);
+    }
+    if !mkfifo(&d.join("fifo.toml")) {
+        return None;
+    }
+    let copy = |from: &str, to: &str| {
+        std::fs::create_dir_all(d.join(to)).unwrap();
+        for e in std::fs::read_dir(d.join(from)).unwrap().flatten() {
+            if e.path().is_file() {
+                std::fs::copy(e.path(), d.join(to).join(e.file_name())).unwrap();
+            }
+        }
+    };
+    let r = "r/sparsity/c";
+    // A FIFO where runs.csv or manifest.toml should be.
+    copy(r, "fc/sparsity/c");
+    std::fs::remove_file(d.join("fc/sparsity/c/runs.csv")).unwrap();
+    mkfifo(&d.join("fc/sparsity/c/runs.csv"));
+    copy(r, "fm/sparsity/c");
+    std::fs::remove_file(d.join("fm/sparsity/c/manifest.toml")).unwrap();
+    mkfifo(&d.join("fm/sparsity/c/manifest.toml"));
+    // runs.csv a symlink loop.
+    copy(r, "loop/sparsity/c");
+    std::fs::remove_file(d.join("loop/sparsity/c/runs.csv")).unwrap();
+    std::os::unix::fs::symlink("runs2.csv", d.join("loop/sparsity/c/runs.csv")).unwrap();
+    std::os::unix::fs::symlink("runs.csv", d.join("loop/sparsity/c/runs2.csv")).unwrap();
+    // Shards: one missing, one a FIFO, a symlink loop, a dangling link.
+    let s = "s/sparsity/c";
+    let shard1 = "runs.shard-1-of-3.csv";
+    for (to, how) in [
+        ("s_missing", 0),
+        ("s_fifo", 1),
+        ("s_loop", 2),
+        ("s_dangling", 3),
+    ] {
+        copy(s, to);
+        let p = d.join(to).join(shard1);
+        std::fs::remove_file(&p).unwrap();
+        match how {
+            1 => assert!(mkfifo(&p)),
+            2 => {
+                std::os::unix::fs::symlink("runs.shard-1-of-3b.csv", &p).unwrap();
+                std::os::unix::fs::symlink(shard1, d.join(to).join("runs.shard-1-of-3b.csv"))
+                    .unwrap();
+            }
+            3 => std::os::unix::fs::symlink("nothing.csv", &p).unwrap(),
+            _ => {}
+        }
+    }
+    // A results directory whose runs.csv lacks a headline metric's column.
+    copy(r, "nocol/sparsity/c");
+    let p = d.join("nocol/sparsity/c/runs.csv");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut rd = csv::Reader::from_reader(text.as_bytes());
+    let h = rd.headers().unwrap().clone();
+    let at = h.iter().position(|c| c == "nonzeros").unwrap();
+    let mut w = csv::Writer::from_path(&p).unwrap();
+    let keep = |rec: &csv::StringRecord| -> Vec<String> {
+        (rec.iter().enumerate())
+            .filter(|(i, _)| *i != at)
+            .map(|(_, c)| c.to_string())
+            .collect()
+    };
+    w.write_record(keep(&h)).unwrap();
+    for rec in rd.records() {
+        w.write_record(keep(&rec.unwrap())).unwrap();
+    }
+    drop(w);
+    // A scene file and a mesh that are FIFOs.
+    mkfifo(&d.join("scene.toml"));
+    std::fs::create_dir_all(d.join("m")).unwrap();
+    mkfifo(&d.join("m/fifo.obj"));
+    std::fs::write(
+        d.join("mesh_fifo.toml"),
+        "experiment = \"probe\"\nmesh = \"m/fifo.obj\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [2.0]\n",
+    )
+    .unwrap();
+    Some(d)
+}
+
+/// Every entry below `d`: a regular file with its bytes, anything else (a FIFO, a link) by its
+/// kind — never opened.
+fn snapshot(d: &Path) -> BTreeMap<PathBuf, String> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![d.to_path_buf()];
+    while let Some(p) = stack.pop() {
+        for e in std::fs::read_dir(&p).unwrap().flatten() {
+            let path = e.path();
+            if path.file_name().is_some_and(|n| n == ".lock") {
+                continue;
+            }
+            let m = std::fs::symlink_metadata(&path).unwrap();
+            let what = if m.is_dir() {
+                stack.push(path.clone());
+                "dir".to_string()
+            } else if m.is_file() {
+                format!("{:?}", std::fs::read(&path).unwrap())
+            } else {
+                format!("{:?}", m.file_type())
+            };
+            out.insert(path, what);
+        }
+    }
+    out
+}
+
+fn check(d: &Path, args: &[String], needle: &str) -> Result<(), String> {
+    let before = snapshot(d);
+    let t0 = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+        .args(args)
+        .current_dir(d)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| e.to_string())?;
+    while child.try_wait().map_err(|e| e.to_string())?.is_none() {
+        if t0.elapsed() > LIMIT {
+            let _ = child.kill();
+            return Err(format!("ran past {LIMIT:?}"));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let out = child.wait_with_output().map_err(|e| e.to_string())?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    if err.contains("panicked") {
+        return Err(format!("panicked: {err}"));
+    }
+    if out.status.code() != Some(2) {
+        return Err(format!("status {:?}, stderr {err:?}", out.status.code()));
+    }
+    if lines.len() != 1 {
+        return Err(format!("{} stderr lines: {lines:?}", lines.len()));
+    }
+    if !lines[0].to_lowercase().contains(&needle.to_lowercase()) {
+        return Err(format!("{:?} does not name {needle:?}", lines[0]));
+    }
+    let after = snapshot(d);
+    if after != before {
+        let changed: Vec<String> = (after.keys().chain(before.keys()))
+            .filter(|k| after.get(*k) != before.get(*k))
+            .map(|k| k.display().to_string())
+            .collect();
+        return Err(format!("files changed or created: {changed:?}"));
+    }
+    Ok(())
+}
+
+/// The cases: arguments (split on `|`) and what the one stderr line must name.
+const CASES: &[(&str, &str)] = &[
+    // Override keys: dotted names with [N] indices, nothing else, bounded.
+    (
+        "run|c.toml|--dry-run|--set|order[abc]=3",
+        "[abc] is not a list index",
+    ),
+    ("run|c.toml|--dry-run|--set|.order=3", "is not a name"),
+    ("run|c.toml|--dry-run|--set|order.=3", "is not a name"),
+    ("run|c.toml|--dry-run|--set|a..b=3", "is not a name"),
+    ("run|c.toml|--dry-run|--set|=3", "is not a name"),
+    ("run|c.toml|--dry-run|--set|1order=3", "is not a name"),
+    ("run|c.toml|--dry-run|--set|or der=3", "is not a name"),
+    (
+        "run|c.toml|--dry-run|--set|order[1=3",
+        "does not end with ']'",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|order[-1]=3",
+        "is not a list index",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|order[]=3",
+        "is not a list index",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|k[99999999999]=3",
+        "is not a list index",
+    ),
+    ("run|c.toml|--dry-run|--set|a/../b=3", "is not a name"),
+    (
+        "run|c.toml|--dry-run|--sweep|order[x]=2,3",
+        "--sweep order[x]=2,3",
+    ),
+    ("run|c.toml|--dry-run|--sweep|.k=2,3", "is not a name"),
+    (
+        "run|c.toml|--dry-run|--set|{DEEP17}=1",
+        "more than 16 segments",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|{DEEP30000}=1",
+        "more than the limit 256",
+    ),
+    (
+        "run|c.toml|--dry-run|--sweep|{DEEP30000}=1,2",
+        "more than the limit 256",
+    ),
+    // Inputs that are not regular files: refused by name, never read.
+    ("run|fifo.toml|--dry-run", "FIFO"),
+    ("run|fifo.toml", "FIFO"),
+    ("run|/dev/zero|--dry-run", "device"),
+    ("run|o|--dry-run", "directory"),
+    ("run|c.toml|--out-dir|fc", "FIFO"),
+    ("run|c.toml|--out-dir|fm", "FIFO"),
+    ("run|c.toml|--out-dir|loop", "symlink loop"),
+    ("report|fc/sparsity/c", "FIFO"),
+    ("report|fm/sparsity/c", "FIFO"),
+    ("report|loop/sparsity/c", "symlink loop"),
+    ("compare|r/sparsity/c|fc/sparsity/c|--out|o/cmp", "FIFO"),
+    ("compare|fc/sparsity/c|r/sparsity/c|--out|o/cmp", "FIFO"),
+    ("plot|fc/sparsity/c|--metric|nonzeros|--x|k", "FIFO"),
+    ("render|--scene|scene.toml|--out|o/x.exr", "FIFO"),
+    ("run|mesh_fifo.toml", "regular file"),
+    ("bench|runner|--config|fifo.toml|--out-dir|o/b", "FIFO"),
+    // Merge knows its plan: missing shards and shards that are not files are errors.
+    ("merge|s_missing|--out|o/m", "runs.shard-1-of-3.csv"),
+    ("merge|s_missing|--out|o/m", "--allow-partial"),
+    ("merge|s_fifo|--out|o/m", "FIFO"),
+    ("merge|s_loop|--out|o/m", "symlink loop"),
+    ("merge|s_dangling|--out|o/m", "link to nothing"),
+    // Compare: a metric missing, or without a number, on one side.
+    (
+        "compare|r/sparsity/c|nocol/sparsity/c|--out|o/cmp",
+        "has no column \"nonzeros\"",
+    ),
+    (
+        "compare|nocol/sparsity/c|r/sparsity/c|--out|o/cmp",
+        "has no column \"nonzeros\"",
+    ),
+    // Slurm options.
+    (
+        "slurm|c.toml|--tasks|2|--cpus-per-task|0",
+        "--cpus-per-task",
+    ),
+    (
+        "slurm|c.toml|--tasks|2|--cpus-per-task|5000",
+        "--cpus-per-task",
+    ),
+    ("slurm|c.toml|--tasks|2|--time|", "--time"),
+    ("slurm|c.toml|--tasks|2|--time|2 h", "--time"),
+    ("slurm|c.toml|--tasks|2|--time|-1", "--time"),
+    ("slurm|c.toml|--tasks|2|--time|1:2:3:4", "--time"),
+    ("slurm|c.toml|--tasks|2|--time|1-", "--time"),
+    ("slurm|c.toml|--tasks|2|--mem|-5G", "--mem"),
+    ("slurm|c.toml|--tasks|2|--mem|", "--mem"),
+    ("slurm|c.toml|--tasks|2|--mem|8GB", "--mem"),
+    ("slurm|c.toml|--tasks|2|--mem|G", "--mem"),
+    ("slurm|c.toml|--tasks|2|--binary|", "--binary"),
+    ("slurm|c.toml|--tasks|2|--binary|a b", "--binary"),
+    ("slurm|c.toml|--tasks|2|--partition|", "--partition"),
+    ("slurm|c.toml|--tasks|2|--partition|-x y", "--partition"),
+    ("slurm|c.toml|--tasks|2|--account|", "--account"),
+    ("slurm|c.toml|--tasks|2|--dependency|", "--dependency"),
+    (
+        "slurm|c.toml|--tasks|2|--dependency|afterok:1 2",
+        "--dependency",
+    ),
+    ("slurm|c.toml|--tasks|0", "--tasks"),
+    ("slurm|fifo.toml|--tasks|2", "FIFO"),
+    // Render: only the truths are references.
+    (
+        "render|--scene|scene.toml|--out|o/x.exr|--reference|extrapolated",
+        "--reference extrapolated",
+    ),
+    (
+        "render|--scene|scene.toml|--out|o/x.exr|--reference|full-field",
+        "--reference full-field",
+    ),
+];
+
+#[test]
+fn hostile_surfaces_are_refused_cleanly() {
+    let Some(d) = fixture("refused") else {
+        eprintln!("notice: no mkfifo: the hostile-surfaces suite is skipped");
+        return;
+    };
+    let deep17 = vec!["a"; 17].join(".");
+    let deep = vec!["a"; 30_000].join(".");
+    let mut failures = Vec::new();
+    for (line, needle) in CASES {
+        let args: Vec<String> = line
+            .split('|')
+            .map(|a| a.replace("{DEEP17}", &deep17).replace("{DEEP30000}", &deep))
+            .collect();
+        if let Err(why) = check(&d, &args, needle) {
+            failures.push(format!(
+                "  {}\n    → {why}",
+                line.chars().take(120).collect::<String>()
+            ));
+        }
+    }
+    println!("{} hostile cases, {} failed", CASES.len(), failures.len());
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        CASES.len(),
+        failures.join("\n")
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Extreme but valid: ±1e308 cells (which once spun the plots' tick search forever) are left out
+/// of plots, which still draw the rest; `--tasks` beyond the plan's runs is capped with a notice;
+/// `--allow-partial` merges what there is and the manifest says what is missing.
+#[test]
+fn extreme_cells_partial_merges_and_too_many_tasks_work() {
+    let Some(d) = fixture("valid") else {
+        eprintln!("notice: no mkfifo: skipped");
+        return;
+    };
+    let dir = d.join("r/sparsity/c");
+    let p = dir.join("runs.csv");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut rd = csv::Reader::from_reader(text.as_bytes());
+    let h = rd.headers().unwrap().clone();
+    let at = h.iter().position(|c| c == "max_abs").unwrap();
+    let mut w = csv::Writer::from_path(&p).unwrap();
+    w.write_record(&h).unwrap();
+    for (i, rec) in rd.records().enumerate() {
+        let mut cells: Vec<String> = rec.unwrap().iter().map(String::from).collect();
+        cells[at] = ["1e308", "-1e308", "inf", "2.5e-3", "1e-300", "NaN"][i % 6].into();
+        w.write_record(&cells).unwrap();
+    }
+    drop(w);
+    let t0 = Instant::now();
+    for args in [
+        vec!["plot", "r/sparsity/c", "--metric", "max_abs", "--x", "k"],
+        vec!["report", "r/sparsity/c"],
+    ] {
+        let o = shscale(&d, &args);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    println!(
+        "plot and report of ±1e308 cells: {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let o = shscale(&d, &["slurm", "c.toml", "--tasks", "99999"]);
+    assert!(o.status.success());
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(out.contains("--array=0-2"), "{out}");
+    assert!(
+        err.contains("notice: --tasks 99999 is more than the plan's 3 run(s)"),
+        "{err}"
+    );
+    let o = shscale(
+        &d,
+        &[
+            "merge",
+            "s_missing",
+            "--out",
+            "o/partial",
+            "--allow-partial",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = std::fs::read_to_string(d.join("o/partial/manifest.toml")).unwrap();
+    assert!(m.contains("1 of 3 shard files missing"), "{m}");
+    std::fs::remove_dir_all(&d).ok();
+}
