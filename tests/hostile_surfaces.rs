@@ -121,6 +121,17 @@ fn fixture(tag: &str) -> Option<PathBuf> {
         w.write_record(keep(&rec.unwrap())).unwrap();
     }
     drop(w);
+    // Configs for errors that must name their place.
+    std::fs::write(
+        d.join("zz.toml"),
+        "experiment = \"sparsity\"\norder = 2\n\n[sweep.zip.zip]\nk = [1.5, 2.0]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("p.toml"),
+        "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [1.5, 2.0]\n",
+    )
+    .unwrap();
     // A scene file and a mesh that are FIFOs.
     mkfifo(&d.join("scene.toml"));
     std::fs::create_dir_all(d.join("m")).unwrap();
@@ -250,6 +261,16 @@ const CASES: &[(&str, &str)] = &[
         "run|c.toml|--dry-run|--sweep|{DEEP30000}=1,2",
         "more than the limit 256",
     ),
+    // Errors name their place: the flag that set part of a key, the line of a nested zip.
+    (
+        "run|p.toml|--dry-run|--set|radii[0]=nan",
+        "--set radii[0]=nan",
+    ),
+    (
+        "run|p.toml|--dry-run|--set|radii[1]=-1",
+        "--set radii[1]=-1",
+    ),
+    ("run|zz.toml|--dry-run", "zz.toml:4: sweep.zip.zip"),
     // Inputs that are not regular files: refused by name, never read.
     ("run|fifo.toml|--dry-run", "FIFO"),
     ("run|fifo.toml", "FIFO"),

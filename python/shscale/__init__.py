@@ -37,8 +37,19 @@ __all__ = [
 ]
 
 
+def _real(name: str, a: Any) -> np.ndarray:
+    """``a`` as a float64 array: integers and reals are taken; complex values are refused
+    (their imaginary parts would be dropped), as are objects, strings and booleans."""
+    raw = np.asarray(a)
+    if raw.dtype.kind == "c":
+        raise ValueError(f"{name}: complex values are not accepted (their imaginary parts would be dropped)")
+    if raw.dtype.kind not in "iuf":
+        raise TypeError(f"{name}: expected real numbers, got an array of dtype {raw.dtype}")
+    return raw.astype(np.float64, copy=False)
+
+
 def _rows3(name: str, a: Any) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64)
+    arr = _real(name, a)
     if arr.ndim == 1:
         arr = arr.reshape(1, -1)
     if arr.ndim != 2 or arr.shape[1] != 3:
@@ -51,6 +62,8 @@ def _count(name: str, v: Any) -> int:
         raise ValueError(f"{name}: {v!r} is not a whole number")
     if v < 0:
         raise ValueError(f"{name}: {v} is negative: a whole number ≥ 0 is expected")
+    if v >= 2**63:
+        raise ValueError(f"{name}: {v} is too large (at most 2**63 - 1)")
     return int(v)
 
 
@@ -67,7 +80,7 @@ def sh_cap(order: int, angle_deg: float) -> np.ndarray:
 
 def sh_rotate(order: int, coeffs: Any, euler_zyz_deg: Sequence[float]) -> np.ndarray:
     """``coeffs`` (N²) rotated by the ZYZ Euler angles (degrees)."""
-    c = np.ascontiguousarray(np.asarray(coeffs, dtype=np.float64).ravel())
+    c = np.ascontiguousarray(_real("coeffs", coeffs).ravel())
     e = [float(x) for x in euler_zyz_deg]
     if len(e) != 3:
         raise ValueError(f"euler_zyz_deg: expected 3 angles, got {len(e)}")
@@ -124,12 +137,15 @@ def visibility(
     quadrature: str = "stratified",
     truth_res: int = 128,
     seed: int = 0x5EED7207,
+    allow_large: bool = False,
 ) -> np.ndarray:
     """Ray-traced visibility (1 = unoccluded) over the full sphere at each point, projected to
     order N: shape ``(P, N²)``. ``mesh``: ``sphere``, a procedural shape (bird, egg, sponge,
     plane), a bundled mesh or an .obj/.ply path; ``frame``: entity or local. ``quadrature``:
     ``stratified`` (the converged truth, 4·truth_res² rays per point, as ``shscale visibility``)
-    or ``gauss`` (the method's rings, 2·hemisphere_res² rays)."""
+    or ``gauss`` (the method's rings, 2·hemisphere_res² rays). A call doing more than the CLI's
+    largest single query (points × rays × N² > 4·1024²·128²) raises ``ValueError`` unless
+    ``allow_large``."""
     return _native.visibility(
         str(mesh),
         _rows3("points", points),
@@ -139,6 +155,7 @@ def visibility(
         str(quadrature),
         _count("truth_res", truth_res),
         _count("seed", seed),
+        bool(allow_large),
     )
 
 

@@ -67,6 +67,15 @@ fn rows3(name: &str, a: &PyReadonlyArray2<f64>) -> PyResult<Vec<DVec3>> {
         .collect()
 }
 
+/// The most values `sh_eval` returns (8 bytes each): checked before anything is allocated (a
+/// `(10⁵, 128²)` request once aborted the interpreter on a 13 GB allocation).
+const MAX_SH_EVAL_VALUES: usize = 50_000_000;
+
+/// The most work one `visibility` call does without `allow_large`, in basis-term evaluations
+/// (points × rays per point × N²): the CLI's largest single query (`shscale visibility` at order
+/// 128 and truth_res 1024: 4·1024² rays × 128²).
+const MAX_QUERY_WORK: f64 = 4.0 * 1024.0 * 1024.0 * 128.0 * 128.0;
+
 /// `(P, N²)` basis values at the directions `dirs` (rows, normalised first).
 #[pyfunction]
 fn sh_eval<'py>(
@@ -76,6 +85,14 @@ fn sh_eval<'py>(
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
         check_order(order, shscale_sh::MAX_ORDER)?;
+        let rows = dirs.as_array().nrows();
+        let values = rows.saturating_mul(order * order);
+        if values > MAX_SH_EVAL_VALUES {
+            return Err(bad(
+                "dirs",
+                format!("{rows} directions × {} basis functions = {values} values, more than the limit {MAX_SH_EVAL_VALUES} (400 MB); split the directions", order * order),
+            ));
+        }
         let d = rows3("dirs", &dirs)?;
         let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| bad("order", e))?;
         let nn = order * order;
@@ -292,7 +309,7 @@ use shscale_scene::vocab::MAX_VISIBILITY_RES;
 /// converged stratified truth (`quadrature = "stratified"`, `4T²` rays, as `shscale visibility`)
 /// or the Gauss–Legendre rings (`"gauss"`, `2H²` rays).
 #[pyfunction]
-#[pyo3(signature = (mesh, points, order, hemisphere_res=32, frame="entity", quadrature="stratified", truth_res=shscale_field::truth::DEFAULT_TRUTH_RES, seed=shscale_field::truth::DEFAULT_TRUTH_SEED))]
+#[pyo3(signature = (mesh, points, order, hemisphere_res=32, frame="entity", quadrature="stratified", truth_res=shscale_field::truth::DEFAULT_TRUTH_RES, seed=shscale_field::truth::DEFAULT_TRUTH_SEED, allow_large=false))]
 #[allow(clippy::too_many_arguments)]
 fn visibility<'py>(
     py: Python<'py>,
@@ -304,6 +321,7 @@ fn visibility<'py>(
     quadrature: &str,
     truth_res: usize,
     seed: u64,
+    allow_large: bool,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
         check_order(order, shscale_sh::MAX_ORDER)?;
@@ -342,6 +360,18 @@ fn visibility<'py>(
             shscale_scene::vocab::Quadrature::Gauss => bad("order", e),
             shscale_scene::vocab::Quadrature::Stratified => bad("truth_res", e),
         })?;
+        let work = pts.len() as f64 * query.rays_per_point() as f64 * (order * order) as f64;
+        if work > MAX_QUERY_WORK && !allow_large {
+            return Err(bad(
+                "points",
+                format!(
+                    "{} point(s) × {} rays × {} basis functions = {work:.2e} evaluations, more than the limit {MAX_QUERY_WORK:.2e} (the CLI's largest single query); fewer points, a lower order or truth_res, or allow_large=True",
+                    pts.len(),
+                    query.rays_per_point(),
+                    order * order
+                ),
+            ));
+        }
         let values: Vec<f64> = py.allow_threads(|| {
             pts.iter()
                 .flat_map(|p| query.at(occ.as_ref(), *p, frame).coeffs)

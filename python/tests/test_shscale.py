@@ -162,6 +162,35 @@ def test_bad_values_raise_value_error():
         assert str(e.value), "an empty message"
 
 
+def test_hostile_calls_raise_and_never_crash_the_interpreter(tmp_path):
+    # Each once aborted, crashed or silently misread; now a ValueError/TypeError naming the
+    # argument, raised before any large allocation or work.
+    deep = ".".join(["a"] * 30000)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('experiment = "sparsity"\norder = 2\n')
+    for call, exc, needle in [
+        (lambda: shscale.sh_eval(128, np.zeros((100000, 3)) + [0, 0, 1]), ValueError, "more than the limit"),
+        (lambda: shscale.sh_eval(2**64, [[0, 0, 1]]), ValueError, "too large"),
+        (lambda: shscale.sh_eval(2, np.array([[0, 0, 1 + 1j]])), ValueError, "complex"),
+        (lambda: shscale.sh_eval(2, np.array([[0, 0, "z"]])), TypeError, "dtype"),
+        (lambda: shscale.sh_eval(2, np.array([[0, 0, None]], dtype=object)), TypeError, "dtype"),
+        (lambda: shscale.sh_rotate(2, np.array([1, 0, 0, 1j]), [0, 0, 0]), ValueError, "complex"),
+        (
+            lambda: shscale.visibility("sphere", np.zeros((10000, 3)) + [0, 0, 2], 128, truth_res=1024),
+            ValueError,
+            "allow_large",
+        ),
+        (lambda: shscale.run(cfg, overrides={deep: 1}, out_dir=tmp_path), ValueError, "256"),
+        (lambda: shscale.run(cfg, overrides={"order[abc]": 1}, out_dir=tmp_path), ValueError, "[abc]"),
+    ]:
+        with pytest.raises(exc) as e:
+            call()
+        assert needle in str(e.value), str(e.value)[:300]
+    # Non-contiguous and integer inputs are taken as they are.
+    d = np.array([[0, 0, 1, 9], [1, 0, 0, 9]], dtype=np.int64)[:, :3]
+    assert np.allclose(shscale.sh_eval(2, d), shscale.sh_eval(2, [[0.0, 0, 1], [1, 0, 0]]))
+
+
 def test_long_calls_release_the_gil():
     """While a ray-traced visibility call runs, Python keeps running in another thread."""
     points = np.column_stack([np.zeros(200), np.zeros(200), np.linspace(1.2, 3.0, 200) * 7 + 4.7])

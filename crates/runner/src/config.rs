@@ -234,7 +234,9 @@ impl Source {
     }
 
     fn line_at(&self, byte: usize) -> usize {
-        self.newlines.partition_point(|&i| i < byte.min(self.text.len())) + 1
+        self.newlines
+            .partition_point(|&i| i < byte.min(self.text.len()))
+            + 1
     }
 
     /// The line of the item at `path` in the file (or of its nearest written ancestor, with
@@ -483,8 +485,10 @@ impl Expanded {
                 return place.clone();
             }
         }
+        // A flag that set the key or a part of it (`--set radii[0]=nan` and an error about
+        // `radii`): the flag is the place, not the file's line.
         for (p, place) in self.set_places.iter().rev() {
-            if path.starts_with(p) {
+            if path.starts_with(p) || (!path.is_empty() && p.starts_with(path)) {
                 return place.clone();
             }
         }
@@ -715,6 +719,16 @@ fn walk_lists(
         match v {
             toml::Value::Array(a) => out.push((p, a.clone())),
             toml::Value::Table(sub) if k == "zip" && prefix.len() == root_len => {
+                // A zip block holds lists of equal length, nothing nested (`[sweep.zip.zip]`
+                // once read as a parameter `zip`).
+                if let Some((name, _)) = sub.iter().find(|(_, v)| v.is_table()) {
+                    let mut q = p.clone();
+                    q.push(Seg::Key(name.clone()));
+                    return Err((
+                        q,
+                        "a [sweep.zip] block holds lists of equal length; a table inside it is not allowed".into(),
+                    ));
+                }
                 if let Some(z) = zip.as_deref_mut() {
                     walk_lists(sub, &p, root_len, z, None)?;
                 }
@@ -1155,6 +1169,28 @@ mod tests {
         assert_eq!(
             ex.place_of(&ex.combination(1).unwrap(), &parse_path("order")),
             Place::Flag("--set order=6".into())
+        );
+    }
+
+    #[test]
+    fn an_error_about_a_key_a_flag_set_part_of_names_the_flag() {
+        let text = "experiment = \"x\"\nradii = [1.0, 2.0]\norder = 2\n";
+        let ov = Overrides {
+            set: vec!["radii[0]=nan".into()],
+            ..Overrides::default()
+        };
+        let ex = expand("c.toml", text, &ov).unwrap();
+        let c = ex.combination(0).unwrap();
+        assert_eq!(
+            ex.place_of(&c, &parse_path("radii")),
+            Place::Flag("--set radii[0]=nan".into())
+        );
+        assert_eq!(
+            ex.place_of(&c, &parse_path("order")),
+            Place::Line {
+                file: "c.toml".into(),
+                line: 3
+            }
         );
     }
 

@@ -308,6 +308,14 @@ impl VisibilityQuery {
         })
     }
 
+    /// The rays one point costs: `2H²` (Gauss, both hemispheres) or `4T²` (stratified truth).
+    pub fn rays_per_point(&self) -> usize {
+        match self {
+            Self::Gauss(s) => 2 * s.rays_per_hemisphere(),
+            Self::Stratified(ts) => ts.rays(),
+        }
+    }
+
     /// Visibility of `occ` at `p` over the full sphere, in `frame`.
     pub fn at(&self, occ: &dyn Occluder, p: DVec3, frame: shscale_field::Frame) -> PointVisibility {
         match self {
