@@ -131,7 +131,9 @@ pub fn parse_flag_key(s: &str) -> Result<KeyPath, String> {
     }
     let mut out = Vec::new();
     for part in s.split('.') {
-        let (name, rest) = part.split_once('[').map_or((part, ""), |(n, r)| (n, r));
+        let (name, rest) = part
+            .split_once('[')
+            .map_or((part, None), |(n, r)| (n, Some(r)));
         let ok_name = name
             .chars()
             .next()
@@ -145,7 +147,7 @@ pub fn parse_flag_key(s: &str) -> Result<KeyPath, String> {
             ));
         }
         out.push(Seg::Key(name.to_string()));
-        if !rest.is_empty() {
+        if let Some(rest) = rest {
             let Some(inner) = rest.strip_suffix(']') else {
                 return Err(format!(
                     "{s:?} is not a key: {part:?} does not end with ']'"
@@ -1105,6 +1107,8 @@ mod tests {
             ("a b", "\"a b\" is not a name"),
             ("a/../b", "is not a name"),
             ("order[1", "does not end with ']'"),
+            ("a[", "does not end with ']'"),
+            ("a[1]b", "does not end with ']'"),
             ("order[-1]", "[-1] is not a list index"),
             ("order[]", "[] is not a list index"),
             ("order[99999999999]", "is not a list index"),
@@ -1207,5 +1211,53 @@ mod tests {
             }
         );
         assert_eq!(path_name(&p), "occluder[1].radius");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// Any string as a `--set` key: refused with a reason, or a path that writes back as the
+        /// same key; never a panic.
+        #[test]
+        fn flag_keys_accept_exactly_what_they_write_back(key in "[a-z_.\\[\\]0-9 -]{0,40}") {
+            if let Ok(path) = parse_flag_key(&key) {
+                proptest::prop_assert_eq!(path_name(&path), key);
+                proptest::prop_assert!(path.len() <= MAX_KEY_DEPTH);
+            }
+        }
+
+        /// Arbitrary override strings through the whole expansion: a plan or an error naming the
+        /// flag, never a panic.
+        #[test]
+        fn overrides_never_panic(set in "\\PC{0,30}", sweep in "\\PC{0,30}") {
+            let ov = Overrides {
+                set: vec![set.clone()],
+                sweep: vec![sweep],
+                name: None,
+            };
+            if let Err(e) = expand("c.toml", "experiment = \"x\"\norder = 2\n[sweep]\nk = [1, 2]\n", &ov) {
+                proptest::prop_assert!(!e.to_string().is_empty());
+            }
+        }
+
+        /// Sweep tables of arbitrary small lists: the combination count is the product (or the
+        /// duplicate/empty list is refused), never a panic.
+        #[test]
+        fn sweep_tables_expand_to_their_product(
+            a in proptest::collection::vec(0i64..5, 0..5),
+            b in proptest::collection::vec(0i64..5, 0..5),
+        ) {
+            let list = |v: &[i64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", ");
+            let text = format!("experiment = \"x\"\n[sweep]\na = [{}]\nb = [{}]\n", list(&a), list(&b));
+            let distinct = |v: &[i64]| v.iter().collect::<std::collections::BTreeSet<_>>().len() == v.len();
+            match expand("c.toml", &text, &Overrides::default()) {
+                Ok(ex) => {
+                    proptest::prop_assert!(distinct(&a) && distinct(&b) && !a.is_empty() && !b.is_empty());
+                    proptest::prop_assert_eq!(ex.len(), a.len() * b.len());
+                }
+                Err(e) => {
+                    proptest::prop_assert!(!(distinct(&a) && distinct(&b) && !a.is_empty() && !b.is_empty()), "{}", e);
+                }
+            }
+        }
     }
 }

@@ -388,4 +388,40 @@ mod tests {
         assert!(split_line("\"a\"b,c\n").is_none());
         assert!(split_line("").is_none());
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// Any record of any cells reads back as the csv crate's reader reads it.
+        #[test]
+        fn split_line_agrees_with_the_csv_reader(
+            cells in proptest::collection::vec(".{0,12}", 1..6)
+        ) {
+            // The oracle drops a byte-order mark at the start of its input (a header of field
+            // names never starts with one).
+            proptest::prop_assume!(!cells[0].starts_with('\u{feff}'));
+            let mut wr = csv::Writer::from_writer(Vec::new());
+            wr.write_record(&cells).unwrap();
+            let bytes = wr.into_inner().unwrap();
+            let text = std::str::from_utf8(&bytes).unwrap();
+            let want: Vec<String> = csv::ReaderBuilder::new()
+                .has_headers(false)
+                .from_reader(bytes.as_slice())
+                .records()
+                .next()
+                .unwrap()
+                .unwrap()
+                .iter()
+                .map(String::from)
+                .collect();
+            let (got, rest) = split_line(text).unwrap();
+            proptest::prop_assert_eq!(got, want);
+            proptest::prop_assert_eq!(rest, "");
+        }
+
+        /// Arbitrary text is never a panic: a record or `None`.
+        #[test]
+        fn split_line_never_panics(text in "\\PC{0,40}") {
+            let _ = split_line(&text);
+        }
+    }
 }

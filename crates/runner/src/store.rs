@@ -304,4 +304,45 @@ mod tests {
         assert_eq!(rows[1].1, row("z"));
         std::fs::remove_dir_all(p.parent().unwrap()).ok();
     }
+
+    use proptest::prelude::Strategy;
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// Rows of arbitrary cells (any count, any text, numbers at the extremes) under the
+        /// right header: each kept or set aside with a reason, never a panic, never both.
+        #[test]
+        fn arbitrary_rows_are_kept_or_set_aside(
+            rows in proptest::collection::vec(
+                proptest::collection::vec(
+                    proptest::prop_oneof![
+                        "\\PC{0,8}",
+                        proptest::num::f64::ANY.prop_map(|x| x.to_string()),
+                        (0u64..1000).prop_map(|x| x.to_string()),
+                    ],
+                    0..14,
+                ),
+                0..12,
+            )
+        ) {
+            let kind: &dyn DynKind = &crate::bench::TALLY;
+            let want = header(kind);
+            let raw: Vec<records::CsvLine> = rows
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (i as u64 + 2, r.clone()))
+                .collect();
+            let l = validate(kind, &want, raw);
+            proptest::prop_assert_eq!(l.rows.len() + l.rejected.len(), rows.len());
+            for (_, why, _) in &l.rejected {
+                proptest::prop_assert!(!why.is_empty());
+            }
+        }
+
+        /// Arbitrary text as a manifest: parsed or refused, never a panic.
+        #[test]
+        fn arbitrary_manifests_parse_or_are_refused(text in "\\PC{0,80}") {
+            let _ = toml::from_str::<crate::manifest::Manifest>(&text);
+        }
+    }
 }
