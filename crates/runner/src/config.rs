@@ -1249,13 +1249,14 @@ mod tests {
             let list = |v: &[i64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", ");
             let text = format!("experiment = \"x\"\n[sweep]\na = [{}]\nb = [{}]\n", list(&a), list(&b));
             let distinct = |v: &[i64]| v.iter().collect::<std::collections::BTreeSet<_>>().len() == v.len();
+            let valid = distinct(&a) && distinct(&b) && !a.is_empty() && !b.is_empty();
             match expand("c.toml", &text, &Overrides::default()) {
                 Ok(ex) => {
-                    proptest::prop_assert!(distinct(&a) && distinct(&b) && !a.is_empty() && !b.is_empty());
+                    proptest::prop_assert!(valid);
                     proptest::prop_assert_eq!(ex.len(), a.len() * b.len());
                 }
                 Err(e) => {
-                    proptest::prop_assert!(!(distinct(&a) && distinct(&b) && !a.is_empty() && !b.is_empty()), "{}", e);
+                    proptest::prop_assert!(!valid, "{}", e);
                 }
             }
         }
