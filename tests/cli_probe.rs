@@ -205,3 +205,43 @@ fn bad_probe_input_fails_cleanly() {
         "nothing_here",
     );
 }
+
+#[test]
+fn probe_pretty_is_a_table_not_csv() {
+    let o = shscale(&[
+        "probe",
+        "--mesh",
+        "sphere",
+        "--order",
+        "4",
+        "--alpha-deg",
+        "45",
+        "--layout",
+        "fib:40",
+        "--radii",
+        "1.3,2",
+        "--format",
+        "pretty",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(
+        lines[0].starts_with("probe: sphere, order 4, α = 45°"),
+        "{text}"
+    );
+    assert!(
+        lines[1].contains("radius (×r)") && lines[1].contains("occ err mean"),
+        "{text}"
+    );
+    // One aligned line per radius, no commas: a table, not CSV.
+    let body: Vec<&&str> = lines[2..].iter().filter(|l| !l.starts_with('(')).collect();
+    assert_eq!(body.len(), 2, "{text}");
+    let width = |l: &str| l.chars().count();
+    assert!(
+        body.iter()
+            .all(|l| !l.contains(',') && width(l) == width(lines[1])),
+        "{text}"
+    );
+    assert!(body[0].trim_start().starts_with("1.3"), "{text}");
+}

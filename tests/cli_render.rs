@@ -217,7 +217,7 @@ fn render_prints_json_for_scripts() {
     ]);
     let t = String::from_utf8_lossy(&text.stdout);
     assert!(
-        t.contains(&format!("shade_rmse_rel vs Raytraced: {rel:.4e}")),
+        t.contains(&format!("shade_rmse_rel vs raytraced: {rel:.4e}")),
         "{t} vs {rel}"
     );
     std::fs::remove_dir_all(&d).ok();

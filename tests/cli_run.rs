@@ -78,12 +78,18 @@ fn run_writes_csv_and_manifest_and_resumes() {
         "merge never overwrites",
     );
     fails(&["merge", "/nonexistent/dir"], "/nonexistent/dir");
-    // Slurm: an array over the shards and a dependent merge.
+    // Slurm: an array over the shards and a dependent merge; 4 tasks for a 2-run plan are
+    // capped at 2, with a notice.
     let sl = shscale(&["slurm", cfg.to_str().unwrap(), "--tasks", "4"]);
     let script = String::from_utf8_lossy(&sl.stdout).to_string();
     assert!(
-        script.contains("--array=0-3")
-            && script.contains("--shard \"$SLURM_ARRAY_TASK_ID\"/4")
+        String::from_utf8_lossy(&sl.stderr).contains("the array has 2 task(s)"),
+        "{}",
+        String::from_utf8_lossy(&sl.stderr)
+    );
+    assert!(
+        script.contains("--array=0-1")
+            && script.contains("--shard \"$SLURM_ARRAY_TASK_ID\"/2")
             && script.contains("afterok")
             && script.contains("merge"),
         "{script}"

@@ -261,6 +261,80 @@ const CASES: &[(&str, &str)] = &[
         "run|c.toml|--dry-run|--sweep|{DEEP30000}=1,2",
         "more than the limit 256",
     ),
+    // Overrides of every kind of value: each error names the flag.
+    ("run|c.toml|--dry-run|--set|order=", "--set order=: order"),
+    ("run|c.toml|--dry-run|--set|=", "is not a name"),
+    ("run|c.toml|--dry-run|--set|order", "expected key=value"),
+    ("run|c.toml|--dry-run|--sweep|k=", "--sweep k=: k"),
+    ("run|c.toml|--dry-run|--sweep|k=1,1", "appears twice"),
+    ("run|c.toml|--dry-run|--sweep|=1,2", "is not a name"),
+    ("run|c.toml|--dry-run|--set|order=-1", "--set order=-1"),
+    ("run|c.toml|--dry-run|--set|order=99", "1..=16"),
+    (
+        "run|c.toml|--dry-run|--set|tau=laser",
+        "\"laser\" is not cone or midrange",
+    ),
+    ("run|c.toml|--dry-run|--name|../x", "no path separators"),
+    ("run|c.toml|--dry-run|--name|a/b", "no path separators"),
+    (
+        "run|c.toml|--dry-run|--name|",
+        "must be 1 to 128 characters",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|name=..",
+        "must be 1 to 128 characters",
+    ),
+    ("run|c.toml|--dry-run|--set|timing_repeats=0", "1..=100"),
+    (
+        "run|c.toml|--dry-run|--set|gpu=maybe",
+        "\"maybe\" is not one of",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|nosuch=1",
+        "unknown field `nosuch`",
+    ),
+    (
+        "run|c.toml|--dry-run|--sweep|nosuch=1,2",
+        "--sweep nosuch=1,2",
+    ),
+    ("run|c.toml|--dry-run|--set|sweep=3", "--set sweep=3"),
+    ("run|c.toml|--dry-run|--set|sweep.k=3", "--set sweep.k=3"),
+    (
+        "run|c.toml|--dry-run|--set|order=[1,2]",
+        "invalid type: sequence",
+    ),
+    (
+        "run|c.toml|--dry-run|--sweep|order=[1],[2]",
+        "--sweep order=[1],[2]",
+    ),
+    (
+        "run|c.toml|--dry-run|--set|experiment=probe",
+        "unknown field `k`",
+    ),
+    // Results-directory commands: the culprit named, nothing written.
+    (
+        "plot|r/sparsity/c|--metric|outside_pattern|--x|k|--log-y",
+        "a log y axis needs values > 0",
+    ),
+    (
+        "plot|r/sparsity/c|--metric|nonzeros|--x|nosuch",
+        "\"nosuch\" is not a column",
+    ),
+    (
+        "plot|r/sparsity/c|--metric|nonzeros|--x|k|--series|nosuch",
+        "\"nosuch\" is not a column",
+    ),
+    (
+        "plot|r/sparsity/c|--metric|eta|--x|k",
+        "no row has numbers in both",
+    ),
+    ("merge|/nonexistent", "/nonexistent"),
+    (
+        "merge|r/sparsity/c|--out|r/sparsity/c",
+        "merge never overwrites",
+    ),
+    ("report|/nonexistent", "no manifest.toml"),
+    ("compare|r/sparsity/c|/nonexistent", "no manifest.toml"),
     // Errors name their place: the flag that set part of a key, the line of a nested zip.
     (
         "run|p.toml|--dry-run|--set|radii[0]=nan",

@@ -505,19 +505,29 @@ fn probe_columns<'py>(
         .map(|o| o.keys().cloned().collect())
         .unwrap_or_default();
     for k in keys {
-        let col: Vec<f64> = list
-            .iter()
-            .map(|r| r[&k].as_f64().unwrap_or(f64::NAN))
-            .collect();
-        out.set_item(k, col.into_pyarray(py))?;
+        // Counts stay integers (every value an integer); other columns are reals, NaN where
+        // a metric is undefined.
+        if list.iter().all(|r| r[&k].is_i64()) {
+            let col: Vec<i64> = list.iter().map(|r| r[&k].as_i64().unwrap_or(0)).collect();
+            out.set_item(k, col.into_pyarray(py))?;
+        } else {
+            let col: Vec<f64> = list
+                .iter()
+                .map(|r| r[&k].as_f64().unwrap_or(f64::NAN))
+                .collect();
+            out.set_item(k, col.into_pyarray(py))?;
+        }
     }
     Ok(out)
 }
 
 /// Run an experiment config through the runner (`shscale run`): `set` and `sweep` are the
-/// `--set key=value` and `--sweep key=v1,v2` overrides. Returns `(results_dir, warnings)`.
+/// `--set key=value` and `--sweep key=v1,v2` overrides. `config` is a file's path, or, with
+/// `text`, the label of that config text (a dict or TOML string from Python; its relative paths
+/// are relative to the working directory). Returns `(results_dir, warnings)`.
 #[pyfunction]
-#[pyo3(signature = (config, set=vec![], sweep=vec![], name=None, out_dir="results", allow_large=false))]
+#[pyo3(signature = (config, set=vec![], sweep=vec![], name=None, out_dir="results", allow_large=false, text=None))]
+#[allow(clippy::too_many_arguments)]
 fn run_config(
     py: Python<'_>,
     config: &str,
@@ -526,12 +536,17 @@ fn run_config(
     name: Option<String>,
     out_dir: &str,
     allow_large: bool,
+    text: Option<String>,
 ) -> PyResult<(String, Vec<String>)> {
     guard(|| {
         let registry = shscale_experiments::registry();
         let ov = shscale_runner::config::Overrides { set, sweep, name };
-        let plan = shscale_runner::Plan::load(std::path::Path::new(config), &ov, &registry)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let plan = match &text {
+            // The plan's default name is "python" (a label like "<dict config>" is no name).
+            Some(t) => shscale_runner::Plan::parse(config, "python", t, &ov, &registry),
+            None => shscale_runner::Plan::load(std::path::Path::new(config), &ov, &registry),
+        }
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
         plan.check_limits(allow_large)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let out = std::path::PathBuf::from(out_dir);

@@ -99,6 +99,11 @@ def test_visibility_inspect_probe_equal_the_cli():
     want = cli("probe", "--mesh", "bird", "--order", "3", "--alpha-deg", "45", "--layout", "fib:40",
                "--hemisphere-res", "8", "--radii", "0.7,1.3", "--k-count", "8")
     assert p["samples"] == want["samples"] and p["k_min"] == want["k_min"]
+    # Rows as run() gives them: a DataFrame, counts as integers.
+    import pandas as pd
+
+    assert isinstance(p["rows"], pd.DataFrame) and len(p["rows"]) == 2
+    assert p["rows"]["probes"].dtype.kind == "i" and p["rows"]["radius"].dtype.kind == "f"
     # Every column of the CLI's rows (the row struct through serde), the device columns aside.
     cli_cols = [c for c in want["rows"][0] if c not in ("device", "threads")]
     assert list(p["rows"]) == cli_cols
@@ -252,3 +257,42 @@ def test_notebook_runs(tmp_path):
     assert not [o for o in outputs if o.get("output_type") == "error"]
     text = "".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")
     assert "44 structural" in text, text
+
+
+def test_run_takes_a_path_a_toml_string_or_a_dict(tmp_path):
+    text = 'experiment = "sparsity"\norder = 2\n\n[sweep]\nk = [1.5, 2.0]\n'
+    cfg = tmp_path / "s.toml"
+    cfg.write_text(text)
+    by_path, _ = shscale.run(cfg, out_dir=tmp_path / "a")
+    by_text, _ = shscale.run(text, out_dir=tmp_path / "b")
+    by_dict, d = shscale.run(
+        {"experiment": "sparsity", "order": 2, "sweep": {"k": [1.5, 2.0]}},
+        out_dir=tmp_path / "c",
+    )
+    cols = ["run_id", "k", "eta", "nonzeros", "max_abs"]
+    for other in (by_text, by_dict):
+        assert other[cols].equals(by_path[cols])
+    assert d.endswith("python"), d
+    # Nested tables and arrays of tables: [[sweep]] blocks.
+    blocks, _ = shscale.run(
+        {"experiment": "sparsity", "order": 2, "sweep": [{"k": [1.5]}, {"k": [3.0]}]},
+        out_dir=tmp_path / "e",
+    )
+    assert sorted(set(blocks["k"])) == [1.5, 3.0]
+    for call, exc, needle in [
+        (lambda: shscale.run(cfg, sweep={"k": 4}, out_dir=tmp_path / "f"), ValueError, "not a list"),
+        (lambda: shscale.run(cfg, sweep={"k": "4"}, out_dir=tmp_path / "f"), ValueError, "not a list"),
+        (lambda: shscale.run(cfg, overrides={1: 2}, out_dir=tmp_path / "f"), TypeError, "keys"),
+        (lambda: shscale.run(42, out_dir=tmp_path / "f"), TypeError, "a path, a TOML string or a dict"),
+        (lambda: shscale.run({"experiment": "nosuch"}, out_dir=tmp_path / "f"), ValueError, "nosuch"),
+    ]:
+        with pytest.raises(exc) as e:
+            call()
+        assert needle in str(e.value), str(e.value)
+
+
+def test_the_namespace_is_the_api():
+    public = {n for n in dir(shscale) if not n.startswith("_")}
+    assert public == set(shscale.__all__) - {"__version__"}, public ^ set(shscale.__all__)
+    for leaked in ["np", "os", "math", "warnings", "Any", "Mapping"]:
+        assert not hasattr(shscale, leaked), leaked

@@ -379,7 +379,8 @@ pub struct SlurmArgs {
 /// Command-line overrides of an experiment config (Hydra style).
 #[derive(Args, Debug, Default, Clone)]
 pub struct OverrideArgs {
-    /// Set a key (dotted for nested keys): `--set order=6`, `--set light.sun=2.5`; repeatable.
+    /// Set a key (dotted for nested keys): `--set order=6`, `--set light.sun=2.5`, a list as
+    /// `--set radii=1.3,2`; repeatable.
     #[arg(long = "set", value_name = "KEY=VALUE", allow_hyphen_values = true)]
     pub set: Vec<String>,
     /// Add or replace a sweep axis: `--sweep alpha_deg=15,30,45`; repeatable.
@@ -430,7 +431,8 @@ pub enum MethodArg {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML; see crates/scene/src/scene.rs for the schema).
+    /// Scene file (TOML; its keys: `shscale config-reference`, section "Scene files", or
+    /// docs/config-reference.md).
     #[arg(long)]
     pub scene: std::path::PathBuf,
     #[arg(long, value_enum, default_value_t = MethodArg::Extrapolated)]

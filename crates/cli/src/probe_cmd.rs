@@ -105,7 +105,8 @@ pub fn run(a: ProbeArgs) -> anyhow::Result<ExitCode> {
     };
     match a.format {
         Format::Json => print_json(&out)?,
-        _ => print_csv(&out)?,
+        Format::Csv => print_csv(&out)?,
+        Format::Pretty => print_pretty(&out)?,
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -114,6 +115,74 @@ fn rayon_threads() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
+}
+
+/// The columns `--format pretty` shows, in order, with their headings.
+const PRETTY: &[(&str, &str)] = &[
+    ("radius", "radius (×r)"),
+    ("k", "k"),
+    ("probes", "probes"),
+    ("inside_count", "inside"),
+    ("occ_rel_l2_mean", "occ err mean"),
+    ("occ_rel_l2_max", "occ err max"),
+    ("vis_rel_l2_mean", "vis err mean"),
+    ("truth_rel_err_mean", "truth err"),
+];
+
+/// The rows as an aligned table of the headline columns (the run's keys on a line above it);
+/// `--format csv` or `json` give every column.
+fn print_pretty(out: &ProbeOut) -> anyhow::Result<()> {
+    println!(
+        "probe: {}, order {}, α = {}°, layout {}, H = {}, sampling radius {}r, K = {}; {} samples ({} on the surface), {} BSV rays",
+        out.mesh,
+        out.order,
+        out.alpha_deg,
+        out.layout,
+        out.hemisphere_res,
+        out.sampling_radius,
+        out.k_count,
+        out.samples,
+        out.on_surface_samples,
+        out.bsv_rays
+    );
+    let v = serde_json::to_value(&out.rows)?;
+    let rows = v.as_array().map(Vec::as_slice).unwrap_or_default();
+    let cols: Vec<(&str, &str)> = (PRETTY.iter().copied())
+        .filter(|(k, _)| rows.first().is_some_and(|r| r.get(k).is_some()))
+        .collect();
+    let cell = |v: &serde_json::Value| match v {
+        serde_json::Value::Number(n) if n.is_u64() || n.is_i64() => n.to_string(),
+        serde_json::Value::Number(n) => format!("{:.4}", n.as_f64().unwrap_or(f64::NAN)),
+        serde_json::Value::Null => "—".into(),
+        other => other.to_string(),
+    };
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| cols.iter().map(|(k, _)| cell(&r[*k])).collect())
+        .collect();
+    let width: Vec<usize> = (cols.iter().enumerate())
+        .map(|(i, (_, h))| {
+            (table.iter().map(|r| r[i].chars().count()))
+                .chain([h.chars().count()])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |cells: Vec<String>| {
+        (cells.iter().zip(&width))
+            .map(|(c, w)| format!("{c:>w$}", w = *w))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    println!(
+        "{}",
+        line(cols.iter().map(|(_, h)| h.to_string()).collect())
+    );
+    for r in table {
+        println!("{}", line(r));
+    }
+    println!("(errors: relative L2 of the occlusion 1 − V and of V, against the ray-traced truth; --format csv or json for every column)");
+    Ok(())
 }
 
 /// The rows as CSV: the run's keys, then every column of a row in the struct's field order.

@@ -7,6 +7,13 @@ use shscale_scene::render::{render, render_sequence, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
 
+/// A method as the command line writes it (`raytraced-full`, not `RaytracedFull`).
+fn cli_name(m: MethodArg) -> String {
+    use clap::ValueEnum;
+    m.to_possible_value()
+        .map_or_else(|| format!("{m:?}"), |v| v.get_name().to_string())
+}
+
 /// The most frames `render --frames` renders.
 const MAX_FRAMES: usize = 10_000;
 
@@ -22,7 +29,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
     // stderr every 10 s otherwise.
     let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
-    let ticker = Ticker::start(&format!("{:?}", a.method), est);
+    let ticker = Ticker::start(&cli_name(a.method), est);
     let img = render(&scene, method);
     ticker.stop();
     let img = img?;
@@ -181,7 +188,7 @@ impl Rendered<'_> {
             .collect();
         let out = serde_json::json!({
             "scene": a.scene.display().to_string(),
-            "method": format!("{:?}", a.method),
+            "method": cli_name(a.method),
             "width": img.width,
             "height": img.height,
             "occluders": self.scene.occluders.len(),
@@ -193,7 +200,7 @@ impl Rendered<'_> {
             "full_frequency_light": self.truth_light,
             "truth_error_rms": self.truth_error_rms,
             "reference": self.reference.map(|(r, rel, secs)| serde_json::json!({
-                "method": format!("{r:?}"),
+                "method": cli_name(r),
                 "shade_rmse_rel": rel,
                 "render_ms": secs * 1e3,
             })),
@@ -205,12 +212,12 @@ impl Rendered<'_> {
     fn print_text(&self, a: &RenderArgs) {
         let img = self.img;
         println!(
-            "rendered {} ({}×{} receivers, {} occluder(s), method {:?}, {} threads)",
+            "rendered {} ({}×{} receivers, {} occluder(s), method {}, {} threads)",
             a.scene.display(),
             img.width,
             img.height,
             self.scene.occluders.len(),
-            a.method,
+            cli_name(a.method),
             rayon::current_num_threads()
         );
         for (stage, s) in &img.stages {
@@ -227,7 +234,8 @@ impl Rendered<'_> {
         }
         if let Some((r, rel, secs)) = self.reference {
             println!(
-                "shade_rmse_rel vs {r:?}: {rel:.4e}  (reference rendered in {:.1} ms)",
+                "shade_rmse_rel vs {}: {rel:.4e}  (reference rendered in {:.1} ms)",
+                cli_name(r),
                 secs * 1e3
             );
         }

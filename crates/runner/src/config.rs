@@ -306,12 +306,21 @@ impl Overrides {
     }
 }
 
-/// A value written on the command line: TOML when it parses as a TOML value, else a string.
+/// A value written on the command line: TOML when it parses as a TOML value; a bare comma list
+/// (`1.3,2`, as `--sweep` takes it) as the list `[1.3, 2]`; else a string.
 fn cli_value(text: &str) -> toml::Value {
     let t = text.trim();
-    toml::from_str::<toml::Table>(&format!("v = {t}"))
-        .ok()
-        .and_then(|mut tab| tab.remove("v"))
+    let parse = |t: &str| {
+        toml::from_str::<toml::Table>(&format!("v = {t}"))
+            .ok()
+            .and_then(|mut tab| tab.remove("v"))
+    };
+    parse(t)
+        .or_else(|| {
+            (split_top(t).len() > 1)
+                .then(|| parse(&format!("[{t}]")))
+                .flatten()
+        })
         .unwrap_or_else(|| toml::Value::String(t.to_string()))
 }
 
@@ -531,6 +540,13 @@ pub fn expand(file: &str, text: &str, ov: &Overrides) -> Result<Expanded, Config
     let source = Source::new(file, text);
     let mut doc = parse_table(file, text)?;
     let (set_places, sweep_flags) = apply_overrides(&mut doc, ov)?;
+    // `--set sweep…` flags place sweep errors too (after the `--sweep` flags, which win).
+    let mut sweep_flags = sweep_flags;
+    sweep_flags.extend(
+        (set_places.iter())
+            .filter(|(p, _)| p.first() == Some(&Seg::Key("sweep".into())))
+            .cloned(),
+    );
     let places = Places {
         file,
         source: &source,
@@ -1166,6 +1182,16 @@ mod tests {
         assert_eq!(t["mesh"].as_str(), Some("bunny"));
         assert_eq!(t["light"]["sun"].as_float(), Some(2.5));
         assert_eq!(t["radii"].as_array().unwrap().len(), 2);
+        // `--set key=v1,v2` is the list [v1, v2], as --sweep writes values.
+        let ov = Overrides {
+            set: vec!["radii=1.3,2".into(), "label=a b".into()],
+            ..Overrides::default()
+        };
+        let ex = expand("c.toml", text, &ov).unwrap();
+        let t = &ex.combination(0).unwrap().table;
+        assert_eq!(t["radii"].as_array().unwrap().len(), 2);
+        assert_eq!(t["radii"][0].as_float(), Some(1.3));
+        assert_eq!(t["label"].as_str(), Some("a b"));
         assert_eq!(
             ex.place_of(&ex.combination(1).unwrap(), &parse_path("radii")),
             Place::Flag("--sweep radii=[1,2],[3]".into())

@@ -141,11 +141,28 @@ pub fn run_plan(
         device: device.as_ref(),
         timing: plan.timing,
     };
+    // A run's label in the log: its id and the swept parameters' values, not every parameter.
+    let columns = kind.param_columns();
+    let swept: Vec<(&str, usize)> = (plan.axes.iter())
+        .filter_map(|a| columns.iter().position(|c| c == a).map(|i| (a.as_str(), i)))
+        .collect();
+    let label = |r: &Resolved| {
+        let values: Vec<String> = (swept.iter())
+            .map(|(a, i)| format!("{a}={}", r.cells.get(*i).map_or("", String::as_str)))
+            .collect();
+        if values.is_empty() {
+            r.id.clone()
+        } else {
+            format!("{} {}", r.id, values.join(" "))
+        }
+    };
+    let groups = plan.groups();
+    let group_count = groups.len();
     let mut todo = vec![false; plan.runs.len()];
     for &i in &pending {
         todo[i] = true;
     }
-    for g in plan.groups() {
+    for (gi, g) in groups.into_iter().enumerate() {
         let runs: Vec<&Resolved> = (g.iter())
             .filter(|&&i| todo[i])
             .map(|&i| &plan.runs[i])
@@ -153,16 +170,19 @@ pub fn run_plan(
         if runs.is_empty() {
             continue;
         }
-        progress(RunEvent::Shared(&format!(
-            "shared work for {} run(s): {}",
-            runs.len(),
-            runs[0].group.chars().take(120).collect::<String>()
-        )));
+        // A group of one run shares nothing: no line for it.
+        if runs.len() > 1 {
+            progress(RunEvent::Shared(&format!(
+                "group {} of {group_count}: shared work for {} run(s)",
+                gi + 1,
+                runs.len()
+            )));
+        }
         let concurrent = plan.parallel_runs && runs.len() > 1;
         kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
             writer.write_run(r, rows, concurrent)?;
             progress(RunEvent::Done {
-                line: &format!("{} {} in {secs:.2} s", r.id, r.canonical),
+                line: &format!("{} in {secs:.2} s", label(r)),
                 secs,
             });
             Ok(())
