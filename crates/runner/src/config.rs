@@ -1187,8 +1187,8 @@ mod tests {
             set: vec!["radii=1.3,2".into(), "label=a b".into()],
             ..Overrides::default()
         };
-        let ex = expand("c.toml", text, &ov).unwrap();
-        let t = &ex.combination(0).unwrap().table;
+        let listed = expand("c.toml", text, &ov).unwrap();
+        let t = &listed.combination(0).unwrap().table;
         assert_eq!(t["radii"].as_array().unwrap().len(), 2);
         assert_eq!(t["radii"][0].as_float(), Some(1.3));
         assert_eq!(t["label"].as_str(), Some("a b"));
