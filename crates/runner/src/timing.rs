@@ -119,7 +119,7 @@ pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 /// rows appended and synced (group commits, about ten a second), resume, summary and report —
 /// 12–21 µs per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench runner`,
 /// docs/BENCHMARKS.md "Group commits"), and about 50 µs per run through `shscale run`, which
-/// also logs two lines per run (a 10⁴-run `sparsity` sweep: 1.7 s, of which 1.1 s the runs' own
+/// also logs a line per run (a 10⁴-run `sparsity` sweep: 1.6–1.9 s, of which 1.1 s the runs' own
 /// work). Part of every plan's estimated seconds.
 pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;
 
