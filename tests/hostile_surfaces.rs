@@ -489,6 +489,10 @@ fn extreme_cells_partial_merges_and_too_many_tasks_work() {
         "plot and report of ±1e308 cells: {:.2} s",
         t0.elapsed().as_secs_f64()
     );
+    // A directory named like a built-in mesh does not shadow it.
+    std::fs::create_dir_all(d.join("sphere")).unwrap();
+    let o = shscale(&d, &["run", "p.toml", "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = shscale(&d, &["slurm", "c.toml", "--tasks", "99999"]);
     assert!(o.status.success());
     let (out, err) = (

@@ -213,17 +213,21 @@ fn missing_shards(files: &[PathBuf]) -> Vec<String> {
     }
     let mut out = Vec::new();
     for (n, have) in seen {
-        let lacking: Vec<String> = (0..n)
-            .filter(|i| !have.contains(i))
-            .take(20)
-            .map(|i| format!("runs.shard-{i}-of-{n}.csv"))
-            .collect();
-        let count = (0..n).filter(|i| !have.contains(i)).count();
-        if count > 0 {
+        let lacking: Vec<usize> = (0..n).filter(|i| !have.contains(i)).collect();
+        if !lacking.is_empty() {
+            // At most 20 named.
+            let named: Vec<String> = (lacking.iter().take(20))
+                .map(|i| format!("runs.shard-{i}-of-{n}.csv"))
+                .collect();
             out.push(format!(
-                "{count} of {n} shard files missing ({}{})",
-                lacking.join(", "),
-                if count > lacking.len() { ", …" } else { "" }
+                "{} of {n} shard files missing ({}{})",
+                lacking.len(),
+                named.join(", "),
+                if lacking.len() > named.len() {
+                    ", …"
+                } else {
+                    ""
+                }
             ));
         }
     }

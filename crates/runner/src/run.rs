@@ -119,16 +119,33 @@ pub fn run_plan(
         total: summary.in_shard,
         pending: pending.len(),
     });
+    let version = version_of(plan, Provenance::here(&gpu_device));
+    let provenance_cells = [false, true].map(|concurrent| {
+        let prov = RowProvenance {
+            threads: rayon::current_num_threads(),
+            timing_concurrent: concurrent,
+            timing_warmup: plan.timing.warmup,
+            timing_repeats: plan.timing.repeats,
+            git_revision: version.provenance.git_revision.clone(),
+            git_dirty: version.provenance.git_dirty,
+        };
+        records::to_cells(&prov).map(|(_, c)| c)
+    });
+    let [alone, concurrent] = provenance_cells;
+    let provenance_cells = [
+        alone.map_err(Error::Config)?,
+        concurrent.map_err(Error::Config)?,
+    ];
     let writer = Writer {
         plan,
         dir: &dir,
         csv: &csv,
-        version: version_of(plan, Provenance::here(&gpu_device)),
+        version,
+        provenance_cells,
         order: (plan.runs.iter().enumerate())
             .map(|(i, r)| (r.id.as_str(), i))
             .collect(),
         header: header(plan.kind),
-        threads: rayon::current_num_threads(),
         state: std::sync::Mutex::new(Known::of(&csv, &loaded)),
         waiting: &waiting,
         progress,
@@ -306,7 +323,6 @@ struct Writer<'a> {
     order: HashMap<&'a str, usize>,
     /// The kind's CSV header.
     header: Vec<String>,
-    threads: usize,
     /// What this process knows of the file, and the runs it wrote.
     state: std::sync::Mutex<Known>,
     waiting: &'a (dyn Fn(&Path) + Sync),
@@ -315,6 +331,9 @@ struct Writer<'a> {
     queue: std::sync::Mutex<Queue>,
     /// How often the summary and report of the rows so far are written (unsharded plans).
     interim: Option<std::time::Duration>,
+    /// The provenance cells every row ends with, timed alone (`[0]`) or concurrently (`[1]`):
+    /// built once, not per run.
+    provenance_cells: [Vec<String>; 2],
 }
 
 /// Finished runs waiting for the next commit: their ids and rows.
@@ -372,15 +391,7 @@ impl Writer<'_> {
     /// Queue a finished run's rows, and commit the queue when it is due.
     fn write_run(&self, r: &Resolved, rows: RowCells, concurrent: bool) -> Result<(), Error> {
         let kind = self.plan.kind;
-        let prov = RowProvenance {
-            threads: self.threads,
-            timing_concurrent: concurrent,
-            timing_warmup: self.plan.timing.warmup,
-            timing_repeats: self.plan.timing.repeats,
-            git_revision: self.version.provenance.git_revision.clone(),
-            git_dirty: self.version.provenance.git_dirty,
-        };
-        let (_, pcells) = records::to_cells(&prov).map_err(Error::Config)?;
+        let pcells = &self.provenance_cells[usize::from(concurrent)];
         let lines: Vec<Vec<String>> = rows
             .into_iter()
             .map(|row| {

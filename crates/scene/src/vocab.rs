@@ -26,10 +26,13 @@ pub fn mesh_names() -> String {
 /// Whether `name` names a mesh: the analytic sphere, a procedural shape, a bundled mesh or an
 /// existing file.
 pub fn mesh_exists(name: &str) -> bool {
-    name == "sphere"
-        || PROCEDURAL.contains(&name)
-        || bundled::names().contains(&name)
-        || std::path::Path::new(name).is_file()
+    builtin_mesh(name) || std::path::Path::new(name).is_file()
+}
+
+/// Whether `name` is a built-in mesh (the analytic sphere, a procedural shape, a bundled mesh):
+/// these names win over files of the same name in the working directory.
+fn builtin_mesh(name: &str) -> bool {
+    name == "sphere" || PROCEDURAL.contains(&name) || bundled::names().contains(&name)
 }
 
 /// The mesh of a name as built or stored (not moved or scaled); not for `sphere`.
@@ -224,10 +227,12 @@ pub fn check_sampling_keys(
     layout: &str,
     hemisphere_res: usize,
 ) -> Result<(), KeyError> {
-    if let Err(e) = shscale_runner::input::regular_file(std::path::Path::new(mesh)) {
-        // Something is there, but not a file a mesh can be read from (a FIFO, a directory, a
-        // symlink loop): say that, not "unknown".
-        return Err(KeyError::new("mesh", e.to_string()));
+    if !builtin_mesh(mesh) {
+        if let Err(e) = shscale_runner::input::regular_file(std::path::Path::new(mesh)) {
+            // Something is there, but not a file a mesh can be read from (a FIFO, a directory,
+            // a symlink loop): say that, not "unknown".
+            return Err(KeyError::new("mesh", e.to_string()));
+        }
     }
     if !mesh_exists(mesh) {
         return Err(KeyError::new(
