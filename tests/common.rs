@@ -91,3 +91,116 @@ pub fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
     rows.sort();
     rows
 }
+
+/// The refusal check shared by the hostile-input suites (`hostile.rs`, `hostile_surfaces.rs`):
+/// one case is the binary run in a fixture folder with stdin closed; it must exit with status 2
+/// within [`refusal::LIMIT`], print exactly one stderr line naming the culprit, never panic, and
+/// leave every entry of the folder byte-identical (nothing created, changed or removed).
+pub mod refusal {
+    use std::collections::BTreeMap;
+    use std::path::{Path, PathBuf};
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+
+    /// The longest a refusal may take: they are all checks before work (loading the bunny is the
+    /// slowest, well under a second here).
+    pub const LIMIT: Duration = Duration::from_secs(60);
+
+    /// Every entry below `d`: a regular file with its bytes, a folder as `dir`, anything else (a
+    /// FIFO, a link) by its kind — never opened, never followed. The runner's advisory lock files
+    /// (`.lock`, empty), which a results directory keeps once a process has locked it, are left
+    /// out.
+    pub fn snapshot(d: &Path) -> BTreeMap<PathBuf, String> {
+        let mut out = BTreeMap::new();
+        let mut stack = vec![d.to_path_buf()];
+        while let Some(p) = stack.pop() {
+            for e in std::fs::read_dir(&p).unwrap().flatten() {
+                let path = e.path();
+                if path.file_name().is_some_and(|n| n == ".lock") {
+                    continue;
+                }
+                let m = std::fs::symlink_metadata(&path).unwrap();
+                let what = if m.is_dir() {
+                    stack.push(path.clone());
+                    "dir".to_string()
+                } else if m.is_file() {
+                    format!("{:?}", std::fs::read(&path).unwrap())
+                } else {
+                    format!("{:?}", m.file_type())
+                };
+                out.insert(path, what);
+            }
+        }
+        out
+    }
+
+    /// Run one case in `d`; `Err` says what went wrong.
+    pub fn check(d: &Path, args: &[String], needle: &str) -> Result<(), String> {
+        let before = snapshot(d);
+        let t0 = Instant::now();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
+            .args(args)
+            .current_dir(d)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| e.to_string())?;
+        while child.try_wait().map_err(|e| e.to_string())?.is_none() {
+            if t0.elapsed() > LIMIT {
+                let _ = child.kill();
+                return Err(format!("ran past {LIMIT:?}"));
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let out = child.wait_with_output().map_err(|e| e.to_string())?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        if err.contains("panicked") {
+            return Err(format!("panicked: {err}"));
+        }
+        if out.status.code() != Some(2) {
+            return Err(format!("status {:?}, stderr {err:?}", out.status.code()));
+        }
+        if lines.len() != 1 {
+            return Err(format!("{} stderr lines: {lines:?}", lines.len()));
+        }
+        if !lines[0].to_lowercase().contains(&needle.to_lowercase()) {
+            return Err(format!("{:?} does not name {needle:?}", lines[0]));
+        }
+        let after = snapshot(d);
+        if after != before {
+            let changed: Vec<String> = (after.keys().chain(before.keys()))
+                .filter(|k| after.get(*k) != before.get(*k))
+                .map(|k| k.display().to_string())
+                .collect();
+            return Err(format!("files changed or created: {changed:?}"));
+        }
+        Ok(())
+    }
+
+    /// Run every case (`label`, arguments, needle) in `d`, print the tally and assert that there
+    /// are at least `at_least` cases and that none failed.
+    pub fn check_all(d: &Path, cases: &[(String, Vec<String>, &str)], at_least: usize) {
+        let mut failures = Vec::new();
+        for (label, args, needle) in cases {
+            if let Err(why) = check(d, args, needle) {
+                let label: String = label.chars().take(120).collect();
+                failures.push(format!("  {label}\n    → {why}"));
+            }
+        }
+        println!("{} hostile cases, {} failed", cases.len(), failures.len());
+        assert!(
+            cases.len() >= at_least,
+            "only {} cases (at least {at_least} expected)",
+            cases.len()
+        );
+        assert!(
+            failures.is_empty(),
+            "{} of {} cases failed:\n{}",
+            failures.len(),
+            cases.len(),
+            failures.join("\n")
+        );
+    }
+}

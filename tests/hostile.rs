@@ -7,14 +7,8 @@
 //! and leave every file of the fixture folder byte-identical (nothing created, nothing changed).
 
 mod common;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-/// The longest a refusal may take (they are all checks before work; loading the bunny is the
-/// slowest, well under a second here).
-const LIMIT: Duration = Duration::from_secs(60);
 
 fn write(d: &Path, name: &str, bytes: impl AsRef<[u8]>) {
     let p = d.join(name);
@@ -417,77 +411,6 @@ fn fixture() -> PathBuf {
     write(&d, "rays/two.rays.f32", two);
     write(&d, "rays/two.hits.bits", [0u8, 0u8]);
     d
-}
-
-/// Every file (and folder) below `d` with its bytes — except the runner's advisory lock files
-/// (`.lock`, empty), which a results directory keeps once a process has locked it.
-fn snapshot(d: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![d.to_path_buf()];
-    while let Some(p) = stack.pop() {
-        for e in std::fs::read_dir(&p).unwrap().flatten() {
-            let path = e.path();
-            if path.file_name().is_some_and(|n| n == ".lock") {
-                continue;
-            }
-            if path.is_dir() {
-                out.insert(path.clone(), None);
-                stack.push(path);
-            } else {
-                out.insert(path.clone(), Some(std::fs::read(&path).unwrap()));
-            }
-        }
-    }
-    out
-}
-
-/// Run one case; `Err` says what went wrong.
-fn check(d: &Path, args: &[String], needle: &str) -> Result<(), String> {
-    let before = snapshot(d);
-    let t0 = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
-        .args(args)
-        .current_dir(d)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| e.to_string())?;
-    loop {
-        if child.try_wait().map_err(|e| e.to_string())?.is_some() {
-            break;
-        }
-        if t0.elapsed() > LIMIT {
-            let _ = child.kill();
-            return Err(format!("ran past {LIMIT:?}"));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let out = child.wait_with_output().map_err(|e| e.to_string())?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    if err.contains("panicked") {
-        return Err(format!("panicked: {err}"));
-    }
-    if out.status.code() != Some(2) {
-        return Err(format!("status {:?}, stderr {err:?}", out.status.code()));
-    }
-    if lines.len() != 1 {
-        return Err(format!("{} stderr lines: {lines:?}", lines.len()));
-    }
-    if !lines[0].to_lowercase().contains(&needle.to_lowercase()) {
-        return Err(format!("{:?} does not name {needle:?}", lines[0]));
-    }
-    let after = snapshot(d);
-    if after != before {
-        let changed: Vec<String> = after
-            .keys()
-            .chain(before.keys())
-            .filter(|k| after.get(*k) != before.get(*k))
-            .map(|k| k.display().to_string())
-            .collect();
-        return Err(format!("files changed or created: {changed:?}"));
-    }
-    Ok(())
 }
 
 /// The cases: the command line (`{D}` is the fixture folder, which is also the working
@@ -1130,25 +1053,15 @@ const CASES: &[(&str, &str)] = &[
 fn hostile_inputs_are_refused_cleanly() {
     let d = fixture();
     let dir = d.to_str().unwrap().to_string();
-    let mut failures = Vec::new();
-    for (line, needle) in CASES {
-        let args: Vec<String> = line
-            .split_whitespace()
-            .map(|a| a.replace("{D}", &dir))
-            .collect();
-        if let Err(why) = check(&d, &args, needle) {
-            failures.push(format!("  {line}\n    → {why}"));
-        }
-    }
-    println!("{} hostile cases, {} failed", CASES.len(), failures.len());
-    assert!(CASES.len() >= 120, "only {} cases", CASES.len());
-    assert!(
-        failures.is_empty(),
-        "{} of {} cases failed:\n{}",
-        failures.len(),
-        CASES.len(),
-        failures.join("\n")
-    );
+    let cases: Vec<(String, Vec<String>, &str)> = (CASES.iter())
+        .map(|(line, needle)| {
+            let args = (line.split_whitespace())
+                .map(|a| a.replace("{D}", &dir))
+                .collect();
+            (line.to_string(), args, *needle)
+        })
+        .collect();
+    common::refusal::check_all(&d, &cases, 120);
     std::fs::remove_dir_all(&d).ok();
 }
 

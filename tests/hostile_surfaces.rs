@@ -5,12 +5,10 @@
 //! hang (a FIFO once blocked `run`, `report` and `compare` forever), and leave every file of the
 //! fixture byte-identical.
 
-use std::collections::BTreeMap;
+mod common;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-const LIMIT: Duration = Duration::from_secs(60);
+use std::process::Command;
+use std::time::Instant;
 
 const CONFIG: &str = "experiment = \"sparsity\"\norder = 2\n\n[sweep]\nk = [1.5, 2.0, 3.0]\n";
 
@@ -121,6 +119,41 @@ fn fixture(tag: &str) -> Option<PathBuf> {
         w.write_record(keep(&rec.unwrap())).unwrap();
     }
     drop(w);
+    // A results directory whose runs.csv is its header alone.
+    copy(r, "hdr/sparsity/c");
+    let p = d.join("hdr/sparsity/c/runs.csv");
+    let text = std::fs::read_to_string(&p).unwrap();
+    std::fs::write(&p, text.lines().next().unwrap().to_string() + "\n").unwrap();
+    // Shards where one holds rows of another code revision.
+    copy(s, "s_mixed");
+    let p = d.join("s_mixed").join(shard1);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut rd = csv::Reader::from_reader(text.as_bytes());
+    let h = rd.headers().unwrap().clone();
+    let at = h.iter().position(|c| c == "git_revision").unwrap();
+    let mut w = csv::Writer::from_path(&p).unwrap();
+    w.write_record(&h).unwrap();
+    for rec in rd.records() {
+        let mut cells: Vec<String> = rec.unwrap().iter().map(String::from).collect();
+        cells[at] = "0123456789abcdef0123456789abcdef01234567".into();
+        w.write_record(&cells).unwrap();
+    }
+    drop(w);
+    // A plain file where folders are expected; folders of figure configs: empty, one good, one
+    // with a FIFO, one with a config that does not parse.
+    std::fs::write(d.join("afile"), "not a folder\n").unwrap();
+    std::fs::create_dir_all(d.join("empty")).unwrap();
+    std::fs::create_dir_all(d.join("cf")).unwrap();
+    std::fs::write(d.join("cf/c.toml"), CONFIG).unwrap();
+    std::fs::create_dir_all(d.join("cfifo")).unwrap();
+    mkfifo(&d.join("cfifo/x.toml"));
+    std::fs::create_dir_all(d.join("cbad")).unwrap();
+    std::fs::write(d.join("cbad/a.toml"), CONFIG).unwrap();
+    std::fs::write(
+        d.join("cbad/b.toml"),
+        "experiment = \"sparsity\"\norder = 99\n",
+    )
+    .unwrap();
     // Configs for errors that must name their place.
     std::fs::write(
         d.join("zz.toml"),
@@ -141,77 +174,8 @@ fn fixture(tag: &str) -> Option<PathBuf> {
         "experiment = \"probe\"\nmesh = \"m/fifo.obj\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [2.0]\n",
     )
     .unwrap();
+    ok(&["run", "p.toml", "--out-dir", "pr"]);
     Some(d)
-}
-
-/// Every entry below `d`: a regular file with its bytes, anything else (a FIFO, a link) by its
-/// kind — never opened.
-fn snapshot(d: &Path) -> BTreeMap<PathBuf, String> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![d.to_path_buf()];
-    while let Some(p) = stack.pop() {
-        for e in std::fs::read_dir(&p).unwrap().flatten() {
-            let path = e.path();
-            if path.file_name().is_some_and(|n| n == ".lock") {
-                continue;
-            }
-            let m = std::fs::symlink_metadata(&path).unwrap();
-            let what = if m.is_dir() {
-                stack.push(path.clone());
-                "dir".to_string()
-            } else if m.is_file() {
-                format!("{:?}", std::fs::read(&path).unwrap())
-            } else {
-                format!("{:?}", m.file_type())
-            };
-            out.insert(path, what);
-        }
-    }
-    out
-}
-
-fn check(d: &Path, args: &[String], needle: &str) -> Result<(), String> {
-    let before = snapshot(d);
-    let t0 = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_shscale"))
-        .args(args)
-        .current_dir(d)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| e.to_string())?;
-    while child.try_wait().map_err(|e| e.to_string())?.is_none() {
-        if t0.elapsed() > LIMIT {
-            let _ = child.kill();
-            return Err(format!("ran past {LIMIT:?}"));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let out = child.wait_with_output().map_err(|e| e.to_string())?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    if err.contains("panicked") {
-        return Err(format!("panicked: {err}"));
-    }
-    if out.status.code() != Some(2) {
-        return Err(format!("status {:?}, stderr {err:?}", out.status.code()));
-    }
-    if lines.len() != 1 {
-        return Err(format!("{} stderr lines: {lines:?}", lines.len()));
-    }
-    if !lines[0].to_lowercase().contains(&needle.to_lowercase()) {
-        return Err(format!("{:?} does not name {needle:?}", lines[0]));
-    }
-    let after = snapshot(d);
-    if after != before {
-        let changed: Vec<String> = (after.keys().chain(before.keys()))
-            .filter(|k| after.get(*k) != before.get(*k))
-            .map(|k| k.display().to_string())
-            .collect();
-        return Err(format!("files changed or created: {changed:?}"));
-    }
-    Ok(())
 }
 
 /// The cases: arguments (split on `|`) and what the one stderr line must name.
@@ -407,6 +371,66 @@ const CASES: &[(&str, &str)] = &[
     ),
     ("slurm|c.toml|--tasks|0", "--tasks"),
     ("slurm|fifo.toml|--tasks|2", "FIFO"),
+    // Output folders written as a unit: a command that fails creates nothing (compare and figs
+    // once created their --out folder, and figs its default paper-figs/, before failing).
+    ("compare|r/sparsity/c|r/sparsity/c|--out|afile", "afile"),
+    ("compare|r/sparsity/c|r/sparsity/c|--out|afile/sub", "afile"),
+    ("compare|r/sparsity/c|afile|--out|o/cmp", "afile"),
+    (
+        "compare|r/sparsity/c|r/sparsity|--out|o/cmp",
+        "no manifest.toml",
+    ),
+    (
+        "compare|r/sparsity/c|pr/probe/p|--out|o/cmp",
+        "compare needs one kind",
+    ),
+    (
+        "compare|hdr/sparsity/c|r/sparsity/c|--out|o/cmp",
+        "A holds no rows",
+    ),
+    (
+        "compare|r/sparsity/c|hdr/sparsity/c|--out|o/cmp",
+        "B holds no rows",
+    ),
+    ("figs|--configs|/nonexistent|--out|o/f", "/nonexistent"),
+    ("figs|--configs|afile|--out|o/f", "afile"),
+    ("figs|--configs|empty|--out|o/f", "no *.toml figure configs"),
+    ("figs|--configs|cf|--out|afile", "afile"),
+    ("figs|--configs|cf|--out|afile/x", "afile"),
+    ("figs|--configs|cf|--out|o/f|--runs|afile", "afile"),
+    ("figs|--configs|cf|--runs|afile", "afile"),
+    ("figs|--configs|cfifo|--out|o/f", "FIFO"),
+    ("figs|--configs|cbad|--out|o/f", "cbad/b.toml"),
+    ("figs|--configs|cf|--out|o/f|--gpu|maybe", "--gpu"),
+    ("figs|--configs|cf|--out|o/f|--format|xml", "--format"),
+    // Results-directory commands on a folder that is not one, or a header-only runs.csv.
+    ("report|afile", "afile"),
+    ("report|empty", "no manifest.toml"),
+    ("plot|hdr/sparsity/c|--metric|nonzeros|--x|k", "no row"),
+    ("plot|r/sparsity/c|--metric||--x|k", "is not a column"),
+    (
+        "plot|r/sparsity/c|--metric|nonzeros|--x|k|--log-y|--linear-y",
+        "--linear-y",
+    ),
+    // Merge: outputs that cannot be, inputs that cannot be merged.
+    ("merge|s/sparsity/c|--out|afile", "afile"),
+    ("merge|r/sparsity/c|pr/probe/p|--out|o/m", "kind"),
+    ("merge|empty|--out|o/m", "empty"),
+    ("merge|s_mixed|--out|o/m", "code revision"),
+    // Shards and run options.
+    ("run|c.toml|--shard|3/3", "--shard"),
+    ("run|c.toml|--shard|0/0", "--shard"),
+    ("run|c.toml|--shard|a/b", "--shard"),
+    ("run|c.toml|--shard|1/2/3", "--shard"),
+    ("run|c.toml|--out-dir|afile", "afile"),
+    (
+        "run|c.toml|--dry-run|--set|order=1e400",
+        "--set order=1e400",
+    ),
+    ("run|c.toml|--dry-run|--sweep|k=inf,2", "--sweep k=inf,2"),
+    ("run|c.toml|--dry-run|--sweep|k=nan,2", "--sweep k=nan,2"),
+    ("slurm|c.toml|--tasks|-1", "--tasks"),
+    ("slurm|c.toml|--tasks|abc", "--tasks"),
     // Render: only the truths are references.
     (
         "render|--scene|scene.toml|--out|o/x.exr|--reference|extrapolated",
@@ -426,27 +450,15 @@ fn hostile_surfaces_are_refused_cleanly() {
     };
     let deep17 = vec!["a"; 17].join(".");
     let deep = vec!["a"; 30_000].join(".");
-    let mut failures = Vec::new();
-    for (line, needle) in CASES {
-        let args: Vec<String> = line
-            .split('|')
-            .map(|a| a.replace("{DEEP17}", &deep17).replace("{DEEP30000}", &deep))
-            .collect();
-        if let Err(why) = check(&d, &args, needle) {
-            failures.push(format!(
-                "  {}\n    → {why}",
-                line.chars().take(120).collect::<String>()
-            ));
-        }
-    }
-    println!("{} hostile cases, {} failed", CASES.len(), failures.len());
-    assert!(
-        failures.is_empty(),
-        "{} of {} cases failed:\n{}",
-        failures.len(),
-        CASES.len(),
-        failures.join("\n")
-    );
+    let cases: Vec<(String, Vec<String>, &str)> = (CASES.iter())
+        .map(|(line, needle)| {
+            let args = (line.split('|'))
+                .map(|a| a.replace("{DEEP17}", &deep17).replace("{DEEP30000}", &deep))
+                .collect();
+            (line.to_string(), args, *needle)
+        })
+        .collect();
+    common::refusal::check_all(&d, &cases, 120);
     std::fs::remove_dir_all(&d).ok();
 }
 
@@ -489,6 +501,47 @@ fn extreme_cells_partial_merges_and_too_many_tasks_work() {
         "plot and report of ±1e308 cells: {:.2} s",
         t0.elapsed().as_secs_f64()
     );
+    // A results directory without rows yet reports that, and nothing else.
+    let o = shscale(&d, &["report", "hdr/sparsity/c"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary = std::fs::read_to_string(d.join("hdr/sparsity/c/summary.md")).unwrap();
+    assert!(summary.contains("Rows: 0 in `runs.csv`"), "{summary}");
+    // Column names read from a crafted runs.csv are data, never path parts: the plot of a
+    // column named `../../pwn` lands inside the results directory.
+    let rows = std::fs::read_to_string(&p).unwrap();
+    let mut lines = rows.lines();
+    let mut crafted = format!("{},../../pwn\n", lines.next().unwrap());
+    for l in lines {
+        crafted.push_str(&format!("{l},1.5\n"));
+    }
+    std::fs::write(&p, crafted).unwrap();
+    let before: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    let o = shscale(
+        &d,
+        &["plot", "r/sparsity/c", "--metric", "../../pwn", "--x", "k"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for line in out.lines() {
+        let f = line.trim_start_matches("wrote ");
+        let f = std::path::Path::new(f);
+        assert_eq!(
+            f.parent(),
+            Some(std::path::Path::new("r/sparsity/c")),
+            "{out}"
+        );
+        assert!(d.join(f).is_file(), "{out}");
+    }
+    let after: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert_eq!(before, after, "the plot wrote outside its directory");
     // A directory named like a built-in mesh does not shadow it.
     std::fs::create_dir_all(d.join("sphere")).unwrap();
     let o = shscale(&d, &["run", "p.toml", "--dry-run"]);

@@ -82,3 +82,167 @@ pub fn write_atomic_all(files: &[(&Path, &str)]) -> Result<(), Error> {
     }
     Ok(())
 }
+
+/// An output folder written as a unit: every file goes first into a hidden staging folder
+/// (`.shscale-staging-<pid>-<n>`) made in the nearest existing ancestor of the target, so a
+/// command that fails creates nothing and changes nothing under the target — the staging folder
+/// is removed when the guard drops, on every path out. [`Staging::commit`] creates the target
+/// and renames each staged file into it (one rename per file: a crash mid-commit can leave some
+/// files new and some old, never a partial file). Files already in the target and not staged are
+/// left alone.
+pub struct Staging {
+    dir: PathBuf,
+    out: PathBuf,
+}
+
+impl Staging {
+    /// Stage for `out`. Refuses an `out` that exists and is not a directory, or whose nearest
+    /// existing ancestor is not one, before anything is written.
+    pub fn new(out: &Path) -> Result<Self, Error> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static N: AtomicUsize = AtomicUsize::new(0);
+        if let Ok(m) = std::fs::metadata(out) {
+            if !m.is_dir() {
+                return Err(Error::io(out, "exists and is not a directory"));
+            }
+        }
+        let mut base = out.to_path_buf();
+        loop {
+            match std::fs::metadata(&base) {
+                Ok(m) if m.is_dir() => break,
+                Ok(_) => {
+                    return Err(Error::io(
+                        out,
+                        format!("{} is not a directory", base.display()),
+                    ))
+                }
+                Err(_) => {}
+            }
+            base = match base.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+                _ => PathBuf::from("."),
+            };
+        }
+        let n = N.fetch_add(1, Ordering::Relaxed);
+        let dir = base.join(format!(".shscale-staging-{}-{n}", std::process::id()));
+        std::fs::create_dir(&dir).map_err(|e| Error::io(&dir, e))?;
+        Ok(Self {
+            dir,
+            out: out.to_path_buf(),
+        })
+    }
+
+    /// Where the command writes its files (flat; the names are the final names).
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The final path of a staged file.
+    pub fn target(&self, staged: &Path) -> PathBuf {
+        match staged.strip_prefix(&self.dir) {
+            Ok(rest) => self.out.join(rest),
+            Err(_) => staged.to_path_buf(),
+        }
+    }
+
+    /// Create the target folder and move every staged file into it; the staged paths in `files`
+    /// are returned as their final paths. A directory in the target where a staged file goes is
+    /// refused before any file moves.
+    pub fn commit(self, files: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+        let mut staged: Vec<PathBuf> = Vec::new();
+        for e in std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))? {
+            let e = e.map_err(|e| Error::io(&self.dir, e))?;
+            if !e.file_type().is_ok_and(|t| t.is_file()) {
+                return Err(Error::io(&e.path(), "staged output is not a plain file"));
+            }
+            staged.push(e.path());
+        }
+        staged.sort();
+        for s in &staged {
+            let t = self.target(s);
+            if t.is_dir() {
+                return Err(Error::io(&t, "is a directory"));
+            }
+        }
+        std::fs::create_dir_all(&self.out).map_err(|e| Error::io(&self.out, e))?;
+        for s in &staged {
+            let t = self.target(s);
+            std::fs::rename(s, &t).map_err(|e| Error::io(&t, e))?;
+        }
+        Ok(files.iter().map(|f| self.target(f)).collect())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+#[cfg(test)]
+mod staging_tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("shscale-staging-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn a_dropped_staging_leaves_nothing_and_a_commit_moves_every_file() {
+        let d = scratch("unit");
+        let out = d.join("a/b/out");
+        {
+            let s = Staging::new(&out).unwrap();
+            std::fs::write(s.path().join("x.txt"), "x").unwrap();
+            // Dropped without commit: an error path.
+        }
+        let left: Vec<_> = std::fs::read_dir(&d).unwrap().flatten().collect();
+        assert!(left.is_empty(), "left behind: {left:?}");
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(out.join("keep.txt"), "old").unwrap();
+        std::fs::write(out.join("x.txt"), "old").unwrap();
+        let s = Staging::new(&out).unwrap();
+        let staged = s.path().join("x.txt");
+        std::fs::write(&staged, "new").unwrap();
+        let files = s.commit(&[staged]).unwrap();
+        assert_eq!(files, vec![out.join("x.txt")]);
+        assert_eq!(std::fs::read_to_string(out.join("x.txt")).unwrap(), "new");
+        assert_eq!(
+            std::fs::read_to_string(out.join("keep.txt")).unwrap(),
+            "old"
+        );
+        let names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        let parent: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert_eq!(parent, vec![std::ffi::OsString::from("a")]);
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    #[test]
+    fn a_file_where_the_folder_or_an_ancestor_should_be_is_refused_before_writing() {
+        let d = scratch("refuse");
+        std::fs::write(d.join("f"), "f").unwrap();
+        for out in [d.join("f"), d.join("f/sub/deeper")] {
+            let e = Staging::new(&out).err().expect("refused").to_string();
+            assert!(e.contains("not a directory"), "{e}");
+        }
+        let names: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("f")]);
+        std::fs::remove_dir_all(&d).ok();
+    }
+}

@@ -46,7 +46,7 @@ pub mod slurm;
 pub mod store;
 pub mod timing;
 
-pub use atomic::{write_atomic, write_atomic_all};
+pub use atomic::{write_atomic, write_atomic_all, Staging};
 pub use device::{Device, GpuMode};
 pub use error::Error;
 pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells, Typed};

@@ -311,6 +311,15 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         Results::read(&a.join("runs.csv"))?,
         Results::read(&b.join("runs.csv"))?,
     );
+    // A side without rows has nothing to compare (its fixed parameters would read as blanks).
+    for (t, dir, side) in [(&ta, a, "A"), (&tb, b, "B")] {
+        if t.rows.is_empty() {
+            return Err(Error::Io {
+                path: dir.join("runs.csv").display().to_string(),
+                reason: format!("compare: {side} holds no rows (runs.csv is its header alone)"),
+            });
+        }
+    }
     // A headline metric column on one side only is an error naming it, never a column of "—".
     // (A metric present on both sides but without a number on one — e.g. no on-surface samples —
     // is a result, shown as "—".)
@@ -362,7 +371,8 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         ma.keys().filter(|k| !mb.contains_key(*k)).count(),
         mb.keys().filter(|k| !ma.contains_key(*k)).count()
     ));
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    // Everything goes to a staging folder first: a comparison that fails creates nothing.
+    let staging = crate::atomic::Staging::new(out)?;
     let mut files = Vec::new();
     for (i, c) in m.metrics.iter().enumerate() {
         if plots[i].is_empty() || m.keys.is_empty() {
@@ -376,7 +386,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         };
         let stem = format!("compare_{c}");
         files.extend(crate::plots::write_both(
-            out,
+            staging.path(),
             &stem,
             &labels,
             &plots[i],
@@ -384,9 +394,10 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
             &[],
         )?);
     }
-    let p = out.join("compare.md");
+    let p = staging.path().join("compare.md");
     write_atomic(&p, &md)?;
     files.insert(0, p);
+    let files = staging.commit(&files)?;
     Ok(Comparison {
         markdown: md,
         files,
