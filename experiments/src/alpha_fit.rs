@@ -215,16 +215,16 @@ impl Kind for AlphaFit {
     fn cost(p: &Params) -> (Cost, Cost) {
         let (shared, mut run) = <Probe as Kind>::cost(&p.probe());
         let steps = (90.0 / p.alpha_step_deg).ceil();
-        let nn = (p.order * p.order) as f64;
-        // One exact matrix per α and radius (≈ 2.6e-7 s per element pair, as the table's).
-        run.seconds = steps * p.radii.len() as f64 * nn * nn * 2.6e-7;
+        // Nothing is timed: the probe's work once, then one exact matrix per α and radius.
+        run.once_seconds = steps * p.radii.len() as f64 * crate::common::matrix_seconds(p.order);
         run.drivers = format!("{steps} α values × {} radii", p.radii.len());
         (
             Cost::default(),
             Cost {
                 rays: shared.rays,
                 bytes: shared.bytes,
-                seconds: shared.seconds + run.seconds,
+                seconds: 0.0,
+                once_seconds: shared.seconds + shared.once_seconds + run.once_seconds,
                 drivers: format!("{}; {}", shared.drivers, run.drivers),
             },
         )

@@ -238,17 +238,21 @@ impl Kind for Budget {
             Cost {
                 rays: shared_rays,
                 bytes: n * nn * 8.0 + 64e6,
-                seconds: shared_rays / CPU_RAYS_PER_SECOND,
+                seconds: 0.0,
+                // The truths: once, never timed.
+                once_seconds: shared_rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND,
                 drivers: format!(
                     "{n} receivers × truth_res = {} ({t4} rays each)",
                     p.truth_res
                 ),
             },
             Cost {
-                // Warm-up and repeats of the timing procedure multiply this (≤ 4 by default).
-                rays: 4.0 * rays,
+                // One frame; the estimate multiplies its seconds by the timing procedure's
+                // warm-up + repeats (the rays counted are one frame's).
+                rays,
                 bytes: shells * samples * nn * 8.0 + p.k_count as f64 * nn * nn * 8.0,
-                seconds: 4.0 * rays / CPU_RAYS_PER_SECOND,
+                seconds: rays / CPU_RAYS_PER_SECOND,
+                once_seconds: 0.0,
                 drivers: format!("method {} → {rays:.3e} rays per frame", p.method),
             },
         )

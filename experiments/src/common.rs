@@ -4,15 +4,27 @@
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 
-/// The cost of a run that computes the plain and the energy matrix of one τ at `order` by
-/// adaptive quadrature (≈ 2e-4 s per element at N = 4 here; extreme k need more panels).
+/// The cost model's seconds for one scaling matrix at `order` by adaptive quadrature: a fixed
+/// 20 µs plus 2.5 µs per structural non-zero (N(2N²+1)/3 of the N⁴ elements, SHS §2.2). Fitted
+/// on the development VM (2 threads) to `shscale run configs/experiments/extremes.toml` (220
+/// matrices at N = 4, 16, 32 over k from 1e-6 to 1e6: 4.9 s) and
+/// `configs/experiments/sweep_1e4.toml` (2·10⁴ matrices at N = 2: 1.1 s of work); checked on every
+/// shipped config by `shscale bench estimates`.
+pub(crate) fn matrix_seconds(order: usize) -> f64 {
+    let n = order as f64;
+    let nonzeros = n * (2.0 * n * n + 1.0) / 3.0;
+    2e-5 + 2.5e-6 * nonzeros
+}
+
+/// The cost of a run that computes the plain and the energy matrix of one τ at `order` (once:
+/// these kinds do not time them).
 pub(crate) fn two_matrices_cost(order: usize) -> (shscale_runner::Cost, shscale_runner::Cost) {
     let nn = (order * order) as f64;
     (
         shscale_runner::Cost::default(),
         shscale_runner::Cost {
             bytes: nn * nn * 8.0 * 4.0,
-            seconds: 2.0 * 2e-4 * nn * nn,
+            once_seconds: 2.0 * matrix_seconds(order),
             drivers: format!("order = {order} → 2 matrices of {nn}² elements"),
             ..shscale_runner::Cost::default()
         },

@@ -172,18 +172,18 @@ impl Kind for MElements {
 
     fn cost(p: &Params) -> (Cost, Cost) {
         let nn = (p.order * p.order) as f64;
-        // ≈ 2e-4 s per element of a matrix by adaptive quadrature at N = 4 here.
-        let matrix = 2e-4 * nn * nn;
+        // Untimed: the table's matrices and the direct ones of the curve.
+        let matrix = crate::common::matrix_seconds(p.order);
         (
             Cost {
                 bytes: p.k_count as f64 * nn * nn * 8.0,
-                seconds: matrix * (p.k_count as f64 * 9.0),
+                once_seconds: matrix * (p.k_count as f64 * 9.0),
                 drivers: format!("k_count = {} tables + 8 checks per interval", p.k_count),
                 ..Cost::default()
             },
             Cost {
                 bytes: nn * nn * 16.0,
-                seconds: matrix * p.curve_points as f64,
+                once_seconds: matrix * p.curve_points as f64,
                 drivers: format!("curve_points = {} direct matrices", p.curve_points),
                 ..Cost::default()
             },

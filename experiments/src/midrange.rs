@@ -217,6 +217,7 @@ impl Kind for MidRange {
                 // ≈ 70 ns per quadrature point and pair: `shscale run configs/experiments/
                 // midrange.toml` (12 × 6 pairs, 6 k × 4 timed calls) took 2.1 s here.
                 seconds: pairs * quad * 7e-8,
+                once_seconds: 0.0,
                 drivers: format!("points × normals = {pairs} pairs × {quad} quadrature points"),
             },
         )

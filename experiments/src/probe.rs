@@ -12,7 +12,15 @@ use shscale_field::probe::{
 use shscale_field::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
-use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND};
+use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND, TRUTH_RAYS_PER_SECOND};
+
+/// The cost model's untimed work of a probe group beyond its rays: the mesh's load and BVH, the
+/// GPU path's set-up and the group's bookkeeping (`shscale bench estimates`, docs/BENCHMARKS.md).
+const GROUP_OVERHEAD_SECONDS: f64 = 0.3;
+
+/// The cost model's price of one per-run visibility image (EXR + PNG, truth beside extrapolation)
+/// at one probe radius.
+const IMAGE_SECONDS: f64 = 0.02;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::Interp;
 use shscale_scene::vocab::{
@@ -172,6 +180,13 @@ pub struct ProbeRow {
     pub vis_rel_l2_max: Option<f64>,
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_max: Option<f64>,
+    /// Quantiles of `occ_rel_l2` over the probes with a truth (p5, p25, median, p75, p95;
+    /// linear rule, `metrics::quantiles`).
+    pub occ_rel_l2_p05: Option<f64>,
+    pub occ_rel_l2_p25: Option<f64>,
+    pub occ_rel_l2_p50: Option<f64>,
+    pub occ_rel_l2_p75: Option<f64>,
+    pub occ_rel_l2_p95: Option<f64>,
     pub truth_rel_err_mean: Option<f64>,
     pub truth_rel_err_max: Option<f64>,
     pub truth_limited_count: usize,
@@ -343,7 +358,12 @@ impl Kind for Probe {
         let shared = Cost {
             rays,
             bytes: (1.0 + radii) * samples * nn * 8.0 + 64e6,
-            seconds: rays / CPU_RAYS_PER_SECOND,
+            // The BSV is timed (warm-up + repeats); the truths and the BSV at the probe
+            // directions are computed once, as are the mesh's load and the GPU path's set-up.
+            seconds: samples * h2 / CPU_RAYS_PER_SECOND,
+            once_seconds: truth_rays / TRUTH_RAYS_PER_SECOND
+                + direct_rays / CPU_RAYS_PER_SECOND
+                + GROUP_OVERHEAD_SECONDS,
             drivers: format!(
                 "mesh {} with layout = {:?} ({samples} samples) × hemisphere_res = {} ({h2} rays per BSV sample), truth_res = {} ({t4} rays per truth probe) × ({} radii + 1) → {rays:.3e} rays",
                 p.mesh,
@@ -358,8 +378,10 @@ impl Kind for Probe {
             rays: 0.0,
             bytes: table + radii * samples * nn * 8.0,
             // Table build ≈ 70 ns per k and element pair at N = 4 (2.7 ms for K = 40),
-            // extrapolation ≈ 10 ns per probe and element.
+            // extrapolation ≈ 10 ns per probe and element; both timed.
             seconds: p.k_count as f64 * nn * nn * 2.6e-7 + radii * samples * nn * 1e-8,
+            // The per-run images (truth and extrapolated visibility at every radius).
+            once_seconds: radii * IMAGE_SECONDS,
             drivers: format!("k_count = {} × order² = {nn}", p.k_count),
         };
         (shared, run)
@@ -557,6 +579,11 @@ fn row_of(
         vis_rel_l2_max: r.vis_rel_l2_max,
         occ_rel_l2_mean: r.occ_rel_l2_mean,
         occ_rel_l2_max: r.occ_rel_l2_max,
+        occ_rel_l2_p05: r.occ_rel_l2_p05,
+        occ_rel_l2_p25: r.occ_rel_l2_p25,
+        occ_rel_l2_p50: r.occ_rel_l2_p50,
+        occ_rel_l2_p75: r.occ_rel_l2_p75,
+        occ_rel_l2_p95: r.occ_rel_l2_p95,
         truth_rel_err_mean: r.truth_rel_err_mean,
         truth_rel_err_max: r.truth_rel_err_max,
         truth_limited_count: r.truth_limited_count,

@@ -56,9 +56,14 @@ pub fn visibility_figure(
             d.z.clamp(-1.0, 1.0).acos().to_degrees(),
             d.y.atan2(d.x).to_degrees().rem_euclid(360.0)
         );
+        let truth_title = if ex.inside {
+            format!("inside the mesh (no truth), {where_}")
+        } else {
+            format!("ray-traced (full frequency), {where_}")
+        };
         rows.push(vec![
             shscale_runner::figure::Panel {
-                title: format!("ray-traced (full frequency), {where_}"),
+                title: truth_title,
                 width: W,
                 height: H,
                 values: truth.clone(),

@@ -364,6 +364,8 @@ impl Kind for Shadows {
                     "scene {} (its receivers × (2H)² rays for the full-frequency truth; not estimated before the scene is read)",
                     p.scene
                 ),
+                // Unknown until the scene is read: the dry run says so instead of 0 s.
+                once_seconds: f64::NAN,
                 ..Cost::default()
             },
         )

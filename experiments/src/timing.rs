@@ -129,7 +129,13 @@ impl Kind for Timing {
             Cost {
                 rays,
                 bytes: 256e6,
-                seconds: rays / shscale_runner::timing::CPU_RAYS_PER_SECOND,
+                // The kind times its own frames (not the runner's procedure), so all of it is
+                // once; a frame costs about 3× its rays' tracing (the SH projection, the
+                // extrapolation to the receivers and the GPU path where there is an adapter):
+                // `configs/experiments/deformation.toml` 4.3 s in `shscale bench estimates` and
+                // 8.1 s through `shscale run`, `configs/paper/table1_timing.toml` 7.7 and 11.3 s.
+                seconds: 0.0,
+                once_seconds: 3.0 * rays / shscale_runner::timing::CPU_RAYS_PER_SECOND,
                 drivers: format!(
                     "(frames {} + warmup {}) × 240 × 32² rays",
                     p.frames, p.warmup

@@ -337,3 +337,58 @@ fn files_written_together_are_a_unit() {
     assert_eq!(std::fs::read_to_string(&b).unwrap(), "new manifest");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// The `--dry-run` ray count against the rays the runs record: per group the BSV (`bsv_rays`,
+/// one timed call) and per probe radius the truth (`probes × truth_rays`), plus the one stage the
+/// rows do not record, the decomposition's converged truth at the probe directions on the
+/// sampling sphere (one more truth per probe), and the BSV at the probe directions. A mesh, so the truths are ray traced; two groups
+/// (sampling radii) and two runs each (α), so shared work must be counted once per group.
+#[test]
+fn the_estimated_ray_count_is_the_rays_the_runs_record() {
+    let text = r#"
+experiment = "probe"
+mesh = "bunny"
+order = 2
+layout = "fib:24"
+hemisphere_res = 4
+truth_res = 8
+k_count = 4
+radii = [0.9, 2.0]
+timing_repeats = 1
+timing_warmup = 0
+
+[sweep]
+alpha_deg = [30, 60]
+sampling_radius = [1.0, 1.1]
+"#;
+    let plan = parse(text).unwrap();
+    let d = tmp("rays");
+    let s = run_plan(&plan, &d, None, &|_| {}).unwrap();
+    let t = shscale_runner::records::Results::read(&s.csv).unwrap();
+    let mut groups = std::collections::BTreeMap::new();
+    let mut truths = std::collections::BTreeMap::new();
+    for i in 0..t.rows.len() {
+        let (g, rad) = (t.cell(i, "sampling_radius"), t.cell(i, "radius"));
+        let truth = t.num(i, "probes") * t.num(i, "truth_rays");
+        groups.insert(g.to_string(), (t.num(i, "bsv_rays"), truth));
+        truths.insert((g.to_string(), rad.to_string()), truth);
+    }
+    assert_eq!((groups.len(), truths.len()), (2, 4));
+    let decomposition: f64 = groups.values().map(|(_, t)| t).sum();
+    let recorded: f64 = groups.values().map(|(b, _)| b).sum::<f64>() + truths.values().sum::<f64>();
+    // And the BSV at the probe directions (for the decomposition's exact-direction term): as
+    // many probes as samples, H² rays each, so the count of the sample BSV again.
+    let direct: f64 = groups.values().map(|(b, _)| b).sum();
+    let expected = recorded + decomposition + direct;
+    let rel = (plan.estimate().rays - expected).abs() / expected;
+    println!(
+        "estimated {:.6e} rays, recorded {recorded:.6e} + decomposition {decomposition:.6e} + direct {direct:.6e}: relative difference {rel:.2e}",
+        plan.estimate().rays
+    );
+    assert!(
+        rel < 1e-12,
+        "estimate {} vs {expected}",
+        plan.estimate().rays
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -201,6 +201,10 @@ pub enum BenchKernel {
     /// All N² real SH at P random directions, one thread.
     /// Example: shscale bench sh --order 8 --precision f32 --format json
     Sh(BenchShArgs),
+    /// The `--dry-run` time estimate against the measured wall time of each config, run from
+    /// empty (a temporary folder) one after another.
+    /// Example: shscale bench estimates configs/quickstart.toml configs/experiments/*.toml
+    Estimates(BenchEstimatesArgs),
     /// The runner's own cost per run (plan, store, resume, report, merge) on a kind that does
     /// no work, or of a config of yours against its runs' own work.
     /// Example: shscale bench runner --runs 1000,10000 --shards 100
@@ -221,6 +225,15 @@ pub struct BenchRunnerArgs {
     /// Where the results go (default: a temporary folder, removed afterwards).
     #[arg(long)]
     pub out_dir: Option<std::path::PathBuf>,
+    #[arg(long, value_enum, default_value_t = TextFormat::Text)]
+    pub format: TextFormat,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchEstimatesArgs {
+    /// Experiment configs (any kind); each is run whole, so pick what fits your time.
+    #[arg(required = true)]
+    pub configs: Vec<std::path::PathBuf>,
     #[arg(long, value_enum, default_value_t = TextFormat::Text)]
     pub format: TextFormat,
 }

@@ -176,6 +176,7 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
         BenchKernel::Bsv(a) => bench_bsv(&a, level)?,
         BenchKernel::Sh(a) => bench_sh(&a, level)?,
         BenchKernel::Runner(a) => bench_runner(&a)?,
+        BenchKernel::Estimates(a) => bench_estimates(&a)?,
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -286,6 +287,81 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
         println!(
             "merge of {} shard files ({} rows): {:.3} s, then its report {:.3} s",
             m.shards, m.rows, m.merge_s, m.report_s
+        );
+    }
+    Ok(())
+}
+
+/// `bench estimates`: each config's `--dry-run` estimate against its measured wall time from
+/// empty (plan, runs, report; not the process's start), one config after another in a fresh
+/// temporary folder each. Configs whose estimate depends on files read at run time (the
+/// `shadows` kind) are measured and listed without a ratio.
+fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
+    let registry = shscale_experiments::registry();
+    let overrides = shscale_runner::config::Overrides::default();
+    // Every config resolved before any runs: a bad one fails the bench at once.
+    let mut plans = Vec::new();
+    for c in &a.configs {
+        let plan = shscale_runner::Plan::load(c, &overrides, &registry)?;
+        plan.check_limits(false)?;
+        plans.push(plan);
+    }
+    let root = std::env::temp_dir().join(format!("shscale-bench-estimates-{}", std::process::id()));
+    struct Cleanup(std::path::PathBuf);
+    impl Drop for Cleanup {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let _cleanup = Cleanup(root.clone());
+    let json = a.format == crate::args::TextFormat::Json;
+    let mut rows = Vec::new();
+    for (i, (c, plan)) in a.configs.iter().zip(&plans).enumerate() {
+        let estimate = plan.estimate().seconds;
+        let dir = root.join(i.to_string());
+        let t0 = std::time::Instant::now();
+        let s = shscale_runner::run_plan(plan, &dir, None, &|_| {})?;
+        shscale_runner::report(plan.kind, &s.dir)?;
+        let measured = t0.elapsed().as_secs_f64();
+        let _ = std::fs::remove_dir_all(&dir);
+        let ratio = (estimate.is_finite() && measured > 0.0).then(|| estimate / measured);
+        if !json {
+            eprintln!("{}: {measured:.2} s", c.display());
+        }
+        rows.push(serde_json::json!({
+            "config": c.display().to_string(),
+            "runs": plan.runs.len(),
+            "estimate_s": estimate.is_finite().then_some(estimate),
+            "measured_s": measured,
+            "estimate_over_measured": ratio,
+        }));
+    }
+    if json {
+        crate::output::print_json(&serde_json::json!({
+            "threads": rayon::current_num_threads(),
+            "configs": rows,
+        }))?;
+        return Ok(());
+    }
+    println!(
+        "`--dry-run` estimate against measured wall time, {} rayon threads",
+        rayon::current_num_threads()
+    );
+    println!();
+    println!("| config | runs | estimate (s) | measured (s) | estimate / measured |");
+    println!("|---|---:|---:|---:|---:|");
+    for r in &rows {
+        let f = |k: &str, p: usize| {
+            r[k].as_f64()
+                .map_or("not estimated".to_string(), |v| format!("{v:.p$}"))
+        };
+        println!(
+            "| {} | {} | {} | {} | {} |",
+            r["config"].as_str().unwrap_or_default(),
+            r["runs"],
+            f("estimate_s", 2),
+            f("measured_s", 2),
+            f("estimate_over_measured", 2)
         );
     }
     Ok(())

@@ -8,6 +8,7 @@ mod bench_cmd;
 mod demo;
 mod flags;
 mod geometry_cmd;
+mod interrupt;
 mod matrix_cmd;
 mod output;
 mod probe_cmd;

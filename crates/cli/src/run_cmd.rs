@@ -61,6 +61,28 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let progress = RunProgress::new(json);
+    {
+        let dir = runner::plan::plan_dir(&plan, &a.out_dir);
+        let csv = match shard {
+            Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
+            None => dir.join("runs.csv"),
+        };
+        let plain = |a: &str| {
+            !a.is_empty()
+                && a.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "_./=:,+-@%".contains(c))
+        };
+        let resume: Vec<String> = std::env::args()
+            .map(|a| {
+                if plain(&a) {
+                    a
+                } else {
+                    runner::shell_quote(&a)
+                }
+            })
+            .collect();
+        crate::interrupt::explain_on_interrupt(&csv, &resume.join(" "));
+    }
     let s = run_plan(&plan, &a.out_dir, shard, &|ev| progress.on(ev))?;
     progress.finish();
     if !json {

@@ -61,9 +61,56 @@ pub fn mean_max(values: impl Iterator<Item = Option<f64>>) -> (Option<f64>, Opti
     )
 }
 
+/// The probability levels of [`quantiles`] the probe rows report: p5, p25, median, p75, p95.
+pub const QUANTILE_LEVELS: [f64; 5] = [0.05, 0.25, 0.5, 0.75, 0.95];
+
+/// Quantiles of the present values at levels `qs` (each in [0, 1]): linear interpolation between
+/// order statistics at position `q·(n − 1)` (Hyndman–Fan type 7, the default of R and NumPy).
+/// `None` for every level when no value is present. Domain: finite values (a NaN sorts last by
+/// `total_cmp` and would stand for the largest).
+pub fn quantiles(values: impl Iterator<Item = Option<f64>>, qs: &[f64]) -> Vec<Option<f64>> {
+    let mut v: Vec<f64> = values.flatten().collect();
+    if v.is_empty() {
+        return vec![None; qs.len()];
+    }
+    v.sort_by(f64::total_cmp);
+    let last = (v.len() - 1) as f64;
+    qs.iter()
+        .map(|&q| {
+            let h = q.clamp(0.0, 1.0) * last;
+            let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+            Some(v[lo] + (h - lo as f64) * (v[hi] - v[lo]))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Against NumPy's default (`np.quantile(x, q)`, linear): for 1..=5, p5 = 1.2, p25 = 2,
+    /// p50 = 3, p75 = 4, p95 = 4.8; one value is every quantile; none gives None; absent values
+    /// are skipped; the order of the input does not matter.
+    #[test]
+    fn quantiles_match_the_linear_rule() {
+        let q = |v: &[f64]| quantiles(v.iter().map(|x| Some(*x)), &QUANTILE_LEVELS);
+        let got: Vec<f64> = q(&[5.0, 1.0, 4.0, 2.0, 3.0])
+            .into_iter()
+            .flatten()
+            .collect();
+        let want = [1.2, 2.0, 3.0, 4.0, 4.8];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-12, "{got:?}");
+        }
+        assert_eq!(q(&[7.0]), vec![Some(7.0); 5]);
+        assert_eq!(q(&[]), vec![None; 5]);
+        let with_gaps = quantiles([Some(1.0), None, Some(3.0)].into_iter(), &[0.5]);
+        assert_eq!(with_gaps, vec![Some(2.0)]);
+        assert_eq!(
+            quantiles([Some(1.0), Some(3.0)].into_iter(), &[0.0, 1.0]),
+            vec![Some(1.0), Some(3.0)]
+        );
+    }
 
     #[test]
     fn metrics_on_simple_vectors() {

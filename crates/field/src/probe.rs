@@ -128,6 +128,13 @@ pub struct ProbeRow {
     pub vis_rel_l2_max: Option<f64>,
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_max: Option<f64>,
+    /// Quantiles of `occ_rel_l2` over the probes with a truth (p5, p25, median, p75, p95;
+    /// linear rule, `metrics::quantiles`).
+    pub occ_rel_l2_p05: Option<f64>,
+    pub occ_rel_l2_p25: Option<f64>,
+    pub occ_rel_l2_p50: Option<f64>,
+    pub occ_rel_l2_p75: Option<f64>,
+    pub occ_rel_l2_p95: Option<f64>,
     /// The truth's own error relative to its occlusion ([`Truth::rel_error`]); 0 for the
     /// closed-form sphere.
     pub truth_rel_err_mean: Option<f64>,
@@ -189,6 +196,9 @@ pub struct ProbeExample {
     pub radius: f64,
     pub point: DVec3,
     pub extrapolated: Vec<f64>,
+    /// The point lies inside the occluder at this radius (no truth: its visibility is 0 in
+    /// every direction).
+    pub inside: bool,
 }
 
 /// Closed-form visibility of a solid sphere of radius R seen from `p` at distance d (entity
@@ -632,11 +642,15 @@ impl RadiusWork<'_> {
         if example_index.is_none() {
             *example_index = example_of(truth, &ext);
         }
-        if let Some(i) = example_index.filter(|&i| truth[i].is_some()) {
+        // Every radius gets its example, at the one point chosen at the first radius that had
+        // one; where that point lies inside the mesh the figure says so (it once dropped the
+        // radius silently).
+        if let Some(i) = *example_index {
             examples.push(ProbeExample {
                 radius: rho,
                 point: points[i],
                 extrapolated: ext[i].0.clone(),
+                inside: truth[i].is_none(),
             });
         }
         let per = self.assess(&mut row, &ext, truth, &points, &exact_m);
@@ -765,6 +779,14 @@ fn example_of(truth: &[Option<Truth>], ext: &[(Vec<f64>, ExtrapolationKind)]) ->
 fn summarise(row: &mut ProbeRow, per: &[PerProbe]) {
     (row.vis_rel_l2_mean, row.vis_rel_l2_max, _) = mean_max(per.iter().map(|x| x.vis));
     (row.occ_rel_l2_mean, row.occ_rel_l2_max, _) = mean_max(per.iter().map(|x| x.occ));
+    let q = crate::metrics::quantiles(per.iter().map(|x| x.occ), &crate::metrics::QUANTILE_LEVELS);
+    [
+        row.occ_rel_l2_p05,
+        row.occ_rel_l2_p25,
+        row.occ_rel_l2_p50,
+        row.occ_rel_l2_p75,
+        row.occ_rel_l2_p95,
+    ] = [q[0], q[1], q[2], q[3], q[4]];
     (row.truth_rel_err_mean, row.truth_rel_err_max, _) =
         mean_max(per.iter().map(|x| x.occ.and(x.truth_err)));
     (row.occ_rel_l2_exact_k_mean, _, _) = mean_max(per.iter().map(|x| x.occ.and(x.exact_k)));

@@ -57,8 +57,9 @@ pub(crate) struct Tally {
     runs: usize,
     rays: f64,
     seconds: f64,
-    /// Group key hash → the group's shared rays and seconds.
-    groups: HashMap<u64, (f64, f64)>,
+    once_seconds: f64,
+    /// Group key hash → the group's shared rays, timed seconds and once seconds.
+    groups: HashMap<u64, (f64, f64, f64)>,
     bytes: f64,
     bytes_driver: (usize, String),
     max_group_rays: f64,
@@ -96,10 +97,11 @@ impl Tally {
         self.runs += 1;
         self.rays += r.cost.rays;
         self.seconds += r.cost.seconds;
+        self.once_seconds += r.cost.once_seconds;
         let s = &r.shared_cost;
         self.groups
             .entry(key_hash(&r.group))
-            .or_insert((s.rays, s.seconds));
+            .or_insert((s.rays, s.seconds, s.once_seconds));
         let (bytes, rays) = (s.bytes + r.cost.bytes, s.rays);
         keep_max(
             &mut self.bytes,
@@ -135,6 +137,7 @@ impl Tally {
         self.runs += o.runs;
         self.rays += o.rays;
         self.seconds += o.seconds;
+        self.once_seconds += o.once_seconds;
         for (g, c) in o.groups {
             self.groups.entry(g).or_insert(c);
         }
@@ -174,15 +177,21 @@ impl Tally {
     /// The estimate, every time column timed with `timing`'s warm-up and repeats.
     pub(crate) fn estimate(&self, timing: Procedure) -> Estimate {
         let factor = (timing.warmup + timing.repeats) as f64;
-        let (shared_rays, shared_seconds) =
-            (self.groups.values()).fold((0.0, 0.0), |(r, s), (gr, gs)| (r + gr, s + gs));
-        let bookkeeping = self.runs as f64 * timing::BOOKKEEPING_SECONDS_PER_RUN;
+        let (shared_rays, shared_seconds, shared_once) = (self.groups.values())
+            .fold((0.0, 0.0, 0.0), |(r, s, o), (gr, gs, go)| {
+                (r + gr, s + gs, o + go)
+            });
+        let bookkeeping =
+            self.runs as f64 * timing::BOOKKEEPING_SECONDS_PER_RUN + timing::PLAN_OVERHEAD_SECONDS;
         Estimate {
             runs: self.runs,
             groups: self.groups.len(),
             rays: self.rays + shared_rays,
             bytes: self.bytes,
-            seconds: (self.seconds + shared_seconds) * factor + bookkeeping,
+            seconds: (self.seconds + shared_seconds) * factor
+                + self.once_seconds
+                + shared_once
+                + bookkeeping,
             bookkeeping_seconds: bookkeeping,
             max_group_rays: self.max_group_rays,
             rays_driver: self.rays_driver.1.clone(),

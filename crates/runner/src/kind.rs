@@ -40,8 +40,12 @@ pub struct Cost {
     pub rays: f64,
     /// Peak bytes held.
     pub bytes: f64,
-    /// Seconds on this machine (from the measured rates in [`timing`]).
+    /// Seconds of the timed work on this machine (from the measured rates in [`timing`]), for
+    /// one call: the estimate multiplies them by the timing procedure's warm-up + repeats.
     pub seconds: f64,
+    /// Seconds of the work done once whatever the timing procedure — references and truths,
+    /// untimed set-up, image writing.
+    pub once_seconds: f64,
     /// The keys that drive the cost, in words (`hemisphere_res = 256 → 131072 rays per probe`).
     pub drivers: String,
 }

@@ -38,6 +38,29 @@ pub struct Provenance {
 /// script. Provenance is the binary's, whatever repository the working directory is in.
 pub const BUILD_REVISION: &str = env!("SHSCALE_GIT_REVISION");
 
+/// Unix seconds as an ISO 8601 UTC time, `YYYY-MM-DDThh:mm:ssZ` (the proleptic Gregorian
+/// calendar; days to a civil date by the era algorithm of H. Hinnant, "chrono-compatible
+/// low-level date algorithms"). Domain: every u64 second up to year 9999; later ones are
+/// written with more year digits.
+pub fn iso8601_utc(unix: u64) -> String {
+    let (days, secs) = (unix / 86_400, unix % 86_400);
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        secs / 3600,
+        secs % 3600 / 60,
+        secs % 60
+    )
+}
+
 pub(crate) fn unix_now() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -123,6 +146,25 @@ impl Manifest {
         match self.versions.iter_mut().find(|x| x.id == v.id) {
             Some(x) => x.last_unix_time = v.last_unix_time,
             None => self.versions.push(v.clone()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod iso_tests {
+    /// Against Python's `datetime.fromtimestamp(t, UTC)`: the epoch, two leap days (one in a
+    /// year divisible by 400), a 2026 time with seconds, the turn of 2100 (not a leap year).
+    #[test]
+    fn unix_seconds_as_iso_8601() {
+        for (t, want) in [
+            (0, "1970-01-01T00:00:00Z"),
+            (68_169_600, "1972-02-29T00:00:00Z"),
+            (951_782_400, "2000-02-29T00:00:00Z"),
+            (1_796_360_377, "2026-12-04T04:59:37Z"),
+            (4_102_444_800, "2100-01-01T00:00:00Z"),
+            (4_102_444_799, "2099-12-31T23:59:59Z"),
+        ] {
+            assert_eq!(super::iso8601_utc(t), want, "{t}");
         }
     }
 }

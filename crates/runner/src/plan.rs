@@ -381,7 +381,7 @@ impl Survey {
     pub fn describe(&self, shard: Option<(usize, usize)>) -> String {
         let e = &self.estimate;
         let mut s = format!(
-            "plan {:?} of kind {:?} from {}{}\n  {} run(s) in {} group(s) sharing work{}\n  estimated: {:.3e} rays, {:.1} MiB peak, {:.1} s on the development VM ({} warm-up + {} timed repeat(s) each; {:.1} s of it the runner's bookkeeping)\n",
+            "plan {:?} of kind {:?} from {}{}\n  {} run(s) in {} group(s) sharing work{}\n  estimated: {:.3e} rays, {:.1} MiB peak, {} ({} warm-up + {} timed repeat(s) each; {:.1} s of it the runner's bookkeeping)\n",
             self.name,
             self.kind.name(),
             self.file,
@@ -398,7 +398,13 @@ impl Survey {
             )),
             e.rays,
             e.bytes / (1u64 << 20) as f64,
-            e.seconds,
+            if e.seconds.is_nan() {
+                "time not estimated (a run's cost depends on a file read when it runs)".to_string()
+            } else if e.seconds < 10.0 {
+                format!("{:.2} s on the development VM", e.seconds)
+            } else {
+                format!("{:.1} s on the development VM", e.seconds)
+            },
             self.timing.warmup,
             self.timing.repeats,
             e.bookkeeping_seconds,

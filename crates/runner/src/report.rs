@@ -212,7 +212,7 @@ fn figures_of(files: &[PathBuf]) -> Result<Vec<Figure>, Error> {
 fn provenance_md(versions: &[crate::manifest::Version]) -> String {
     let mut md = String::new();
     md.push_str("## Plan and provenance\n\n");
-    md.push_str("| version | config | overrides | axes | runs in plan | git revision | shscale | CPU | threads | GPU | first run (unix) | last run (unix) |\n|---|---|---|---|---:|---|---|---|---:|---|---:|---:|\n");
+    md.push_str("| version | config | overrides | axes | runs in plan | git revision | shscale | CPU | threads | GPU | first run (UTC) | last run (UTC) |\n|---|---|---|---|---:|---|---|---|---:|---|---|---|\n");
     for v in versions {
         let p = &v.provenance;
         md.push_str(&format!(
@@ -236,8 +236,8 @@ fn provenance_md(versions: &[crate::manifest::Version]) -> String {
             p.cpu_model,
             p.threads,
             p.gpu_device,
-            v.first_unix_time,
-            v.last_unix_time
+            crate::manifest::iso8601_utc(v.first_unix_time),
+            crate::manifest::iso8601_utc(v.last_unix_time)
         ));
     }
     if let Some(v) = versions.last() {
@@ -568,10 +568,27 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
     let mut cols: Vec<String> = std::iter::once("run_id".to_string())
         .chain(varying.iter().cloned())
         .collect();
+    // A headline column empty in every row (e.g. the on-surface error of a run without
+    // on-surface samples) is left out, and the table says which.
+    let mut empty = Vec::new();
     for c in kind.summary_columns() {
-        if !cols.iter().any(|x| x == c) {
+        if cols.iter().any(|x| x == c) {
+            continue;
+        }
+        if t.col(c).is_some()
+            && (0..t.rows.len()).all(|r| t.cell(r, c).is_empty())
+            && !t.rows.is_empty()
+        {
+            empty.push(format!("`{c}`"));
+        } else {
             cols.push(c.to_string());
         }
+    }
+    if !empty.is_empty() {
+        s.push_str(&format!(
+            "Left out of the table, empty in every row: {}.\n\n",
+            empty.join(", ")
+        ));
     }
     if t.rows.len() <= MAX_LISTED_ROWS {
         s.push_str(&row_table(&t, &cols));

@@ -115,6 +115,12 @@ impl Procedure {
 /// 12×20 × 32² rays in ≈ 29 ms, docs/BENCHMARKS.md).
 pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 
+/// Rays per second of the converged ray-traced truths (4T² stratified rays per probe, computed
+/// once per probe and radius, never timed), on the development VM with 2 threads: the
+/// quickstart's `truth_seconds` column gives 1.2e7 rays/s for the bunny's probes at 0.5r and
+/// 4.2e7 at 2r (`shscale run configs/quickstart.toml`); the model takes the middle.
+pub const TRUTH_RAYS_PER_SECOND: f64 = 2.6e7;
+
 /// What the runner itself spends per run on the development VM (2 threads): the plan, the
 /// rows appended and synced (group commits, about ten a second), resume, summary and report —
 /// 12–21 µs per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench runner`,
@@ -122,6 +128,12 @@ pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 /// also logs a line per run (a 10⁴-run `sparsity` sweep: 1.6–1.9 s, of which 1.1 s the runs' own
 /// work). Part of every plan's estimated seconds.
 pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;
+
+/// What a plan costs whatever its runs: the manifest, the summary, the report and its plots
+/// (`configs/paper/fig2_sparsity.toml`, whose 12 runs' matrices take milliseconds: 0.04 s in
+/// `shscale bench estimates`, 0.07 s through `shscale run` with the process's start). Part of the
+/// bookkeeping of every estimate.
+pub const PLAN_OVERHEAD_SECONDS: f64 = 0.04;
 
 /// The most rays a plan may trace without `--allow-large`.
 pub const MAX_PLAN_RAYS: f64 = 1e10;

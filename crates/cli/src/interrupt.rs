@@ -1,0 +1,39 @@
+//! A one-line message on Ctrl-C (SIGINT) or SIGTERM during `shscale run`: what was saved and how
+//! to resume. Finished runs' rows are appended whole in group commits at most 100 ms apart, so an
+//! interruption loses no committed row; the runs of the last commit interval, and the one in
+//! progress, are redone by the next start of the same command (a torn last line is set aside).
+
+use std::sync::OnceLock;
+
+static MESSAGE: OnceLock<Vec<u8>> = OnceLock::new();
+
+/// The handler: write the prepared message and exit with the conventional 128 + signal number.
+/// Only async-signal-safe calls (an atomic load, `write`, `_exit`).
+extern "C" fn on_signal(sig: libc::c_int) {
+    if let Some(m) = MESSAGE.get() {
+        // SAFETY: `write` and `_exit` are async-signal-safe; `m` is never freed (a static).
+        unsafe {
+            libc::write(2, m.as_ptr().cast(), m.len());
+        }
+    }
+    // SAFETY: as above.
+    unsafe { libc::_exit(128 + sig) }
+}
+
+/// From now on, SIGINT and SIGTERM print a line naming `csv` (where the finished runs are) and
+/// the command that resumes, then exit (130 for Ctrl-C).
+pub fn explain_on_interrupt(csv: &std::path::Path, resume: &str) {
+    let text = format!(
+        "\ninterrupted: the runs finished so far are saved in {} (those of the last 100 ms, and the one in progress, are redone); resume with: {resume}\n",
+        csv.display()
+    );
+    if MESSAGE.set(text.into_bytes()).is_err() {
+        return;
+    }
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: installing a handler that only makes async-signal-safe calls.
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
