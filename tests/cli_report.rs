@@ -282,6 +282,63 @@ fn report_compare_and_plot_work_on_existing_results() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// `shscale plot` beyond one series: a line through rows that differ in a key at one x (here the
+/// probe radius) is refused naming it; `--where` filters it to one line with its interquartile
+/// band (the probe rows' p25/p75); `--facet` draws a panel per value; `--log-x` labels a narrow
+/// log axis with values.
+#[test]
+fn plot_refuses_zigzags_and_filters_facets_and_bands() {
+    let d = tmp("plotflags");
+    let a = run(&d, &[]);
+    let dir = a.to_str().unwrap();
+    let base = [
+        "plot",
+        dir,
+        "--metric",
+        "occ_rel_l2_mean",
+        "--x",
+        "alpha_deg",
+    ];
+    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        base.iter().chain(extra).copied().collect()
+    }
+    fails(
+        &with(&base, &["--series", "order"]),
+        "differ in \"radius\" at the same x",
+    );
+    fails(
+        &with(&base, &["--where", "radius"]),
+        "--where radius: expected COLUMN=VALUE",
+    );
+    fails(
+        &with(&base, &["--where", "radius=7"]),
+        "no row matches --where radius=7",
+    );
+    fails(
+        &with(&base, &["--facet", "nosuch"]),
+        "\"nosuch\" is not a column",
+    );
+    let o = shscale(&with(
+        &base,
+        &["--series", "order", "--where", "radius=1.5"],
+    ));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(a.join("plot_occ_rel_l2_mean_vs_alpha_deg.svg")).unwrap();
+    assert!(
+        svg.contains("interquartile range over probes"),
+        "no band named"
+    );
+    assert!(svg.contains("<polygon"), "no band drawn");
+    let o = shscale(&with(&base, &["--facet", "radius", "--log-x"]));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg =
+        std::fs::read_to_string(a.join("plot_occ_rel_l2_mean_vs_alpha_deg_by_radius.svg")).unwrap();
+    let panels = svg.matches("probe radius ρ = ").count();
+    assert_eq!(panels, 2, "one panel per radius");
+    assert!(svg.contains("log scale"));
+    std::fs::remove_dir_all(&d).ok();
+}
+
 /// `docs/config-reference.md` is what `shscale config-reference` prints (regenerate it with
 /// `shscale config-reference > docs/config-reference.md`); every parameter of every kind is
 /// described and every description names a real parameter; the scene keys listed are exactly

@@ -81,6 +81,11 @@ pub struct Row {
 /// The kind `shadows`.
 pub struct Shadows;
 
+/// Rays per second of a whole render (rays, shading and images), the cost model's rate for the
+/// `shadows` kind: fitted to `configs/experiments/shadows.toml` (one run of the bunny scene,
+/// 1.37e9 estimated rays in 24–26 s) on the development VM, checked by `shscale bench estimates`.
+const RENDER_RAYS_PER_SECOND: f64 = 5.5e7;
+
 const METHODS: [(Method, &str); 4] = [
     (Method::FullField, "full_field"),
     (Method::Extrapolated, "extrapolated"),
@@ -367,6 +372,45 @@ impl Kind for Shadows {
                 // Unknown until the scene is read: the dry run says so instead of 0 s.
                 once_seconds: f64::NAN,
                 ..Cost::default()
+            },
+        )
+    }
+
+    /// From the scene (with this run's overrides): each method's rays
+    /// (`render::estimated_work`), timed (warm-up + repeats), and the unshadowed reference once,
+    /// at [`RENDER_RAYS_PER_SECOND`]. A scene that cannot be read leaves the time unestimated
+    /// (the run reports the error).
+    fn cost_in(p: &Params, config_dir: &Path) -> (Cost, Cost) {
+        let Ok(spec) = <Self as Kind>::resolve(p) else {
+            return Self::cost(p);
+        };
+        let Ok(scene) = scene_of(&spec, config_dir) else {
+            return Self::cost(p);
+        };
+        let work = |m| shscale_scene::render::estimated_work(&scene, m);
+        let (mut rays, mut bytes) = (0.0, 0.0f64);
+        for (m, _) in METHODS {
+            let (r, b) = work(m);
+            rays += r;
+            bytes = bytes.max(b);
+        }
+        let (open, _) = work(Method::RayTraced);
+        (
+            Cost::default(),
+            Cost {
+                rays: rays + open,
+                bytes,
+                seconds: rays / RENDER_RAYS_PER_SECOND,
+                once_seconds: open / RENDER_RAYS_PER_SECOND,
+                drivers: format!(
+                    "scene {}: {}×{} receivers, truth_res {}, hemisphere_res {} → {:.3e} rays for the 4 methods",
+                    p.scene,
+                    scene.resolution[0],
+                    scene.resolution[1],
+                    scene.truth_res,
+                    scene.hemisphere_res,
+                    rays
+                ),
             },
         )
     }

@@ -92,15 +92,26 @@ pub enum Command {
         /// The x column.
         #[arg(long)]
         x: String,
-        /// One series per value of this column [default: per combination of the other varying parameters].
+        /// One series per combination of these columns; repeatable [default: the other varying
+        /// parameters, faceted by the probe radius (or the parameter with most values) when
+        /// that would make more than 8 series].
         #[arg(long)]
-        series: Option<String>,
+        series: Vec<String>,
+        /// One panel per value of this column (at most 16).
+        #[arg(long)]
+        facet: Option<String>,
+        /// Keep only rows with COLUMN=VALUE (numbers compared as numbers); repeatable.
+        #[arg(long = "where", value_name = "COLUMN=VALUE")]
+        filters: Vec<String>,
         /// Logarithmic y axis (default: when the data span two decades).
         #[arg(long, conflicts_with = "linear_y")]
         log_y: bool,
         /// Linear y axis even when the data span decades.
         #[arg(long)]
         linear_y: bool,
+        /// Logarithmic x axis (every x must be > 0).
+        #[arg(long)]
+        log_x: bool,
     },
     /// Print the config reference (runner keys, every kind's parameters, scene-file keys) as
     /// Markdown — the text of docs/config-reference.md. Example: shscale config-reference

@@ -135,9 +135,24 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             metric,
             x,
             series,
+            facet,
+            filters,
             log_y,
             linear_y,
-        } => run_cmd::plot(&dir, &metric, &x, series.as_deref(), log_y, linear_y),
+            log_x,
+        } => run_cmd::plot(
+            &dir,
+            &metric,
+            &x,
+            run_cmd::PlotFlags {
+                series,
+                facet,
+                filters,
+                log_y,
+                linear_y,
+                log_x,
+            },
+        ),
         Command::ConfigReference => {
             print!(
                 "{}",

@@ -343,26 +343,58 @@ pub fn compare(
     Ok(ExitCode::SUCCESS)
 }
 
+/// The flags of `shscale plot` beyond the directory, metric and x.
+pub struct PlotFlags {
+    pub series: Vec<String>,
+    pub facet: Option<String>,
+    pub filters: Vec<String>,
+    pub log_y: bool,
+    pub linear_y: bool,
+    pub log_x: bool,
+}
+
 pub fn plot(
     dir: &std::path::Path,
     metric: &str,
     x: &str,
-    series: Option<&str>,
-    log_y: bool,
-    linear_y: bool,
+    f: PlotFlags,
 ) -> anyhow::Result<ExitCode> {
+    let filters: Vec<(String, String)> = (f.filters.iter())
+        .map(|w| match w.split_once('=') {
+            Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),
+            _ => Err(anyhow::anyhow!(
+                "--where {w}: expected COLUMN=VALUE, e.g. --where radius=0.5"
+            )),
+        })
+        .collect::<anyhow::Result<_>>()?;
     let kind = kind_of_dir(dir)?;
     let t = shscale_runner::records::Results::read(&dir.join("runs.csv"))?;
-    let log = if log_y {
+    let log_y = if f.log_y {
         Some(true)
-    } else if linear_y {
+    } else if f.linear_y {
         Some(false)
     } else {
         None
     };
-    let files =
-        shscale_runner::plots::plot_column(dir, &t, &kind.param_columns(), metric, x, series, log)
-            .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
+    // What tells rows apart: the parameters and the kind's row key (its first headline column,
+    // e.g. the probe radius).
+    let mut keys = kind.param_columns();
+    if let Some(first) = kind.summary_columns().first() {
+        if !keys.iter().any(|k| k == first) {
+            keys.push(first.to_string());
+        }
+    }
+    let spec = shscale_runner::plots::PlotSpec {
+        metric,
+        x,
+        series: &f.series,
+        facet: f.facet.as_deref(),
+        filters: &filters,
+        log_y,
+        log_x: f.log_x,
+    };
+    let files = shscale_runner::plots::plot_column(dir, &t, &keys, &spec)
+        .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
     for f in files {
         println!("wrote {}", f.display());
     }

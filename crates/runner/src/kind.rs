@@ -106,6 +106,12 @@ pub trait Kind: Send + Sync + 'static {
     }
     /// The estimated cost of the work of a group (`shared`) and of each run.
     fn cost(p: &Self::Params) -> (Cost, Cost);
+    /// The estimated cost where it depends on files the parameters name (paths relative to
+    /// `config_dir`, the config file's folder), e.g. a scene. Default: [`Kind::cost`].
+    fn cost_in(p: &Self::Params, config_dir: &Path) -> (Cost, Cost) {
+        let _ = config_dir;
+        Self::cost(p)
+    }
     /// Rows one run writes (resume treats a run with fewer as unfinished).
     fn rows_per_run(p: &Self::Params) -> usize;
     /// The shared work of a group, from its first run's parameters.
@@ -239,10 +245,20 @@ impl<K: Kind> Default for Erased<K> {
 }
 
 impl<K: Kind> Erased<K> {
-    fn resolved(&self, p: K::Params, spec: K::Spec) -> Result<Resolved, String> {
+    /// `config_dir`: the config's folder when resolved from a config (the cost may read files
+    /// it names), `None` from CSV cells.
+    fn resolved(
+        &self,
+        p: K::Params,
+        spec: K::Spec,
+        config_dir: Option<&Path>,
+    ) -> Result<Resolved, String> {
         let (headers, cells) = records::to_cells(&p)?;
         let canonical = records::canonical_of(&headers, &cells);
-        let (shared_cost, cost) = K::cost(&p);
+        let (shared_cost, cost) = match config_dir {
+            Some(d) => K::cost_in(&p, d),
+            None => K::cost(&p),
+        };
         Ok(Resolved {
             id: records::run_id(K::NAME, &canonical),
             canonical,
@@ -293,13 +309,17 @@ impl<K: Kind> DynKind for Erased<K> {
         let p: K::Params = config::deserialize(ex, combo)?;
         let spec =
             K::resolve(&p).map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
-        self.resolved(p, spec)
+        let dir = Path::new(&ex.source.file)
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        self.resolved(p, spec, Some(dir))
             .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
     }
     fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
         let p: K::Params = records::from_cells(headers, cells)?;
         let spec = K::resolve(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
-        self.resolved(p, spec)
+        self.resolved(p, spec, None)
     }
     fn id_of_cells(&self, headers: &[String], cells: &[String]) -> Result<(String, usize), String> {
         let p: K::Params = records::from_cells(headers, cells)?;

@@ -44,6 +44,7 @@ pub struct Labels<'a> {
 
 /// The axes of a line plot: ranges, whether y is drawn as log10 y, and the x ticks.
 struct Axes {
+    log_x: bool,
     log_y: bool,
     integer_x: bool,
     x: (f64, f64),
@@ -55,10 +56,23 @@ impl Axes {
     /// The axes of the finite points of `series`. Data spanning two decades or more (all > 0)
     /// are drawn on a log axis unless `log` says otherwise: y becomes log10 y and the ticks are
     /// labelled as powers of ten.
-    fn of(series: &BTreeMap<String, Vec<(f64, f64)>>, log: Option<bool>) -> Result<Self, String> {
+    /// With `log_x`, x is drawn as log10 x (every x must be > 0).
+    fn of_xy(
+        series: &BTreeMap<String, Vec<(f64, f64)>>,
+        log: Option<bool>,
+        log_x: bool,
+    ) -> Result<Self, String> {
         let pts: Vec<(f64, f64)> = (series.values().flatten().copied())
             .filter(|&(x, y)| drawable(x) && drawable(y))
             .collect();
+        if log_x && pts.iter().any(|p| p.0 <= 0.0) {
+            return Err("a log x axis needs values > 0".into());
+        }
+        let pts: Vec<(f64, f64)> = if log_x {
+            pts.iter().map(|&(x, y)| (x.log10(), y)).collect()
+        } else {
+            pts
+        };
         if pts.is_empty() {
             return Err(format!(
                 "no finite data to plot (values beyond ±{MAX_DRAWN:e} are left out)"
@@ -72,7 +86,7 @@ impl Axes {
             .iter()
             .map(|&(x, y)| (x, if log_y { y.log10() } else { y }))
             .collect();
-        let integer_x = pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
+        let integer_x = !log_x && pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
         // A span narrower than 10⁻⁹ of its magnitude (one value, or values equal to the last
         // digits) is widened to a drawable one: plotters' tick search needs a finite, non-empty
         // range.
@@ -102,12 +116,22 @@ impl Axes {
             10
         };
         Ok(Self {
+            log_x,
             log_y,
             integer_x,
             x,
             y,
             x_ticks,
         })
+    }
+
+    /// An x value as drawn.
+    fn tx(&self, x: f64) -> f64 {
+        if self.log_x {
+            x.log10()
+        } else {
+            x
+        }
     }
 
     /// A y value as drawn.
@@ -126,6 +150,9 @@ type Chart<'a, DB> = ChartContext<
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
+/// Spread bands of a panel: series name → (x, low, high), drawn shaded in the series' colour.
+pub type Bands = BTreeMap<String, Vec<(f64, f64, f64)>>;
+
 /// Draw `series` (name → points) as lines with markers; x and y labelled with units.
 fn line_plot<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
@@ -139,21 +166,78 @@ where
     DB::ErrorType: 'static,
 {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let ax = Axes::of(series, log)?;
+    panel_plot(
+        &area,
+        labels,
+        series,
+        &Bands::new(),
+        scatter_only,
+        front,
+        log,
+        false,
+        22,
+    )?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// One panel on `area` (already filled): axes, bands, lines or markers, the front, the legend.
+#[allow(clippy::too_many_arguments)]
+fn panel_plot<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    bands: &Bands,
+    scatter_only: bool,
+    front: &[(f64, f64)],
+    log: Option<bool>,
+    log_x: bool,
+    caption: u32,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    // The bands' ends count for the range too (a band is never clipped).
+    let mut ranged = series.clone();
+    for (name, b) in bands {
+        let e = ranged.entry(format!("{name}\u{1f}band")).or_default();
+        e.extend(b.iter().flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)]));
+    }
+    let ax = Axes::of_xy(&ranged, log, log_x)?;
     let y_desc = if ax.log_y {
         format!("{} — log scale", labels.y)
     } else {
         labels.y.to_string()
     };
-    let mut chart = ChartBuilder::on(&area)
-        .caption(labels.title, ("sans-serif", 22))
+    let x_desc = if ax.log_x {
+        format!("{} — log scale", labels.x)
+    } else {
+        labels.x.to_string()
+    };
+    let mut chart = ChartBuilder::on(area)
+        .caption(labels.title, ("sans-serif", caption))
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(64)
         .build_cartesian_2d(ax.x.0..ax.x.1, ax.y.0..ax.y.1)
         .map_err(|e| e.to_string())?;
+    // A log axis over two decades or more is labelled at the decades; a narrower one at every
+    // tick, with its value.
+    let log_label = |v: f64, span: f64| {
+        if span >= 2.0 {
+            if (v - v.round()).abs() < 1e-9 {
+                format!("1e{}", v.round())
+            } else {
+                String::new()
+            }
+        } else {
+            let x = 10f64.powf(v);
+            format!("{}", (x * 1e3).round() / 1e3)
+        }
+    };
     let x_fmt = |v: &f64| {
-        if ax.integer_x {
+        if ax.log_x {
+            log_label(*v, ax.x.1 - ax.x.0)
+        } else if ax.integer_x {
             format!("{v:.0}")
         } else {
             format!("{}", (v * 1e6).round() / 1e6)
@@ -161,19 +245,15 @@ where
     };
     let y_fmt = |v: &f64| {
         if ax.log_y {
-            // Decades only (1e-3, 1e-2, …); the ticks between them stay unlabelled.
-            if (v - v.round()).abs() < 1e-9 {
-                format!("1e{}", v.round())
-            } else {
-                String::new()
-            }
+            // Decades only (1e-3, 1e-2, …) when the axis spans two or more.
+            log_label(*v, ax.y.1 - ax.y.0)
         } else {
             format!("{}", (v * 1e6).round() / 1e6)
         }
     };
     chart
         .configure_mesh()
-        .x_desc(labels.x)
+        .x_desc(x_desc)
         .y_desc(y_desc)
         .x_labels(ax.x_ticks)
         .x_label_formatter(&x_fmt)
@@ -181,10 +261,35 @@ where
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(|e| e.to_string())?;
+    // Bands first, under the lines: the polygon of (x, low) forward and (x, high) back.
+    for (i, name) in series.keys().enumerate() {
+        let Some(band) = bands.get(name) else {
+            continue;
+        };
+        let mut b: Vec<(f64, f64, f64)> = (band.iter().copied())
+            .filter(|&(x, lo, hi)| drawable(x) && drawable(lo) && drawable(hi))
+            .filter(|&(x, lo, _)| !((ax.log_x && x <= 0.0) || (ax.log_y && lo <= 0.0)))
+            .map(|(x, lo, hi)| (ax.tx(x), ax.ty(lo), ax.ty(hi)))
+            .collect();
+        if b.len() < 2 {
+            continue;
+        }
+        b.sort_by(|a, c| a.0.total_cmp(&c.0));
+        let poly: Vec<(f64, f64)> = (b.iter().map(|p| (p.0, p.1)))
+            .chain(b.iter().rev().map(|p| (p.0, p.2)))
+            .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                poly,
+                palette(i).mix(0.18).filled(),
+            )))
+            .map_err(|e| e.to_string())?;
+    }
     for (i, (name, points)) in series.iter().enumerate() {
         let mut pts: Vec<(f64, f64)> = (points.iter().copied())
             .filter(|&(x, y)| drawable(x) && drawable(y))
-            .map(|(x, y)| (x, ax.ty(y)))
+            .filter(|&(x, _)| !(ax.log_x && x <= 0.0))
+            .map(|(x, y)| (ax.tx(x), ax.ty(y)))
             .filter(|(_, y)| y.is_finite())
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -193,7 +298,7 @@ where
     if !front.is_empty() {
         let front: Vec<(f64, f64)> = (front.iter())
             .filter(|&&(x, y)| drawable(x) && drawable(y))
-            .map(|&(x, y)| (x, ax.ty(y)))
+            .map(|&(x, y)| (ax.tx(x), ax.ty(y)))
             .collect();
         chart
             .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
@@ -203,12 +308,124 @@ where
     }
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .label_font(("sans-serif", 14))
+        .label_font(("sans-serif", 13))
         .draw()
         .map_err(|e| e.to_string())?;
-    area.present().map_err(|e| e.to_string())
+    // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
+    Ok(())
+}
+
+/// One panel of a faceted figure.
+pub struct Panel {
+    /// What the panel holds (`probe radius ρ = 0.5`).
+    pub title: String,
+    pub series: BTreeMap<String, Vec<(f64, f64)>>,
+    pub bands: Bands,
+}
+
+/// The most panels one faceted figure draws.
+pub const MAX_PANELS: usize = 16;
+
+/// Write `stem.png` and `stem.svg`: the panels in a grid (up to three a row), sharing the x and
+/// y labels, each with its own axes and legend; `log_y` as in [`write_both_log`], `log_x`
+/// draws x as log10 x. Written as a unit like [`write_both`].
+#[allow(clippy::too_many_arguments)]
+pub fn write_panels(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    x: &str,
+    y: &str,
+    panels: &[Panel],
+    log_y: Option<bool>,
+    log_x: bool,
+) -> Result<Vec<PathBuf>, Error> {
+    check_stem(dir, stem)?;
+    ensure_font();
+    if panels.is_empty() || panels.len() > MAX_PANELS {
+        return Err(Error::Config(format!(
+            "a figure draws 1 to {MAX_PANELS} panels, not {}",
+            panels.len()
+        )));
+    }
+    let cols = panels.len().min(3);
+    let rows = panels.len().div_ceil(cols);
+    let size = if panels.len() == 1 {
+        (900, 600)
+    } else {
+        ((cols * 620) as u32, (rows * 440 + 40) as u32)
+    };
+    // A title that would not fit its width is drawn smaller.
+    let title_font = if title.chars().count() * 11 > size.0 as usize {
+        16
+    } else {
+        22
+    };
+    let mut tmps = crate::atomic::Temporaries::new();
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
+    fn draw<DB: DrawingBackend>(
+        area: DrawingArea<DB, plotters::coord::Shift>,
+        title: &str,
+        (x, y): (&str, &str),
+        panels: &[Panel],
+        (rows, cols): (usize, usize),
+        (log_y, log_x, title_font): (Option<bool>, bool, u32),
+    ) -> Result<(), String>
+    where
+        DB::ErrorType: 'static,
+    {
+        area.fill(&WHITE).map_err(|e| e.to_string())?;
+        let area = area
+            .titled(title, ("sans-serif", title_font))
+            .map_err(|e| e.to_string())?;
+        for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
+            let (series, _) = capped(&p.series, "");
+            let labels = Labels {
+                title: &p.title,
+                x,
+                y,
+            };
+            panel_plot(
+                cell,
+                &labels,
+                &series,
+                &p.bands,
+                false,
+                &[],
+                log_y,
+                log_x,
+                16,
+            )?;
+        }
+        area.present().map_err(|e| e.to_string())
+    }
+    let shape = (rows, cols);
+    draw(
+        BitMapBackend::new(&tmp_png, size).into_drawing_area(),
+        title,
+        (x, y),
+        panels,
+        shape,
+        (log_y, log_x, title_font),
+    )
+    .map_err(|e| err(&png, e))?;
+    draw(
+        SVGBackend::new(&tmp_svg, size).into_drawing_area(),
+        title,
+        (x, y),
+        panels,
+        shape,
+        (log_y, log_x, title_font),
+    )
+    .map_err(|e| err(&svg, e))?;
+    finish(&tmp_png, &png)?;
+    finish(&tmp_svg, &svg)?;
+    Ok(vec![png, svg])
 }
 
 /// Series `i` (`pts` as drawn, sorted by x): a line with its legend entry unless
@@ -264,19 +481,44 @@ where
     Ok(())
 }
 
-/// `shscale plot`: `metric` against `x` from a results table, one series per value of `series`
-/// (or, without it, per combination of every other parameter that varies), written as
-/// `plot_<metric>_vs_<x>.png/.svg` in `dir`. Rows whose cells are not numbers are left out.
+/// What `shscale plot` draws: `metric` against `x`, one series per combination of the `series`
+/// columns, one panel per value of `facet`, over the rows that match every `filters` pair.
+pub struct PlotSpec<'a> {
+    pub metric: &'a str,
+    pub x: &'a str,
+    /// Series columns (empty: every other varying key, faceting by the probe radius or the key
+    /// with the most values when that would make more than [`MAX_SERIES_PER_PANEL`] series).
+    pub series: &'a [String],
+    pub facet: Option<&'a str>,
+    /// `(column, value)`: keep rows whose cell is the value (numbers compared as numbers).
+    pub filters: &'a [(String, String)],
+    /// Forced linear (`Some(false)`) or log (`Some(true)`) y; `None` decides by the data.
+    pub log_y: Option<bool>,
+    pub log_x: bool,
+}
+
+/// The most series a default plot puts in one panel before it facets.
+pub const MAX_SERIES_PER_PANEL: usize = 8;
+
+/// `shscale plot`: [`PlotSpec`] drawn from a results table into `dir` as
+/// `plot_<metric>_vs_<x>[_by_<facet>].png/.svg`. `keys` are the columns that tell rows apart
+/// (the kind's parameters and its row key, e.g. the probe radius): when two rows of one series
+/// and panel share an x value but differ in a key, the line would zigzag between them, and the
+/// plot is refused naming that key. A `*_mean` metric with `*_p25` and `*_p75` columns gets its
+/// interquartile band. Rows whose cells are not numbers are left out.
 pub fn plot_column(
     dir: &Path,
     t: &Table,
-    params: &[String],
-    metric: &str,
-    x: &str,
-    series: Option<&str>,
-    log: Option<bool>,
+    keys: &[String],
+    spec: &PlotSpec,
 ) -> Result<Vec<PathBuf>, Error> {
-    for c in [metric, x].into_iter().chain(series) {
+    let (metric, x) = (spec.metric, spec.x);
+    let named = [metric, x]
+        .into_iter()
+        .chain(spec.series.iter().map(String::as_str))
+        .chain(spec.facet)
+        .chain(spec.filters.iter().map(|(k, _)| k.as_str()));
+    for c in named {
         if t.col(c).is_none() {
             return Err(Error::Config(format!(
                 "{c:?} is not a column of {} (columns: {})",
@@ -285,49 +527,167 @@ pub fn plot_column(
             )));
         }
     }
-    let groups: Vec<String> = match series {
-        Some(s) => vec![s.to_string()],
-        None => t
-            .varying(params)
-            .into_iter()
-            .filter(|c| c != x && c != metric)
-            .collect(),
+    let same = |cell: &str, want: &str| {
+        cell == want
+            || matches!((cell.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
     };
-    let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    for r in 0..t.rows.len() {
-        let (xv, yv) = (t.num(r, x), t.num(r, metric));
-        if !(xv.is_finite() && yv.is_finite()) {
-            continue;
-        }
-        let label = if groups.is_empty() {
-            metric.to_string()
+    let rows: Vec<usize> = (0..t.rows.len())
+        .filter(|&r| spec.filters.iter().all(|(k, v)| same(t.cell(r, k), v)))
+        .filter(|&r| t.num(r, x).is_finite() && t.num(r, metric).is_finite())
+        .collect();
+    if rows.is_empty() {
+        let filters: Vec<String> = spec
+            .filters
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        return Err(Error::Config(if filters.is_empty() {
+            format!("no row has numbers in both {metric:?} and {x:?}")
         } else {
-            groups
-                .iter()
-                .map(|g| format!("{g} = {}", t.cell(r, g)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        by.entry(label).or_default().push((xv, yv));
+            format!(
+                "no row matches --where {} with numbers in both {metric:?} and {x:?}",
+                filters.join(" --where ")
+            )
+        }));
     }
-    if by.is_empty() {
+    let distinct = |c: &str| -> Vec<String> {
+        let mut v: Vec<String> = rows.iter().map(|&r| t.cell(r, c).to_string()).collect();
+        v.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
+            (Ok(x), Ok(y)) => x.total_cmp(&y),
+            _ => a.cmp(b),
+        });
+        v.dedup();
+        v
+    };
+    let varying: Vec<String> = (keys.iter())
+        .filter(|k| t.col(k).is_some() && distinct(k).len() > 1)
+        .cloned()
+        .collect();
+    // Series and facet: as asked, or every other varying key, faceted when too many.
+    let mut facet = spec.facet.map(str::to_string);
+    let mut series: Vec<String> = if spec.series.is_empty() {
+        (varying.iter())
+            .filter(|c| *c != x && *c != metric && Some(c.as_str()) != spec.facet)
+            .cloned()
+            .collect()
+    } else {
+        spec.series.to_vec()
+    };
+    let combos = |cols: &[String]| -> usize {
+        let mut seen: Vec<Vec<&str>> = rows
+            .iter()
+            .map(|&r| cols.iter().map(|c| t.cell(r, c)).collect())
+            .collect();
+        seen.sort();
+        seen.dedup();
+        seen.len()
+    };
+    if spec.series.is_empty() && facet.is_none() && combos(&series) > MAX_SERIES_PER_PANEL {
+        let pick = (series.iter())
+            .filter(|c| distinct(c).len() <= MAX_PANELS)
+            .max_by_key(|c| (c.as_str() == "radius", distinct(c).len()))
+            .cloned();
+        if let Some(f) = pick {
+            series.retain(|c| *c != f);
+            facet = Some(f);
+        }
+    }
+    // A key that varies within one series and panel at one x makes a zigzag: refuse, naming it.
+    let mut at: BTreeMap<(String, String, String), usize> = BTreeMap::new();
+    for &r in &rows {
+        let label: Vec<&str> = series.iter().map(|c| t.cell(r, c)).collect();
+        let f = facet.as_deref().map_or("", |c| t.cell(r, c));
+        let k = (
+            f.to_string(),
+            label.join("\u{1f}"),
+            t.cell(r, x).to_string(),
+        );
+        if let Some(&first) = at.get(&k) {
+            let differ: Vec<&String> = (varying.iter())
+                .filter(|c| t.cell(r, c) != t.cell(first, c))
+                .collect();
+            if let Some(c) = differ.first() {
+                return Err(Error::Config(format!(
+                    "--x {x}: rows of one series differ in {c:?} at the same x ({x} = {}: {c} = {} and {}), which would draw a zigzag; add --series {c}, --facet {c} or --where {c}=VALUE",
+                    t.cell(r, x),
+                    t.cell(first, c),
+                    t.cell(r, c)
+                )));
+            }
+        } else {
+            at.insert(k, r);
+        }
+    }
+    let base = metric.strip_suffix("_mean");
+    let band_cols = base.map(|b| (format!("{b}_p25"), format!("{b}_p75")));
+    let band_cols = band_cols.filter(|(lo, hi)| t.col(lo).is_some() && t.col(hi).is_some());
+    let facets: Vec<Option<String>> = match &facet {
+        Some(c) => distinct(c).into_iter().map(Some).collect(),
+        None => vec![None],
+    };
+    if facets.len() > MAX_PANELS {
         return Err(Error::Config(format!(
-            "no row has numbers in both {metric:?} and {x:?}"
+            "--facet {}: {} values, more than the {MAX_PANELS} panels a figure draws; filter with --where",
+            facet.unwrap_or_default(),
+            facets.len()
         )));
     }
-    let title = format!("{metric} against {x}");
-    write_both_log(
+    let mut panels = Vec::new();
+    for fv in &facets {
+        let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        let mut bands = Bands::new();
+        for &r in &rows {
+            if let (Some(c), Some(v)) = (&facet, fv) {
+                if t.cell(r, c) != v {
+                    continue;
+                }
+            }
+            let label = if series.is_empty() {
+                words(metric)
+            } else {
+                (series.iter())
+                    .map(|g| format!("{} = {}", words(g), t.cell(r, g)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let xv = t.num(r, x);
+            by.entry(label.clone())
+                .or_default()
+                .push((xv, t.num(r, metric)));
+            if let Some((lo, hi)) = &band_cols {
+                let (l, h) = (t.num(r, lo), t.num(r, hi));
+                if l.is_finite() && h.is_finite() {
+                    bands.entry(label).or_default().push((xv, l, h));
+                }
+            }
+        }
+        let title = match (&facet, fv) {
+            (Some(c), Some(v)) => format!("{} = {v}", words(c)),
+            _ => String::new(),
+        };
+        panels.push(Panel {
+            title,
+            series: by,
+            bands,
+        });
+    }
+    let mut title = format!("{} against {}", words(metric), words(x));
+    if band_cols.is_some() {
+        title.push_str(" (band: interquartile range over probes)");
+    }
+    let mut stem = format!("plot_{}_vs_{}", stem_part(metric), stem_part(x));
+    if let Some(f) = &facet {
+        stem.push_str(&format!("_by_{}", stem_part(f)));
+    }
+    write_panels(
         dir,
-        &format!("plot_{}_vs_{}", stem_part(metric), stem_part(x)),
-        &Labels {
-            title: &title,
-            x,
-            y: metric,
-        },
-        &by,
-        false,
-        &[],
-        log,
+        &stem,
+        &title,
+        &words(x),
+        &words(metric),
+        &panels,
+        spec.log_y,
+        spec.log_x,
     )
 }
 
@@ -380,6 +740,20 @@ pub fn words(key: &str) -> String {
         "layout" => "layout".into(),
         "mesh" => "mesh".into(),
         "radius" => "probe radius ρ".into(),
+        "k" => "scaling factor k".into(),
+        "occ_rel_l2_mean" => "occlusion error (relative L2, mean over probes)".into(),
+        "occ_rel_l2_max" => "occlusion error (relative L2, max over probes)".into(),
+        "occ_rel_l2_p50" => "occlusion error (relative L2, median over probes)".into(),
+        "vis_rel_l2_mean" => "visibility error (relative L2, mean over probes)".into(),
+        "truth_rel_err_mean" => "truth's own error (relative, mean)".into(),
+        "extrapolation_seconds" => "extrapolation time (s)".into(),
+        "table_build_seconds" => "k-table build time (s)".into(),
+        "bsv_sampling_seconds" => "BSV sampling time (s)".into(),
+        "truth_seconds" => "truth time (s)".into(),
+        "truth_res" => "truth resolution T".into(),
+        "nonzeros" => "non-zero elements".into(),
+        "shells" => "full-field shells".into(),
+        "rays" => "rays per frame".into(),
         other => other.replace('_', " "),
     }
 }
