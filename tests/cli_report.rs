@@ -54,6 +54,12 @@ fn browser() -> Option<PathBuf> {
 /// no script error (skipped with a notice without Chromium, unless SHSCALE_REQUIRE_BROWSER=1).
 /// Prints how long Chromium took (a measurement, not asserted: machines differ).
 fn check_in_browser(html: &Path, svgs: usize) {
+    check_in_browser_with(html, svgs, None);
+}
+
+/// [`check_in_browser`], and a screenshot of the page's first 1200×2000 pixels into
+/// `screenshot` (its path and size printed, so the test output says where to look).
+fn check_in_browser_with(html: &Path, svgs: usize, screenshot: Option<&Path>) {
     let Some(chromium) = browser() else {
         assert!(
             std::env::var("SHSCALE_REQUIRE_BROWSER").as_deref() != Ok("1"),
@@ -98,6 +104,33 @@ fn check_in_browser(html: &Path, svgs: usize) {
         html.display(),
         t0.elapsed().as_secs_f64()
     );
+    if let Some(png) = screenshot {
+        let o = std::process::Command::new(&chromium)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-dev-shm-usage",
+                "--hide-scrollbars",
+                "--window-size=1200,2000",
+            ])
+            .arg(format!("--screenshot={}", png.display()))
+            .arg(format!("file://{}", html.display()))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .expect("chromium runs");
+        let bytes = std::fs::metadata(png).map(|m| m.len()).unwrap_or(0);
+        assert!(
+            o.success() && bytes > 10_000,
+            "no screenshot ({bytes} bytes) at {}",
+            png.display()
+        );
+        println!(
+            "screenshot of the report: {} ({bytes} bytes)",
+            png.display()
+        );
+    }
     let want = format!("figures: {svgs} of {svgs} rendered, 0 script errors");
     assert!(
         dom.contains(&want),
@@ -107,6 +140,20 @@ fn check_in_browser(html: &Path, svgs: usize) {
             .collect::<Vec<_>>()
             .join(" ")
     );
+}
+
+/// Whether `s` holds a time like `2026-12-04T05:35:53Z`.
+fn regex_free_iso(s: &str) -> bool {
+    let b = s.as_bytes();
+    b.windows(20).any(|w| {
+        w.iter().enumerate().all(|(i, c)| match i {
+            4 | 7 => *c == b'-',
+            10 => *c == b'T',
+            13 | 16 => *c == b':',
+            19 => *c == b'Z',
+            _ => c.is_ascii_digit(),
+        })
+    })
 }
 
 #[test]
@@ -136,7 +183,20 @@ fn every_run_writes_a_report_that_renders_in_a_browser() {
         !html.contains("src=\"http"),
         "the report must not load anything from outside"
     );
-    check_in_browser(&dir.join("report.html"), svgs);
+    // Reading order: the question, the answer (the discussion, the best per radius), the
+    // figures, then every run's row collapsed; times in ISO 8601.
+    let at = |s: &str| {
+        html.find(s)
+            .unwrap_or_else(|| panic!("report.html lacks {s:?}"))
+    };
+    assert!(at("Our numbers against the claim") < at("Best per radius"));
+    assert!(at("Best per radius") < at("<h2>Figures</h2>"));
+    assert!(at("<h2>Figures</h2>") < at("<details>"));
+    assert!(at("<details>") < at("Plan and provenance"));
+    let iso = regex_free_iso(&html);
+    assert!(iso, "no ISO 8601 time in the provenance");
+    let shot = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("report-screenshot.png");
+    check_in_browser_with(&dir.join("report.html"), svgs, Some(&shot));
     std::fs::remove_dir_all(&d).ok();
 }
 

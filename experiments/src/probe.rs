@@ -487,6 +487,10 @@ impl Kind for Probe {
         ]
     }
 
+    fn best_of() -> Option<(&'static str, &'static str)> {
+        Some(("radius", "occ_rel_l2_mean"))
+    }
+
     fn summary_columns() -> &'static [&'static str] {
         &[
             "radius",
@@ -527,7 +531,7 @@ impl Kind for Probe {
                 "The extrapolation".to_string()
             } else {
                 format!(
-                    "Run `{id}` ({})",
+                    "- Run `{id}` ({})",
                     varying
                         .iter()
                         .filter(|c| *c != "radii")
@@ -537,6 +541,10 @@ impl Kind for Probe {
                 )
             };
             out.push_str(&follows_sentence(t, &who, rows));
+        }
+        if runs.len() > 1 {
+            // The list ends before the notes (a blank line closes it in Markdown).
+            out.push('\n');
         }
         out.push_str(&truth_note(t));
         Ok(out)

@@ -128,55 +128,34 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
     Ok(files)
 }
 
-/// `occ_rel_l2` against `param`: one series per combination of the other varying parameters and
-/// the probe radius (nothing is averaged).
+/// `occ_rel_l2` (mean over probes, with its interquartile band) against `param`: one series per
+/// combination of the other varying parameters and the probe radius (nothing is averaged),
+/// faceted into one panel per probe radius when that would make more than eight series.
 fn error_against(
     dir: &Path,
     t: &Table,
     varying: &[String],
     param: &str,
 ) -> Result<Vec<PathBuf>, Error> {
-    let others: Vec<&str> = (varying.iter().map(String::as_str))
-        .filter(|k| *k != param)
+    let mut keys: Vec<String> = (varying.iter())
+        .filter(|k| k.as_str() != "radii")
+        .cloned()
         .collect();
-    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let with_radius = param != "radius";
-    for r in 0..t.rows.len() {
-        let v = t.num(r, "occ_rel_l2_mean");
-        if !v.is_finite() {
-            continue;
-        }
-        let mut parts: Vec<String> = (others.iter())
-            .filter(|o| **o != "radii")
-            .map(|o| format!("{} = {}", words(o), t.cell(r, o)))
-            .collect();
-        if with_radius {
-            parts.push(format!("ρ = {} r", t.cell(r, "radius")));
-        }
-        let label = if parts.is_empty() {
-            "all runs".to_string()
-        } else {
-            parts.join(", ")
-        };
-        series.entry(label).or_default().push((t.num(r, param), v));
-    }
-    let unit = match param {
-        "alpha_deg" => "α (degrees)",
-        "order" => "SH order N",
-        "hemisphere_res" => "hemisphere resolution H (H² rays per sample)",
-        "k_count" => "tabulated k values K",
-        "sampling_radius" => "sampling radius s (× bounding radius)",
-        "on_surface_eps" => "on-surface threshold ε (× r)",
-        _ => "probe radius ρ (× r)",
-    };
+    keys.push("radius".to_string());
     let title = format!("extrapolation error against {}", words(param));
-    let labels = Labels {
-        title: &title,
-        x: unit,
-        y: "occ_rel_l2: relative L2 error of the occluded part (1)",
-    };
     let stem = format!("occ_rel_l2_vs_{param}");
-    Ok(write_both(dir, &stem, &labels, &series, false, &[])?)
+    let spec = shscale_runner::plots::PlotSpec {
+        metric: "occ_rel_l2_mean",
+        x: param,
+        series: &[],
+        facet: None,
+        filters: &[],
+        log_y: None,
+        log_x: false,
+        stem: Some(&stem),
+        title: Some(&title),
+    };
+    Ok(shscale_runner::plots::plot_column(dir, t, &keys, &spec)?)
 }
 
 /// Per run: total time of the extrapolation path against its error averaged over radii, with

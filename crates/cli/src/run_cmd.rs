@@ -392,6 +392,8 @@ pub fn plot(
         filters: &filters,
         log_y,
         log_x: f.log_x,
+        stem: None,
+        title: None,
     };
     let files = shscale_runner::plots::plot_column(dir, &t, &keys, &spec)
         .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;

@@ -129,6 +129,11 @@ pub trait Kind: Send + Sync + 'static {
         let _ = mode;
         Ok(None)
     }
+    /// The row key and the error metric of the report's "best per key" table (the lowest value of
+    /// the metric at each value of the key, with the parameters that gave it). Default: none.
+    fn best_of() -> Option<(&'static str, &'static str)> {
+        None
+    }
     /// Columns of [`Kind::Row`] that hold times (excluded from comparisons of merged results).
     fn time_columns() -> &'static [&'static str] {
         &[]
@@ -217,6 +222,7 @@ pub trait DynKind: Send + Sync {
     /// [`Kind::open_device`].
     fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error>;
     fn discussion(&self, table: &records::Results) -> Result<String, Error>;
+    fn best_of(&self) -> Option<(&'static str, &'static str)>;
     fn describe(&self) -> &'static [(&'static str, &'static str)];
     /// The parameter keys with their default cells (the CSV/TOML form).
     fn defaults(&self) -> Vec<(String, String)>;
@@ -364,6 +370,9 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error> {
         K::open_device(mode).map_err(Into::into)
+    }
+    fn best_of(&self) -> Option<(&'static str, &'static str)> {
+        K::best_of()
     }
     fn discussion(&self, table: &records::Results) -> Result<String, Error> {
         K::discussion(table).map_err(Into::into)

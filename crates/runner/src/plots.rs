@@ -495,6 +495,10 @@ pub struct PlotSpec<'a> {
     /// Forced linear (`Some(false)`) or log (`Some(true)`) y; `None` decides by the data.
     pub log_y: Option<bool>,
     pub log_x: bool,
+    /// The file stem and the title, when not the default `plot_<metric>_vs_<x>[_by_<facet>]`
+    /// and "<metric> against <x>".
+    pub stem: Option<&'a str>,
+    pub title: Option<&'a str>,
 }
 
 /// The most series a default plot puts in one panel before it facets.
@@ -671,14 +675,23 @@ pub fn plot_column(
             bands,
         });
     }
-    let mut title = format!("{} against {}", words(metric), words(x));
+    let mut title = spec.title.map_or_else(
+        || format!("{} against {}", words(metric), words(x)),
+        str::to_string,
+    );
     if band_cols.is_some() {
         title.push_str(" (band: interquartile range over probes)");
     }
-    let mut stem = format!("plot_{}_vs_{}", stem_part(metric), stem_part(x));
-    if let Some(f) = &facet {
-        stem.push_str(&format!("_by_{}", stem_part(f)));
-    }
+    let stem = match spec.stem {
+        Some(s) => s.to_string(),
+        None => {
+            let mut stem = format!("plot_{}_vs_{}", stem_part(metric), stem_part(x));
+            if let Some(f) = &facet {
+                stem.push_str(&format!("_by_{}", stem_part(f)));
+            }
+            stem
+        }
+    };
     write_panels(
         dir,
         &stem,

@@ -55,11 +55,34 @@ pub fn markdown_to_html(md: &str) -> String {
     let mut para: Vec<&str> = Vec::new();
     let mut table: Vec<Vec<String>> = Vec::new();
     let mut fence: Option<Vec<&str>> = None;
+    // A paragraph, or a list when its lines start with "- " (each such line an item; other
+    // lines continue the item before them).
     let flush_para = |para: &mut Vec<&str>, html: &mut String| {
-        if !para.is_empty() {
-            html.push_str(&format!("<p>{}</p>\n", inline(&para.join(" "))));
-            para.clear();
+        if para.is_empty() {
+            return;
         }
+        if para[0].starts_with("- ") {
+            let mut items: Vec<String> = Vec::new();
+            for l in para.iter() {
+                match l.strip_prefix("- ") {
+                    Some(item) => items.push(item.to_string()),
+                    None => {
+                        if let Some(last) = items.last_mut() {
+                            last.push(' ');
+                            last.push_str(l);
+                        }
+                    }
+                }
+            }
+            html.push_str("<ul>\n");
+            for i in items {
+                html.push_str(&format!("<li>{}</li>\n", inline(&i)));
+            }
+            html.push_str("</ul>\n");
+        } else {
+            html.push_str(&format!("<p>{}</p>\n", inline(&para.join(" "))));
+        }
+        para.clear();
     };
     let flush_table = |table: &mut Vec<Vec<String>>, html: &mut String| {
         if !table.is_empty() {
@@ -261,7 +284,12 @@ fn report_html(summary: &str, md: &str, figures: &[Figure]) -> String {
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<script>window.shscaleErrors = 0; window.addEventListener('error', function () {{ window.shscaleErrors += 1; }});</script>\n<style>\nbody {{ font-family: sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222; }}\ntable {{ border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }}\nth, td {{ border: 1px solid #bbb; padding: 0.25em 0.5em; text-align: right; }}\nth {{ background: #eee; }}\nfigure {{ margin: 1.5em 0; }}\nfigure svg, figure img {{ max-width: 100%; height: auto; border: 1px solid #ddd; }}\nfigcaption {{ font-size: 0.9em; color: #444; }}\npre {{ background: #f6f6f6; padding: 0.75em; overflow-x: auto; }}\n</style>\n</head>\n<body>\n",
         esc(&title)
     );
-    html.push_str(&markdown_to_html(summary));
+    // The question and the answer, then the figures, then every run (collapsed).
+    let (top, runs) = match summary.split_once(EVERY_RUN) {
+        Some((top, runs)) => (top, Some(runs)),
+        None => (summary, None),
+    };
+    html.push_str(&markdown_to_html(top));
     html.push_str("<h2>Figures</h2>\n");
     for (i, (cap, f, svg)) in figures.iter().enumerate() {
         html.push_str("<figure>\n");
@@ -282,6 +310,11 @@ fn report_html(summary: &str, md: &str, figures: &[Figure]) -> String {
             esc(cap),
             esc(&name(f))
         ));
+    }
+    if let Some(runs) = runs {
+        html.push_str("<details>\n<summary>Every run: rows and notes</summary>\n");
+        html.push_str(&markdown_to_html(runs));
+        html.push_str("</details>\n");
     }
     let tail = md
         .split("## Plan and provenance")
@@ -565,6 +598,23 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
             varying.join(", ")
         }
     );
+    // The answer first: the kind's discussion of its claim, and the best configuration per row
+    // key; every run's row after it (collapsed in the HTML, after the figures).
+    let discussion = kind.discussion(&t)?;
+    let full = dir.join("discussion.md");
+    if !discussion.trim().is_empty() {
+        let (shown, cut) = cap_lines(discussion.trim_end(), MAX_DISCUSSION_BYTES);
+        s.push_str(&format!("## Our numbers against the claim\n\n{shown}\n"));
+        if cut > 0 {
+            s.push_str(&format!(
+                "\n… {cut} more line(s) of the discussion (one per run) are in `discussion.md`.\n"
+            ));
+        }
+    }
+    if let Some((key, metric)) = kind.best_of() {
+        s.push_str(&best_table(&t, &varying, key, metric));
+    }
+    s.push_str(&format!("\n{EVERY_RUN}\n\n"));
     let mut cols: Vec<String> = std::iter::once("run_id".to_string())
         .chain(varying.iter().cloned())
         .collect();
@@ -603,17 +653,6 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
             "\n{concurrent} row(s) were timed while other runs executed (`timing_concurrent`): their times are not comparable and are left out of speed plots.\n"
         ));
     }
-    let discussion = kind.discussion(&t)?;
-    let full = dir.join("discussion.md");
-    if !discussion.trim().is_empty() {
-        let (shown, cut) = cap_lines(discussion.trim_end(), MAX_DISCUSSION_BYTES);
-        s.push_str(&format!("\n## Our numbers against the claim\n\n{shown}\n"));
-        if cut > 0 {
-            s.push_str(&format!(
-                "\n… {cut} more line(s) of the discussion (one per run) are in `discussion.md`.\n"
-            ));
-        }
-    }
     // The kind's figures first (each written as a unit); the texts that describe them — summary,
     // discussion, report.md and report.html — only when every figure succeeded, together.
     let figures = kind.report(dir, &t)?;
@@ -637,6 +676,55 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         discussion,
         files,
     })
+}
+
+/// The heading of the per-run section of a summary; `report.html` shows what follows it
+/// collapsed, after the figures.
+pub const EVERY_RUN: &str = "## Every run";
+
+/// `## Best per <key>`: for each value of the row key, the row with the lowest `metric` and the
+/// varying parameters that gave it (empty when the table lacks either column).
+fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> String {
+    if t.col(key).is_none() || t.col(metric).is_none() || t.rows.is_empty() {
+        return String::new();
+    }
+    let mut best: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for r in 0..t.rows.len() {
+        let v = t.num(r, metric);
+        if !v.is_finite() {
+            continue;
+        }
+        let e = best.entry(t.cell(r, key).to_string()).or_insert((v, r));
+        if v < e.0 {
+            *e = (v, r);
+        }
+    }
+    if best.is_empty() {
+        return String::new();
+    }
+    let mut keys: Vec<&String> = best.keys().collect();
+    keys.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => x.total_cmp(&y),
+        _ => a.cmp(b),
+    });
+    let params: Vec<&String> = varying.iter().filter(|c| *c != key).collect();
+    let mut md = format!(
+        "\n## Best per {key}\n\nThe lowest `{metric}` at each `{key}`, and the parameters that gave it.\n\n| {key} | {metric} |{}\n|---|---|{}\n",
+        params.iter().map(|p| format!(" {p} |")).collect::<String>(),
+        "---|".repeat(params.len())
+    );
+    for k in keys {
+        let (v, r) = best[k];
+        md.push_str(&format!(
+            "| {k} | {} |{}\n",
+            summary_decimal(v),
+            params
+                .iter()
+                .map(|p| format!(" {} |", summary_cell(t.cell(r, p))))
+                .collect::<String>()
+        ));
+    }
+    md
 }
 
 /// The most bytes of a kind's discussion the summary (and so `report.html`) holds: a longer
@@ -792,6 +880,12 @@ mod tests {
         );
         assert!(!h.contains("---"), "{h}");
         assert!(h.contains("<pre>k = &quot;&lt;v&gt;&quot;</pre>"), "{h}");
+        // A list: one item per "- " line, a following line continuing the item.
+        let l = markdown_to_html("- one `a`\n- two\n  more\n\nafter\n");
+        assert_eq!(
+            l,
+            "<ul>\n<li>one <code>a</code></li>\n<li>two more</li>\n</ul>\n<p>after</p>\n"
+        );
     }
 
     #[test]
