@@ -154,6 +154,19 @@ fn fixture(tag: &str) -> Option<PathBuf> {
         "experiment = \"sparsity\"\norder = 99\n",
     )
     .unwrap();
+    // Relative mesh paths: a probe's against the working directory, a scene's against the scene
+    // file's folder; a missing one is named as resolved.
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    std::fs::write(
+        d.join("sub/m.toml"),
+        "experiment = \"probe\"\nmesh = \"meshes/nope.obj\"\norder = 2\nlayout = \"fib:10\"\nhemisphere_res = 2\nk_count = 4\nradii = [2.0]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sub/scene.toml"),
+        "[[occluder]]\nmesh = \"x/nope.obj\"\ncenter = [0, 0, 1]\nradius = 1\n[receiver]\ncenter = [0, 0, 0]\nsize = [2, 2]\nresolution = [8, 8]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
     // Configs for errors that must name their place.
     std::fs::write(
         d.join("zz.toml"),
@@ -431,6 +444,10 @@ const CASES: &[(&str, &str)] = &[
     ("run|c.toml|--dry-run|--sweep|k=nan,2", "--sweep k=nan,2"),
     ("slurm|c.toml|--tasks|-1", "--tasks"),
     ("slurm|c.toml|--tasks|abc", "--tasks"),
+    // Paths named as resolved.
+    ("run|sub/m.toml|--dry-run", "meshes/nope.obj)"),
+    ("run|sub/m.toml|--dry-run", "(looked for /"),
+    ("render|--scene|sub/scene.toml|--out|o/x.exr", "sub/x/nope.obj"),
     // Render: only the truths are references.
     (
         "render|--scene|scene.toml|--out|o/x.exr|--reference|extrapolated",

@@ -254,7 +254,7 @@ impl Kind for Probe {
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
-            ("mesh", "the occluder: `sphere` (analytic, closed-form truth), a procedural shape (`bird`, `egg`, `sponge`, `plane`), a bundled mesh (`bunny`, `duck`, `dragon_19k`, `knot`, `teapot`) or an .obj/.ply path"),
+            ("mesh", "the occluder: `sphere` (analytic, closed-form truth), a procedural shape (`bird`, `egg`, `sponge`, `plane`), a bundled mesh (`bunny`, `duck`, `dragon_19k`, `knot`, `teapot`) or an .obj/.ply path (relative to the working directory)"),
             ("order", "SH order N (N² coefficients), 1..=16"),
             ("alpha_deg", "cone half-angle α of the cone approximation τ, degrees, in (0, 90)"),
             ("alpha_mode", "`fixed` (α = alpha_deg at every distance) or `fit` (α by distance: the law exact for a centred sphere, at the BSV's effective cap; docs/math.md §7)"),

@@ -54,7 +54,8 @@ pub struct Cost {
 pub struct Ctx<'a> {
     /// The results directory (per-run images go here).
     pub dir: &'a Path,
-    /// The folder of the config file: paths in parameters (scenes, meshes) are relative to it.
+    /// The folder of the config file: scene paths in parameters are relative to it (mesh paths of
+    /// the probe kinds are read relative to the working directory).
     pub config_dir: &'a Path,
     /// The device the kind opened ([`Kind::open_device`]) under the config's `gpu` setting.
     pub device: Option<&'a Device>,

@@ -304,7 +304,7 @@ impl Scene {
             ));
         }
         let occluders = (raw.occluder.iter().enumerate())
-            .map(|(i, o)| c.occluder(i, o))
+            .map(|(i, o)| c.occluder(i, o, base))
             .collect::<Result<_, _>>()?;
         let r = &raw.receiver;
         let receiver_center = c.receiver(r)?;
@@ -453,7 +453,8 @@ impl Checker {
         })
     }
 
-    fn occluder(&self, i: usize, o: &RawOccluder) -> Result<OccluderSpec, Error> {
+    /// Occluder `i`; a mesh path (not a built-in name) relative to `base`, the scene file's folder.
+    fn occluder(&self, i: usize, o: &RawOccluder, base: &Path) -> Result<OccluderSpec, Error> {
         let key = |k: &str| format!("occluder[{i}].{k}");
         let center = self.coords(&key("center"), o.center)?;
         self.within(
@@ -491,8 +492,13 @@ impl Checker {
                 Some((kind, amount))
             }
         };
+        let mesh = if crate::vocab::builtin_mesh(&o.mesh) || Path::new(&o.mesh).is_absolute() {
+            o.mesh.clone()
+        } else {
+            base.join(&o.mesh).display().to_string()
+        };
         Ok(OccluderSpec {
-            mesh: o.mesh.clone(),
+            mesh,
             center,
             radius: o.radius,
             up_is_y,

@@ -31,7 +31,7 @@ pub fn mesh_exists(name: &str) -> bool {
 
 /// Whether `name` is a built-in mesh (the analytic sphere, a procedural shape, a bundled mesh):
 /// these names win over files of the same name in the working directory.
-fn builtin_mesh(name: &str) -> bool {
+pub fn builtin_mesh(name: &str) -> bool {
     name == "sphere" || PROCEDURAL.contains(&name) || bundled::names().contains(&name)
 }
 
@@ -235,10 +235,14 @@ pub fn check_sampling_keys(
         }
     }
     if !mesh_exists(mesh) {
+        // A path is read relative to the working directory: say where that is.
+        let resolved = std::path::absolute(mesh)
+            .map(|p| format!(" (looked for {})", p.display()))
+            .unwrap_or_default();
         return Err(KeyError::new(
             "mesh",
             format!(
-                "{mesh:?} is neither {} nor an existing .obj/.ply file",
+                "{mesh:?} is neither {} nor an existing .obj/.ply file{resolved}",
                 mesh_names()
             ),
         ));
