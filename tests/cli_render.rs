@@ -206,6 +206,21 @@ fn render_prints_json_for_scripts() {
     for f in v["files"].as_array().unwrap() {
         assert!(std::path::Path::new(f.as_str().unwrap()).exists(), "{f}");
     }
+    // The labelled false-colour figure: the method and the reference above, their difference
+    // below (so taller than wide at two panels a row).
+    let fig = d.join("s_figure.png");
+    assert!(v["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|f| f.as_str() == Some(fig.to_str().unwrap())));
+    let bytes = std::fs::read(&fig).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    let (w, h) = (
+        u32::from_be_bytes(bytes[16..20].try_into().unwrap()),
+        u32::from_be_bytes(bytes[20..24].try_into().unwrap()),
+    );
+    assert!(w > 600 && h > 600, "{w}×{h}");
     let text = shscale(&[
         "render",
         "--scene",

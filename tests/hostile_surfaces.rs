@@ -447,7 +447,10 @@ const CASES: &[(&str, &str)] = &[
     // Paths named as resolved.
     ("run|sub/m.toml|--dry-run", "meshes/nope.obj)"),
     ("run|sub/m.toml|--dry-run", "(looked for /"),
-    ("render|--scene|sub/scene.toml|--out|o/x.exr", "sub/x/nope.obj"),
+    (
+        "render|--scene|sub/scene.toml|--out|o/x.exr",
+        "sub/x/nope.obj",
+    ),
     // Render: only the truths are references.
     (
         "render|--scene|scene.toml|--out|o/x.exr|--reference|extrapolated",

@@ -33,11 +33,29 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let img = render(&scene, method);
     ticker.stop();
     let img = img?;
-    let png = write_output(&a, &scene, &img).context("--out")?;
     let total = t0.elapsed().as_secs_f64();
-    let reference = match a.reference {
-        None => None,
-        Some(r) => Some(reference_error(&scene, &img, r)?),
+    // The reference first, so nothing is written when it fails; then the labelled figure, then
+    // the EXR and its preview (the figure removed again if they fail).
+    let (reference, truth) = match a.reference {
+        None => (None, None),
+        Some(r) => {
+            let (m, rel, secs, truth) = reference_error(&scene, &img, r)?;
+            (Some((m, rel, secs)), Some((r, truth)))
+        }
+    };
+    let figure = if a.camera {
+        None
+    } else {
+        Some(write_figure(&a, &scene, &img, truth.as_ref()).context("--out")?)
+    };
+    let png = match write_output(&a, &scene, &img).context("--out") {
+        Ok(p) => p,
+        Err(e) => {
+            if let Some(f) = &figure {
+                let _ = std::fs::remove_file(f);
+            }
+            return Err(e);
+        }
     };
     // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
     // channels of its per-pixel estimate; only the truth methods have one).
@@ -54,6 +72,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
         scene: &scene,
         img: &img,
         png: &png,
+        figure: figure.as_deref(),
         total,
         reference,
         truth_light,
@@ -150,7 +169,7 @@ fn reference_error(
     scene: &Scene,
     img: &RenderOutput,
     r: MethodArg,
-) -> anyhow::Result<(MethodArg, f64, f64)> {
+) -> anyhow::Result<(MethodArg, f64, f64, RenderOutput)> {
     let t = std::time::Instant::now();
     let truth = render(scene, to_method(r))?;
     let mut open = scene.clone();
@@ -164,7 +183,89 @@ fn reference_error(
     };
     let rel = shscale_field::shading::shade_rmse_rel(&flat(img), &flat(&truth), &flat(&unshadowed))
         .context("shade_rmse_rel: the unshadowed image is black")?;
-    Ok((r, rel, t.elapsed().as_secs_f64()))
+    Ok((r, rel, t.elapsed().as_secs_f64(), truth))
+}
+
+/// `<out stem>_figure.png` beside `--out`: the receiver plane's irradiance (luminance, the mean
+/// of R, G, B) in false colour with a colour bar and axes in scene units; with `--reference`,
+/// the reference beside it on the same scale and below them the difference (method −
+/// reference) on a blue–white–red scale symmetric about 0.
+fn write_figure(
+    a: &RenderArgs,
+    scene: &Scene,
+    img: &RenderOutput,
+    reference: Option<&(MethodArg, RenderOutput)>,
+) -> Result<std::path::PathBuf, shscale_runner::Error> {
+    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    let stem = a
+        .out
+        .file_stem()
+        .map_or(String::new(), |s| s.to_string_lossy().to_string());
+    let path = a.out.with_file_name(format!("{stem}_figure.png"));
+    let lum = |o: &RenderOutput| -> Vec<f32> {
+        o.pixels
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) / 3.0)
+            .collect()
+    };
+    let (w, h) = (img.width, img.height);
+    let panel = |title: String, values: Vec<f32>| Panel {
+        title,
+        width: w,
+        height: h,
+        values,
+    };
+    let mut panels = vec![panel(cli_name(a.method), lum(img))];
+    if let Some((r, t)) = reference {
+        panels.push(panel(format!("{} (reference)", cli_name(*r)), lum(t)));
+    }
+    let range = |vals: &[&Vec<f32>]| {
+        vals.iter()
+            .flat_map(|v| v.iter())
+            .fold((f64::MAX, f64::MIN), |(lo, hi), &x| {
+                (lo.min(x as f64), hi.max(x as f64))
+            })
+    };
+    let c = scene.receiver_center;
+    let [sx, sy] = scene.receiver_size;
+    let x = (c.x - sx / 2.0, c.x + sx / 2.0, "x (scene units)");
+    let y = (c.y + sy / 2.0, c.y - sy / 2.0, "y (scene units)");
+    let px = (
+        320u32,
+        (320.0 * h as f64 / w.max(1) as f64).round().max(40.0) as u32,
+    );
+    let shown: Vec<&Vec<f32>> = panels.iter().map(|p| &p.values).collect();
+    let first = Grid {
+        title: "irradiance on the receiver plane",
+        rows: vec![],
+        x,
+        y,
+        colours: ColourMap::Heat,
+        range: range(&shown),
+        scale_label: "irradiance (mean of R, G, B)",
+        panel_px: px,
+    };
+    let mut grids = vec![Grid {
+        rows: vec![panels],
+        ..first
+    }];
+    if let Some((r, t)) = reference {
+        let d: Vec<f32> = lum(img).iter().zip(lum(t)).map(|(a, b)| a - b).collect();
+        let title = format!("{} − {}", cli_name(a.method), cli_name(*r));
+        let dr = range(&[&d]);
+        grids.push(Grid {
+            title: "difference from the reference",
+            rows: vec![vec![panel(title, d)]],
+            x,
+            y,
+            colours: ColourMap::Diverging,
+            range: dr,
+            scale_label: "irradiance difference",
+            panel_px: px,
+        });
+    }
+    shscale_runner::figure::write_png_stack(&path, &grids)?;
+    Ok(path)
 }
 
 /// What one render did, for printing.
@@ -172,6 +273,8 @@ struct Rendered<'a> {
     scene: &'a Scene,
     img: &'a RenderOutput,
     png: &'a std::path::Path,
+    /// The labelled false-colour figure (not with --camera).
+    figure: Option<&'a std::path::Path>,
     total: f64,
     reference: Option<(MethodArg, f64, f64)>,
     truth_light: &'static str,
@@ -185,6 +288,10 @@ impl Rendered<'_> {
             .stages
             .iter()
             .map(|(k, v)| (k.to_string(), serde_json::json!(v * 1e3)))
+            .collect();
+        let files: Vec<String> = [a.out.display().to_string(), self.png.display().to_string()]
+            .into_iter()
+            .chain(self.figure.map(|f| f.display().to_string()))
             .collect();
         let out = serde_json::json!({
             "scene": a.scene.display().to_string(),
@@ -204,7 +311,7 @@ impl Rendered<'_> {
                 "shade_rmse_rel": rel,
                 "render_ms": secs * 1e3,
             })),
-            "files": [a.out.display().to_string(), self.png.display().to_string()],
+            "files": files,
         });
         crate::output::print_json(&out)
     }
@@ -239,7 +346,15 @@ impl Rendered<'_> {
                 secs * 1e3
             );
         }
-        println!("wrote {} and {}", a.out.display(), self.png.display());
+        match self.figure {
+            Some(f) => println!(
+                "wrote {}, {} and {} (false colour, with a colour bar)",
+                a.out.display(),
+                self.png.display(),
+                f.display()
+            ),
+            None => println!("wrote {} and {}", a.out.display(), self.png.display()),
+        }
     }
 }
 
