@@ -54,6 +54,27 @@ static BUDGET: Erased<budget::Budget> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
 /// file implementing `shscale_runner::Kind` plus one line here.
+/// The kind of a results directory, from its `manifest.toml`: an error naming the directory when
+/// it has none, or naming the manifest when its experiment is not a kind of this build.
+pub fn kind_of_dir(dir: &Path) -> Result<&'static dyn DynKind, Error> {
+    let m = shscale_runner::Manifest::read(dir)?.ok_or_else(|| {
+        Error::config(format!(
+            "{}: no manifest.toml (not a results directory of shscale run)",
+            dir.display()
+        ))
+    })?;
+    registry()
+        .into_iter()
+        .find(|k| k.name() == m.experiment)
+        .ok_or_else(|| {
+            Error::config(format!(
+                "{}: experiment {:?} is not a kind of this shscale",
+                dir.join("manifest.toml").display(),
+                m.experiment
+            ))
+        })
+}
+
 pub fn registry() -> Vec<&'static dyn DynKind> {
     vec![
         &PROBE,

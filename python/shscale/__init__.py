@@ -20,6 +20,7 @@ from ._api import (
     probe,
     run,
     load_results,
+    plot,
     kinds,
 )
 from ._native import __version__
@@ -36,5 +37,6 @@ __all__ = [
     "probe",
     "run",
     "load_results",
+    "plot",
     "kinds",
 ]

@@ -290,6 +290,40 @@ def load_results(directory: str | os.PathLike):
     return pd.read_csv(path, keep_default_na=True)
 
 
+def plot(
+    directory: str | os.PathLike,
+    metric: str,
+    x: str,
+    series: Sequence[str] | str = (),
+    facet: str | None = None,
+    where: Mapping[str, Any] | None = None,
+    log_y: bool | None = None,
+    log_x: bool = False,
+) -> list[str]:
+    """Plot ``metric`` against ``x`` from a results directory (``shscale plot``): one series
+    per combination of the ``series`` columns (default: the other varying parameters, faceted by
+    the probe radius when that would make more than 8 series), one panel per value of ``facet``,
+    rows kept where every ``where`` column equals its value; a ``*_mean`` metric with ``*_p25`` /
+    ``*_p75`` columns gets its interquartile band. ``log_y``: ``None`` decides by the data. A
+    line through rows that differ in a parameter at one x is refused (``ValueError`` naming it).
+    Returns the PNG and SVG paths."""
+    if isinstance(series, str):
+        series = [series]
+    filters = [(str(k), _toml(v).strip('"')) for k, v in (where or {}).items()]
+    return list(
+        _native.plot(
+            os.fspath(directory),
+            str(metric),
+            str(x),
+            [str(s) for s in series],
+            None if facet is None else str(facet),
+            filters,
+            None if log_y is None else bool(log_y),
+            bool(log_x),
+        )
+    )
+
+
 def kinds() -> list:
     """The experiment kinds of the runner."""
     return list(_native.kinds())

@@ -569,6 +569,46 @@ fn run_config(
     })
 }
 
+/// `shscale plot` on a results directory: the files written (PNG and SVG).
+#[pyfunction]
+#[pyo3(signature = (directory, metric, x, series=vec![], facet=None, filters=vec![], log_y=None, log_x=false))]
+#[allow(clippy::too_many_arguments)]
+fn plot(
+    py: Python<'_>,
+    directory: &str,
+    metric: &str,
+    x: &str,
+    series: Vec<String>,
+    facet: Option<String>,
+    filters: Vec<(String, String)>,
+    log_y: Option<bool>,
+    log_x: bool,
+) -> PyResult<Vec<String>> {
+    guard(|| {
+        let dir = std::path::Path::new(directory);
+        let err = |e: shscale_scene::Error| PyValueError::new_err(e.to_string());
+        let kind = shscale_experiments::kind_of_dir(dir).map_err(err)?;
+        let t = shscale_runner::records::Results::read(&dir.join("runs.csv"))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let keys = shscale_runner::plots::row_keys(kind);
+        let spec = shscale_runner::plots::PlotSpec {
+            metric,
+            x,
+            series: &series,
+            facet: facet.as_deref(),
+            filters: &filters,
+            log_y,
+            log_x,
+            stem: None,
+            title: None,
+        };
+        let files = py
+            .allow_threads(|| shscale_runner::plots::plot_column(dir, &t, &keys, &spec))
+            .map_err(|e| PyValueError::new_err(e.to_string().replace("Config(", "")))?;
+        Ok(files.iter().map(|f| f.display().to_string()).collect())
+    })
+}
+
 /// The experiment kinds of the runner, by name.
 #[pyfunction]
 fn kinds<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
@@ -589,5 +629,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(probe, m)?)?;
     m.add_function(wrap_pyfunction!(run_config, m)?)?;
     m.add_function(wrap_pyfunction!(kinds, m)?)?;
+    m.add_function(wrap_pyfunction!(plot, m)?)?;
     Ok(())
 }

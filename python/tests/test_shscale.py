@@ -246,6 +246,33 @@ def test_tiny_run_end_to_end(tmp_path):
     assert len(shscale.load_results(directory)) == 3, "a refused run wrote rows"
 
 
+def test_plot_facets_filters_and_refuses_zigzags(tmp_path):
+    """``plot`` as ``shscale plot``: a panel per radius, a filter to one radius, and a line through
+    rows of different radii refused naming the radius."""
+    cfg = {
+        "experiment": "probe", "mesh": "sphere", "order": 2, "layout": "fib:12",
+        "hemisphere_res": 2, "k_count": 4, "radii": [1.5, 2.0], "parallel_runs": False,
+        "sweep": {"alpha_deg": [20, 40, 60]},
+    }
+    _, directory = shscale.run(cfg, name="p", out_dir=tmp_path)
+    files = shscale.plot(directory, "occ_rel_l2_mean", "alpha_deg", facet="radius")
+    assert [Path(f).name for f in files] == [
+        "plot_occ_rel_l2_mean_vs_alpha_deg_by_radius.png",
+        "plot_occ_rel_l2_mean_vs_alpha_deg_by_radius.svg",
+    ]
+    assert all(Path(f).stat().st_size > 1000 for f in files)
+    svg = Path(files[1]).read_text()
+    assert svg.count("probe radius ρ = ") == 2 and "interquartile" in svg
+    one = shscale.plot(directory, "occ_rel_l2_mean", "alpha_deg", series="order", where={"radius": 1.5})
+    assert Path(one[0]).name == "plot_occ_rel_l2_mean_vs_alpha_deg.png"
+    with pytest.raises(ValueError, match='differ in "radius"'):
+        shscale.plot(directory, "occ_rel_l2_mean", "alpha_deg", series="order")
+    with pytest.raises(ValueError, match='"nosuch" is not a column'):
+        shscale.plot(directory, "nosuch", "alpha_deg")
+    with pytest.raises(ValueError, match="no manifest.toml"):
+        shscale.plot(tmp_path, "occ_rel_l2_mean", "alpha_deg")
+
+
 def test_notebook_runs(tmp_path):
     """examples/quickstart.ipynb executes top to bottom."""
     nbformat = pytest.importorskip("nbformat")

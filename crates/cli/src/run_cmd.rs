@@ -272,22 +272,7 @@ pub fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
 
 /// The kind of a results directory, from its manifest.
 fn kind_of_dir(dir: &std::path::Path) -> anyhow::Result<&'static dyn shscale_runner::DynKind> {
-    let m = runner::Manifest::read(dir)?.with_context(|| {
-        format!(
-            "{}: no manifest.toml (not a results directory of shscale run)",
-            dir.display()
-        )
-    })?;
-    shscale_experiments::registry()
-        .into_iter()
-        .find(|k| k.name() == m.experiment)
-        .with_context(|| {
-            format!(
-                "{}: experiment {:?} is not a kind of this shscale",
-                dir.join("manifest.toml").display(),
-                m.experiment
-            )
-        })
+    Ok(shscale_experiments::kind_of_dir(dir)?)
 }
 
 pub fn report(dir: &std::path::Path) -> anyhow::Result<ExitCode> {
@@ -376,14 +361,7 @@ pub fn plot(
     } else {
         None
     };
-    // What tells rows apart: the parameters and the kind's row key (its first headline column,
-    // e.g. the probe radius).
-    let mut keys = kind.param_columns();
-    if let Some(first) = kind.summary_columns().first() {
-        if !keys.iter().any(|k| k == first) {
-            keys.push(first.to_string());
-        }
-    }
+    let keys = shscale_runner::plots::row_keys(kind);
     let spec = shscale_runner::plots::PlotSpec {
         metric,
         x,

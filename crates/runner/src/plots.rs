@@ -501,6 +501,18 @@ pub struct PlotSpec<'a> {
     pub title: Option<&'a str>,
 }
 
+/// The columns that tell a kind's rows apart, for [`plot_column`]: its parameters and its row key
+/// (the first headline column, e.g. the probe radius).
+pub fn row_keys(kind: &dyn crate::kind::DynKind) -> Vec<String> {
+    let mut keys = kind.param_columns();
+    if let Some(first) = kind.summary_columns().first() {
+        if !keys.iter().any(|k| k == first) {
+            keys.push(first.to_string());
+        }
+    }
+    keys
+}
+
 /// The most series a default plot puts in one panel before it facets.
 pub const MAX_SERIES_PER_PANEL: usize = 8;
 
