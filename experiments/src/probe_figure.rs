@@ -3,7 +3,7 @@
 //! varying numeric parameter, and the speed/accuracy Pareto scatter).
 
 use shscale_geometry::Occluder;
-use shscale_runner::plots::{words, write_both, Labels};
+use shscale_runner::plots::{words, Labels};
 use shscale_runner::records::Results as Table;
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -124,8 +124,64 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
     for &param in &params {
         files.extend(error_against(dir, t, varying, param)?);
     }
+    // Exactly two swept parameters (nothing else varies): the error over both at once.
+    if let [a, b] = numeric.as_slice() {
+        if varying.iter().filter(|v| v.as_str() != "radii").count() == 2 {
+            files.extend(heat_map(dir, t, a, b)?);
+        }
+    }
     files.extend(pareto(dir, t)?);
     Ok(files)
+}
+
+/// `occ_rel_l2` (mean over probes) over two swept parameters, one panel per probe radius: a heat
+/// map with every cell's value written in it.
+fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Error> {
+    let values = |c: &str| -> Vec<String> {
+        let mut v: Vec<String> = (0..t.rows.len())
+            .map(|r| t.cell(r, c).to_string())
+            .collect();
+        v.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
+            (Ok(p), Ok(q)) => p.total_cmp(&q),
+            _ => a.cmp(b),
+        });
+        v.dedup();
+        v
+    };
+    let (xs, ys, radii) = (values(x), values(y), values("radius"));
+    if radii.len() > shscale_runner::plots::MAX_PANELS {
+        return Ok(Vec::new());
+    }
+    let panels: Vec<shscale_runner::plots::HeatPanel> = (radii.iter())
+        .map(|rho| {
+            let mut cells = vec![vec![None; xs.len()]; ys.len()];
+            for r in (0..t.rows.len()).filter(|&r| t.cell(r, "radius") == rho) {
+                let v = t.num(r, "occ_rel_l2_mean");
+                let i = xs.iter().position(|s| s == t.cell(r, x));
+                let j = ys.iter().position(|s| s == t.cell(r, y));
+                if let (Some(i), Some(j)) = (i, j) {
+                    cells[j][i] = v.is_finite().then_some(v);
+                }
+            }
+            shscale_runner::plots::HeatPanel {
+                title: format!("probe radius ρ = {rho}"),
+                cells,
+            }
+        })
+        .collect();
+    let title = format!(
+        "occlusion error (relative L2, mean over probes) over {} and {}",
+        words(x),
+        words(y)
+    );
+    Ok(shscale_runner::plots::write_heatmap(
+        dir,
+        &format!("occ_rel_l2_heatmap_{x}_{y}"),
+        &title,
+        (&words(x), &xs),
+        (&words(y), &ys),
+        &panels,
+    )?)
 }
 
 /// `occ_rel_l2` (mean over probes, with its interquartile band) against `param`: one series per
@@ -161,29 +217,43 @@ fn error_against(
 /// Per run: total time of the extrapolation path against its error averaged over radii, with
 /// the Pareto front; rows timed alongside other runs are left out (none when all were).
 fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
-    let mut runs: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
+    // Per run: (time, the bound on its spread, error sum, error count).
+    let mut runs: BTreeMap<String, (f64, f64, f64, usize)> = BTreeMap::new();
+    let spread = |r: usize, c: &str| {
+        let s = t.num(r, &format!("{c}_spread"));
+        t.num(r, &format!("{c}_seconds")) * if s.is_finite() { s } else { 0.0 }
+    };
     for r in 0..t.rows.len() {
         if t.cell(r, "timing_concurrent") == "true" {
             continue;
         }
         let id = t.rows[r][0].clone();
         let time = t.num(r, "bsv_sampling_seconds") + t.num(r, "table_build_seconds");
-        let e = runs.entry(id).or_insert((time, 0.0, 0));
+        let bound = spread(r, "bsv_sampling") + spread(r, "table_build");
+        let e = runs.entry(id).or_insert((time, bound, 0.0, 0));
         let v = t.num(r, "occ_rel_l2_mean");
         if v.is_finite() {
-            e.1 += v;
-            e.2 += 1;
+            e.2 += v;
+            e.3 += 1;
         }
         e.0 += t.num(r, "extrapolation_seconds");
+        e.1 += spread(r, "extrapolation");
     }
-    let pts: Vec<(f64, f64)> = (runs.values())
-        .filter(|v| v.2 > 0)
-        .map(|v| (v.0 * 1e3, v.1 / v.2 as f64))
+    let runs: Vec<(f64, f64, f64)> = (runs.values())
+        .filter(|v| v.3 > 0 && v.0.is_finite())
+        .map(|v| (v.0 * 1e3, v.1 * 1e3, v.2 / v.3 as f64))
         .collect();
+    let pts: Vec<(f64, f64)> = runs.iter().map(|&(x, _, y)| (x, y)).collect();
     if pts.is_empty() {
         // Every run was timed alongside others (parallel_runs = true): no comparable times.
         return Ok(Vec::new());
     }
+    // Each stage's median ± (max − min) of its repeats contains every repeat: the bar is the sum
+    // of those bounds, so it covers what the repeats measured (and a front point whose bar
+    // reaches past another's is not told apart from it by the timing).
+    let bars: Vec<(f64, f64, f64)> = (runs.iter())
+        .map(|&(x, b, y)| (y, (x - b).max(0.0), x + b))
+        .collect();
     let mut sorted = pts.clone();
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut front = Vec::new();
@@ -197,16 +267,16 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
     let mut series = BTreeMap::new();
     series.insert("one point per run".to_string(), pts);
     let labels = Labels {
-        title: "speed against accuracy per run, with the Pareto front",
+        title: "speed against accuracy per run, with the Pareto front (bars: spread of the timed repeats)",
         x: "time per run (ms: BSV sampling + k-table + extrapolation)",
         y: "occ_rel_l2, mean over the run's probe radii (1)",
     };
-    Ok(write_both(
+    Ok(shscale_runner::plots::write_scatter_with_bars(
         dir,
         "pareto_time_vs_error",
         &labels,
         &series,
-        true,
         &front,
+        &bars,
     )?)
 }

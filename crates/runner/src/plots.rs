@@ -176,6 +176,7 @@ where
         log,
         false,
         22,
+        &[],
     )?;
     area.present().map_err(|e| e.to_string())
 }
@@ -192,6 +193,7 @@ fn panel_plot<DB: DrawingBackend>(
     log: Option<bool>,
     log_x: bool,
     caption: u32,
+    xbars: &[(f64, f64, f64)],
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -201,6 +203,10 @@ where
     for (name, b) in bands {
         let e = ranged.entry(format!("{name}\u{1f}band")).or_default();
         e.extend(b.iter().flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)]));
+    }
+    if !xbars.is_empty() {
+        let e = ranged.entry("\u{1f}bars".into()).or_default();
+        e.extend(xbars.iter().flat_map(|&(y, lo, hi)| [(lo, y), (hi, y)]));
     }
     let ax = Axes::of_xy(&ranged, log, log_x)?;
     let y_desc = if ax.log_y {
@@ -213,9 +219,18 @@ where
     } else {
         labels.x.to_string()
     };
+    // The legend goes right of the data, in a margin as wide as its longest entry (at most 40 %
+    // of the panel): it never covers a point.
+    let (area_w, _) = area.dim_in_pixel();
+    let longest = (series.keys().map(|k| k.chars().count()))
+        .chain((!front.is_empty()).then_some(12))
+        .max()
+        .unwrap_or(0);
+    let legend_w = ((longest as u32) * 7 + 44).min(area_w * 2 / 5);
     let mut chart = ChartBuilder::on(area)
         .caption(labels.title, ("sans-serif", caption))
         .margin(12)
+        .margin_right(12 + legend_w)
         .x_label_area_size(44)
         .y_label_area_size(64)
         .build_cartesian_2d(ax.x.0..ax.x.1, ax.y.0..ax.y.1)
@@ -275,6 +290,15 @@ where
             continue;
         }
         b.sort_by(|a, c| a.0.total_cmp(&c.0));
+        // At most MAX_POINTS / 4 vertices a side (1 in s, the last kept).
+        let s = b.len().div_ceil(MAX_POINTS / 4).max(1);
+        if s > 1 {
+            let last = b[b.len() - 1];
+            b = b.into_iter().step_by(s).collect();
+            if b.last() != Some(&last) {
+                b.push(last);
+            }
+        }
         let poly: Vec<(f64, f64)> = (b.iter().map(|p| (p.0, p.1)))
             .chain(b.iter().rev().map(|p| (p.0, p.2)))
             .collect();
@@ -282,6 +306,19 @@ where
             .draw_series(std::iter::once(Polygon::new(
                 poly,
                 palette(i).mix(0.18).filled(),
+            )))
+            .map_err(|e| e.to_string())?;
+    }
+    // Horizontal error bars (y, x low, x high), grey, under the markers.
+    for &(y, lo, hi) in xbars {
+        if !(drawable(y) && drawable(lo) && drawable(hi)) || (ax.log_y && y <= 0.0) {
+            continue;
+        }
+        let (yy, a, b) = (ax.ty(y), ax.tx(lo.max(ax.x.0)), ax.tx(hi));
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(a, yy), (b, yy)],
+                RGBColor(120, 120, 120).stroke_width(1),
             )))
             .map_err(|e| e.to_string())?;
     }
@@ -306,16 +343,132 @@ where
             .label("Pareto front")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(1)));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
+    // The legend, drawn by hand in the right margin (plotters draws its own inside the data):
+    // per series its line and marker, then its name, cut to the margin's width.
+    let (px, py) = chart.plotting_area().get_base_pixel();
+    let (bx, by) = area.get_base_pixel();
+    let lx = px - bx + chart.plotting_area().dim_in_pixel().0 as i32 + 10;
+    let fits = ((legend_w.saturating_sub(34)) / 7).max(4) as usize;
+    let cut = |s: &str| -> String {
+        if s.chars().count() <= fits {
+            s.to_string()
+        } else {
+            s.chars()
+                .take(fits - 1)
+                .chain(std::iter::once('…'))
+                .collect()
+        }
+    };
+    let font = ("sans-serif", 13).into_font();
+    for (i, name) in series.keys().enumerate() {
+        let y = py - by + 8 + 18 * i as i32;
+        let color = palette(i);
+        if !scatter_only {
+            area.draw(&PathElement::new(
+                vec![(lx, y), (lx + 18, y)],
+                color.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        match (i / 8) % 3 {
+            0 => area.draw(&Circle::new((lx + 9, y), 4, color.filled())),
+            1 => area.draw(&TriangleMarker::new((lx + 9, y), 6, color.filled())),
+            _ => area.draw(&Cross::new((lx + 9, y), 5, color.stroke_width(2))),
+        }
         .map_err(|e| e.to_string())?;
+        area.draw(&Text::new(cut(name), (lx + 24, y - 7), font.clone()))
+            .map_err(|e| e.to_string())?;
+    }
+    if !front.is_empty() {
+        let y = py - by + 8 + 18 * series.len() as i32;
+        area.draw(&PathElement::new(
+            vec![(lx, y), (lx + 18, y)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+        area.draw(&Text::new("Pareto front", (lx + 24, y - 7), font.clone()))
+            .map_err(|e| e.to_string())?;
+    }
     // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
     Ok(())
+}
+
+/// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front` and a horizontal
+/// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time). Written as a
+/// unit like [`write_both`].
+pub fn write_scatter_with_bars(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    front: &[(f64, f64)],
+    xbars: &[(f64, f64, f64)],
+) -> Result<Vec<PathBuf>, Error> {
+    check_stem(dir, stem)?;
+    ensure_font();
+    // Above MAX_POINTS points, every s-th point and its bar (the title says so); the front whole.
+    let n: usize = series
+        .values()
+        .map(Vec::len)
+        .sum::<usize>()
+        .max(xbars.len());
+    let s = n.div_ceil(MAX_POINTS).max(1);
+    let (series, xbars, title): (
+        BTreeMap<String, Vec<(f64, f64)>>,
+        Vec<(f64, f64, f64)>,
+        String,
+    ) = if s > 1 {
+        (
+            (series.iter())
+                .map(|(k, v)| (k.clone(), v.iter().step_by(s).copied().collect()))
+                .collect(),
+            xbars.iter().step_by(s).copied().collect(),
+            format!("{} (1 in {s} of {n} points drawn)", labels.title),
+        )
+    } else {
+        (series.clone(), xbars.to_vec(), labels.title.to_string())
+    };
+    let labels = &Labels {
+        title: &title,
+        ..*labels
+    };
+    let (series, xbars) = (&series, &xbars[..]);
+    let mut tmps = crate::atomic::Temporaries::new();
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
+    fn draw<DB: DrawingBackend>(
+        area: DrawingArea<DB, plotters::coord::Shift>,
+        labels: &Labels,
+        series: &BTreeMap<String, Vec<(f64, f64)>>,
+        front: &[(f64, f64)],
+        xbars: &[(f64, f64, f64)],
+    ) -> Result<(), String>
+    where
+        DB::ErrorType: 'static,
+    {
+        area.fill(&WHITE).map_err(|e| e.to_string())?;
+        panel_plot(
+            &area,
+            labels,
+            series,
+            &Bands::new(),
+            true,
+            front,
+            None,
+            false,
+            22,
+            xbars,
+        )?;
+        area.present().map_err(|e| e.to_string())
+    }
+    let png_area = BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area();
+    draw(png_area, labels, series, front, xbars).map_err(|e| err(&png, e))?;
+    let svg_area = SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area();
+    draw(svg_area, labels, series, front, xbars).map_err(|e| err(&svg, e))?;
+    finish(&tmp_png, &png)?;
+    finish(&tmp_svg, &svg)?;
+    Ok(vec![png, svg])
 }
 
 /// One panel of a faceted figure.
@@ -400,6 +553,7 @@ pub fn write_panels(
                 log_y,
                 log_x,
                 16,
+                &[],
             )?;
         }
         area.present().map_err(|e| e.to_string())
@@ -714,6 +868,158 @@ pub fn plot_column(
         spec.log_y,
         spec.log_x,
     )
+}
+
+/// One panel of a heat map: its title and the value of each (x, y) cell, `None` where no row
+/// gives one.
+pub struct HeatPanel {
+    pub title: String,
+    /// `cells[j][i]`: the value at the `i`-th x and `j`-th y.
+    pub cells: Vec<Vec<Option<f64>>>,
+}
+
+/// Write `stem.png` and `stem.svg`: heat maps of a metric over two swept parameters, one panel
+/// each (up to three a row), the parameters' values as categories on the axes, every cell in the
+/// `Heat` colour map on one scale shared by the panels and labelled with its value (so no colour
+/// bar is needed to read it); an empty cell is grey. Written as a unit like [`write_both`].
+#[allow(clippy::too_many_arguments)]
+pub fn write_heatmap(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    (x_name, xs): (&str, &[String]),
+    (y_name, ys): (&str, &[String]),
+    panels: &[HeatPanel],
+) -> Result<Vec<PathBuf>, Error> {
+    check_stem(dir, stem)?;
+    ensure_font();
+    if panels.is_empty() || panels.len() > MAX_PANELS || xs.is_empty() || ys.is_empty() {
+        return Err(Error::Config(format!(
+            "a heat map draws 1 to {MAX_PANELS} panels of at least one cell, not {} panels of {}×{}",
+            panels.len(),
+            xs.len(),
+            ys.len()
+        )));
+    }
+    let values: Vec<f64> = (panels.iter())
+        .flat_map(|p| p.cells.iter().flatten().flatten().copied())
+        .filter(|v| drawable(*v))
+        .collect();
+    let (lo, hi) = values
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let (lo, hi) = if hi > lo {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
+    };
+    let cols = panels.len().min(3);
+    let rows = panels.len().div_ceil(cols);
+    let size = ((cols * 560) as u32, (rows * 440 + 40) as u32);
+    let mut tmps = crate::atomic::Temporaries::new();
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
+    fn one<DB: DrawingBackend>(
+        area: DrawingArea<DB, plotters::coord::Shift>,
+        title: &str,
+        (x_name, xs): (&str, &[String]),
+        (y_name, ys): (&str, &[String]),
+        panels: &[HeatPanel],
+        (rows, cols, lo, hi): (usize, usize, f64, f64),
+    ) -> Result<(), String>
+    where
+        DB::ErrorType: 'static,
+    {
+        let e = |x: &dyn std::fmt::Display| x.to_string();
+        area.fill(&WHITE).map_err(|x| e(&x))?;
+        let area = area.titled(title, ("sans-serif", 20)).map_err(|x| e(&x))?;
+        for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
+            let mut chart = ChartBuilder::on(cell)
+                .caption(&p.title, ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0f64..xs.len() as f64, 0f64..ys.len() as f64)
+                .map_err(|x| e(&x))?;
+            let label = |names: &[String], v: f64| {
+                let i = (v - 0.5).round();
+                if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
+                    names.get(i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            };
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc(x_name)
+                .y_desc(y_name)
+                .x_labels(2 * xs.len() + 1)
+                .y_labels(2 * ys.len() + 1)
+                .x_label_formatter(&|v| label(xs, *v))
+                .y_label_formatter(&|v| label(ys, *v))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(|x| e(&x))?;
+            for (j, row) in p.cells.iter().enumerate() {
+                for (i, v) in row.iter().enumerate() {
+                    let (x, y) = (i as f64, j as f64);
+                    let colour = match v {
+                        Some(v) if drawable(*v) => crate::figure::ColourMap::Heat
+                            .at((v - lo) / (hi - lo))
+                            .to_rgba(),
+                        _ => RGBColor(200, 200, 200).to_rgba(),
+                    };
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(x, y), (x + 1.0, y + 1.0)],
+                            colour.filled(),
+                        )))
+                        .map_err(|x| e(&x))?;
+                    let text = v.map_or("—".to_string(), |v| format!("{v:.3}"));
+                    // Dark text on the light end of the map, light text on the dark end.
+                    let light = v.is_some_and(|v| (v - lo) / (hi - lo) > 0.55);
+                    let ink = if light { BLACK } else { WHITE };
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            text,
+                            (x + 0.5, y + 0.5),
+                            ("sans-serif", 13).into_font().color(&ink).pos(
+                                plotters::style::text_anchor::Pos::new(
+                                    plotters::style::text_anchor::HPos::Center,
+                                    plotters::style::text_anchor::VPos::Center,
+                                ),
+                            ),
+                        )))
+                        .map_err(|x| e(&x))?;
+                }
+            }
+        }
+        area.present().map_err(|x| e(&x))
+    }
+    let shape = (rows, cols, lo, hi);
+    one(
+        BitMapBackend::new(&tmp_png, size).into_drawing_area(),
+        title,
+        (x_name, xs),
+        (y_name, ys),
+        panels,
+        shape,
+    )
+    .map_err(|x| err(&png, x))?;
+    one(
+        SVGBackend::new(&tmp_svg, size).into_drawing_area(),
+        title,
+        (x_name, xs),
+        (y_name, ys),
+        panels,
+        shape,
+    )
+    .map_err(|x| err(&svg, x))?;
+    finish(&tmp_png, &png)?;
+    finish(&tmp_svg, &svg)?;
+    Ok(vec![png, svg])
 }
 
 /// A column name as part of a file name: letters, digits, `_`, `-` and `.` kept, anything else

@@ -412,10 +412,11 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
             continue;
         }
         let title = format!("{c}: A vs B");
+        let (x_words, y_words) = (crate::plots::words(&m.keys[0]), crate::plots::words(c));
         let labels = crate::plots::Labels {
             title: &title,
-            x: &m.keys[0],
-            y: c,
+            x: &x_words,
+            y: &y_words,
         };
         let stem = format!("compare_{c}");
         files.extend(crate::plots::write_both(
@@ -708,15 +709,29 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
         _ => a.cmp(b),
     });
     let params: Vec<&String> = varying.iter().filter(|c| *c != key).collect();
+    // The spread over the row's samples beside the mean, when the rows carry it.
+    let iqr = metric
+        .strip_suffix("_mean")
+        .map(|b| (format!("{b}_p25"), format!("{b}_p75")));
+    let iqr = iqr.filter(|(lo, hi)| t.col(lo).is_some() && t.col(hi).is_some());
     let mut md = format!(
-        "\n## Best per {key}\n\nThe lowest `{metric}` at each `{key}`, and the parameters that gave it.\n\n| {key} | {metric} |{}\n|---|---|{}\n",
+        "\n## Best per {key}\n\nThe lowest `{metric}` at each `{key}`, and the parameters that gave it.\n\n| {key} | {metric} |{}{}\n|---|---|{}{}\n",
+        if iqr.is_some() { " p25 – p75 |" } else { "" },
         params.iter().map(|p| format!(" {p} |")).collect::<String>(),
+        if iqr.is_some() { "---|" } else { "" },
         "---|".repeat(params.len())
     );
     for k in keys {
         let (v, r) = best[k];
+        let spread = iqr.as_ref().map_or(String::new(), |(lo, hi)| {
+            format!(
+                " {} – {} |",
+                summary_decimal(t.num(r, lo)),
+                summary_decimal(t.num(r, hi))
+            )
+        });
         md.push_str(&format!(
-            "| {k} | {} |{}\n",
+            "| {k} | {} |{spread}{}\n",
             summary_decimal(v),
             params
                 .iter()
