@@ -150,6 +150,9 @@ type Chart<'a, DB> = ChartContext<
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
+/// Named series of points (name → (x, y)).
+type Series = BTreeMap<String, Vec<(f64, f64)>>;
+
 /// Spread bands of a panel: series name → (x, low, high), drawn shaded in the series' colour.
 pub type Bands = BTreeMap<String, Vec<(f64, f64, f64)>>;
 
@@ -413,11 +416,7 @@ pub fn write_scatter_with_bars(
         .sum::<usize>()
         .max(xbars.len());
     let s = n.div_ceil(MAX_POINTS).max(1);
-    let (series, xbars, title): (
-        BTreeMap<String, Vec<(f64, f64)>>,
-        Vec<(f64, f64, f64)>,
-        String,
-    ) = if s > 1 {
+    let (series, xbars, title): (Series, Vec<(f64, f64, f64)>, String) = if s > 1 {
         (
             (series.iter())
                 .map(|(k, v)| (k.clone(), v.iter().step_by(s).copied().collect()))
