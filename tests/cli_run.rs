@@ -240,6 +240,20 @@ fn kill_after_first_row(mut child: std::process::Child, csv: &std::path::Path) -
         .unwrap_or(0)
 }
 
+/// [`SWEEP`] with serial runs and a finer hemisphere, slow enough to be interrupted between
+/// runs, written to `d/sweep.toml`.
+fn slow_sweep(d: &std::path::Path) -> std::path::PathBuf {
+    let cfg = d.join("sweep.toml");
+    std::fs::write(
+        &cfg,
+        SWEEP
+            .replace("hemisphere_res = 6", "hemisphere_res = 24")
+            .replace("gpu = \"off\"", "gpu = \"off\"\nparallel_runs = false"),
+    )
+    .unwrap();
+    cfg
+}
+
 fn dir(tag: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("shscale-cli-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -283,15 +297,7 @@ fn merged_shards_equal_the_unsharded_run() {
 fn a_sweep_killed_mid_run_resumes_to_the_same_rows() {
     use std::process::{Command, Stdio};
     let d = dir("kill");
-    let cfg = d.join("sweep.toml");
-    // Serial runs and a finer hemisphere: slow enough to be killed between runs.
-    std::fs::write(
-        &cfg,
-        SWEEP
-            .replace("hemisphere_res = 6", "hemisphere_res = 24")
-            .replace("gpu = \"off\"", "gpu = \"off\"\nparallel_runs = false"),
-    )
-    .unwrap();
+    let cfg = slow_sweep(&d);
     let (clean, killed) = (d.join("clean"), d.join("killed"));
     let r = shscale(&[
         "run",
@@ -344,14 +350,7 @@ fn a_sweep_killed_mid_run_resumes_to_the_same_rows() {
 fn ctrl_c_says_what_was_saved_and_how_to_resume() {
     use std::process::{Command, Stdio};
     let d = dir("sigint");
-    let cfg = d.join("sweep.toml");
-    std::fs::write(
-        &cfg,
-        SWEEP
-            .replace("hemisphere_res = 6", "hemisphere_res = 24")
-            .replace("gpu = \"off\"", "gpu = \"off\"\nparallel_runs = false"),
-    )
-    .unwrap();
+    let cfg = slow_sweep(&d);
     let out = d.join("out");
     let csv = out.join("probe/sweep/runs.csv");
     let child = Command::new(env!("CARGO_BIN_EXE_shscale"))

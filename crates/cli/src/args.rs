@@ -83,36 +83,8 @@ pub enum Command {
         format: TextFormat,
     },
     /// Re-plot any column of a results directory without rerunning: plot_<METRIC>_vs_<X>.png/.svg.
-    /// Example: shscale plot results/probe/quickstart --metric occ_rel_l2_mean --x alpha_deg --series radius
-    Plot {
-        dir: std::path::PathBuf,
-        /// The y column.
-        #[arg(long)]
-        metric: String,
-        /// The x column.
-        #[arg(long)]
-        x: String,
-        /// One series per combination of these columns; repeatable [default: the other varying
-        /// parameters, faceted by the probe radius (or the parameter with most values) when
-        /// that would make more than 8 series].
-        #[arg(long)]
-        series: Vec<String>,
-        /// One panel per value of this column (at most 16).
-        #[arg(long)]
-        facet: Option<String>,
-        /// Keep only rows with COLUMN=VALUE (numbers compared as numbers); repeatable.
-        #[arg(long = "where", value_name = "COLUMN=VALUE")]
-        filters: Vec<String>,
-        /// Logarithmic y axis (default: when the data span two decades).
-        #[arg(long, conflicts_with = "linear_y")]
-        log_y: bool,
-        /// Linear y axis even when the data span decades.
-        #[arg(long)]
-        linear_y: bool,
-        /// Logarithmic x axis (every x must be > 0).
-        #[arg(long)]
-        log_x: bool,
-    },
+    /// Example: shscale plot results/probe/quickstart --metric occ_rel_l2_mean --x alpha_deg --facet radius --where sampling_radius=1.0
+    Plot(PlotArgs),
     /// Print the config reference (runner keys, every kind's parameters, scene-file keys) as
     /// Markdown — the text of docs/config-reference.md. Example: shscale config-reference
     ConfigReference,
@@ -122,6 +94,37 @@ pub enum Command {
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
+}
+
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    pub dir: std::path::PathBuf,
+    /// The y column.
+    #[arg(long)]
+    pub metric: String,
+    /// The x column.
+    #[arg(long)]
+    pub x: String,
+    /// One series per combination of these columns; repeatable [default: the other varying
+    /// parameters, faceted by the probe radius (or the parameter with most values) when
+    /// that would make more than 8 series].
+    #[arg(long)]
+    pub series: Vec<String>,
+    /// One panel per value of this column (at most 16).
+    #[arg(long)]
+    pub facet: Option<String>,
+    /// Keep only rows with COLUMN=VALUE (numbers compared as numbers); repeatable.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
+    /// Logarithmic y axis (default: when the data span two decades).
+    #[arg(long, conflicts_with = "linear_y")]
+    pub log_y: bool,
+    /// Linear y axis even when the data span decades.
+    #[arg(long)]
+    pub linear_y: bool,
+    /// Logarithmic x axis (every x must be > 0).
+    #[arg(long)]
+    pub log_x: bool,
 }
 
 #[derive(Args, Debug)]

@@ -130,29 +130,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Compare { a, b, out, format } => {
             run_cmd::compare(&a, &b, out.as_deref(), format == args::TextFormat::Json)
         }
-        Command::Plot {
-            dir,
-            metric,
-            x,
-            series,
-            facet,
-            filters,
-            log_y,
-            linear_y,
-            log_x,
-        } => run_cmd::plot(
-            &dir,
-            &metric,
-            &x,
-            run_cmd::PlotFlags {
-                series,
-                facet,
-                filters,
-                log_y,
-                linear_y,
-                log_x,
-            },
-        ),
+        Command::Plot(a) => run_cmd::plot(a),
         Command::ConfigReference => {
             print!(
                 "{}",

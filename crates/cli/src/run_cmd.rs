@@ -328,22 +328,8 @@ pub fn compare(
     Ok(ExitCode::SUCCESS)
 }
 
-/// The flags of `shscale plot` beyond the directory, metric and x.
-pub struct PlotFlags {
-    pub series: Vec<String>,
-    pub facet: Option<String>,
-    pub filters: Vec<String>,
-    pub log_y: bool,
-    pub linear_y: bool,
-    pub log_x: bool,
-}
-
-pub fn plot(
-    dir: &std::path::Path,
-    metric: &str,
-    x: &str,
-    f: PlotFlags,
-) -> anyhow::Result<ExitCode> {
+pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
+    let (dir, metric, x) = (f.dir.as_path(), f.metric.as_str(), f.x.as_str());
     let filters: Vec<(String, String)> = (f.filters.iter())
         .map(|w| match w.split_once('=') {
             Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),

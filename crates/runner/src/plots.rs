@@ -164,6 +164,7 @@ fn line_plot<DB: DrawingBackend>(
     scatter_only: bool,
     front: &[(f64, f64)],
     log: Option<bool>,
+    xbars: &[(f64, f64, f64)],
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -179,7 +180,7 @@ where
         log,
         false,
         22,
-        &[],
+        xbars,
     )?;
     area.present().map_err(|e| e.to_string())
 }
@@ -436,35 +437,10 @@ pub fn write_scatter_with_bars(
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
-    fn draw<DB: DrawingBackend>(
-        area: DrawingArea<DB, plotters::coord::Shift>,
-        labels: &Labels,
-        series: &BTreeMap<String, Vec<(f64, f64)>>,
-        front: &[(f64, f64)],
-        xbars: &[(f64, f64, f64)],
-    ) -> Result<(), String>
-    where
-        DB::ErrorType: 'static,
-    {
-        area.fill(&WHITE).map_err(|e| e.to_string())?;
-        panel_plot(
-            &area,
-            labels,
-            series,
-            &Bands::new(),
-            true,
-            front,
-            None,
-            false,
-            22,
-            xbars,
-        )?;
-        area.present().map_err(|e| e.to_string())
-    }
     let png_area = BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area();
-    draw(png_area, labels, series, front, xbars).map_err(|e| err(&png, e))?;
+    line_plot(png_area, labels, series, true, front, None, xbars).map_err(|e| err(&png, e))?;
     let svg_area = SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area();
-    draw(svg_area, labels, series, front, xbars).map_err(|e| err(&svg, e))?;
+    line_plot(svg_area, labels, series, true, front, None, xbars).map_err(|e| err(&svg, e))?;
     finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
@@ -1236,6 +1212,7 @@ pub fn write_both_log(
         scatter,
         front,
         log,
+        &[],
     )
     .map_err(|e| err(&png, e))?;
     line_plot(
@@ -1245,6 +1222,7 @@ pub fn write_both_log(
         scatter,
         front,
         log,
+        &[],
     )
     .map_err(|e| err(&svg, e))?;
     finish(&tmp_png, &png)?;
