@@ -221,7 +221,7 @@ pub fn write_png(path: &Path, g: &Grid) -> Result<(), Error> {
 /// Write several grids, one above the other (each with its own title and colour scale), as one
 /// PNG at `path`, atomically.
 pub fn write_png_stack(path: &Path, grids: &[Grid]) -> Result<(), Error> {
-    crate::plots::ensure_font();
+    crate::font::ensure_font();
     let sizes: Vec<(u32, u32)> = grids.iter().map(size_of).collect();
     let size = (
         sizes.iter().map(|s| s.0).max().unwrap_or(1),

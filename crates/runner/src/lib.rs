@@ -30,6 +30,7 @@ pub mod cost;
 pub mod device;
 pub mod error;
 pub mod figure;
+pub mod font;
 pub mod image;
 pub mod input;
 pub mod kind;

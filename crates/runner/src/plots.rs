@@ -10,16 +10,7 @@ use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-static FONT: std::sync::Once = std::sync::Once::new();
-
-/// Register the bundled DejaVu Sans as `sans-serif` (once); every plot calls it.
-pub fn ensure_font() {
-    FONT.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
-        // Registration fails only for a malformed font, which the tests would catch.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
-    });
-}
+pub use crate::font::ensure_font;
 
 /// A results CSV (read through the `csv` crate).
 pub type Table = crate::records::Results;
