@@ -46,7 +46,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let figure = if a.camera {
         None
     } else {
-        Some(write_figure(&a, &scene, &img, truth.as_ref()).context("--out")?)
+        // Named by --out, the path the user gave (the figure's own path is in the message).
+        Some(
+            write_figure(&a, &scene, &img, truth.as_ref())
+                .with_context(|| format!("--out {}: its figure", a.out.display()))?,
+        )
     };
     let png = match write_output(&a, &scene, &img).context("--out") {
         Ok(p) => p,
