@@ -282,8 +282,8 @@ fn plots_are_written_as_png_and_svg_with_labelled_axes() {
         .collect();
     assert_eq!(
         pngs.len(),
-        3,
-        "two numeric axes (α, order) + the Pareto plot: {:?}",
+        4,
+        "two numeric axes (α, order), their heat map and the Pareto plot: {:?}",
         r.files
     );
     for f in &r.files {
@@ -292,7 +292,7 @@ fn plots_are_written_as_png_and_svg_with_labelled_axes() {
     }
     let svg = std::fs::read_to_string(s.dir.join("occ_rel_l2_vs_alpha_deg.svg")).unwrap();
     assert!(
-        svg.contains("α (degrees)") && svg.contains("SH order N = 2"),
+        svg.contains("cone angle α (°)") && svg.contains("SH order N = 2"),
         "axis label or series missing"
     );
     assert!(
