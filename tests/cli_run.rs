@@ -224,15 +224,19 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
 
 const SWEEP: &str = "experiment = \"probe\"\nmesh = \"duck\"\norder = 3\nlayout = \"fib:40\"\nhemisphere_res = 6\nk_count = 6\nradii = [0.8, 1.5]\ngpu = \"off\"\n[sweep]\nalpha_deg = [20, 40, 60]\nsampling_radius = [1.0, 1.2]\n";
 
-/// SIGKILL `child` once `csv` holds a data row (or after 20 s); the rows then on disk.
-fn kill_after_first_row(mut child: std::process::Child, csv: &std::path::Path) -> usize {
+/// Wait until `csv` holds a data row, or 20 s.
+fn wait_for_first_row(csv: &std::path::Path) {
     let t0 = std::time::Instant::now();
-    while t0.elapsed().as_secs_f64() < 20.0 {
-        if std::fs::read_to_string(csv).is_ok_and(|t| t.lines().count() > 1) {
-            break;
-        }
+    while t0.elapsed().as_secs_f64() < 20.0
+        && !std::fs::read_to_string(csv).is_ok_and(|t| t.lines().count() > 1)
+    {
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
+}
+
+/// SIGKILL `child` once `csv` holds a data row (or after 20 s); the rows then on disk.
+fn kill_after_first_row(mut child: std::process::Child, csv: &std::path::Path) -> usize {
+    wait_for_first_row(csv);
     child.kill().unwrap(); // SIGKILL on Unix
     child.wait().unwrap();
     std::fs::read_to_string(csv)
@@ -364,12 +368,7 @@ fn ctrl_c_says_what_was_saved_and_how_to_resume() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let t0 = std::time::Instant::now();
-    while t0.elapsed().as_secs_f64() < 20.0
-        && !std::fs::read_to_string(&csv).is_ok_and(|t| t.lines().count() > 1)
-    {
-        std::thread::sleep(std::time::Duration::from_millis(2));
-    }
+    wait_for_first_row(&csv);
     let sent = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()

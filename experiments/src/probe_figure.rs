@@ -137,17 +137,7 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
 /// `occ_rel_l2` (mean over probes) over two swept parameters, one panel per probe radius: a heat
 /// map with every cell's value written in it.
 fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Error> {
-    let values = |c: &str| -> Vec<String> {
-        let mut v: Vec<String> = (0..t.rows.len())
-            .map(|r| t.cell(r, c).to_string())
-            .collect();
-        v.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
-            (Ok(p), Ok(q)) => p.total_cmp(&q),
-            _ => a.cmp(b),
-        });
-        v.dedup();
-        v
-    };
+    let values = |c: &str| t.distinct_in(0..t.rows.len(), c);
     let (xs, ys, radii) = (values(x), values(y), values("radius"));
     if radii.len() > shscale_runner::plots::MAX_PANELS {
         return Ok(Vec::new());

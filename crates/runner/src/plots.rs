@@ -309,7 +309,13 @@ where
         if !(drawable(y) && drawable(lo) && drawable(hi)) || (ax.log_y && y <= 0.0) {
             continue;
         }
-        let (yy, a, b) = (ax.ty(y), ax.tx(lo.max(ax.x.0)), ax.tx(hi));
+        // Clipped to the axis in drawn coordinates (a log axis has no place for x ≤ 0).
+        let a = if ax.log_x && lo <= 0.0 {
+            ax.x.0
+        } else {
+            ax.tx(lo).max(ax.x.0)
+        };
+        let (yy, b) = (ax.ty(y), ax.tx(hi));
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(a, yy), (b, yy)],
@@ -317,7 +323,7 @@ where
             )))
             .map_err(|e| e.to_string())?;
     }
-    for (i, (name, points)) in series.iter().enumerate() {
+    for (i, points) in series.values().enumerate() {
         let mut pts: Vec<(f64, f64)> = (points.iter().copied())
             .filter(|&(x, y)| drawable(x) && drawable(y))
             .filter(|&(x, _)| !(ax.log_x && x <= 0.0))
@@ -325,7 +331,7 @@ where
             .filter(|(_, y)| y.is_finite())
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        draw_series(&mut chart, i, name, &pts, scatter_only)?;
+        draw_series(&mut chart, i, &pts, scatter_only)?;
     }
     if !front.is_empty() {
         let front: Vec<(f64, f64)> = (front.iter())
@@ -334,9 +340,7 @@ where
             .collect();
         chart
             .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
-            .map_err(|e| e.to_string())?
-            .label("Pareto front")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(1)));
+            .map_err(|e| e.to_string())?;
     }
     // The legend, drawn by hand in the right margin (plotters draws its own inside the data):
     // per series its line and marker, then its name, cut to the margin's width.
@@ -503,9 +507,9 @@ pub fn write_panels(
             .titled(title, ("sans-serif", title_font))
             .map_err(|e| e.to_string())?;
         for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
-            let (series, _) = capped(&p.series, "");
+            let (series, panel_title) = capped(&p.series, &p.title);
             let labels = Labels {
-                title: &p.title,
+                title: &panel_title,
                 x,
                 y,
             };
@@ -548,13 +552,12 @@ pub fn write_panels(
     Ok(vec![png, svg])
 }
 
-/// Series `i` (`pts` as drawn, sorted by x): a line with its legend entry unless
-/// `scatter_only`, and markers. Colours repeat every eight series; the marker shape tells the
-/// repeats apart (circles, then triangles, then crosses).
+/// Series `i` (`pts` as drawn, sorted by x): a line unless `scatter_only`, and markers (the
+/// legend is drawn by `panel_plot`). Colours repeat every eight series; the marker shape tells
+/// the repeats apart (circles, then triangles, then crosses).
 fn draw_series<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
     i: usize,
-    name: &str,
     pts: &[(f64, f64)],
     scatter_only: bool,
 ) -> Result<(), String>
@@ -564,28 +567,11 @@ where
     let color = palette(i);
     let shape = (i / 8) % 3;
     if !scatter_only {
-        let line = chart
+        chart
             .draw_series(LineSeries::new(pts.to_vec(), color.stroke_width(2)))
-            .map_err(|e| e.to_string())?
-            .label(name);
-        let seg = move |x: i32, y: i32| {
-            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-        };
-        match shape {
-            0 => line.legend(move |(x, y)| {
-                EmptyElement::at((x, y)) + seg(0, 0) + Circle::new((9, 0), 4, color.filled())
-            }),
-            1 => line.legend(move |(x, y)| {
-                EmptyElement::at((x, y))
-                    + seg(0, 0)
-                    + TriangleMarker::new((9, 0), 6, color.filled())
-            }),
-            _ => line.legend(move |(x, y)| {
-                EmptyElement::at((x, y)) + seg(0, 0) + Cross::new((9, 0), 5, color.stroke_width(2))
-            }),
-        };
+            .map_err(|e| e.to_string())?;
     }
-    let s = match shape {
+    match shape {
         0 => chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))),
         1 => chart.draw_series(
             pts.iter()
@@ -594,10 +580,6 @@ where
         _ => chart.draw_series(pts.iter().map(|p| Cross::new(*p, 5, color.stroke_width(2)))),
     }
     .map_err(|e| e.to_string())?;
-    if scatter_only {
-        s.label(name)
-            .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
-    }
     Ok(())
 }
 
@@ -686,15 +668,7 @@ pub fn plot_column(
             )
         }));
     }
-    let distinct = |c: &str| -> Vec<String> {
-        let mut v: Vec<String> = rows.iter().map(|&r| t.cell(r, c).to_string()).collect();
-        v.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
-            (Ok(x), Ok(y)) => x.total_cmp(&y),
-            _ => a.cmp(b),
-        });
-        v.dedup();
-        v
-    };
+    let distinct = |c: &str| t.distinct_in(rows.iter().copied(), c);
     let varying: Vec<String> = (keys.iter())
         .filter(|k| t.col(k).is_some() && distinct(k).len() > 1)
         .cloned()

@@ -227,6 +227,15 @@ impl Results {
         self.cell(r, name).parse().unwrap_or(f64::NAN)
     }
 
+    /// The distinct cells of column `c` over `rows`, in [`cmp_cells`] order (numbers by value;
+    /// [`Results::distinct`] is text order over every row).
+    pub fn distinct_in(&self, rows: impl Iterator<Item = usize>, c: &str) -> Vec<String> {
+        let mut v: Vec<String> = rows.map(|r| self.cell(r, c).to_string()).collect();
+        v.sort_by(|a, b| cmp_cells(a, b));
+        v.dedup();
+        v
+    }
+
     /// The columns among `candidates` whose cells take more than one value, in order.
     pub fn varying(&self, candidates: &[String]) -> Vec<String> {
         candidates
@@ -238,6 +247,15 @@ impl Results {
             })
             .cloned()
             .collect()
+    }
+}
+
+/// The order of cells in tables and on axes: two numbers by value (`1.5` before `10`), anything
+/// else by its text.
+pub fn cmp_cells(a: &str, b: &str) -> std::cmp::Ordering {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => x.total_cmp(&y),
+        _ => a.cmp(b),
     }
 }
 

@@ -704,10 +704,7 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
         return String::new();
     }
     let mut keys: Vec<&String> = best.keys().collect();
-    keys.sort_by(|a, b| match (a.parse::<f64>(), b.parse::<f64>()) {
-        (Ok(x), Ok(y)) => x.total_cmp(&y),
-        _ => a.cmp(b),
-    });
+    keys.sort_by(|a, b| crate::records::cmp_cells(a, b));
     let params: Vec<&String> = varying.iter().filter(|c| *c != key).collect();
     // The spread over the row's samples beside the mean, when the rows carry it.
     let iqr = metric
