@@ -1,36 +1,47 @@
-//! Speed and accuracy at equal budget: on the same receivers, how accurate is the visibility of
-//! SH-scaling extrapolation, of a fully sampled shadow field (Zhou et al. 2005) with 2…16 shells,
-//! and of direct ray tracing, for the time a deforming object allows per frame and for the
-//! memory each holds — and is extrapolation "about 20× faster than the full shadow field" (SHS §4)
-//! at equal accuracy?
+//! Speed and accuracy at equal budget on spherical receivers: how accurate is the visibility of
+//! SH-scaling extrapolation, of a fully sampled shadow field (Zhou et al. 2005) and of direct ray
+//! tracing, for the rays cast, the bytes stored and the time a deforming object allows per frame
+//! — and, separately, is the papers' claim true as stated: "by sampling points only on bounding
+//! spheres and extrapolating … our method produces shadow field data approximately 20 times
+//! faster than full shadow field computation" (SHS §4, TR §4), a speed claim at the papers'
+//! sampling rates?
 //!
 //! Receivers: the probe points of the `probe` kind (seeded directions × `radii`, outside the
 //! bounding sphere), their converged truth computed once per group. A run is one method and
 //! budget. Per frame of a deforming object every method starts from scratch: extrapolation
-//! samples the BSV (P samples × H² rays; its k-table is built once, before the frames), the full
-//! field samples S shells over [1, max radius]·r (the receivers' span, which favours it)
-//! of P samples each (S·P·H² rays), ray tracing casts `4T²` stratified rays per receiver; then
-//! each evaluates every receiver. `frame_seconds` is the sum (medians of the timing procedure),
-//! `memory_bytes` what the field holds (BSV and table, S shells, nothing). Error: the mean
-//! `occ_rel_l2` over the receivers against the converged truth.
+//! samples the BSV (P samples × H² rays; its k-table is built once, before the frames, unless α
+//! is fitted to the BSV, then per frame), the full field samples S shells of P samples each
+//! (S·P·H² rays) — by default as the papers build it, at uniform radial intervals over
+//! [1, `shell_max`]·r = [1, 8]·r, trilinear; `shell_spacing = "exp"`, `shell_max` = the largest
+//! receiver radius and `field_interp = "barycentric"` give the receiver-sized variant — and ray
+//! tracing casts `4T²` stratified rays per receiver; then each evaluates every receiver.
+//!
+//! Budget axes: `rays` and `memory_bytes` per frame are deterministic; `frame_seconds` is the
+//! median of the timing procedure's repeats of one whole frame (sampling and evaluation
+//! together), with the order-statistic confidence interval of the median
+//! (`frame_seconds_lo`/`_hi`, coverage `timing_coverage`). Error against the converged truth:
+//! the mean `occ_rel_l2` over the receivers with a 95 % interval (mean ± 1.96 s/√n), near the
+//! object (ρ ≤ 1.3) and beyond, and the occlusion-weighted error
+//! `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, which faint receivers do not dominate.
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use shscale_field::evaluator::{FullField, VisibilityField};
-use shscale_field::extrapolate::Extrapolator;
-use shscale_field::metrics::occ_rel_l2;
+use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, VisibilityField};
+use shscale_field::extrapolate::{Extrapolator, Plausibility};
+use shscale_field::metrics::{l2, l2_diff, occlusion};
 use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Bsv, Layout, VisibilitySampler};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_both, Labels};
+use shscale_runner::plots::{write_both, write_scatter_with_bars, Labels};
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Parameters of one run (one method at one budget).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -46,9 +57,21 @@ pub struct Params {
     pub hemisphere_res: usize,
     /// Shells of the full field, 2..=64 (ignored by the other methods).
     pub shells: usize,
+    /// The outermost shell in bounding radii, (1, 1e3] (the innermost is 1).
+    pub shell_max: f64,
+    /// `uniform` (the papers') or `exp`.
+    pub shell_spacing: String,
+    /// `trilinear` (the papers', grid layouts) or `barycentric`.
+    pub field_interp: String,
     /// T of the ray-traced method (4T² rays per receiver; ignored by the others).
     pub rt_res: usize,
     pub alpha_deg: f64,
+    /// `fixed` or `fit` (α by distance at the BSV's effective cap, as in `probe`).
+    pub alpha_mode: String,
+    /// `none` or `clamp` (the plausibility mitigation, as in `probe`).
+    pub plausibility: String,
+    /// The extrapolation's sampling sphere in bounding radii, [1, 1e3].
+    pub sampling_radius: f64,
     pub k_count: usize,
     /// Receivers: as many seeded directions as `receivers` at each radius.
     pub receivers: usize,
@@ -68,8 +91,14 @@ impl Default for Params {
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
             shells: 16,
+            shell_max: 8.0,
+            shell_spacing: "uniform".into(),
+            field_interp: "trilinear".into(),
             rt_res: 8,
             alpha_deg: 45.0,
+            alpha_mode: "fixed".into(),
+            plausibility: "none".into(),
+            sampling_radius: 1.0,
             k_count: 40,
             receivers: 240,
             probe_seed: 1,
@@ -85,17 +114,31 @@ impl Default for Params {
 pub struct Row {
     /// Receiver points (directions × radii).
     pub receiver_points: usize,
-    /// Rays cast per frame.
+    /// Rays cast per frame (deterministic).
     pub rays: f64,
+    /// Bytes the method holds (deterministic): BSV and k-table, the shells, or nothing.
     pub memory_bytes: f64,
-    /// Sampling (and table build) per frame, evaluation of every receiver, their sum.
+    /// One frame (sampling, table if per frame, evaluation of every receiver): the median of the
+    /// timing procedure's repeats and the order-statistic interval of that median.
+    pub frame_seconds: f64,
+    pub frame_seconds_lo: f64,
+    pub frame_seconds_hi: f64,
+    pub timing_coverage: f64,
+    /// The sampling part and the evaluation part of the frame (medians).
     pub build_seconds: f64,
     pub eval_seconds: f64,
-    pub frame_seconds: f64,
+    /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval.
     pub occ_rel_l2_mean: Option<f64>,
-    /// The mean over the receivers nearest the object (ρ ≤ 1.3) and the rest.
+    pub occ_rel_l2_ci95: Option<f64>,
+    /// The same near the object (ρ ≤ 1.3) and beyond.
     pub occ_rel_l2_near_mean: Option<f64>,
+    pub occ_rel_l2_near_ci95: Option<f64>,
     pub occ_rel_l2_far_mean: Option<f64>,
+    pub occ_rel_l2_far_ci95: Option<f64>,
+    /// Occlusion-weighted: `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, all, near, far.
+    pub occ_weighted: Option<f64>,
+    pub occ_weighted_near: Option<f64>,
+    pub occ_weighted_far: Option<f64>,
     pub truth_rel_err_mean: Option<f64>,
 }
 
@@ -120,15 +163,45 @@ fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
-/// Median seconds of `f` under the config's timing procedure.
-fn timed<T>(ctx: &Ctx, f: impl FnMut() -> Result<T, Error>) -> Result<(T, f64), Error> {
-    let (v, t) = ctx.timing.measure(f)?;
-    Ok((v, t.median))
+/// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
+/// deviation; `None` for fewer than 2 values).
+pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
+    let m = mean(v.iter().copied());
+    let ci = (v.len() >= 2).then(|| {
+        let m = m.unwrap_or(0.0);
+        let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64;
+        1.96 * (var / v.len() as f64).sqrt()
+    });
+    (m, ci)
 }
+
+/// One receiver's error: its radius, `‖S − S_true‖²`, `‖S_occ,true‖²` and the truth's own error.
+struct Err2 {
+    rho: f64,
+    diff2: f64,
+    occ2: f64,
+    truth_rel: Option<f64>,
+}
+
+/// The error columns over the receivers `e` passing `keep`: mean `occ_rel_l2` (receivers with
+/// something occluded, ‖S_occ‖ > 1e-12) with its interval, and the occlusion-weighted error.
+fn scores(e: &[Err2], keep: impl Fn(f64) -> bool) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let kept: Vec<&Err2> = e.iter().filter(|x| keep(x.rho)).collect();
+    let rel: Vec<f64> = (kept.iter())
+        .filter(|x| x.occ2 > 1e-24)
+        .map(|x| (x.diff2 / x.occ2).sqrt())
+        .collect();
+    let (m, ci) = mean_ci95(&rel);
+    let (d, o) = (kept.iter()).fold((0.0, 0.0), |(d, o), x| (d + x.diff2, o + x.occ2));
+    (m, ci, (o > 1e-24).then(|| (d / o).sqrt()))
+}
+
+/// The near regime: receivers within 1.3 bounding radii.
+pub const NEAR_RHO: f64 = 1.3;
 
 impl Kind for Budget {
     const NAME: &'static str = "budget";
-    const QUESTION: &'static str = "At equal time per frame (and memory) on the same receivers, which is most accurate — SH-scaling extrapolation, a fully sampled shadow field with 2…16 shells, or ray tracing — and is extrapolation about 20× faster than the full shadow field at equal accuracy?";
+    const QUESTION: &'static str = "On spherical receivers, for the rays, bytes and time a frame allows, which is most accurate — SH-scaling extrapolation, the fully sampled shadow field as Zhou et al. build it, or ray tracing — and is extrapolation's shadow-field data about 20× faster to produce than the full field's at the papers' sampling, as SHS §4 claims?";
     type Params = Params;
     type Shared = Shared;
     type Row = Row;
@@ -145,9 +218,15 @@ impl Kind for Budget {
             ("method", "`extrapolated`, `full_field` or `ray_traced`"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field), as in `probe`"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
-            ("shells", "shells of the full field over [1, max radius]·r, 2..=64"),
+            ("shells", "shells of the full field over [1, shell_max]·r, 2..=64"),
+            ("shell_max", "the full field's outermost shell in bounding radii, (1, 1000]; the papers' 8"),
+            ("shell_spacing", "`uniform` (the papers': equal steps in ρ, linear in ρ between shells) or `exp` (equal steps in ln ρ)"),
+            ("field_interp", "`trilinear` (the papers': the eight nearest samples of a latlong or cube grid) or `barycentric` (the layout's triangulation; any layout)"),
             ("rt_res", "T of the ray-traced method: 4T² stratified rays per receiver, 1..=1024"),
             ("alpha_deg", "cone angle α of the extrapolation, degrees, (0, 90)"),
+            ("alpha_mode", "`fixed` or `fit` (α by distance at the BSV's effective cap, as in `probe`; the table is then built per frame)"),
+            ("plausibility", "`none` or `clamp` (the extrapolation's plausibility mitigation, as in `probe`)"),
+            ("sampling_radius", "the extrapolation's sampling sphere in bounding radii, [1, 1000]"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -200,6 +279,17 @@ impl Kind for Budget {
         }
         let layout =
             Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        KeyError::real("shell_max", p.shell_max, 1.0, 1e3, Ends::OpenClosed)?;
+        KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
+        let shells = shells_of(p).map_err(|(k, m)| KeyError::new(k, m))?;
+        if p.method == "full_field" {
+            shells
+                .check(layout)
+                .map_err(|e| KeyError::new("field_interp", e.to_string()))?;
+        }
+        Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
+        crate::probe::parse_alpha_mode(&p.alpha_mode)
+            .map_err(|m| KeyError::new("alpha_mode", m))?;
         Ok(Typed {
             params: p.clone(),
             typed: layout,
@@ -296,78 +386,129 @@ impl Kind for Budget {
         let layout = p.typed;
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
-        let rho_max = p.radii.iter().copied().fold(1.0, f64::max);
         let cfg = |e: shscale_scaling::ScalingError| Error::config(e.to_string());
-        let (values, build, eval, rays, memory): (Vec<Vec<f64>>, f64, f64, f64, f64) =
+        // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
+        type Frame = (Vec<Vec<f64>>, f64, f64);
+        let frame: Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + '_> =
             match p.method.as_str() {
                 "extrapolated" => {
-                    // The k-table depends on α, N and the k range only: built once, before the
-                    // frames, and not part of a frame's time (it is part of the memory).
-                    let (lo, hi) = shscale_field::probe::k_range(&p.radii, 1.0);
-                    let table = KTable::build(
-                        TauFamily::Cone {
-                            alpha: p.alpha_deg.to_radians(),
-                        },
-                        Eta::Plain,
-                        p.order,
-                        p.k_count,
-                        lo,
-                        hi,
-                        Spacing::Exp,
-                        Interp::Linear,
-                    )
-                    .map_err(cfg)?;
-                    let (bsv, build) =
-                        timed(ctx, || Ok(Bsv::sample(occ, layout, &sampler, 1.0, 0.0)?))?;
-                    let ex = Extrapolator::new(&bsv, &table);
-                    let (v, eval) = timed(ctx, || Ok(eval_all(&ex, &sh.points, nn)))?;
-                    let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
-                    (v, build, eval, bsv.rays as f64, mem)
+                    let fit =
+                        crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
+                    let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
+                    let (lo, hi) = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
+                    let table_for = move |family| {
+                        KTable::build(
+                            family,
+                            Eta::Plain,
+                            p.order,
+                            p.k_count,
+                            lo,
+                            hi,
+                            Spacing::Exp,
+                            Interp::Linear,
+                        )
+                        .map_err(cfg)
+                    };
+                    // A fixed α's table depends on α, N and the k range only: built once, before
+                    // the frames (part of the memory, not of a frame's time).
+                    let fixed = (!fit)
+                        .then(|| {
+                            table_for(TauFamily::Cone {
+                                alpha: p.alpha_deg.to_radians(),
+                            })
+                        })
+                        .transpose()?;
+                    let sampler = &sampler;
+                    Box::new(move || {
+                        let t0 = Instant::now();
+                        let bsv = Bsv::sample(occ, layout, sampler, p.sampling_radius, 0.0)?;
+                        let own;
+                        let table = match &fixed {
+                            Some(t) => t,
+                            None => {
+                                let theta0 = shscale_field::alpha::effective_cap_angle(&bsv);
+                                own = table_for(TauFamily::ConeFit { theta0 })?;
+                                &own
+                            }
+                        };
+                        let build = t0.elapsed().as_secs_f64();
+                        let ex = Extrapolator::new(&bsv, table).with_plausibility(plaus);
+                        let t1 = Instant::now();
+                        let v = eval_all(&ex, &sh.points, nn);
+                        let eval = t1.elapsed().as_secs_f64();
+                        let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
+                        Ok(((v, bsv.rays as f64, mem), [build, eval, build + eval]))
+                    })
                 }
                 "full_field" => {
-                    let (ff, build) = timed(ctx, || {
-                        Ok(FullField::build(
-                            occ, layout, &sampler, p.shells, 1.0, rho_max,
-                        )?)
-                    })?;
-                    let (v, eval) = timed(ctx, || Ok(eval_all(&ff, &sh.points, nn)))?;
-                    let mem = (p.shells * layout.sample_count().unwrap_or(0) * nn * 8) as f64;
-                    (v, build, eval, ff.rays as f64, mem)
+                    let shells = shells_of(p).map_err(|(_, m)| Error::config(m))?;
+                    let sampler = &sampler;
+                    Box::new(move || {
+                        let t0 = Instant::now();
+                        let ff = FullField::build(occ, layout, sampler, &shells)?;
+                        let build = t0.elapsed().as_secs_f64();
+                        let t1 = Instant::now();
+                        let v = eval_all(&ff, &sh.points, nn);
+                        let eval = t1.elapsed().as_secs_f64();
+                        let (rays, mem) = (ff.rays as f64, ff.size_bytes() as f64);
+                        Ok(((v, rays, mem), [build, eval, build + eval]))
+                    })
                 }
                 _ => {
                     // A different seed from the reference truth's: independent draws.
                     let ts = TruthSampler::new(p.order, p.rt_res, p.truth_seed ^ 0x00ff_00ff_00ff)?;
-                    let (v, eval) = timed(ctx, || {
-                        Ok(sh
-                            .points
-                            .par_iter()
-                            .enumerate()
+                    Box::new(move || {
+                        let t1 = Instant::now();
+                        let v: Vec<Vec<f64>> = (sh.points.par_iter().enumerate())
                             .map(|(i, (_, q))| ts.sample_stream(occ, *q, i as u64).coeffs)
-                            .collect::<Vec<_>>())
-                    })?;
-                    (v, 0.0, eval, (sh.points.len() * ts.rays()) as f64, 0.0)
+                            .collect();
+                        let eval = t1.elapsed().as_secs_f64();
+                        let rays = (sh.points.len() * ts.rays()) as f64;
+                        Ok(((v, rays, 0.0), [0.0, eval, eval]))
+                    })
                 }
             };
-        let errs: Vec<(f64, Option<f64>, Option<f64>)> = values
-            .iter()
-            .zip(&sh.truth)
-            .zip(&sh.points)
+        let mut frame = frame;
+        let ((values, rays, memory), [build, eval, total]) =
+            ctx.timing.measure_parts(&mut *frame)?;
+        let errs: Vec<Err2> = (values.iter().zip(&sh.truth).zip(&sh.points))
             .filter_map(|((v, t), (rho, _))| {
                 let t = t.as_ref()?;
-                Some((*rho, occ_rel_l2(v, &t.coeffs), t.rel_error()))
+                Some(Err2 {
+                    rho: *rho,
+                    diff2: l2_diff(v, &t.coeffs).powi(2),
+                    occ2: l2(&occlusion(&t.coeffs)).powi(2),
+                    truth_rel: t.rel_error(),
+                })
             })
             .collect();
+        let (m, ci, w) = scores(&errs, |_| true);
+        let (mn, cin, wn) = scores(&errs, |r| r <= NEAR_RHO);
+        let (mf, cif, wf) = scores(&errs, |r| r > NEAR_RHO);
         Ok(vec![Row {
             receiver_points: sh.points.len(),
             rays,
             memory_bytes: memory,
-            build_seconds: build,
-            eval_seconds: eval,
-            frame_seconds: build + eval,
-            occ_rel_l2_mean: mean(errs.iter().filter_map(|e| e.1)),
-            occ_rel_l2_near_mean: mean(errs.iter().filter(|e| e.0 <= 1.3).filter_map(|e| e.1)),
-            occ_rel_l2_far_mean: mean(errs.iter().filter(|e| e.0 > 1.3).filter_map(|e| e.1)),
-            truth_rel_err_mean: mean(errs.iter().filter(|e| e.1.is_some()).filter_map(|e| e.2)),
+            frame_seconds: total.median,
+            frame_seconds_lo: total.lo,
+            frame_seconds_hi: total.hi,
+            timing_coverage: total.coverage,
+            build_seconds: build.median,
+            eval_seconds: eval.median,
+            occ_rel_l2_mean: m,
+            occ_rel_l2_ci95: ci,
+            occ_rel_l2_near_mean: mn,
+            occ_rel_l2_near_ci95: cin,
+            occ_rel_l2_far_mean: mf,
+            occ_rel_l2_far_ci95: cif,
+            occ_weighted: w,
+            occ_weighted_near: wn,
+            occ_weighted_far: wf,
+            truth_rel_err_mean: mean(
+                errs.iter()
+                    .filter(|e| e.occ2 > 1e-24)
+                    .filter_map(|e| e.truth_rel),
+            ),
         }])
     }
 
@@ -376,32 +517,45 @@ impl Kind for Budget {
     }
 
     fn summary_columns() -> &'static [&'static str] {
-        &["method", "frame_seconds", "memory_bytes", "occ_rel_l2_mean"]
+        &[
+            "method",
+            "rays",
+            "frame_seconds",
+            "memory_bytes",
+            "occ_rel_l2_mean",
+            "occ_weighted",
+        ]
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
         for mesh in t.distinct("mesh") {
             for (x, stem, xl) in [
-                (
-                    "frame_seconds",
-                    format!("pareto_time_{mesh}"),
-                    "time per frame (s)",
-                ),
+                ("rays", format!("pareto_rays_{mesh}"), "rays per frame"),
                 (
                     "memory_bytes",
                     format!("pareto_memory_{mesh}"),
                     "memory (bytes)",
                 ),
+                (
+                    "frame_seconds",
+                    format!("pareto_time_{mesh}"),
+                    "time per frame (s), median and 95 % interval",
+                ),
             ] {
                 let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+                let mut bars = Vec::new();
                 for r in (0..t.rows.len()).filter(|&r| t.cell(r, "mesh") == mesh) {
                     let (xv, y) = (t.num(r, x), t.num(r, "occ_rel_l2_mean"));
                     if xv.is_finite() && xv > 0.0 && y.is_finite() {
-                        series
-                            .entry(t.cell(r, "method").to_string())
-                            .or_default()
-                            .push((xv, y));
+                        series.entry(variant(t, r)).or_default().push((xv, y));
+                        if x == "frame_seconds" {
+                            bars.push((
+                                y,
+                                t.num(r, "frame_seconds_lo"),
+                                t.num(r, "frame_seconds_hi"),
+                            ));
+                        }
                     }
                 }
                 for v in series.values_mut() {
@@ -410,18 +564,17 @@ impl Kind for Budget {
                 if series.is_empty() {
                     continue;
                 }
-                files.extend(write_both(
-                    dir,
-                    &stem,
-                    &Labels {
-                        title: &format!("{mesh}: error against {xl}"),
-                        x: xl,
-                        y: "mean occ_rel_l2",
-                    },
-                    &series,
-                    true,
-                    &[],
-                )?);
+                let front = pareto(series.values().flatten().copied());
+                let labels = Labels {
+                    title: &format!("{mesh}: mean occ_rel_l2 against {xl}"),
+                    x: xl,
+                    y: "mean occ_rel_l2 (spherical receivers)",
+                };
+                files.extend(if x == "frame_seconds" {
+                    write_scatter_with_bars(dir, &stem, &labels, &series, &front, &bars)?
+                } else {
+                    write_both(dir, &stem, &labels, &series, true, &front)?
+                });
             }
         }
         Ok(files)
@@ -433,68 +586,293 @@ impl Kind for Budget {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh)
                 .collect();
-            let e = |r: usize| t.num(r, "occ_rel_l2_mean");
-            let f = |r: usize| t.num(r, "frame_seconds");
-            let name = |r: usize| match t.cell(r, "method") {
-                "full_field" => format!(
-                    "full field, {} shells of `{}`, H = {}",
-                    t.cell(r, "shells"),
-                    t.cell(r, "layout"),
-                    t.cell(r, "hemisphere_res")
-                ),
-                "ray_traced" => format!("ray tracing, T = {}", t.cell(r, "rt_res")),
-                _ => format!(
-                    "extrapolation, `{}`, H = {}",
-                    t.cell(r, "layout"),
-                    t.cell(r, "hemisphere_res")
-                ),
-            };
-            s.push_str(&format!("**{mesh}.** "));
-            // The Pareto front over all methods: who wins at which budget.
-            let mut by_time = rows.clone();
-            by_time.sort_by(|&a, &b| f(a).total_cmp(&f(b)));
-            let mut best = f64::INFINITY;
-            let mut front = Vec::new();
-            for &r in &by_time {
-                if e(r).is_finite() && e(r) < best {
-                    best = e(r);
-                    front.push(r);
-                }
+            let configs = by_config(t, &rows);
+            let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
+            s.push_str(&format!(
+                "**{mesh}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
+                configs.len()
+            ));
+            s.push_str(&speed_claim(t, &configs));
+            for (col, regime) in [
+                ("occ_rel_l2_mean", "all receivers, mean occ_rel_l2"),
+                ("occ_rel_l2_near_mean", "near (ρ ≤ 1.3), mean occ_rel_l2"),
+                ("occ_rel_l2_far_mean", "far (ρ > 1.3), mean occ_rel_l2"),
+                ("occ_weighted", "all receivers, occlusion-weighted"),
+            ] {
+                s.push_str(&equal_accuracy(t, &configs, col, regime));
             }
-            s.push_str("Lowest error for the time per frame (the Pareto front): ");
-            s.push_str(
-                &front
-                    .iter()
-                    .map(|&r| format!("{} at {:.2} ms ({:.3})", name(r), 1e3 * f(r), e(r)))
-                    .collect::<Vec<_>>()
-                    .join("; "),
-            );
-            s.push_str(". ");
-            // 20×: for each extrapolation run, the fastest full field at least as accurate.
-            let mut ratios = Vec::new();
-            for &x in rows
-                .iter()
-                .filter(|&&r| t.cell(r, "method") == "extrapolated")
-            {
-                let ff = rows
-                    .iter()
-                    .copied()
-                    .filter(|&r| t.cell(r, "method") == "full_field" && e(r) <= e(x))
-                    .min_by(|&a, &b| f(a).total_cmp(&f(b)));
-                if let Some(ff) = ff {
-                    ratios.push((f(ff) / f(x), x, ff));
-                }
-            }
-            match ratios.iter().max_by(|a, b| a.0.total_cmp(&b.0)) {
-                Some((ratio, x, ff)) => s.push_str(&format!(
-                    "Equal accuracy: the fastest full field at least as accurate as {} ({:.3}) is {} ({:.3}), {ratio:.1}× its time per frame.\n\n",
-                    name(*x), e(*x), name(*ff), e(*ff)
-                )),
-                None => s.push_str("No full field here is as accurate as any extrapolation run: the 20× claim cannot be checked at equal accuracy on these runs.\n\n"),
-            }
+            s.push('\n');
         }
         Ok(s)
     }
+}
+
+/// The parameters that make a configuration (every parameter but the seeds and the receivers').
+const CONFIG_KEYS: [&str; 14] = [
+    "method",
+    "order",
+    "layout",
+    "hemisphere_res",
+    "shells",
+    "shell_max",
+    "shell_spacing",
+    "field_interp",
+    "rt_res",
+    "alpha_deg",
+    "alpha_mode",
+    "plausibility",
+    "sampling_radius",
+    "k_count",
+];
+
+/// A configuration's rows (one per seed).
+struct Config {
+    rows: Vec<usize>,
+}
+
+impl Config {
+    /// Mean of `col` over the seeds, and its range.
+    fn mean(&self, t: &Results, col: &str) -> (f64, f64, f64) {
+        let v: Vec<f64> = self.rows.iter().map(|&r| t.num(r, col)).collect();
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (m, lo, hi)
+    }
+    fn first(&self) -> usize {
+        self.rows[0]
+    }
+}
+
+/// Rows grouped by configuration, in the order of the table.
+fn by_config(t: &Results, rows: &[usize]) -> Vec<Config> {
+    let mut out: Vec<(String, Config)> = Vec::new();
+    for &r in rows {
+        let key = CONFIG_KEYS.map(|k| t.cell(r, k)).join(";");
+        match out.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, c)) => c.rows.push(r),
+            None => out.push((key, Config { rows: vec![r] })),
+        }
+    }
+    out.into_iter().map(|(_, c)| c).collect()
+}
+
+/// The series a row belongs to: its method and, where it is not the papers', its variant.
+fn variant(t: &Results, r: usize) -> String {
+    match t.cell(r, "method") {
+        "full_field" => {
+            let papers = t.cell(r, "shell_spacing") == "uniform"
+                && t.num(r, "shell_max") == 8.0
+                && t.cell(r, "field_interp") == "trilinear";
+            if papers {
+                "full field (papers')".into()
+            } else {
+                format!(
+                    "full field ({}, [1, {}]r, {})",
+                    t.cell(r, "shell_spacing"),
+                    t.cell(r, "shell_max"),
+                    t.cell(r, "field_interp")
+                )
+            }
+        }
+        "ray_traced" => "ray tracing".into(),
+        _ => {
+            let mut v = Vec::new();
+            if t.cell(r, "alpha_mode") == "fit" {
+                v.push("α fit".to_string());
+            }
+            if t.cell(r, "plausibility") == "clamp" {
+                v.push("clamp".into());
+            }
+            if t.num(r, "sampling_radius") != 1.0 {
+                v.push(format!("s = {}", t.cell(r, "sampling_radius")));
+            }
+            if v.is_empty() {
+                "extrapolation".into()
+            } else {
+                format!("extrapolation ({})", v.join(", "))
+            }
+        }
+    }
+}
+
+/// A configuration in words.
+fn name(t: &Results, c: &Config) -> String {
+    let r = c.first();
+    match t.cell(r, "method") {
+        "full_field" => format!(
+            "{}, {} shells of `{}`, H = {}",
+            variant(t, r),
+            t.cell(r, "shells"),
+            t.cell(r, "layout"),
+            t.cell(r, "hemisphere_res")
+        ),
+        "ray_traced" => format!("ray tracing, T = {}", t.cell(r, "rt_res")),
+        _ => format!(
+            "{}, `{}`, H = {}, α = {}°",
+            variant(t, r),
+            t.cell(r, "layout"),
+            t.cell(r, "hemisphere_res"),
+            t.cell(r, "alpha_deg")
+        ),
+    }
+}
+
+/// The lower-left Pareto front of `(x, y)` points: sorted by x, each with a lower y than all
+/// before it.
+pub fn pareto(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = points
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut best = f64::INFINITY;
+    p.into_iter()
+        .filter(|&(_, y)| {
+            let keep = y < best;
+            best = best.min(y);
+            keep
+        })
+        .collect()
+}
+
+/// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed
+/// α, no mitigation) against the papers' 16-shell full field — rays and time to produce the data.
+fn speed_claim(t: &Results, configs: &[Config]) -> String {
+    let is_papers_ex = |r: usize| {
+        t.cell(r, "method") == "extrapolated"
+            && t.cell(r, "alpha_mode") == "fixed"
+            && t.cell(r, "plausibility") == "none"
+            && t.num(r, "sampling_radius") == 1.0
+    };
+    let mut parts = Vec::new();
+    for ex in configs.iter().filter(|c| is_papers_ex(c.first())) {
+        let e = ex.first();
+        let ff = configs.iter().find(|c| {
+            let r = c.first();
+            t.cell(r, "method") == "full_field"
+                && variant(t, r) == "full field (papers')"
+                && t.num(r, "shells") == 16.0
+                && t.cell(r, "layout") == t.cell(e, "layout")
+                && t.cell(r, "hemisphere_res") == t.cell(e, "hemisphere_res")
+        });
+        if let Some(ff) = ff {
+            let f = ff.first();
+            let rays = t.num(f, "rays") / t.num(e, "rays");
+            // Per seed the ratio of the medians and the interval from the medians' intervals;
+            // the mean ratio over the seeds, the widest interval.
+            let mut ratio = 0.0;
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            let pairs: Vec<(usize, usize)> = (ff.rows.iter())
+                .filter_map(|&f| {
+                    let seed = t.cell(f, "probe_seed");
+                    let e = ex.rows.iter().find(|&&e| t.cell(e, "probe_seed") == seed)?;
+                    Some((f, *e))
+                })
+                .collect();
+            for &(f, e) in &pairs {
+                ratio += t.num(f, "frame_seconds") / t.num(e, "frame_seconds") / pairs.len() as f64;
+                lo = lo.min(t.num(f, "frame_seconds_lo") / t.num(e, "frame_seconds_hi"));
+                hi = hi.max(t.num(f, "frame_seconds_hi") / t.num(e, "frame_seconds_lo"));
+            }
+            let (ee, _, _) = ex.mean(t, "occ_rel_l2_mean");
+            let (ef, _, _) = ff.mean(t, "occ_rel_l2_mean");
+            parts.push(format!(
+                "`{}`, H = {}: {rays:.0}× fewer rays, {ratio:.1}× less time per frame (interval {lo:.1}–{hi:.1}×), at mean error {ee:.3} against the full field's {ef:.3}",
+                t.cell(e, "layout"),
+                t.cell(e, "hemisphere_res"),
+            ));
+        }
+    }
+    if parts.is_empty() {
+        return "The claim as stated (the papers' 16-shell field against one sphere at the same sampling) is not among these runs.\n\n".into();
+    }
+    format!(
+        "*The claim as stated* (\"about 20 times faster than full shadow field computation\", at the papers' sampling: one sphere against the papers' 16-shell field of the same layout and H): {}.\n\n",
+        parts.join("; ")
+    )
+}
+
+/// Equal accuracy in one regime (`col`): the Pareto front against rays, and the cheapest full
+/// field at least as accurate as the best extrapolation.
+fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime: &str) -> String {
+    let pts: Vec<(f64, f64, usize)> = (configs.iter().enumerate())
+        .map(|(i, c)| (c.mean(t, "rays").0, c.mean(t, col).0, i))
+        .filter(|(x, y, _)| x.is_finite() && *x > 0.0 && y.is_finite())
+        .collect();
+    if pts.is_empty() {
+        return String::new();
+    }
+    let front = pareto(pts.iter().map(|p| (p.0, p.1)));
+    let on_front: Vec<String> = front
+        .iter()
+        .filter_map(|f| pts.iter().find(|p| p.0 == f.0 && p.1 == f.1))
+        .map(|&(x, _, i)| {
+            let (m, lo, hi) = configs[i].mean(t, col);
+            format!(
+                "{} at {x:.2e} rays ({m:.3} [{lo:.3}–{hi:.3}])",
+                name(t, &configs[i])
+            )
+        })
+        .collect();
+    let method = |i: usize| t.cell(configs[i].first(), "method");
+    let best_ex = (pts.iter())
+        .filter(|p| method(p.2) == "extrapolated")
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let verdict = match best_ex {
+        Some(bx) => {
+            let mut v = format!(
+                " The most accurate extrapolation is {} ({:.3} at {:.2e} rays); the cheapest as accurate",
+                name(t, &configs[bx.2]),
+                bx.1,
+                bx.0
+            );
+            let families: [(&str, &dyn Fn(usize) -> bool); 2] = [
+                ("papers' full field", &|i| {
+                    variant(t, configs[i].first()) == "full field (papers')"
+                }),
+                ("full field of any construction", &|i| {
+                    method(i) == "full_field"
+                }),
+            ];
+            let parts: Vec<String> = families
+                .iter()
+                .map(|(label, keep)| {
+                    match (pts.iter())
+                        .filter(|p| keep(p.2) && p.1 <= bx.1)
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                    {
+                        Some(f) => format!(
+                            "{label}: {} ({:.3}) at {:.2e} rays, {:.2}× the extrapolation's",
+                            name(t, &configs[f.2]),
+                            f.1,
+                            f.0,
+                            f.0 / bx.0
+                        ),
+                        None => format!("{label}: none of these runs"),
+                    }
+                })
+                .collect();
+            v.push_str(&format!(" — {}.", parts.join("; ")));
+            v
+        }
+        None => String::new(),
+    };
+    format!(
+        "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}\n\n",
+        on_front.join("; ")
+    )
+}
+
+/// The full field of a run's parameters, or the offending key and why.
+fn shells_of(p: &Params) -> Result<Shells, (&'static str, String)> {
+    Ok(Shells {
+        count: p.shells,
+        rho_min: 1.0,
+        rho_max: p.shell_max,
+        spacing: ShellSpacing::parse(&p.shell_spacing)
+            .map_err(|e| ("shell_spacing", e.to_string()))?,
+        interp: FieldInterp::parse(&p.field_interp).map_err(|e| ("field_interp", e.to_string()))?,
+    })
 }
 
 fn eval_all(f: &(dyn VisibilityField + Sync), points: &[(f64, DVec3)], nn: usize) -> Vec<Vec<f64>> {

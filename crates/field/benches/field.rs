@@ -164,7 +164,7 @@ fn frame_cost(c: &mut Criterion) {
 /// Per-receiver visibility on a 160×160 receiver plane under the bunny: extrapolated (N = 4,
 /// latlong:12x20, K = 40), full field (16 shells), and ray-traced truth (2·16² rays, a subset).
 fn receivers(c: &mut Criterion) {
-    use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
+    use shscale_field::evaluator::{FullField, RayTraced, Shells, VisibilityField};
     use shscale_field::extrapolate::Extrapolator;
     use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
     let mesh = bundled::load("bunny").unwrap();
@@ -241,7 +241,7 @@ fn receivers(c: &mut Criterion) {
             })
         })
     });
-    let full = FullField::build(&bvh, layout, &sampler, 16, 1.0, 8.0).unwrap();
+    let full = FullField::build(&bvh, layout, &sampler, &Shells::PAPERS).unwrap();
     g.bench_function("full_field_eval_2_threads", |b| {
         b.iter(|| {
             p2.install(|| {
@@ -286,7 +286,7 @@ fn receivers(c: &mut Criterion) {
         b.iter(|| {
             p2.install(|| {
                 black_box(
-                    FullField::build(&bvh, layout, &sampler, 16, 1.0, 8.0)
+                    FullField::build(&bvh, layout, &sampler, &Shells::PAPERS)
                         .unwrap()
                         .rays,
                 )

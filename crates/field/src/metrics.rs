@@ -84,6 +84,82 @@ pub fn quantiles(values: impl Iterator<Item = Option<f64>>, qs: &[f64]) -> Vec<O
         .collect()
 }
 
+/// The Gaussian window of [`ssim`]: 11 × 11 taps, σ = 1.5 pixels (Wang et al. 2004).
+const SSIM_RADIUS: usize = 5;
+const SSIM_SIGMA: f64 = 1.5;
+
+fn ssim_taps() -> [f64; 2 * SSIM_RADIUS + 1] {
+    let mut w = [0.0; 2 * SSIM_RADIUS + 1];
+    for (i, v) in w.iter_mut().enumerate() {
+        let x = i as f64 - SSIM_RADIUS as f64;
+        *v = (-x * x / (2.0 * SSIM_SIGMA * SSIM_SIGMA)).exp();
+    }
+    let s: f64 = w.iter().sum();
+    w.map(|v| v / s)
+}
+
+/// Mean structural similarity of image `x` against the reference `y` (row-major, `w × h`,
+/// one channel): Wang, Bovik, Sheikh & Simoncelli, "Image quality assessment: from error
+/// visibility to structural similarity", IEEE TIP 2004 — local means, variances and covariance
+/// under an 11 × 11 Gaussian window (σ = 1.5), `C1 = (0.01 L)²`, `C2 = (0.03 L)²` for the dynamic
+/// range `L`, averaged over the windows that lie wholly inside the image (the paper's "valid"
+/// region). 1 for identical images, lower for less similar ones (it can be negative).
+/// Domain: `w, h ≥ 11`, finite values, `L > 0`; `None` otherwise.
+pub fn ssim(x: &[f64], y: &[f64], w: usize, h: usize, range: f64) -> Option<f64> {
+    let n = 2 * SSIM_RADIUS + 1;
+    if w < n
+        || h < n
+        || x.len() != w * h
+        || y.len() != w * h
+        || !(range > 0.0 && range.is_finite())
+        || x.iter().chain(y).any(|v| !v.is_finite())
+    {
+        return None;
+    }
+    let g = ssim_taps();
+    let (c1, c2) = ((0.01 * range).powi(2), (0.03 * range).powi(2));
+    // Separable filtering of the five moment images over the valid region.
+    let (vw, vh) = (w - n + 1, h - n + 1);
+    let moments: [Box<dyn Fn(usize) -> f64>; 5] = [
+        Box::new(|i| x[i]),
+        Box::new(|i| y[i]),
+        Box::new(|i| x[i] * x[i]),
+        Box::new(|i| y[i] * y[i]),
+        Box::new(|i| x[i] * y[i]),
+    ];
+    let filtered: Vec<Vec<f64>> = moments
+        .iter()
+        .map(|f| {
+            // Rows first (every row, valid columns), then columns (valid rows).
+            let mut rows = vec![0.0; h * vw];
+            for r in 0..h {
+                for c in 0..vw {
+                    rows[r * vw + c] = (0..n).map(|k| g[k] * f(r * w + c + k)).sum();
+                }
+            }
+            let mut out = vec![0.0; vh * vw];
+            for r in 0..vh {
+                for c in 0..vw {
+                    out[r * vw + c] = (0..n).map(|k| g[k] * rows[(r + k) * vw + c]).sum();
+                }
+            }
+            out
+        })
+        .collect();
+    let total: f64 = (0..vw * vh)
+        .map(|i| {
+            let (mx, my) = (filtered[0][i], filtered[1][i]);
+            let (vx, vy, cxy) = (
+                filtered[2][i] - mx * mx,
+                filtered[3][i] - my * my,
+                filtered[4][i] - mx * my,
+            );
+            ((2.0 * mx * my + c1) * (2.0 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
+        })
+        .sum();
+    Some(total / (vw * vh) as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -127,5 +203,61 @@ mod tests {
             mean_max([Some(1.0), None, Some(3.0)].into_iter()),
             (Some(2.0), Some(3.0), 2)
         );
+    }
+
+    #[test]
+    fn ssim_matches_its_closed_forms_and_a_direct_window() {
+        let (w, h) = (23, 17);
+        // Identical images: 1.
+        let img: Vec<f64> = (0..w * h)
+            .map(|i| ((i * 37 % 101) as f64).sin() + 2.0)
+            .collect();
+        let same = ssim(&img, &img, w, h, 3.0).unwrap();
+        assert!((same - 1.0).abs() < 1e-12, "{same}");
+        // Constant images a and b: no variance, so SSIM = (2ab + C1)/(a² + b² + C1).
+        let (a, b, l) = (0.4, 0.9, 1.0);
+        let c1 = (0.01f64 * l).powi(2);
+        let got = ssim(&vec![a; w * h], &vec![b; w * h], w, h, l).unwrap();
+        let want = (2.0 * a * b + c1) / (a * a + b * b + c1);
+        println!("constant images: {got} vs closed form {want}");
+        assert!((got - want).abs() < 1e-12);
+        // A different image against a direct (non-separable) evaluation of every window.
+        let other: Vec<f64> = (0..w * h)
+            .map(|i| ((i * 13 % 29) as f64).cos() + 1.5)
+            .collect();
+        let g = ssim_taps();
+        let (c1, c2) = ((0.01f64 * 3.0).powi(2), (0.03f64 * 3.0).powi(2));
+        let mut sum = 0.0;
+        let mut count = 0;
+        for r in 0..=h - 11 {
+            for c in 0..=w - 11 {
+                let (mut mx, mut my, mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for i in 0..11 {
+                    for j in 0..11 {
+                        let wt = g[i] * g[j];
+                        let (p, q) = (other[(r + i) * w + c + j], img[(r + i) * w + c + j]);
+                        mx += wt * p;
+                        my += wt * q;
+                        xx += wt * p * p;
+                        yy += wt * q * q;
+                        xy += wt * p * q;
+                    }
+                }
+                let (vx, vy, cxy) = (xx - mx * mx, yy - my * my, xy - mx * my);
+                sum += ((2.0 * mx * my + c1) * (2.0 * cxy + c2))
+                    / ((mx * mx + my * my + c1) * (vx + vy + c2));
+                count += 1;
+            }
+        }
+        let direct = sum / count as f64;
+        let fast = ssim(&other, &img, w, h, 3.0).unwrap();
+        println!("ssim {fast} vs direct windows {direct}");
+        assert!((fast - direct).abs() < 1e-12 && fast < 0.9);
+        // Outside the domain.
+        assert!(ssim(&img[..100], &img[..100], 10, 10, 1.0).is_none());
+        assert!(ssim(&img, &img, w, h, 0.0).is_none());
+        let mut nan = img.clone();
+        nan[3] = f64::NAN;
+        assert!(ssim(&nan, &img, w, h, 1.0).is_none());
     }
 }

@@ -220,7 +220,9 @@ fn sphere_on_surface_error_matches_the_closed_form_prediction() {
 
 #[test]
 fn full_field_converges_to_the_truth_as_shells_and_samples_increase() {
-    use shscale_field::evaluator::{FullField, RayTraced, VisibilityField};
+    use shscale_field::evaluator::{
+        FieldInterp, FullField, RayTraced, ShellSpacing, Shells, VisibilityField,
+    };
     use shscale_field::probe::sphere_truth;
     let order = 4;
     let sphere = AnalyticSphere::unit();
@@ -243,19 +245,18 @@ fn full_field_converges_to_the_truth_as_shells_and_samples_increase() {
             .sum::<f64>()
             / pts.len() as f64
     };
+    let shells = |count| Shells {
+        count,
+        spacing: ShellSpacing::Exp,
+        interp: FieldInterp::Barycentric,
+        ..Shells::PAPERS
+    };
     let coarse =
-        FullField::build(&sphere, Layout::Fibonacci { p: 30 }, &sampler, 4, 1.0, 8.0).unwrap();
+        FullField::build(&sphere, Layout::Fibonacci { p: 30 }, &sampler, &shells(4)).unwrap();
     let medium =
-        FullField::build(&sphere, Layout::Fibonacci { p: 120 }, &sampler, 8, 1.0, 8.0).unwrap();
-    let fine = FullField::build(
-        &sphere,
-        Layout::Fibonacci { p: 480 },
-        &sampler,
-        16,
-        1.0,
-        8.0,
-    )
-    .unwrap();
+        FullField::build(&sphere, Layout::Fibonacci { p: 120 }, &sampler, &shells(8)).unwrap();
+    let fine =
+        FullField::build(&sphere, Layout::Fibonacci { p: 480 }, &sampler, &shells(16)).unwrap();
     let (ec, em, ef) = (mean_err(&coarse), mean_err(&medium), mean_err(&fine));
     let rt = mean_err(&RayTraced {
         occ: &sphere,
@@ -263,6 +264,22 @@ fn full_field_converges_to_the_truth_as_shells_and_samples_increase() {
     });
     println!("full field mean ‖err‖: 4×30 {ec:.3e}, 8×120 {em:.3e}, 16×480 {ef:.3e}; ray traced {rt:.3e}");
     assert!(em < ec && ef < em, "no convergence: {ec} {em} {ef}");
+    // The papers' construction (uniform shells over [1, 8], trilinear on a lat-long grid)
+    // converges too.
+    let papers = |rows, count| {
+        let shells = Shells {
+            count,
+            ..Shells::PAPERS
+        };
+        let l = Layout::LatLong {
+            rows,
+            cols: 2 * rows,
+        };
+        mean_err(&FullField::build(&sphere, l, &sampler, &shells).unwrap())
+    };
+    let (pc, pm, pf) = (papers(6, 4), papers(12, 8), papers(24, 16));
+    println!("papers' field mean ‖err‖: 4×6x12 {pc:.3e}, 8×12x24 {pm:.3e}, 16×24x48 {pf:.3e}");
+    assert!(pm < pc && pf < pm, "no convergence: {pc} {pm} {pf}");
     // The fine full field approaches the ray tracer's own quadrature error.
     assert!(
         ef < 4.0 * rt.max(1e-3),

@@ -1,5 +1,6 @@
 //! Rendering a scene's receiver plane (normal +z) with one of the three visibility evaluators
-//! (docs/conventions.md §4–5): extrapolated (BSV + k-table), full field (16 shells over [s, 8s]·r) or
+//! (docs/conventions.md §4–5): extrapolated (BSV + k-table), full field (the papers' construction:
+//! 16 shells at uniform radial intervals over [s, 8s]·r, trilinear; [`full_field_shells`]) or
 //! ray-traced truth (the converged `TruthSampler`, 4T² rays per receiver per occluder; or, for
 //! `raytraced-full`, exact visibility lit by the environment itself, `irradiance_exact`).
 //! Irradiance per pixel in linear RGB.
@@ -14,7 +15,7 @@ use crate::scene::Scene;
 use crate::vocab::placed_mesh;
 use glam::DVec3;
 use rayon::prelude::*;
-use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
+use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
@@ -53,7 +54,7 @@ pub struct RenderOutput {
 }
 
 /// Estimated rays and peak bytes of one [`render`] of `scene` with `method` (for the work limits
-/// of `shscale render`): the BSV of every occluder (16 shells for the full field), 4T² rays per
+/// of `shscale render`): the BSV of every occluder (one per shell for the full field), 4T² rays per
 /// receiver and occluder for band-limited ray tracing, 4T² plus the sun's cap per receiver for
 /// full-frequency truth.
 pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
@@ -64,9 +65,12 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     let occluders = scene.occluders.len().max(1) as f64;
     let nn = (scene.order * scene.order) as f64;
     let bsv = occluders * samples * h2;
+    let shells = (scene.full_field)
+        .unwrap_or_else(|| full_field_shells(scene))
+        .count as f64;
     let rays = match method {
         Method::Extrapolated => bsv,
-        Method::FullField => 16.0 * bsv,
+        Method::FullField => shells * bsv,
         Method::RayTraced => receivers * occluders * 4.0 * t2,
         Method::FullFrequency => {
             receivers
@@ -75,7 +79,7 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
         }
     };
     let shells = if method == Method::FullField {
-        16.0
+        shells
     } else {
         1.0
     };
@@ -254,7 +258,6 @@ fn build_fields(
             })?;
         }
         Method::FullField => {
-            let r = scene.sampling_radius;
             b.fulls = stages.time("full_field_build", || {
                 (occs.iter())
                     .map(|o| {
@@ -262,9 +265,7 @@ fn build_fields(
                             o.as_ref(),
                             scene.layout,
                             sampler,
-                            16,
-                            r,
-                            8.0 * r,
+                            &scene.full_field.unwrap_or_else(|| full_field_shells(scene)),
                         )?)
                     })
                     .collect::<Result<_, Error>>()
@@ -273,6 +274,22 @@ fn build_fields(
         Method::RayTraced | Method::FullFrequency => {}
     }
     Ok(b)
+}
+
+/// The renderer's full field: the papers' construction ([`Shells::PAPERS`]: 16 shells at uniform
+/// radial intervals, trilinear) over `[s, 8s]·r` for the sampling radius `s`; on a Fibonacci
+/// layout, which has no grid, barycentric in angle.
+pub fn full_field_shells(scene: &Scene) -> Shells {
+    let s = scene.sampling_radius;
+    Shells {
+        rho_min: s,
+        rho_max: 8.0 * s,
+        interp: match scene.layout {
+            shscale_field::Layout::Fibonacci { .. } => FieldInterp::Barycentric,
+            _ => FieldInterp::Trilinear,
+        },
+        ..Shells::PAPERS
+    }
 }
 
 /// Full-frequency truth: `∫ L Π V cos⁺` by direct quadrature with exact visibility per receiver,

@@ -185,6 +185,9 @@ pub struct Scene {
     pub light_sources: Vec<LightSourceSpec>,
     /// The `[camera]` table, if any (`render --camera` uses a default view otherwise).
     pub camera: Option<Camera>,
+    /// The full field's construction, set by experiments (no scene-file key); `None`: the
+    /// papers' ([`crate::render::full_field_shells`]).
+    pub full_field: Option<shscale_field::evaluator::Shells>,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -339,6 +342,7 @@ impl Scene {
             resolution: r.resolution,
             light,
             light_sources,
+            full_field: None,
         })
     }
 }
