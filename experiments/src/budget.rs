@@ -586,13 +586,13 @@ impl Kind for Budget {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh)
                 .collect();
-            let configs = by_config(t, &rows);
+            let configs = by_config(t, &rows, &CONFIG_KEYS);
             let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
             s.push_str(&format!(
                 "**{mesh}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
                 configs.len()
             ));
-            s.push_str(&speed_claim(t, &configs));
+            s.push_str(&speed_claim(t, &configs, "occ_rel_l2_mean"));
             for (col, regime) in [
                 ("occ_rel_l2_mean", "all receivers, mean occ_rel_l2"),
                 ("occ_rel_l2_near_mean", "near (ρ ≤ 1.3), mean occ_rel_l2"),
@@ -626,7 +626,7 @@ const CONFIG_KEYS: [&str; 14] = [
 ];
 
 /// A configuration's rows (one per seed).
-struct Config {
+pub(crate) struct Config {
     rows: Vec<usize>,
 }
 
@@ -644,11 +644,11 @@ impl Config {
     }
 }
 
-/// Rows grouped by configuration, in the order of the table.
-fn by_config(t: &Results, rows: &[usize]) -> Vec<Config> {
+/// Rows grouped by configuration (equal cells in `keys`), in the order of the table.
+pub(crate) fn by_config(t: &Results, rows: &[usize], keys: &[&str]) -> Vec<Config> {
     let mut out: Vec<(String, Config)> = Vec::new();
     for &r in rows {
-        let key = CONFIG_KEYS.map(|k| t.cell(r, k)).join(";");
+        let key = keys.iter().map(|k| t.cell(r, k)).collect::<Vec<_>>().join(";");
         match out.iter_mut().find(|(k, _)| *k == key) {
             Some((_, c)) => c.rows.push(r),
             None => out.push((key, Config { rows: vec![r] })),
@@ -658,7 +658,7 @@ fn by_config(t: &Results, rows: &[usize]) -> Vec<Config> {
 }
 
 /// The series a row belongs to: its method and, where it is not the papers', its variant.
-fn variant(t: &Results, r: usize) -> String {
+pub(crate) fn variant(t: &Results, r: usize) -> String {
     match t.cell(r, "method") {
         "full_field" => {
             let papers = t.cell(r, "shell_spacing") == "uniform"
@@ -737,10 +737,10 @@ pub fn pareto(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
 
 /// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed
 /// α, no mitigation) against the papers' 16-shell full field — rays and time to produce the data.
-fn speed_claim(t: &Results, configs: &[Config]) -> String {
+pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String {
     let is_papers_ex = |r: usize| {
         t.cell(r, "method") == "extrapolated"
-            && t.cell(r, "alpha_mode") == "fixed"
+            && t.cell(r, "alpha_mode") != "fit"
             && t.cell(r, "plausibility") == "none"
             && t.num(r, "sampling_radius") == 1.0
     };
@@ -774,10 +774,10 @@ fn speed_claim(t: &Results, configs: &[Config]) -> String {
                 lo = lo.min(t.num(f, "frame_seconds_lo") / t.num(e, "frame_seconds_hi"));
                 hi = hi.max(t.num(f, "frame_seconds_hi") / t.num(e, "frame_seconds_lo"));
             }
-            let (ee, _, _) = ex.mean(t, "occ_rel_l2_mean");
-            let (ef, _, _) = ff.mean(t, "occ_rel_l2_mean");
+            let (ee, _, _) = ex.mean(t, err);
+            let (ef, _, _) = ff.mean(t, err);
             parts.push(format!(
-                "`{}`, H = {}: {rays:.0}× fewer rays, {ratio:.1}× less time per frame (interval {lo:.1}–{hi:.1}×), at mean error {ee:.3} against the full field's {ef:.3}",
+                "`{}`, H = {}: the full field casts {rays:.0}× the rays and takes {ratio:.1}× the time per frame (interval {lo:.1}–{hi:.1}×); error ({err}) {ee:.3} extrapolated, {ef:.3} full field",
                 t.cell(e, "layout"),
                 t.cell(e, "hemisphere_res"),
             ));
@@ -794,7 +794,7 @@ fn speed_claim(t: &Results, configs: &[Config]) -> String {
 
 /// Equal accuracy in one regime (`col`): the Pareto front against rays, and the cheapest full
 /// field at least as accurate as the best extrapolation.
-fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime: &str) -> String {
+pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime: &str) -> String {
     let pts: Vec<(f64, f64, usize)> = (configs.iter().enumerate())
         .map(|(i, c)| (c.mean(t, "rays").0, c.mean(t, col).0, i))
         .filter(|(x, y, _)| x.is_finite() && *x > 0.0 && y.is_finite())

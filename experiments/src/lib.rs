@@ -14,7 +14,10 @@
 //! - [`srf`], [`midrange`], [`extremes`] — the source-radiance, mid-range-lighting and stability
 //!   studies.
 //! - [`alpha_fit`] — the best cone angle α at each distance, against 45° and the closed-form law.
-//! - [`budget`] — extrapolation, full field and ray tracing at equal time per frame and memory.
+//! - [`budget`] — extrapolation, full field and ray tracing at equal rays, bytes and time per
+//!   frame on spherical receivers.
+//! - [`budget_plane`] — the same on a scene's receiver plane, in image space against
+//!   full-frequency truth.
 //!
 //! [`regenerate`] runs every config of a folder (`configs/paper/`) through the runner and writes
 //! each kind's figure into an output folder (`paper-figs/`) with the data behind it
@@ -23,6 +26,7 @@
 
 pub mod alpha_fit;
 pub mod budget;
+pub mod budget_plane;
 mod common;
 pub mod extremes;
 pub mod m_elements;
@@ -51,6 +55,7 @@ static SRF: Erased<srf::Srf> = Erased::new();
 static EXTREMES: Erased<extremes::Extremes> = Erased::new();
 static ALPHA_FIT: Erased<alpha_fit::AlphaFit> = Erased::new();
 static BUDGET: Erased<budget::Budget> = Erased::new();
+static BUDGET_PLANE: Erased<budget_plane::BudgetPlane> = Erased::new();
 
 /// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
 /// file implementing `shscale_runner::Kind` plus one line here.
@@ -87,6 +92,7 @@ pub fn registry() -> Vec<&'static dyn DynKind> {
         &EXTREMES,
         &ALPHA_FIT,
         &BUDGET,
+        &BUDGET_PLANE,
     ]
 }
 

@@ -84,7 +84,7 @@ pub struct Shadows;
 /// Rays per second of a whole render (rays, shading and images), the cost model's rate for the
 /// `shadows` kind: fitted to `configs/experiments/shadows.toml` (one run of the bunny scene,
 /// 1.37e9 estimated rays in 24–26 s) on the development VM, checked by `shscale bench estimates`.
-const RENDER_RAYS_PER_SECOND: f64 = 5.5e7;
+pub const RENDER_RAYS_PER_SECOND: f64 = 5.5e7;
 
 const METHODS: [(Method, &str); 4] = [
     (Method::FullField, "full_field"),

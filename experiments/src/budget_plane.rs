@@ -1,0 +1,513 @@
+//! The equal-budget study where the papers put their receivers: the receiver plane of a scene,
+//! scored in image space. For the rays, bytes and time of one frame, how close to full-frequency
+//! truth (and to band-limited truth) are the shadows of SH-scaling extrapolation, of the fully
+//! sampled shadow field as Zhou et al. build it and of ray tracing — near the object and far
+//! from it — and is the papers' "about 20 times faster" true as stated on this scene?
+//!
+//! A group is one scene (and order): its band-limited truth (the converged stratified
+//! visibility, `4T²` rays per receiver, projected to order N under the SH light), its
+//! full-frequency truth (exact visibility lit by the environment itself) and the unshadowed
+//! image are rendered once. A run renders the plane with one method at one budget (the scene
+//! with the run's layout, H, α, plausibility and sampling radius; the full field's shells,
+//! range, spacing and interpolation; or ray tracing with `4·rt_res²` rays per receiver, a
+//! different seed from the truth's) and scores it: `shade_rmse_rel` (docs/conventions.md §6)
+//! against both truths, against full-frequency truth on the receivers near an occluder
+//! (within 1.3 bounding radii of its centre) and on the rest, each in the unit of the mean
+//! unshadowed irradiance of those receivers, and `1 − SSIM` of the luminance against the
+//! full-frequency truth's (Wang et al. 2004, [`shscale_field::metrics::ssim`]).
+//!
+//! Budget axes: rays per frame (deterministic: [`shscale_scene::render::estimated_work`]), the
+//! bytes the field holds (deterministic), and the frame's time — the render without the light's
+//! projection and the BVH build, which every method shares — as the median of the timing
+//! procedure's repeats with its order-statistic interval.
+
+use crate::budget::{by_config, equal_accuracy, speed_claim, NEAR_RHO};
+use serde::{Deserialize, Serialize};
+use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
+use shscale_field::extrapolate::Plausibility;
+use shscale_field::metrics::ssim;
+use shscale_field::shading::shade_rmse_rel;
+use shscale_field::Layout;
+use shscale_runner::check::Ends;
+use shscale_runner::plots::{write_both, write_scatter_with_bars, Labels};
+use shscale_runner::records::Results;
+use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_scene::render::{estimated_work, render, Method, RenderOutput};
+use shscale_scene::scene::Scene;
+use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
+use shscale_scene::Error;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Parameters of one run (one method at one budget on one scene).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Scene file, relative to the config's folder.
+    pub scene: String,
+    /// Override of the scene's order (empty: the scene's).
+    pub order: Option<usize>,
+    /// `extrapolated`, `full_field` or `ray_traced`.
+    pub method: String,
+    pub layout: String,
+    pub hemisphere_res: usize,
+    pub shells: usize,
+    pub shell_max: f64,
+    pub shell_spacing: String,
+    pub field_interp: String,
+    pub rt_res: usize,
+    pub alpha_deg: f64,
+    pub plausibility: String,
+    pub sampling_radius: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            scene: "../scene_bunny.toml".into(),
+            order: None,
+            method: "extrapolated".into(),
+            layout: "latlong:12x20".into(),
+            hemisphere_res: 32,
+            shells: 16,
+            shell_max: 8.0,
+            shell_spacing: "uniform".into(),
+            field_interp: "trilinear".into(),
+            rt_res: 8,
+            alpha_deg: 45.0,
+            plausibility: "none".into(),
+            sampling_radius: 1.0,
+        }
+    }
+}
+
+/// One row per run.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    pub receivers: usize,
+    /// Receivers within 1.3 bounding radii of an occluder's centre.
+    pub near_receivers: usize,
+    pub rays: f64,
+    pub memory_bytes: f64,
+    pub frame_seconds: f64,
+    pub frame_seconds_lo: f64,
+    pub frame_seconds_hi: f64,
+    pub timing_coverage: f64,
+    pub rmse_vs_band_limited: f64,
+    pub rmse_vs_full_frequency: f64,
+    pub rmse_near_vs_full_frequency: Option<f64>,
+    pub rmse_far_vs_full_frequency: Option<f64>,
+    /// `1 − SSIM` of the luminance against the full-frequency truth's (0 = identical).
+    pub one_minus_ssim: Option<f64>,
+    /// The truths' own errors in the unit of `rmse_vs_*` (as in `shadows`).
+    pub full_frequency_truth_err: f64,
+    pub band_limited_truth_err: f64,
+}
+
+/// The kind.
+pub struct BudgetPlane;
+
+/// A group's scene and its truths.
+pub struct Shared {
+    scene: Scene,
+    band: Vec<f64>,
+    full: Vec<f64>,
+    open: Vec<f64>,
+    near: Vec<bool>,
+    full_err: f64,
+    band_err: f64,
+}
+
+const METHODS: [&str; 3] = ["extrapolated", "full_field", "ray_traced"];
+
+fn flat(img: &RenderOutput) -> Vec<f64> {
+    img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
+}
+
+/// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance.
+fn own_err(e: &[[f32; 3]], open: &[f64]) -> f64 {
+    let mean = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    let ms = e
+        .iter()
+        .flat_map(|p| p.map(|v| (v as f64).powi(2)))
+        .sum::<f64>()
+        / (3 * e.len()).max(1) as f64;
+    if mean > 0.0 && !e.is_empty() {
+        ms.sqrt() / mean
+    } else {
+        f64::NAN
+    }
+}
+
+/// The scene of a group: the file with the order override.
+fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
+    let mut s = Scene::load(&config_dir.join(&p.scene))?;
+    if let Some(n) = p.order {
+        s.order = n;
+    }
+    Ok(s)
+}
+
+/// The scene of a run: the group's with the run's method parameters.
+fn run_scene(p: &Typed<Params, Layout>, base: &Scene) -> Result<Scene, Error> {
+    let mut s = base.clone();
+    s.layout = p.typed;
+    s.hemisphere_res = p.hemisphere_res;
+    s.alpha = p.alpha_deg.to_radians();
+    s.plausibility = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
+    s.sampling_radius = p.sampling_radius;
+    let c = |e: shscale_field::FieldError| Error::config(e.to_string());
+    s.full_field = Some(Shells {
+        count: p.shells,
+        rho_min: p.sampling_radius,
+        rho_max: p.shell_max * p.sampling_radius,
+        spacing: ShellSpacing::parse(&p.shell_spacing).map_err(c)?,
+        interp: FieldInterp::parse(&p.field_interp).map_err(c)?,
+    });
+    if p.method == "ray_traced" {
+        if p.rt_res >= base.truth_res {
+            return Err(Error::config(format!(
+                "rt_res = {} is not below the scene's truth_res = {} ({}): the band-limited truth must be converged beyond the method it measures",
+                p.rt_res, base.truth_res, p.scene
+            )));
+        }
+        s.truth_res = p.rt_res;
+    }
+    Ok(s)
+}
+
+fn method_of(name: &str) -> Method {
+    match name {
+        "full_field" => Method::FullField,
+        "ray_traced" => Method::RayTraced,
+        _ => Method::Extrapolated,
+    }
+}
+
+/// `shade_rmse_rel` over the receivers where `keep` holds (RGB flattened, 3 values per receiver).
+fn rmse_where(e: &[f64], truth: &[f64], open: &[f64], keep: &[bool], want: bool) -> Option<f64> {
+    let pick = |v: &[f64]| -> Vec<f64> {
+        v.chunks(3)
+            .zip(keep)
+            .filter(|(_, k)| **k == want)
+            .flat_map(|(c, _)| c.iter().copied())
+            .collect()
+    };
+    shade_rmse_rel(&pick(e), &pick(truth), &pick(open))
+}
+
+fn lum(v: &[f64]) -> Vec<f64> {
+    v.chunks(3).map(|c| c.iter().sum::<f64>() / 3.0).collect()
+}
+
+impl Kind for BudgetPlane {
+    const NAME: &'static str = "budget_plane";
+    const QUESTION: &'static str = "On a scene's receiver plane, in image space against full-frequency truth, which is most accurate for the rays, bytes and time of a frame — SH-scaling extrapolation, the full shadow field as Zhou et al. build it, or ray tracing — near the object and far from it, and does the papers' \"about 20× faster\" hold as stated?";
+    type Params = Params;
+    type Shared = Shared;
+    type Row = Row;
+    type Error = Error;
+    type Spec = Typed<Params, Layout>;
+    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
+    }
+
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
+            ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
+            ("method", "`extrapolated`, `full_field` or `ray_traced`"),
+            ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
+            ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
+            ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
+            ("shell_max", "the full field's outermost shell in sampling radii, (1, 1000]; the papers' 8"),
+            ("shell_spacing", "`uniform` (the papers') or `exp`"),
+            ("field_interp", "`trilinear` (the papers'; latlong or cube layouts) or `barycentric`"),
+            ("rt_res", "T of the ray-traced method: 4T² rays per receiver, 1..=255 and below the scene's truth_res"),
+            ("alpha_deg", "cone angle α of the extrapolation, degrees, (0, 90)"),
+            ("plausibility", "`none` or `clamp` (the extrapolation's plausibility mitigation)"),
+            ("sampling_radius", "sampling sphere in bounding radii, [1, 1000]"),
+        ]
+    }
+
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
+        if p.scene.trim().is_empty() {
+            return Err(KeyError::new("scene", "give a scene file"));
+        }
+        if let Some(n) = p.order {
+            KeyError::int("order", n, 1, MAX_ORDER)?;
+        }
+        if !METHODS.contains(&p.method.as_str()) {
+            return Err(KeyError::new(
+                "method",
+                format!("{:?} is not one of {METHODS:?}", p.method),
+            ));
+        }
+        let layout =
+            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
+        KeyError::int("shells", p.shells, 2, crate::budget::MAX_SHELLS)?;
+        KeyError::int("rt_res", p.rt_res, 1, 255)?;
+        KeyError::real("shell_max", p.shell_max, 1.0, 1e3, Ends::OpenClosed)?;
+        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
+        KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
+        Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
+        let spacing = ShellSpacing::parse(&p.shell_spacing)
+            .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?;
+        let interp = FieldInterp::parse(&p.field_interp)
+            .map_err(|e| KeyError::new("field_interp", e.to_string()))?;
+        if p.method == "full_field" {
+            Shells {
+                count: p.shells,
+                rho_min: 1.0,
+                rho_max: p.shell_max,
+                spacing,
+                interp,
+            }
+            .check(layout)
+            .map_err(|e| KeyError::new("field_interp", e.to_string()))?;
+        }
+        Ok(Typed {
+            params: p.clone(),
+            typed: layout,
+        })
+    }
+
+    fn group_key(p: &Params) -> String {
+        format!("{};{:?}", p.scene, p.order)
+    }
+
+    fn cost(p: &Params) -> (Cost, Cost) {
+        (
+            Cost {
+                drivers: format!(
+                    "scene {} (its truths; not estimated before the scene is read)",
+                    p.scene
+                ),
+                once_seconds: f64::NAN,
+                ..Cost::default()
+            },
+            Cost::default(),
+        )
+    }
+
+    /// From the scene: the truths once (band-limited, full-frequency, unshadowed), the run's
+    /// method per timed render, at the `shadows` kind's render rate.
+    fn cost_in(p: &Params, config_dir: &Path) -> (Cost, Cost) {
+        let (Ok(spec), Ok(base)) = (
+            <Self as Kind>::resolve(p),
+            group_scene(p, config_dir),
+        ) else {
+            return Self::cost(p);
+        };
+        let Ok(scene) = run_scene(&spec, &base) else {
+            return Self::cost(p);
+        };
+        let once: f64 = [Method::RayTraced, Method::FullFrequency]
+            .iter()
+            .map(|m| estimated_work(&base, *m).0)
+            .sum::<f64>()
+            + estimated_work(&base, Method::RayTraced).0 / base.occluders.len().max(1) as f64;
+        let (rays, bytes) = estimated_work(&scene, method_of(&p.method));
+        (
+            Cost {
+                rays: once,
+                bytes,
+                seconds: 0.0,
+                once_seconds: once / crate::shadows::RENDER_RAYS_PER_SECOND,
+                drivers: format!(
+                    "scene {}: {}×{} receivers, truth_res {}",
+                    p.scene, base.resolution[0], base.resolution[1], base.truth_res
+                ),
+            },
+            Cost {
+                rays,
+                bytes,
+                seconds: rays / crate::shadows::RENDER_RAYS_PER_SECOND,
+                once_seconds: 0.0,
+                drivers: format!("method {} → {rays:.3e} rays per frame", p.method),
+            },
+        )
+    }
+
+    fn rows_per_run(_: &Params) -> usize {
+        1
+    }
+
+    fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<Shared, Error> {
+        let scene = group_scene(&p.params, ctx.config_dir)?;
+        let band = render(&scene, Method::RayTraced)?;
+        let full = render(&scene, Method::FullFrequency)?;
+        let mut unshadowed = scene.clone();
+        unshadowed.occluders.clear();
+        let open = flat(&render(&unshadowed, Method::RayTraced)?);
+        let near = shscale_scene::frame::receiver_grid(&scene)
+            .iter()
+            .map(|q| {
+                (scene.occluders.iter())
+                    .any(|o| (*q - o.center).length() <= NEAR_RHO * o.radius)
+            })
+            .collect();
+        Ok(Shared {
+            full_err: own_err(&full.error, &open),
+            band_err: own_err(&band.error, &open),
+            band: flat(&band),
+            full: flat(&full),
+            open,
+            near,
+            scene,
+        })
+    }
+
+    fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
+        let scene = run_scene(p, &sh.scene)?;
+        let method = method_of(&p.method);
+        // The frame: the render without the stages every method shares.
+        let (img, [t]) = ctx.timing.measure_parts(|| {
+            let t0 = std::time::Instant::now();
+            let img = render(&scene, method)?;
+            let shared: f64 = (img.stages.iter())
+                .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
+                .map(|(_, v)| v)
+                .sum();
+            let wall = t0.elapsed().as_secs_f64();
+            Ok::<_, Error>((img, [(wall - shared).max(0.0)]))
+        })?;
+        let e = flat(&img);
+        let black = || Error::config(format!("{}: the unshadowed image is black", p.scene));
+        let (rays, _) = estimated_work(&scene, method);
+        let occluders = scene.occluders.len() as f64;
+        let samples = scene.layout.sample_count().unwrap_or(0) as f64;
+        let nn = (scene.order * scene.order) as f64;
+        let memory = match method {
+            Method::Extrapolated => {
+                occluders * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
+            }
+            Method::FullField => occluders * p.shells as f64 * samples * nn * 8.0,
+            _ => 0.0,
+        };
+        let (lt, le) = (lum(&sh.full), lum(&e));
+        let range = lt.iter().copied().fold(0.0, f64::max);
+        Ok(vec![Row {
+            receivers: sh.near.len(),
+            near_receivers: sh.near.iter().filter(|n| **n).count(),
+            rays,
+            memory_bytes: memory,
+            frame_seconds: t.median,
+            frame_seconds_lo: t.lo,
+            frame_seconds_hi: t.hi,
+            timing_coverage: t.coverage,
+            rmse_vs_band_limited: shade_rmse_rel(&e, &sh.band, &sh.open).ok_or_else(black)?,
+            rmse_vs_full_frequency: shade_rmse_rel(&e, &sh.full, &sh.open).ok_or_else(black)?,
+            rmse_near_vs_full_frequency: rmse_where(&e, &sh.full, &sh.open, &sh.near, true),
+            rmse_far_vs_full_frequency: rmse_where(&e, &sh.full, &sh.open, &sh.near, false),
+            one_minus_ssim: ssim(&le, &lt, img.width, img.height, range).map(|s| 1.0 - s),
+            full_frequency_truth_err: sh.full_err,
+            band_limited_truth_err: sh.band_err,
+        }])
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &["frame_seconds", "frame_seconds_lo", "frame_seconds_hi"]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "method",
+            "rays",
+            "frame_seconds",
+            "rmse_vs_full_frequency",
+            "one_minus_ssim",
+        ]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
+        let mut files = Vec::new();
+        for (si, scene) in t.distinct("scene").iter().enumerate() {
+            for (x, stem, xl) in [
+                ("rays", format!("plane_rays_{si}"), "rays per frame"),
+                (
+                    "frame_seconds",
+                    format!("plane_time_{si}"),
+                    "time per frame (s), median and interval",
+                ),
+            ] {
+                let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+                let mut bars = Vec::new();
+                for r in (0..t.rows.len()).filter(|&r| t.cell(r, "scene") == scene) {
+                    let (xv, y) = (t.num(r, x), t.num(r, "rmse_vs_full_frequency"));
+                    if xv.is_finite() && xv > 0.0 && y.is_finite() {
+                        let name = crate::budget::variant(t, r);
+                        series.entry(name).or_default().push((xv, y));
+                        bars.push((y, t.num(r, "frame_seconds_lo"), t.num(r, "frame_seconds_hi")));
+                    }
+                }
+                if series.is_empty() {
+                    continue;
+                }
+                for v in series.values_mut() {
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                }
+                let front = crate::budget::pareto(series.values().flatten().copied());
+                let labels = Labels {
+                    title: &format!("{scene}: receiver-plane error against {xl}"),
+                    x: xl,
+                    y: "shade_rmse_rel vs full-frequency truth",
+                };
+                files.extend(if x == "frame_seconds" {
+                    write_scatter_with_bars(dir, &stem, &labels, &series, &front, &bars)?
+                } else {
+                    write_both(dir, &stem, &labels, &series, true, &front)?
+                });
+            }
+        }
+        Ok(files)
+    }
+
+    fn discussion(t: &Results) -> Result<String, Error> {
+        const KEYS: [&str; 13] = [
+            "method",
+            "order",
+            "layout",
+            "hemisphere_res",
+            "shells",
+            "shell_max",
+            "shell_spacing",
+            "field_interp",
+            "rt_res",
+            "alpha_deg",
+            "plausibility",
+            "sampling_radius",
+            "scene",
+        ];
+        let mut s = String::new();
+        for scene in t.distinct("scene") {
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "scene") == scene)
+                .collect();
+            let configs = by_config(t, &rows, &KEYS);
+            let r0 = rows[0];
+            s.push_str(&format!(
+                "**{scene}** ({} receivers, {} of them within {NEAR_RHO} bounding radii of an occluder; the truths' own errors: full-frequency {:.4}, band-limited {:.4}).\n\n",
+                t.cell(r0, "receivers"),
+                t.cell(r0, "near_receivers"),
+                t.num(r0, "full_frequency_truth_err"),
+                t.num(r0, "band_limited_truth_err"),
+            ));
+            s.push_str(&speed_claim(t, &configs, "rmse_vs_full_frequency"));
+            for (col, regime) in [
+                (
+                    "rmse_vs_full_frequency",
+                    "the plane against full-frequency truth (shade_rmse_rel)",
+                ),
+                ("rmse_near_vs_full_frequency", "near receivers, full-frequency truth"),
+                ("rmse_far_vs_full_frequency", "far receivers, full-frequency truth"),
+                ("rmse_vs_band_limited", "the plane against band-limited truth"),
+                ("one_minus_ssim", "1 − SSIM against full-frequency truth"),
+            ] {
+                s.push_str(&equal_accuracy(t, &configs, col, regime));
+            }
+        }
+        Ok(s)
+    }
+}
