@@ -885,7 +885,11 @@ fn budget_rows_count_what_each_method_costs() {
         let e = num("occ_rel_l2_mean");
         assert!(e.is_finite() && e > 0.0, "{e}");
         // The frame's median lies in its interval (min and max of 5 repeats, coverage 0.9375).
-        let (lo, f, hi) = (num("frame_seconds_lo"), num("frame_seconds"), num("frame_seconds_hi"));
+        let (lo, f, hi) = (
+            num("frame_seconds_lo"),
+            num("frame_seconds"),
+            num("frame_seconds_hi"),
+        );
         assert!(lo <= f && f <= hi && lo > 0.0, "{lo} {f} {hi}");
         assert_eq!(num("timing_coverage"), 0.9375);
         let (m, ci) = (num("occ_rel_l2_mean"), num("occ_rel_l2_ci95"));
@@ -895,7 +899,9 @@ fn budget_rows_count_what_each_method_costs() {
     let summary = std::fs::read_to_string(dir.join("r/budget/b/summary.md")).unwrap();
     assert!(summary.contains("Pareto front"), "{summary}");
     for axis in ["rays", "memory", "time"] {
-        assert!(dir.join(format!("r/budget/b/pareto_{axis}_duck.png")).exists());
+        assert!(dir
+            .join(format!("r/budget/b/pareto_{axis}_duck.png"))
+            .exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -389,7 +389,8 @@ impl Kind for Budget {
         let cfg = |e: shscale_scaling::ScalingError| Error::config(e.to_string());
         // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
         type Frame = (Vec<Vec<f64>>, f64, f64);
-        let frame: Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + '_> =
+        type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
+        let frame: FrameFn<'_> =
             match p.method.as_str() {
                 "extrapolated" => {
                     let fit =
@@ -648,7 +649,11 @@ impl Config {
 pub(crate) fn by_config(t: &Results, rows: &[usize], keys: &[&str]) -> Vec<Config> {
     let mut out: Vec<(String, Config)> = Vec::new();
     for &r in rows {
-        let key = keys.iter().map(|k| t.cell(r, k)).collect::<Vec<_>>().join(";");
+        let key = keys
+            .iter()
+            .map(|k| t.cell(r, k))
+            .collect::<Vec<_>>()
+            .join(";");
         match out.iter_mut().find(|(k, _)| *k == key) {
             Some((_, c)) => c.rows.push(r),
             None => out.push((key, Config { rows: vec![r] })),

@@ -294,10 +294,7 @@ impl Kind for BudgetPlane {
     /// From the scene: the truths once (band-limited, full-frequency, unshadowed), the run's
     /// method per timed render, at the `shadows` kind's render rate.
     fn cost_in(p: &Params, config_dir: &Path) -> (Cost, Cost) {
-        let (Ok(spec), Ok(base)) = (
-            <Self as Kind>::resolve(p),
-            group_scene(p, config_dir),
-        ) else {
+        let (Ok(spec), Ok(base)) = (<Self as Kind>::resolve(p), group_scene(p, config_dir)) else {
             return Self::cost(p);
         };
         let Ok(scene) = run_scene(&spec, &base) else {
@@ -344,8 +341,7 @@ impl Kind for BudgetPlane {
         let near = shscale_scene::frame::receiver_grid(&scene)
             .iter()
             .map(|q| {
-                (scene.occluders.iter())
-                    .any(|o| (*q - o.center).length() <= NEAR_RHO * o.radius)
+                (scene.occluders.iter()).any(|o| (*q - o.center).length() <= NEAR_RHO * o.radius)
             })
             .collect();
         Ok(Shared {
@@ -439,7 +435,11 @@ impl Kind for BudgetPlane {
                     if xv.is_finite() && xv > 0.0 && y.is_finite() {
                         let name = crate::budget::variant(t, r);
                         series.entry(name).or_default().push((xv, y));
-                        bars.push((y, t.num(r, "frame_seconds_lo"), t.num(r, "frame_seconds_hi")));
+                        bars.push((
+                            y,
+                            t.num(r, "frame_seconds_lo"),
+                            t.num(r, "frame_seconds_hi"),
+                        ));
                     }
                 }
                 if series.is_empty() {
@@ -500,9 +500,18 @@ impl Kind for BudgetPlane {
                     "rmse_vs_full_frequency",
                     "the plane against full-frequency truth (shade_rmse_rel)",
                 ),
-                ("rmse_near_vs_full_frequency", "near receivers, full-frequency truth"),
-                ("rmse_far_vs_full_frequency", "far receivers, full-frequency truth"),
-                ("rmse_vs_band_limited", "the plane against band-limited truth"),
+                (
+                    "rmse_near_vs_full_frequency",
+                    "near receivers, full-frequency truth",
+                ),
+                (
+                    "rmse_far_vs_full_frequency",
+                    "far receivers, full-frequency truth",
+                ),
+                (
+                    "rmse_vs_band_limited",
+                    "the plane against band-limited truth",
+                ),
                 ("one_minus_ssim", "1 − SSIM against full-frequency truth"),
             ] {
                 s.push_str(&equal_accuracy(t, &configs, col, regime));
