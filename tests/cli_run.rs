@@ -1006,3 +1006,95 @@ fn provenance_is_the_binarys_revision_not_the_working_directorys_repository() {
     assert!(rows.lines().skip(1).all(|l| l.contains(&rev)), "{rows}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `budget_plane` end to end on a small sphere scene: one row per method and budget, rays and
+/// bytes as the methods imply, the near receivers counted as geometry says (within 1.3 r of the
+/// occluder's centre), finite image errors and SSIM, and a ray-traced budget at the truth's own
+/// resolution refused by name.
+#[test]
+fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
+    let dir = std::env::temp_dir().join(format!("shscale-bp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("s.toml"),
+        "order = 3\ntruth_res = 6\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.2]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [3, 3]\nresolution = [24, 24]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let (dir, head, rows) = run_csv(
+        "bp",
+        "budget_plane",
+        "experiment = \"budget_plane\"\nscene = \"s.toml\"\nlayout = \"latlong:4x8\"\nhemisphere_res = 4\ngpu = \"off\"\ntiming_repeats = 5\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 4]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    assert_eq!(rows.len(), 4);
+    // Receivers within 1.3 of (0, 0, 1.2) on z = 0: horizontal distance ≤ √(1.3² − 1.2²) = 0.5.
+    let near = (0..24 * 24)
+        .filter(|k| {
+            let (x, y) = (
+                3.0 * ((k % 24) as f64 / 23.0 - 0.5),
+                3.0 * (0.5 - (k / 24) as f64 / 23.0),
+            );
+            (x * x + y * y + 1.44).sqrt() <= 1.3
+        })
+        .count() as f64;
+    assert!(near > 0.0);
+    for r in &rows {
+        let num = |k: &str| r[col(k)].parse::<f64>().unwrap();
+        assert_eq!(num("receivers"), 576.0);
+        assert_eq!(num("near_receivers"), near);
+        let (rays, mem) = (num("rays"), num("memory_bytes"));
+        match r[col("method")].as_str() {
+            "full_field" => {
+                let s = num("shells");
+                assert_eq!(rays, s * 32.0 * 16.0);
+                assert_eq!(mem, s * 32.0 * 9.0 * 8.0);
+            }
+            "ray_traced" => {
+                assert_eq!(rays, 576.0 * 16.0);
+                assert_eq!(mem, 0.0);
+            }
+            _ => {
+                assert_eq!(rays, 32.0 * 16.0);
+                assert_eq!(mem, 32.0 * 9.0 * 8.0 + 40.0 * 81.0 * 8.0);
+            }
+        }
+        for k in [
+            "rmse_vs_full_frequency",
+            "rmse_vs_band_limited",
+            "rmse_near_vs_full_frequency",
+            "rmse_far_vs_full_frequency",
+        ] {
+            let e = num(k);
+            assert!(e.is_finite() && e > 0.0, "{k} = {e}");
+        }
+        let d = num("one_minus_ssim");
+        assert!(d > 0.0 && d < 1.0, "1 − SSIM = {d}");
+        let (lo, f, hi) = (
+            num("frame_seconds_lo"),
+            num("frame_seconds"),
+            num("frame_seconds_hi"),
+        );
+        assert!(lo <= f && f <= hi, "{lo} {f} {hi}");
+    }
+    let summary = std::fs::read_to_string(dir.join("r/budget_plane/bp/summary.md")).unwrap();
+    assert!(summary.contains("The claim as stated") && summary.contains("Pareto front"));
+    // A ray-traced budget as fine as the truth is refused, naming rt_res and the scene.
+    let cfg = dir.join("bad.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget_plane\"\nscene = \"s.toml\"\nmethod = \"ray_traced\"\nrt_res = 6\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("rt_res = 6") && err.contains("truth_res = 6"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

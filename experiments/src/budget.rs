@@ -390,85 +390,83 @@ impl Kind for Budget {
         // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
         type Frame = (Vec<Vec<f64>>, f64, f64);
         type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
-        let frame: FrameFn<'_> =
-            match p.method.as_str() {
-                "extrapolated" => {
-                    let fit =
-                        crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
-                    let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
-                    let (lo, hi) = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
-                    let table_for = move |family| {
-                        KTable::build(
-                            family,
-                            Eta::Plain,
-                            p.order,
-                            p.k_count,
-                            lo,
-                            hi,
-                            Spacing::Exp,
-                            Interp::Linear,
-                        )
-                        .map_err(cfg)
-                    };
-                    // A fixed α's table depends on α, N and the k range only: built once, before
-                    // the frames (part of the memory, not of a frame's time).
-                    let fixed = (!fit)
-                        .then(|| {
-                            table_for(TauFamily::Cone {
-                                alpha: p.alpha_deg.to_radians(),
-                            })
+        let frame: FrameFn<'_> = match p.method.as_str() {
+            "extrapolated" => {
+                let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
+                let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
+                let (lo, hi) = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
+                let table_for = move |family| {
+                    KTable::build(
+                        family,
+                        Eta::Plain,
+                        p.order,
+                        p.k_count,
+                        lo,
+                        hi,
+                        Spacing::Exp,
+                        Interp::Linear,
+                    )
+                    .map_err(cfg)
+                };
+                // A fixed α's table depends on α, N and the k range only: built once, before
+                // the frames (part of the memory, not of a frame's time).
+                let fixed = (!fit)
+                    .then(|| {
+                        table_for(TauFamily::Cone {
+                            alpha: p.alpha_deg.to_radians(),
                         })
-                        .transpose()?;
-                    let sampler = &sampler;
-                    Box::new(move || {
-                        let t0 = Instant::now();
-                        let bsv = Bsv::sample(occ, layout, sampler, p.sampling_radius, 0.0)?;
-                        let own;
-                        let table = match &fixed {
-                            Some(t) => t,
-                            None => {
-                                let theta0 = shscale_field::alpha::effective_cap_angle(&bsv);
-                                own = table_for(TauFamily::ConeFit { theta0 })?;
-                                &own
-                            }
-                        };
-                        let build = t0.elapsed().as_secs_f64();
-                        let ex = Extrapolator::new(&bsv, table).with_plausibility(plaus);
-                        let t1 = Instant::now();
-                        let v = eval_all(&ex, &sh.points, nn);
-                        let eval = t1.elapsed().as_secs_f64();
-                        let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
-                        Ok(((v, bsv.rays as f64, mem), [build, eval, build + eval]))
                     })
-                }
-                "full_field" => {
-                    let shells = shells_of(p).map_err(|(_, m)| Error::config(m))?;
-                    let sampler = &sampler;
-                    Box::new(move || {
-                        let t0 = Instant::now();
-                        let ff = FullField::build(occ, layout, sampler, &shells)?;
-                        let build = t0.elapsed().as_secs_f64();
-                        let t1 = Instant::now();
-                        let v = eval_all(&ff, &sh.points, nn);
-                        let eval = t1.elapsed().as_secs_f64();
-                        let (rays, mem) = (ff.rays as f64, ff.size_bytes() as f64);
-                        Ok(((v, rays, mem), [build, eval, build + eval]))
-                    })
-                }
-                _ => {
-                    // A different seed from the reference truth's: independent draws.
-                    let ts = TruthSampler::new(p.order, p.rt_res, p.truth_seed ^ 0x00ff_00ff_00ff)?;
-                    Box::new(move || {
-                        let t1 = Instant::now();
-                        let v: Vec<Vec<f64>> = (sh.points.par_iter().enumerate())
-                            .map(|(i, (_, q))| ts.sample_stream(occ, *q, i as u64).coeffs)
-                            .collect();
-                        let eval = t1.elapsed().as_secs_f64();
-                        let rays = (sh.points.len() * ts.rays()) as f64;
-                        Ok(((v, rays, 0.0), [0.0, eval, eval]))
-                    })
-                }
-            };
+                    .transpose()?;
+                let sampler = &sampler;
+                Box::new(move || {
+                    let t0 = Instant::now();
+                    let bsv = Bsv::sample(occ, layout, sampler, p.sampling_radius, 0.0)?;
+                    let own;
+                    let table = match &fixed {
+                        Some(t) => t,
+                        None => {
+                            let theta0 = shscale_field::alpha::effective_cap_angle(&bsv);
+                            own = table_for(TauFamily::ConeFit { theta0 })?;
+                            &own
+                        }
+                    };
+                    let build = t0.elapsed().as_secs_f64();
+                    let ex = Extrapolator::new(&bsv, table).with_plausibility(plaus);
+                    let t1 = Instant::now();
+                    let v = eval_all(&ex, &sh.points, nn);
+                    let eval = t1.elapsed().as_secs_f64();
+                    let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
+                    Ok(((v, bsv.rays as f64, mem), [build, eval, build + eval]))
+                })
+            }
+            "full_field" => {
+                let shells = shells_of(p).map_err(|(_, m)| Error::config(m))?;
+                let sampler = &sampler;
+                Box::new(move || {
+                    let t0 = Instant::now();
+                    let ff = FullField::build(occ, layout, sampler, &shells)?;
+                    let build = t0.elapsed().as_secs_f64();
+                    let t1 = Instant::now();
+                    let v = eval_all(&ff, &sh.points, nn);
+                    let eval = t1.elapsed().as_secs_f64();
+                    let (rays, mem) = (ff.rays as f64, ff.size_bytes() as f64);
+                    Ok(((v, rays, mem), [build, eval, build + eval]))
+                })
+            }
+            _ => {
+                // A different seed from the reference truth's: independent draws.
+                let ts = TruthSampler::new(p.order, p.rt_res, p.truth_seed ^ 0x00ff_00ff_00ff)?;
+                Box::new(move || {
+                    let t1 = Instant::now();
+                    let v: Vec<Vec<f64>> = (sh.points.par_iter().enumerate())
+                        .map(|(i, (_, q))| ts.sample_stream(occ, *q, i as u64).coeffs)
+                        .collect();
+                    let eval = t1.elapsed().as_secs_f64();
+                    let rays = (sh.points.len() * ts.rays()) as f64;
+                    Ok(((v, rays, 0.0), [0.0, eval, eval]))
+                })
+            }
+        };
         let mut frame = frame;
         let ((values, rays, memory), [build, eval, total]) =
             ctx.timing.measure_parts(&mut *frame)?;
