@@ -47,6 +47,9 @@ pub struct Params {
     pub scene: String,
     /// Override of the scene's order (empty: the scene's).
     pub order: Option<usize>,
+    /// Frames of the deformers' sequence (t = f / frames), each rendered from scratch by every
+    /// method; 1: the rest pose.
+    pub frames: usize,
     /// `extrapolated`, `full_field` or `ray_traced`.
     pub method: String,
     pub layout: String,
@@ -66,6 +69,7 @@ impl Default for Params {
         Self {
             scene: "../scene_bunny.toml".into(),
             order: None,
+            frames: 1,
             method: "extrapolated".into(),
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
@@ -93,13 +97,19 @@ pub struct Row {
     pub frame_seconds_lo: f64,
     pub frame_seconds_hi: f64,
     pub timing_coverage: f64,
+    /// Errors: means over the frames.
     pub rmse_vs_band_limited: f64,
     pub rmse_vs_full_frequency: f64,
+    /// The worst frame's `rmse_vs_full_frequency`.
+    pub rmse_vs_full_frequency_max: f64,
+    /// Temporal flicker ([`flicker`]) of the error against full-frequency truth (none for one
+    /// frame).
+    pub flicker: Option<f64>,
     pub rmse_near_vs_full_frequency: Option<f64>,
     pub rmse_far_vs_full_frequency: Option<f64>,
     /// `1 − SSIM` of the luminance against the full-frequency truth's (0 = identical).
     pub one_minus_ssim: Option<f64>,
-    /// The truths' own errors in the unit of `rmse_vs_*` (as in `shadows`).
+    /// The truths' own errors in the unit of `rmse_vs_*` (as in `shadows`; the worst frame's).
     pub full_frequency_truth_err: f64,
     pub band_limited_truth_err: f64,
 }
@@ -110,8 +120,9 @@ pub struct BudgetPlane;
 /// A group's scene and its truths.
 pub struct Shared {
     scene: Scene,
-    band: Vec<f64>,
-    full: Vec<f64>,
+    /// Per frame: the band-limited and full-frequency truth images.
+    band: Vec<Vec<f64>>,
+    full: Vec<Vec<f64>>,
     open: Vec<f64>,
     near: Vec<bool>,
     full_err: f64,
@@ -119,9 +130,33 @@ pub struct Shared {
 }
 
 const METHODS: [&str; 3] = ["extrapolated", "full_field", "ray_traced"];
+/// The most frames of a run.
+pub const MAX_FRAMES: usize = 64;
+
+/// The scene at frame `f` of `frames` (the rest pose for one frame).
+fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
+    let mut s = scene.clone();
+    s.pose_t = (frames > 1).then(|| f as f64 / frames as f64);
+    s
+}
 
 fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
+}
+
+/// The distinct (scene, frames) pairs of a table, in order.
+fn scene_frames(t: &Results) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = Vec::new();
+    for r in 0..t.rows.len() {
+        let k = (
+            t.cell(r, "scene").to_string(),
+            t.cell(r, "frames").to_string(),
+        );
+        if !v.contains(&k) {
+            v.push(k);
+        }
+    }
+    v
 }
 
 /// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance.
@@ -196,6 +231,38 @@ fn rmse_where(e: &[f64], truth: &[f64], open: &[f64], keep: &[bool], want: bool)
     shade_rmse_rel(&pick(e), &pick(truth), &pick(open))
 }
 
+/// Temporal flicker: the RMS over frames f ≥ 1 and receivers of the change of the error image
+/// from frame f − 1 to f, `sqrt(mean_f mean_i ((e_f − t_f) − (e_{f−1} − t_{f−1}))²)`, over the
+/// mean unshadowed irradiance — 0 when the error is the same in every frame (however large),
+/// large when it jumps. `None` for fewer than two frames or a black unshadowed image.
+pub fn flicker(images: &[Vec<f64>], truths: &[Vec<f64>], open: &[f64]) -> Option<f64> {
+    let mean = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    if images.len() < 2 || mean <= 0.0 {
+        return None;
+    }
+    let err = |f: usize| -> Vec<f64> {
+        images[f]
+            .iter()
+            .zip(&truths[f])
+            .map(|(a, b)| a - b)
+            .collect()
+    };
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    let mut prev = err(0);
+    for f in 1..images.len() {
+        let cur = err(f);
+        sum += cur
+            .iter()
+            .zip(&prev)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>();
+        n += cur.len();
+        prev = cur;
+    }
+    Some((sum / n.max(1) as f64).sqrt() / mean)
+}
+
 fn lum(v: &[f64]) -> Vec<f64> {
     v.chunks(3).map(|c| c.iter().sum::<f64>() / 3.0).collect()
 }
@@ -216,6 +283,7 @@ impl Kind for BudgetPlane {
         &[
             ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
             ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
+            ("frames", "frames of the deformers' sequence (t = f/frames), each rendered from scratch by every method, 1..=64; 1: the rest pose"),
             ("method", "`extrapolated`, `full_field` or `ray_traced`"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
@@ -246,6 +314,7 @@ impl Kind for BudgetPlane {
         let layout =
             Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
+        KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
         KeyError::int("shells", p.shells, 2, crate::budget::MAX_SHELLS)?;
         KeyError::int("rt_res", p.rt_res, 1, 255)?;
         KeyError::real("shell_max", p.shell_max, 1.0, 1e3, Ends::OpenClosed)?;
@@ -274,7 +343,7 @@ impl Kind for BudgetPlane {
     }
 
     fn group_key(p: &Params) -> String {
-        format!("{};{:?}", p.scene, p.order)
+        format!("{};{:?};{}", p.scene, p.order, p.frames)
     }
 
     fn cost(p: &Params) -> (Cost, Cost) {
@@ -300,12 +369,15 @@ impl Kind for BudgetPlane {
         let Ok(scene) = run_scene(&spec, &base) else {
             return Self::cost(p);
         };
-        let once: f64 = [Method::RayTraced, Method::FullFrequency]
-            .iter()
-            .map(|m| estimated_work(&base, *m).0)
-            .sum::<f64>()
+        let frames = p.frames as f64;
+        let once: f64 = frames
+            * [Method::RayTraced, Method::FullFrequency]
+                .iter()
+                .map(|m| estimated_work(&base, *m).0)
+                .sum::<f64>()
             + estimated_work(&base, Method::RayTraced).0 / base.occluders.len().max(1) as f64;
         let (rays, bytes) = estimated_work(&scene, method_of(&p.method));
+        let rays = rays * frames;
         (
             Cost {
                 rays: once,
@@ -333,22 +405,33 @@ impl Kind for BudgetPlane {
 
     fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<Shared, Error> {
         let scene = group_scene(&p.params, ctx.config_dir)?;
-        let band = render(&scene, Method::RayTraced)?;
-        let full = render(&scene, Method::FullFrequency)?;
+        let frames = p.frames;
+        let (mut band, mut full) = (Vec::new(), Vec::new());
+        let (mut full_err, mut band_err) = (Vec::new(), Vec::new());
         let mut unshadowed = scene.clone();
         unshadowed.occluders.clear();
         let open = flat(&render(&unshadowed, Method::RayTraced)?);
+        for f in 0..frames {
+            let s = at_frame(&scene, f, frames);
+            let b = render(&s, Method::RayTraced)?;
+            let u = render(&s, Method::FullFrequency)?;
+            band_err.push(own_err(&b.error, &open));
+            full_err.push(own_err(&u.error, &open));
+            band.push(flat(&b));
+            full.push(flat(&u));
+        }
         let near = shscale_scene::frame::receiver_grid(&scene)
             .iter()
             .map(|q| {
                 (scene.occluders.iter()).any(|o| (*q - o.center).length() <= NEAR_RHO * o.radius)
             })
             .collect();
+        let worst = |v: Vec<f64>| v.into_iter().fold(f64::NAN, f64::max);
         Ok(Shared {
-            full_err: own_err(&full.error, &open),
-            band_err: own_err(&band.error, &open),
-            band: flat(&band),
-            full: flat(&full),
+            full_err: worst(full_err),
+            band_err: worst(band_err),
+            band,
+            full,
             open,
             near,
             scene,
@@ -358,18 +441,25 @@ impl Kind for BudgetPlane {
     fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = run_scene(p, &sh.scene)?;
         let method = method_of(&p.method);
-        // The frame: the render without the stages every method shares.
-        let (img, [t]) = ctx.timing.measure_parts(|| {
-            let t0 = std::time::Instant::now();
-            let img = render(&scene, method)?;
-            let shared: f64 = (img.stages.iter())
-                .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
-                .map(|(_, v)| v)
-                .sum();
-            let wall = t0.elapsed().as_secs_f64();
-            Ok::<_, Error>((img, [(wall - shared).max(0.0)]))
+        let frames = p.frames;
+        let scenes: Vec<Scene> = (0..frames).map(|f| at_frame(&scene, f, frames)).collect();
+        // A frame: the render without the stages every method shares (the light's projection,
+        // the BVH build); the time is the mean over the sequence's frames.
+        let (imgs, [t]) = ctx.timing.measure_parts(|| {
+            let mut imgs = Vec::with_capacity(frames);
+            let mut total = 0.0;
+            for s in &scenes {
+                let t0 = std::time::Instant::now();
+                let img = render(s, method)?;
+                let shared: f64 = (img.stages.iter())
+                    .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
+                    .map(|(_, v)| v)
+                    .sum();
+                total += (t0.elapsed().as_secs_f64() - shared).max(0.0);
+                imgs.push(img);
+            }
+            Ok::<_, Error>((imgs, [total / frames as f64]))
         })?;
-        let e = flat(&img);
         let black = || Error::config(format!("{}: the unshadowed image is black", p.scene));
         let (rays, _) = estimated_work(&scene, method);
         let occluders = scene.occluders.len() as f64;
@@ -382,22 +472,39 @@ impl Kind for BudgetPlane {
             Method::FullField => occluders * p.shells as f64 * samples * nn * 8.0,
             _ => 0.0,
         };
-        let (lt, le) = (lum(&sh.full), lum(&e));
-        let range = lt.iter().copied().fold(0.0, f64::max);
+        let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
+        let mean = |v: &[Option<f64>]| -> Option<f64> {
+            let v: Vec<f64> = v.iter().flatten().copied().collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let per =
+            |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };
+        let full: Vec<Option<f64>> = per(&|f| shade_rmse_rel(&es[f], &sh.full[f], &sh.open));
+        let band = per(&|f| shade_rmse_rel(&es[f], &sh.band[f], &sh.open));
+        let near = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, true));
+        let far = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, false));
+        let ssims = per(&|f| {
+            let (lt, le) = (lum(&sh.full[f]), lum(&es[f]));
+            let range = lt.iter().copied().fold(0.0, f64::max);
+            ssim(&le, &lt, imgs[f].width, imgs[f].height, range).map(|s| 1.0 - s)
+        });
         Ok(vec![Row {
             receivers: sh.near.len(),
             near_receivers: sh.near.iter().filter(|n| **n).count(),
+            // Per frame (every frame casts the same rays).
             rays,
             memory_bytes: memory,
             frame_seconds: t.median,
             frame_seconds_lo: t.lo,
             frame_seconds_hi: t.hi,
             timing_coverage: t.coverage,
-            rmse_vs_band_limited: shade_rmse_rel(&e, &sh.band, &sh.open).ok_or_else(black)?,
-            rmse_vs_full_frequency: shade_rmse_rel(&e, &sh.full, &sh.open).ok_or_else(black)?,
-            rmse_near_vs_full_frequency: rmse_where(&e, &sh.full, &sh.open, &sh.near, true),
-            rmse_far_vs_full_frequency: rmse_where(&e, &sh.full, &sh.open, &sh.near, false),
-            one_minus_ssim: ssim(&le, &lt, img.width, img.height, range).map(|s| 1.0 - s),
+            rmse_vs_band_limited: mean(&band).ok_or_else(black)?,
+            rmse_vs_full_frequency: mean(&full).ok_or_else(black)?,
+            rmse_vs_full_frequency_max: full.iter().flatten().copied().fold(f64::NAN, f64::max),
+            flicker: flicker(&es, &sh.full, &sh.open),
+            rmse_near_vs_full_frequency: mean(&near),
+            rmse_far_vs_full_frequency: mean(&far),
+            one_minus_ssim: mean(&ssims),
             full_frequency_truth_err: sh.full_err,
             band_limited_truth_err: sh.band_err,
         }])
@@ -419,7 +526,13 @@ impl Kind for BudgetPlane {
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
-        for (si, scene) in t.distinct("scene").iter().enumerate() {
+        for (si, (scene, frames)) in scene_frames(t).iter().enumerate() {
+            let of = |r: usize| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames;
+            let title = if frames == "1" {
+                scene.clone()
+            } else {
+                format!("{scene}, {frames} frames")
+            };
             for (x, stem, xl) in [
                 ("rays", format!("plane_rays_{si}"), "rays per frame"),
                 (
@@ -430,7 +543,7 @@ impl Kind for BudgetPlane {
             ] {
                 let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
                 let mut bars = Vec::new();
-                for r in (0..t.rows.len()).filter(|&r| t.cell(r, "scene") == scene) {
+                for r in (0..t.rows.len()).filter(|&r| of(r)) {
                     let (xv, y) = (t.num(r, x), t.num(r, "rmse_vs_full_frequency"));
                     if xv.is_finite() && xv > 0.0 && y.is_finite() {
                         let name = crate::budget::variant(t, r);
@@ -450,7 +563,7 @@ impl Kind for BudgetPlane {
                 }
                 let front = crate::budget::pareto(series.values().flatten().copied());
                 let labels = Labels {
-                    title: &format!("{scene}: receiver-plane error against {xl}"),
+                    title: &format!("{title}: receiver-plane error against {xl}"),
                     x: xl,
                     y: "shade_rmse_rel vs full-frequency truth",
                 };
@@ -465,7 +578,8 @@ impl Kind for BudgetPlane {
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
-        const KEYS: [&str; 13] = [
+        const KEYS: [&str; 14] = [
+            "frames",
             "method",
             "order",
             "layout",
@@ -481,14 +595,19 @@ impl Kind for BudgetPlane {
             "scene",
         ];
         let mut s = String::new();
-        for scene in t.distinct("scene") {
+        for (scene, frames) in scene_frames(t) {
             let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "scene") == scene)
+                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
                 .collect();
             let configs = by_config(t, &rows, &KEYS);
             let r0 = rows[0];
+            let seq = if frames == "1" {
+                String::new()
+            } else {
+                format!(", {frames} frames of its deformers, every method from scratch per frame; errors are means over the frames")
+            };
             s.push_str(&format!(
-                "**{scene}** ({} receivers, {} of them within {NEAR_RHO} bounding radii of an occluder; the truths' own errors: full-frequency {:.4}, band-limited {:.4}).\n\n",
+                "**{scene}**{seq} ({} receivers, {} of them within {NEAR_RHO} bounding radii of an occluder; the truths' own errors: full-frequency {:.4}, band-limited {:.4}).\n\n",
                 t.cell(r0, "receivers"),
                 t.cell(r0, "near_receivers"),
                 t.num(r0, "full_frequency_truth_err"),
@@ -513,10 +632,51 @@ impl Kind for BudgetPlane {
                     "the plane against band-limited truth",
                 ),
                 ("one_minus_ssim", "1 − SSIM against full-frequency truth"),
+                (
+                    "rmse_vs_full_frequency_max",
+                    "the worst frame, full-frequency truth",
+                ),
+                ("flicker", "temporal flicker of the error"),
             ] {
+                if col == "rmse_vs_full_frequency_max" || col == "flicker" {
+                    if frames == "1" {
+                        continue;
+                    }
+                }
                 s.push_str(&equal_accuracy(t, &configs, col, regime));
             }
         }
         Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::flicker;
+
+    #[test]
+    fn flicker_is_the_rms_change_of_the_error_between_frames() {
+        let open = vec![2.0; 4];
+        let truth = vec![vec![1.0, 2.0, 3.0, 4.0]; 3];
+        // The same error in every frame, however large: no flicker.
+        let steady = vec![vec![1.5, 2.5, 3.5, 4.5]; 3];
+        assert_eq!(flicker(&steady, &truth, &open), Some(0.0));
+        // An error alternating between +a and −a: every change is 2a; over the mean open 2.
+        let a = 0.3;
+        let alt: Vec<Vec<f64>> = (0..3)
+            .map(|f| {
+                let s = if f % 2 == 0 { a } else { -a };
+                truth[0].iter().map(|t| t + s).collect()
+            })
+            .collect();
+        let got = flicker(&alt, &truth, &open).unwrap();
+        println!(
+            "alternating ±{a}: flicker {got} (closed form {})",
+            2.0 * a / 2.0
+        );
+        assert!((got - a).abs() < 1e-12);
+        // One frame, or a black unshadowed image: none.
+        assert_eq!(flicker(&alt[..1], &truth[..1], &open), None);
+        assert_eq!(flicker(&alt, &truth, &[0.0; 4]), None);
     }
 }

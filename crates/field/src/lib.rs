@@ -24,7 +24,7 @@ pub mod visibility;
 
 pub use bsv::{Bsv, BsvSample, Layout};
 pub use frame::LocalFrame;
-pub use radiance::Emitter;
+pub use radiance::{Emitter, Radiant, SphereEmitter};
 pub use shscale_geometry::Occluder;
 pub use visibility::{Frame, VisibilitySampler};
 

@@ -7,11 +7,10 @@ use crate::bsv::{Bsv, BsvSample, Layout};
 use crate::error::FieldError;
 use crate::extrapolate::Extrapolator;
 use crate::metrics::l2_diff;
-use crate::radiance::Emitter;
+use crate::radiance::Radiant;
 use crate::visibility::{Frame, VisibilitySampler};
 use glam::DVec3;
 use rayon::prelude::*;
-use shscale_geometry::Occluder;
 use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
 
 /// Per radius: mean relative L2 error of each η variant against ray-traced radiance.
@@ -43,12 +42,12 @@ impl SrfRow {
 
 /// Sample the light's radiance on its bounding sphere (facing hemisphere, `H²` rays per sample).
 pub fn radiance_bsv(
-    e: &Emitter,
+    e: &dyn Radiant,
     layout: Layout,
     sampler: &VisibilitySampler,
     inflate: f64,
 ) -> Result<Bsv, FieldError> {
-    let sphere = e.bvh.bounding_sphere();
+    let sphere = e.bounding_sphere();
     let rs = inflate * sphere.radius;
     let samples: Vec<BsvSample> = layout
         .directions()
@@ -69,12 +68,13 @@ pub fn radiance_bsv(
 }
 
 /// Compare the η variants at `radii` (multiples of r, ≥ the sampling radius factor) along every
-/// sample direction whose truth is not dark. Truth: the light's radiance projected by the
-/// converged stratified quadrature ([`crate::truth::TruthSampler::project`], `4T²` rays, its own
-/// error reported), never by the method's rings.
+/// sample direction whose truth is not dark. Truth: the closed form where the light has one
+/// ([`Radiant::exact`], own error 0), otherwise the light's radiance projected by the converged
+/// stratified quadrature ([`crate::truth::TruthSampler::project`], `4T²` rays, its own error
+/// reported), never by the method's rings.
 #[allow(clippy::too_many_arguments)]
 pub fn compare(
-    e: &Emitter,
+    e: &dyn Radiant,
     layout: Layout,
     order: usize,
     h: usize,
@@ -122,8 +122,13 @@ pub fn compare(
             .par_iter()
             .filter_map(|smp| {
                 let p = s.center + rho * s.radius * smp.dir;
-                let t = truth_sampler.project(p, |d| e.radiance_along(p, d));
-                let truth = t.coeffs;
+                let (truth, truth_err) = match e.exact(order, p) {
+                    Some(c) => (c, 0.0),
+                    None => {
+                        let t = truth_sampler.project(p, |d| e.radiance_along(p, d));
+                        (t.coeffs, t.error)
+                    }
+                };
                 let norm = crate::metrics::l2(&truth);
                 if norm < 1e-12 {
                     return None;
@@ -137,7 +142,7 @@ pub fn compare(
                     l2_diff(&a, &truth) / norm,
                     l2_diff(&b, &truth) / norm,
                     l2_diff(&c, &truth) / norm,
-                    t.error / norm,
+                    truth_err / norm,
                 ))
             })
             .collect();

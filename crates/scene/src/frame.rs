@@ -31,6 +31,24 @@ pub fn build_occluder(
     )))
 }
 
+/// An occluder of a scene at the deformers' time `pose_t` ([`Scene::pose_t`]): its deformer's
+/// pose at that time ([`pose_mesh`]), bounded by the posed mesh's own minimal sphere (a frame
+/// rendered on its own, not as part of a sequence); the rest pose without a deformer or time.
+pub fn build_occluder_at(
+    o: &crate::scene::OccluderSpec,
+    pose_t: Option<f64>,
+) -> Result<Box<dyn Occluder>, Error> {
+    match (pose_t, o.deformer) {
+        (Some(t), Some((kind, amount))) if o.mesh != "sphere" => {
+            let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+            let mut posed = rest.clone();
+            pose_mesh(&rest, kind, amount, t, &mut posed);
+            Ok(Box::new(MeshBvh::build(&posed, UpdateStrategy::Rebuild)))
+        }
+        _ => build_occluder(&o.mesh, o.center, o.radius, o.up_is_y),
+    }
+}
+
 /// What the full-frequency truth of `scene` lights with ([`EnvLight::truth_light`]).
 pub fn truth_light(scene: &Scene) -> Result<&'static str, Error> {
     Ok(light_of(scene)?.truth_light())

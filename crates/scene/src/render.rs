@@ -8,8 +8,8 @@
 
 use crate::error::Error;
 use crate::frame::{
-    build_emitters, build_occluder, light_of, pose_mesh, receiver_grid, sequence_sphere, table_for,
-    LightSource,
+    build_emitters, build_occluder, build_occluder_at, light_of, pose_mesh, receiver_grid,
+    sequence_sphere, table_for, LightSource,
 };
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
@@ -87,13 +87,13 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     (rays, bytes)
 }
 
-/// Render `scene` with `method`.
+/// Render `scene` with `method` (its occluders posed at [`Scene::pose_t`] when set).
 pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let mut stages = Stages::default();
     let light = stages.time("light_projection", || light_of(scene))?;
     let occs: Vec<Box<dyn Occluder>> = stages.time("bvh_build", || {
         (scene.occluders.iter())
-            .map(|o| build_occluder(&o.mesh, o.center, o.radius, o.up_is_y))
+            .map(|o| build_occluder_at(o, scene.pose_t))
             .collect::<Result<_, _>>()
     })?;
     let recv = receiver_grid(scene);

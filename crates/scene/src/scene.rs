@@ -188,6 +188,9 @@ pub struct Scene {
     /// The full field's construction, set by experiments (no scene-file key); `None`: the
     /// papers' ([`crate::render::full_field_shells`]).
     pub full_field: Option<shscale_field::evaluator::Shells>,
+    /// The deformers' time t ∈ [0, 1) at which [`crate::render::render`] poses the occluders, set
+    /// by experiments (no scene-file key); `None`: the rest pose.
+    pub pose_t: Option<f64>,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -343,6 +346,7 @@ impl Scene {
             light,
             light_sources,
             full_field: None,
+            pose_t: None,
         })
     }
 }
