@@ -1098,3 +1098,39 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `budget_plane` on a deforming sequence: every frame has its own truth, so a method's error
+/// changes from frame to frame (flicker > 0), the worst frame is at least the mean, and one frame
+/// of the same scene has no flicker.
+#[test]
+fn budget_plane_scores_every_frame_of_a_deforming_sequence() {
+    let dir = std::env::temp_dir().join(format!("shscale-bpd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("egg.toml"),
+        "order = 3\ntruth_res = 6\n[[occluder]]\nmesh = \"egg\"\ncenter = [0, 0, 1.3]\nradius = 1.0\ndeformer = \"morph\"\n[receiver]\ncenter = [0, 0, 0]\nsize = [3, 3]\nresolution = [16, 16]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let (dir, head, rows) = run_csv(
+        "bpd",
+        "budget_plane",
+        "experiment = \"budget_plane\"\nscene = \"egg.toml\"\nlayout = \"latlong:4x8\"\nhemisphere_res = 4\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[sweep]\nframes = [1, 3]\nmethod = [\"extrapolated\", \"full_field\"]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    assert_eq!(rows.len(), 4);
+    for r in &rows {
+        let frames = r[col("frames")].as_str();
+        let mean: f64 = r[col("rmse_vs_full_frequency")].parse().unwrap();
+        let worst: f64 = r[col("rmse_vs_full_frequency_max")].parse().unwrap();
+        let flicker = r[col("flicker")].as_str();
+        if frames == "1" {
+            assert!(flicker.is_empty(), "one frame has no flicker: {flicker}");
+            assert!((worst - mean).abs() < 1e-12);
+        } else {
+            let f: f64 = flicker.parse().unwrap();
+            assert!(f > 0.0 && f.is_finite(), "{f}");
+            assert!(worst >= mean && worst > 0.0, "{worst} {mean}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
