@@ -900,7 +900,7 @@ fn budget_rows_count_what_each_method_costs() {
     assert!(summary.contains("Pareto front"), "{summary}");
     for axis in ["rays", "memory", "time"] {
         assert!(dir
-            .join(format!("r/budget/b/pareto_{axis}_duck.png"))
+            .join(format!("r/budget/b/pareto_{axis}_duck_n3.png"))
             .exists());
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -528,23 +528,24 @@ impl Kind for Budget {
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
-        for mesh in t.distinct("mesh") {
+        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
+            let of = |r: usize| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order;
             for (x, stem, xl) in [
-                ("rays", format!("pareto_rays_{mesh}"), "rays per frame"),
+                ("rays", format!("pareto_rays_{mesh}_n{order}"), "rays per frame"),
                 (
                     "memory_bytes",
-                    format!("pareto_memory_{mesh}"),
+                    format!("pareto_memory_{mesh}_n{order}"),
                     "memory (bytes)",
                 ),
                 (
                     "frame_seconds",
-                    format!("pareto_time_{mesh}"),
+                    format!("pareto_time_{mesh}_n{order}"),
                     "time per frame (s), median and 95 % interval",
                 ),
             ] {
                 let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
                 let mut bars = Vec::new();
-                for r in (0..t.rows.len()).filter(|&r| t.cell(r, "mesh") == mesh) {
+                for r in (0..t.rows.len()).filter(|&r| of(r)) {
                     let (xv, y) = (t.num(r, x), t.num(r, "occ_rel_l2_mean"));
                     if xv.is_finite() && xv > 0.0 && y.is_finite() {
                         series.entry(variant(t, r)).or_default().push((xv, y));
@@ -565,7 +566,7 @@ impl Kind for Budget {
                 }
                 let front = pareto(series.values().flatten().copied());
                 let labels = Labels {
-                    title: &format!("{mesh}: mean occ_rel_l2 against {xl}"),
+                    title: &format!("{mesh}, N = {order}: mean occ_rel_l2 against {xl}"),
                     x: xl,
                     y: "mean occ_rel_l2 (spherical receivers)",
                 };
@@ -581,14 +582,14 @@ impl Kind for Budget {
 
     fn discussion(t: &Results) -> Result<String, Error> {
         let mut s = String::new();
-        for mesh in t.distinct("mesh") {
+        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "mesh") == mesh)
+                .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
                 .collect();
             let configs = by_config(t, &rows, &CONFIG_KEYS);
             let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
             s.push_str(&format!(
-                "**{mesh}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
+                "**{mesh}, N = {order}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
                 configs.len()
             ));
             s.push_str(&speed_claim(t, &configs, "occ_rel_l2_mean"));
@@ -604,6 +605,20 @@ impl Kind for Budget {
         }
         Ok(s)
     }
+}
+
+/// The distinct pairs of cells `(a, b)` of a table, in order of appearance: the fronts are
+/// drawn per pair (per mesh and order here — errors at different orders are against different
+/// truths; per scene and frame count in `budget_plane`).
+pub(crate) fn distinct_pairs(t: &Results, a: &str, b: &str) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = Vec::new();
+    for r in 0..t.rows.len() {
+        let k = (t.cell(r, a).to_string(), t.cell(r, b).to_string());
+        if !v.contains(&k) {
+            v.push(k);
+        }
+    }
+    v
 }
 
 /// The parameters that make a configuration (every parameter but the seeds and the receivers').

@@ -21,7 +21,7 @@
 //! projection and the BVH build, which every method shares — as the median of the timing
 //! procedure's repeats with its order-statistic interval.
 
-use crate::budget::{by_config, equal_accuracy, speed_claim, NEAR_RHO};
+use crate::budget::{by_config, distinct_pairs, equal_accuracy, speed_claim, NEAR_RHO};
 use serde::{Deserialize, Serialize};
 use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
 use shscale_field::extrapolate::Plausibility;
@@ -142,21 +142,6 @@ fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
 
 fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
-}
-
-/// The distinct (scene, frames) pairs of a table, in order.
-fn scene_frames(t: &Results) -> Vec<(String, String)> {
-    let mut v: Vec<(String, String)> = Vec::new();
-    for r in 0..t.rows.len() {
-        let k = (
-            t.cell(r, "scene").to_string(),
-            t.cell(r, "frames").to_string(),
-        );
-        if !v.contains(&k) {
-            v.push(k);
-        }
-    }
-    v
 }
 
 /// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance.
@@ -526,7 +511,7 @@ impl Kind for BudgetPlane {
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
-        for (si, (scene, frames)) in scene_frames(t).iter().enumerate() {
+        for (si, (scene, frames)) in distinct_pairs(t, "scene", "frames").iter().enumerate() {
             let of = |r: usize| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames;
             let title = if frames == "1" {
                 scene.clone()
@@ -595,7 +580,7 @@ impl Kind for BudgetPlane {
             "scene",
         ];
         let mut s = String::new();
-        for (scene, frames) in scene_frames(t) {
+        for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
                 .collect();

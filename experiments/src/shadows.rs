@@ -525,16 +525,17 @@ impl Kind for Shadows {
             );
             out.push_str(&format!(
                 "**Ours.** Scene `{}` ({} receivers, N = {}, α = {}°, layout {}, H = {}; run `{id}`). Image: the irradiance of the fully sampled shadow field \
-(16 shells), the SH-scaling extrapolation and the full-frequency ray-traced truth on one scale, and below them each field's difference \
+(the papers' construction: 16 shells at uniform radial intervals over [1, 8]r, trilinear), the SH-scaling extrapolation and the full-frequency ray-traced truth on one scale, and below them each field's difference \
 from the truth on a symmetric scale (the values in the EXR). `shade_rmse_rel` = RMSE of \
 irradiance over receivers / mean unshadowed irradiance. Truths: band-limited = the converged stratified visibility (T = {}, \
 4T² rays per receiver; its own estimated error {:.4}) projected to order N under the SH light; full-frequency = exact visibility lit by the {} (its own estimated \
 error {:.4} in the same unit). Render times are the median of the config's timing procedure:\n\n\
 | method | vs band-limited truth | vs full-frequency truth | render (ms) |\n|---|---:|---:|---:|\n{table}\n\
 **Comparison.** The paper shows the two side by side as visually consistent and gives no numbers. Measured, the {} is the closer to \
-band-limited truth: the full field errs {fb:.4} and the extrapolation {eb:.4} ({}); against full-frequency truth {:.4} and {:.4}. The \
-extrapolation's error is the price of sampling one sphere per frame instead of 16 shells (the full field's render time excludes its \
-per-frame resampling, docs/BENCHMARKS.md).{}\n\n",
+band-limited truth: the full field errs {fb:.4} and the extrapolation {eb:.4} ({}); against full-frequency truth {:.4} and {:.4}. \
+Here the full field casts 16× the extrapolation's rays (the render time above excludes that per-frame resampling, docs/BENCHMARKS.md). \
+At equal rays and per regime — near or far from the object, band-limited or full-frequency truth, static or deforming — the \
+verdict is in experiments/README.md (\"Equal budget\", the kinds `budget` and `budget_plane`).{}\n\n",
                 t.cell(r0, "scene"),
                 t.cell(r0, "receivers"),
                 t.cell(r0, "scene_order"),
