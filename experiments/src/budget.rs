@@ -34,7 +34,7 @@ use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Bsv, Layout, VisibilitySampler};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_both, write_scatter_with_bars, Labels};
+use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
@@ -530,17 +530,24 @@ impl Kind for Budget {
         let mut files = Vec::new();
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let of = |r: usize| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order;
-            for (x, stem, xl) in [
-                ("rays", format!("pareto_rays_{mesh}_n{order}"), "rays per frame"),
+            for (x, stem, xl, short) in [
+                (
+                    "rays",
+                    format!("pareto_rays_{mesh}_n{order}"),
+                    "rays per frame",
+                    "rays",
+                ),
                 (
                     "memory_bytes",
                     format!("pareto_memory_{mesh}_n{order}"),
                     "memory (bytes)",
+                    "memory",
                 ),
                 (
                     "frame_seconds",
                     format!("pareto_time_{mesh}_n{order}"),
-                    "time per frame (s), median and 95 % interval",
+                    "time per frame (s; bars: interval of the median)",
+                    "time",
                 ),
             ] {
                 let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
@@ -566,15 +573,14 @@ impl Kind for Budget {
                 }
                 let front = pareto(series.values().flatten().copied());
                 let labels = Labels {
-                    title: &format!("{mesh}, N = {order}: mean occ_rel_l2 against {xl}"),
+                    title: &format!("{mesh}, N = {order}: error against {short}"),
                     x: xl,
                     y: "mean occ_rel_l2 (spherical receivers)",
                 };
-                files.extend(if x == "frame_seconds" {
-                    write_scatter_with_bars(dir, &stem, &labels, &series, &front, &bars)?
-                } else {
-                    write_both(dir, &stem, &labels, &series, true, &front)?
-                });
+                let bars = if x == "frame_seconds" { &bars[..] } else { &[] };
+                files.extend(write_scatter_with_bars(
+                    dir, &stem, &labels, &series, &front, bars, true,
+                )?);
             }
         }
         Ok(files)

@@ -268,5 +268,6 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
         &series,
         &front,
         &bars,
+        false,
     )?)
 }

@@ -8,6 +8,7 @@ pub mod deform;
 pub mod error;
 mod load;
 pub mod mesh;
+pub mod partition;
 pub mod ply;
 pub mod ray;
 pub mod shapes;

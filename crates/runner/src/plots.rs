@@ -148,6 +148,7 @@ type Series = BTreeMap<String, Vec<(f64, f64)>>;
 pub type Bands = BTreeMap<String, Vec<(f64, f64, f64)>>;
 
 /// Draw `series` (name → points) as lines with markers; x and y labelled with units.
+#[allow(clippy::too_many_arguments)]
 fn line_plot<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
     labels: &Labels,
@@ -155,6 +156,7 @@ fn line_plot<DB: DrawingBackend>(
     scatter_only: bool,
     front: &[(f64, f64)],
     log: Option<bool>,
+    log_x: bool,
     xbars: &[(f64, f64, f64)],
 ) -> Result<(), String>
 where
@@ -169,7 +171,7 @@ where
         scatter_only,
         front,
         log,
-        false,
+        log_x,
         22,
         xbars,
     )?;
@@ -393,8 +395,9 @@ where
 }
 
 /// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front` and a horizontal
-/// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time). Written as a
-/// unit like [`write_both`].
+/// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time; none: no
+/// bars); `log_x` draws x as log10 x (for budgets spanning decades). Written as a unit like
+/// [`write_both`].
 pub fn write_scatter_with_bars(
     dir: &Path,
     stem: &str,
@@ -402,6 +405,7 @@ pub fn write_scatter_with_bars(
     series: &BTreeMap<String, Vec<(f64, f64)>>,
     front: &[(f64, f64)],
     xbars: &[(f64, f64, f64)],
+    log_x: bool,
 ) -> Result<Vec<PathBuf>, Error> {
     check_stem(dir, stem)?;
     ensure_font();
@@ -433,9 +437,11 @@ pub fn write_scatter_with_bars(
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
     let png_area = BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area();
-    line_plot(png_area, labels, series, true, front, None, xbars).map_err(|e| err(&png, e))?;
+    line_plot(png_area, labels, series, true, front, None, log_x, xbars)
+        .map_err(|e| err(&png, e))?;
     let svg_area = SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area();
-    line_plot(svg_area, labels, series, true, front, None, xbars).map_err(|e| err(&svg, e))?;
+    line_plot(svg_area, labels, series, true, front, None, log_x, xbars)
+        .map_err(|e| err(&svg, e))?;
     finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
@@ -1177,6 +1183,7 @@ pub fn write_both_log(
         scatter,
         front,
         log,
+        false,
         &[],
     )
     .map_err(|e| err(&png, e))?;
@@ -1187,6 +1194,7 @@ pub fn write_both_log(
         scatter,
         front,
         log,
+        false,
         &[],
     )
     .map_err(|e| err(&svg, e))?;
