@@ -1134,3 +1134,85 @@ fn budget_plane_scores_every_frame_of_a_deforming_sequence() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `budget`'s `sub_volumes` end to end on a mesh given as a path: one part casts the rays of the
+/// plain extrapolation and scores within 2 % of it (only the k-table's range differs), P parts
+/// cast P times the rays and hold P BSVs and tables, the partition's time is recorded, the plots
+/// are named by the mesh's file stem, and the analytic sphere is refused by name.
+#[test]
+fn budget_sub_volumes_cost_p_spheres_and_one_part_is_the_extrapolation() {
+    let dir = std::env::temp_dir().join(format!("shscale-sv-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Two octahedra, 4 apart.
+    let mut obj = String::new();
+    for cx in [-2.0, 2.0] {
+        for v in [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ] {
+            obj.push_str(&format!("v {} {} {}\n", v[0] + cx, v[1], v[2]));
+        }
+    }
+    for o in [0, 6] {
+        for f in [
+            [1, 3, 5],
+            [3, 2, 5],
+            [2, 4, 5],
+            [4, 1, 5],
+            [3, 1, 6],
+            [2, 3, 6],
+            [4, 2, 6],
+            [1, 4, 6],
+        ] {
+            obj.push_str(&format!("f {} {} {}\n", f[0] + o, f[1] + o, f[2] + o));
+        }
+    }
+    let mesh = dir.join("two_octahedra.obj");
+    std::fs::write(&mesh, obj).unwrap();
+    let (dir, head, rows) = run_csv(
+        "sv",
+        "budget",
+        &format!("experiment = \"budget\"\nmesh = {:?}\norder = 3\nlayout = \"latlong:5x6\"\nhemisphere_res = 6\nreceivers = 20\ntruth_res = 16\nradii = [1.2, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [1, 2]\n", mesh.to_str().unwrap()),
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let find = |m: &str, p: &str| {
+        rows.iter()
+            .find(|r| r[col("method")] == m && (m != "sub_volumes" || r[col("parts")] == p))
+            .unwrap()
+    };
+    let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
+    let (ex, one, two) = (
+        find("extrapolated", ""),
+        find("sub_volumes", "1"),
+        find("sub_volumes", "2"),
+    );
+    assert_eq!(num(one, "rays"), num(ex, "rays"));
+    assert_eq!(num(two, "rays"), 2.0 * num(ex, "rays"));
+    assert_eq!(num(two, "memory_bytes"), 2.0 * num(one, "memory_bytes"));
+    let (e1, e0) = (num(one, "occ_rel_l2_mean"), num(ex, "occ_rel_l2_mean"));
+    assert!(
+        (e1 - e0).abs() < 0.02 * e0,
+        "one part {e1} vs extrapolation {e0}"
+    );
+    assert!(num(two, "partition_seconds") >= 0.0);
+    assert!(ex[col("partition_seconds")].is_empty());
+    assert!(dir
+        .join("r/budget/sv/pareto_rays_two_octahedra_n3.png")
+        .exists());
+    // The analytic sphere has no mesh to split.
+    let cfg = dir.join("bad.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget\"\nmesh = \"sphere\"\nmethod = \"sub_volumes\"\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let o = shscale(&["run", cfg.to_str().unwrap(), "--dry-run"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("mesh") && err.contains("sub_volumes"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -31,7 +31,9 @@ use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, Vis
 use shscale_field::extrapolate::{Extrapolator, Plausibility};
 use shscale_field::metrics::{l2, l2_diff, occlusion};
 use shscale_field::probe::random_directions;
+use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::{Truth, TruthSampler};
+use shscale_field::Occluder;
 use shscale_field::{Bsv, Layout, VisibilitySampler};
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_scatter_with_bars, Labels};
@@ -49,8 +51,10 @@ use std::time::Instant;
 pub struct Params {
     pub mesh: String,
     pub order: usize,
-    /// `extrapolated`, `full_field` or `ray_traced`.
+    /// `extrapolated`, `full_field`, `ray_traced` or `sub_volumes`.
     pub method: String,
+    /// Parts of the `sub_volumes` method, 1..=64 (k-means on triangle centroids).
+    pub parts: usize,
     /// Base-sphere layout (extrapolation) or per-shell layout (full field).
     pub layout: String,
     /// H: H² rays per BSV or shell sample.
@@ -88,6 +92,7 @@ impl Default for Params {
             mesh: "bunny".into(),
             order: 4,
             method: "extrapolated".into(),
+            parts: 4,
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
             shells: 16,
@@ -127,6 +132,9 @@ pub struct Row {
     /// The sampling part and the evaluation part of the frame (medians).
     pub build_seconds: f64,
     pub eval_seconds: f64,
+    /// `sub_volumes`: the partition (k-means, the parts' meshes and BVHs), once per run — for a
+    /// deforming mesh once per sequence, as the partition is per triangle.
+    pub partition_seconds: Option<f64>,
     /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval.
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_ci95: Option<f64>,
@@ -148,11 +156,13 @@ pub struct Budget;
 /// What runs of a group share: the occluder, the receivers and their truth.
 pub struct Shared {
     occ: Box<dyn shscale_geometry::Occluder>,
+    /// The mesh (none for the analytic sphere), for the sub-volumes' partition.
+    mesh: Option<shscale_geometry::Mesh>,
     points: Vec<(f64, DVec3)>,
     truth: Vec<Option<Truth>>,
 }
 
-const METHODS: [&str; 3] = ["extrapolated", "full_field", "ray_traced"];
+const METHODS: [&str; 4] = ["extrapolated", "full_field", "ray_traced", "sub_volumes"];
 /// The most shells of a full field.
 pub const MAX_SHELLS: usize = 64;
 /// The most receivers per radius.
@@ -215,7 +225,8 @@ impl Kind for Budget {
         &[
             ("mesh", "the occluder, as in `probe`"),
             ("order", "SH order N, 1..=16"),
-            ("method", "`extrapolated`, `full_field` or `ray_traced`"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced` or `sub_volumes` (the mesh split into `parts`, each extrapolated from its own sphere, multiplied near to far; meshes only)"),
+            ("parts", "parts of `sub_volumes`, 1..=64 and at most one per triangle (k-means on triangle centroids)"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field), as in `probe`"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [1, shell_max]·r, 2..=64"),
@@ -250,6 +261,13 @@ impl Kind for Budget {
                 format!("{:?} is not one of {METHODS:?}", p.method),
             ));
         }
+        if p.method == "sub_volumes" && p.mesh == "sphere" {
+            return Err(KeyError::new(
+                "mesh",
+                "`sub_volumes` splits a mesh; the analytic sphere has none",
+            ));
+        }
+        KeyError::int("parts", p.parts, 1, shscale_geometry::partition::MAX_PARTS)?;
         let checks: [(&str, usize, usize, usize); 4] = [
             ("shells", p.shells, 2, MAX_SHELLS),
             ("rt_res", p.rt_res, 1, shscale_field::truth::MAX_TRUTH_RES),
@@ -316,12 +334,13 @@ impl Kind for Budget {
         let rays = match p.method.as_str() {
             "extrapolated" => samples * h2,
             "full_field" => p.shells as f64 * samples * h2,
+            "sub_volumes" => p.parts as f64 * samples * h2,
             _ => n * 4.0 * (p.rt_res * p.rt_res) as f64,
         };
-        let shells = if p.method == "full_field" {
-            p.shells as f64
-        } else {
-            1.0
+        let shells = match p.method.as_str() {
+            "full_field" => p.shells as f64,
+            "sub_volumes" => p.parts as f64,
+            _ => 1.0,
         };
         (
             Cost {
@@ -355,7 +374,7 @@ impl Kind for Budget {
 
     fn shared(p: &Self::Spec, _: &Ctx) -> Result<Shared, Error> {
         let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
-        let occ = u.occ;
+        let (occ, mesh) = (u.occ, u.mesh);
         let s = occ.bounding_sphere();
         // The receiver directions: the probe kind's seeded directions.
         let dirs = random_directions(p.probe_seed, p.receivers);
@@ -378,7 +397,12 @@ impl Kind for Budget {
                 }
             })
             .collect();
-        Ok(Shared { occ, points, truth })
+        Ok(Shared {
+            occ,
+            mesh,
+            points,
+            truth,
+        })
     }
 
     fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
@@ -390,6 +414,7 @@ impl Kind for Budget {
         // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
         type Frame = (Vec<Vec<f64>>, f64, f64);
         type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
+        let mut partition_seconds = None;
         let frame: FrameFn<'_> = match p.method.as_str() {
             "extrapolated" => {
                 let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
@@ -437,6 +462,105 @@ impl Kind for Budget {
                     let eval = t1.elapsed().as_secs_f64();
                     let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
                     Ok(((v, bsv.rays as f64, mem), [build, eval, build + eval]))
+                })
+            }
+            "sub_volumes" => {
+                let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
+                    Error::config(
+                        "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
+                    )
+                })?;
+                let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
+                let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
+                let t0 = Instant::now();
+                let geo = |e: shscale_geometry::GeometryError| Error::config(e.to_string());
+                let labels =
+                    shscale_geometry::partition::kmeans_parts(mesh, p.parts).map_err(geo)?;
+                let bvhs: Vec<shscale_geometry::MeshBvh> =
+                    shscale_geometry::partition::split(mesh, &labels, p.parts)
+                        .iter()
+                        .map(|m| {
+                            shscale_geometry::MeshBvh::build(
+                                m,
+                                shscale_geometry::ray::UpdateStrategy::Rebuild,
+                            )
+                        })
+                        .collect();
+                partition_seconds = Some(t0.elapsed().as_secs_f64());
+                // Each part's k range: its receivers' distances over its radius, 5 % margins.
+                let ranges: Vec<(f64, f64)> = (bvhs.iter())
+                    .map(|b| {
+                        let s = b.bounding_sphere();
+                        let ks = sh
+                            .points
+                            .iter()
+                            .map(|(_, q)| (*q - s.center).length() / s.radius);
+                        let (lo, hi) =
+                            ks.fold((f64::INFINITY, 0.0f64), |(a, b), k| (a.min(k), b.max(k)));
+                        (lo / 1.05, hi * 1.05)
+                    })
+                    .collect();
+                let table_for = move |family, (lo, hi): (f64, f64)| {
+                    KTable::build(
+                        family,
+                        Eta::Plain,
+                        p.order,
+                        p.k_count,
+                        lo,
+                        hi,
+                        Spacing::Exp,
+                        Interp::Linear,
+                    )
+                    .map_err(cfg)
+                };
+                let fixed: Option<Vec<KTable>> = (!fit)
+                    .then(|| {
+                        (ranges.iter())
+                            .map(|r| {
+                                table_for(
+                                    TauFamily::Cone {
+                                        alpha: p.alpha_deg.to_radians(),
+                                    },
+                                    *r,
+                                )
+                            })
+                            .collect()
+                    })
+                    .transpose()?;
+                let gaunt = shscale_sh::GauntTensor::<f64>::new(p.order)
+                    .map_err(|e| Error::config(e.to_string()))?;
+                let sampler = &sampler;
+                Box::new(move || {
+                    let t0 = Instant::now();
+                    let bsvs: Vec<Bsv> = (bvhs.iter())
+                        .map(|b| Bsv::sample(b, layout, sampler, 1.0, 0.0))
+                        .collect::<Result<_, _>>()?;
+                    let own: Vec<KTable>;
+                    let tables = match &fixed {
+                        Some(t) => t,
+                        None => {
+                            own = (bsvs.iter().zip(&ranges))
+                                .map(|(b, r)| {
+                                    let theta0 = shscale_field::alpha::effective_cap_angle(b);
+                                    table_for(TauFamily::ConeFit { theta0 }, *r)
+                                })
+                                .collect::<Result<_, _>>()?;
+                            &own
+                        }
+                    };
+                    let build = t0.elapsed().as_secs_f64();
+                    let exs = (bsvs.iter().zip(tables))
+                        .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(plaus))
+                        .collect();
+                    let field = SubVolumeField::new(exs, &gaunt);
+                    let t1 = Instant::now();
+                    let v = eval_all(&field, &sh.points, nn);
+                    let eval = t1.elapsed().as_secs_f64();
+                    let rays = bsvs.iter().map(|b| b.rays).sum::<usize>() as f64;
+                    let mem = (bsvs.iter().zip(tables))
+                        .map(|(b, t)| b.samples.len() * nn * 8 + t.size_bytes())
+                        .sum::<usize>() as f64;
+                    Ok(((v, rays, mem), [build, eval, build + eval]))
                 })
             }
             "full_field" => {
@@ -494,6 +618,7 @@ impl Kind for Budget {
             timing_coverage: total.coverage,
             build_seconds: build.median,
             eval_seconds: eval.median,
+            partition_seconds,
             occ_rel_l2_mean: m,
             occ_rel_l2_ci95: ci,
             occ_rel_l2_near_mean: mn,
@@ -530,22 +655,24 @@ impl Kind for Budget {
         let mut files = Vec::new();
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let of = |r: usize| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order;
+            // A mesh given as a path is named by its file stem in the plot's file name.
+            let m = plot_name(&mesh);
             for (x, stem, xl, short) in [
                 (
                     "rays",
-                    format!("pareto_rays_{mesh}_n{order}"),
+                    format!("pareto_rays_{m}_n{order}"),
                     "rays per frame",
                     "rays",
                 ),
                 (
                     "memory_bytes",
-                    format!("pareto_memory_{mesh}_n{order}"),
+                    format!("pareto_memory_{m}_n{order}"),
                     "memory (bytes)",
                     "memory",
                 ),
                 (
                     "frame_seconds",
-                    format!("pareto_time_{mesh}_n{order}"),
+                    format!("pareto_time_{m}_n{order}"),
                     "time per frame (s; bars: interval of the median)",
                     "time",
                 ),
@@ -613,6 +740,23 @@ impl Kind for Budget {
     }
 }
 
+/// A file-name-safe name of a mesh parameter: a bundled name as is, a path by its file stem,
+/// every character but letters, digits, `.`, `_` and `-` replaced by `_`.
+pub(crate) fn plot_name(mesh: &str) -> String {
+    let stem = Path::new(mesh)
+        .file_stem()
+        .map_or(mesh.to_string(), |s| s.to_string_lossy().into_owned());
+    stem.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 /// The distinct pairs of cells `(a, b)` of a table, in order of appearance: the fronts are
 /// drawn per pair (per mesh and order here — errors at different orders are against different
 /// truths; per scene and frame count in `budget_plane`).
@@ -628,8 +772,9 @@ pub(crate) fn distinct_pairs(t: &Results, a: &str, b: &str) -> Vec<(String, Stri
 }
 
 /// The parameters that make a configuration (every parameter but the seeds and the receivers').
-const CONFIG_KEYS: [&str; 14] = [
+const CONFIG_KEYS: [&str; 15] = [
     "method",
+    "parts",
     "order",
     "layout",
     "hemisphere_res",
@@ -700,8 +845,11 @@ pub(crate) fn variant(t: &Results, r: usize) -> String {
             }
         }
         "ray_traced" => "ray tracing".into(),
-        _ => {
+        method => {
             let mut v = Vec::new();
+            if method == "sub_volumes" {
+                v.push(format!("P = {}", t.cell(r, "parts")));
+            }
             if t.cell(r, "alpha_mode") == "fit" {
                 v.push("α fit".to_string());
             }
@@ -711,10 +859,15 @@ pub(crate) fn variant(t: &Results, r: usize) -> String {
             if t.num(r, "sampling_radius") != 1.0 {
                 v.push(format!("s = {}", t.cell(r, "sampling_radius")));
             }
-            if v.is_empty() {
-                "extrapolation".into()
+            let base = if method == "sub_volumes" {
+                "sub-volumes"
             } else {
-                format!("extrapolation ({})", v.join(", "))
+                "extrapolation"
+            };
+            if v.is_empty() {
+                base.into()
+            } else {
+                format!("{base} ({})", v.join(", "))
             }
         }
     }
@@ -732,6 +885,13 @@ fn name(t: &Results, c: &Config) -> String {
             t.cell(r, "hemisphere_res")
         ),
         "ray_traced" => format!("ray tracing, T = {}", t.cell(r, "rt_res")),
+        "sub_volumes" => format!(
+            "{}, `{}` each, H = {}, α = {}°",
+            variant(t, r),
+            t.cell(r, "layout"),
+            t.cell(r, "hemisphere_res"),
+            t.cell(r, "alpha_deg")
+        ),
         _ => format!(
             "{}, `{}`, H = {}, α = {}°",
             variant(t, r),
@@ -881,8 +1041,23 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
         }
         None => String::new(),
     };
+    // The papers' proposal: does splitting into sub-volumes beat one sphere?
+    let best_sv = (pts.iter())
+        .filter(|p| method(p.2) == "sub_volumes")
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let sub = match (best_sv, best_ex) {
+        (Some(sv), Some(bx)) => format!(
+            " Sub-volumes: the most accurate is {} ({:.3} at {:.2e} rays), {} the most accurate single-sphere extrapolation ({:.3}).",
+            name(t, &configs[sv.2]),
+            sv.1,
+            sv.0,
+            if sv.1 < bx.1 { "better than" } else { "no better than" },
+            bx.1
+        ),
+        _ => String::new(),
+    };
     format!(
-        "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}\n\n",
+        "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}{sub}\n\n",
         on_front.join("; ")
     )
 }

@@ -50,8 +50,10 @@ pub struct Params {
     /// Frames of the deformers' sequence (t = f / frames), each rendered from scratch by every
     /// method; 1: the rest pose.
     pub frames: usize,
-    /// `extrapolated`, `full_field` or `ray_traced`.
+    /// `extrapolated`, `full_field`, `ray_traced` or `sub_volumes`.
     pub method: String,
+    /// Parts of every mesh occluder for `sub_volumes`, 1..=64.
+    pub parts: usize,
     pub layout: String,
     pub hemisphere_res: usize,
     pub shells: usize,
@@ -71,6 +73,7 @@ impl Default for Params {
             order: None,
             frames: 1,
             method: "extrapolated".into(),
+            parts: 4,
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
             shells: 16,
@@ -129,7 +132,7 @@ pub struct Shared {
     band_err: f64,
 }
 
-const METHODS: [&str; 3] = ["extrapolated", "full_field", "ray_traced"];
+const METHODS: [&str; 4] = ["extrapolated", "full_field", "ray_traced", "sub_volumes"];
 /// Seconds per receiver of one render besides its rays (locating, rotating and shading each
 /// receiver), the cost model's rate: the extrapolated plane frames of
 /// `configs/experiments/budget_plane.toml` took 22–40 ms for 25,600 receivers and 61,440 rays
@@ -182,6 +185,7 @@ fn run_scene(p: &Typed<Params, Layout>, base: &Scene) -> Result<Scene, Error> {
     s.alpha = p.alpha_deg.to_radians();
     s.plausibility = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
     s.sampling_radius = p.sampling_radius;
+    s.parts = p.parts;
     let c = |e: shscale_field::FieldError| Error::config(e.to_string());
     s.full_field = Some(Shells {
         count: p.shells,
@@ -206,6 +210,7 @@ fn method_of(name: &str) -> Method {
     match name {
         "full_field" => Method::FullField,
         "ray_traced" => Method::RayTraced,
+        "sub_volumes" => Method::SubVolumes,
         _ => Method::Extrapolated,
     }
 }
@@ -275,7 +280,8 @@ impl Kind for BudgetPlane {
             ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
             ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
             ("frames", "frames of the deformers' sequence (t = f/frames), each rendered from scratch by every method, 1..=64; 1: the rest pose"),
-            ("method", "`extrapolated`, `full_field` or `ray_traced`"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced` or `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's)"),
+            ("parts", "parts of every mesh occluder for `sub_volumes`, 1..=64 and at most one per triangle"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
@@ -306,6 +312,7 @@ impl Kind for BudgetPlane {
             Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
         KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
+        KeyError::int("parts", p.parts, 1, shscale_geometry::partition::MAX_PARTS)?;
         KeyError::int("shells", p.shells, 2, crate::budget::MAX_SHELLS)?;
         KeyError::int("rt_res", p.rt_res, 1, 255)?;
         KeyError::real("shell_max", p.shell_max, 1.0, 1e3, Ends::OpenClosed)?;
@@ -465,6 +472,11 @@ impl Kind for BudgetPlane {
             Method::Extrapolated => {
                 occluders * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
             }
+            Method::SubVolumes => {
+                occluders
+                    * p.parts as f64
+                    * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
+            }
             Method::FullField => occluders * p.shells as f64 * samples * nn * 8.0,
             _ => 0.0,
         };
@@ -577,8 +589,9 @@ impl Kind for BudgetPlane {
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
-        const KEYS: [&str; 14] = [
+        const KEYS: [&str; 15] = [
             "frames",
+            "parts",
             "method",
             "order",
             "layout",

@@ -19,6 +19,7 @@ pub mod receivers;
 pub mod selfshadow;
 pub mod shading;
 pub mod srf;
+pub mod subvolume;
 pub mod truth;
 pub mod visibility;
 

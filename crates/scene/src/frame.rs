@@ -31,21 +31,35 @@ pub fn build_occluder(
     )))
 }
 
-/// An occluder of a scene at the deformers' time `pose_t` ([`Scene::pose_t`]): its deformer's
-/// pose at that time ([`pose_mesh`]), bounded by the posed mesh's own minimal sphere (a frame
-/// rendered on its own, not as part of a sequence); the rest pose without a deformer or time.
+/// The mesh of an occluder at the deformers' time `pose_t` ([`Scene::pose_t`]): placed, and
+/// posed by its deformer ([`pose_mesh`]) when a time is given; `None` for the analytic sphere.
+pub fn occluder_mesh_at(
+    o: &crate::scene::OccluderSpec,
+    pose_t: Option<f64>,
+) -> Result<Option<Mesh>, Error> {
+    if o.mesh == "sphere" {
+        return Ok(None);
+    }
+    let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    Ok(Some(match (pose_t, o.deformer) {
+        (Some(t), Some((kind, amount))) => {
+            let mut posed = rest.clone();
+            pose_mesh(&rest, kind, amount, t, &mut posed);
+            posed
+        }
+        _ => rest,
+    }))
+}
+
+/// An occluder of a scene at the deformers' time `pose_t` ([`occluder_mesh_at`]), bounded by the
+/// posed mesh's own minimal sphere (a frame rendered on its own, not as part of a sequence).
 pub fn build_occluder_at(
     o: &crate::scene::OccluderSpec,
     pose_t: Option<f64>,
 ) -> Result<Box<dyn Occluder>, Error> {
-    match (pose_t, o.deformer) {
-        (Some(t), Some((kind, amount))) if o.mesh != "sphere" => {
-            let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
-            let mut posed = rest.clone();
-            pose_mesh(&rest, kind, amount, t, &mut posed);
-            Ok(Box::new(MeshBvh::build(&posed, UpdateStrategy::Rebuild)))
-        }
-        _ => build_occluder(&o.mesh, o.center, o.radius, o.up_is_y),
+    match occluder_mesh_at(o, pose_t)? {
+        Some(m) => Ok(Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild))),
+        None => build_occluder(&o.mesh, o.center, o.radius, o.up_is_y),
     }
 }
 

@@ -34,6 +34,11 @@ pub enum Method {
     /// Full-frequency truth: direct quadrature of `∫ L Π V cos⁺` with exact ray-cast visibility
     /// (`(2H)²` rays per receiver).
     FullFrequency,
+    /// Sub-volumes (TR §6, SHS §5 future work): every mesh occluder split into
+    /// [`Scene::parts`] parts ([`shscale_geometry::partition::kmeans_parts`]), each part
+    /// extrapolated from its own bounding sphere; all parts of all occluders multiplied near to
+    /// far as separate occluders are.
+    SubVolumes,
 }
 
 /// A rendered receiver plane.
@@ -70,6 +75,7 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
         .count as f64;
     let rays = match method {
         Method::Extrapolated => bsv,
+        Method::SubVolumes => scene.parts.max(1) as f64 * bsv,
         Method::FullField => shells * bsv,
         Method::RayTraced => receivers * occluders * 4.0 * t2,
         Method::FullFrequency => {
@@ -78,10 +84,10 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
                 * (t2 + (shscale_field::shading::sun_bands(scene.truth_res).pow(2)) as f64)
         }
     };
-    let shells = if method == Method::FullField {
-        shells
-    } else {
-        1.0
+    let shells = match method {
+        Method::FullField => shells,
+        Method::SubVolumes => scene.parts.max(1) as f64,
+        _ => 1.0,
     };
     let bytes = occluders * shells * samples * nn * 8.0 + receivers * (nn * 8.0 + 16.0);
     (rays, bytes)
@@ -118,7 +124,9 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         _ => Vec::new(),
     };
     let fields: Vec<&dyn VisibilityField> = match method {
-        Method::Extrapolated => exs.iter().map(|e| e as &dyn VisibilityField).collect(),
+        Method::Extrapolated | Method::SubVolumes => {
+            exs.iter().map(|e| e as &dyn VisibilityField).collect()
+        }
         Method::FullField => (built.fulls.iter())
             .map(|f| f as &dyn VisibilityField)
             .collect(),
@@ -153,7 +161,12 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
             ..out
         });
     }
-    let centers: Vec<DVec3> = occs.iter().map(|o| o.bounding_sphere().center).collect();
+    // Near to far by the fields' centres: the occluders', or every part's.
+    let centers: Vec<DVec3> = if method == Method::SubVolumes {
+        built.bsvs.iter().map(|b| b.sphere.center).collect()
+    } else {
+        occs.iter().map(|o| o.bounding_sphere().center).collect()
+    };
     let local = LocalLights::new(&emitters, &light_fields, &sampler);
     let mut out = shade_all(
         scene,
@@ -271,6 +284,49 @@ fn build_fields(
                     .collect::<Result<_, Error>>()
             })?;
         }
+        Method::SubVolumes => {
+            // The parts of every occluder (the analytic sphere is one part), each with its BVH,
+            // BSV on its own bounding sphere and a table over the receivers.
+            let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
+            stages.time("partition", || {
+                for o in &scene.occluders {
+                    match crate::frame::occluder_mesh_at(o, scene.pose_t)? {
+                        Some(m) => {
+                            // The partition is per triangle, computed on the rest pose: a
+                            // deforming mesh keeps it over its sequence.
+                            let rest = crate::frame::occluder_mesh_at(o, None)?
+                                .expect("a mesh occluder");
+                            let labels =
+                                shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+                                    .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+                            for p in shscale_geometry::partition::split(&m, &labels, scene.parts) {
+                                parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
+                            }
+                        }
+                        None => parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?),
+                    }
+                }
+                Ok(())
+            })?;
+            let r = scene.sampling_radius;
+            b.bsvs = stages.time("bsv_sampling", || {
+                (parts.iter())
+                    .map(|o| Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?))
+                    .collect::<Result<_, Error>>()
+            })?;
+            let bsvs = &b.bsvs;
+            b.tables = stages.time("table_build", || {
+                (bsvs.iter())
+                    .map(|b| {
+                        let s = Sphere {
+                            center: b.sphere.center,
+                            radius: b.sampling_radius,
+                        };
+                        table_for(scene, s, recv, Eta::Plain)
+                    })
+                    .collect()
+            })?;
+        }
         Method::RayTraced | Method::FullFrequency => {}
     }
     Ok(b)
@@ -345,7 +401,7 @@ fn light_fields(
     if emitters.is_empty() {
         return Ok(Vec::new());
     }
-    if method == Method::FullField {
+    if matches!(method, Method::FullField | Method::SubVolumes) {
         return Err(Error::config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
     }
     let mut out = Vec::new();

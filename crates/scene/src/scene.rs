@@ -191,6 +191,9 @@ pub struct Scene {
     /// The deformers' time t ∈ [0, 1) at which [`crate::render::render`] poses the occluders, set
     /// by experiments (no scene-file key); `None`: the rest pose.
     pub pose_t: Option<f64>,
+    /// Parts of every mesh occluder for [`crate::render::Method::SubVolumes`], set by
+    /// experiments (no scene-file key); 1 otherwise.
+    pub parts: usize,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -347,6 +350,7 @@ impl Scene {
             light_sources,
             full_field: None,
             pose_t: None,
+            parts: 1,
         })
     }
 }
