@@ -410,7 +410,6 @@ impl Kind for Budget {
         let layout = p.typed;
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
-        let cfg = |e: shscale_scaling::ScalingError| Error::config(e.to_string());
         // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
         type Frame = (Vec<Vec<f64>>, f64, f64);
         type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
@@ -420,19 +419,7 @@ impl Kind for Budget {
                 let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
                 let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
                 let (lo, hi) = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
-                let table_for = move |family| {
-                    KTable::build(
-                        family,
-                        Eta::Plain,
-                        p.order,
-                        p.k_count,
-                        lo,
-                        hi,
-                        Spacing::Exp,
-                        Interp::Linear,
-                    )
-                    .map_err(cfg)
-                };
+                let table_for = move |family| k_table(p, family, (lo, hi));
                 // A fixed α's table depends on α, N and the k range only: built once, before
                 // the frames (part of the memory, not of a frame's time).
                 let fixed = (!fit)
@@ -500,19 +487,7 @@ impl Kind for Budget {
                         (lo / 1.05, hi * 1.05)
                     })
                     .collect();
-                let table_for = move |family, (lo, hi): (f64, f64)| {
-                    KTable::build(
-                        family,
-                        Eta::Plain,
-                        p.order,
-                        p.k_count,
-                        lo,
-                        hi,
-                        Spacing::Exp,
-                        Interp::Linear,
-                    )
-                    .map_err(cfg)
-                };
+                let table_for = move |family, range| k_table(p, family, range);
                 let fixed: Option<Vec<KTable>> = (!fit)
                     .then(|| {
                         (ranges.iter())
@@ -1060,6 +1035,22 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
         "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}{sub}\n\n",
         on_front.join("; ")
     )
+}
+
+/// The run's k-table of `family` over `(lo, hi)`: plain η, `k_count` entries, exponential
+/// spacing, linear interpolation.
+fn k_table(p: &Params, family: TauFamily, (lo, hi): (f64, f64)) -> Result<KTable, Error> {
+    KTable::build(
+        family,
+        Eta::Plain,
+        p.order,
+        p.k_count,
+        lo,
+        hi,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .map_err(|e| Error::config(e.to_string()))
 }
 
 /// The full field of a run's parameters, or the offending key and why.

@@ -80,25 +80,10 @@ pub fn kmeans_parts(mesh: &Mesh, parts: usize) -> Result<Vec<u32>, GeometryError
                 centres[k] = sum[k] / count[k] as f64;
             }
         }
-        for k in 0..parts {
-            if count[k] == 0 {
-                let far = (0..n)
-                    .filter(|&i| count[labels[i] as usize] > 1)
-                    .max_by(|&a, &b| {
-                        let da = (c[a] - centres[labels[a] as usize]).length_squared();
-                        let db = (c[b] - centres[labels[b] as usize]).length_squared();
-                        da.total_cmp(&db).then(b.cmp(&a))
-                    })
-                    .expect("parts ≤ triangles leaves a part with two or more");
-                count[labels[far] as usize] -= 1;
-                labels[far] = k as u32;
-                count[k] = 1;
-                centres[k] = c[far];
-            }
-        }
+        fill_empty(&c, &mut labels, &mut centres, &mut count);
         let next: Vec<u32> = c.iter().map(|p| nearest(*p, &centres)).collect();
-        // A reassignment may empty a part again: keep the old labels then (the loop's fix-up
-        // runs on the next pass).
+        // A reassignment may empty a part again: the next pass, or the repair after the loop,
+        // fills it.
         if next == labels {
             break;
         }
@@ -107,9 +92,16 @@ pub fn kmeans_parts(mesh: &Mesh, parts: usize) -> Result<Vec<u32>, GeometryError
     // The final assignment may leave a part empty only if the last pass did; repair once more.
     let mut count = vec![0usize; parts];
     labels.iter().for_each(|l| count[*l as usize] += 1);
-    for k in 0..parts {
+    fill_empty(&c, &mut labels, &mut centres, &mut count);
+    Ok(labels)
+}
+
+/// Give every empty part (count 0) the centroid farthest from its own centre among parts that
+/// keep at least one (ties to the lower index); that centroid becomes the part's centre.
+fn fill_empty(c: &[DVec3], labels: &mut [u32], centres: &mut [DVec3], count: &mut [usize]) {
+    for k in 0..count.len() {
         if count[k] == 0 {
-            let far = (0..n)
+            let far = (0..c.len())
                 .filter(|&i| count[labels[i] as usize] > 1)
                 .max_by(|&a, &b| {
                     let da = (c[a] - centres[labels[a] as usize]).length_squared();
@@ -120,9 +112,9 @@ pub fn kmeans_parts(mesh: &Mesh, parts: usize) -> Result<Vec<u32>, GeometryError
             count[labels[far] as usize] -= 1;
             labels[far] = k as u32;
             count[k] = 1;
+            centres[k] = c[far];
         }
     }
-    Ok(labels)
 }
 
 /// The sub-meshes of a partition: part k holds the triangles labelled k, in their order, with

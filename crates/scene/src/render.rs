@@ -294,8 +294,8 @@ fn build_fields(
                         Some(m) => {
                             // The partition is per triangle, computed on the rest pose: a
                             // deforming mesh keeps it over its sequence.
-                            let rest = crate::frame::occluder_mesh_at(o, None)?
-                                .expect("a mesh occluder");
+                            let rest =
+                                crate::frame::occluder_mesh_at(o, None)?.expect("a mesh occluder");
                             let labels =
                                 shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
                                     .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
