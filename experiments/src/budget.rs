@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, VisibilityField};
 use shscale_field::extrapolate::{Extrapolator, Plausibility};
-use shscale_field::metrics::{l2, l2_diff, occlusion};
+use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
 use shscale_field::probe::random_directions;
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::{Truth, TruthSampler};
@@ -168,15 +168,10 @@ pub const MAX_SHELLS: usize = 64;
 /// The most receivers per radius.
 pub const MAX_RECEIVERS: usize = 100_000;
 
-fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
-    let v: Vec<f64> = v.collect();
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-}
-
 /// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
 /// deviation; `None` for fewer than 2 values).
 pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
-    let m = mean(v.iter().copied());
+    let m = mean_max(v.iter().map(|x| Some(*x))).0;
     let ci = (v.len() >= 2).then(|| {
         let m = m.unwrap_or(0.0);
         let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64;
@@ -410,133 +405,48 @@ impl Kind for Budget {
         let layout = p.typed;
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
-        // One frame from scratch, timed as a whole: (values, rays, bytes, [build, eval, frame]).
-        type Frame = (Vec<Vec<f64>>, f64, f64);
-        type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
         let mut partition_seconds = None;
+        // The parts of `sub_volumes`: partitioned once per run (per triangle, so a deforming
+        // mesh would keep them over its sequence).
+        let part_bvhs: Vec<shscale_geometry::MeshBvh> = if p.method == "sub_volumes" {
+            let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
+                Error::config("`sub_volumes` splits a mesh; the analytic sphere has none".into())
+            })?;
+            let t0 = Instant::now();
+            let labels = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
+                .map_err(|e| Error::config(e.to_string()))?;
+            let bvhs = (shscale_geometry::partition::split(mesh, &labels, p.parts).iter())
+                .map(|m| {
+                    shscale_geometry::MeshBvh::build(
+                        m,
+                        shscale_geometry::ray::UpdateStrategy::Rebuild,
+                    )
+                })
+                .collect();
+            partition_seconds = Some(t0.elapsed().as_secs_f64());
+            bvhs
+        } else {
+            Vec::new()
+        };
         let frame: FrameFn<'_> = match p.method.as_str() {
             "extrapolated" => {
-                let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
-                let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
-                let (lo, hi) = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
-                let table_for = move |family| k_table(p, family, (lo, hi));
-                // A fixed α's table depends on α, N and the k range only: built once, before
-                // the frames (part of the memory, not of a frame's time).
-                let fixed = (!fit)
-                    .then(|| {
-                        table_for(TauFamily::Cone {
-                            alpha: p.alpha_deg.to_radians(),
-                        })
-                    })
-                    .transpose()?;
-                let sampler = &sampler;
-                Box::new(move || {
-                    let t0 = Instant::now();
-                    let bsv = Bsv::sample(occ, layout, sampler, p.sampling_radius, 0.0)?;
-                    let own;
-                    let table = match &fixed {
-                        Some(t) => t,
-                        None => {
-                            let theta0 = shscale_field::alpha::effective_cap_angle(&bsv);
-                            own = table_for(TauFamily::ConeFit { theta0 })?;
-                            &own
-                        }
-                    };
-                    let build = t0.elapsed().as_secs_f64();
-                    let ex = Extrapolator::new(&bsv, table).with_plausibility(plaus);
-                    let t1 = Instant::now();
-                    let v = eval_all(&ex, &sh.points, nn);
-                    let eval = t1.elapsed().as_secs_f64();
-                    let mem = (bsv.samples.len() * nn * 8 + table.size_bytes()) as f64;
-                    Ok(((v, bsv.rays as f64, mem), [build, eval, build + eval]))
-                })
+                let range = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
+                extrapolation_frame(p, vec![(occ, range)], &sampler, &sh.points)?
             }
             "sub_volumes" => {
-                let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
-                    Error::config(
-                        "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
-                    )
-                })?;
-                let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
-                let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
-                let t0 = Instant::now();
-                let geo = |e: shscale_geometry::GeometryError| Error::config(e.to_string());
-                let labels =
-                    shscale_geometry::partition::kmeans_parts(mesh, p.parts).map_err(geo)?;
-                let bvhs: Vec<shscale_geometry::MeshBvh> =
-                    shscale_geometry::partition::split(mesh, &labels, p.parts)
-                        .iter()
-                        .map(|m| {
-                            shscale_geometry::MeshBvh::build(
-                                m,
-                                shscale_geometry::ray::UpdateStrategy::Rebuild,
-                            )
-                        })
-                        .collect();
-                partition_seconds = Some(t0.elapsed().as_secs_f64());
-                // Each part's k range: its receivers' distances over its radius, 5 % margins.
-                let ranges: Vec<(f64, f64)> = (bvhs.iter())
+                // Each part's k range: its receivers' distances over its sampling radius, with
+                // 5 % margins.
+                let parts = (part_bvhs.iter())
                     .map(|b| {
                         let s = b.bounding_sphere();
-                        let ks = sh
-                            .points
-                            .iter()
-                            .map(|(_, q)| (*q - s.center).length() / s.radius);
-                        let (lo, hi) =
-                            ks.fold((f64::INFINITY, 0.0f64), |(a, b), k| (a.min(k), b.max(k)));
-                        (lo / 1.05, hi * 1.05)
+                        let r = s.radius * p.sampling_radius;
+                        let (lo, hi) = (sh.points.iter())
+                            .map(|(_, q)| (*q - s.center).length() / r)
+                            .fold((f64::INFINITY, 0.0f64), |(a, b), k| (a.min(k), b.max(k)));
+                        (b as &dyn Occluder, (lo / 1.05, hi * 1.05))
                     })
                     .collect();
-                let table_for = move |family, range| k_table(p, family, range);
-                let fixed: Option<Vec<KTable>> = (!fit)
-                    .then(|| {
-                        (ranges.iter())
-                            .map(|r| {
-                                table_for(
-                                    TauFamily::Cone {
-                                        alpha: p.alpha_deg.to_radians(),
-                                    },
-                                    *r,
-                                )
-                            })
-                            .collect()
-                    })
-                    .transpose()?;
-                let gaunt = shscale_sh::GauntTensor::<f64>::new(p.order)
-                    .map_err(|e| Error::config(e.to_string()))?;
-                let sampler = &sampler;
-                Box::new(move || {
-                    let t0 = Instant::now();
-                    let bsvs: Vec<Bsv> = (bvhs.iter())
-                        .map(|b| Bsv::sample(b, layout, sampler, 1.0, 0.0))
-                        .collect::<Result<_, _>>()?;
-                    let own: Vec<KTable>;
-                    let tables = match &fixed {
-                        Some(t) => t,
-                        None => {
-                            own = (bsvs.iter().zip(&ranges))
-                                .map(|(b, r)| {
-                                    let theta0 = shscale_field::alpha::effective_cap_angle(b);
-                                    table_for(TauFamily::ConeFit { theta0 }, *r)
-                                })
-                                .collect::<Result<_, _>>()?;
-                            &own
-                        }
-                    };
-                    let build = t0.elapsed().as_secs_f64();
-                    let exs = (bsvs.iter().zip(tables))
-                        .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(plaus))
-                        .collect();
-                    let field = SubVolumeField::new(exs, &gaunt);
-                    let t1 = Instant::now();
-                    let v = eval_all(&field, &sh.points, nn);
-                    let eval = t1.elapsed().as_secs_f64();
-                    let rays = bsvs.iter().map(|b| b.rays).sum::<usize>() as f64;
-                    let mem = (bsvs.iter().zip(tables))
-                        .map(|(b, t)| b.samples.len() * nn * 8 + t.size_bytes())
-                        .sum::<usize>() as f64;
-                    Ok(((v, rays, mem), [build, eval, build + eval]))
-                })
+                extrapolation_frame(p, parts, &sampler, &sh.points)?
             }
             "full_field" => {
                 let shells = shells_of(p).map_err(|(_, m)| Error::config(m))?;
@@ -603,11 +513,10 @@ impl Kind for Budget {
             occ_weighted: w,
             occ_weighted_near: wn,
             occ_weighted_far: wf,
-            truth_rel_err_mean: mean(
-                errs.iter()
-                    .filter(|e| e.occ2 > 1e-24)
-                    .filter_map(|e| e.truth_rel),
-            ),
+            truth_rel_err_mean: mean_max(
+                errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel),
+            )
+            .0,
         }])
     }
 
@@ -694,7 +603,15 @@ impl Kind for Budget {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
                 .collect();
-            let configs = by_config(t, &rows, &CONFIG_KEYS);
+            let keys = config_keys::<Params>(&[
+                "mesh",
+                "probe_seed",
+                "receivers",
+                "truth_res",
+                "truth_seed",
+                "radii",
+            ]);
+            let configs = by_config(t, &rows, &keys);
             let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
             s.push_str(&format!(
                 "**{mesh}, N = {order}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
@@ -746,24 +663,17 @@ pub(crate) fn distinct_pairs(t: &Results, a: &str, b: &str) -> Vec<(String, Stri
     v
 }
 
-/// The parameters that make a configuration (every parameter but the seeds and the receivers').
-const CONFIG_KEYS: [&str; 15] = [
-    "method",
-    "parts",
-    "order",
-    "layout",
-    "hemisphere_res",
-    "shells",
-    "shell_max",
-    "shell_spacing",
-    "field_interp",
-    "rt_res",
-    "alpha_deg",
-    "alpha_mode",
-    "plausibility",
-    "sampling_radius",
-    "k_count",
-];
+/// The parameter columns that make a configuration of kind parameters `P`: all of them but
+/// `grouping` (the columns a discussion is split by, and the seeds and receivers its rows
+/// repeat over). Derived from `P`, so a new parameter is never merged away.
+pub(crate) fn config_keys<P: Default + Serialize>(grouping: &[&str]) -> Vec<String> {
+    shscale_runner::records::to_cells(&P::default())
+        .map(|(h, _)| h)
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|h| !grouping.contains(&h.as_str()))
+        .collect()
+}
 
 /// A configuration's rows (one per seed).
 pub(crate) struct Config {
@@ -785,20 +695,24 @@ impl Config {
 }
 
 /// Rows grouped by configuration (equal cells in `keys`), in the order of the table.
-pub(crate) fn by_config(t: &Results, rows: &[usize], keys: &[&str]) -> Vec<Config> {
-    let mut out: Vec<(String, Config)> = Vec::new();
+pub(crate) fn by_config(t: &Results, rows: &[usize], keys: &[String]) -> Vec<Config> {
+    let mut index: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    let mut out: Vec<Config> = Vec::new();
     for &r in rows {
         let key = keys
             .iter()
             .map(|k| t.cell(r, k))
             .collect::<Vec<_>>()
             .join(";");
-        match out.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, c)) => c.rows.push(r),
-            None => out.push((key, Config { rows: vec![r] })),
+        match index.get(&key) {
+            Some(&i) => out[i].rows.push(r),
+            None => {
+                index.insert(key, out.len());
+                out.push(Config { rows: vec![r] });
+            }
         }
     }
-    out.into_iter().map(|(_, c)| c).collect()
+    out
 }
 
 /// The series a row belongs to: its method and, where it is not the papers', its variant.
@@ -860,17 +774,11 @@ fn name(t: &Results, c: &Config) -> String {
             t.cell(r, "hemisphere_res")
         ),
         "ray_traced" => format!("ray tracing, T = {}", t.cell(r, "rt_res")),
-        "sub_volumes" => format!(
-            "{}, `{}` each, H = {}, α = {}°",
+        method => format!(
+            "{}, `{}`{}, H = {}, α = {}°",
             variant(t, r),
             t.cell(r, "layout"),
-            t.cell(r, "hemisphere_res"),
-            t.cell(r, "alpha_deg")
-        ),
-        _ => format!(
-            "{}, `{}`, H = {}, α = {}°",
-            variant(t, r),
-            t.cell(r, "layout"),
+            if method == "sub_volumes" { " each" } else { "" },
             t.cell(r, "hemisphere_res"),
             t.cell(r, "alpha_deg")
         ),
@@ -1037,6 +945,73 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
     )
 }
 
+/// One frame from scratch, timed as a whole: (values, rays, bytes) and [build, eval, frame].
+type Frame = (Vec<Vec<f64>>, f64, f64);
+type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
+
+/// The frame of extrapolation from the spheres of `parts` (occluder and k range each): every
+/// part's BSV sampled at `sampling_radius` × its bounding radius, its k-table (built once, before
+/// the frames, for a fixed α — part of the memory, not of a frame's time; per frame for α by
+/// distance, which depends on the BSV) and, for several parts, their visibilities multiplied near
+/// to far ([`SubVolumeField`]). One part is the papers' method.
+fn extrapolation_frame<'a>(
+    p: &'a Params,
+    parts: Vec<(&'a dyn Occluder, (f64, f64))>,
+    sampler: &'a VisibilitySampler,
+    points: &'a [(f64, DVec3)],
+) -> Result<FrameFn<'a>, Error> {
+    let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
+    let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
+    let layout = Layout::parse(&p.layout).map_err(|e| Error::config(e.to_string()))?;
+    let nn = p.order * p.order;
+    let fixed: Option<Vec<KTable>> = (!fit)
+        .then(|| {
+            let alpha = p.alpha_deg.to_radians();
+            (parts.iter())
+                .map(|(_, r)| k_table(p, TauFamily::Cone { alpha }, *r))
+                .collect()
+        })
+        .transpose()?;
+    let gaunt = (parts.len() > 1)
+        .then(|| shscale_sh::GauntTensor::<f64>::new(p.order))
+        .transpose()
+        .map_err(|e| Error::config(e.to_string()))?;
+    Ok(Box::new(move || {
+        let t0 = Instant::now();
+        let bsvs: Vec<Bsv> = (parts.iter())
+            .map(|(o, _)| Bsv::sample(*o, layout, sampler, p.sampling_radius, 0.0))
+            .collect::<Result<_, _>>()?;
+        let own: Vec<KTable>;
+        let tables = match &fixed {
+            Some(t) => t,
+            None => {
+                own = (bsvs.iter().zip(&parts))
+                    .map(|(b, (_, r))| {
+                        let theta0 = shscale_field::alpha::effective_cap_angle(b);
+                        k_table(p, TauFamily::ConeFit { theta0 }, *r)
+                    })
+                    .collect::<Result<_, _>>()?;
+                &own
+            }
+        };
+        let build = t0.elapsed().as_secs_f64();
+        let mut exs: Vec<Extrapolator> = (bsvs.iter().zip(tables))
+            .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(plaus))
+            .collect();
+        let t1 = Instant::now();
+        let v = match &gaunt {
+            Some(g) => eval_all(&SubVolumeField::new(exs, g), points, nn),
+            None => eval_all(&exs.remove(0), points, nn),
+        };
+        let eval = t1.elapsed().as_secs_f64();
+        let rays = bsvs.iter().map(|b| b.rays).sum::<usize>() as f64;
+        let mem = (bsvs.iter().zip(tables))
+            .map(|(b, t)| b.samples.len() * nn * 8 + t.size_bytes())
+            .sum::<usize>() as f64;
+        Ok(((v, rays, mem), [build, eval, build + eval]))
+    }))
+}
+
 /// The run's k-table of `family` over `(lo, hi)`: plain η, `k_count` entries, exponential
 /// spacing, linear interpolation.
 fn k_table(p: &Params, family: TauFamily, (lo, hi): (f64, f64)) -> Result<KTable, Error> {
@@ -1074,4 +1049,19 @@ fn eval_all(f: &(dyn VisibilityField + Sync), points: &[(f64, DVec3)], nn: usize
             out
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_mean_interval_is_the_normal_one_and_needs_two_values() {
+        // [1, 2, 3]: mean 2, sample s.d. 1, so 1.96/√3.
+        let (m, ci) = super::mean_ci95(&[1.0, 2.0, 3.0]);
+        assert_eq!(m, Some(2.0));
+        assert!((ci.unwrap() - 1.96 / 3f64.sqrt()).abs() < 1e-15);
+        assert_eq!(super::mean_ci95(&[4.0]), (Some(4.0), None));
+        assert_eq!(super::mean_ci95(&[]), (None, None));
+        // Equal values: no spread.
+        assert_eq!(super::mean_ci95(&[0.5; 4]).1, Some(0.0));
+    }
 }

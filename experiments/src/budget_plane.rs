@@ -22,6 +22,7 @@
 //! procedure's repeats with its order-statistic interval.
 
 use crate::budget::{by_config, distinct_pairs, equal_accuracy, speed_claim, NEAR_RHO};
+use crate::shadows::flat;
 use serde::{Deserialize, Serialize};
 use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
 use shscale_field::extrapolate::Plausibility;
@@ -32,7 +33,7 @@ use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
-use shscale_scene::render::{estimated_work, render, Method, RenderOutput};
+use shscale_scene::render::{estimated_work, render, Method};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
 use shscale_scene::Error;
@@ -149,23 +150,10 @@ fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
     s
 }
 
-fn flat(img: &RenderOutput) -> Vec<f64> {
-    img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
-}
-
-/// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance.
+/// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance
+/// ([`crate::shadows::own_err`]).
 fn own_err(e: &[[f32; 3]], open: &[f64]) -> f64 {
-    let mean = open.iter().sum::<f64>() / open.len().max(1) as f64;
-    let ms = e
-        .iter()
-        .flat_map(|p| p.map(|v| (v as f64).powi(2)))
-        .sum::<f64>()
-        / (3 * e.len()).max(1) as f64;
-    if mean > 0.0 && !e.is_empty() {
-        ms.sqrt() / mean
-    } else {
-        f64::NAN
-    }
+    crate::shadows::own_err(e, open.iter().sum::<f64>() / open.len().max(1) as f64)
 }
 
 /// The scene of a group: the file with the order override.
@@ -481,10 +469,7 @@ impl Kind for BudgetPlane {
             _ => 0.0,
         };
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
-        let mean = |v: &[Option<f64>]| -> Option<f64> {
-            let v: Vec<f64> = v.iter().flatten().copied().collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        };
+        let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };
         let full: Vec<Option<f64>> = per(&|f| shade_rmse_rel(&es[f], &sh.full[f], &sh.open));
@@ -589,29 +574,13 @@ impl Kind for BudgetPlane {
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
-        const KEYS: [&str; 15] = [
-            "frames",
-            "parts",
-            "method",
-            "order",
-            "layout",
-            "hemisphere_res",
-            "shells",
-            "shell_max",
-            "shell_spacing",
-            "field_interp",
-            "rt_res",
-            "alpha_deg",
-            "plausibility",
-            "sampling_radius",
-            "scene",
-        ];
+        let keys = crate::budget::config_keys::<Params>(&["scene", "frames"]);
         let mut s = String::new();
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
                 .collect();
-            let configs = by_config(t, &rows, &KEYS);
+            let configs = by_config(t, &rows, &keys);
             let r0 = rows[0];
             let seq = if frames == "1" {
                 String::new()

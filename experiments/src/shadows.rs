@@ -93,7 +93,7 @@ const METHODS: [(Method, &str); 4] = [
     (Method::FullFrequency, "full_frequency"),
 ];
 
-fn flat(img: &RenderOutput) -> Vec<f64> {
+pub(crate) fn flat(img: &RenderOutput) -> Vec<f64> {
     img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
@@ -144,7 +144,7 @@ fn truth_limits(t: &Results, rows: &[usize]) -> String {
 
 /// A truth's own error: RMS over receivers and channels of its per-pixel estimate `e`, over the
 /// mean unshadowed irradiance (NaN where the render has no estimate).
-fn own_err(e: &[[f32; 3]], mean_open: f64) -> f64 {
+pub(crate) fn own_err(e: &[[f32; 3]], mean_open: f64) -> f64 {
     let ms = e
         .iter()
         .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))

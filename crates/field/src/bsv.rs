@@ -161,7 +161,9 @@ pub struct Bsv {
 /// The triangulation of a set of sample directions, shared between every BSV sampled on the
 /// same directions (a deforming sequence resamples each frame on one layout): the last few
 /// are kept, looked up by exact equality of the directions.
-fn triangulation(dirs: &[DVec3]) -> Result<std::sync::Arc<SphericalTriangulation>, FieldError> {
+pub(crate) fn triangulation(
+    dirs: &[DVec3],
+) -> Result<std::sync::Arc<SphericalTriangulation>, FieldError> {
     use std::sync::{Arc, Mutex};
     type Cache = Vec<(Vec<DVec3>, Arc<SphericalTriangulation>)>;
     static CACHE: Mutex<Cache> = Mutex::new(Vec::new());

@@ -172,9 +172,15 @@ impl Shells {
 
 /// Interpolation within a shell.
 enum Angular {
-    Tri(SphericalTriangulation),
-    LatLong { rows: usize, cols: usize },
-    Cube { n: usize },
+    /// The layout's triangulation, shared with every BSV and field of the same directions.
+    Tri(std::sync::Arc<SphericalTriangulation>),
+    LatLong {
+        rows: usize,
+        cols: usize,
+    },
+    Cube {
+        n: usize,
+    },
 }
 
 impl Angular {
@@ -320,9 +326,7 @@ impl FullField {
                 Angular::LatLong { rows, cols }
             }
             (FieldInterp::Trilinear, Layout::Cube { n }) => Angular::Cube { n },
-            _ => Angular::Tri(
-                SphericalTriangulation::new(&layout.directions()).map_err(FieldError::Spec)?,
-            ),
+            _ => Angular::Tri(crate::bsv::triangulation(&layout.directions())?),
         };
         let coords = (shells.radii().into_iter())
             .map(|r| match shells.spacing {
@@ -496,6 +500,45 @@ mod tests {
             println!("{}: cell centre {got} vs mean of 8 {want}", layout.name());
             assert!((got - want).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn trilinear_wraps_in_phi_and_clamps_at_the_poles_and_face_edges() {
+        // Edges of the grid: between the last and the first column the weights wrap (the mean
+        // of the two at the seam); above the first row's centre (toward the pole) θ is clamped,
+        // so the field is row 0 interpolated in φ; on a cube face beyond the edge cell centres
+        // the value is the edge cell's.
+        let f = |_: f64, d: DVec3| 1.0 + d.x + 2.0 * d.y - 0.5 * d.z;
+        let shells = Shells {
+            count: 2,
+            ..Shells::PAPERS
+        };
+        let (rows, cols) = (6, 10);
+        let ll = Layout::LatLong { rows, cols };
+        let ff = synthetic(ll, &shells, f);
+        let dirs = ll.directions();
+        let at_angles =
+            |th: f64, ph: f64| DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+        let th = 2.5 * std::f64::consts::PI / rows as f64; // row 2's centre
+        let seam = at(&ff, 1.0, at_angles(th, 0.0)); // half-way between columns 9 and 0
+        let want = 0.5 * (f(1.0, dirs[2 * cols + cols - 1]) + f(1.0, dirs[2 * cols]));
+        assert!((seam - want).abs() < 1e-12, "seam {seam} vs {want}");
+        let polar = at(
+            &ff,
+            1.0,
+            at_angles(0.2 * std::f64::consts::PI / rows as f64, 0.0),
+        );
+        let want = 0.5 * (f(1.0, dirs[cols - 1]) + f(1.0, dirs[0]));
+        assert!((polar - want).abs() < 1e-12, "polar cap {polar} vs {want}");
+        let cube = Layout::Cube { n: 4 };
+        let fc = synthetic(cube, &shells, f);
+        let cd = cube.directions();
+        // Face 0 (+x), beyond cell (3, 3)'s centre toward the face's corner.
+        let corner = at(&fc, 1.0, DVec3::new(1.0, 0.95, 0.95));
+        assert!(
+            (corner - f(1.0, cd[3 * 4 + 3])).abs() < 1e-12,
+            "corner {corner}"
+        );
     }
 
     #[test]

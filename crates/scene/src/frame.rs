@@ -42,13 +42,19 @@ pub fn occluder_mesh_at(
     }
     let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
     Ok(Some(match (pose_t, o.deformer) {
-        (Some(t), Some((kind, amount))) => {
-            let mut posed = rest.clone();
-            pose_mesh(&rest, kind, amount, t, &mut posed);
-            posed
-        }
+        (Some(_), Some(_)) => posed(&rest, o, pose_t),
         _ => rest,
     }))
+}
+
+/// `rest` (an occluder's placed mesh) posed by the occluder's deformer at `pose_t`; a copy of
+/// `rest` without a deformer or time.
+pub fn posed(rest: &Mesh, o: &crate::scene::OccluderSpec, pose_t: Option<f64>) -> Mesh {
+    let mut out = rest.clone();
+    if let (Some(t), Some((kind, amount))) = (pose_t, o.deformer) {
+        pose_mesh(rest, kind, amount, t, &mut out);
+    }
+    out
 }
 
 /// An occluder of a scene at the deformers' time `pose_t` ([`occluder_mesh_at`]), bounded by the

@@ -248,21 +248,31 @@ fn build_fields(
 ) -> Result<Built, Error> {
     let mut b = Built::default();
     match method {
-        Method::Extrapolated => {
+        Method::Extrapolated | Method::SubVolumes => {
+            // Whole occluders, or their sub-volumes: a BSV on each one's own bounding sphere and
+            // a table over the receivers.
+            let parts = if method == Method::SubVolumes {
+                stages.time("partition", || sub_volume_parts(scene))?
+            } else {
+                Vec::new()
+            };
+            let sources = if method == Method::SubVolumes {
+                &parts[..]
+            } else {
+                occs
+            };
+            let r = scene.sampling_radius;
             b.bsvs = stages.time("bsv_sampling", || {
-                (occs.iter())
-                    .map(|o| {
-                        let r = scene.sampling_radius;
-                        Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?)
-                    })
+                (sources.iter())
+                    .map(|o| Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?))
                     .collect::<Result<_, Error>>()
             })?;
             let bsvs = &b.bsvs;
             b.tables = stages.time("table_build", || {
-                (occs.iter().zip(bsvs))
-                    .map(|(o, b)| {
+                (bsvs.iter())
+                    .map(|b| {
                         let s = Sphere {
-                            center: o.bounding_sphere().center,
+                            center: b.sphere.center,
                             radius: b.sampling_radius,
                         };
                         table_for(scene, s, recv, Eta::Plain)
@@ -284,52 +294,30 @@ fn build_fields(
                     .collect::<Result<_, Error>>()
             })?;
         }
-        Method::SubVolumes => {
-            // The parts of every occluder (the analytic sphere is one part), each with its BVH,
-            // BSV on its own bounding sphere and a table over the receivers.
-            let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
-            stages.time("partition", || {
-                for o in &scene.occluders {
-                    match crate::frame::occluder_mesh_at(o, scene.pose_t)? {
-                        Some(m) => {
-                            // The partition is per triangle, computed on the rest pose: a
-                            // deforming mesh keeps it over its sequence.
-                            let rest =
-                                crate::frame::occluder_mesh_at(o, None)?.expect("a mesh occluder");
-                            let labels =
-                                shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
-                                    .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-                            for p in shscale_geometry::partition::split(&m, &labels, scene.parts) {
-                                parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
-                            }
-                        }
-                        None => parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?),
-                    }
-                }
-                Ok(())
-            })?;
-            let r = scene.sampling_radius;
-            b.bsvs = stages.time("bsv_sampling", || {
-                (parts.iter())
-                    .map(|o| Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?))
-                    .collect::<Result<_, Error>>()
-            })?;
-            let bsvs = &b.bsvs;
-            b.tables = stages.time("table_build", || {
-                (bsvs.iter())
-                    .map(|b| {
-                        let s = Sphere {
-                            center: b.sphere.center,
-                            radius: b.sampling_radius,
-                        };
-                        table_for(scene, s, recv, Eta::Plain)
-                    })
-                    .collect()
-            })?;
-        }
         Method::RayTraced | Method::FullFrequency => {}
     }
     Ok(b)
+}
+
+/// The parts of every occluder for [`Method::SubVolumes`], each as its own BVH: a mesh split into
+/// [`Scene::parts`] by k-means on the rest pose's triangle centroids (per triangle, so a
+/// deforming mesh keeps its partition over a sequence), posed at [`Scene::pose_t`]; the analytic
+/// sphere is one part.
+fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
+    let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
+    for o in &scene.occluders {
+        let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
+            parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?);
+            continue;
+        };
+        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+            .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+        let posed = crate::frame::posed(&rest, o, scene.pose_t);
+        for p in shscale_geometry::partition::split(&posed, &labels, scene.parts) {
+            parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
+        }
+    }
+    Ok(parts)
 }
 
 /// The renderer's full field: the papers' construction ([`Shells::PAPERS`]: 16 shells at uniform
