@@ -246,7 +246,7 @@ so our frame is dominated by BSV sampling — ray casting 240 × 32² rays, whic
                     "Our GPU path on `{d}`: {}{}.",
                     fps("gpu"),
                     if d.contains("llvmpipe") {
-                        " — lavapipe is a software device on the same CPU cores, a correctness device slower than the CPU path; no real GPU was measured here"
+                        " — lavapipe is a software device on the same CPU cores, a correctness device slower than the CPU path; a real GPU's rows (an NVIDIA H200) are in docs/BENCHMARKS.md"
                     } else {
                         ""
                     }
