@@ -154,8 +154,73 @@ pub struct Bsv {
     /// The sampling sphere's radius `s·r`.
     pub sampling_radius: f64,
     pub samples: Vec<BsvSample>,
+    /// Rays cast, the radial search's included.
     pub rays: usize,
+    /// Per-sample radii (`pos = c + radius·dir`) when the samples were placed by a [`RadialRule`] other
+    /// than [`RadialRule::Uniform`]; empty when every sample lies on the sampling sphere.
+    pub radii: Vec<f64>,
     tri: std::sync::Arc<SphericalTriangulation>,
+}
+
+/// Where each base-sphere sample lies along its direction (the papers' future work, TR §6:
+/// "sampling at different radial distances for different (θ, ϕ) directions according to certain
+/// geometric criteria"). The search starts on the sampling sphere `s·r` and moves a sample
+/// outward only; the chosen radius is stored and the extrapolation uses `k = d / r(q)`, `r(q)`
+/// interpolated with the same barycentric weights as the coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RadialRule {
+    /// Every sample on the sampling sphere (the papers).
+    Uniform,
+    /// The smallest radius `t ≥ s·r` at which the sample is at least `δ·r` from the surface.
+    /// For `t > r` the distance to any point of the bounding ball grows strictly with `t`, so
+    /// the distance is monotone along the search and bisection finds the radius; it is at most
+    /// `(1 + δ)·r` (where the distance is at least `t − r`). Cost: distance queries, no rays.
+    /// Domain: `0 ≤ δ ≤ 10`.
+    Clearance { delta: f64 },
+    /// The smallest radius in `[s·r, t_max·r]` at which the facing hemisphere's occluded
+    /// fraction (`1 − e₀√(4π)/(2π)`… see [`crate::metrics::facing_occlusion`]) is at most
+    /// `τ`; `t_max·r` where none is. Occlusion is not monotone in `t` for every shape, so
+    /// bisection (`OCCLUSION_STEPS` halvings, each a hemisphere of rays, counted in
+    /// [`Bsv::rays`]) returns a crossing, not necessarily the first. Domain: `0 ≤ τ < 1`,
+    /// `1 ≤ t_max ≤ 10`.
+    Occlusion { tau: f64, t_max: f64 },
+}
+
+/// Halvings of the [`RadialRule::Occlusion`] search (the radius to `(t_max − s)·r / 2⁶`).
+pub const OCCLUSION_STEPS: usize = 6;
+/// Halvings of the [`RadialRule::Clearance`] search (distance queries only).
+pub const CLEARANCE_STEPS: usize = 40;
+
+impl RadialRule {
+    /// `uniform`, `clearance` (with `delta`) or `occlusion` (with `tau`, `t_max`), domain
+    /// checked.
+    pub fn parse(name: &str, delta: f64, tau: f64, t_max: f64) -> Result<Self, String> {
+        match name {
+            "uniform" => Ok(Self::Uniform),
+            "clearance" if (0.0..=10.0).contains(&delta) => Ok(Self::Clearance { delta }),
+            "clearance" => Err(format!("radial_delta {delta} is outside [0, 10]")),
+            "occlusion" if !(0.0..1.0).contains(&tau) => {
+                Err(format!("radial_tau {tau} is outside [0, 1)"))
+            }
+            "occlusion" if !(1.0..=10.0).contains(&t_max) => {
+                Err(format!("radial_max {t_max} is outside [1, 10]"))
+            }
+            "occlusion" => Ok(Self::Occlusion { tau, t_max }),
+            _ => Err(format!(
+                "{name:?} is not one of \"uniform\", \"clearance\", \"occlusion\""
+            )),
+        }
+    }
+
+    /// The largest radius the rule can place a sample at, in bounding radii, from the sampling
+    /// sphere `s` (for a table's k range).
+    pub fn max_factor(&self, s: f64) -> f64 {
+        match *self {
+            Self::Uniform => s,
+            Self::Clearance { delta } => s.max(1.0 + delta),
+            Self::Occlusion { t_max, .. } => s.max(t_max),
+        }
+    }
 }
 
 /// The triangulation of a set of sample directions, shared between every BSV sampled on the
@@ -254,6 +319,99 @@ impl Bsv {
         Self::from_samples(layout, sphere, rs, samples, rays)
     }
 
+    /// As [`Bsv::sample`], each sample placed along its direction by `rule` (the radii are
+    /// kept in [`Bsv::radii`]; [`RadialRule::Uniform`] is [`Bsv::sample`]).
+    pub fn sample_radial(
+        occ: &dyn Occluder,
+        layout: Layout,
+        sampler: &VisibilitySampler,
+        inflate: f64,
+        rule: RadialRule,
+    ) -> Result<Self, FieldError> {
+        if rule == RadialRule::Uniform {
+            return Self::sample(occ, layout, sampler, inflate, 0.0);
+        }
+        if !(inflate.is_finite() && inflate >= 1.0) {
+            return Err(FieldError::Spec(format!(
+                "sampling radius factor {inflate} must be ≥ 1"
+            )));
+        }
+        let sphere = occ.bounding_sphere();
+        let (c, r) = (sphere.center, sphere.radius);
+        let hemi = sampler.rays_per_hemisphere();
+        let placed: Vec<(BsvSample, usize, f64)> = layout
+            .directions()
+            .par_iter()
+            .map(|&dir| {
+                let at = |t: f64| {
+                    sampler
+                        .facing_hemisphere(occ, c + t * dir, c, Frame::Entity)
+                        .0
+                };
+                let lo = inflate * r;
+                let (t, coeffs, casts) = match rule {
+                    RadialRule::Uniform => unreachable!("handled above"),
+                    RadialRule::Clearance { delta } => {
+                        let want = delta * r;
+                        let ok = |t: f64| occ.distance_to_surface(c + t * dir) >= want;
+                        let t = bisect_first(lo, lo.max((1.0 + delta) * r), CLEARANCE_STEPS, ok);
+                        (t, at(t), 1)
+                    }
+                    RadialRule::Occlusion { tau, t_max } => {
+                        let v0 = at(lo);
+                        let hi = lo.max(t_max * r);
+                        if crate::metrics::facing_occlusion(&v0) <= tau || hi == lo {
+                            (lo, v0, 1)
+                        } else {
+                            let vh = at(hi);
+                            let mut casts = 2;
+                            if crate::metrics::facing_occlusion(&vh) > tau {
+                                (hi, vh, casts)
+                            } else {
+                                let (mut a, mut b, mut vb) = (lo, hi, vh);
+                                for _ in 0..OCCLUSION_STEPS {
+                                    let m = 0.5 * (a + b);
+                                    let vm = at(m);
+                                    casts += 1;
+                                    if crate::metrics::facing_occlusion(&vm) <= tau {
+                                        (b, vb) = (m, vm);
+                                    } else {
+                                        a = m;
+                                    }
+                                }
+                                (b, vb, casts)
+                            }
+                        }
+                    }
+                };
+                let sample = BsvSample {
+                    dir,
+                    pos: c + t * dir,
+                    coeffs,
+                    on_surface: false,
+                };
+                (sample, casts * hemi, t)
+            })
+            .collect();
+        let rays = placed.iter().map(|(_, n, _)| n).sum();
+        let radii = placed.iter().map(|(_, _, t)| *t).collect();
+        let samples = placed.into_iter().map(|(s, _, _)| s).collect();
+        let mut bsv = Self::from_samples(layout, sphere, inflate * r, samples, rays)?;
+        bsv.radii = radii;
+        Ok(bsv)
+    }
+
+    /// The radius of the sampling surface at the unit direction `q`: the sampling sphere's, or
+    /// the per-sample radii interpolated with the coefficients' weights.
+    pub fn radius_at(&self, q: DVec3) -> f64 {
+        if self.radii.is_empty() {
+            return self.sampling_radius;
+        }
+        (self.tri.locate(q).iter())
+            .map(|&(v, w)| w * self.radii[v as usize])
+            .sum()
+    }
+
     /// Assemble from precomputed samples (e.g. radiance samples of a light); builds the
     /// triangulation of the sample directions.
     pub fn from_samples(
@@ -271,6 +429,7 @@ impl Bsv {
             sampling_radius,
             samples,
             rays,
+            radii: Vec::new(),
             tri,
         })
     }
@@ -328,6 +487,25 @@ fn sample_points(
             }
         })
         .collect()
+}
+
+/// The smallest `t` in `[lo, hi]` with `ok(t)`, for `ok` false then true along the interval,
+/// to `(hi − lo) / 2^steps`: `lo` if `ok(lo)`, else bisection keeping `ok` at the upper end
+/// (`hi` is taken to satisfy `ok`).
+fn bisect_first(lo: f64, hi: f64, steps: usize, ok: impl Fn(f64) -> bool) -> f64 {
+    if ok(lo) || hi <= lo {
+        return lo;
+    }
+    let (mut a, mut b) = (lo, hi);
+    for _ in 0..steps {
+        let m = 0.5 * (a + b);
+        if ok(m) {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    b
 }
 
 /// Solid angle of the cap subtended by a sphere of radius `r` seen from distance `d > r`:

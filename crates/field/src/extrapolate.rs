@@ -210,7 +210,10 @@ impl<'a> Extrapolator<'a> {
             p
         };
         let d = (p - c).length();
-        let k = d / self.bsv.sampling_radius;
+        let dir = (p - c) / d;
+        // k over the sampling surface's radius in p's direction (the sphere's, or the
+        // interpolated per-sample radii of a radial rule).
+        let k = d / self.bsv.radius_at(dir);
         let status = self
             .table
             .lookup(k, m)
@@ -222,7 +225,6 @@ impl<'a> Extrapolator<'a> {
             }
             return ExtrapolationKind::Unoccluded;
         }
-        let dir = (p - c) / d;
         let mut e = vec![0.0; out.len()];
         self.bsv.interpolate(dir, &mut e);
         let cone = bounding_cone(self.bsv.sphere.radius, d);

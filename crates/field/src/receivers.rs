@@ -69,7 +69,7 @@ impl ReceiverCache {
                         p
                     };
                     let d = p - c;
-                    let k = d.length() / bsv.sampling_radius;
+                    let k = d.length() / bsv.radius_at(d / d.length());
                     let status = table.lookup(k, m).expect("finite k > 0");
                     if let KLookup::AboveMax { .. } = status {
                         return (
@@ -125,6 +125,7 @@ impl ReceiverCache {
         bsv.sphere == self.sphere
             && bsv.sampling_radius == self.sampling_radius
             && bsv.samples.len() == self.samples
+            && bsv.radii.is_empty()
     }
 
     /// Number of receivers.
