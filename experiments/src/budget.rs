@@ -27,6 +27,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, VisibilityField};
 use shscale_field::extrapolate::{Extrapolator, Plausibility};
 use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
@@ -76,6 +77,13 @@ pub struct Params {
     pub plausibility: String,
     /// The extrapolation's sampling sphere in bounding radii, [1, 1e3].
     pub sampling_radius: f64,
+    /// Where each base-sphere sample lies along its direction: `uniform` (the papers'),
+    /// `clearance` (at least `radial_delta`·r from the surface) or `occlusion` (facing
+    /// occlusion at most `radial_tau`, searched up to `radial_max`·r).
+    pub radial: String,
+    pub radial_delta: f64,
+    pub radial_tau: f64,
+    pub radial_max: f64,
     pub k_count: usize,
     /// Receivers: as many seeded directions as `receivers` at each radius.
     pub receivers: usize,
@@ -104,6 +112,10 @@ impl Default for Params {
             alpha_mode: "fixed".into(),
             plausibility: "none".into(),
             sampling_radius: 1.0,
+            radial: "uniform".into(),
+            radial_delta: 0.1,
+            radial_tau: 0.5,
+            radial_max: 2.0,
             k_count: 40,
             receivers: 240,
             probe_seed: 1,
@@ -147,6 +159,11 @@ pub struct Row {
     pub occ_weighted: Option<f64>,
     pub occ_weighted_near: Option<f64>,
     pub occ_weighted_far: Option<f64>,
+    /// Receivers in contact directions ([`Shared::contact`]) and their mean `occ_rel_l2` with
+    /// its 95 % interval: where the papers' base-sphere samples touch the surface.
+    pub contact_points: usize,
+    pub occ_rel_l2_contact_mean: Option<f64>,
+    pub occ_rel_l2_contact_ci95: Option<f64>,
     pub truth_rel_err_mean: Option<f64>,
 }
 
@@ -160,7 +177,15 @@ pub struct Shared {
     mesh: Option<shscale_geometry::Mesh>,
     points: Vec<(f64, DVec3)>,
     truth: Vec<Option<Truth>>,
+    /// Per receiver: its direction is a contact direction — the bounding sphere's point in that
+    /// direction has its facing hemisphere occluded at least
+    /// [`shscale_field::probe::DEFAULT_CONTACT_OCCLUSION`] (docs/conventions.md §7), measured
+    /// once per group with [`CONTACT_RES`]² rays. Every direction of the analytic sphere is.
+    contact: Vec<bool>,
 }
+
+/// H of the contact classification of the receivers' directions.
+pub const CONTACT_RES: usize = 32;
 
 const METHODS: [&str; 4] = ["extrapolated", "full_field", "ray_traced", "sub_volumes"];
 /// The most shells of a full field.
@@ -183,6 +208,8 @@ pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
 /// One receiver's error: its radius, `‖S − S_true‖²`, `‖S_occ,true‖²` and the truth's own error.
 struct Err2 {
     rho: f64,
+    /// The receiver's direction is a contact direction ([`Shared::contact`]).
+    contact: bool,
     diff2: f64,
     occ2: f64,
     truth_rel: Option<f64>,
@@ -190,8 +217,8 @@ struct Err2 {
 
 /// The error columns over the receivers `e` passing `keep`: mean `occ_rel_l2` (receivers with
 /// something occluded, ‖S_occ‖ > 1e-12) with its interval, and the occlusion-weighted error.
-fn scores(e: &[Err2], keep: impl Fn(f64) -> bool) -> (Option<f64>, Option<f64>, Option<f64>) {
-    let kept: Vec<&Err2> = e.iter().filter(|x| keep(x.rho)).collect();
+fn scores(e: &[Err2], keep: impl Fn(&Err2) -> bool) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let kept: Vec<&Err2> = e.iter().filter(|x| keep(x)).collect();
     let rel: Vec<f64> = (kept.iter())
         .filter(|x| x.occ2 > 1e-24)
         .map(|x| (x.diff2 / x.occ2).sqrt())
@@ -233,6 +260,10 @@ impl Kind for Budget {
             ("alpha_mode", "`fixed` or `fit` (α by distance at the BSV's effective cap, as in `probe`; the table is then built per frame)"),
             ("plausibility", "`none` or `clamp` (the extrapolation's plausibility mitigation, as in `probe`)"),
             ("sampling_radius", "the extrapolation's sampling sphere in bounding radii, [1, 1000]"),
+            ("radial", "where each base-sphere sample of `extrapolated` and `sub_volumes` lies along its direction: `uniform` (the papers': on the sampling sphere), `clearance` (moved outward until at least `radial_delta`·r from the surface; distance queries, no extra rays) or `occlusion` (moved outward until its facing hemisphere is occluded at most `radial_tau`, up to `radial_max`·r; each bisection step casts a hemisphere, counted in `rays`); the extrapolation uses k = d / r(q)"),
+            ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
+            ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
+            ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -303,6 +334,7 @@ impl Kind for Budget {
         Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
         crate::probe::parse_alpha_mode(&p.alpha_mode)
             .map_err(|m| KeyError::new("alpha_mode", m))?;
+        radial_of(&p.radial, p.radial_delta, p.radial_tau, p.radial_max)?;
         Ok(Typed {
             params: p.clone(),
             typed: layout,
@@ -325,11 +357,23 @@ impl Kind for Budget {
             .unwrap_or(0) as f64;
         let h2 = (p.hemisphere_res * p.hemisphere_res) as f64;
         let nn = (p.order * p.order) as f64;
-        let shared_rays = if p.mesh == "sphere" { 0.0 } else { n * t4 };
+        // The truths, and the contact classification of the directions.
+        let contact_rays = (p.receivers * CONTACT_RES * CONTACT_RES) as f64;
+        let shared_rays = if p.mesh == "sphere" {
+            contact_rays
+        } else {
+            n * t4 + contact_rays
+        };
+        // The occlusion rule's search casts up to two ends and its halvings per sample.
+        let search = if p.radial == "occlusion" {
+            (2 + shscale_field::bsv::OCCLUSION_STEPS) as f64
+        } else {
+            1.0
+        };
         let rays = match p.method.as_str() {
-            "extrapolated" => samples * h2,
+            "extrapolated" => search * samples * h2,
             "full_field" => p.shells as f64 * samples * h2,
-            "sub_volumes" => p.parts as f64 * samples * h2,
+            "sub_volumes" => search * p.parts as f64 * samples * h2,
             _ => n * 4.0 * (p.rt_res * p.rt_res) as f64,
         };
         let shells = match p.method.as_str() {
@@ -392,11 +436,29 @@ impl Kind for Budget {
                 }
             })
             .collect();
+        let facing = VisibilitySampler::new(p.order, CONTACT_RES)?;
+        let contact_dir: Vec<bool> = (dirs.par_iter())
+            .map(|d| {
+                let q = s.center + s.radius * *d;
+                let (v, _) = facing.facing_hemisphere(
+                    occ.as_ref(),
+                    q,
+                    s.center,
+                    shscale_field::Frame::Entity,
+                );
+                shscale_field::metrics::facing_occlusion(&v)
+                    >= shscale_field::probe::DEFAULT_CONTACT_OCCLUSION
+            })
+            .collect();
+        let contact = (p.radii.iter())
+            .flat_map(|_| contact_dir.iter().copied())
+            .collect();
         Ok(Shared {
             occ,
             mesh,
             points,
             truth,
+            contact,
         })
     }
 
@@ -480,10 +542,12 @@ impl Kind for Budget {
         let ((values, rays, memory), [build, eval, total]) =
             ctx.timing.measure_parts(&mut *frame)?;
         let errs: Vec<Err2> = (values.iter().zip(&sh.truth).zip(&sh.points))
-            .filter_map(|((v, t), (rho, _))| {
+            .zip(&sh.contact)
+            .filter_map(|(((v, t), (rho, _)), contact)| {
                 let t = t.as_ref()?;
                 Some(Err2 {
                     rho: *rho,
+                    contact: *contact,
                     diff2: l2_diff(v, &t.coeffs).powi(2),
                     occ2: l2(&occlusion(&t.coeffs)).powi(2),
                     truth_rel: t.rel_error(),
@@ -491,8 +555,9 @@ impl Kind for Budget {
             })
             .collect();
         let (m, ci, w) = scores(&errs, |_| true);
-        let (mn, cin, wn) = scores(&errs, |r| r <= NEAR_RHO);
-        let (mf, cif, wf) = scores(&errs, |r| r > NEAR_RHO);
+        let (mn, cin, wn) = scores(&errs, |e| e.rho <= NEAR_RHO);
+        let (mf, cif, wf) = scores(&errs, |e| e.rho > NEAR_RHO);
+        let (mc, cic, _) = scores(&errs, |e| e.contact);
         Ok(vec![Row {
             receiver_points: sh.points.len(),
             rays,
@@ -513,6 +578,9 @@ impl Kind for Budget {
             occ_weighted: w,
             occ_weighted_near: wn,
             occ_weighted_far: wf,
+            contact_points: sh.contact.iter().filter(|c| **c).count(),
+            occ_rel_l2_contact_mean: mc,
+            occ_rel_l2_contact_ci95: cic,
             truth_rel_err_mean: mean_max(
                 errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel),
             )
@@ -622,6 +690,10 @@ impl Kind for Budget {
                 ("occ_rel_l2_mean", "all receivers, mean occ_rel_l2"),
                 ("occ_rel_l2_near_mean", "near (ρ ≤ 1.3), mean occ_rel_l2"),
                 ("occ_rel_l2_far_mean", "far (ρ > 1.3), mean occ_rel_l2"),
+                (
+                    "occ_rel_l2_contact_mean",
+                    "contact directions, mean occ_rel_l2",
+                ),
                 ("occ_weighted", "all receivers, occlusion-weighted"),
             ] {
                 s.push_str(&equal_accuracy(t, &configs, col, regime));
@@ -748,6 +820,15 @@ pub(crate) fn variant(t: &Results, r: usize) -> String {
             if t.num(r, "sampling_radius") != 1.0 {
                 v.push(format!("s = {}", t.cell(r, "sampling_radius")));
             }
+            match t.cell(r, "radial") {
+                "clearance" => v.push(format!("clearance δ = {}", t.cell(r, "radial_delta"))),
+                "occlusion" => v.push(format!(
+                    "occlusion τ = {} to {}r",
+                    t.cell(r, "radial_tau"),
+                    t.cell(r, "radial_max")
+                )),
+                _ => {}
+            }
             let base = if method == "sub_volumes" {
                 "sub-volumes"
             } else {
@@ -810,6 +891,7 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
             && t.cell(r, "alpha_mode") != "fit"
             && t.cell(r, "plausibility") == "none"
             && t.num(r, "sampling_radius") == 1.0
+            && matches!(t.cell(r, "radial"), "uniform" | "")
     };
     let mut parts = Vec::new();
     for ex in configs.iter().filter(|c| is_papers_ex(c.first())) {
@@ -963,6 +1045,14 @@ fn extrapolation_frame<'a>(
     let fit = crate::probe::parse_alpha_mode(&p.alpha_mode).map_err(Error::config)?;
     let plaus = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
     let layout = Layout::parse(&p.layout).map_err(|e| Error::config(e.to_string()))?;
+    let radial = radial_of(&p.radial, p.radial_delta, p.radial_tau, p.radial_max)
+        .map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
+    // Samples moved outward by the radial rule see smaller k: the tables reach down to the
+    // receivers' distances over the largest radius the rule can reach.
+    let down = p.sampling_radius / radial.max_factor(p.sampling_radius);
+    let parts: Vec<_> = (parts.into_iter())
+        .map(|(o, (lo, hi))| (o, (lo * down, hi)))
+        .collect();
     let nn = p.order * p.order;
     let fixed: Option<Vec<KTable>> = (!fit)
         .then(|| {
@@ -979,7 +1069,7 @@ fn extrapolation_frame<'a>(
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let bsvs: Vec<Bsv> = (parts.iter())
-            .map(|(o, _)| Bsv::sample(*o, layout, sampler, p.sampling_radius, 0.0))
+            .map(|(o, _)| Bsv::sample_radial(*o, layout, sampler, p.sampling_radius, radial))
             .collect::<Result<_, _>>()?;
         let own: Vec<KTable>;
         let tables = match &fixed {
@@ -1010,6 +1100,22 @@ fn extrapolation_frame<'a>(
             .sum::<usize>() as f64;
         Ok(((v, rays, mem), [build, eval, build + eval]))
     }))
+}
+
+/// The [`RadialRule`] of a run's `radial*` keys, or the key at fault.
+pub(crate) fn radial_of(
+    name: &str,
+    delta: f64,
+    tau: f64,
+    max: f64,
+) -> Result<RadialRule, KeyError> {
+    RadialRule::parse(name, delta, tau, max).map_err(|m| {
+        let key = ["radial_delta", "radial_tau", "radial_max"]
+            .into_iter()
+            .find(|k| m.starts_with(k))
+            .unwrap_or("radial");
+        KeyError::new(key, m)
+    })
 }
 
 /// The run's k-table of `family` over `(lo, hi)`: plain η, `k_count` entries, exponential

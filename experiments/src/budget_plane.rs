@@ -65,6 +65,10 @@ pub struct Params {
     pub alpha_deg: f64,
     pub plausibility: String,
     pub sampling_radius: f64,
+    /// `uniform` (the papers') or `clearance` (each base-sphere sample at least
+    /// `radial_delta`·r from the surface), as in `budget`.
+    pub radial: String,
+    pub radial_delta: f64,
 }
 
 impl Default for Params {
@@ -85,6 +89,8 @@ impl Default for Params {
             alpha_deg: 45.0,
             plausibility: "none".into(),
             sampling_radius: 1.0,
+            radial: "uniform".into(),
+            radial_delta: 0.1,
         }
     }
 }
@@ -174,6 +180,7 @@ fn run_scene(p: &Typed<Params, Layout>, base: &Scene) -> Result<Scene, Error> {
     s.plausibility = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
     s.sampling_radius = p.sampling_radius;
     s.parts = p.parts;
+    s.radial = radial_rule(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
     let c = |e: shscale_field::FieldError| Error::config(e.to_string());
     s.full_field = Some(Shells {
         count: p.shells,
@@ -192,6 +199,18 @@ fn run_scene(p: &Typed<Params, Layout>, base: &Scene) -> Result<Scene, Error> {
         s.truth_res = p.rt_res;
     }
     Ok(s)
+}
+
+/// The run's radial rule: `uniform` or `clearance` (the occlusion rule's rays would not be
+/// counted by the plane's ray estimate).
+fn radial_rule(p: &Params) -> Result<shscale_field::bsv::RadialRule, KeyError> {
+    if p.radial == "occlusion" {
+        return Err(KeyError::new(
+            "radial",
+            "\"occlusion\" is offered by `budget` only (its search rays are not in the plane's ray count); use \"uniform\" or \"clearance\"",
+        ));
+    }
+    crate::budget::radial_of(&p.radial, p.radial_delta, 0.0, 1.0)
 }
 
 fn method_of(name: &str) -> Method {
@@ -280,6 +299,8 @@ impl Kind for BudgetPlane {
             ("alpha_deg", "cone angle α of the extrapolation, degrees, (0, 90)"),
             ("plausibility", "`none` or `clamp` (the extrapolation's plausibility mitigation)"),
             ("sampling_radius", "sampling sphere in bounding radii, [1, 1000]"),
+            ("radial", "`uniform` (the papers') or `clearance`: each base-sphere sample of `extrapolated` and `sub_volumes` moved outward until at least `radial_delta`·r from the surface (distance queries, no extra rays), k = d / r(q); `budget`'s `occlusion` rule is not offered here, where rays are counted from the layout"),
+            ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
         ]
     }
 
@@ -307,6 +328,7 @@ impl Kind for BudgetPlane {
         KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
         KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
         Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
+        radial_rule(p)?;
         let spacing = ShellSpacing::parse(&p.shell_spacing)
             .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?;
         let interp = FieldInterp::parse(&p.field_interp)

@@ -143,10 +143,142 @@ pub fn split(mesh: &Mesh, labels: &[u32], parts: usize) -> Vec<Mesh> {
     out
 }
 
+/// A sphere set of the mesh (the occluder model of Ren et al. 2006, here fitted by a stated
+/// rule, not their optimisation): one sphere per part of `labels`. For part k, with area
+/// weights `A` (each triangle's area over its three corners):
+///
+/// - `g`: the area-weighted mean of the part's triangle centroids;
+/// - `ρ`: the area-weighted RMS distance of the part's triangle corners from `g`;
+/// - `m = Σ A n / Σ A`: the mean unit normal, `|m|` ∈ [0, 1] (0 for a closed surface, 1 for a
+///   flat patch);
+/// - centre `g + ρ|m|·u`, `u = ±m/|m|` turned toward the whole mesh's area centroid (`−m/|m|`
+///   when the part is the whole mesh), radius `ρ`.
+///
+/// So a closed part is its own best-fit sphere about its centroid (a tessellated sphere of
+/// radius R: exactly R), and a flat patch gets the sphere tangent to it at its centroid, on the
+/// mesh's inner side, as wide as the patch — a heuristic of this project, measured against the
+/// truth in the `budget` kinds. A part with zero area gets radius 0. Cost: one pass over the
+/// triangles, per frame (the labels are per triangle, fixed over a sequence).
+pub fn fit_spheres(mesh: &Mesh, labels: &[u32], parts: usize) -> Vec<crate::Sphere> {
+    let mut area = vec![0.0; parts];
+    let mut g = vec![DVec3::ZERO; parts];
+    let mut m = vec![DVec3::ZERO; parts];
+    let (mut total, mut whole) = (0.0, DVec3::ZERO);
+    for (f, l) in labels.iter().enumerate() {
+        let [a, b, c] = mesh.corners(f);
+        let cross = (b - a).cross(c - a);
+        let ar = 0.5 * cross.length();
+        let k = *l as usize;
+        area[k] += ar;
+        g[k] += ar * (a + b + c) / 3.0;
+        m[k] += 0.5 * cross;
+        total += ar;
+        whole += ar * (a + b + c) / 3.0;
+    }
+    let whole = if total > 0.0 {
+        whole / total
+    } else {
+        DVec3::ZERO
+    };
+    for k in 0..parts {
+        if area[k] > 0.0 {
+            g[k] /= area[k];
+            m[k] /= area[k];
+        }
+    }
+    let mut spread = vec![0.0; parts];
+    for (f, l) in labels.iter().enumerate() {
+        let k = *l as usize;
+        let ar = mesh.triangle_area(f);
+        spread[k] += (mesh.corners(f).iter())
+            .map(|p| ar / 3.0 * (*p - g[k]).length_squared())
+            .sum::<f64>();
+    }
+    (0..parts)
+        .map(|k| {
+            if area[k] <= 0.0 {
+                return crate::Sphere {
+                    center: g[k],
+                    radius: 0.0,
+                };
+            }
+            let rho = (spread[k] / area[k]).sqrt();
+            let len = m[k].length();
+            let mut u = if len > 0.0 { m[k] / len } else { DVec3::ZERO };
+            let toward = whole - g[k];
+            if u.dot(toward) < 0.0 || (toward.length_squared() == 0.0) {
+                u = -u;
+            }
+            crate::Sphere {
+                center: g[k] + rho * len * u,
+                radius: rho,
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::shapes::uv_sphere;
+
+    #[test]
+    fn sphere_fit_of_a_closed_sphere_is_itself_and_of_a_flat_patch_is_tangent() {
+        // One tessellated sphere (corners on the radius): the sphere itself.
+        let s = uv_sphere(1.5, 24, 32);
+        let labels = vec![0; s.triangles.len()];
+        let f = fit_spheres(&s, &labels, 1)[0];
+        println!("uv sphere: centre {:?}, radius {}", f.center, f.radius);
+        assert!(f.center.length() < 1e-12 && (f.radius - 1.5).abs() < 1e-12);
+        // Two spheres as one mesh split in two: each part's fit is that sphere.
+        let m = two_spheres();
+        let labels = kmeans_parts(&m, 2).unwrap();
+        let fits = fit_spheres(&m, &labels, 2);
+        for want in [DVec3::ZERO, DVec3::new(6.0, 0.0, 0.0)] {
+            assert!(
+                fits.iter()
+                    .any(|f| (f.center - want).length() < 1e-9 && (f.radius - 1.0).abs() < 1e-9),
+                "{fits:?}"
+            );
+        }
+        // A flat square of side 2 in z = 0 facing +z with its mesh's centroid below it (a
+        // second part far under it): the sphere is tangent at the patch centroid, on the
+        // inner side, its radius the corners' area-weighted RMS distance (√2: every corner of
+        // the two triangles is a corner of the square).
+        let mut sq = crate::shapes::plane(2.0, 2.0, 1, 1);
+        let below = uv_sphere(0.1, 6, 8);
+        let off = sq.positions.len() as u32;
+        let n_sq = sq.triangles.len();
+        sq.positions.extend(
+            below
+                .positions
+                .iter()
+                .map(|p| *p + DVec3::new(0.0, 0.0, -5.0)),
+        );
+        sq.triangles
+            .extend(below.triangles.iter().map(|t| t.map(|v| v + off)));
+        let labels: Vec<u32> = (0..sq.triangles.len())
+            .map(|i| u32::from(i >= n_sq))
+            .collect();
+        let f = fit_spheres(&sq, &labels, 2)[0];
+        let rho = ((0..n_sq)
+            .map(|t| {
+                sq.triangle_area(t) / 3.0
+                    * sq.corners(t)
+                        .iter()
+                        .map(|p| p.length_squared())
+                        .sum::<f64>()
+            })
+            .sum::<f64>()
+            / 4.0)
+            .sqrt();
+        println!(
+            "flat patch: centre {:?}, radius {} (want {rho})",
+            f.center, f.radius
+        );
+        assert!((f.radius - rho).abs() < 1e-12);
+        assert!((f.center - DVec3::new(0.0, 0.0, -rho)).length() < 1e-12);
+    }
 
     /// Two unit spheres 6 apart as one mesh.
     fn two_spheres() -> Mesh {

@@ -136,10 +136,24 @@ pub(crate) fn table_for(
     recv: &[DVec3],
     eta: Eta,
 ) -> Result<KTable, Error> {
+    table_for_radii(scene, sampling, sampling.radius, recv, eta)
+}
+
+/// [`table_for`] for samples at radii between `sampling.radius` and `outer` (a
+/// [`shscale_field::bsv::RadialRule`]): `k = d / r(q)` spans `d_min / outer … d_max / r`.
+pub(crate) fn table_for_radii(
+    scene: &Scene,
+    sampling: Sphere,
+    outer: f64,
+    recv: &[DVec3],
+    eta: Eta,
+) -> Result<KTable, Error> {
     let (lo, hi) = recv
         .iter()
-        .map(|p| (*p - sampling.center).length() / sampling.radius)
-        .fold((f64::MAX, f64::MIN), |(a, z), k| (a.min(k), z.max(k)));
+        .map(|p| (*p - sampling.center).length())
+        .fold((f64::MAX, f64::MIN), |(a, z), d| {
+            (a.min(d / outer), z.max(d / sampling.radius))
+        });
     let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
     KTable::build(
         TauFamily::Cone { alpha: scene.alpha },

@@ -264,7 +264,15 @@ fn build_fields(
             let r = scene.sampling_radius;
             b.bsvs = stages.time("bsv_sampling", || {
                 (sources.iter())
-                    .map(|o| Ok(Bsv::sample(o.as_ref(), scene.layout, sampler, r, 0.0)?))
+                    .map(|o| {
+                        Ok(Bsv::sample_radial(
+                            o.as_ref(),
+                            scene.layout,
+                            sampler,
+                            r,
+                            scene.radial,
+                        )?)
+                    })
                     .collect::<Result<_, Error>>()
             })?;
             let bsvs = &b.bsvs;
@@ -275,7 +283,8 @@ fn build_fields(
                             center: b.sphere.center,
                             radius: b.sampling_radius,
                         };
-                        table_for(scene, s, recv, Eta::Plain)
+                        let outer = b.radii.iter().copied().fold(s.radius, f64::max);
+                        crate::frame::table_for_radii(scene, s, outer, recv, Eta::Plain)
                     })
                     .collect()
             })?;

@@ -194,6 +194,9 @@ pub struct Scene {
     /// Parts of every mesh occluder for [`crate::render::Method::SubVolumes`], set by
     /// experiments (no scene-file key); 1 otherwise.
     pub parts: usize,
+    /// Where the extrapolation's base-sphere samples lie along their directions, set by
+    /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
+    pub radial: shscale_field::bsv::RadialRule,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -351,6 +354,7 @@ impl Scene {
             full_field: None,
             pose_t: None,
             parts: 1,
+            radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }
 }
