@@ -1216,3 +1216,61 @@ fn budget_sub_volumes_cost_p_spheres_and_one_part_is_the_extrapolation() {
     assert!(err.contains("mesh") && err.contains("sub_volumes"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
+    // Every base sample of the sphere lies on its surface (the on-surface failure). Clearance
+    // moves them out without rays; the occlusion rule's search casts two ends and six halvings
+    // per sample (from 1r, fully occluded, to 2r, 13 % occluded ≤ τ = 0.3); the one-sphere set
+    // of the sphere is its closed form and casts nothing.
+    let (dir, head, rows) = run_csv(
+        "radial",
+        "budget",
+        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 4\nlayout = \"latlong:6x8\"\nhemisphere_res = 8\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\n[sweep.zip]\nradial = [\"uniform\", \"clearance\", \"occlusion\"]\nradial_delta = [0.2, 0.2, 0.2]\nradial_tau = [0.3, 0.3, 0.3]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [1]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let find = |m: &str, radial: &str| {
+        rows.iter()
+            .find(|r| r[col("method")] == m && (m != "extrapolated" || r[col("radial")] == radial))
+            .unwrap()
+    };
+    let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
+    let (uni, clear, occl, set) = (
+        find("extrapolated", "uniform"),
+        find("extrapolated", "clearance"),
+        find("extrapolated", "occlusion"),
+        find("sphere_set", ""),
+    );
+    assert_eq!(num(uni, "rays"), 48.0 * 64.0);
+    assert_eq!(num(clear, "rays"), num(uni, "rays"));
+    assert_eq!(num(occl, "rays"), 8.0 * num(uni, "rays"));
+    assert_eq!(num(set, "rays"), 0.0);
+    assert_eq!(num(set, "memory_bytes"), 32.0);
+    // Every direction of the sphere is a contact direction.
+    assert_eq!(num(uni, "contact_points"), 40.0);
+    let e = |r: &Vec<String>| num(r, "occ_rel_l2_mean");
+    println!(
+        "sphere: uniform {:.3}, clearance {:.3}, occlusion {:.3}, sphere set {:.1e}",
+        e(uni),
+        e(clear),
+        e(occl),
+        e(set)
+    );
+    assert!(e(clear) < 0.5 * e(uni), "{} vs {}", e(clear), e(uni));
+    assert!(e(occl) < 0.5 * e(uni), "{} vs {}", e(occl), e(uni));
+    assert!(e(set) < 1e-12, "{}", e(set));
+    // Out of the domain: named, exit 2.
+    for (body, key) in [
+        ("experiment = \"budget\"\nmesh = \"sphere\"\nradial = \"clearance\"\nradial_delta = -1.0\ngpu = \"off\"\n", "radial_delta"),
+        ("experiment = \"budget\"\nmesh = \"sphere\"\nradial = \"outward\"\ngpu = \"off\"\n", "radial"),
+        ("experiment = \"budget_plane\"\nscene = \"x.toml\"\nradial = \"occlusion\"\ngpu = \"off\"\n", "radial"),
+    ] {
+        let cfg = dir.join("bad.toml");
+        std::fs::write(&cfg, body).unwrap();
+        let o = shscale(&["run", cfg.to_str().unwrap(), "--dry-run"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(key), "{key}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -32,6 +32,7 @@ use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, Vis
 use shscale_field::extrapolate::{Extrapolator, Plausibility};
 use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
 use shscale_field::probe::random_directions;
+use shscale_field::sphereset::SphereSetField;
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::Occluder;
@@ -52,9 +53,10 @@ use std::time::Instant;
 pub struct Params {
     pub mesh: String,
     pub order: usize,
-    /// `extrapolated`, `full_field`, `ray_traced` or `sub_volumes`.
+    /// `extrapolated`, `full_field`, `ray_traced`, `sub_volumes` or `sphere_set`.
     pub method: String,
-    /// Parts of the `sub_volumes` method, 1..=64 (k-means on triangle centroids).
+    /// Parts of the `sub_volumes` method, or spheres of `sphere_set`, 1..=64 (k-means on
+    /// triangle centroids).
     pub parts: usize,
     /// Base-sphere layout (extrapolation) or per-shell layout (full field).
     pub layout: String,
@@ -187,7 +189,13 @@ pub struct Shared {
 /// H of the contact classification of the receivers' directions.
 pub const CONTACT_RES: usize = 32;
 
-const METHODS: [&str; 4] = ["extrapolated", "full_field", "ray_traced", "sub_volumes"];
+const METHODS: [&str; 5] = [
+    "extrapolated",
+    "full_field",
+    "ray_traced",
+    "sub_volumes",
+    "sphere_set",
+];
 /// The most shells of a full field.
 pub const MAX_SHELLS: usize = 64;
 /// The most receivers per radius.
@@ -247,8 +255,8 @@ impl Kind for Budget {
         &[
             ("mesh", "the occluder, as in `probe`"),
             ("order", "SH order N, 1..=16"),
-            ("method", "`extrapolated`, `full_field`, `ray_traced` or `sub_volumes` (the mesh split into `parts`, each extrapolated from its own sphere, multiplied near to far; meshes only)"),
-            ("parts", "parts of `sub_volumes`, 1..=64 and at most one per triangle (k-means on triangle centroids)"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (the mesh split into `parts`, each extrapolated from its own sphere, multiplied near to far; meshes only) or `sphere_set` (Ren et al. 2006's occluder model: one sphere fitted per part every frame, closed-form caps multiplied near to far; no rays; the analytic sphere is its own one-sphere set)"),
+            ("parts", "parts of `sub_volumes`, or spheres S of `sphere_set`, 1..=64 and at most one per triangle (k-means on triangle centroids)"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field), as in `probe`"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [1, shell_max]·r, 2..=64"),
@@ -374,11 +382,13 @@ impl Kind for Budget {
             "extrapolated" => search * samples * h2,
             "full_field" => p.shells as f64 * samples * h2,
             "sub_volumes" => search * p.parts as f64 * samples * h2,
+            "sphere_set" => 0.0,
             _ => n * 4.0 * (p.rt_res * p.rt_res) as f64,
         };
         let shells = match p.method.as_str() {
             "full_field" => p.shells as f64,
             "sub_volumes" => p.parts as f64,
+            "sphere_set" => 0.0,
             _ => 1.0,
         };
         (
@@ -470,6 +480,18 @@ impl Kind for Budget {
         let mut partition_seconds = None;
         // The parts of `sub_volumes`: partitioned once per run (per triangle, so a deforming
         // mesh would keep them over its sequence).
+        // The sphere set's partition: once per run, like the sub-volumes'; the spheres are
+        // refitted every frame.
+        let set_labels: Option<Vec<u32>> = match (p.method.as_str(), sh.mesh.as_ref()) {
+            ("sphere_set", Some(mesh)) => {
+                let t0 = Instant::now();
+                let l = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
+                    .map_err(|e| Error::config(e.to_string()))?;
+                partition_seconds = Some(t0.elapsed().as_secs_f64());
+                Some(l)
+            }
+            _ => None,
+        };
         let part_bvhs: Vec<shscale_geometry::MeshBvh> = if p.method == "sub_volumes" {
             let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
                 Error::config("`sub_volumes` splits a mesh; the analytic sphere has none".into())
@@ -509,6 +531,29 @@ impl Kind for Budget {
                     })
                     .collect();
                 extrapolation_frame(p, parts, &sampler, &sh.points)?
+            }
+            "sphere_set" => {
+                let basis = shscale_sh::ShBasis::<f64>::new(p.order)
+                    .map_err(|e| Error::config(e.to_string()))?;
+                let gaunt = shscale_sh::GauntTensor::<f64>::new(p.order)
+                    .map_err(|e| Error::config(e.to_string()))?;
+                let (mesh, labels) = (sh.mesh.as_ref(), set_labels);
+                Box::new(move || {
+                    let t0 = Instant::now();
+                    // The analytic sphere is its own one-sphere set.
+                    let spheres = match (mesh, &labels) {
+                        (Some(m), Some(l)) => {
+                            shscale_geometry::partition::fit_spheres(m, l, p.parts)
+                        }
+                        _ => vec![occ.bounding_sphere()],
+                    };
+                    let build = t0.elapsed().as_secs_f64();
+                    let t1 = Instant::now();
+                    let set = SphereSetField::new(&spheres, &basis, &gaunt);
+                    let v = eval_all(&set, &sh.points, nn);
+                    let eval = t1.elapsed().as_secs_f64();
+                    Ok(((v, 0.0, set.size_bytes() as f64), [build, eval, build + eval]))
+                })
             }
             "full_field" => {
                 let shells = shells_of(p).map_err(|(_, m)| Error::config(m))?;
@@ -806,6 +851,7 @@ pub(crate) fn variant(t: &Results, r: usize) -> String {
             }
         }
         "ray_traced" => "ray tracing".into(),
+        "sphere_set" => format!("sphere set (S = {})", t.cell(r, "parts")),
         method => {
             let mut v = Vec::new();
             if method == "sub_volumes" {
@@ -855,6 +901,7 @@ fn name(t: &Results, c: &Config) -> String {
             t.cell(r, "hemisphere_res")
         ),
         "ray_traced" => format!("ray tracing, T = {}", t.cell(r, "rt_res")),
+        "sphere_set" => variant(t, r),
         method => format!(
             "{}, `{}`{}, H = {}, α = {}°",
             variant(t, r),
@@ -943,10 +990,19 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
 
 /// Equal accuracy in one regime (`col`): the Pareto front against rays, and the cheapest full
 /// field at least as accurate as the best extrapolation.
+/// A ray count in the discussion: `0` for none (sphere sets), else three significant digits.
+fn rays_text(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
 pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime: &str) -> String {
     let pts: Vec<(f64, f64, usize)> = (configs.iter().enumerate())
         .map(|(i, c)| (c.mean(t, "rays").0, c.mean(t, col).0, i))
-        .filter(|(x, y, _)| x.is_finite() && *x > 0.0 && y.is_finite())
+        .filter(|(x, y, _)| x.is_finite() && *x >= 0.0 && y.is_finite())
         .collect();
     if pts.is_empty() {
         return String::new();
@@ -958,8 +1014,9 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
         .map(|&(x, _, i)| {
             let (m, lo, hi) = configs[i].mean(t, col);
             format!(
-                "{} at {x:.2e} rays ({m:.3} [{lo:.3}–{hi:.3}])",
-                name(t, &configs[i])
+                "{} at {} rays ({m:.3} [{lo:.3}–{hi:.3}])",
+                name(t, &configs[i]),
+                rays_text(x)
             )
         })
         .collect();
@@ -1006,21 +1063,53 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
         }
         None => String::new(),
     };
-    // The papers' proposal: does splitting into sub-volumes beat one sphere?
-    let best_sv = (pts.iter())
-        .filter(|p| method(p.2) == "sub_volumes")
+    // The papers' proposals and the successor: does each beat one sphere sampled on its
+    // sampling sphere, and which full field is as accurate for fewer rays?
+    let radial = |i: usize| !matches!(t.cell(configs[i].first(), "radial"), "uniform" | "");
+    let one_sphere = (pts.iter())
+        .filter(|p| method(p.2) == "extrapolated" && !radial(p.2))
         .min_by(|a, b| a.1.total_cmp(&b.1));
-    let sub = match (best_sv, best_ex) {
-        (Some(sv), Some(bx)) => format!(
-            " Sub-volumes: the most accurate is {} ({:.3} at {:.2e} rays), {} the most accurate single-sphere extrapolation ({:.3}).",
-            name(t, &configs[sv.2]),
-            sv.1,
-            sv.0,
-            if sv.1 < bx.1 { "better than" } else { "no better than" },
-            bx.1
-        ),
-        _ => String::new(),
-    };
+    let new_methods: [(&str, &dyn Fn(usize) -> bool); 3] = [
+        ("Sub-volumes", &|i| method(i) == "sub_volumes"),
+        ("Per-direction radii", &|i| {
+            method(i) == "extrapolated" && radial(i)
+        }),
+        ("Sphere sets", &|i| method(i) == "sphere_set"),
+    ];
+    let mut sub = String::new();
+    for (label, keep) in new_methods {
+        let Some(b) = (pts.iter())
+            .filter(|p| keep(p.2))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            continue;
+        };
+        sub.push_str(&format!(
+            " {label}: the most accurate is {} ({:.3} at {} rays)",
+            name(t, &configs[b.2]),
+            b.1,
+            rays_text(b.0)
+        ));
+        if let Some(o) = one_sphere {
+            sub.push_str(&format!(
+                ", {} the most accurate extrapolation sampled on its sphere ({:.3})",
+                if b.1 < o.1 { "better than" } else { "no better than" },
+                o.1
+            ));
+        }
+        match (pts.iter())
+            .filter(|p| method(p.2) == "full_field" && p.1 <= b.1)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+        {
+            Some(f) => sub.push_str(&format!(
+                "; the cheapest full field as accurate: {} ({:.3}) at {:.2e} rays.",
+                name(t, &configs[f.2]),
+                f.1,
+                f.0
+            )),
+            None => sub.push_str("; no full field in these runs is as accurate."),
+        }
+    }
     format!(
         "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}{sub}\n\n",
         on_front.join("; ")

@@ -51,9 +51,9 @@ pub struct Params {
     /// Frames of the deformers' sequence (t = f / frames), each rendered from scratch by every
     /// method; 1: the rest pose.
     pub frames: usize,
-    /// `extrapolated`, `full_field`, `ray_traced` or `sub_volumes`.
+    /// `extrapolated`, `full_field`, `ray_traced`, `sub_volumes` or `sphere_set`.
     pub method: String,
-    /// Parts of every mesh occluder for `sub_volumes`, 1..=64.
+    /// Parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64.
     pub parts: usize,
     pub layout: String,
     pub hemisphere_res: usize,
@@ -69,6 +69,9 @@ pub struct Params {
     /// `radial_delta`·r from the surface), as in `budget`.
     pub radial: String,
     pub radial_delta: f64,
+    /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
+    /// (`shscale figs`); one frame only.
+    pub save_image: bool,
 }
 
 impl Default for Params {
@@ -91,6 +94,7 @@ impl Default for Params {
             sampling_radius: 1.0,
             radial: "uniform".into(),
             radial_delta: 0.1,
+            save_image: false,
         }
     }
 }
@@ -139,7 +143,13 @@ pub struct Shared {
     band_err: f64,
 }
 
-const METHODS: [&str; 4] = ["extrapolated", "full_field", "ray_traced", "sub_volumes"];
+const METHODS: [&str; 5] = [
+    "extrapolated",
+    "full_field",
+    "ray_traced",
+    "sub_volumes",
+    "sphere_set",
+];
 /// Seconds per receiver of one render besides its rays (locating, rotating and shading each
 /// receiver), the cost model's rate: the extrapolated plane frames of
 /// `configs/experiments/budget_plane.toml` took 22–40 ms for 25,600 receivers and 61,440 rays
@@ -213,11 +223,97 @@ fn radial_rule(p: &Params) -> Result<shscale_field::bsv::RadialRule, KeyError> {
     crate::budget::radial_of(&p.radial, p.radial_delta, 0.0, 1.0)
 }
 
+/// The runs of the plane figure among the saved ones (`rows`, one scene): the papers' full
+/// field, the papers' extrapolation, and the most accurate other saved run (against
+/// full-frequency truth) that casts no more rays than the extrapolation; `None` without the
+/// first two.
+fn figure_runs(t: &Results, rows: &[usize]) -> Option<Vec<usize>> {
+    let papers = |r: usize, v: &str| crate::budget::variant(t, r) == v;
+    let ff = rows.iter().copied().find(|&r| {
+        t.cell(r, "method") == "full_field" && papers(r, "full field (papers')")
+    })?;
+    let ex = rows
+        .iter()
+        .copied()
+        .find(|&r| t.cell(r, "method") == "extrapolated" && papers(r, "extrapolation"))?;
+    let best = (rows.iter().copied())
+        .filter(|&r| r != ff && r != ex && t.num(r, "rays") <= t.num(ex, "rays"))
+        .filter(|&r| t.cell(r, "method") != "ray_traced")
+        .min_by(|&a, &b| {
+            t.num(a, "rmse_vs_full_frequency")
+                .total_cmp(&t.num(b, "rmse_vs_full_frequency"))
+        });
+    Some([Some(ff), Some(ex), best].into_iter().flatten().collect())
+}
+
+/// The plane figure: the full-frequency truth and each shown method's irradiance on one scale,
+/// then each method's difference from the truth on a symmetric diverging scale.
+fn write_plane_figure(
+    png: &Path,
+    (w, h): (usize, usize),
+    truth: &[[f32; 3]],
+    shown: &[(String, Vec<[f32; 3]>)],
+) -> Result<(), Error> {
+    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    let lum = |p: &[[f32; 3]]| -> Vec<f32> { p.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect() };
+    let tr = lum(truth);
+    let imgs: Vec<Vec<f32>> = shown.iter().map(|(_, p)| lum(p)).collect();
+    let max = (imgs.iter().flatten().chain(&tr)).fold(0f32, |a, v| a.max(*v)) as f64;
+    let diffs: Vec<Vec<f32>> = (imgs.iter())
+        .map(|i| i.iter().zip(&tr).map(|(a, b)| a - b).collect())
+        .collect();
+    let dmax = diffs.iter().flatten().fold(0f32, |a, v| a.max(v.abs())) as f64;
+    let (xr, yr) = (
+        (0.0, w as f64, "receiver column"),
+        (0.0, h as f64, "receiver row"),
+    );
+    let panel = |title: String, values: Vec<f32>| Panel {
+        title,
+        width: w,
+        height: h,
+        values,
+    };
+    let mut top = vec![panel("full-frequency ray-traced truth".into(), tr.clone())];
+    top.extend((shown.iter().zip(&imgs)).map(|((t, _), v)| panel(t.clone(), v.clone())));
+    let rms = |e: &[f32]| (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64).sqrt();
+    let bottom = (shown.iter().zip(&diffs))
+        .map(|((t, _), d)| {
+            let name = t.split(" (").next().unwrap_or(t);
+            panel(format!("{name} − truth (RMS {:.3})", rms(d)), d.clone())
+        })
+        .collect();
+    let images = Grid {
+        title: "irradiance on the receiver plane (in brackets: shade_rmse_rel vs full-frequency truth, rays per frame)",
+        rows: vec![top],
+        x: xr,
+        y: yr,
+        colours: ColourMap::Heat,
+        range: (0.0, max),
+        scale_label: "irradiance (scene radiance units)",
+        panel_px: (300, 300),
+    };
+    let differences = Grid {
+        title: "difference from the full-frequency truth",
+        rows: vec![bottom],
+        x: xr,
+        y: yr,
+        colours: ColourMap::Diverging,
+        range: (-dmax, dmax),
+        scale_label: "irradiance difference",
+        panel_px: (300, 300),
+    };
+    Ok(shscale_runner::figure::write_png_stack(
+        png,
+        &[images, differences],
+    )?)
+}
+
 fn method_of(name: &str) -> Method {
     match name {
         "full_field" => Method::FullField,
         "ray_traced" => Method::RayTraced,
         "sub_volumes" => Method::SubVolumes,
+        "sphere_set" => Method::SphereSet,
         _ => Method::Extrapolated,
     }
 }
@@ -287,8 +383,8 @@ impl Kind for BudgetPlane {
             ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
             ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
             ("frames", "frames of the deformers' sequence (t = f/frames), each rendered from scratch by every method, 1..=64; 1: the rest pose"),
-            ("method", "`extrapolated`, `full_field`, `ray_traced` or `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's)"),
-            ("parts", "parts of every mesh occluder for `sub_volumes`, 1..=64 and at most one per triangle"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model)"),
+            ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
@@ -301,6 +397,7 @@ impl Kind for BudgetPlane {
             ("sampling_radius", "sampling sphere in bounding radii, [1, 1000]"),
             ("radial", "`uniform` (the papers') or `clearance`: each base-sphere sample of `extrapolated` and `sub_volumes` moved outward until at least `radial_delta`·r from the surface (distance queries, no extra rays), k = d / r(q); `budget`'s `occlusion` rule is not offered here, where rays are counted from the layout"),
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
+            ("save_image", "keep the run's irradiance image and the group's full-frequency truth as EXR (`plane_<run>.exr`, `plane_truth_<run>.exr`) for the figure: truth, the papers' full field, the papers' extrapolation and the most accurate other saved method at no more rays, with their differences from the truth; one frame only"),
         ]
     }
 
@@ -329,6 +426,12 @@ impl Kind for BudgetPlane {
         KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
         Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
         radial_rule(p)?;
+        if p.save_image && p.frames != 1 {
+            return Err(KeyError::new(
+                "save_image",
+                format!("keeps one frame's image; frames = {}", p.frames),
+            ));
+        }
         let spacing = ShellSpacing::parse(&p.shell_spacing)
             .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?;
         let interp = FieldInterp::parse(&p.field_interp)
@@ -451,7 +554,7 @@ impl Kind for BudgetPlane {
         })
     }
 
-    fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
+    fn run(p: &Self::Spec, run_id: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = run_scene(p, &sh.scene)?;
         let method = method_of(&p.method);
         let frames = p.frames;
@@ -488,8 +591,18 @@ impl Kind for BudgetPlane {
                     * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
             }
             Method::FullField => occluders * p.shells as f64 * samples * nn * 8.0,
+            Method::SphereSet => occluders * p.parts as f64 * 32.0,
             _ => 0.0,
         };
+        if p.save_image {
+            let (w, h) = (imgs[0].width, imgs[0].height);
+            let exr = |name: &str| ctx.dir.join(format!("{name}_{run_id}.exr"));
+            shscale_runner::image::write_exr(&exr("plane"), w, h, &imgs[0].pixels)?;
+            let truth: Vec<[f32; 3]> = (sh.full[0].chunks(3))
+                .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
+                .collect();
+            shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
+        }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
@@ -593,6 +706,34 @@ impl Kind for BudgetPlane {
             }
         }
         Ok(files)
+    }
+
+    fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        let saved: Vec<usize> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, "save_image") == "true")
+            .collect();
+        let Some(panels) = figure_runs(t, &saved) else {
+            return Ok(Vec::new());
+        };
+        let read = |name: &str, r: usize| {
+            let path = dir.join(format!("{name}_{}.exr", t.cell(r, "run_id")));
+            shscale_runner::image::read_exr(&path).map_err(Error::from)
+        };
+        let (w, h, truth) = read("plane_truth", panels[0])?;
+        let mut shown = Vec::new();
+        for &r in &panels {
+            let (_, _, px) = read("plane", r)?;
+            let title = format!(
+                "{} ({:.3} at {:.3e} rays)",
+                crate::budget::variant(t, r),
+                t.num(r, "rmse_vs_full_frequency"),
+                t.num(r, "rays")
+            );
+            shown.push((title, px));
+        }
+        let png = out.join(format!("{stem}.png"));
+        write_plane_figure(&png, (w, h), &truth, &shown)?;
+        Ok(vec![png])
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {

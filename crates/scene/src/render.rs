@@ -17,6 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
+use shscale_field::sphereset::SphereVisibility;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
@@ -39,6 +40,11 @@ pub enum Method {
     /// extrapolated from its own bounding sphere; all parts of all occluders multiplied near to
     /// far as separate occluders are.
     SubVolumes,
+    /// Sphere sets (Ren et al. 2006's occluder model): every mesh occluder split into
+    /// [`Scene::parts`] parts on its rest pose, one sphere fitted per part on the posed mesh
+    /// ([`shscale_geometry::partition::fit_spheres`]); each sphere's closed-form cap, all
+    /// multiplied near to far as separate occluders are. No rays.
+    SphereSet,
 }
 
 /// A rendered receiver plane.
@@ -76,6 +82,7 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     let rays = match method {
         Method::Extrapolated => bsv,
         Method::SubVolumes => scene.parts.max(1) as f64 * bsv,
+        Method::SphereSet => 0.0,
         Method::FullField => shells * bsv,
         Method::RayTraced => receivers * occluders * 4.0 * t2,
         Method::FullFrequency => {
@@ -87,9 +94,16 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     let shells = match method {
         Method::FullField => shells,
         Method::SubVolumes => scene.parts.max(1) as f64,
+        Method::SphereSet => 0.0,
         _ => 1.0,
     };
-    let bytes = occluders * shells * samples * nn * 8.0 + receivers * (nn * 8.0 + 16.0);
+    let spheres = if method == Method::SphereSet {
+        occluders * scene.parts.max(1) as f64 * 32.0
+    } else {
+        0.0
+    };
+    let bytes =
+        occluders * shells * samples * nn * 8.0 + spheres + receivers * (nn * 8.0 + 16.0);
     (rays, bytes)
 }
 
@@ -123,7 +137,15 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
             .collect(),
         _ => Vec::new(),
     };
+    let basis = shscale_sh::ShBasis::<f64>::new(scene.order)
+        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+    let spheres: Vec<SphereVisibility> = (built.spheres.iter())
+        .map(|s| SphereVisibility::new(*s, &basis))
+        .collect();
     let fields: Vec<&dyn VisibilityField> = match method {
+        Method::SphereSet => (spheres.iter())
+            .map(|s| s as &dyn VisibilityField)
+            .collect(),
         Method::Extrapolated | Method::SubVolumes => {
             exs.iter().map(|e| e as &dyn VisibilityField).collect()
         }
@@ -164,6 +186,8 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     // Near to far by the fields' centres: the occluders', or every part's.
     let centers: Vec<DVec3> = if method == Method::SubVolumes {
         built.bsvs.iter().map(|b| b.sphere.center).collect()
+    } else if method == Method::SphereSet {
+        built.spheres.iter().map(|s| s.center).collect()
     } else {
         occs.iter().map(|o| o.bounding_sphere().center).collect()
     };
@@ -236,6 +260,7 @@ struct Built {
     bsvs: Vec<Bsv>,
     tables: Vec<KTable>,
     fulls: Vec<FullField>,
+    spheres: Vec<Sphere>,
 }
 
 fn build_fields(
@@ -303,6 +328,9 @@ fn build_fields(
                     .collect::<Result<_, Error>>()
             })?;
         }
+        Method::SphereSet => {
+            b.spheres = stages.time("sphere_fit", || sphere_set(scene))?;
+        }
         Method::RayTraced | Method::FullFrequency => {}
     }
     Ok(b)
@@ -327,6 +355,28 @@ fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
         }
     }
     Ok(parts)
+}
+
+/// The sphere set of every occluder for [`Method::SphereSet`]: a mesh partitioned as for
+/// [`Method::SubVolumes`] (on the rest pose, per triangle) and one sphere fitted per part on the
+/// pose at [`Scene::pose_t`]; the analytic sphere is its own set.
+fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
+    let mut out = Vec::new();
+    for o in &scene.occluders {
+        let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
+            out.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?.bounding_sphere());
+            continue;
+        };
+        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+            .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+        let posed = crate::frame::posed(&rest, o, scene.pose_t);
+        out.extend(shscale_geometry::partition::fit_spheres(
+            &posed,
+            &labels,
+            scene.parts,
+        ));
+    }
+    Ok(out)
 }
 
 /// The renderer's full field: the papers' construction ([`Shells::PAPERS`]: 16 shells at uniform
@@ -398,7 +448,10 @@ fn light_fields(
     if emitters.is_empty() {
         return Ok(Vec::new());
     }
-    if matches!(method, Method::FullField | Method::SubVolumes) {
+    if matches!(
+        method,
+        Method::FullField | Method::SubVolumes | Method::SphereSet
+    ) {
         return Err(Error::config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
     }
     let mut out = Vec::new();
