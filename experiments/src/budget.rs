@@ -478,40 +478,33 @@ impl Kind for Budget {
         let nn = p.order * p.order;
         let sampler = VisibilitySampler::new(p.order, p.hemisphere_res)?;
         let mut partition_seconds = None;
-        // The parts of `sub_volumes`: partitioned once per run (per triangle, so a deforming
-        // mesh would keep them over its sequence).
-        // The sphere set's partition: once per run, like the sub-volumes'; the spheres are
-        // refitted every frame.
-        let set_labels: Option<Vec<u32>> = match (p.method.as_str(), sh.mesh.as_ref()) {
-            ("sphere_set", Some(mesh)) => {
-                let t0 = Instant::now();
-                let l = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
-                    .map_err(|e| Error::config(e.to_string()))?;
-                partition_seconds = Some(t0.elapsed().as_secs_f64());
-                Some(l)
-            }
-            _ => None,
-        };
-        let part_bvhs: Vec<shscale_geometry::MeshBvh> = if p.method == "sub_volumes" {
-            let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
-                Error::config("`sub_volumes` splits a mesh; the analytic sphere has none".into())
-            })?;
+        // The partition of `sub_volumes` and `sphere_set`: once per run (per triangle, so a
+        // deforming mesh would keep it over its sequence); its time is its own column. The
+        // sub-volumes' part meshes and BVHs are built with it; the spheres are refitted every
+        // frame.
+        let mut labels: Option<Vec<u32>> = None;
+        let mut part_bvhs: Vec<shscale_geometry::MeshBvh> = Vec::new();
+        if let ("sub_volumes" | "sphere_set", Some(mesh)) = (p.method.as_str(), sh.mesh.as_ref()) {
             let t0 = Instant::now();
-            let labels = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
+            let l = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
                 .map_err(|e| Error::config(e.to_string()))?;
-            let bvhs = (shscale_geometry::partition::split(mesh, &labels, p.parts).iter())
-                .map(|m| {
-                    shscale_geometry::MeshBvh::build(
-                        m,
-                        shscale_geometry::ray::UpdateStrategy::Rebuild,
-                    )
-                })
-                .collect();
+            if p.method == "sub_volumes" {
+                part_bvhs = (shscale_geometry::partition::split(mesh, &l, p.parts).iter())
+                    .map(|m| {
+                        shscale_geometry::MeshBvh::build(
+                            m,
+                            shscale_geometry::ray::UpdateStrategy::Rebuild,
+                        )
+                    })
+                    .collect();
+            }
             partition_seconds = Some(t0.elapsed().as_secs_f64());
-            bvhs
-        } else {
-            Vec::new()
-        };
+            labels = Some(l);
+        } else if p.method == "sub_volumes" {
+            return Err(Error::config(
+                "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
+            ));
+        }
         let frame: FrameFn<'_> = match p.method.as_str() {
             "extrapolated" => {
                 let range = shscale_field::probe::k_range(&p.radii, p.sampling_radius);
@@ -537,7 +530,7 @@ impl Kind for Budget {
                     .map_err(|e| Error::config(e.to_string()))?;
                 let gaunt = shscale_sh::GauntTensor::<f64>::new(p.order)
                     .map_err(|e| Error::config(e.to_string()))?;
-                let (mesh, labels) = (sh.mesh.as_ref(), set_labels);
+                let mesh = sh.mesh.as_ref();
                 Box::new(move || {
                     let t0 = Instant::now();
                     // The analytic sphere is its own one-sphere set.
@@ -552,7 +545,10 @@ impl Kind for Budget {
                     let set = SphereSetField::new(&spheres, &basis, &gaunt);
                     let v = eval_all(&set, &sh.points, nn);
                     let eval = t1.elapsed().as_secs_f64();
-                    Ok(((v, 0.0, set.size_bytes() as f64), [build, eval, build + eval]))
+                    Ok((
+                        (v, 0.0, set.size_bytes() as f64),
+                        [build, eval, build + eval],
+                    ))
                 })
             }
             "full_field" => {
@@ -1093,7 +1089,11 @@ pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime:
         if let Some(o) = one_sphere {
             sub.push_str(&format!(
                 ", {} the most accurate extrapolation sampled on its sphere ({:.3})",
-                if b.1 < o.1 { "better than" } else { "no better than" },
+                if b.1 < o.1 {
+                    "better than"
+                } else {
+                    "no better than"
+                },
                 o.1
             ));
         }

@@ -229,9 +229,10 @@ fn radial_rule(p: &Params) -> Result<shscale_field::bsv::RadialRule, KeyError> {
 /// first two.
 fn figure_runs(t: &Results, rows: &[usize]) -> Option<Vec<usize>> {
     let papers = |r: usize, v: &str| crate::budget::variant(t, r) == v;
-    let ff = rows.iter().copied().find(|&r| {
-        t.cell(r, "method") == "full_field" && papers(r, "full field (papers')")
-    })?;
+    let ff = rows
+        .iter()
+        .copied()
+        .find(|&r| t.cell(r, "method") == "full_field" && papers(r, "full field (papers')"))?;
     let ex = rows
         .iter()
         .copied()
@@ -255,7 +256,8 @@ fn write_plane_figure(
     shown: &[(String, Vec<[f32; 3]>)],
 ) -> Result<(), Error> {
     use shscale_runner::figure::{ColourMap, Grid, Panel};
-    let lum = |p: &[[f32; 3]]| -> Vec<f32> { p.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect() };
+    let lum =
+        |p: &[[f32; 3]]| -> Vec<f32> { p.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect() };
     let tr = lum(truth);
     let imgs: Vec<Vec<f32>> = shown.iter().map(|(_, p)| lum(p)).collect();
     let max = (imgs.iter().flatten().chain(&tr)).fold(0f32, |a, v| a.max(*v)) as f64;
@@ -275,7 +277,8 @@ fn write_plane_figure(
     };
     let mut top = vec![panel("full-frequency ray-traced truth".into(), tr.clone())];
     top.extend((shown.iter().zip(&imgs)).map(|((t, _), v)| panel(t.clone(), v.clone())));
-    let rms = |e: &[f32]| (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64).sqrt();
+    let rms =
+        |e: &[f32]| (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64).sqrt();
     let bottom = (shown.iter().zip(&diffs))
         .map(|((t, _), d)| {
             let name = t.split(" (").next().unwrap_or(t);

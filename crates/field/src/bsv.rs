@@ -320,7 +320,8 @@ impl Bsv {
     }
 
     /// As [`Bsv::sample`], each sample placed along its direction by `rule` (the radii are
-    /// kept in [`Bsv::radii`]; [`RadialRule::Uniform`] is [`Bsv::sample`]).
+    /// kept in [`Bsv::radii`]; [`RadialRule::Uniform`] is [`Bsv::sample`]). On-surface flags
+    /// are not computed here (all false): the rules exist to move samples off the surface.
     pub fn sample_radial(
         occ: &dyn Occluder,
         layout: Layout,
@@ -353,35 +354,17 @@ impl Bsv {
                     RadialRule::Uniform => unreachable!("handled above"),
                     RadialRule::Clearance { delta } => {
                         let want = delta * r;
-                        let ok = |t: f64| occ.distance_to_surface(c + t * dir) >= want;
-                        let t = bisect_first(lo, lo.max((1.0 + delta) * r), CLEARANCE_STEPS, ok);
+                        let ok = |t: f64| (occ.distance_to_surface(c + t * dir) >= want, ());
+                        let hi = lo.max((1.0 + delta) * r);
+                        let (t, (), _) = bisect_first(lo, hi, CLEARANCE_STEPS, ok);
                         (t, at(t), 1)
                     }
                     RadialRule::Occlusion { tau, t_max } => {
-                        let v0 = at(lo);
-                        let hi = lo.max(t_max * r);
-                        if crate::metrics::facing_occlusion(&v0) <= tau || hi == lo {
-                            (lo, v0, 1)
-                        } else {
-                            let vh = at(hi);
-                            let mut casts = 2;
-                            if crate::metrics::facing_occlusion(&vh) > tau {
-                                (hi, vh, casts)
-                            } else {
-                                let (mut a, mut b, mut vb) = (lo, hi, vh);
-                                for _ in 0..OCCLUSION_STEPS {
-                                    let m = 0.5 * (a + b);
-                                    let vm = at(m);
-                                    casts += 1;
-                                    if crate::metrics::facing_occlusion(&vm) <= tau {
-                                        (b, vb) = (m, vm);
-                                    } else {
-                                        a = m;
-                                    }
-                                }
-                                (b, vb, casts)
-                            }
-                        }
+                        let ok = |t: f64| {
+                            let v = at(t);
+                            (crate::metrics::facing_occlusion(&v) <= tau, v)
+                        };
+                        bisect_first(lo, lo.max(t_max * r), OCCLUSION_STEPS, ok)
                     }
                 };
                 let sample = BsvSample {
@@ -489,23 +472,35 @@ fn sample_points(
         .collect()
 }
 
-/// The smallest `t` in `[lo, hi]` with `ok(t)`, for `ok` false then true along the interval,
-/// to `(hi − lo) / 2^steps`: `lo` if `ok(lo)`, else bisection keeping `ok` at the upper end
-/// (`hi` is taken to satisfy `ok`).
-fn bisect_first(lo: f64, hi: f64, steps: usize, ok: impl Fn(f64) -> bool) -> f64 {
-    if ok(lo) || hi <= lo {
-        return lo;
+/// The smallest `t` in `[lo, hi]` where `eval(t).0` holds, for a predicate false then true
+/// along the interval, to `(hi − lo) / 2^steps`, with `eval`'s value there and the number of
+/// evaluations: `lo` if it holds there (1), `hi` if it fails there too (2), else bisection
+/// keeping the predicate at the upper end (2 + `steps`).
+fn bisect_first<V>(
+    lo: f64,
+    hi: f64,
+    steps: usize,
+    eval: impl Fn(f64) -> (bool, V),
+) -> (f64, V, usize) {
+    let (ok, v) = eval(lo);
+    if ok || hi <= lo {
+        return (lo, v, 1);
     }
-    let (mut a, mut b) = (lo, hi);
+    let (ok, vh) = eval(hi);
+    if !ok {
+        return (hi, vh, 2);
+    }
+    let (mut a, mut b, mut vb) = (lo, hi, vh);
     for _ in 0..steps {
         let m = 0.5 * (a + b);
-        if ok(m) {
-            b = m;
+        let (ok, vm) = eval(m);
+        if ok {
+            (b, vb) = (m, vm);
         } else {
             a = m;
         }
     }
-    b
+    (b, vb, 2 + steps)
 }
 
 /// Solid angle of the cap subtended by a sphere of radius `r` seen from distance `d > r`:

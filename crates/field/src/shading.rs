@@ -287,38 +287,10 @@ impl Shader {
         centers: &[DVec3],
         p: DVec3,
     ) -> (Vec<f64>, usize, usize) {
-        let nn = self.order * self.order;
-        let mut order: Vec<usize> = (0..fields.len()).collect();
-        order.sort_by(|&a, &b| {
-            (centers[a] - p)
-                .length()
-                .total_cmp(&(centers[b] - p).length())
-        });
-        let mut acc = vec![0.0; nn];
-        acc[0] = (4.0 * std::f64::consts::PI).sqrt();
-        let mut v = vec![0.0; nn];
-        let mut tmp = vec![0.0; nn];
-        let mut first = true;
-        let mut products = 0;
-        let mut skipped = 0;
-        for j in order {
-            fields[j].eval(p, &mut v);
-            if v[1..].iter().all(|x| *x == 0.0) && (v[0] - acc_one()).abs() == 0.0 {
-                skipped += 1;
-                continue; // unoccluded: nothing to multiply
-            }
-            if first {
-                acc.copy_from_slice(&v);
-                first = false;
-            } else {
-                self.gaunt
-                    .product(&acc, &v, &mut tmp)
-                    .expect("lengths agree");
-                std::mem::swap(&mut acc, &mut tmp);
-                products += 1;
-            }
-        }
-        (acc, products, skipped)
+        let mut v = vec![0.0; self.order * self.order];
+        let (products, skipped) =
+            crate::subvolume::near_to_far(&self.gaunt, fields, centers, p, &mut v);
+        (v, products, skipped)
     }
 
     /// Irradiance from one channel of a local light with radiance SH `l` at a receiver with normal
@@ -339,11 +311,6 @@ impl Shader {
     pub fn shade(t: &[Vec<f64>; 3], v: &[f64]) -> [f64; 3] {
         [0, 1, 2].map(|c| t[c].iter().zip(v).map(|(a, b)| a * b).sum())
     }
-}
-
-#[inline]
-fn acc_one() -> f64 {
-    (4.0 * std::f64::consts::PI).sqrt()
 }
 
 /// `shade_rmse_rel` (docs/conventions.md §6): RMSE of `E` over receivers divided by the mean unshadowed `E`.

@@ -2,7 +2,7 @@
 //! dynamic scenes using spherical harmonic exponentiation"): an object approximated by S
 //! spheres ([`shscale_geometry::partition::fit_spheres`], refitted every frame of a deforming
 //! sequence), each sphere's visibility the closed-form cap, the caps multiplied near to far with
-//! the truncated SH product ([`crate::subvolume::product_near_to_far`]), the order in which
+//! the truncated SH product ([`crate::subvolume::near_to_far`]), the order in which
 //! shadow fields combine occluders. Ren et al. accumulate the spheres' log-visibilities and
 //! exponentiate once; that variant is not built here (docs/math.md says why).
 //!
@@ -14,7 +14,7 @@
 
 use crate::evaluator::VisibilityField;
 use crate::probe::sphere_truth;
-use crate::subvolume::product_near_to_far;
+use crate::subvolume::near_to_far;
 use glam::DVec3;
 use shscale_geometry::Sphere;
 use shscale_sh::{GauntTensor, ShBasis};
@@ -76,17 +76,10 @@ impl VisibilityField for SphereSetField<'_> {
         "sphere-set"
     }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
-        let mut order: Vec<(f64, usize)> = (self.spheres.iter().enumerate())
-            .map(|(i, s)| ((p - s.sphere.center).length(), i))
+        let fields: Vec<&dyn VisibilityField> = (self.spheres.iter())
+            .map(|s| s as &dyn VisibilityField)
             .collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let v: Vec<Vec<f64>> = (order.iter())
-            .map(|&(_, i)| {
-                let mut o = vec![0.0; out.len()];
-                self.spheres[i].eval(p, &mut o);
-                o
-            })
-            .collect();
-        product_near_to_far(self.gaunt, &v, out);
+        let centers: Vec<DVec3> = self.spheres.iter().map(|s| s.sphere.center).collect();
+        near_to_far(self.gaunt, &fields, &centers, p, out);
     }
 }

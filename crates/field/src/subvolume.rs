@@ -53,21 +53,57 @@ impl VisibilityField for SubVolumeField<'_> {
         "sub-volumes"
     }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
-        // Near to far: by the distance from p to each part's centre.
-        let mut order: Vec<(f64, usize)> = (self.parts.iter().enumerate())
-            .map(|(i, e)| ((p - e.bsv.sphere.center).length(), i))
-            .collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let v: Vec<Vec<f64>> = order
+        let fields: Vec<&dyn VisibilityField> = self
+            .parts
             .iter()
-            .map(|&(_, i)| {
-                let mut o = vec![0.0; out.len()];
-                VisibilityField::eval(&self.parts[i], p, &mut o);
-                o
-            })
+            .map(|e| e as &dyn VisibilityField)
             .collect();
-        product_near_to_far(self.gaunt, &v, out);
+        let centers: Vec<DVec3> = self.parts.iter().map(|e| e.bsv.sphere.center).collect();
+        near_to_far(self.gaunt, &fields, &centers, p, out);
     }
+}
+
+/// The visibility at `p` of several fields combined as shadow fields combine occluders (Zhou
+/// et al. 2005; docs/conventions.md §5): each evaluated at `p` and multiplied with the
+/// truncated product in order of the distance from `p` to its centre (ties: the lower index
+/// first). A field that is exactly unoccluded there (`√(4π)e₀`) is skipped: multiplying by the
+/// constant 1 is the identity. No field, or none occluding: `√(4π)e₀`. Returns the products
+/// computed and the fields skipped. The one combination of every multi-occluder method: the
+/// renderer's occluders, sub-volumes and sphere sets.
+pub fn near_to_far(
+    gaunt: &GauntTensor<f64>,
+    fields: &[&dyn VisibilityField],
+    centers: &[DVec3],
+    p: DVec3,
+    out: &mut [f64],
+) -> (usize, usize) {
+    let one = (4.0 * std::f64::consts::PI).sqrt();
+    let mut order: Vec<usize> = (0..fields.len()).collect();
+    order.sort_by(|&a, &b| {
+        (centers[a] - p)
+            .length()
+            .total_cmp(&(centers[b] - p).length())
+    });
+    out.iter_mut().for_each(|o| *o = 0.0);
+    out[0] = one;
+    let (mut v, mut tmp) = (vec![0.0; out.len()], vec![0.0; out.len()]);
+    let (mut first, mut products, mut skipped) = (true, 0, 0);
+    for j in order {
+        fields[j].eval(p, &mut v);
+        if v[1..].iter().all(|x| *x == 0.0) && v[0] == one {
+            skipped += 1;
+            continue;
+        }
+        if first {
+            out.copy_from_slice(&v);
+            first = false;
+        } else {
+            gaunt.product(out, &v, &mut tmp).expect("lengths agree");
+            out.copy_from_slice(&tmp);
+            products += 1;
+        }
+    }
+    (products, skipped)
 }
 
 #[cfg(test)]

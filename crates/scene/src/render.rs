@@ -17,8 +17,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
-use shscale_field::sphereset::SphereVisibility;
 use shscale_field::shading::{EnvLight, Shader};
+use shscale_field::sphereset::SphereVisibility;
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
@@ -102,8 +102,7 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     } else {
         0.0
     };
-    let bytes =
-        occluders * shells * samples * nn * 8.0 + spheres + receivers * (nn * 8.0 + 16.0);
+    let bytes = occluders * shells * samples * nn * 8.0 + spheres + receivers * (nn * 8.0 + 16.0);
     (rays, bytes)
 }
 
@@ -342,16 +341,14 @@ fn build_fields(
 /// sphere is one part.
 fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
     let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
-    for o in &scene.occluders {
-        let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
-            parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?);
-            continue;
-        };
-        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
-            .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-        let posed = crate::frame::posed(&rest, o, scene.pose_t);
-        for p in shscale_geometry::partition::split(&posed, &labels, scene.parts) {
-            parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
+    for (o, split) in scene.occluders.iter().zip(partitioned(scene)?) {
+        match split {
+            Some((posed, labels)) => {
+                for p in shscale_geometry::partition::split(&posed, &labels, scene.parts) {
+                    parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
+                }
+            }
+            None => parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?),
         }
     }
     Ok(parts)
@@ -362,21 +359,38 @@ fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
 /// pose at [`Scene::pose_t`]; the analytic sphere is its own set.
 fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
     let mut out = Vec::new();
-    for o in &scene.occluders {
-        let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
-            out.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?.bounding_sphere());
-            continue;
-        };
-        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
-            .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-        let posed = crate::frame::posed(&rest, o, scene.pose_t);
-        out.extend(shscale_geometry::partition::fit_spheres(
-            &posed,
-            &labels,
-            scene.parts,
-        ));
+    for (o, split) in scene.occluders.iter().zip(partitioned(scene)?) {
+        match split {
+            Some((posed, labels)) => out.extend(shscale_geometry::partition::fit_spheres(
+                &posed,
+                &labels,
+                scene.parts,
+            )),
+            None => {
+                out.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?.bounding_sphere())
+            }
+        }
     }
     Ok(out)
+}
+
+/// A posed mesh and the part of each of its triangles.
+type Partitioned = (shscale_geometry::Mesh, Vec<u32>);
+
+/// Per occluder: its mesh posed at [`Scene::pose_t`] with the part of every triangle
+/// ([`Scene::parts`] by k-means on the rest pose's triangle centroids, so a deforming mesh keeps
+/// its partition over a sequence), or `None` for the analytic sphere.
+fn partitioned(scene: &Scene) -> Result<Vec<Option<Partitioned>>, Error> {
+    (scene.occluders.iter())
+        .map(|o| {
+            let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
+                return Ok(None);
+            };
+            let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+                .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+            Ok(Some((crate::frame::posed(&rest, o, scene.pose_t), labels)))
+        })
+        .collect()
 }
 
 /// The renderer's full field: the papers' construction ([`Shells::PAPERS`]: 16 shells at uniform
