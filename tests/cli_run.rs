@@ -1203,6 +1203,39 @@ fn budget_sub_volumes_cost_p_spheres_and_one_part_is_the_extrapolation() {
     assert!(dir
         .join("r/budget/sv/pareto_rays_two_octahedra_n3.png")
         .exists());
+    // The probe kind's sub-volumes on the same mesh: two parts cast twice the one sphere's
+    // rays, time their partition and leave the one-sphere decomposition empty.
+    let (pdir, ph, prows) = run_csv(
+        "svprobe",
+        "probe",
+        &format!("experiment = \"probe\"\nmesh = {:?}\norder = 4\nlayout = \"latlong:6x8\"\nhemisphere_res = 8\ntruth_res = 16\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nparts = [1, 2]\n", mesh.to_str().unwrap()),
+    );
+    let pc = |n: &str| ph.iter().position(|h| h == n).unwrap();
+    let at = |parts: &str, radius: f64| {
+        prows
+            .iter()
+            .find(|r| r[pc("parts")] == parts && r[pc("radius")].parse::<f64>() == Ok(radius))
+            .unwrap()
+    };
+    let pn = |r: &Vec<String>, k: &str| r[pc(k)].parse::<f64>().unwrap();
+    for radius in [1.3, 2.0] {
+        let (one, two) = (at("1", radius), at("2", radius));
+        assert_eq!(pn(two, "bsv_rays"), 2.0 * pn(one, "bsv_rays"));
+        assert!(pn(two, "partition_seconds") >= 0.0);
+        assert!(one[pc("partition_seconds")].is_empty());
+        assert!(two[pc("occ_rel_l2_model_mean")].is_empty());
+        println!(
+            "two octahedra at {radius}r: one sphere {:.3}, two parts {:.3}",
+            pn(one, "occ_rel_l2_mean"),
+            pn(two, "occ_rel_l2_mean")
+        );
+        // With fixed α two small parts put these points at large k, where the order-4 cone
+        // scaling overstates each part (experiments/README.md, "Sub-volumes"): no ordering is
+        // asserted, only that both are scored.
+        assert!(pn(two, "occ_rel_l2_mean").is_finite() && pn(two, "occ_rel_l2_mean") > 0.0);
+        assert_ne!(pn(two, "occ_rel_l2_mean"), pn(one, "occ_rel_l2_mean"));
+    }
+    let _ = std::fs::remove_dir_all(&pdir);
     // The analytic sphere has no mesh to split.
     let cfg = dir.join("bad.toml");
     std::fs::write(
@@ -1214,6 +1247,15 @@ fn budget_sub_volumes_cost_p_spheres_and_one_part_is_the_extrapolation() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("mesh") && err.contains("sub_volumes"), "{err}");
+    std::fs::write(
+        &cfg,
+        "experiment = \"probe\"\nmesh = \"sphere\"\nparts = 2\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let o = shscale(&["run", cfg.to_str().unwrap(), "--dry-run"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("parts"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -65,6 +65,8 @@ pub struct ProbeParams {
     pub truth_seed: u64,
     /// `none` or `clamp` (the plausibility mitigation).
     pub plausibility: String,
+    /// Sub-volumes: the mesh split into this many parts (1 = one sphere, the papers').
+    pub parts: usize,
     /// Probe radii (× r).
     #[serde(with = "list")]
     pub radii: Vec<f64>,
@@ -92,6 +94,7 @@ impl Default for ProbeParams {
             truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
             truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
             plausibility: "none".into(),
+            parts: 1,
             radii: shscale_field::probe::DEFAULT_RADII.to_vec(),
         }
     }
@@ -219,11 +222,15 @@ pub struct ProbeRow {
     pub gpu_bsv_sampling_seconds: Option<f64>,
     pub gpu_sh_conversion_seconds: Option<f64>,
     pub gpu_device: String,
+    /// `parts > 1`: the partition's time (k-means, the parts' meshes and BVHs), once per run.
+    pub partition_seconds: Option<f64>,
 }
 
 /// What runs of a group share.
 pub struct ProbeShared {
     occ: Box<dyn shscale_geometry::Occluder>,
+    /// The mesh (none for the analytic sphere), for `parts > 1`.
+    mesh: Option<shscale_geometry::Mesh>,
     base: ProbeBase,
     bsv_timing: Timing,
     gpu: (Option<f64>, Option<f64>, String),
@@ -273,6 +280,7 @@ impl Kind for Probe {
             ("truth_res", "resolution T of the converged truth (4T² rays per probe, stratified, its own error reported), 1..=1024, independent of hemisphere_res"),
             ("truth_seed", "seed of the truth's per-probe rotations and jitter"),
             ("plausibility", "`none` or `clamp`: visibility clamped to [0, 1] in the angular domain and 1 outside the bounding sphere's cone, re-projected (docs/conventions.md §6)"),
+            ("parts", "sub-volumes: the mesh split into 1..=64 parts (k-means on triangle centroids, as `budget`'s `sub_volumes`), each sampled with the run's layout, H and sampling radius and extrapolated from its own sphere, multiplied near to far at every probe; 1 is the papers' one sphere. Above 1 the single-sphere decomposition and on-surface columns stay empty and the BSV columns sum the parts; meshes only"),
             ("radii", "probe radii in bounding radii: 1 to 64 distinct values in (0, 1e6]"),
         ]
     }
@@ -311,6 +319,13 @@ impl Kind for Probe {
         Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
         parse_alpha_mode(&p.alpha_mode).map_err(|m| KeyError::new("alpha_mode", m))?;
         KeyError::int("truth_res", p.truth_res, 1, MAX_TRUTH_RES)?;
+        KeyError::int("parts", p.parts, 1, shscale_geometry::partition::MAX_PARTS)?;
+        if p.parts > 1 && p.mesh == "sphere" {
+            return Err(KeyError::new(
+                "parts",
+                "sub-volumes split a mesh; the analytic sphere has none",
+            ));
+        }
         check_radii(&p.radii)?;
         let (a, b) =
             shscale_field::probe::table_range_of(p.k_min, p.k_max, &p.radii, p.sampling_radius);
@@ -374,12 +389,20 @@ impl Kind for Probe {
             ),
         };
         let table = p.k_count as f64 * nn * nn * 8.0;
+        // Sub-volumes sample every part's BSV per repeat.
+        let part_rays = if p.parts > 1 {
+            p.parts as f64 * samples * h2
+        } else {
+            0.0
+        };
         let run = Cost {
-            rays: 0.0,
-            bytes: table + radii * samples * nn * 8.0,
+            rays: part_rays,
+            bytes: p.parts as f64 * table + radii * samples * nn * 8.0,
             // Table build ≈ 70 ns per k and element pair at N = 4 (2.7 ms for K = 40),
             // extrapolation ≈ 10 ns per probe and element; both timed.
-            seconds: p.k_count as f64 * nn * nn * 2.6e-7 + radii * samples * nn * 1e-8,
+            seconds: p.parts as f64
+                * (p.k_count as f64 * nn * nn * 2.6e-7 + radii * samples * nn * 1e-8)
+                + part_rays / CPU_RAYS_PER_SECOND,
             // The per-run images (truth and extrapolated visibility at every radius).
             once_seconds: radii * IMAGE_SECONDS,
             drivers: format!("k_count = {} × order² = {nn}", p.k_count),
@@ -422,6 +445,7 @@ impl Kind for Probe {
         };
         Ok(ProbeShared {
             occ: u.occ,
+            mesh: u.mesh,
             base,
             bsv_timing,
             gpu,
@@ -435,6 +459,9 @@ impl Kind for Probe {
         ctx: &Ctx,
     ) -> Result<Vec<ProbeRow>, Error> {
         let spec = &p.typed;
+        if p.parts > 1 {
+            return sub_volume_rows(p, sh, ctx);
+        }
         // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
         // extrapolation at each radius.
         let mut results = Vec::new();
@@ -621,7 +648,158 @@ fn row_of(
         gpu_bsv_sampling_seconds: sh.gpu.0,
         gpu_sh_conversion_seconds: sh.gpu.1,
         gpu_device: sh.gpu.2.clone(),
+        partition_seconds: None,
     }
+}
+
+/// The rows of a run with `parts > 1`: the mesh partitioned once per run (timed on its own);
+/// per repeat of the timing procedure (timed stage by stage, as the one-sphere rows are,
+/// except that the evaluation covers every radius) every part's BSV (the run's layout, H and
+/// sampling radius on the part's own sphere), its k-table (fixed α, or α by distance at the part's
+/// effective cap; over the k its probes need, widened by `K_MARGIN`, at least 1e-3) and the
+/// product of the parts near to far at every probe point ([`SubVolumeField`]); scored against
+/// the group's truth at the same points, as the one-sphere rows are. The decomposition, the
+/// on-surface and the contact columns belong to one sphere and stay empty.
+fn sub_volume_rows(
+    p: &Typed<ProbeParams, ProbeSpec>,
+    sh: &ProbeShared,
+    ctx: &Ctx,
+) -> Result<Vec<ProbeRow>, Error> {
+    use rayon::prelude::*;
+    use shscale_field::metrics::{mean_max, occ_rel_l2, quantiles, vis_rel_l2};
+    use shscale_scaling::{Eta, KTable, TauFamily};
+    let spec = &p.typed;
+    let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
+        Error::config("sub-volumes split a mesh; the analytic sphere has none".into())
+    })?;
+    let t0 = std::time::Instant::now();
+    let labels = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
+        .map_err(|e| Error::config(e.to_string()))?;
+    let bvhs: Vec<shscale_geometry::MeshBvh> =
+        (shscale_geometry::partition::split(mesh, &labels, p.parts).iter())
+            .map(|m| {
+                shscale_geometry::MeshBvh::build(m, shscale_geometry::ray::UpdateStrategy::Rebuild)
+            })
+            .collect();
+    let partition_seconds = t0.elapsed().as_secs_f64();
+    let s = sh.base.bsv.sphere;
+    let points: Vec<Vec<glam::DVec3>> = (spec.radii.iter())
+        .map(|rho| {
+            sh.base
+                .dirs
+                .iter()
+                .map(|d| s.center + rho * s.radius * *d)
+                .collect()
+        })
+        .collect();
+    let gaunt =
+        shscale_sh::GauntTensor::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
+    let nn = p.order * p.order;
+    let (values, [sampling, table, eval]) = ctx.timing.measure_parts(|| -> Result<_, Error> {
+        let t0 = std::time::Instant::now();
+        let bsvs = (bvhs.iter())
+            .map(|b| sample_bsv(b, spec))
+            .collect::<Result<Vec<_>, _>>()?;
+        let t1 = std::time::Instant::now();
+        let tables = (bsvs.iter())
+            .map(|b| {
+                let lo = (points.iter().flatten())
+                    .map(|q| (*q - b.sphere.center).length() / b.sampling_radius)
+                    .fold(f64::INFINITY, f64::min);
+                let hi = (points.iter().flatten())
+                    .map(|q| (*q - b.sphere.center).length() / b.sampling_radius)
+                    .fold(0.0, f64::max);
+                let lo = (lo / shscale_field::probe::K_MARGIN).max(1e-3);
+                let family = if spec.alpha_fit {
+                    TauFamily::ConeFit {
+                        theta0: shscale_field::alpha::effective_cap_angle(b),
+                    }
+                } else {
+                    TauFamily::Cone { alpha: spec.alpha }
+                };
+                KTable::build(
+                    family,
+                    Eta::Plain,
+                    p.order,
+                    spec.k_count,
+                    lo,
+                    (hi * shscale_field::probe::K_MARGIN).max(lo * 1.01),
+                    spec.k_spacing,
+                    spec.k_interp,
+                )
+                .map_err(|e| Error::config(e.to_string()))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let t2 = std::time::Instant::now();
+        let exs = (bsvs.iter().zip(&tables))
+            .map(|(b, t)| {
+                shscale_field::extrapolate::Extrapolator::new(b, t)
+                    .with_plausibility(spec.plausibility)
+            })
+            .collect();
+        let field = shscale_field::subvolume::SubVolumeField::new(exs, &gaunt);
+        let values: Vec<Vec<Vec<f64>>> = (points.iter())
+            .map(|ps| {
+                ps.par_iter()
+                    .map(|q| {
+                        let mut out = vec![0.0; nn];
+                        shscale_field::evaluator::VisibilityField::eval(&field, *q, &mut out);
+                        out
+                    })
+                    .collect()
+            })
+            .collect();
+        let rays: usize = bsvs.iter().map(|b| b.rays).sum();
+        let secs = |a: std::time::Instant, b: std::time::Instant| (b - a).as_secs_f64();
+        let t3 = std::time::Instant::now();
+        Ok(((values, rays), [secs(t0, t1), secs(t1, t2), secs(t2, t3)]))
+    })?;
+    let (values, rays) = values;
+    Ok((spec.radii.iter().enumerate())
+        .map(|(ri, &rho)| {
+            let truths = &sh.base.truth[ri];
+            let pairs: Vec<(&Vec<f64>, &shscale_field::truth::Truth)> = (values[ri].iter())
+                .zip(truths)
+                .filter_map(|(v, t)| t.as_ref().map(|t| (v, t)))
+                .collect();
+            let occ: Vec<Option<f64>> = pairs
+                .iter()
+                .map(|(v, t)| occ_rel_l2(v, &t.coeffs))
+                .collect();
+            let (om, ox, _) = mean_max(occ.iter().copied());
+            let (vm, vx, _) = mean_max(pairs.iter().map(|(v, t)| vis_rel_l2(v, &t.coeffs)));
+            let q = quantiles(occ.iter().copied(), &[0.05, 0.25, 0.5, 0.75, 0.95]);
+            ProbeRow {
+                radius: rho,
+                k: rho / spec.sampling_radius,
+                alpha_used_deg: spec.alpha.to_degrees(),
+                probes: truths.len(),
+                inside_count: truths.iter().filter(|t| t.is_none()).count(),
+                unoccluded_truth_count: occ.iter().filter(|o| o.is_none()).count(),
+                vis_rel_l2_mean: vm,
+                vis_rel_l2_max: vx,
+                occ_rel_l2_mean: om,
+                occ_rel_l2_max: ox,
+                occ_rel_l2_p05: q[0],
+                occ_rel_l2_p25: q[1],
+                occ_rel_l2_p50: q[2],
+                occ_rel_l2_p75: q[3],
+                occ_rel_l2_p95: q[4],
+                bsv_rays: rays,
+                truth_rays: sh.base.truth_rays_per_probe,
+                bsv_sampling_seconds: sampling.median,
+                bsv_sampling_spread: sampling.spread(),
+                table_build_seconds: table.median,
+                table_build_spread: table.spread(),
+                // Every radius at once (the one-sphere rows time each radius).
+                extrapolation_seconds: eval.median,
+                extrapolation_spread: eval.spread(),
+                truth_seconds: sh.base.truth_seconds[ri],
+                partition_seconds: Some(partition_seconds),
+                ..ProbeRow::default()
+            }
+        })
+        .collect())
 }
 
 /// 1 to [`MAX_RADII`] distinct probe radii, each in (0, 1e6].
