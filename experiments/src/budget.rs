@@ -410,7 +410,8 @@ impl Kind for Budget {
                 bytes: shells * samples * nn * 8.0 + p.k_count as f64 * nn * nn * 8.0,
                 // Every method's frame ran at 1.9–2.4e7 rays/s in `configs/experiments/
                 // budget.toml` (the `rays` and `frame_seconds` columns): the truths' rate.
-                seconds: rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND,
+                seconds: rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND
+                    + n * sphere_set_seconds(&p.method, p.parts),
                 once_seconds: 0.0,
                 drivers: format!("method {} → {rays:.3e} rays per frame", p.method),
             },
@@ -1205,6 +1206,21 @@ pub(crate) fn radial_of(
             .unwrap_or("radial");
         KeyError::new(key, m)
     })
+}
+
+/// The cost model's time per receiver of a sphere set, per sphere (a cap's projection and
+/// rotation and a truncated product at N = 4): 0.36 µs on spherical receivers, 0.57–0.63 µs on
+/// the plane, at S = 16 and 64 in `configs/experiments/budget.toml` and `budget_plane.toml`
+/// on the development VM.
+pub const SPHERE_SECONDS: f64 = 5e-7;
+
+/// The evaluation time per receiver of `method` with `parts` spheres (0 unless a sphere set).
+pub(crate) fn sphere_set_seconds(method: &str, parts: usize) -> f64 {
+    if method == "sphere_set" {
+        parts as f64 * SPHERE_SECONDS
+    } else {
+        0.0
+    }
 }
 
 /// The run's k-table of `family` over `(lo, hi)`: plain η, `k_count` entries, exponential

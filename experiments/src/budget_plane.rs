@@ -508,7 +508,8 @@ impl Kind for BudgetPlane {
                 rays,
                 bytes,
                 seconds: rays / crate::shadows::RENDER_RAYS_PER_SECOND
-                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER,
+                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER
+                    + frames * receivers * crate::budget::sphere_set_seconds(p.method.as_str(), p.parts),
                 once_seconds: 0.0,
                 drivers: format!(
                     "method {} → {rays:.3e} rays and {receivers} receivers shaded, over {} frame(s)",

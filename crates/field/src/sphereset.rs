@@ -83,3 +83,36 @@ impl VisibilityField for SphereSetField<'_> {
         near_to_far(self.gaunt, &fields, &centers, p, out);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The domain's edges: a sphere of radius 0 occludes nothing (exactly the constant 1), a
+    /// point on the surface sees exactly the hemisphere's cap (DC `√(4π)/2`), a point inside
+    /// sees nothing, and the far limit tends to the constant 1.
+    #[test]
+    fn sphere_visibility_at_its_edges() {
+        let basis = ShBasis::<f64>::new(4).unwrap();
+        let one = (4.0 * std::f64::consts::PI).sqrt();
+        let mut v = vec![0.0; 16];
+        let s = |radius: f64| Sphere {
+            center: DVec3::ZERO,
+            radius,
+        };
+        SphereVisibility::new(s(0.0), &basis).eval(DVec3::X, &mut v);
+        assert_eq!(v[0], one);
+        assert!(v[1..].iter().all(|x| *x == 0.0));
+        SphereVisibility::new(s(1.0), &basis).eval(DVec3::X, &mut v);
+        println!("on the surface: DC {} (want {})", v[0], one / 2.0);
+        assert!((v[0] - one / 2.0).abs() < 1e-12);
+        SphereVisibility::new(s(1.0), &basis).eval(0.5 * DVec3::Y, &mut v);
+        assert!(v.iter().all(|x| *x == 0.0));
+        SphereVisibility::new(s(1.0), &basis).eval(1e6 * DVec3::Z, &mut v);
+        // Occluded solid angle 2π(1 − cos asin 1e-6) ≈ π·1e-12.
+        assert!((v[0] - one).abs() < 1e-11, "{}", v[0] - one);
+        // An empty set is refused by name.
+        let gaunt = GauntTensor::<f64>::new(4).unwrap();
+        assert!(std::panic::catch_unwind(|| SphereSetField::new(&[], &basis, &gaunt)).is_err());
+    }
+}

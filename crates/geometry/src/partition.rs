@@ -278,6 +278,13 @@ mod tests {
         );
         assert!((f.radius - rho).abs() < 1e-12);
         assert!((f.center - DVec3::new(0.0, 0.0, -rho)).length() < 1e-12);
+        // A part of zero area (a degenerate triangle) gets radius 0: it occludes nothing.
+        let flat = Mesh {
+            name: "degenerate".into(),
+            positions: vec![DVec3::ZERO, DVec3::X, 2.0 * DVec3::X],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert_eq!(fit_spheres(&flat, &[0], 1)[0].radius, 0.0);
     }
 
     /// Two unit spheres 6 apart as one mesh.
