@@ -189,7 +189,8 @@ pub struct Shared {
 /// H of the contact classification of the receivers' directions.
 pub const CONTACT_RES: usize = 32;
 
-const METHODS: [&str; 5] = [
+/// The methods of `budget` and `budget_plane`.
+pub(crate) const METHODS: [&str; 5] = [
     "extrapolated",
     "full_field",
     "ray_traced",

@@ -21,7 +21,7 @@
 //! projection and the BVH build, which every method shares — as the median of the timing
 //! procedure's repeats with its order-statistic interval.
 
-use crate::budget::{by_config, distinct_pairs, equal_accuracy, speed_claim, NEAR_RHO};
+use crate::budget::{by_config, distinct_pairs, equal_accuracy, speed_claim, METHODS, NEAR_RHO};
 use crate::shadows::flat;
 use serde::{Deserialize, Serialize};
 use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
@@ -143,13 +143,6 @@ pub struct Shared {
     band_err: f64,
 }
 
-const METHODS: [&str; 5] = [
-    "extrapolated",
-    "full_field",
-    "ray_traced",
-    "sub_volumes",
-    "sphere_set",
-];
 /// Seconds per receiver of one render besides its rays (locating, rotating and shading each
 /// receiver), the cost model's rate: the extrapolated plane frames of
 /// `configs/experiments/budget_plane.toml` took 22–40 ms for 25,600 receivers and 61,440 rays
@@ -255,60 +248,28 @@ fn write_plane_figure(
     truth: &[[f32; 3]],
     shown: &[(String, Vec<[f32; 3]>)],
 ) -> Result<(), Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
-    let lum =
-        |p: &[[f32; 3]]| -> Vec<f32> { p.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect() };
-    let tr = lum(truth);
-    let imgs: Vec<Vec<f32>> = shown.iter().map(|(_, p)| lum(p)).collect();
-    let max = (imgs.iter().flatten().chain(&tr)).fold(0f32, |a, v| a.max(*v)) as f64;
-    let diffs: Vec<Vec<f32>> = (imgs.iter())
-        .map(|i| i.iter().zip(&tr).map(|(a, b)| a - b).collect())
-        .collect();
-    let dmax = diffs.iter().flatten().fold(0f32, |a, v| a.max(v.abs())) as f64;
-    let (xr, yr) = (
-        (0.0, w as f64, "receiver column"),
-        (0.0, h as f64, "receiver row"),
-    );
-    let panel = |title: String, values: Vec<f32>| Panel {
-        title,
-        width: w,
-        height: h,
-        values,
-    };
-    let mut top = vec![panel("full-frequency ray-traced truth".into(), tr.clone())];
-    top.extend((shown.iter().zip(&imgs)).map(|((t, _), v)| panel(t.clone(), v.clone())));
-    let rms =
-        |e: &[f32]| (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64).sqrt();
-    let bottom = (shown.iter().zip(&diffs))
-        .map(|((t, _), d)| {
-            let name = t.split(" (").next().unwrap_or(t);
-            panel(format!("{name} − truth (RMS {:.3})", rms(d)), d.clone())
+    let tr = crate::shadows::lum(truth);
+    let mut top = vec![("full-frequency ray-traced truth".to_string(), tr.clone())];
+    top.extend((shown.iter()).map(|(t, p)| (t.clone(), crate::shadows::lum(p))));
+    let methods = (shown.iter())
+        .map(|(t, p)| {
+            let name = t.split(" (").next().unwrap_or(t).to_string();
+            (name, crate::shadows::lum(p))
         })
         .collect();
-    let images = Grid {
-        title: "irradiance on the receiver plane (in brackets: shade_rmse_rel vs full-frequency truth, rays per frame)",
-        rows: vec![top],
-        x: xr,
-        y: yr,
-        colours: ColourMap::Heat,
-        range: (0.0, max),
-        scale_label: "irradiance (scene radiance units)",
-        panel_px: (300, 300),
-    };
-    let differences = Grid {
-        title: "difference from the full-frequency truth",
-        rows: vec![bottom],
-        x: xr,
-        y: yr,
-        colours: ColourMap::Diverging,
-        range: (-dmax, dmax),
-        scale_label: "irradiance difference",
-        panel_px: (300, 300),
-    };
-    Ok(shscale_runner::figure::write_png_stack(
+    crate::shadows::write_irradiance_figure(
         png,
-        &[images, differences],
-    )?)
+        (w, h),
+        (
+            (0.0, w as f64, "receiver column"),
+            (0.0, h as f64, "receiver row"),
+        ),
+        "irradiance on the receiver plane (in brackets: shade_rmse_rel vs full-frequency truth, rays per frame)",
+        top,
+        &tr,
+        methods,
+        300,
+    )
 }
 
 fn method_of(name: &str) -> Method {

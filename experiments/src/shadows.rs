@@ -172,7 +172,7 @@ fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error>
 }
 
 /// Mean of the three channels per pixel.
-fn lum(pixels: &[[f32; 3]]) -> Vec<f32> {
+pub(crate) fn lum(pixels: &[[f32; 3]]) -> Vec<f32> {
     pixels.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect()
 }
 
@@ -180,56 +180,92 @@ fn lum(pixels: &[[f32; 3]]) -> Vec<f32> {
 /// extrapolated, full-frequency truth) on one scale, then the differences of the two fields from
 /// the truth on a symmetric diverging scale.
 fn write_field_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
     let (w, h) = (imgs[0].width, imgs[0].height);
     let [ff, ex, tr] = imgs.map(|i| lum(&i.pixels));
-    let max = ff.iter().chain(&ex).chain(&tr).fold(0f32, |a, v| a.max(*v)) as f64;
-    let diff = |a: &[f32]| -> Vec<f32> { a.iter().zip(&tr).map(|(x, t)| x - t).collect() };
-    let (dff, dex) = (diff(&ff), diff(&ex));
-    let dmax = dff.iter().chain(&dex).fold(0f32, |a, v| a.max(v.abs())) as f64;
     let c = scene.receiver_center;
     let [sx, sy] = scene.receiver_size;
-    let xr = (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)");
-    let yr = (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)");
+    let axes = (
+        (c.x - sx / 2.0, c.x + sx / 2.0, "receiver x (scene units)"),
+        (c.y + sy / 2.0, c.y - sy / 2.0, "receiver y (scene units)"),
+    );
+    let top = vec![
+        (
+            "fully sampled shadow field (16 shells)".to_string(),
+            ff.clone(),
+        ),
+        (
+            format!("SH-scaling extrapolation (N = {})", scene.order),
+            ex.clone(),
+        ),
+        ("full-frequency ray-traced truth".to_string(), tr.clone()),
+    ];
+    let methods = vec![
+        ("full field".to_string(), ff),
+        ("extrapolation".to_string(), ex),
+    ];
+    write_irradiance_figure(
+        png,
+        (w, h),
+        axes,
+        "irradiance on the receiver plane",
+        top,
+        &tr,
+        methods,
+        320,
+    )
+}
+
+/// An irradiance figure of the receiver plane: the images `top` (title, luminance) on one heat
+/// scale, then below each of `methods` (name, luminance) its difference from `truth` on a
+/// symmetric diverging scale, its RMS in the title. Panels `px` pixels square; `axes` the x and
+/// y ranges with their labels.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn write_irradiance_figure(
+    png: &Path,
+    (w, h): (usize, usize),
+    (x, y): ((f64, f64, &str), (f64, f64, &str)),
+    title: &str,
+    top: Vec<(String, Vec<f32>)>,
+    truth: &[f32],
+    methods: Vec<(String, Vec<f32>)>,
+    px: u32,
+) -> Result<(), Error> {
+    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    let max = (top.iter().flat_map(|(_, v)| v)).fold(0f32, |a, v| a.max(*v)) as f64;
+    let diffs: Vec<(String, Vec<f32>)> = (methods.into_iter())
+        .map(|(n, v)| (n, v.iter().zip(truth).map(|(a, t)| a - t).collect()))
+        .collect();
+    let dmax = (diffs.iter().flat_map(|(_, v)| v)).fold(0f32, |a, v| a.max(v.abs())) as f64;
+    let rms = |e: &[f32]| {
+        (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len().max(1) as f64).sqrt()
+    };
     let panel = |title: String, values: Vec<f32>| Panel {
         title,
         width: w,
         height: h,
         values,
     };
-    let rms = |e: &[f32]| {
-        let num: f64 = e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len() as f64;
-        num.sqrt()
-    };
     let images = Grid {
-        title: "irradiance on the receiver plane",
-        rows: vec![vec![
-            panel("fully sampled shadow field (16 shells)".into(), ff),
-            panel(
-                format!("SH-scaling extrapolation (N = {})", scene.order),
-                ex,
-            ),
-            panel("full-frequency ray-traced truth".into(), tr),
-        ]],
-        x: xr,
-        y: yr,
+        title,
+        rows: vec![top.into_iter().map(|(t, v)| panel(t, v)).collect()],
+        x,
+        y,
         colours: ColourMap::Heat,
         range: (0.0, max),
         scale_label: "irradiance (scene radiance units)",
-        panel_px: (320, 320),
+        panel_px: (px, px),
     };
     let differences = Grid {
         title: "difference from the full-frequency truth",
-        rows: vec![vec![
-            panel(format!("full field − truth (RMS {:.3})", rms(&dff)), dff),
-            panel(format!("extrapolation − truth (RMS {:.3})", rms(&dex)), dex),
-        ]],
-        x: xr,
-        y: yr,
+        rows: vec![(diffs.into_iter())
+            .map(|(n, d)| panel(format!("{n} − truth (RMS {:.3})", rms(&d)), d))
+            .collect()],
+        x,
+        y,
         colours: ColourMap::Diverging,
         range: (-dmax, dmax),
         scale_label: "irradiance difference",
-        panel_px: (320, 320),
+        panel_px: (px, px),
     };
     Ok(shscale_runner::figure::write_png_stack(
         png,
