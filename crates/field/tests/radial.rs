@@ -8,22 +8,12 @@ use glam::DVec3;
 use shscale_field::bsv::{RadialRule, OCCLUSION_STEPS};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::metrics::{facing_occlusion, l2, l2_diff};
+use shscale_field::probe::sphere_truth;
 use shscale_field::*;
 use shscale_geometry::{ray::UpdateStrategy, shapes, AnalyticSphere, MeshBvh};
 use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
-use shscale_sh::{cap_zonal, rotate_zonal, ShBasis};
+use shscale_sh::{rotate_zonal, ShBasis};
 use std::f64::consts::PI;
-
-/// Visibility `√(4π)e₀ − cap(A)` about the unit axis (entity frame).
-fn complement_cap(basis: &ShBasis<f64>, angle: f64, axis: DVec3) -> Vec<f64> {
-    let n = basis.order();
-    let cap = cap_zonal(n, angle).unwrap();
-    let mut v = vec![0.0; n * n];
-    rotate_zonal(basis, &cap, axis.to_array(), &mut v).unwrap();
-    v.iter_mut().for_each(|x| *x = -*x);
-    v[0] += (4.0 * PI).sqrt();
-    v
-}
 
 #[test]
 fn clearance_on_the_sphere_moves_every_sample_to_one_plus_delta_and_scales_the_exact_cap() {
@@ -82,7 +72,7 @@ fn clearance_on_the_sphere_moves_every_sample_to_one_plus_delta_and_scales_the_e
             .map(|s| {
                 l2_diff(
                     &s.coeffs,
-                    &complement_cap(&basis, (1.0 / (1.0 + delta)).asin(), -s.dir),
+                    &sphere_truth(&basis, &sphere.sphere, s.pos).unwrap(),
                 )
             })
             .fold(0.0, f64::max);
