@@ -32,7 +32,7 @@ use shscale_field::evaluator::{FieldInterp, FullField, ShellSpacing, Shells, Vis
 use shscale_field::extrapolate::{Extrapolator, Plausibility};
 use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
 use shscale_field::probe::random_directions;
-use shscale_field::sphereset::SphereSetField;
+use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::Occluder;
@@ -86,6 +86,10 @@ pub struct Params {
     pub radial_delta: f64,
     pub radial_tau: f64,
     pub radial_max: f64,
+    /// How `sphere_set` combines its spheres: `product` (the truncated SH products near to
+    /// far, as every multi-occluder method here) or `quadrature` (the set's joint visibility
+    /// projected by a `SPHERE_QUADRATURE_RES`-node quadrature, no truncated products).
+    pub sphere_combine: String,
     pub k_count: usize,
     /// Receivers: as many seeded directions as `receivers` at each radius.
     pub receivers: usize,
@@ -118,6 +122,7 @@ impl Default for Params {
             radial_delta: 0.1,
             radial_tau: 0.5,
             radial_max: 2.0,
+            sphere_combine: "product".into(),
             k_count: 40,
             receivers: 240,
             probe_seed: 1,
@@ -273,6 +278,7 @@ impl Kind for Budget {
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
             ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) or `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products, 8,192 ray–sphere tests per sphere and receiver)"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -344,6 +350,15 @@ impl Kind for Budget {
         crate::probe::parse_alpha_mode(&p.alpha_mode)
             .map_err(|m| KeyError::new("alpha_mode", m))?;
         radial_of(&p.radial, p.radial_delta, p.radial_tau, p.radial_max)?;
+        if !matches!(p.sphere_combine.as_str(), "product" | "quadrature") {
+            return Err(KeyError::new(
+                "sphere_combine",
+                format!(
+                    "{:?} is not one of \"product\", \"quadrature\"",
+                    p.sphere_combine
+                ),
+            ));
+        }
         Ok(Typed {
             params: p.clone(),
             typed: layout,
@@ -412,7 +427,14 @@ impl Kind for Budget {
                 // Every method's frame ran at 1.9–2.4e7 rays/s in `configs/experiments/
                 // budget.toml` (the `rays` and `frame_seconds` columns): the truths' rate.
                 seconds: rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND
-                    + n * sphere_set_seconds(&p.method, p.parts),
+                    + n * sphere_set_seconds(&p.method, p.parts)
+                    + if p.method == "sphere_set" && p.sphere_combine == "quadrature" {
+                        n * (2 * SPHERE_QUADRATURE_RES * SPHERE_QUADRATURE_RES) as f64
+                            * p.parts as f64
+                            * SPHERE_TEST_SECONDS
+                    } else {
+                        0.0
+                    },
                 once_seconds: 0.0,
                 drivers: format!("method {} → {rays:.3e} rays per frame", p.method),
             },
@@ -533,6 +555,8 @@ impl Kind for Budget {
                 let gaunt = shscale_sh::GauntTensor::<f64>::new(p.order)
                     .map_err(|e| Error::config(e.to_string()))?;
                 let mesh = sh.mesh.as_ref();
+                let grid = (p.sphere_combine == "quadrature")
+                    .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
                 Box::new(move || {
                     let t0 = Instant::now();
                     // The analytic sphere is its own one-sphere set.
@@ -544,13 +568,21 @@ impl Kind for Budget {
                     };
                     let build = t0.elapsed().as_secs_f64();
                     let t1 = Instant::now();
-                    let set = SphereSetField::new(&spheres, &basis, &gaunt);
-                    let v = eval_all(&set, &sh.points, nn);
+                    let (v, bytes) = match &grid {
+                        Some(g) => {
+                            let set = SphereSetQuadrature::new(&spheres, g);
+                            (
+                                eval_all(&set, &sh.points, nn),
+                                spheres.len() * 32 + g.size_bytes(),
+                            )
+                        }
+                        None => {
+                            let set = SphereSetField::new(&spheres, &basis, &gaunt);
+                            (eval_all(&set, &sh.points, nn), set.size_bytes())
+                        }
+                    };
                     let eval = t1.elapsed().as_secs_f64();
-                    Ok((
-                        (v, 0.0, set.size_bytes() as f64),
-                        [build, eval, build + eval],
-                    ))
+                    Ok(((v, 0.0, bytes as f64), [build, eval, build + eval]))
                 })
             }
             "full_field" => {
@@ -849,7 +881,15 @@ pub(crate) fn variant(t: &Results, r: usize) -> String {
             }
         }
         "ray_traced" => "ray tracing".into(),
-        "sphere_set" => format!("sphere set (S = {})", t.cell(r, "parts")),
+        "sphere_set" => format!(
+            "sphere set (S = {}{})",
+            t.cell(r, "parts"),
+            if t.cell(r, "sphere_combine") == "quadrature" {
+                ", quadrature"
+            } else {
+                ""
+            }
+        ),
         method => {
             let mut v = Vec::new();
             if method == "sub_volumes" {
@@ -1214,6 +1254,12 @@ pub(crate) fn radial_of(
 /// the plane, at S = 16 and 64 in `configs/experiments/budget.toml` and `budget_plane.toml`
 /// on the development VM.
 pub const SPHERE_SECONDS: f64 = 5e-7;
+
+/// Gauss–Legendre nodes in cos θ of `sphere_combine = "quadrature"` (× twice as many φ).
+pub const SPHERE_QUADRATURE_RES: usize = 64;
+
+/// The cost model's time of one ray–sphere test of the quadrature combination.
+pub const SPHERE_TEST_SECONDS: f64 = 2e-9;
 
 /// The evaluation time per receiver of `method` with `parts` spheres (0 unless a sphere set).
 pub(crate) fn sphere_set_seconds(method: &str, parts: usize) -> f64 {

@@ -84,6 +84,102 @@ impl VisibilityField for SphereSetField<'_> {
     }
 }
 
+/// A product quadrature of the sphere: `n` Gauss–Legendre nodes in cos θ × `2n` uniform φ,
+/// with the basis at every node (`2n²` directions × N² values).
+pub struct QuadratureGrid {
+    dirs: Vec<DVec3>,
+    w: Vec<f64>,
+    y: Vec<f64>,
+    nn: usize,
+}
+
+impl QuadratureGrid {
+    pub fn new(basis: &ShBasis<f64>, n: usize) -> Self {
+        let nn = basis.order() * basis.order();
+        let gl = shscale_sh::GaussLegendre::new(n);
+        let dphi = std::f64::consts::TAU / (2 * n) as f64;
+        let (mut dirs, mut w, mut y) = (Vec::new(), Vec::new(), Vec::new());
+        let mut row = vec![0.0; nn];
+        for (z, wz) in gl.on(-1.0, 1.0) {
+            let sz = (1.0 - z * z).max(0.0).sqrt();
+            for j in 0..2 * n {
+                let phi = dphi * (j as f64 + 0.5);
+                let d = DVec3::new(sz * phi.cos(), sz * phi.sin(), z);
+                basis.eval(d.to_array(), &mut row);
+                dirs.push(d);
+                w.push(wz * dphi);
+                y.extend_from_slice(&row);
+            }
+        }
+        Self { dirs, w, y, nn }
+    }
+
+    /// Directions in the grid.
+    pub fn len(&self) -> usize {
+        self.dirs.len()
+    }
+
+    /// Bytes the grid holds (directions, weights, basis values).
+    pub fn size_bytes(&self) -> usize {
+        self.dirs.len() * (24 + 8 + self.nn * 8)
+    }
+
+    /// Whether the grid is empty (`n` = 0).
+    pub fn is_empty(&self) -> bool {
+        self.dirs.is_empty()
+    }
+}
+
+/// A sphere set's joint visibility projected by quadrature, without the truncated products:
+/// at every grid direction the ray from `p` is tested against every sphere (blocked when it
+/// meets one, or when `p` lies inside one), and `∫ V Y` is summed. Exact for the set up to the
+/// quadrature of an indicator, whose error falls as 1/n at the caps' edges (one sphere at
+/// n = 64 against its closed form: see the test). Cost per point: `2n²` × S ray–sphere tests.
+/// It separates the set's own error (the occluder model) from the product chain's.
+pub struct SphereSetQuadrature<'a> {
+    spheres: Vec<Sphere>,
+    grid: &'a QuadratureGrid,
+}
+
+impl<'a> SphereSetQuadrature<'a> {
+    pub fn new(spheres: &[Sphere], grid: &'a QuadratureGrid) -> Self {
+        Self {
+            spheres: spheres.to_vec(),
+            grid,
+        }
+    }
+}
+
+impl VisibilityField for SphereSetQuadrature<'_> {
+    fn name(&self) -> &'static str {
+        "sphere-set-quadrature"
+    }
+    fn eval(&self, p: DVec3, out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        let g = self.grid;
+        let rel: Vec<(DVec3, f64, f64)> = (self.spheres.iter())
+            .filter(|s| s.radius > 0.0)
+            .map(|s| {
+                let oc = s.center - p;
+                (oc, oc.length_squared(), s.radius * s.radius)
+            })
+            .collect();
+        if rel.iter().any(|(_, d2, r2)| d2 < r2) {
+            return; // inside a sphere: nothing is visible
+        }
+        for (i, d) in g.dirs.iter().enumerate() {
+            let hit = rel.iter().any(|(oc, d2, r2)| {
+                let b = oc.dot(*d);
+                b > 0.0 && d2 - b * b < *r2
+            });
+            if !hit {
+                let row = &g.y[i * g.nn..(i + 1) * g.nn];
+                out.iter_mut().zip(row).for_each(|(o, y)| *o += g.w[i] * y);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,6 +207,24 @@ mod tests {
         SphereVisibility::new(s(1.0), &basis).eval(1e6 * DVec3::Z, &mut v);
         // Occluded solid angle 2π(1 − cos asin 1e-6) ≈ π·1e-12.
         assert!((v[0] - one).abs() < 1e-11, "{}", v[0] - one);
+        // The quadrature of the set: one sphere against its closed form, and inside it nothing.
+        let grid = QuadratureGrid::new(&basis, 64);
+        assert_eq!(grid.len(), 2 * 64 * 64);
+        let one_sphere = [Sphere {
+            center: DVec3::new(0.3, 0.0, 0.0),
+            radius: 0.7,
+        }];
+        let q = SphereSetQuadrature::new(&one_sphere, &grid);
+        let p = DVec3::new(1.2, 1.5, -0.4);
+        let mut want = vec![0.0; 16];
+        SphereVisibility::new(one_sphere[0], &basis).eval(p, &mut want);
+        q.eval(p, &mut v);
+        let occ = crate::metrics::l2(&crate::metrics::occlusion(&want));
+        let err = crate::metrics::l2_diff(&v, &want) / occ;
+        println!("one sphere by quadrature (n = 64) against the closed form: {err:.2e}");
+        assert!(err < 2e-2, "{err}");
+        q.eval(DVec3::new(0.5, 0.1, 0.0), &mut v);
+        assert!(v.iter().all(|x| *x == 0.0));
         // An empty set is refused by name.
         let gaunt = GauntTensor::<f64>::new(4).unwrap();
         assert!(std::panic::catch_unwind(|| SphereSetField::new(&[], &basis, &gaunt)).is_err());
