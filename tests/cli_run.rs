@@ -1268,12 +1268,16 @@ fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
     let (dir, head, rows) = run_csv(
         "radial",
         "budget",
-        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 4\nlayout = \"latlong:6x8\"\nhemisphere_res = 8\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\n[sweep.zip]\nradial = [\"uniform\", \"clearance\", \"occlusion\"]\nradial_delta = [0.2, 0.2, 0.2]\nradial_tau = [0.3, 0.3, 0.3]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [1]\n",
+        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 4\nlayout = \"latlong:6x8\"\nhemisphere_res = 8\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\n[sweep.zip]\nradial = [\"uniform\", \"clearance\", \"occlusion\"]\nradial_delta = [0.2, 0.2, 0.2]\nradial_tau = [0.3, 0.3, 0.3]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [1]\nsphere_combine = [\"product\", \"quadrature\"]\n",
     );
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let find = |m: &str, radial: &str| {
         rows.iter()
-            .find(|r| r[col("method")] == m && (m != "extrapolated" || r[col("radial")] == radial))
+            .find(|r| {
+                r[col("method")] == m
+                    && (m != "extrapolated" || r[col("radial")] == radial)
+                    && (m != "sphere_set" || r[col("sphere_combine")] == "product")
+            })
             .unwrap()
     };
     let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
@@ -1301,6 +1305,14 @@ fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
     assert!(e(clear) < 0.5 * e(uni), "{} vs {}", e(clear), e(uni));
     assert!(e(occl) < 0.5 * e(uni), "{} vs {}", e(occl), e(uni));
     assert!(e(set) < 1e-12, "{}", e(set));
+    // The same one-sphere set by quadrature: its own error only (64 × 128 directions).
+    let quad = rows
+        .iter()
+        .find(|r| r[col("method")] == "sphere_set" && r[col("sphere_combine")] == "quadrature")
+        .unwrap();
+    println!("sphere set by quadrature: {:.2e}", e(quad));
+    assert!(e(quad) > 0.0 && e(quad) < 2e-2, "{}", e(quad));
+    assert!(num(quad, "memory_bytes") > 1e6);
     // Out of the domain: named, exit 2.
     for (body, key) in [
         ("experiment = \"budget\"\nmesh = \"sphere\"\nradial = \"clearance\"\nradial_delta = -1.0\ngpu = \"off\"\n", "radial_delta"),
