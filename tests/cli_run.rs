@@ -1313,6 +1313,7 @@ fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
     println!("sphere set by quadrature: {:.2e}", e(quad));
     assert!(e(quad) > 0.0 && e(quad) < 2e-2, "{}", e(quad));
     assert!(num(quad, "memory_bytes") > 1e6);
+    assert_eq!(num(quad, "rays"), 40.0 * 8192.0);
     // Out of the domain: named, exit 2.
     for (body, key) in [
         ("experiment = \"budget\"\nmesh = \"sphere\"\nradial = \"clearance\"\nradial_delta = -1.0\ngpu = \"off\"\n", "radial_delta"),

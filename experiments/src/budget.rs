@@ -278,7 +278,7 @@ impl Kind for Budget {
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
             ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
-            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) or `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products, 8,192 ray–sphere tests per sphere and receiver)"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) or `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`)"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -398,6 +398,9 @@ impl Kind for Budget {
             "extrapolated" => search * samples * h2,
             "full_field" => p.shells as f64 * samples * h2,
             "sub_volumes" => search * p.parts as f64 * samples * h2,
+            "sphere_set" if p.sphere_combine == "quadrature" => {
+                n * (2 * SPHERE_QUADRATURE_RES * SPHERE_QUADRATURE_RES) as f64
+            }
             "sphere_set" => 0.0,
             _ => n * 4.0 * (p.rt_res * p.rt_res) as f64,
         };
@@ -426,15 +429,14 @@ impl Kind for Budget {
                 bytes: shells * samples * nn * 8.0 + p.k_count as f64 * nn * nn * 8.0,
                 // Every method's frame ran at 1.9–2.4e7 rays/s in `configs/experiments/
                 // budget.toml` (the `rays` and `frame_seconds` columns): the truths' rate.
-                seconds: rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND
-                    + n * sphere_set_seconds(&p.method, p.parts)
-                    + if p.method == "sphere_set" && p.sphere_combine == "quadrature" {
-                        n * (2 * SPHERE_QUADRATURE_RES * SPHERE_QUADRATURE_RES) as f64
-                            * p.parts as f64
-                            * SPHERE_TEST_SECONDS
-                    } else {
-                        0.0
-                    },
+                // The quadrature's rays meet spheres, not the mesh: priced per direction and
+                // sphere test instead.
+                seconds: if p.method == "sphere_set" && p.sphere_combine == "quadrature" {
+                    rays * (SPHERE_DIRECTION_SECONDS + p.parts as f64 * SPHERE_TEST_SECONDS)
+                } else {
+                    rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND
+                        + n * sphere_set_seconds(&p.method, p.parts)
+                },
                 once_seconds: 0.0,
                 drivers: format!("method {} → {rays:.3e} rays per frame", p.method),
             },
@@ -568,21 +570,24 @@ impl Kind for Budget {
                     };
                     let build = t0.elapsed().as_secs_f64();
                     let t1 = Instant::now();
-                    let (v, bytes) = match &grid {
+                    // The quadrature casts a ray per grid direction and receiver at the
+                    // spheres (not at the mesh): counted as rays.
+                    let (v, rays, bytes) = match &grid {
                         Some(g) => {
                             let set = SphereSetQuadrature::new(&spheres, g);
                             (
                                 eval_all(&set, &sh.points, nn),
+                                sh.points.len() * g.len(),
                                 spheres.len() * 32 + g.size_bytes(),
                             )
                         }
                         None => {
                             let set = SphereSetField::new(&spheres, &basis, &gaunt);
-                            (eval_all(&set, &sh.points, nn), set.size_bytes())
+                            (eval_all(&set, &sh.points, nn), 0, set.size_bytes())
                         }
                     };
                     let eval = t1.elapsed().as_secs_f64();
-                    Ok(((v, 0.0, bytes as f64), [build, eval, build + eval]))
+                    Ok(((v, rays as f64, bytes as f64), [build, eval, build + eval]))
                 })
             }
             "full_field" => {
@@ -1258,8 +1263,12 @@ pub const SPHERE_SECONDS: f64 = 5e-7;
 /// Gauss–Legendre nodes in cos θ of `sphere_combine = "quadrature"` (× twice as many φ).
 pub const SPHERE_QUADRATURE_RES: usize = 64;
 
-/// The cost model's time of one ray–sphere test of the quadrature combination.
-pub const SPHERE_TEST_SECONDS: f64 = 2e-9;
+/// The cost model's time of the quadrature combination: per direction and receiver, and per
+/// ray–sphere test, fitted to `sphere_combine = "quadrature"` in `configs/experiments/
+/// budget.toml` (S = 2 / 16 / 64: 0.06 / 0.17 / 0.60 s per frame of 1,200 receivers) on the
+/// development VM.
+pub const SPHERE_DIRECTION_SECONDS: f64 = 4.3e-9;
+pub const SPHERE_TEST_SECONDS: f64 = 0.9e-9;
 
 /// The evaluation time per receiver of `method` with `parts` spheres (0 unless a sphere set).
 pub(crate) fn sphere_set_seconds(method: &str, parts: usize) -> f64 {
