@@ -542,11 +542,13 @@ impl Kind for Budget {
                 let parts = (part_bvhs.iter())
                     .map(|b| {
                         let s = b.bounding_sphere();
-                        let r = s.radius * p.sampling_radius;
-                        let (lo, hi) = (sh.points.iter())
-                            .map(|(_, q)| (*q - s.center).length() / r)
-                            .fold((f64::INFINITY, 0.0f64), |(a, b), k| (a.min(k), b.max(k)));
-                        (b as &dyn Occluder, (lo / 1.05, hi * 1.05))
+                        let range = shscale_field::probe::k_range_to(
+                            s.center,
+                            s.radius * p.sampling_radius,
+                            sh.points.iter().map(|(_, q)| *q),
+                            1.05,
+                        );
+                        (b as &dyn Occluder, range)
                     })
                     .collect();
                 extrapolation_frame(p, parts, &sampler, &sh.points)?

@@ -703,13 +703,13 @@ fn sub_volume_rows(
         let t1 = std::time::Instant::now();
         let tables = (bsvs.iter())
             .map(|b| {
-                let lo = (points.iter().flatten())
-                    .map(|q| (*q - b.sphere.center).length() / b.sampling_radius)
-                    .fold(f64::INFINITY, f64::min);
-                let hi = (points.iter().flatten())
-                    .map(|q| (*q - b.sphere.center).length() / b.sampling_radius)
-                    .fold(0.0, f64::max);
-                let lo = (lo / shscale_field::probe::K_MARGIN).max(1e-3);
+                let (lo, hi) = shscale_field::probe::k_range_to(
+                    b.sphere.center,
+                    b.sampling_radius,
+                    points.iter().flatten().copied(),
+                    shscale_field::probe::K_MARGIN,
+                );
+                let lo = lo.max(1e-3);
                 let family = if spec.alpha_fit {
                     TauFamily::ConeFit {
                         theta0: shscale_field::alpha::effective_cap_angle(b),
@@ -723,7 +723,7 @@ fn sub_volume_rows(
                     p.order,
                     spec.k_count,
                     lo,
-                    (hi * shscale_field::probe::K_MARGIN).max(lo * 1.01),
+                    hi.max(lo * 1.01),
                     spec.k_spacing,
                     spec.k_interp,
                 )

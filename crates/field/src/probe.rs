@@ -266,6 +266,22 @@ pub fn base_key(spec: &ProbeSpec) -> String {
 /// How far [`k_range`] widens the probes' k range at each end (×1.25 up, ÷1.25 down).
 pub const K_MARGIN: f64 = 1.25;
 
+/// The k range from a sampling sphere (centre `center`, radius `sampling_radius`) to `points`:
+/// `[min d/r_s, max d/r_s]` over the points' distances `d` from the centre, widened by
+/// `margin ≥ 1` both ways (`(∞, 0)` for no points). For parts of an object (sub-volumes),
+/// whose receivers are not at fixed radii.
+pub fn k_range_to(
+    center: DVec3,
+    sampling_radius: f64,
+    points: impl IntoIterator<Item = DVec3>,
+    margin: f64,
+) -> (f64, f64) {
+    let (lo, hi) = (points.into_iter())
+        .map(|q| (q - center).length() / sampling_radius)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), k| (a.min(k), b.max(k)));
+    (lo / margin, hi * margin)
+}
+
 /// The k range a k-table needs for probe radii `radii` (× r) sampled at radius `s` (× r):
 /// `[min ρ/s, max ρ/s]` widened by [`K_MARGIN`] both ways, so that the extreme probes fall
 /// between table nodes rather than on the end nodes. The one definition, used by probes, the
@@ -813,6 +829,19 @@ mod tests {
     /// On a node 0, midway 0.5, in ln k for a log table and in k for a uniform one; past an end,
     /// the distance in units of the end spacing; a point exactly on the surface of the analytic
     /// sphere sees the tangent-plane hemisphere (cap π/2), strictly inside nothing.
+    /// Distances over the sampling radius, widened both ways; no points: the empty range
+    /// `(∞, 0)`; margin 1: the exact extremes.
+    #[test]
+    fn k_range_to_points_and_its_edges() {
+        let c = DVec3::new(1.0, 0.0, 0.0);
+        let pts = [DVec3::new(1.0, 3.0, 0.0), DVec3::new(1.0, 0.0, -6.0)];
+        assert_eq!(k_range_to(c, 2.0, pts, 1.0), (1.5, 3.0));
+        let (lo, hi) = k_range_to(c, 2.0, pts, 1.25);
+        assert!((lo - 1.2).abs() < 1e-15 && (hi - 3.75).abs() < 1e-15);
+        let (lo, hi) = k_range_to(c, 2.0, std::iter::empty(), 1.25);
+        assert!(lo.is_infinite() && hi == 0.0);
+    }
+
     #[test]
     fn node_offset_and_sphere_truth_at_their_edges() {
         let ks = [1.0, 2.0, 4.0, 8.0];

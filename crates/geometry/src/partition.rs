@@ -164,10 +164,12 @@ pub fn fit_spheres(mesh: &Mesh, labels: &[u32], parts: usize) -> Vec<crate::Sphe
     let mut g = vec![DVec3::ZERO; parts];
     let mut m = vec![DVec3::ZERO; parts];
     let (mut total, mut whole) = (0.0, DVec3::ZERO);
+    let mut areas = Vec::with_capacity(labels.len());
     for (f, l) in labels.iter().enumerate() {
         let [a, b, c] = mesh.corners(f);
         let cross = (b - a).cross(c - a);
         let ar = 0.5 * cross.length();
+        areas.push(ar);
         let k = *l as usize;
         area[k] += ar;
         g[k] += ar * (a + b + c) / 3.0;
@@ -189,7 +191,7 @@ pub fn fit_spheres(mesh: &Mesh, labels: &[u32], parts: usize) -> Vec<crate::Sphe
     let mut spread = vec![0.0; parts];
     for (f, l) in labels.iter().enumerate() {
         let k = *l as usize;
-        let ar = mesh.triangle_area(f);
+        let ar = areas[f];
         spread[k] += (mesh.corners(f).iter())
             .map(|p| ar / 3.0 * (*p - g[k]).length_squared())
             .sum::<f64>();
