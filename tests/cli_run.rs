@@ -861,7 +861,7 @@ fn budget_rows_count_what_each_method_costs() {
     let (dir, head, rows) = run_csv(
         "b",
         "budget",
-        "experiment = \"budget\"\nmesh = \"duck\"\norder = 3\nlayout = \"latlong:5x6\"\nhemisphere_res = 6\nreceivers = 20\ntruth_res = 16\nradii = [1.2, 2.0]\ngpu = \"off\"\ntiming_repeats = 5\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 5]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [3]\n",
+        "experiment = \"budget\"\nmesh = \"duck\"\norder = 3\nreceivers = 20\ntruth_res = 16\nradii = [1.2, 2.0]\ngpu = \"off\"\ntiming_repeats = 5\n[[sweep]]\nmethod = [\"extrapolated\"]\nlayout = [\"latlong:5x6\"]\nhemisphere_res = [6]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 5]\nlayout = [\"latlong:5x6\"]\nhemisphere_res = [6]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [3]\n",
     );
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     assert_eq!(rows.len(), 4);
@@ -904,6 +904,84 @@ fn budget_rows_count_what_each_method_costs() {
             .exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A method key that the chosen method does not read is refused with exit 2, naming the key and
+/// the method, before anything runs (on both budget kinds); at its default it is accepted.
+#[test]
+fn a_key_the_method_does_not_read_is_refused_naming_both() {
+    let d = dir("unread");
+    std::fs::write(
+        d.join("s.toml"),
+        "order = 2\ntruth_res = 4\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.2]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [3, 3]\nresolution = [4, 4]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let cases = [
+        (
+            "budget",
+            "mesh = \"sphere\"\nmethod = \"extrapolated\"\nsphere_combine = \"quadrature\"\n",
+            "sphere_combine",
+            "extrapolated",
+        ),
+        (
+            "budget",
+            "mesh = \"sphere\"\nmethod = \"ray_traced\"\nlayout = \"fib:20\"\n",
+            "layout",
+            "ray_traced",
+        ),
+        (
+            "budget",
+            "mesh = \"sphere\"\nmethod = \"extrapolated\"\nradial_delta = 0.3\n",
+            "radial_delta",
+            "extrapolated",
+        ),
+        (
+            "budget_plane",
+            "scene = \"s.toml\"\nmethod = \"sphere_set\"\nhemisphere_res = 8\n",
+            "hemisphere_res",
+            "sphere_set",
+        ),
+        (
+            "budget_plane",
+            "scene = \"s.toml\"\nmethod = \"full_field\"\nalpha_deg = 30.0\n",
+            "alpha_deg",
+            "full_field",
+        ),
+    ];
+    for (i, (kind, keys, key, method)) in cases.iter().enumerate() {
+        let cfg = d.join(format!("c{i}.toml"));
+        std::fs::write(
+            &cfg,
+            format!("experiment = \"{kind}\"\ngpu = \"off\"\n{keys}"),
+        )
+        .unwrap();
+        let o = shscale(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--dry-run",
+            "--out-dir",
+            d.join("r").to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        println!("{kind}: {}", err.trim());
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(&format!("{key}:")) && err.contains(&format!("method \"{method}\"")),
+            "{err}"
+        );
+    }
+    // At its default the key is accepted (the run id does not depend on it).
+    let cfg = d.join("ok.toml");
+    std::fs::write(&cfg, "experiment = \"budget\"\ngpu = \"off\"\nmesh = \"sphere\"\nmethod = \"ray_traced\"\nlayout = \"latlong:12x20\"\n").unwrap();
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--dry-run",
+        "--out-dir",
+        d.join("r").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_dir_all(&d).ok();
 }
 
 /// A truth too coarse for the method's error is flagged in the summary; a converged one is not.
@@ -1023,7 +1101,7 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
     let (dir, head, rows) = run_csv(
         "bp",
         "budget_plane",
-        "experiment = \"budget_plane\"\nscene = \"s.toml\"\nlayout = \"latlong:4x8\"\nhemisphere_res = 4\ngpu = \"off\"\ntiming_repeats = 5\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 4]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\n",
+        "experiment = \"budget_plane\"\nscene = \"s.toml\"\ngpu = \"off\"\ntiming_repeats = 5\n[[sweep]]\nmethod = [\"extrapolated\"]\nlayout = [\"latlong:4x8\"]\nhemisphere_res = [4]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [2, 4]\nlayout = [\"latlong:4x8\"]\nhemisphere_res = [4]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\n",
     );
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     assert_eq!(rows.len(), 4);
@@ -1078,24 +1156,35 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
     }
     let summary = std::fs::read_to_string(dir.join("r/budget_plane/bp/summary.md")).unwrap();
     assert!(summary.contains("The claim as stated") && summary.contains("Pareto front"));
-    // A ray-traced budget as fine as the truth is refused, naming rt_res and the scene.
+    // A ray-traced budget as fine as the truth is refused at plan time — by `--dry-run`, and
+    // by `run` before any truth is rendered or any file written — naming rt_res and the scene.
     let cfg = dir.join("bad.toml");
     std::fs::write(
         &cfg,
-        "experiment = \"budget_plane\"\nscene = \"s.toml\"\nmethod = \"ray_traced\"\nrt_res = 6\ngpu = \"off\"\n",
+        "experiment = \"budget_plane\"\nscene = \"s.toml\"\ngpu = \"off\"\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2, 6]\n",
     )
     .unwrap();
-    let o = shscale(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out-dir",
-        dir.join("r").to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !o.status.success() && err.contains("rt_res = 6") && err.contains("truth_res = 6"),
-        "{err}"
-    );
+    for dry in [true, false] {
+        let out = dir.join("r2");
+        let mut args = vec![
+            "run",
+            cfg.to_str().unwrap(),
+            "--out-dir",
+            out.to_str().unwrap(),
+        ];
+        if dry {
+            args.push("--dry-run");
+        }
+        let o = shscale(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        println!("dry run {dry}: {err}");
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("rt_res = 6") && err.contains("truth_res = 6") && err.contains("s.toml"),
+            "{err}"
+        );
+        assert!(!out.join("budget_plane/bad/runs.csv").exists());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -1268,7 +1357,7 @@ fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
     let (dir, head, rows) = run_csv(
         "radial",
         "budget",
-        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 4\nlayout = \"latlong:6x8\"\nhemisphere_res = 8\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\n[sweep.zip]\nradial = [\"uniform\", \"clearance\", \"occlusion\"]\nradial_delta = [0.2, 0.2, 0.2]\nradial_tau = [0.3, 0.3, 0.3]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [1]\nsphere_combine = [\"product\", \"quadrature\"]\n",
+        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 4\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nmethod = [\"extrapolated\"]\nlayout = [\"latlong:6x8\"]\nhemisphere_res = [8]\n[sweep.zip]\nradial = [\"uniform\", \"clearance\", \"occlusion\"]\nradial_delta = [0.1, 0.2, 0.1]\nradial_tau = [0.5, 0.5, 0.3]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [1]\nsphere_combine = [\"product\", \"quadrature\"]\n",
     );
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let find = |m: &str, radial: &str| {

@@ -22,7 +22,7 @@ use shscale_field::LocalFrame;
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::{list, Results};
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scaling::{Eta, ScalingMatrix, TauFamily};
 use shscale_scene::Error;
 use shscale_sh::EulerRotator;
@@ -167,9 +167,6 @@ impl Kind for AlphaFit {
     type Row = Row;
     type Error = Error;
     type Spec = Typed<Params, shscale_field::probe::ProbeSpec>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -212,8 +209,12 @@ impl Kind for AlphaFit {
         })
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
-        let (shared, mut run) = <Probe as Kind>::cost(&p.probe());
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
+        let probe = Typed {
+            params: p.probe(),
+            typed: p.typed.clone(),
+        };
+        let (shared, mut run) = <Probe as Kind>::cost(&probe);
         let steps = (90.0 / p.alpha_step_deg).ceil();
         // Nothing is timed: the probe's work once, then one exact matrix per α and radius.
         run.once_seconds = steps * p.radii.len() as f64 * crate::common::matrix_seconds(p.order);

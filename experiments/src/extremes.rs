@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scaling::{AngularScaling, Eta, QuadOptions, ScalingMatrix};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -122,9 +122,6 @@ impl Kind for Extremes {
     type Row = Row;
     type Error = Error;
     type Spec = Typed<Params, Box<dyn AngularScaling>>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -149,7 +146,7 @@ impl Kind for Extremes {
         })
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         crate::common::two_matrices_cost(p.order)
     }
 

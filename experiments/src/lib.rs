@@ -1,23 +1,22 @@
 //! The experiment kinds of the runner and the papers' figures, one module per kind, each
 //! answering one question (docs/conventions.md §8). Every kind runs through the one runner
-//! (`shscale_scene::exp`): run ids, resume, shards, merge, Slurm and a manifest.
+//! (`shscale_runner`): run ids, resume, shards, merge, Slurm and a manifest.
 //!
 //! - [`sparsity`] — Fig. 2: where are the non-zeros of a scaling matrix, and is the pattern
 //!   really independent of τ?
 //! - [`m_elements`] — Fig. 3: how smoothly do elements of `M_k` vary with k, and how well does a
 //!   40-entry table interpolate them?
-//! - `probe` (in `shscale_runner::probe`) — Fig. 5 and the accuracy sweeps: extrapolated vs
-//!   actual visibility at radii around the sampling sphere.
+//! - [`probe`] (pictures in [`probe_figure`]) — Fig. 5 and the accuracy sweeps: extrapolated
+//!   vs actual visibility at radii around the sampling sphere.
 //! - [`shadows`] — Fig. 7: shadows of the extrapolated field vs a fully sampled shadow field and
 //!   ray-traced truth.
 //! - [`timing`] — Table 1: per-stage times and FPS of the deforming sequences.
 //! - [`srf`], [`midrange`], [`extremes`] — the source-radiance, mid-range-lighting and stability
 //!   studies.
 //! - [`alpha_fit`] — the best cone angle α at each distance, against 45° and the closed-form law.
-//! - [`budget`] — extrapolation, full field and ray tracing at equal rays, bytes and time per
-//!   frame on spherical receivers.
-//! - [`budget_plane`] — the same on a scene's receiver plane, in image space against
-//!   full-frequency truth.
+//! - [`equal_budget`] — every method of the one vocabulary ([`shscale_scene::method`]) at equal
+//!   rays, bytes and time per frame: on spherical receivers (`budget`) and on a scene's
+//!   receiver plane in image space against full-frequency truth (`budget_plane`).
 //!
 //! [`regenerate`] runs every config of a folder (`configs/paper/`) through the runner and writes
 //! each kind's figure into an output folder (`paper-figs/`) with the data behind it
@@ -25,10 +24,10 @@
 //! and the comparison — generated from the rows, so the text never goes stale.
 
 pub mod alpha_fit;
-pub mod budget;
-pub mod budget_plane;
 mod common;
+pub mod equal_budget;
 pub mod extremes;
+mod figures;
 pub mod m_elements;
 pub mod midrange;
 pub mod probe;
@@ -54,11 +53,9 @@ static TIMING: Erased<timing::Timing> = Erased::new();
 static SRF: Erased<srf::Srf> = Erased::new();
 static EXTREMES: Erased<extremes::Extremes> = Erased::new();
 static ALPHA_FIT: Erased<alpha_fit::AlphaFit> = Erased::new();
-static BUDGET: Erased<budget::Budget> = Erased::new();
-static BUDGET_PLANE: Erased<budget_plane::BudgetPlane> = Erased::new();
+static BUDGET: Erased<equal_budget::spheres::Budget> = Erased::new();
+static BUDGET_PLANE: Erased<equal_budget::plane::BudgetPlane> = Erased::new();
 
-/// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
-/// file implementing `shscale_runner::Kind` plus one line here.
 /// The kind of a results directory, from its `manifest.toml`: an error naming the directory when
 /// it has none, or naming the manifest when its experiment is not a kind of this build.
 pub fn kind_of_dir(dir: &Path) -> Result<&'static dyn DynKind, Error> {
@@ -80,6 +77,8 @@ pub fn kind_of_dir(dir: &Path) -> Result<&'static dyn DynKind, Error> {
         })
 }
 
+/// The experiment kinds of the runner (`experiment = "…"`), one line each. A new kind is one
+/// file implementing `shscale_runner::Kind` plus one line here.
 pub fn registry() -> Vec<&'static dyn DynKind> {
     vec![
         &PROBE,

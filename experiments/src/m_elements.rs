@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, KeyError, Kind};
 use shscale_scaling::{Cone, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
 use shscale_scene::Error;
 use shscale_sh::sh_lm;
@@ -94,9 +94,6 @@ impl Kind for MElements {
     type Row = Row;
     type Error = Error;
     type Spec = Params;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -170,7 +167,7 @@ impl Kind for MElements {
         shscale_runner::records::canonical(&q).unwrap_or_default()
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         let nn = (p.order * p.order) as f64;
         // Untimed: the table's matrices and the direct ones of the curve.
         let matrix = crate::common::matrix_seconds(p.order);

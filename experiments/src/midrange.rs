@@ -15,7 +15,7 @@ use shscale_field::shading::EnvLight;
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
+use shscale_runner::{Cost, Ctx, KeyError, Kind};
 use shscale_scene::Error;
 use shscale_sh::{ClampedCosine, DirectionSet, ShBasis};
 use std::collections::BTreeMap;
@@ -154,9 +154,6 @@ impl Kind for MidRange {
     type Row = Row;
     type Error = Error;
     type Spec = Params;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -206,7 +203,7 @@ impl Kind for MidRange {
         Ok(p.clone())
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         let pairs = (p.points * p.normals) as f64;
         let quad = (QUAD.0 * QUAD.1) as f64;
         (

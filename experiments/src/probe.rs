@@ -126,7 +126,7 @@ impl ProbeParams {
     pub fn checked_spec(&self, allow_large: bool) -> Result<ProbeSpec, KeyError> {
         let resolved = <Probe as Kind>::resolve(self)
             .map_err(|e| KeyError::new(e.key.split('[').next().unwrap_or(&e.key), e.message))?;
-        let (shared, run) = <Probe as Kind>::cost(self);
+        let (shared, run) = <Probe as Kind>::cost(&resolved);
         shscale_runner::limits::check_work(
             "probe",
             shared.rays + run.rays,
@@ -346,7 +346,7 @@ impl Kind for Probe {
         base_key(p)
     }
 
-    fn cost(p: &ProbeParams) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         let samples = Layout::parse(&p.layout)
             .ok()
             .and_then(|l| l.sample_count())

@@ -11,12 +11,13 @@
 //! and a `.png` with labelled panels on one heat scale, plus the differences of both fields from
 //! the truth on a diverging scale, with colour bars and receiver-plane axes.
 
+use crate::figures::{flat, lum, own_err, write_irradiance_figure};
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
 use shscale_field::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
@@ -86,16 +87,13 @@ pub struct Shadows;
 /// 1.37e9 estimated rays in 24–26 s) on the development VM, checked by `shscale bench estimates`.
 pub const RENDER_RAYS_PER_SECOND: f64 = 5.5e7;
 
-const METHODS: [(Method, &str); 4] = [
-    (Method::FullField, "full_field"),
-    (Method::Extrapolated, "extrapolated"),
-    (Method::RayTraced, "ray_traced"),
-    (Method::FullFrequency, "full_frequency"),
+/// The methods of a run, one row each, in this order.
+const METHODS: [Method; 4] = [
+    Method::FullField,
+    Method::Extrapolated,
+    Method::RayTraced,
+    Method::FullFrequency,
 ];
-
-pub(crate) fn flat(img: &RenderOutput) -> Vec<f64> {
-    img.pixels.iter().flat_map(|p| p.map(f64::from)).collect()
-}
 
 /// The errors of one run's rows that its truths do not resolve (within 3× of the truth's own
 /// error), as a sentence of the discussion.
@@ -112,18 +110,20 @@ fn truth_limits(t: &Results, rows: &[usize]) -> String {
         .iter()
         .flat_map(|&r| {
             let m = t.cell(r, "method").to_string();
+            let method = Method::parse(&m).ok();
             let mut v = Vec::new();
-            if let Some(e) =
-                bl.filter(|e| m != "ray_traced" && t.num(r, "rmse_vs_band_limited") < 3.0 * e)
-            {
+            if let Some(e) = bl.filter(|e| {
+                method != Some(Method::RayTraced) && t.num(r, "rmse_vs_band_limited") < 3.0 * e
+            }) {
                 v.push(format!(
                     "{m} against band-limited truth ({:.4} vs its {e:.4})",
                     t.num(r, "rmse_vs_band_limited")
                 ));
             }
-            if let Some(e) =
-                fq.filter(|e| m != "full_frequency" && t.num(r, "rmse_vs_full_frequency") < 3.0 * e)
-            {
+            if let Some(e) = fq.filter(|e| {
+                method != Some(Method::FullFrequency)
+                    && t.num(r, "rmse_vs_full_frequency") < 3.0 * e
+            }) {
                 v.push(format!(
                     "{m} against full-frequency truth ({:.4} vs its {e:.4})",
                     t.num(r, "rmse_vs_full_frequency")
@@ -142,21 +142,6 @@ fn truth_limits(t: &Results, rows: &[usize]) -> String {
     }
 }
 
-/// A truth's own error: RMS over receivers and channels of its per-pixel estimate `e`, over the
-/// mean unshadowed irradiance (NaN where the render has no estimate).
-pub(crate) fn own_err(e: &[[f32; 3]], mean_open: f64) -> f64 {
-    let ms = e
-        .iter()
-        .flat_map(|p| p.map(|v| (v as f64) * (v as f64)))
-        .sum::<f64>()
-        / (3 * e.len()).max(1) as f64;
-    if mean_open > 0.0 && !e.is_empty() {
-        ms.sqrt() / mean_open
-    } else {
-        f64::NAN
-    }
-}
-
 /// The values side by side (full field | extrapolated | full-frequency truth) as one EXR.
 fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
     let (w, h) = (imgs[0].width, imgs[0].height);
@@ -169,11 +154,6 @@ fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error>
         }
     }
     Ok(shscale_runner::image::write_exr(exr, 3 * w, h, &px)?)
-}
-
-/// Mean of the three channels per pixel.
-pub(crate) fn lum(pixels: &[[f32; 3]]) -> Vec<f32> {
-    pixels.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).collect()
 }
 
 /// The labelled figure of the receiver plane: the three irradiance images (full field,
@@ -213,64 +193,6 @@ fn write_field_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Re
         methods,
         320,
     )
-}
-
-/// An irradiance figure of the receiver plane: the images `top` (title, luminance) on one heat
-/// scale, then below each of `methods` (name, luminance) its difference from `truth` on a
-/// symmetric diverging scale, its RMS in the title. Panels `px` pixels square; `axes` the x and
-/// y ranges with their labels.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn write_irradiance_figure(
-    png: &Path,
-    (w, h): (usize, usize),
-    (x, y): ((f64, f64, &str), (f64, f64, &str)),
-    title: &str,
-    top: Vec<(String, Vec<f32>)>,
-    truth: &[f32],
-    methods: Vec<(String, Vec<f32>)>,
-    px: u32,
-) -> Result<(), Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
-    let max = (top.iter().flat_map(|(_, v)| v)).fold(0f32, |a, v| a.max(*v)) as f64;
-    let diffs: Vec<(String, Vec<f32>)> = (methods.into_iter())
-        .map(|(n, v)| (n, v.iter().zip(truth).map(|(a, t)| a - t).collect()))
-        .collect();
-    let dmax = (diffs.iter().flat_map(|(_, v)| v)).fold(0f32, |a, v| a.max(v.abs())) as f64;
-    let rms = |e: &[f32]| {
-        (e.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / e.len().max(1) as f64).sqrt()
-    };
-    let panel = |title: String, values: Vec<f32>| Panel {
-        title,
-        width: w,
-        height: h,
-        values,
-    };
-    let images = Grid {
-        title,
-        rows: vec![top.into_iter().map(|(t, v)| panel(t, v)).collect()],
-        x,
-        y,
-        colours: ColourMap::Heat,
-        range: (0.0, max),
-        scale_label: "irradiance (scene radiance units)",
-        panel_px: (px, px),
-    };
-    let differences = Grid {
-        title: "difference from the full-frequency truth",
-        rows: vec![(diffs.into_iter())
-            .map(|(n, d)| panel(format!("{n} − truth (RMS {:.3})", rms(&d)), d))
-            .collect()],
-        x,
-        y,
-        colours: ColourMap::Diverging,
-        range: (-dmax, dmax),
-        scale_label: "irradiance difference",
-        panel_px: (px, px),
-    };
-    Ok(shscale_runner::figure::write_png_stack(
-        png,
-        &[images, differences],
-    )?)
 }
 
 /// The same comparison seen through the scene's camera (or the default view), as the papers
@@ -352,9 +274,6 @@ impl Kind for Shadows {
     type Row = Row;
     type Error = Error;
     type Spec = Typed<Params, Overrides>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -397,7 +316,7 @@ impl Kind for Shadows {
         })
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         (
             Cost::default(),
             Cost {
@@ -416,16 +335,13 @@ impl Kind for Shadows {
     /// (`render::estimated_work`), timed (warm-up + repeats), and the unshadowed reference once,
     /// at [`RENDER_RAYS_PER_SECOND`]. A scene that cannot be read leaves the time unestimated
     /// (the run reports the error).
-    fn cost_in(p: &Params, config_dir: &Path) -> (Cost, Cost) {
-        let Ok(spec) = <Self as Kind>::resolve(p) else {
-            return Self::cost(p);
-        };
-        let Ok(scene) = scene_of(&spec, config_dir) else {
+    fn cost_in(p: &Self::Spec, config_dir: &Path) -> (Cost, Cost) {
+        let Ok(scene) = scene_of(p, config_dir) else {
             return Self::cost(p);
         };
         let work = |m| shscale_scene::render::estimated_work(&scene, m);
         let (mut rays, mut bytes) = (0.0, 0.0f64);
-        for (m, _) in METHODS {
+        for m in METHODS {
             let (r, b) = work(m);
             rays += r;
             bytes = bytes.max(b);
@@ -462,9 +378,9 @@ impl Kind for Shadows {
     fn run(p: &Self::Spec, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = scene_of(p, ctx.config_dir)?;
         let mut imgs = Vec::new();
-        for (m, name) in METHODS {
+        for m in METHODS {
             let (img, t) = ctx.timing.measure(|| render(&scene, m))?;
-            imgs.push((name, img, t));
+            imgs.push((m.name(), img, t));
         }
         let mut open = scene.clone();
         open.occluders.clear();
@@ -538,8 +454,10 @@ impl Kind for Shadows {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "run_id") == id)
                 .collect();
-            let of = |m: &str| rows.iter().copied().find(|&r| t.cell(r, "method") == m);
-            let (Some(ff), Some(ex)) = (of("full_field"), of("extrapolated")) else {
+            let of = |m: Method| {
+                (rows.iter().copied()).find(|&r| Method::parse(t.cell(r, "method")) == Ok(m))
+            };
+            let (Some(ff), Some(ex)) = (of(Method::FullField), of(Method::Extrapolated)) else {
                 continue;
             };
             let r0 = rows[0];

@@ -10,7 +10,7 @@
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scaling::{AngularScaling, Eta, ScalingMatrix};
 use shscale_scene::Error;
 use shscale_sh::sh_lm;
@@ -101,9 +101,6 @@ impl Kind for Sparsity {
     type Row = Row;
     type Error = Error;
     type Spec = Typed<Params, Box<dyn AngularScaling>>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -128,7 +125,7 @@ impl Kind for Sparsity {
         })
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         crate::common::two_matrices_cost(p.order)
     }
 

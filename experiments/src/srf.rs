@@ -16,7 +16,7 @@ use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -84,9 +84,6 @@ impl Kind for Srf {
     type Row = Row;
     type Error = Error;
     type Spec = Typed<Params, Layout>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -151,7 +148,7 @@ impl Kind for Srf {
         })
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         let samples = Layout::parse(&p.layout)
             .ok()
             .and_then(|l| l.sample_count())

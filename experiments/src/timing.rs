@@ -121,7 +121,7 @@ impl Kind for Timing {
         Ok(p.clone())
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
         // Bench scenes: 240 samples × 32² rays per frame.
         let rays = (p.frames + p.warmup) as f64 * 240.0 * 1024.0;
         (

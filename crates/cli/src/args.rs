@@ -2,6 +2,7 @@
 //! against their mathematical domains lives in the numerical crates.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use shscale_scene::method::Method;
 
 /// `--version`: the crate version and the git revision it was built from (`+dirty` when the
 /// checkout had local changes at build time).
@@ -447,13 +448,10 @@ pub struct RunArgs {
     pub allow_large: bool,
 }
 
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MethodArg {
-    Extrapolated,
-    FullField,
-    Raytraced,
-    /// Full-frequency truth (direct quadrature with exact visibility).
-    RaytracedFull,
+/// A method of the one vocabulary (`shscale_scene::method`): its name, or the command line's
+/// earlier spellings (`full-field`, `raytraced`, `raytraced-full`).
+fn method_arg(s: &str) -> Result<Method, String> {
+    Method::parse_cli(s)
 }
 
 #[derive(Args, Debug)]
@@ -462,8 +460,16 @@ pub struct RenderArgs {
     /// docs/config-reference.md).
     #[arg(long)]
     pub scene: std::path::PathBuf,
-    #[arg(long, value_enum, default_value_t = MethodArg::Extrapolated)]
-    pub method: MethodArg,
+    /// The method: `extrapolated`, `full_field` (Zhou et al. 2005's field), `ray_traced`
+    /// (band-limited truth), `full_frequency` (full-frequency truth), `sub_volumes` or
+    /// `sphere_set` (the scene's occluders split into 4 parts); `full-field`, `raytraced` and
+    /// `raytraced-full` are the earlier spellings.
+    #[arg(long, value_parser = method_arg, default_value = "extrapolated")]
+    pub method: Method,
+    /// Parts of every mesh occluder for `--method sub_volumes`, or its spheres for `sphere_set`,
+    /// 1..=64 (k-means on triangle centroids).
+    #[arg(long, value_parser = whole, default_value_t = 4)]
+    pub parts: usize,
     /// Output EXR path; a PNG preview is written beside it.
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -472,9 +478,10 @@ pub struct RenderArgs {
     #[arg(value_parser = whole, long)]
     pub frames: Option<usize>,
     /// Also render this reference on the same scene and print `shade_rmse_rel` against it
-    /// (docs/conventions.md §6): raytraced (band-limited truth) or raytraced-full (full-frequency truth).
-    #[arg(long, value_enum)]
-    pub reference: Option<MethodArg>,
+    /// (docs/conventions.md §6): `ray_traced` (band-limited truth) or `full_frequency`
+    /// (full-frequency truth).
+    #[arg(long, value_parser = method_arg)]
+    pub reference: Option<Method>,
     /// With --frames: render the sequence on the GPU (wgpu; one mesh occluder, N ≤ 8) and print
     /// the GPU stage times; the image is the GPU's last frame. Exit 2 without an adapter.
     #[arg(long, requires = "frames")]

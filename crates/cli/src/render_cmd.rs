@@ -1,26 +1,22 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{MethodArg, RenderArgs, TextFormat};
+use crate::args::{RenderArgs, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
 use shscale_scene::render::{render, render_sequence, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
 
-/// A method as the command line writes it (`raytraced-full`, not `RaytracedFull`).
-fn cli_name(m: MethodArg) -> String {
-    use clap::ValueEnum;
-    m.to_possible_value()
-        .map_or_else(|| format!("{m:?}"), |v| v.get_name().to_string())
-}
-
 /// The most frames `render --frames` renders.
 const MAX_FRAMES: usize = 10_000;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_args(&a)?;
-    let scene = Scene::load(&a.scene)?;
-    let method = to_method(a.method);
+    let mut scene = Scene::load(&a.scene)?;
+    let method = a.method;
+    if matches!(method, Method::SubVolumes | Method::SphereSet) {
+        scene.parts = a.parts;
+    }
     let rays = check_limits(&a, &scene, method)?;
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
@@ -29,7 +25,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
     // stderr every 10 s otherwise.
     let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
-    let ticker = Ticker::start(&cli_name(a.method), est);
+    let ticker = Ticker::start(&a.method.to_string(), est);
     let img = render(&scene, method);
     ticker.stop();
     let img = img?;
@@ -103,13 +99,14 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(frames) = a.frames {
         flags::int("--frames", frames, 1, MAX_FRAMES)?;
     }
-    if let Some(r @ (MethodArg::Extrapolated | MethodArg::FullField)) = a.reference {
-        let name = if r == MethodArg::Extrapolated {
-            "extrapolated"
-        } else {
-            "full-field"
-        };
-        bail!("--reference {name}: only the truths are references — raytraced (band-limited) or raytraced-full (full-frequency)");
+    flags::int(
+        "--parts",
+        a.parts,
+        1,
+        shscale_geometry::partition::MAX_PARTS,
+    )?;
+    if let Some(r) = a.reference.filter(|r| !r.is_truth()) {
+        bail!("--reference {r}: only the truths are references — ray_traced (band-limited) or full_frequency (full-frequency)");
     }
     Ok(())
 }
@@ -121,7 +118,7 @@ fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result
     let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, method);
     rays *= frames;
     if let Some(r) = a.reference {
-        let (r2, b2) = shscale_scene::render::estimated_work(scene, to_method(r));
+        let (r2, b2) = shscale_scene::render::estimated_work(scene, r);
         let (r3, _) = shscale_scene::render::estimated_work(scene, Method::RayTraced);
         rays += r2 + r3;
         bytes = bytes.max(b2);
@@ -172,10 +169,10 @@ fn write_output(
 fn reference_error(
     scene: &Scene,
     img: &RenderOutput,
-    r: MethodArg,
-) -> anyhow::Result<(MethodArg, f64, f64, RenderOutput)> {
+    r: Method,
+) -> anyhow::Result<(Method, f64, f64, RenderOutput)> {
     let t = std::time::Instant::now();
-    let truth = render(scene, to_method(r))?;
+    let truth = render(scene, r)?;
     let mut open = scene.clone();
     open.occluders.clear();
     let unshadowed = render(&open, Method::RayTraced)?;
@@ -198,7 +195,7 @@ fn write_figure(
     a: &RenderArgs,
     scene: &Scene,
     img: &RenderOutput,
-    reference: Option<&(MethodArg, RenderOutput)>,
+    reference: Option<&(Method, RenderOutput)>,
 ) -> Result<std::path::PathBuf, shscale_runner::Error> {
     use shscale_runner::figure::{ColourMap, Grid, Panel};
     let stem = a
@@ -219,9 +216,9 @@ fn write_figure(
         height: h,
         values,
     };
-    let mut panels = vec![panel(cli_name(a.method), lum(img))];
+    let mut panels = vec![panel(a.method.to_string(), lum(img))];
     if let Some((r, t)) = reference {
-        panels.push(panel(format!("{} (reference)", cli_name(*r)), lum(t)));
+        panels.push(panel(format!("{} (reference)", r.to_string()), lum(t)));
     }
     let range = |vals: &[&Vec<f32>]| {
         vals.iter()
@@ -255,7 +252,7 @@ fn write_figure(
     }];
     if let Some((r, t)) = reference {
         let d: Vec<f32> = lum(img).iter().zip(lum(t)).map(|(a, b)| a - b).collect();
-        let title = format!("{} − {}", cli_name(a.method), cli_name(*r));
+        let title = format!("{} − {}", a.method.to_string(), r.to_string());
         let dr = range(&[&d]);
         grids.push(Grid {
             title: "difference from the reference",
@@ -280,7 +277,7 @@ struct Rendered<'a> {
     /// The labelled false-colour figure (not with --camera).
     figure: Option<&'a std::path::Path>,
     total: f64,
-    reference: Option<(MethodArg, f64, f64)>,
+    reference: Option<(Method, f64, f64)>,
     truth_light: &'static str,
     truth_error_rms: Option<f64>,
 }
@@ -299,7 +296,7 @@ impl Rendered<'_> {
             .collect();
         let out = serde_json::json!({
             "scene": a.scene.display().to_string(),
-            "method": cli_name(a.method),
+            "method": a.method.to_string(),
             "width": img.width,
             "height": img.height,
             "occluders": self.scene.occluders.len(),
@@ -311,7 +308,7 @@ impl Rendered<'_> {
             "full_frequency_light": self.truth_light,
             "truth_error_rms": self.truth_error_rms,
             "reference": self.reference.map(|(r, rel, secs)| serde_json::json!({
-                "method": cli_name(r),
+                "method": r.to_string(),
                 "shade_rmse_rel": rel,
                 "render_ms": secs * 1e3,
             })),
@@ -328,7 +325,7 @@ impl Rendered<'_> {
             img.width,
             img.height,
             self.scene.occluders.len(),
-            cli_name(a.method),
+            a.method.to_string(),
             rayon::current_num_threads()
         );
         for (stage, s) in &img.stages {
@@ -346,7 +343,7 @@ impl Rendered<'_> {
         if let Some((r, rel, secs)) = self.reference {
             println!(
                 "shade_rmse_rel vs {}: {rel:.4e}  (reference rendered in {:.1} ms)",
-                cli_name(r),
+                r.to_string(),
                 secs * 1e3
             );
         }
@@ -359,15 +356,6 @@ impl Rendered<'_> {
             ),
             None => println!("wrote {} and {}", a.out.display(), self.png.display()),
         }
-    }
-}
-
-fn to_method(m: MethodArg) -> Method {
-    match m {
-        MethodArg::Extrapolated => Method::Extrapolated,
-        MethodArg::FullField => Method::FullField,
-        MethodArg::Raytraced => Method::RayTraced,
-        MethodArg::RaytracedFull => Method::FullFrequency,
     }
 }
 

@@ -1,4 +1,4 @@
-//! `shscale run`, `merge`, `slurm`: experiments through the one runner (`shscale_scene::exp`).
+//! `shscale run`, `merge`, `slurm`: experiments through the one runner (`shscale_runner`).
 
 use crate::args::{MergeArgs, OverrideArgs, RunArgs, SlurmArgs};
 use anyhow::{bail, Context};

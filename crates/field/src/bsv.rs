@@ -192,26 +192,6 @@ pub const OCCLUSION_STEPS: usize = 6;
 pub const CLEARANCE_STEPS: usize = 40;
 
 impl RadialRule {
-    /// `uniform`, `clearance` (with `delta`) or `occlusion` (with `tau`, `t_max`), domain
-    /// checked.
-    pub fn parse(name: &str, delta: f64, tau: f64, t_max: f64) -> Result<Self, String> {
-        match name {
-            "uniform" => Ok(Self::Uniform),
-            "clearance" if (0.0..=10.0).contains(&delta) => Ok(Self::Clearance { delta }),
-            "clearance" => Err(format!("radial_delta {delta} is outside [0, 10]")),
-            "occlusion" if !(0.0..1.0).contains(&tau) => {
-                Err(format!("radial_tau {tau} is outside [0, 1)"))
-            }
-            "occlusion" if !(1.0..=10.0).contains(&t_max) => {
-                Err(format!("radial_max {t_max} is outside [1, 10]"))
-            }
-            "occlusion" => Ok(Self::Occlusion { tau, t_max }),
-            _ => Err(format!(
-                "{name:?} is not one of \"uniform\", \"clearance\", \"occlusion\""
-            )),
-        }
-    }
-
     /// The largest radius the rule can place a sample at, in bounding radii, from the sampling
     /// sphere `s` (for a table's k range).
     pub fn max_factor(&self, s: f64) -> f64 {

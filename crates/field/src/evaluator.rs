@@ -88,6 +88,14 @@ pub enum FieldInterp {
 }
 
 impl ShellSpacing {
+    /// The name [`ShellSpacing::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Uniform => "uniform",
+            Self::Exp => "exp",
+        }
+    }
+
     /// Parse `uniform` or `exp`.
     pub fn parse(s: &str) -> Result<Self, FieldError> {
         match s {
@@ -101,6 +109,14 @@ impl ShellSpacing {
 }
 
 impl FieldInterp {
+    /// The name [`FieldInterp::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Trilinear => "trilinear",
+            Self::Barycentric => "barycentric",
+        }
+    }
+
     /// Parse `trilinear` or `barycentric`.
     pub fn parse(s: &str) -> Result<Self, FieldError> {
         match s {

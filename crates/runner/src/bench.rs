@@ -46,7 +46,7 @@ impl Kind for Tally {
     fn resolve(p: &TallyParams) -> Result<TallyParams, KeyError> {
         Ok(p.clone())
     }
-    fn cost(_: &TallyParams) -> (Cost, Cost) {
+    fn cost(_: &Self::Spec) -> (Cost, Cost) {
         (Cost::default(), Cost::default())
     }
     fn rows_per_run(_: &TallyParams) -> usize {

@@ -101,15 +101,24 @@ pub trait Kind: Send + Sync + 'static {
     /// Check one run's parameters (bounds included) and resolve them, before anything runs;
     /// the work sees only the result.
     fn resolve(p: &Self::Params) -> Result<Self::Spec, KeyError>;
+    /// [`Kind::resolve`] where the parameters name files (a scene) relative to `config_dir`, the
+    /// config file's folder: the checks that need those files happen here, at plan time (so
+    /// `--dry-run` makes them), before any work. Rows read back from a CSV are resolved by
+    /// [`Kind::resolve`]. Default: [`Kind::resolve`].
+    fn resolve_in(p: &Self::Params, config_dir: &Path) -> Result<Self::Spec, KeyError> {
+        let _ = config_dir;
+        Self::resolve(p)
+    }
     /// Runs with equal keys share one [`Kind::Shared`]. Default: none share.
     fn group_key(p: &Self::Params) -> String {
         records::canonical(p).unwrap_or_default()
     }
-    /// The estimated cost of the work of a group (`shared`) and of each run.
-    fn cost(p: &Self::Params) -> (Cost, Cost);
+    /// The estimated cost of the work of a group (`shared`) and of each run, from the resolved
+    /// spec.
+    fn cost(p: &Self::Spec) -> (Cost, Cost);
     /// The estimated cost where it depends on files the parameters name (paths relative to
     /// `config_dir`, the config file's folder), e.g. a scene. Default: [`Kind::cost`].
-    fn cost_in(p: &Self::Params, config_dir: &Path) -> (Cost, Cost) {
+    fn cost_in(p: &Self::Spec, config_dir: &Path) -> (Cost, Cost) {
         let _ = config_dir;
         Self::cost(p)
     }
@@ -263,8 +272,8 @@ impl<K: Kind> Erased<K> {
         let (headers, cells) = records::to_cells(&p)?;
         let canonical = records::canonical_of(&headers, &cells);
         let (shared_cost, cost) = match config_dir {
-            Some(d) => K::cost_in(&p, d),
-            None => K::cost(&p),
+            Some(d) => K::cost_in(&spec, d),
+            None => K::cost(&spec),
         };
         Ok(Resolved {
             id: records::run_id(K::NAME, &canonical),
@@ -314,12 +323,12 @@ impl<K: Kind> DynKind for Erased<K> {
         combo: &config::Combination,
     ) -> Result<Resolved, config::ConfigError> {
         let p: K::Params = config::deserialize(ex, combo)?;
-        let spec =
-            K::resolve(&p).map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
         let dir = Path::new(&ex.source.file)
             .parent()
             .filter(|d| !d.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
+        let spec = K::resolve_in(&p, dir)
+            .map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
         self.resolved(p, spec, Some(dir))
             .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
     }

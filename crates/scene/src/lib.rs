@@ -23,6 +23,7 @@ pub mod error;
 pub mod frame;
 pub mod gpu_path;
 pub mod kernels;
+pub mod method;
 pub mod render;
 pub mod scene;
 pub mod vocab;

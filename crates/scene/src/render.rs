@@ -25,27 +25,9 @@ use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
 use shscale_scaling::{Eta, KTable};
 use std::time::Instant;
 
-/// The visibility evaluator used for every occluder.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    Extrapolated,
-    FullField,
-    /// Band-limited ray-traced visibility, shaded through SH like the others.
-    RayTraced,
-    /// Full-frequency truth: direct quadrature of `∫ L Π V cos⁺` with exact ray-cast visibility
-    /// (`(2H)²` rays per receiver).
-    FullFrequency,
-    /// Sub-volumes (TR §6, SHS §5 future work): every mesh occluder split into
-    /// [`Scene::parts`] parts ([`shscale_geometry::partition::kmeans_parts`]), each part
-    /// extrapolated from its own bounding sphere; all parts of all occluders multiplied near to
-    /// far as separate occluders are.
-    SubVolumes,
-    /// Sphere sets (Ren et al. 2006's occluder model): every mesh occluder split into
-    /// [`Scene::parts`] parts on its rest pose, one sphere fitted per part on the posed mesh
-    /// ([`shscale_geometry::partition::fit_spheres`]); each sphere's closed-form cap, all
-    /// multiplied near to far as separate occluders are. No rays.
-    SphereSet,
-}
+/// The visibility evaluator used for every occluder: the project's one method vocabulary
+/// ([`crate::method`]).
+pub use crate::method::Method;
 
 /// A rendered receiver plane.
 pub struct RenderOutput {

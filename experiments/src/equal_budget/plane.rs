@@ -21,24 +21,25 @@
 //! projection and the BVH build, which every method shares — as the median of the timing
 //! procedure's repeats with its order-statistic interval.
 
-use crate::budget::{by_config, distinct_pairs, equal_accuracy, speed_claim, METHODS, NEAR_RHO};
-use crate::shadows::flat;
+use super::verdict::{
+    by_config, config_keys, distinct_pairs, equal_accuracy, params_of, pareto, speed_claim, variant,
+};
+use super::NEAR_RHO;
+use crate::figures::flat;
 use serde::{Deserialize, Serialize};
-use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
-use shscale_field::extrapolate::Plausibility;
 use shscale_field::metrics::ssim;
 use shscale_field::shading::shade_rmse_rel;
-use shscale_field::Layout;
-use shscale_runner::check::Ends;
 use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::Results;
-use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind, Typed};
-use shscale_scene::render::{estimated_work, render, Method};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
+use shscale_scene::method::{Keys, Method, Spec};
+use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
-use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
+use shscale_scene::vocab::MAX_ORDER;
 use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 /// Parameters of one run (one method at one budget on one scene).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,6 +98,47 @@ impl Default for Params {
             save_image: false,
         }
     }
+}
+
+impl Params {
+    /// The method keys, for the vocabulary (α fixed, no occlusion rule, products, the scene's
+    /// k-table entries).
+    fn keys(&self) -> Keys<'_> {
+        Keys {
+            method: &self.method,
+            parts: self.parts,
+            layout: &self.layout,
+            hemisphere_res: self.hemisphere_res,
+            shells: self.shells,
+            shell_max: self.shell_max,
+            shell_spacing: &self.shell_spacing,
+            field_interp: &self.field_interp,
+            rt_res: self.rt_res,
+            alpha_deg: self.alpha_deg,
+            alpha_mode: None,
+            plausibility: &self.plausibility,
+            sampling_radius: self.sampling_radius,
+            radial: &self.radial,
+            radial_delta: self.radial_delta,
+            radial_tau: None,
+            radial_max: None,
+            sphere_combine: None,
+            k_count: None,
+        }
+    }
+
+    /// The method, parsed (the unread-key rule against the defaults).
+    fn spec(&self) -> Result<Spec, KeyError> {
+        Spec::parse(&self.keys(), &Params::default().keys(), MAX_RT_RES)
+    }
+}
+
+/// The largest `rt_res` of a plane (and below the scene's `truth_res`, checked at plan time).
+const MAX_RT_RES: usize = 255;
+
+/// Row `r`'s method, parsed from its cells.
+fn spec_of(t: &Results, r: usize) -> Option<Spec> {
+    params_of::<Params>(t, r)?.spec().ok()
 }
 
 /// One row per run.
@@ -160,9 +202,9 @@ fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
 }
 
 /// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance
-/// ([`crate::shadows::own_err`]).
+/// ([`crate::figures::own_err`]).
 fn own_err(e: &[[f32; 3]], open: &[f64]) -> f64 {
-    crate::shadows::own_err(e, open.iter().sum::<f64>() / open.len().max(1) as f64)
+    crate::figures::own_err(e, open.iter().sum::<f64>() / open.len().max(1) as f64)
 }
 
 /// The scene of a group: the file with the order override.
@@ -174,46 +216,61 @@ fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
     Ok(s)
 }
 
-/// The scene of a run: the group's with the run's method parameters.
-fn run_scene(p: &Typed<Params, Layout>, base: &Scene) -> Result<Scene, Error> {
-    let mut s = base.clone();
-    s.layout = p.typed;
-    s.hemisphere_res = p.hemisphere_res;
-    s.alpha = p.alpha_deg.to_radians();
-    s.plausibility = Plausibility::parse(&p.plausibility).map_err(Error::config)?;
-    s.sampling_radius = p.sampling_radius;
-    s.parts = p.parts;
-    s.radial = radial_rule(p).map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
-    let c = |e: shscale_field::FieldError| Error::config(e.to_string());
-    s.full_field = Some(Shells {
-        count: p.shells,
-        rho_min: p.sampling_radius,
-        rho_max: p.shell_max * p.sampling_radius,
-        spacing: ShellSpacing::parse(&p.shell_spacing).map_err(c)?,
-        interp: FieldInterp::parse(&p.field_interp).map_err(c)?,
-    });
-    if p.method == "ray_traced" {
-        if p.rt_res >= base.truth_res {
-            return Err(Error::config(format!(
-                "rt_res = {} is not below the scene's truth_res = {} ({}): the band-limited truth must be converged beyond the method it measures",
-                p.rt_res, base.truth_res, p.scene
-            )));
+/// The scenes read at plan time, by path and modification time: a plan reads each scene file
+/// once, however many runs name it.
+fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Scene>, Error> {
+    type Cache = Vec<(
+        (PathBuf, Option<std::time::SystemTime>, Option<usize>),
+        Arc<Scene>,
+    )>;
+    static CACHE: Mutex<Cache> = Mutex::new(Vec::new());
+    const KEEP: usize = 16;
+    let path = config_dir.join(&p.scene);
+    let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
+    let key = (path, modified, p.order);
+    if let Some(s) =
+        (CACHE.lock().ok()).and_then(|c| c.iter().find(|(k, _)| *k == key).map(|(_, s)| s.clone()))
+    {
+        return Ok(s);
+    }
+    let s = Arc::new(group_scene(p, config_dir)?);
+    if let Ok(mut c) = CACHE.lock() {
+        if c.len() >= KEEP {
+            c.remove(0);
         }
-        s.truth_res = p.rt_res;
+        c.push((key, s.clone()));
     }
     Ok(s)
 }
 
-/// The run's radial rule: `uniform` or `clearance` (the occlusion rule's rays would not be
-/// counted by the plane's ray estimate).
-fn radial_rule(p: &Params) -> Result<shscale_field::bsv::RadialRule, KeyError> {
-    if p.radial == "occlusion" {
-        return Err(KeyError::new(
-            "radial",
-            "\"occlusion\" is offered by `budget` only (its search rays are not in the plane's ray count); use \"uniform\" or \"clearance\"",
-        ));
+/// Ray tracing is scored against a band-limited truth that must be converged beyond it: `rt_res`
+/// below the scene's `truth_res`.
+fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> {
+    match spec {
+        Spec::RayTraced { rt_res } if *rt_res >= scene.truth_res => Err(KeyError::new(
+            "rt_res",
+            format!(
+                "rt_res = {rt_res} is not below the scene's truth_res = {} ({}): the band-limited truth must be converged beyond the method it measures",
+                scene.truth_res, p.scene
+            ),
+        )),
+        _ => Ok(()),
     }
-    crate::budget::radial_of(&p.radial, p.radial_delta, 0.0, 1.0)
+}
+
+/// A run's resolved form: its method, and the group's scene where it was read at plan time.
+pub struct PlaneSpec {
+    method: Spec,
+    scene: Option<Arc<Scene>>,
+}
+
+/// The scene of a run: the group's with the run's method parameters.
+fn run_scene(p: &Typed<Params, PlaneSpec>, base: &Scene) -> Result<Scene, Error> {
+    check_rt_res(&p.typed.method, p, base)
+        .map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
+    let mut s = base.clone();
+    p.typed.method.apply(&mut s);
+    Ok(s)
 }
 
 /// The runs of the plane figure among the saved ones (`rows`, one scene): the papers' full
@@ -221,18 +278,16 @@ fn radial_rule(p: &Params) -> Result<shscale_field::bsv::RadialRule, KeyError> {
 /// full-frequency truth) that casts no more rays than the extrapolation; `None` without the
 /// first two.
 fn figure_runs(t: &Results, rows: &[usize]) -> Option<Vec<usize>> {
-    let papers = |r: usize, v: &str| crate::budget::variant(t, r) == v;
-    let ff = rows
-        .iter()
-        .copied()
-        .find(|&r| t.cell(r, "method") == "full_field" && papers(r, "full field (papers')"))?;
-    let ex = rows
-        .iter()
-        .copied()
-        .find(|&r| t.cell(r, "method") == "extrapolated" && papers(r, "extrapolation"))?;
-    let best = (rows.iter().copied())
+    let specs: Vec<(usize, Spec)> = (rows.iter())
+        .filter_map(|&r| Some((r, spec_of(t, r)?)))
+        .collect();
+    let find = |v: &str| specs.iter().find(|(_, s)| variant(s) == v).map(|(r, _)| *r);
+    let ff = find("full field (papers')")?;
+    let ex = find("extrapolation")?;
+    let best = (specs.iter())
+        .filter(|(_, s)| s.method() != Method::RayTraced)
+        .map(|(r, _)| *r)
         .filter(|&r| r != ff && r != ex && t.num(r, "rays") <= t.num(ex, "rays"))
-        .filter(|&r| t.cell(r, "method") != "ray_traced")
         .min_by(|&a, &b| {
             t.num(a, "rmse_vs_full_frequency")
                 .total_cmp(&t.num(b, "rmse_vs_full_frequency"))
@@ -248,16 +303,16 @@ fn write_plane_figure(
     truth: &[[f32; 3]],
     shown: &[(String, Vec<[f32; 3]>)],
 ) -> Result<(), Error> {
-    let tr = crate::shadows::lum(truth);
+    let tr = crate::figures::lum(truth);
     let mut top = vec![("full-frequency ray-traced truth".to_string(), tr.clone())];
-    top.extend((shown.iter()).map(|(t, p)| (t.clone(), crate::shadows::lum(p))));
+    top.extend((shown.iter()).map(|(t, p)| (t.clone(), crate::figures::lum(p))));
     let methods = (shown.iter())
         .map(|(t, p)| {
             let name = t.split(" (").next().unwrap_or(t).to_string();
-            (name, crate::shadows::lum(p))
+            (name, crate::figures::lum(p))
         })
         .collect();
-    crate::shadows::write_irradiance_figure(
+    crate::figures::write_irradiance_figure(
         png,
         (w, h),
         (
@@ -270,16 +325,6 @@ fn write_plane_figure(
         methods,
         300,
     )
-}
-
-fn method_of(name: &str) -> Method {
-    match name {
-        "full_field" => Method::FullField,
-        "ray_traced" => Method::RayTraced,
-        "sub_volumes" => Method::SubVolumes,
-        "sphere_set" => Method::SphereSet,
-        _ => Method::Extrapolated,
-    }
 }
 
 /// `shade_rmse_rel` over the receivers where `keep` holds (RGB flattened, 3 values per receiver).
@@ -337,10 +382,7 @@ impl Kind for BudgetPlane {
     type Shared = Shared;
     type Row = Row;
     type Error = Error;
-    type Spec = Typed<Params, Layout>;
-    fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
-        shscale_scene::gpu_path::open_device(mode)
-    }
+    type Spec = Typed<Params, PlaneSpec>;
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -372,94 +414,72 @@ impl Kind for BudgetPlane {
         if let Some(n) = p.order {
             KeyError::int("order", n, 1, MAX_ORDER)?;
         }
-        if !METHODS.contains(&p.method.as_str()) {
-            return Err(KeyError::new(
-                "method",
-                format!("{:?} is not one of {METHODS:?}", p.method),
-            ));
-        }
-        let layout =
-            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
-        KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
         KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
-        KeyError::int("parts", p.parts, 1, shscale_geometry::partition::MAX_PARTS)?;
-        KeyError::int("shells", p.shells, 2, crate::budget::MAX_SHELLS)?;
-        KeyError::int("rt_res", p.rt_res, 1, 255)?;
-        KeyError::real("shell_max", p.shell_max, 1.0, 1e3, Ends::OpenClosed)?;
-        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
-        KeyError::real("sampling_radius", p.sampling_radius, 1.0, 1e3, Ends::Closed)?;
-        Plausibility::parse(&p.plausibility).map_err(|m| KeyError::new("plausibility", m))?;
-        radial_rule(p)?;
+        let method = p.spec()?;
         if p.save_image && p.frames != 1 {
             return Err(KeyError::new(
                 "save_image",
                 format!("keeps one frame's image; frames = {}", p.frames),
             ));
         }
-        let spacing = ShellSpacing::parse(&p.shell_spacing)
-            .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?;
-        let interp = FieldInterp::parse(&p.field_interp)
-            .map_err(|e| KeyError::new("field_interp", e.to_string()))?;
-        if p.method == "full_field" {
-            Shells {
-                count: p.shells,
-                rho_min: 1.0,
-                rho_max: p.shell_max,
-                spacing,
-                interp,
-            }
-            .check(layout)
-            .map_err(|e| KeyError::new("field_interp", e.to_string()))?;
-        }
         Ok(Typed {
             params: p.clone(),
-            typed: layout,
+            typed: PlaneSpec {
+                method,
+                scene: None,
+            },
         })
+    }
+
+    /// With the scene read (once per plan): `rt_res` against its `truth_res`, before any work.
+    fn resolve_in(p: &Params, config_dir: &Path) -> Result<Self::Spec, KeyError> {
+        let mut spec = Self::resolve(p)?;
+        let scene =
+            planned_scene(p, config_dir).map_err(|e| KeyError::new("scene", e.to_string()))?;
+        check_rt_res(&spec.typed.method, p, &scene)?;
+        spec.typed.scene = Some(scene);
+        Ok(spec)
     }
 
     fn group_key(p: &Params) -> String {
         format!("{};{:?};{}", p.scene, p.order, p.frames)
     }
 
-    fn cost(p: &Params) -> (Cost, Cost) {
-        (
-            Cost {
+    /// From the scene read at plan time: the truths once (band-limited, full-frequency,
+    /// unshadowed), the run's method per timed render, at the `shadows` kind's render rate.
+    /// Resolved without it (rows read back from a CSV): not estimated.
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
+        let Some(base) = p.typed.scene.as_deref() else {
+            let unread = Cost {
                 drivers: format!(
                     "scene {} (its truths; not estimated before the scene is read)",
                     p.scene
                 ),
                 once_seconds: f64::NAN,
                 ..Cost::default()
-            },
-            Cost::default(),
-        )
-    }
-
-    /// From the scene: the truths once (band-limited, full-frequency, unshadowed), the run's
-    /// method per timed render, at the `shadows` kind's render rate.
-    fn cost_in(p: &Params, config_dir: &Path) -> (Cost, Cost) {
-        let (Ok(spec), Ok(base)) = (<Self as Kind>::resolve(p), group_scene(p, config_dir)) else {
-            return Self::cost(p);
+            };
+            return (unread, Cost::default());
         };
-        let Ok(scene) = run_scene(&spec, &base) else {
-            return Self::cost(p);
-        };
+        let mut scene = base.clone();
+        p.typed.method.apply(&mut scene);
         let frames = p.frames as f64;
         let once: f64 = frames
             * [Method::RayTraced, Method::FullFrequency]
                 .iter()
-                .map(|m| estimated_work(&base, *m).0)
+                .map(|m| estimated_work(base, *m).0)
                 .sum::<f64>()
-            + estimated_work(&base, Method::RayTraced).0 / base.occluders.len().max(1) as f64;
-        let (rays, bytes) = estimated_work(&scene, method_of(&p.method));
-        let rays = rays * frames;
+            + estimated_work(base, Method::RayTraced).0 / base.occluders.len().max(1) as f64;
+        let (_, bytes) = estimated_work(&scene, p.typed.method.method());
         let receivers = (base.resolution[0] * base.resolution[1]) as f64;
+        let occluders = base.occluders.len().max(1) as f64;
+        let rays = frames * p.typed.method.rays(occluders, receivers);
+        let rate = crate::shadows::RENDER_RAYS_PER_SECOND;
         (
             Cost {
                 rays: once,
                 bytes,
                 seconds: 0.0,
-                once_seconds: once / crate::shadows::RENDER_RAYS_PER_SECOND,
+                once_seconds: once / rate,
                 drivers: format!(
                     "scene {}: {}×{} receivers, truth_res {}",
                     p.scene, base.resolution[0], base.resolution[1], base.truth_res
@@ -468,9 +488,8 @@ impl Kind for BudgetPlane {
             Cost {
                 rays,
                 bytes,
-                seconds: rays / crate::shadows::RENDER_RAYS_PER_SECOND
-                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER
-                    + frames * receivers * crate::budget::sphere_set_seconds(p.method.as_str(), p.parts),
+                seconds: p.typed.method.seconds(rays, frames * receivers, rate)
+                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER,
                 once_seconds: 0.0,
                 drivers: format!(
                     "method {} → {rays:.3e} rays and {receivers} receivers shaded, over {} frame(s)",
@@ -485,7 +504,10 @@ impl Kind for BudgetPlane {
     }
 
     fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<Shared, Error> {
-        let scene = group_scene(&p.params, ctx.config_dir)?;
+        let scene = match &p.typed.scene {
+            Some(s) => Scene::clone(s),
+            None => group_scene(&p.params, ctx.config_dir)?,
+        };
         let frames = p.frames;
         let (mut band, mut full) = (Vec::new(), Vec::new());
         let (mut full_err, mut band_err) = (Vec::new(), Vec::new());
@@ -521,7 +543,7 @@ impl Kind for BudgetPlane {
 
     fn run(p: &Self::Spec, run_id: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
         let scene = run_scene(p, &sh.scene)?;
-        let method = method_of(&p.method);
+        let method = p.typed.method.method();
         let frames = p.frames;
         let scenes: Vec<Scene> = (0..frames).map(|f| at_frame(&scene, f, frames)).collect();
         // A frame: the render without the stages every method shares (the light's projection,
@@ -542,23 +564,10 @@ impl Kind for BudgetPlane {
             Ok::<_, Error>((imgs, [total / frames as f64]))
         })?;
         let black = || Error::config(format!("{}: the unshadowed image is black", p.scene));
-        let (rays, _) = estimated_work(&scene, method);
         let occluders = scene.occluders.len() as f64;
-        let samples = scene.layout.sample_count().unwrap_or(0) as f64;
-        let nn = (scene.order * scene.order) as f64;
-        let memory = match method {
-            Method::Extrapolated => {
-                occluders * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
-            }
-            Method::SubVolumes => {
-                occluders
-                    * p.parts as f64
-                    * (samples * nn * 8.0 + scene.k_count as f64 * nn * nn * 8.0)
-            }
-            Method::FullField => occluders * p.shells as f64 * samples * nn * 8.0,
-            Method::SphereSet => occluders * p.parts as f64 * 32.0,
-            _ => 0.0,
-        };
+        let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
+        let rays = p.typed.method.rays(occluders.max(1.0), receivers);
+        let memory = (p.typed.method).memory_bytes(scene.order, occluders, scene.k_count);
         if p.save_image {
             let (w, h) = (imgs[0].width, imgs[0].height);
             let exr = |name: &str| ctx.dir.join(format!("{name}_{run_id}.exr"));
@@ -642,8 +651,9 @@ impl Kind for BudgetPlane {
                 let mut bars = Vec::new();
                 for r in (0..t.rows.len()).filter(|&r| of(r)) {
                     let (xv, y) = (t.num(r, x), t.num(r, "rmse_vs_full_frequency"));
+                    let Some(spec) = spec_of(t, r) else { continue };
                     if xv.is_finite() && xv > 0.0 && y.is_finite() {
-                        let name = crate::budget::variant(t, r);
+                        let name = variant(&spec);
                         series.entry(name).or_default().push((xv, y));
                         bars.push((
                             y,
@@ -658,7 +668,7 @@ impl Kind for BudgetPlane {
                 for v in series.values_mut() {
                     v.sort_by(|a, b| a.0.total_cmp(&b.0));
                 }
-                let front = crate::budget::pareto(series.values().flatten().copied());
+                let front = pareto(series.values().flatten().copied());
                 let labels = Labels {
                     title: &format!("{title}: error against {short}"),
                     x: xl,
@@ -690,7 +700,7 @@ impl Kind for BudgetPlane {
             let (_, _, px) = read("plane", r)?;
             let title = format!(
                 "{} ({:.3} at {:.3e} rays)",
-                crate::budget::variant(t, r),
+                spec_of(t, r).map_or_else(|| t.cell(r, "method").to_string(), |s| variant(&s)),
                 t.num(r, "rmse_vs_full_frequency"),
                 t.num(r, "rays")
             );
@@ -702,13 +712,13 @@ impl Kind for BudgetPlane {
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
-        let keys = crate::budget::config_keys::<Params>(&["scene", "frames"]);
+        let keys = config_keys::<Params>(&["scene", "frames"]);
         let mut s = String::new();
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
                 .collect();
-            let configs = by_config(t, &rows, &keys);
+            let configs = by_config(t, &rows, &keys, &|r| spec_of(t, r));
             let r0 = rows[0];
             let seq = if frames == "1" {
                 String::new()

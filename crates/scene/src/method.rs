@@ -1,0 +1,733 @@
+//! The methods' vocabulary: every way this project computes the visibility a receiver sees,
+//! spelled one way ([`Method`]: the config's `method` cell, the CSV column, `render --method`,
+//! Python), and the typed spec of each method a budget study compares ([`Spec`]), parsed once
+//! from a kind's keys ([`Keys`]) with the keys each method reads, its rays and its memory in
+//! one place (docs/methods.md).
+//!
+//! A key that the chosen method does not read must keep its default: given any other value it
+//! is refused, naming the key and the method (Mitsuba's rule for unqueried properties), so it
+//! never changes a run id without changing the run.
+
+use crate::scene::Scene;
+use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
+use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
+use shscale_field::extrapolate::Plausibility;
+use shscale_runner::check::Ends;
+use shscale_runner::KeyError;
+
+/// A method of computing a receiver's visibility.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// SH-scaling extrapolation from one base-sphere visibility per occluder (the papers').
+    Extrapolated,
+    /// The fully sampled shadow field (Zhou et al. 2005): shells of samples, interpolated.
+    FullField,
+    /// Band-limited ray-traced visibility (the converged stratified truth at `4T²` rays per
+    /// receiver), shaded through SH like the others.
+    RayTraced,
+    /// Full-frequency truth: direct quadrature of `∫ L Π V cos⁺` with exact ray-cast visibility.
+    FullFrequency,
+    /// Sub-volumes (TR §6, SHS §5 future work): every mesh occluder split into parts, each part
+    /// extrapolated from its own bounding sphere, multiplied near to far.
+    SubVolumes,
+    /// Sphere sets (Ren et al. 2006's occluder model): one sphere fitted per part, closed-form
+    /// caps; no rays.
+    SphereSet,
+}
+
+impl Method {
+    /// Every method, in the order of the docs.
+    pub const ALL: [Method; 6] = [
+        Method::Extrapolated,
+        Method::FullField,
+        Method::RayTraced,
+        Method::FullFrequency,
+        Method::SubVolumes,
+        Method::SphereSet,
+    ];
+    /// The methods a budget study compares (full-frequency truth is its reference, not a
+    /// method under a budget).
+    pub const BUDGETED: [Method; 5] = [
+        Method::Extrapolated,
+        Method::FullField,
+        Method::RayTraced,
+        Method::SubVolumes,
+        Method::SphereSet,
+    ];
+    /// The command line's earlier spellings, still accepted by [`Method::parse_cli`].
+    const CLI_ALIASES: [(&'static str, Method); 3] = [
+        ("full-field", Method::FullField),
+        ("raytraced", Method::RayTraced),
+        ("raytraced-full", Method::FullFrequency),
+    ];
+
+    /// The method's one name (config cell, CSV cell, command line, Python).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Method::Extrapolated => "extrapolated",
+            Method::FullField => "full_field",
+            Method::RayTraced => "ray_traced",
+            Method::FullFrequency => "full_frequency",
+            Method::SubVolumes => "sub_volumes",
+            Method::SphereSet => "sphere_set",
+        }
+    }
+
+    /// The method named `s` among `among`, or a message listing them.
+    pub fn parse_among(s: &str, among: &[Method]) -> Result<Self, String> {
+        among
+            .iter()
+            .copied()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<String> = among.iter().map(|m| format!("{:?}", m.name())).collect();
+                format!("{s:?} is not one of {}", names.join(", "))
+            })
+    }
+
+    /// Any method by its name.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        Self::parse_among(s, &Self::ALL)
+    }
+
+    /// A method as the command line takes it: its name, or an earlier spelling
+    /// (`full-field`, `raytraced`, `raytraced-full`).
+    pub fn parse_cli(s: &str) -> Result<Self, String> {
+        (Self::CLI_ALIASES.iter())
+            .find(|(a, _)| *a == s)
+            .map(|(_, m)| *m)
+            .map_or_else(|| Self::parse(s), Ok)
+    }
+
+    /// The references: ray-traced truths, band-limited and full-frequency.
+    pub fn is_truth(self) -> bool {
+        matches!(self, Method::RayTraced | Method::FullFrequency)
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How α of the extrapolation's k-table is chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Alpha {
+    /// One cone angle, degrees, in (0, 90).
+    Fixed(f64),
+    /// α by distance at the BSV's effective cap (the table is then built per frame).
+    Fit,
+}
+
+/// How a sphere set combines its spheres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Combine {
+    /// Truncated SH products near to far, as every multi-occluder method here.
+    Product,
+    /// The set's joint visibility projected by a quadrature at every receiver (no truncated
+    /// products; its rays, cast at the spheres, are counted).
+    Quadrature,
+}
+
+/// Gauss–Legendre nodes in cos θ of [`Combine::Quadrature`] (× twice as many φ).
+pub const SPHERE_QUADRATURE_RES: usize = 64;
+
+/// The cost model's time per receiver of a sphere set, per sphere (a cap's projection and
+/// rotation and a truncated product at N = 4): 0.36 µs on spherical receivers, 0.57–0.63 µs on
+/// the plane, at S = 16 and 64 in `configs/experiments/budget.toml` and `budget_plane.toml`
+/// on the development VM.
+pub const SPHERE_SECONDS: f64 = 5e-7;
+
+/// The cost model's time of the quadrature combination: per direction and receiver, and per
+/// ray–sphere test, fitted to `sphere_combine = "quadrature"` in `configs/experiments/
+/// budget.toml` (S = 2 / 16 / 64: 0.06 / 0.17 / 0.60 s per frame of 1,200 receivers) on the
+/// development VM.
+pub const SPHERE_DIRECTION_SECONDS: f64 = 4.3e-9;
+pub const SPHERE_TEST_SECONDS: f64 = 0.9e-9;
+
+/// The extrapolation's parameters (one sphere, or each sub-volume's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extrapolation {
+    pub layout: Layout,
+    /// H: H² rays per base-sphere sample.
+    pub hemisphere_res: usize,
+    pub alpha: Alpha,
+    pub plausibility: Plausibility,
+    /// The sampling sphere in bounding radii, [1, 1000].
+    pub sampling_radius: f64,
+    pub radial: RadialRule,
+    /// k-table entries; `None` where the scene's are used (`budget_plane`).
+    pub k_count: Option<usize>,
+}
+
+/// The fully sampled field's parameters: shells over `[s, shell_max·s]·r`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldSpec {
+    pub layout: Layout,
+    pub hemisphere_res: usize,
+    pub count: usize,
+    pub shell_max: f64,
+    pub spacing: ShellSpacing,
+    pub interp: FieldInterp,
+    /// The innermost shell in bounding radii.
+    pub sampling_radius: f64,
+}
+
+impl FieldSpec {
+    /// The shells, over `[s, shell_max·s]` bounding radii.
+    pub fn shells(&self) -> Shells {
+        Shells {
+            count: self.count,
+            rho_min: self.sampling_radius,
+            rho_max: self.shell_max * self.sampling_radius,
+            spacing: self.spacing,
+            interp: self.interp,
+        }
+    }
+}
+
+/// One method with everything it reads, parsed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Spec {
+    Extrapolated(Extrapolation),
+    FullField(FieldSpec),
+    RayTraced { rt_res: usize },
+    SubVolumes { parts: usize, ex: Extrapolation },
+    SphereSet { parts: usize, combine: Combine },
+}
+
+/// The raw method keys of a kind's parameters (each kind fills the ones it has; a key it does
+/// not offer is `None`, and the method uses the fixed value the kind documents).
+#[derive(Clone, Copy, Debug)]
+pub struct Keys<'a> {
+    pub method: &'a str,
+    pub parts: usize,
+    pub layout: &'a str,
+    pub hemisphere_res: usize,
+    pub shells: usize,
+    pub shell_max: f64,
+    pub shell_spacing: &'a str,
+    pub field_interp: &'a str,
+    pub rt_res: usize,
+    pub alpha_deg: f64,
+    pub alpha_mode: Option<&'a str>,
+    pub plausibility: &'a str,
+    pub sampling_radius: f64,
+    pub radial: &'a str,
+    pub radial_delta: f64,
+    pub radial_tau: Option<f64>,
+    pub radial_max: Option<f64>,
+    pub sphere_combine: Option<&'a str>,
+    pub k_count: Option<usize>,
+}
+
+/// The most shells of a full field.
+pub const MAX_SHELLS: usize = 64;
+
+impl<'a> Keys<'a> {
+    /// Every method key this kind offers with its value as a cell, for the unread-key rule.
+    fn cells(&self) -> Vec<(&'static str, String)> {
+        let mut v = vec![
+            ("parts", self.parts.to_string()),
+            ("layout", self.layout.to_string()),
+            ("hemisphere_res", self.hemisphere_res.to_string()),
+            ("shells", self.shells.to_string()),
+            ("shell_max", self.shell_max.to_string()),
+            ("shell_spacing", self.shell_spacing.to_string()),
+            ("field_interp", self.field_interp.to_string()),
+            ("rt_res", self.rt_res.to_string()),
+            ("alpha_deg", self.alpha_deg.to_string()),
+            ("plausibility", self.plausibility.to_string()),
+            ("sampling_radius", self.sampling_radius.to_string()),
+            ("radial", self.radial.to_string()),
+            ("radial_delta", self.radial_delta.to_string()),
+        ];
+        let opt = [
+            ("alpha_mode", self.alpha_mode.map(str::to_string)),
+            ("radial_tau", self.radial_tau.map(|x| x.to_string())),
+            ("radial_max", self.radial_max.map(|x| x.to_string())),
+            ("sphere_combine", self.sphere_combine.map(str::to_string)),
+            ("k_count", self.k_count.map(|x| x.to_string())),
+        ];
+        v.extend(opt.into_iter().filter_map(|(k, c)| Some((k, c?))));
+        v
+    }
+
+    fn extrapolation(&self) -> Result<Extrapolation, KeyError> {
+        let layout = layout(self.layout)?;
+        let alpha = match self.alpha_mode.unwrap_or("fixed") {
+            "fixed" => {
+                KeyError::real("alpha_deg", self.alpha_deg, 0.0, 90.0, Ends::Open)?;
+                Alpha::Fixed(self.alpha_deg)
+            }
+            "fit" => Alpha::Fit,
+            s => {
+                return Err(KeyError::new(
+                    "alpha_mode",
+                    format!("{s:?} is not one of \"fixed\", \"fit\""),
+                ))
+            }
+        };
+        Ok(Extrapolation {
+            layout,
+            hemisphere_res: hemisphere_res(self.hemisphere_res)?,
+            alpha,
+            plausibility: Plausibility::parse(self.plausibility)
+                .map_err(|m| KeyError::new("plausibility", m))?,
+            sampling_radius: KeyError::real(
+                "sampling_radius",
+                self.sampling_radius,
+                1.0,
+                1e3,
+                Ends::Closed,
+            )?,
+            radial: self.radial_rule()?,
+            k_count: self
+                .k_count
+                .map(|k| KeyError::int("k_count", k, 2, crate::vocab::MAX_K_COUNT))
+                .transpose()?,
+        })
+    }
+
+    /// `uniform`, `clearance` (δ ∈ [0, 10]) or `occlusion` (τ ∈ [0, 1), ceiling ∈ [1, 10]),
+    /// the last only where the kind offers `radial_tau` and `radial_max`.
+    fn radial_rule(&self) -> Result<RadialRule, KeyError> {
+        match (self.radial, self.radial_tau.zip(self.radial_max)) {
+            ("uniform", _) => Ok(RadialRule::Uniform),
+            ("clearance", _) => Ok(RadialRule::Clearance {
+                delta: KeyError::real("radial_delta", self.radial_delta, 0.0, 10.0, Ends::Closed)?,
+            }),
+            ("occlusion", Some((tau, t_max))) => Ok(RadialRule::Occlusion {
+                tau: KeyError::real("radial_tau", tau, 0.0, 1.0, Ends::ClosedOpen)?,
+                t_max: KeyError::real("radial_max", t_max, 1.0, 10.0, Ends::Closed)?,
+            }),
+            ("occlusion", None) => Err(KeyError::new(
+                "radial",
+                "\"occlusion\" is offered by `budget` only (its search rays are not in the plane's ray count); use \"uniform\" or \"clearance\"",
+            )),
+            (s, _) => Err(KeyError::new(
+                "radial",
+                format!("{s:?} is not one of \"uniform\", \"clearance\", \"occlusion\""),
+            )),
+        }
+    }
+
+    fn field(&self) -> Result<FieldSpec, KeyError> {
+        let f = FieldSpec {
+            layout: layout(self.layout)?,
+            hemisphere_res: hemisphere_res(self.hemisphere_res)?,
+            count: KeyError::int("shells", self.shells, 2, MAX_SHELLS)?,
+            shell_max: KeyError::real("shell_max", self.shell_max, 1.0, 1e3, Ends::OpenClosed)?,
+            spacing: ShellSpacing::parse(self.shell_spacing)
+                .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?,
+            interp: FieldInterp::parse(self.field_interp)
+                .map_err(|e| KeyError::new("field_interp", e.to_string()))?,
+            sampling_radius: KeyError::real(
+                "sampling_radius",
+                self.sampling_radius,
+                1.0,
+                1e3,
+                Ends::Closed,
+            )?,
+        };
+        (f.shells().check(f.layout)).map_err(|e| KeyError::new("field_interp", e.to_string()))?;
+        Ok(f)
+    }
+}
+
+fn layout(s: &str) -> Result<Layout, KeyError> {
+    Layout::parse(s).map_err(|e| KeyError::new("layout", e.to_string()))
+}
+
+fn hemisphere_res(h: usize) -> Result<usize, KeyError> {
+    KeyError::int("hemisphere_res", h, 1, crate::vocab::MAX_HEMISPHERE_RES)
+}
+
+impl Spec {
+    /// Parse the method keys `k` once; `defaults` are the kind's defaults (the unread-key
+    /// rule), `rt_res_max` the kind's largest `rt_res`. Errors name the key.
+    pub fn parse(k: &Keys, defaults: &Keys, rt_res_max: usize) -> Result<Spec, KeyError> {
+        let method = Method::parse_among(k.method, &Method::BUDGETED)
+            .map_err(|m| KeyError::new("method", m))?;
+        let parts = || KeyError::int("parts", k.parts, 1, shscale_geometry::partition::MAX_PARTS);
+        let spec = match method {
+            Method::Extrapolated => Spec::Extrapolated(k.extrapolation()?),
+            Method::SubVolumes => Spec::SubVolumes {
+                parts: parts()?,
+                ex: k.extrapolation()?,
+            },
+            Method::FullField => Spec::FullField(k.field()?),
+            Method::RayTraced => Spec::RayTraced {
+                rt_res: KeyError::int("rt_res", k.rt_res, 1, rt_res_max)?,
+            },
+            Method::SphereSet => Spec::SphereSet {
+                parts: parts()?,
+                combine: match k.sphere_combine.unwrap_or("product") {
+                    "product" => Combine::Product,
+                    "quadrature" => Combine::Quadrature,
+                    s => {
+                        return Err(KeyError::new(
+                            "sphere_combine",
+                            format!("{s:?} is not one of \"product\", \"quadrature\""),
+                        ))
+                    }
+                },
+            },
+            Method::FullFrequency => unreachable!("not among the budgeted methods"),
+        };
+        let cells = k.cells();
+        // The keys it reads among those the kind offers, for the message.
+        let reads: Vec<&str> = (spec.reads().into_iter())
+            .filter(|r| cells.iter().any(|(c, _)| c == r))
+            .collect();
+        for ((key, v), (_, d)) in cells.iter().zip(defaults.cells()) {
+            if *v != d && !reads.contains(key) {
+                return Err(KeyError::new(
+                    key,
+                    format!(
+                        "{v} is not read by method \"{method}\" (it reads {}); leave {key} at its default {d}",
+                        reads.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(spec)
+    }
+
+    pub fn method(&self) -> Method {
+        match self {
+            Spec::Extrapolated(_) => Method::Extrapolated,
+            Spec::FullField(_) => Method::FullField,
+            Spec::RayTraced { .. } => Method::RayTraced,
+            Spec::SubVolumes { .. } => Method::SubVolumes,
+            Spec::SphereSet { .. } => Method::SphereSet,
+        }
+    }
+
+    /// The extrapolation of `extrapolated` and of each sub-volume.
+    pub fn extrapolation(&self) -> Option<&Extrapolation> {
+        match self {
+            Spec::Extrapolated(e) | Spec::SubVolumes { ex: e, .. } => Some(e),
+            _ => None,
+        }
+    }
+
+    /// The method keys this spec reads (the others must keep their defaults).
+    pub fn reads(&self) -> Vec<&'static str> {
+        let ex = |e: &Extrapolation| {
+            let mut v = vec!["layout", "hemisphere_res", "alpha_mode"];
+            if matches!(e.alpha, Alpha::Fixed(_)) {
+                v.push("alpha_deg");
+            }
+            v.extend(["plausibility", "sampling_radius", "radial", "k_count"]);
+            match e.radial {
+                RadialRule::Uniform => {}
+                RadialRule::Clearance { .. } => v.push("radial_delta"),
+                RadialRule::Occlusion { .. } => v.extend(["radial_tau", "radial_max"]),
+            }
+            v
+        };
+        match self {
+            Spec::Extrapolated(e) => ex(e),
+            Spec::SubVolumes { ex: e, .. } => [vec!["parts"], ex(e)].concat(),
+            Spec::FullField(_) => vec![
+                "layout",
+                "hemisphere_res",
+                "shells",
+                "shell_max",
+                "shell_spacing",
+                "field_interp",
+                "sampling_radius",
+            ],
+            Spec::RayTraced { .. } => vec!["rt_res"],
+            Spec::SphereSet { .. } => vec!["parts", "sphere_combine"],
+        }
+    }
+
+    /// Rays of one frame for `occluders` occluders and `receivers` receivers: the base-sphere
+    /// samples' hemispheres (× the occlusion rule's search steps, × the parts of sub-volumes),
+    /// the full field's shells of them, `4T²` per receiver and occluder for ray tracing, the
+    /// quadrature's `2Q²` directions per receiver for sphere sets combined by quadrature (0 by
+    /// products).
+    pub fn rays(&self, occluders: f64, receivers: f64) -> f64 {
+        let bsv = |e: &Extrapolation| {
+            let search = match e.radial {
+                RadialRule::Occlusion { .. } => (2 + OCCLUSION_STEPS) as f64,
+                _ => 1.0,
+            };
+            search * samples(e.layout) * (e.hemisphere_res * e.hemisphere_res) as f64
+        };
+        occluders
+            * match self {
+                Spec::Extrapolated(e) => bsv(e),
+                Spec::SubVolumes { parts, ex } => *parts as f64 * bsv(ex),
+                Spec::FullField(f) => {
+                    f.count as f64
+                        * samples(f.layout)
+                        * (f.hemisphere_res * f.hemisphere_res) as f64
+                }
+                Spec::RayTraced { rt_res } => receivers * 4.0 * (rt_res * rt_res) as f64,
+                Spec::SphereSet {
+                    combine: Combine::Quadrature,
+                    ..
+                } => receivers * (2 * SPHERE_QUADRATURE_RES * SPHERE_QUADRATURE_RES) as f64,
+                Spec::SphereSet { .. } => 0.0,
+            }
+    }
+
+    /// Bytes the method holds at order N for `occluders` occluders, `k_count` table entries
+    /// where the spec leaves them to the scene: N² doubles per base-sphere sample and k_count
+    /// N × N-doubles matrices per table (per part for sub-volumes), N² doubles per sample per
+    /// shell, 32 bytes per sphere; nothing for ray tracing.
+    pub fn memory_bytes(&self, order: usize, occluders: f64, k_count: usize) -> f64 {
+        let nn = (order * order) as f64;
+        let ex = |e: &Extrapolation| {
+            samples(e.layout) * nn * 8.0 + e.k_count.unwrap_or(k_count) as f64 * nn * nn * 8.0
+        };
+        occluders
+            * match self {
+                Spec::Extrapolated(e) => ex(e),
+                Spec::SubVolumes { parts, ex: e } => *parts as f64 * ex(e),
+                Spec::FullField(f) => f.count as f64 * samples(f.layout) * nn * 8.0,
+                Spec::SphereSet { parts, .. } => *parts as f64 * 32.0,
+                Spec::RayTraced { .. } => 0.0,
+            }
+    }
+
+    /// Seconds of one frame for the cost model: `rays` at `rays_per_second`, plus per receiver
+    /// [`SPHERE_SECONDS`] per sphere for sphere sets by products; the quadrature's rays meet
+    /// spheres, not a mesh, and are priced per direction ([`SPHERE_DIRECTION_SECONDS`]) and
+    /// sphere test ([`SPHERE_TEST_SECONDS`]) instead.
+    pub fn seconds(&self, rays: f64, receivers: f64, rays_per_second: f64) -> f64 {
+        match *self {
+            Spec::SphereSet {
+                parts,
+                combine: Combine::Quadrature,
+            } => rays * (SPHERE_DIRECTION_SECONDS + parts as f64 * SPHERE_TEST_SECONDS),
+            Spec::SphereSet { parts, .. } => {
+                rays / rays_per_second + receivers * parts as f64 * SPHERE_SECONDS
+            }
+            _ => rays / rays_per_second,
+        }
+    }
+
+    /// The scene rendered with this method: the method's parameters set on `scene` (the keys
+    /// it does not read leave the scene as it is). `rt_res` must be below the scene's
+    /// `truth_res` (checked by the kinds at plan time).
+    pub fn apply(&self, scene: &mut Scene) {
+        let ex = |s: &mut Scene, e: &Extrapolation| {
+            s.layout = e.layout;
+            s.hemisphere_res = e.hemisphere_res;
+            if let Alpha::Fixed(deg) = e.alpha {
+                s.alpha = deg.to_radians();
+            }
+            s.plausibility = e.plausibility;
+            s.sampling_radius = e.sampling_radius;
+            s.radial = e.radial;
+            if let Some(k) = e.k_count {
+                s.k_count = k;
+            }
+        };
+        match self {
+            Spec::Extrapolated(e) => ex(scene, e),
+            Spec::SubVolumes { parts, ex: e } => {
+                ex(scene, e);
+                scene.parts = *parts;
+            }
+            Spec::FullField(f) => {
+                scene.layout = f.layout;
+                scene.hemisphere_res = f.hemisphere_res;
+                scene.sampling_radius = f.sampling_radius;
+                scene.full_field = Some(f.shells());
+            }
+            Spec::RayTraced { rt_res } => scene.truth_res = *rt_res,
+            Spec::SphereSet { parts, .. } => scene.parts = *parts,
+        }
+    }
+}
+
+/// Base-sphere samples of a layout (0 for one without a count).
+fn samples(l: Layout) -> f64 {
+    l.sample_count().unwrap_or(0) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn keys(method: &str) -> Keys<'_> {
+        Keys {
+            method,
+            parts: 4,
+            layout: "latlong:12x20",
+            hemisphere_res: 32,
+            shells: 16,
+            shell_max: 8.0,
+            shell_spacing: "uniform",
+            field_interp: "trilinear",
+            rt_res: 8,
+            alpha_deg: 45.0,
+            alpha_mode: Some("fixed"),
+            plausibility: "none",
+            sampling_radius: 1.0,
+            radial: "uniform",
+            radial_delta: 0.1,
+            radial_tau: Some(0.5),
+            radial_max: Some(2.0),
+            sphere_combine: Some("product"),
+            k_count: Some(40),
+        }
+    }
+
+    #[test]
+    fn every_name_parses_to_its_method_and_back() {
+        for m in Method::ALL {
+            assert_eq!(Method::parse(m.name()), Ok(m));
+            assert_eq!(Method::parse_cli(m.name()), Ok(m));
+            assert_eq!(m.to_string(), m.name());
+        }
+        assert_eq!(
+            Method::parse_cli("raytraced-full"),
+            Ok(Method::FullFrequency)
+        );
+        assert_eq!(Method::parse_cli("full-field"), Ok(Method::FullField));
+        let e = Method::parse("raytraced").unwrap_err();
+        assert!(e.contains("\"ray_traced\""), "{e}");
+        let e = Method::parse_among("full_frequency", &Method::BUDGETED).unwrap_err();
+        assert!(
+            e.contains("full_frequency") && !e.contains("\"full_frequency\","),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
+        let d = keys("extrapolated");
+        // At their defaults, every method's unread keys pass.
+        for m in Method::BUDGETED {
+            let k = keys(m.name());
+            assert_eq!(Spec::parse(&k, &d, 1024).unwrap().method(), m);
+        }
+        // sphere_combine under extrapolation, α under ray tracing, δ under uniform radii.
+        let cases: [(&str, fn(&mut Keys)); 4] = [
+            ("sphere_combine", |k| k.sphere_combine = Some("quadrature")),
+            ("alpha_deg", |k| {
+                k.method = "ray_traced";
+                k.alpha_deg = 30.0
+            }),
+            ("radial_delta", |k| k.radial_delta = 0.2),
+            ("shells", |k| {
+                k.method = "sub_volumes";
+                k.shells = 4
+            }),
+        ];
+        for (key, set) in cases {
+            let mut k = keys("extrapolated");
+            set(&mut k);
+            let e = Spec::parse(&k, &d, 1024).unwrap_err();
+            println!("{}: {}", e.key, e.message);
+            assert_eq!(e.key, key);
+            assert!(
+                e.message.contains(&format!("method \"{}\"", k.method)),
+                "{}",
+                e.message
+            );
+        }
+        // Read keys off their defaults are fine: δ with clearance, α with a fixed α.
+        let mut k = keys("extrapolated");
+        k.radial = "clearance";
+        k.radial_delta = 0.2;
+        k.alpha_deg = 30.0;
+        let s = Spec::parse(&k, &d, 1024).unwrap();
+        assert_eq!(
+            s.extrapolation().unwrap().radial,
+            RadialRule::Clearance { delta: 0.2 }
+        );
+        // α under α by distance is not read.
+        k.alpha_mode = Some("fit");
+        assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "alpha_deg");
+    }
+
+    #[test]
+    fn domains_are_checked_at_their_edges_and_named() {
+        let d = keys("extrapolated");
+        let mut k = keys("extrapolated");
+        k.radial = "clearance";
+        for (delta, ok) in [
+            (0.0, true),
+            (10.0, true),
+            (-1e-9, false),
+            (10.0 + 1e-9, false),
+        ] {
+            k.radial_delta = delta;
+            let r = Spec::parse(&k, &d, 1024);
+            assert_eq!(r.is_ok(), ok, "δ = {delta}");
+            if let Err(e) = r {
+                assert_eq!(e.key, "radial_delta");
+            }
+        }
+        let mut k = keys("extrapolated");
+        k.radial = "occlusion";
+        for (tau, max, bad) in [
+            (0.0, 1.0, None),
+            (1.0, 2.0, Some("radial_tau")),
+            (0.5, 10.5, Some("radial_max")),
+        ] {
+            k.radial_tau = Some(tau);
+            k.radial_max = Some(max);
+            assert_eq!(
+                Spec::parse(&k, &d, 1024).err().map(|e| e.key),
+                bad.map(String::from)
+            );
+        }
+        // A kind without τ and the ceiling has no occlusion rule.
+        k.radial_tau = None;
+        k.radial_max = None;
+        assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "radial");
+        let mut k = keys("ray_traced");
+        k.rt_res = 256;
+        assert_eq!(Spec::parse(&k, &d, 255).unwrap_err().key, "rt_res");
+        assert!(Spec::parse(&k, &d, 256).is_ok());
+        let mut k = keys("sphere_set");
+        k.parts = 0;
+        assert_eq!(Spec::parse(&k, &d, 255).unwrap_err().key, "parts");
+        let k = keys("full_frequency");
+        assert_eq!(Spec::parse(&k, &d, 255).unwrap_err().key, "method");
+    }
+
+    #[test]
+    fn rays_and_bytes_follow_the_formulas() {
+        let d = keys("extrapolated");
+        let spec = |k: &Keys| Spec::parse(k, &d, 1024).unwrap();
+        // 12 × 20 samples × 32² rays; 16 shells of them; 4T² per receiver.
+        let ex = spec(&keys("extrapolated"));
+        assert_eq!(ex.rays(1.0, 100.0), 240.0 * 1024.0);
+        assert_eq!(
+            spec(&keys("full_field")).rays(2.0, 100.0),
+            2.0 * 16.0 * 240.0 * 1024.0
+        );
+        assert_eq!(
+            spec(&keys("ray_traced")).rays(1.0, 100.0),
+            100.0 * 4.0 * 64.0
+        );
+        assert_eq!(spec(&keys("sphere_set")).rays(1.0, 100.0), 0.0);
+        let mut q = keys("sphere_set");
+        q.sphere_combine = Some("quadrature");
+        assert_eq!(spec(&q).rays(1.0, 10.0), 10.0 * 2.0 * 64.0 * 64.0);
+        let mut o = keys("extrapolated");
+        o.radial = "occlusion";
+        assert_eq!(spec(&o).rays(1.0, 1.0), 8.0 * 240.0 * 1024.0);
+        // N = 3: 9 doubles per sample, 40 tables of 81 doubles.
+        assert_eq!(ex.memory_bytes(3, 1.0, 0), 240.0 * 72.0 + 40.0 * 648.0);
+        assert_eq!(
+            spec(&keys("sub_volumes")).memory_bytes(3, 1.0, 0),
+            4.0 * (240.0 * 72.0 + 40.0 * 648.0)
+        );
+        assert_eq!(spec(&keys("ray_traced")).memory_bytes(3, 5.0, 40), 0.0);
+        assert_eq!(
+            spec(&keys("sphere_set")).memory_bytes(3, 2.0, 40),
+            2.0 * 4.0 * 32.0
+        );
+    }
+}

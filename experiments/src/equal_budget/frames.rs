@@ -1,0 +1,219 @@
+//! One frame of each method on spherical receivers, from scratch, as the timing procedure
+//! repeats it: the method's data built (base-sphere samples and tables, shells, fitted spheres)
+//! and every receiver evaluated. Each frame returns its values, rays and bytes and its
+//! [build, eval, frame] seconds.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use shscale_field::evaluator::{FullField, VisibilityField};
+use shscale_field::extrapolate::Extrapolator;
+use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
+use shscale_field::subvolume::SubVolumeField;
+use shscale_field::truth::TruthSampler;
+use shscale_field::{Bsv, Occluder, VisibilitySampler};
+use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
+use shscale_scene::method::{Alpha, Combine, Extrapolation, FieldSpec, SPHERE_QUADRATURE_RES};
+use shscale_scene::Error;
+use std::time::Instant;
+
+/// One frame's values per receiver, rays and bytes.
+pub(crate) type Frame = (Vec<Vec<f64>>, f64, f64);
+/// A frame from scratch, timed as a whole: its [`Frame`] and [build, eval, frame] seconds.
+pub(crate) type FrameFn<'a> = Box<dyn FnMut() -> Result<(Frame, [f64; 3]), Error> + 'a>;
+
+/// The receivers: (ρ in bounding radii, point).
+pub(crate) type Points = [(f64, DVec3)];
+
+/// The k-table of `family` over `(lo, hi)`: plain η, `k_count` entries, exponential spacing,
+/// linear interpolation.
+fn k_table(
+    order: usize,
+    k_count: usize,
+    family: TauFamily,
+    (lo, hi): (f64, f64),
+) -> Result<KTable, Error> {
+    KTable::build(
+        family,
+        Eta::Plain,
+        order,
+        k_count,
+        lo,
+        hi,
+        Spacing::Exp,
+        Interp::Linear,
+    )
+    .map_err(|e| Error::config(e.to_string()))
+}
+
+/// Every receiver evaluated (in parallel).
+pub(crate) fn eval_all(
+    f: &(dyn VisibilityField + Sync),
+    points: &Points,
+    nn: usize,
+) -> Vec<Vec<f64>> {
+    points
+        .par_iter()
+        .map(|(_, q)| {
+            let mut out = vec![0.0; nn];
+            f.eval(*q, &mut out);
+            out
+        })
+        .collect()
+}
+
+/// The frame of extrapolation from the spheres of `parts` (occluder and k range each): every
+/// part's BSV sampled at the sampling radius × its bounding radius, its k-table (built once,
+/// before the frames, for a fixed α — part of the memory, not of a frame's time; per frame for
+/// α by distance, which depends on the BSV) and, for several parts, their visibilities
+/// multiplied near to far ([`SubVolumeField`]). One part is the papers' method.
+pub(crate) fn extrapolation<'a>(
+    ex: &'a Extrapolation,
+    (order, k_count): (usize, usize),
+    parts: Vec<(&'a dyn Occluder, (f64, f64))>,
+    sampler: &'a VisibilitySampler,
+    points: &'a Points,
+) -> Result<FrameFn<'a>, Error> {
+    let s = ex.sampling_radius;
+    // Samples moved outward by the radial rule see smaller k: the tables reach down to the
+    // receivers' distances over the largest radius the rule can reach.
+    let down = s / ex.radial.max_factor(s);
+    let parts: Vec<_> = (parts.into_iter())
+        .map(|(o, (lo, hi))| (o, (lo * down, hi)))
+        .collect();
+    let nn = order * order;
+    let fixed: Option<Vec<KTable>> = match ex.alpha {
+        Alpha::Fixed(deg) => {
+            let alpha = deg.to_radians();
+            Some(
+                (parts.iter())
+                    .map(|(_, r)| k_table(order, k_count, TauFamily::Cone { alpha }, *r))
+                    .collect::<Result<_, _>>()?,
+            )
+        }
+        Alpha::Fit => None,
+    };
+    let gaunt = (parts.len() > 1)
+        .then(|| shscale_sh::GauntTensor::<f64>::new(order))
+        .transpose()
+        .map_err(|e| Error::config(e.to_string()))?;
+    Ok(Box::new(move || {
+        let t0 = Instant::now();
+        let bsvs: Vec<Bsv> = (parts.iter())
+            .map(|(o, _)| Bsv::sample_radial(*o, ex.layout, sampler, s, ex.radial))
+            .collect::<Result<_, _>>()?;
+        let own: Vec<KTable>;
+        let tables = match &fixed {
+            Some(t) => t,
+            None => {
+                own = (bsvs.iter().zip(&parts))
+                    .map(|(b, (_, r))| {
+                        let theta0 = shscale_field::alpha::effective_cap_angle(b);
+                        k_table(order, k_count, TauFamily::ConeFit { theta0 }, *r)
+                    })
+                    .collect::<Result<_, _>>()?;
+                &own
+            }
+        };
+        let build = t0.elapsed().as_secs_f64();
+        let mut exs: Vec<Extrapolator> = (bsvs.iter().zip(tables))
+            .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(ex.plausibility))
+            .collect();
+        let t1 = Instant::now();
+        let v = match &gaunt {
+            Some(g) => eval_all(&SubVolumeField::new(exs, g), points, nn),
+            None => eval_all(&exs.remove(0), points, nn),
+        };
+        let eval = t1.elapsed().as_secs_f64();
+        let rays = bsvs.iter().map(|b| b.rays).sum::<usize>() as f64;
+        let mem = (bsvs.iter().zip(tables))
+            .map(|(b, t)| b.samples.len() * nn * 8 + t.size_bytes())
+            .sum::<usize>() as f64;
+        Ok(((v, rays, mem), [build, eval, build + eval]))
+    }))
+}
+
+/// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
+/// frame — the analytic sphere is its own one-sphere set — combined by truncated products or by
+/// the quadrature, whose rays (cast at the spheres, not at the mesh) are counted.
+pub(crate) fn sphere_set<'a>(
+    order: usize,
+    (parts, combine): (usize, Combine),
+    occ: &'a dyn Occluder,
+    mesh: Option<(&'a shscale_geometry::Mesh, Vec<u32>)>,
+    points: &'a Points,
+) -> Result<FrameFn<'a>, Error> {
+    let nn = order * order;
+    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
+    let gaunt =
+        shscale_sh::GauntTensor::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
+    let grid = (combine == Combine::Quadrature)
+        .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
+    Ok(Box::new(move || {
+        let t0 = Instant::now();
+        let spheres = match &mesh {
+            Some((m, l)) => shscale_geometry::partition::fit_spheres(m, l, parts),
+            None => vec![occ.bounding_sphere()],
+        };
+        let build = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let (v, rays, bytes) = match &grid {
+            Some(g) => {
+                let set = SphereSetQuadrature::new(&spheres, g);
+                (
+                    eval_all(&set, points, nn),
+                    points.len() * g.len(),
+                    spheres.len() * 32 + g.size_bytes(),
+                )
+            }
+            None => {
+                let set = SphereSetField::new(&spheres, &basis, &gaunt);
+                (eval_all(&set, points, nn), 0, set.size_bytes())
+            }
+        };
+        let eval = t1.elapsed().as_secs_f64();
+        Ok(((v, rays as f64, bytes as f64), [build, eval, build + eval]))
+    }))
+}
+
+/// The frame of the fully sampled field: its shells sampled, then every receiver interpolated.
+pub(crate) fn full_field<'a>(
+    f: &'a FieldSpec,
+    order: usize,
+    occ: &'a dyn Occluder,
+    sampler: &'a VisibilitySampler,
+    points: &'a Points,
+) -> FrameFn<'a> {
+    let nn = order * order;
+    let shells = f.shells();
+    Box::new(move || {
+        let t0 = Instant::now();
+        let ff = FullField::build(occ, f.layout, sampler, &shells)?;
+        let build = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let v = eval_all(&ff, points, nn);
+        let eval = t1.elapsed().as_secs_f64();
+        let (rays, mem) = (ff.rays as f64, ff.size_bytes() as f64);
+        Ok(((v, rays, mem), [build, eval, build + eval]))
+    })
+}
+
+/// The frame of ray tracing: `4T²` stratified rays per receiver, with a different seed from
+/// the reference truth's (independent draws); nothing built, nothing held.
+pub(crate) fn ray_traced<'a>(
+    order: usize,
+    rt_res: usize,
+    truth_seed: u64,
+    occ: &'a dyn Occluder,
+    points: &'a Points,
+) -> Result<FrameFn<'a>, Error> {
+    let ts = TruthSampler::new(order, rt_res, truth_seed ^ 0x00ff_00ff_00ff)?;
+    Ok(Box::new(move || {
+        let t1 = Instant::now();
+        let v: Vec<Vec<f64>> = (points.par_iter().enumerate())
+            .map(|(i, (_, q))| ts.sample_stream(occ, *q, i as u64).coeffs)
+            .collect();
+        let eval = t1.elapsed().as_secs_f64();
+        let rays = (points.len() * ts.rays()) as f64;
+        Ok(((v, rays, 0.0), [0.0, eval, eval]))
+    }))
+}

@@ -1,0 +1,24 @@
+//! The equal-budget study: for the rays, bytes and time a frame allows, which method is most
+//! accurate — on spherical receivers ([`spheres`], the kind `budget`) and on a scene's receiver
+//! plane in image space ([`plane`], the kind `budget_plane`). Both kinds parse their method keys
+//! once into the one vocabulary ([`shscale_scene::method::Spec`]: the keys each method reads,
+//! its rays, bytes and cost-model time); the frames of spherical receivers are built in
+//! [`frames`]; the verdicts (Pareto fronts, the papers' speed claim, equal accuracy per regime)
+//! are computed from the rows in [`verdict`].
+//!
+//! | module | what it owns | imports (inside the folder) |
+//! |---|---|---|
+//! | `verdict` | configurations, fronts, the claim, equal accuracy, names in words | — |
+//! | `frames` | one frame of each method on spherical receivers | — |
+//! | `spheres` | the kind `budget` | `frames`, `verdict` |
+//! | `plane` | the kind `budget_plane` | `verdict` |
+
+mod frames;
+pub mod plane;
+pub mod spheres;
+mod verdict;
+
+pub use verdict::{mean_ci95, pareto};
+
+/// The near regime: receivers within 1.3 bounding radii (of the occluder's centre).
+pub const NEAR_RHO: f64 = 1.3;

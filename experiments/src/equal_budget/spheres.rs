@@ -1,0 +1,685 @@
+//! The kind `budget`: speed and accuracy at equal budget on spherical receivers. How accurate
+//! is the visibility of SH-scaling extrapolation, of a fully sampled shadow field (Zhou et al.
+//! 2005) and of direct ray tracing, for the rays cast, the bytes stored and the time a
+//! deforming object allows per frame — and, separately, is the papers' claim true as stated:
+//! "by sampling points only on bounding spheres and extrapolating … our method produces shadow
+//! field data approximately 20 times faster than full shadow field computation" (SHS §4, TR
+//! §4), a speed claim at the papers' sampling rates?
+//!
+//! Receivers: the probe points of the `probe` kind (seeded directions × `radii`, outside the
+//! bounding sphere), their converged truth computed once per group. A run is one method and
+//! budget ([`Spec`], parsed once). Per frame of a deforming object every method starts from
+//! scratch ([`super::frames`]): extrapolation samples the BSV (P samples × H² rays; its k-table
+//! is built once, before the frames, unless α is fitted to the BSV, then per frame), the full
+//! field samples S shells of P samples each (S·P·H² rays) — by default as the papers build it,
+//! at uniform radial intervals over [1, `shell_max`]·r = [1, 8]·r, trilinear; `shell_spacing =
+//! "exp"`, `shell_max` = the largest receiver radius and `field_interp = "barycentric"` give
+//! the receiver-sized variant — and ray tracing casts `4T²` stratified rays per receiver; then
+//! each evaluates every receiver.
+//!
+//! Budget axes: `rays` and `memory_bytes` per frame are deterministic; `frame_seconds` is the
+//! median of the timing procedure's repeats of one whole frame (sampling and evaluation
+//! together), with the order-statistic confidence interval of the median
+//! (`frame_seconds_lo`/`_hi`, coverage `timing_coverage`). Error against the converged truth:
+//! the mean `occ_rel_l2` over the receivers with a 95 % interval (mean ± 1.96 s/√n), near the
+//! object (ρ ≤ 1.3) and beyond, and the occlusion-weighted error
+//! `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, which faint receivers do not dominate.
+
+use super::frames::{self, FrameFn};
+use super::verdict::{
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, pareto,
+    plot_name, speed_claim, variant,
+};
+use super::NEAR_RHO;
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
+use shscale_field::probe::random_directions;
+use shscale_field::truth::{Truth, TruthSampler};
+use shscale_field::{Occluder, VisibilitySampler};
+use shscale_runner::check::Ends;
+use shscale_runner::plots::{write_scatter_with_bars, Labels};
+use shscale_runner::records::{list, Results};
+use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
+use shscale_scene::method::{Keys, Spec};
+use shscale_scene::Error;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Parameters of one run (one method at one budget).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    pub mesh: String,
+    pub order: usize,
+    /// `extrapolated`, `full_field`, `ray_traced`, `sub_volumes` or `sphere_set`.
+    pub method: String,
+    /// Parts of the `sub_volumes` method, or spheres of `sphere_set`, 1..=64 (k-means on
+    /// triangle centroids).
+    pub parts: usize,
+    /// Base-sphere layout (extrapolation) or per-shell layout (full field).
+    pub layout: String,
+    /// H: H² rays per BSV or shell sample.
+    pub hemisphere_res: usize,
+    /// Shells of the full field, 2..=64.
+    pub shells: usize,
+    /// The outermost shell in sampling radii, (1, 1e3] (the innermost is the sampling radius).
+    pub shell_max: f64,
+    /// `uniform` (the papers') or `exp`.
+    pub shell_spacing: String,
+    /// `trilinear` (the papers', grid layouts) or `barycentric`.
+    pub field_interp: String,
+    /// T of the ray-traced method (4T² rays per receiver).
+    pub rt_res: usize,
+    pub alpha_deg: f64,
+    /// `fixed` or `fit` (α by distance at the BSV's effective cap, as in `probe`).
+    pub alpha_mode: String,
+    /// `none` or `clamp` (the plausibility mitigation, as in `probe`).
+    pub plausibility: String,
+    /// The extrapolation's sampling sphere (and the full field's innermost shell) in bounding
+    /// radii, [1, 1e3].
+    pub sampling_radius: f64,
+    /// Where each base-sphere sample lies along its direction: `uniform` (the papers'),
+    /// `clearance` (at least `radial_delta`·r from the surface) or `occlusion` (facing
+    /// occlusion at most `radial_tau`, searched up to `radial_max`·r).
+    pub radial: String,
+    pub radial_delta: f64,
+    pub radial_tau: f64,
+    pub radial_max: f64,
+    /// How `sphere_set` combines its spheres: `product` (the truncated SH products near to
+    /// far, as every multi-occluder method here) or `quadrature` (the set's joint visibility
+    /// projected by a quadrature, no truncated products).
+    pub sphere_combine: String,
+    pub k_count: usize,
+    /// Receivers: as many seeded directions as `receivers` at each radius.
+    pub receivers: usize,
+    pub probe_seed: u64,
+    pub truth_res: usize,
+    pub truth_seed: u64,
+    #[serde(with = "list")]
+    pub radii: Vec<f64>,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            mesh: "bunny".into(),
+            order: 4,
+            method: "extrapolated".into(),
+            parts: 4,
+            layout: "latlong:12x20".into(),
+            hemisphere_res: 32,
+            shells: 16,
+            shell_max: 8.0,
+            shell_spacing: "uniform".into(),
+            field_interp: "trilinear".into(),
+            rt_res: 8,
+            alpha_deg: 45.0,
+            alpha_mode: "fixed".into(),
+            plausibility: "none".into(),
+            sampling_radius: 1.0,
+            radial: "uniform".into(),
+            radial_delta: 0.1,
+            radial_tau: 0.5,
+            radial_max: 2.0,
+            sphere_combine: "product".into(),
+            k_count: 40,
+            receivers: 240,
+            probe_seed: 1,
+            truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
+            truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
+            radii: vec![1.1, 1.3, 1.6, 2.0, 3.0],
+        }
+    }
+}
+
+impl Params {
+    /// The method keys, for the vocabulary.
+    fn keys(&self) -> Keys<'_> {
+        Keys {
+            method: &self.method,
+            parts: self.parts,
+            layout: &self.layout,
+            hemisphere_res: self.hemisphere_res,
+            shells: self.shells,
+            shell_max: self.shell_max,
+            shell_spacing: &self.shell_spacing,
+            field_interp: &self.field_interp,
+            rt_res: self.rt_res,
+            alpha_deg: self.alpha_deg,
+            alpha_mode: Some(&self.alpha_mode),
+            plausibility: &self.plausibility,
+            sampling_radius: self.sampling_radius,
+            radial: &self.radial,
+            radial_delta: self.radial_delta,
+            radial_tau: Some(self.radial_tau),
+            radial_max: Some(self.radial_max),
+            sphere_combine: Some(&self.sphere_combine),
+            k_count: Some(self.k_count),
+        }
+    }
+
+    /// The method, parsed (the unread-key rule against the defaults).
+    fn spec(&self) -> Result<Spec, KeyError> {
+        let rt_max = shscale_field::truth::MAX_TRUTH_RES;
+        Spec::parse(&self.keys(), &Params::default().keys(), rt_max)
+    }
+}
+
+/// One row per run.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Row {
+    /// Receiver points (directions × radii).
+    pub receiver_points: usize,
+    /// Rays cast per frame (deterministic).
+    pub rays: f64,
+    /// Bytes the method holds (deterministic): BSV and k-table, the shells, or nothing.
+    pub memory_bytes: f64,
+    /// One frame (sampling, table if per frame, evaluation of every receiver): the median of the
+    /// timing procedure's repeats and the order-statistic interval of that median.
+    pub frame_seconds: f64,
+    pub frame_seconds_lo: f64,
+    pub frame_seconds_hi: f64,
+    pub timing_coverage: f64,
+    /// The sampling part and the evaluation part of the frame (medians).
+    pub build_seconds: f64,
+    pub eval_seconds: f64,
+    /// `sub_volumes`: the partition (k-means, the parts' meshes and BVHs), once per run — for a
+    /// deforming mesh once per sequence, as the partition is per triangle.
+    pub partition_seconds: Option<f64>,
+    /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval.
+    pub occ_rel_l2_mean: Option<f64>,
+    pub occ_rel_l2_ci95: Option<f64>,
+    /// The same near the object (ρ ≤ 1.3) and beyond.
+    pub occ_rel_l2_near_mean: Option<f64>,
+    pub occ_rel_l2_near_ci95: Option<f64>,
+    pub occ_rel_l2_far_mean: Option<f64>,
+    pub occ_rel_l2_far_ci95: Option<f64>,
+    /// Occlusion-weighted: `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, all, near, far.
+    pub occ_weighted: Option<f64>,
+    pub occ_weighted_near: Option<f64>,
+    pub occ_weighted_far: Option<f64>,
+    /// Receivers in contact directions ([`Shared::contact`]) and their mean `occ_rel_l2` with
+    /// its 95 % interval: where the papers' base-sphere samples touch the surface.
+    pub contact_points: usize,
+    pub occ_rel_l2_contact_mean: Option<f64>,
+    pub occ_rel_l2_contact_ci95: Option<f64>,
+    pub truth_rel_err_mean: Option<f64>,
+}
+
+/// The kind.
+pub struct Budget;
+
+/// What runs of a group share: the occluder, the receivers and their truth.
+pub struct Shared {
+    occ: Box<dyn shscale_geometry::Occluder>,
+    /// The mesh (none for the analytic sphere), for the sub-volumes' partition.
+    mesh: Option<shscale_geometry::Mesh>,
+    points: Vec<(f64, DVec3)>,
+    truth: Vec<Option<Truth>>,
+    /// Per receiver: its direction is a contact direction — the bounding sphere's point in that
+    /// direction has its facing hemisphere occluded at least
+    /// [`shscale_field::probe::DEFAULT_CONTACT_OCCLUSION`] (docs/conventions.md §7), measured
+    /// once per group with [`CONTACT_RES`]² rays. Every direction of the analytic sphere is.
+    contact: Vec<bool>,
+}
+
+/// H of the contact classification of the receivers' directions.
+pub const CONTACT_RES: usize = 32;
+/// The most receivers per radius.
+pub const MAX_RECEIVERS: usize = 100_000;
+
+/// One receiver's error: its radius, `‖S − S_true‖²`, `‖S_occ,true‖²` and the truth's own error.
+struct Err2 {
+    rho: f64,
+    /// The receiver's direction is a contact direction ([`Shared::contact`]).
+    contact: bool,
+    diff2: f64,
+    occ2: f64,
+    truth_rel: Option<f64>,
+}
+
+/// The error columns over the receivers `e` passing `keep`: mean `occ_rel_l2` (receivers with
+/// something occluded, ‖S_occ‖ > 1e-12) with its interval, and the occlusion-weighted error.
+fn scores(e: &[Err2], keep: impl Fn(&Err2) -> bool) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let kept: Vec<&Err2> = e.iter().filter(|x| keep(x)).collect();
+    let rel: Vec<f64> = (kept.iter())
+        .filter(|x| x.occ2 > 1e-24)
+        .map(|x| (x.diff2 / x.occ2).sqrt())
+        .collect();
+    let (m, ci) = mean_ci95(&rel);
+    let (d, o) = (kept.iter()).fold((0.0, 0.0), |(d, o), x| (d + x.diff2, o + x.occ2));
+    (m, ci, (o > 1e-24).then(|| (d / o).sqrt()))
+}
+
+/// The row of one frame's values against the group's truths.
+fn row_of(
+    sh: &Shared,
+    (values, rays, memory): frames::Frame,
+    t: [shscale_runner::timing::Timing; 3],
+) -> Row {
+    let [build, eval, total] = t;
+    let errs: Vec<Err2> = (values.iter().zip(&sh.truth).zip(&sh.points))
+        .zip(&sh.contact)
+        .filter_map(|(((v, t), (rho, _)), contact)| {
+            let t = t.as_ref()?;
+            Some(Err2 {
+                rho: *rho,
+                contact: *contact,
+                diff2: l2_diff(v, &t.coeffs).powi(2),
+                occ2: l2(&occlusion(&t.coeffs)).powi(2),
+                truth_rel: t.rel_error(),
+            })
+        })
+        .collect();
+    let (m, ci, w) = scores(&errs, |_| true);
+    let (mn, cin, wn) = scores(&errs, |e| e.rho <= NEAR_RHO);
+    let (mf, cif, wf) = scores(&errs, |e| e.rho > NEAR_RHO);
+    let (mc, cic, _) = scores(&errs, |e| e.contact);
+    Row {
+        receiver_points: sh.points.len(),
+        rays,
+        memory_bytes: memory,
+        frame_seconds: total.median,
+        frame_seconds_lo: total.lo,
+        frame_seconds_hi: total.hi,
+        timing_coverage: total.coverage,
+        build_seconds: build.median,
+        eval_seconds: eval.median,
+        partition_seconds: None,
+        occ_rel_l2_mean: m,
+        occ_rel_l2_ci95: ci,
+        occ_rel_l2_near_mean: mn,
+        occ_rel_l2_near_ci95: cin,
+        occ_rel_l2_far_mean: mf,
+        occ_rel_l2_far_ci95: cif,
+        occ_weighted: w,
+        occ_weighted_near: wn,
+        occ_weighted_far: wf,
+        contact_points: sh.contact.iter().filter(|c| **c).count(),
+        occ_rel_l2_contact_mean: mc,
+        occ_rel_l2_contact_ci95: cic,
+        truth_rel_err_mean: mean_max(errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel)).0,
+    }
+}
+
+impl Kind for Budget {
+    const NAME: &'static str = "budget";
+    const QUESTION: &'static str = "On spherical receivers, for the rays, bytes and time a frame allows, which is most accurate — SH-scaling extrapolation, the fully sampled shadow field as Zhou et al. build it, or ray tracing — and is extrapolation's shadow-field data about 20× faster to produce than the full field's at the papers' sampling, as SHS §4 claims?";
+    type Params = Params;
+    type Shared = Shared;
+    type Row = Row;
+    type Error = Error;
+    type Spec = Typed<Params, Spec>;
+
+    fn describe() -> &'static [(&'static str, &'static str)] {
+        &[
+            ("mesh", "the occluder, as in `probe`"),
+            ("order", "SH order N, 1..=16"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (the mesh split into `parts`, each extrapolated from its own sphere, multiplied near to far; meshes only) or `sphere_set` (Ren et al. 2006's occluder model: one sphere fitted per part every frame, closed-form caps multiplied near to far; no rays; the analytic sphere is its own one-sphere set). A method key the method does not read (docs/methods.md) must keep its default"),
+            ("parts", "parts of `sub_volumes`, or spheres S of `sphere_set`, 1..=64 and at most one per triangle (k-means on triangle centroids)"),
+            ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field), as in `probe`"),
+            ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
+            ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
+            ("shell_max", "the full field's outermost shell in sampling radii, (1, 1000]; the papers' 8"),
+            ("shell_spacing", "`uniform` (the papers': equal steps in ρ, linear in ρ between shells) or `exp` (equal steps in ln ρ)"),
+            ("field_interp", "`trilinear` (the papers': the eight nearest samples of a latlong or cube grid) or `barycentric` (the layout's triangulation; any layout)"),
+            ("rt_res", "T of the ray-traced method: 4T² stratified rays per receiver, 1..=1024"),
+            ("alpha_deg", "cone angle α of the extrapolation, degrees, (0, 90); read with `alpha_mode = \"fixed\"` only"),
+            ("alpha_mode", "`fixed` or `fit` (α by distance at the BSV's effective cap, as in `probe`; the table is then built per frame)"),
+            ("plausibility", "`none` or `clamp` (the extrapolation's plausibility mitigation, as in `probe`)"),
+            ("sampling_radius", "the extrapolation's sampling sphere, and the full field's innermost shell, in bounding radii, [1, 1000]"),
+            ("radial", "where each base-sphere sample of `extrapolated` and `sub_volumes` lies along its direction: `uniform` (the papers': on the sampling sphere), `clearance` (moved outward until at least `radial_delta`·r from the surface; distance queries, no extra rays) or `occlusion` (moved outward until its facing hemisphere is occluded at most `radial_tau`, up to `radial_max`·r; each bisection step casts a hemisphere, counted in `rays`); the extrapolation uses k = d / r(q)"),
+            ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
+            ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
+            ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) or `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`)"),
+            ("k_count", "k-table entries of the extrapolation, 2..=10000"),
+            ("receivers", "receiver directions per radius (seeded), 1..=100000"),
+            ("probe_seed", "seed of the receiver directions"),
+            ("truth_res", "T of the converged truth at the receivers, 1..=1024"),
+            ("truth_seed", "seed of the truth"),
+            ("radii", "receiver radii in bounding radii, each in (1, 1e3], distinct, 1 to 64"),
+        ]
+    }
+
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
+        shscale_scene::vocab::check_sampling_keys(
+            &p.mesh,
+            p.order,
+            p.alpha_deg,
+            &p.layout,
+            p.hemisphere_res,
+        )?;
+        let spec = p.spec()?;
+        if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
+            return Err(KeyError::new(
+                "mesh",
+                "`sub_volumes` splits a mesh; the analytic sphere has none",
+            ));
+        }
+        let max_truth = shscale_field::truth::MAX_TRUTH_RES;
+        KeyError::int("truth_res", p.truth_res, 1, max_truth)?;
+        KeyError::int("receivers", p.receivers, 1, MAX_RECEIVERS)?;
+        if p.radii.is_empty() || p.radii.len() > 64 {
+            return Err(KeyError::new(
+                "radii",
+                format!("{} radii: give 1 to 64", p.radii.len()),
+            ));
+        }
+        for (i, r) in p.radii.iter().enumerate() {
+            KeyError::real("radii", *r, 1.0, 1e3, Ends::OpenClosed)?;
+            if p.radii[..i].contains(r) {
+                return Err(KeyError::new("radii", format!("radius {r} appears twice")));
+            }
+        }
+        Ok(Typed {
+            params: p.clone(),
+            typed: spec,
+        })
+    }
+
+    fn group_key(p: &Params) -> String {
+        format!(
+            "{};{};{};{};{};{};{:?}",
+            p.mesh, p.order, p.receivers, p.probe_seed, p.truth_res, p.truth_seed, p.radii
+        )
+    }
+
+    fn cost(p: &Self::Spec) -> (Cost, Cost) {
+        let n = (p.receivers * p.radii.len()) as f64;
+        let t4 = 4.0 * (p.truth_res * p.truth_res) as f64;
+        let nn = (p.order * p.order) as f64;
+        // The truths, and the contact classification of the directions.
+        let contact_rays = (p.receivers * CONTACT_RES * CONTACT_RES) as f64;
+        let shared_rays = if p.mesh == "sphere" {
+            contact_rays
+        } else {
+            n * t4 + contact_rays
+        };
+        let rays = p.typed.rays(1.0, n);
+        (
+            Cost {
+                rays: shared_rays,
+                bytes: n * nn * 8.0 + 64e6,
+                seconds: 0.0,
+                // The truths: once, never timed.
+                once_seconds: shared_rays / shscale_runner::timing::TRUTH_RAYS_PER_SECOND,
+                drivers: format!(
+                    "{n} receivers × truth_res = {} ({t4} rays each)",
+                    p.truth_res
+                ),
+            },
+            Cost {
+                // One frame; the estimate multiplies its seconds by the timing procedure's
+                // warm-up + repeats (the rays counted are one frame's).
+                rays,
+                bytes: p.typed.memory_bytes(p.order, 1.0, p.k_count),
+                // Every method's frame ran at 1.9–2.4e7 rays/s in `configs/experiments/
+                // budget.toml` (the `rays` and `frame_seconds` columns): the truths' rate.
+                seconds: p
+                    .typed
+                    .seconds(rays, n, shscale_runner::timing::TRUTH_RAYS_PER_SECOND),
+                once_seconds: 0.0,
+                drivers: format!("method {} → {rays:.3e} rays per frame", p.typed.method()),
+            },
+        )
+    }
+
+    fn rows_per_run(_: &Params) -> usize {
+        1
+    }
+
+    fn shared(p: &Self::Spec, _: &Ctx) -> Result<Shared, Error> {
+        let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
+        let (occ, mesh) = (u.occ, u.mesh);
+        let s = occ.bounding_sphere();
+        // The receiver directions: the probe kind's seeded directions.
+        let dirs = random_directions(p.probe_seed, p.receivers);
+        let points: Vec<(f64, DVec3)> = p
+            .radii
+            .iter()
+            .flat_map(|&rho| dirs.iter().map(move |d| (rho, *d)))
+            .map(|(rho, d)| (rho, s.center + rho * s.radius * d))
+            .collect();
+        let ts = TruthSampler::new(p.order, p.truth_res, p.truth_seed)?;
+        let basis =
+            shscale_sh::ShBasis::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
+        let truth: Vec<Option<Truth>> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, (_, q))| match u.analytic {
+                Some(sph) => shscale_field::probe::sphere_truth(&basis, &sph, *q).map(Truth::exact),
+                None => {
+                    Some(ts.sample_stream(occ.as_ref(), *q, i as u64)).filter(|t| t.escaped > 0)
+                }
+            })
+            .collect();
+        let facing = VisibilitySampler::new(p.order, CONTACT_RES)?;
+        let contact_dir: Vec<bool> = (dirs.par_iter())
+            .map(|d| {
+                let q = s.center + s.radius * *d;
+                let (v, _) = facing.facing_hemisphere(
+                    occ.as_ref(),
+                    q,
+                    s.center,
+                    shscale_field::Frame::Entity,
+                );
+                shscale_field::metrics::facing_occlusion(&v)
+                    >= shscale_field::probe::DEFAULT_CONTACT_OCCLUSION
+            })
+            .collect();
+        let contact = (p.radii.iter())
+            .flat_map(|_| contact_dir.iter().copied())
+            .collect();
+        Ok(Shared {
+            occ,
+            mesh,
+            points,
+            truth,
+            contact,
+        })
+    }
+
+    fn run(p: &Self::Spec, _: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
+        let occ = sh.occ.as_ref();
+        let order = p.order;
+        // The partition of sub-volumes and sphere sets: once per run (per triangle, so a
+        // deforming mesh would keep it over its sequence); its time is its own column. The
+        // sub-volumes' part meshes and BVHs are built with it; the spheres are refitted every
+        // frame.
+        let sampler = match &p.typed {
+            Spec::Extrapolated(e) | Spec::SubVolumes { ex: e, .. } => e.hemisphere_res,
+            Spec::FullField(f) => f.hemisphere_res,
+            _ => 1,
+        };
+        let sampler = VisibilitySampler::new(order, sampler)?;
+        let t0 = Instant::now();
+        let partition = |parts: usize| -> Result<Option<Vec<u32>>, Error> {
+            (sh.mesh.as_ref())
+                .map(|m| shscale_geometry::partition::kmeans_parts(m, parts))
+                .transpose()
+                .map_err(|e| Error::config(e.to_string()))
+        };
+        let part_bvhs: Vec<shscale_geometry::MeshBvh>;
+        let mut partition_seconds = None;
+        let mut frame: FrameFn<'_> = match &p.typed {
+            Spec::Extrapolated(ex) => {
+                let range = shscale_field::probe::k_range(&p.radii, ex.sampling_radius);
+                let k = (order, p.k_count);
+                frames::extrapolation(ex, k, vec![(occ, range)], &sampler, &sh.points)?
+            }
+            Spec::SubVolumes { parts, ex } => {
+                let (Some(mesh), Some(labels)) = (sh.mesh.as_ref(), partition(*parts)?) else {
+                    return Err(Error::config(
+                        "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
+                    ));
+                };
+                part_bvhs = (shscale_geometry::partition::split(mesh, &labels, *parts).iter())
+                    .map(|m| {
+                        shscale_geometry::MeshBvh::build(
+                            m,
+                            shscale_geometry::ray::UpdateStrategy::Rebuild,
+                        )
+                    })
+                    .collect();
+                partition_seconds = Some(t0.elapsed().as_secs_f64());
+                // Each part's k range: its receivers' distances over its sampling radius, with
+                // 5 % margins.
+                let parts = (part_bvhs.iter())
+                    .map(|b| {
+                        let s = b.bounding_sphere();
+                        let range = shscale_field::probe::k_range_to(
+                            s.center,
+                            s.radius * ex.sampling_radius,
+                            sh.points.iter().map(|(_, q)| *q),
+                            1.05,
+                        );
+                        (b as &dyn Occluder, range)
+                    })
+                    .collect();
+                frames::extrapolation(ex, (order, p.k_count), parts, &sampler, &sh.points)?
+            }
+            Spec::SphereSet { parts, combine } => {
+                let labels = partition(*parts)?;
+                if labels.is_some() {
+                    partition_seconds = Some(t0.elapsed().as_secs_f64());
+                }
+                let mesh = sh.mesh.as_ref().zip(labels);
+                frames::sphere_set(order, (*parts, *combine), occ, mesh, &sh.points)?
+            }
+            Spec::FullField(f) => frames::full_field(f, order, occ, &sampler, &sh.points),
+            Spec::RayTraced { rt_res } => {
+                frames::ray_traced(order, *rt_res, p.truth_seed, occ, &sh.points)?
+            }
+        };
+        let (values, times) = ctx.timing.measure_parts(&mut *frame)?;
+        Ok(vec![Row {
+            partition_seconds,
+            ..row_of(sh, values, times)
+        }])
+    }
+
+    fn time_columns() -> &'static [&'static str] {
+        &["build_seconds", "eval_seconds", "frame_seconds"]
+    }
+
+    fn summary_columns() -> &'static [&'static str] {
+        &[
+            "method",
+            "rays",
+            "frame_seconds",
+            "memory_bytes",
+            "occ_rel_l2_mean",
+            "occ_weighted",
+        ]
+    }
+
+    fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
+        let mut files = Vec::new();
+        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
+            let of = |r: usize| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order;
+            // A mesh given as a path is named by its file stem in the plot's file name.
+            let m = plot_name(&mesh);
+            for (x, stem, xl, short) in [
+                (
+                    "rays",
+                    format!("pareto_rays_{m}_n{order}"),
+                    "rays per frame",
+                    "rays",
+                ),
+                (
+                    "memory_bytes",
+                    format!("pareto_memory_{m}_n{order}"),
+                    "memory (bytes)",
+                    "memory",
+                ),
+                (
+                    "frame_seconds",
+                    format!("pareto_time_{m}_n{order}"),
+                    "time per frame (s; bars: interval of the median)",
+                    "time",
+                ),
+            ] {
+                let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+                let mut bars = Vec::new();
+                for r in (0..t.rows.len()).filter(|&r| of(r)) {
+                    let (xv, y) = (t.num(r, x), t.num(r, "occ_rel_l2_mean"));
+                    let Some(spec) = spec_of(t, r) else { continue };
+                    if xv.is_finite() && xv > 0.0 && y.is_finite() {
+                        series.entry(variant(&spec)).or_default().push((xv, y));
+                        if x == "frame_seconds" {
+                            bars.push((
+                                y,
+                                t.num(r, "frame_seconds_lo"),
+                                t.num(r, "frame_seconds_hi"),
+                            ));
+                        }
+                    }
+                }
+                for v in series.values_mut() {
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                }
+                if series.is_empty() {
+                    continue;
+                }
+                let front = pareto(series.values().flatten().copied());
+                let labels = Labels {
+                    title: &format!("{mesh}, N = {order}: error against {short}"),
+                    x: xl,
+                    y: "mean occ_rel_l2 (spherical receivers)",
+                };
+                let bars = if x == "frame_seconds" { &bars[..] } else { &[] };
+                files.extend(write_scatter_with_bars(
+                    dir, &stem, &labels, &series, &front, bars, true,
+                )?);
+            }
+        }
+        Ok(files)
+    }
+
+    fn discussion(t: &Results) -> Result<String, Error> {
+        let mut s = String::new();
+        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
+                .collect();
+            let keys = config_keys::<Params>(&[
+                "mesh",
+                "probe_seed",
+                "receivers",
+                "truth_res",
+                "truth_seed",
+                "radii",
+            ]);
+            let configs = by_config(t, &rows, &keys, &|r| spec_of(t, r));
+            let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
+            s.push_str(&format!(
+                "**{mesh}, N = {order}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
+                configs.len()
+            ));
+            s.push_str(&speed_claim(t, &configs, "occ_rel_l2_mean"));
+            for (col, regime) in [
+                ("occ_rel_l2_mean", "all receivers, mean occ_rel_l2"),
+                ("occ_rel_l2_near_mean", "near (ρ ≤ 1.3), mean occ_rel_l2"),
+                ("occ_rel_l2_far_mean", "far (ρ > 1.3), mean occ_rel_l2"),
+                (
+                    "occ_rel_l2_contact_mean",
+                    "contact directions, mean occ_rel_l2",
+                ),
+                ("occ_weighted", "all receivers, occlusion-weighted"),
+            ] {
+                s.push_str(&equal_accuracy(t, &configs, col, regime));
+            }
+            s.push('\n');
+        }
+        Ok(s)
+    }
+}
+
+/// Row `r`'s method, parsed from its cells.
+fn spec_of(t: &Results, r: usize) -> Option<Spec> {
+    params_of::<Params>(t, r)?.spec().ok()
+}

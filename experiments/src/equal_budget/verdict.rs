@@ -1,0 +1,501 @@
+//! The equal-budget verdicts, computed from the rows so they never go stale: configurations
+//! (rows equal in every parameter but the seeds), each with its method's typed spec parsed once
+//! from its cells; the Pareto front of error against rays; the papers' speed claim as stated;
+//! equal accuracy per regime; each configuration named in words from its spec.
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use shscale_field::bsv::RadialRule;
+use shscale_field::evaluator::{FieldInterp, ShellSpacing};
+use shscale_field::extrapolate::Plausibility;
+use shscale_runner::records::Results;
+use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
+use std::path::Path;
+
+/// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
+/// deviation; `None` for fewer than 2 values).
+pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
+    let m = shscale_field::metrics::mean_max(v.iter().map(|x| Some(*x))).0;
+    let ci = (v.len() >= 2).then(|| {
+        let m = m.unwrap_or(0.0);
+        let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64;
+        1.96 * (var / v.len() as f64).sqrt()
+    });
+    (m, ci)
+}
+
+/// A file-name-safe name of a mesh parameter: a bundled name as is, a path by its file stem,
+/// every character but letters, digits, `.`, `_` and `-` replaced by `_`.
+pub(crate) fn plot_name(mesh: &str) -> String {
+    let stem = Path::new(mesh)
+        .file_stem()
+        .map_or(mesh.to_string(), |s| s.to_string_lossy().into_owned());
+    stem.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The distinct pairs of cells `(a, b)` of a table, in order of appearance: the fronts are
+/// drawn per pair (per mesh and order on spherical receivers — errors at different orders are
+/// against different truths; per scene and frame count on the plane).
+pub(crate) fn distinct_pairs(t: &Results, a: &str, b: &str) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = Vec::new();
+    for r in 0..t.rows.len() {
+        let k = (t.cell(r, a).to_string(), t.cell(r, b).to_string());
+        if !v.contains(&k) {
+            v.push(k);
+        }
+    }
+    v
+}
+
+/// The parameter columns of kind parameters `P`.
+fn param_columns<P: Default + Serialize>() -> Vec<String> {
+    shscale_runner::records::to_cells(&P::default())
+        .map(|(h, _)| h)
+        .unwrap_or_default()
+}
+
+/// The parameter columns that make a configuration of kind parameters `P`: all of them but
+/// `grouping` (the columns a discussion is split by, and the seeds and receivers its rows
+/// repeat over). Derived from `P`, so a new parameter is never merged away.
+pub(crate) fn config_keys<P: Default + Serialize>(grouping: &[&str]) -> Vec<String> {
+    (param_columns::<P>().into_iter())
+        .filter(|h| !grouping.contains(&h.as_str()))
+        .collect()
+}
+
+/// Row `r`'s parameters, read back from its cells (`None` where they no longer parse).
+pub(crate) fn params_of<P: Default + Serialize + DeserializeOwned>(
+    t: &Results,
+    r: usize,
+) -> Option<P> {
+    let headers = param_columns::<P>();
+    let cells: Vec<String> = headers.iter().map(|h| t.cell(r, h).to_string()).collect();
+    shscale_runner::records::from_cells(&headers, &cells).ok()
+}
+
+/// A configuration: its rows (one per seed) and its method, parsed once.
+pub(crate) struct Config {
+    rows: Vec<usize>,
+    pub spec: Spec,
+}
+
+impl Config {
+    /// Mean of `col` over the seeds, and its range.
+    fn mean(&self, t: &Results, col: &str) -> (f64, f64, f64) {
+        let v: Vec<f64> = self.rows.iter().map(|&r| t.num(r, col)).collect();
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (m, lo, hi)
+    }
+    fn first(&self) -> usize {
+        self.rows[0]
+    }
+    fn method(&self) -> Method {
+        self.spec.method()
+    }
+}
+
+/// Rows grouped by configuration (equal cells in `keys`), in the order of the table, each with
+/// its spec (`spec_of`; rows whose parameters no longer parse are left out).
+pub(crate) fn by_config(
+    t: &Results,
+    rows: &[usize],
+    keys: &[String],
+    spec_of: &dyn Fn(usize) -> Option<Spec>,
+) -> Vec<Config> {
+    let mut index: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    let mut out: Vec<Config> = Vec::new();
+    for &r in rows {
+        let key = keys
+            .iter()
+            .map(|k| t.cell(r, k))
+            .collect::<Vec<_>>()
+            .join(";");
+        match index.get(&key) {
+            Some(&i) => out[i].rows.push(r),
+            None => {
+                let Some(spec) = spec_of(r) else { continue };
+                index.insert(key, out.len());
+                out.push(Config {
+                    rows: vec![r],
+                    spec,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// A number as its CSV cell writes it (`3.0`, `0.05`): the discussion names parameters as the
+/// rows spell them.
+fn cell(x: f64) -> String {
+    if x.fract() == 0.0 && x.abs() < 1e16 {
+        format!("{x:.1}")
+    } else {
+        x.to_string()
+    }
+}
+
+/// The papers' full field: uniform shells over [1, 8]·s, trilinear.
+fn is_papers_field(s: &Spec) -> bool {
+    matches!(s, Spec::FullField(f) if f.spacing == ShellSpacing::Uniform
+        && f.shell_max == 8.0
+        && f.interp == FieldInterp::Trilinear)
+}
+
+/// The papers' extrapolation: one sphere, fixed α, no mitigation, on the bounding sphere.
+fn is_papers_extrapolation(s: &Spec) -> bool {
+    matches!(s, Spec::Extrapolated(e) if matches!(e.alpha, Alpha::Fixed(_))
+        && e.plausibility == Plausibility::None
+        && e.sampling_radius == 1.0
+        && e.radial == RadialRule::Uniform)
+}
+
+/// Per-direction radii (any rule but the uniform one).
+fn is_radial(s: &Spec) -> bool {
+    s.extrapolation()
+        .is_some_and(|e| e.radial != RadialRule::Uniform)
+}
+
+/// The series a spec belongs to: its method and, where it is not the papers', its variant.
+pub(crate) fn variant(s: &Spec) -> String {
+    match s {
+        Spec::FullField(f) if is_papers_field(s) => {
+            let _ = f;
+            "full field (papers')".into()
+        }
+        Spec::FullField(f) => format!(
+            "full field ({}, [1, {}]r, {})",
+            f.spacing.name(),
+            cell(f.shell_max),
+            f.interp.name()
+        ),
+        Spec::RayTraced { .. } => "ray tracing".into(),
+        Spec::SphereSet { parts, combine } => format!(
+            "sphere set (S = {parts}{})",
+            if *combine == Combine::Quadrature {
+                ", quadrature"
+            } else {
+                ""
+            }
+        ),
+        Spec::Extrapolated(e) => extrapolation_variant("extrapolation", None, e),
+        Spec::SubVolumes { parts, ex } => extrapolation_variant("sub-volumes", Some(*parts), ex),
+    }
+}
+
+fn extrapolation_variant(base: &str, parts: Option<usize>, e: &Extrapolation) -> String {
+    let mut v = Vec::new();
+    if let Some(p) = parts {
+        v.push(format!("P = {p}"));
+    }
+    if e.alpha == Alpha::Fit {
+        v.push("α fit".to_string());
+    }
+    if e.plausibility == Plausibility::Clamp {
+        v.push("clamp".into());
+    }
+    if e.sampling_radius != 1.0 {
+        v.push(format!("s = {}", cell(e.sampling_radius)));
+    }
+    match e.radial {
+        RadialRule::Clearance { delta } => v.push(format!("clearance δ = {}", cell(delta))),
+        RadialRule::Occlusion { tau, t_max } => {
+            v.push(format!("occlusion τ = {} to {}r", cell(tau), cell(t_max)))
+        }
+        RadialRule::Uniform => {}
+    }
+    if v.is_empty() {
+        base.into()
+    } else {
+        format!("{base} ({})", v.join(", "))
+    }
+}
+
+/// A configuration in words.
+fn name(c: &Config) -> String {
+    let s = &c.spec;
+    match s {
+        Spec::FullField(f) => format!(
+            "{}, {} shells of `{}`, H = {}",
+            variant(s),
+            f.count,
+            f.layout.name(),
+            f.hemisphere_res
+        ),
+        Spec::RayTraced { rt_res } => format!("ray tracing, T = {rt_res}"),
+        Spec::SphereSet { .. } => variant(s),
+        Spec::Extrapolated(e) | Spec::SubVolumes { ex: e, .. } => format!(
+            "{}, `{}`{}, H = {}{}",
+            variant(s),
+            e.layout.name(),
+            if c.method() == Method::SubVolumes {
+                " each"
+            } else {
+                ""
+            },
+            e.hemisphere_res,
+            match e.alpha {
+                Alpha::Fixed(deg) => format!(", α = {}°", cell(deg)),
+                // α by distance: the variant says so.
+                Alpha::Fit => String::new(),
+            }
+        ),
+    }
+}
+
+/// The lower-left Pareto front of `(x, y)` points: sorted by x, each with a lower y than all
+/// before it.
+pub fn pareto(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = points
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut best = f64::INFINITY;
+    p.into_iter()
+        .filter(|&(_, y)| {
+            let keep = y < best;
+            best = best.min(y);
+            keep
+        })
+        .collect()
+}
+
+/// The sampling (layout, H) of a spec that samples hemispheres.
+fn sampling(s: &Spec) -> Option<(String, usize)> {
+    match s {
+        Spec::FullField(f) => Some((f.layout.name(), f.hemisphere_res)),
+        _ => s
+            .extrapolation()
+            .map(|e| (e.layout.name(), e.hemisphere_res)),
+    }
+}
+
+/// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed
+/// α, no mitigation) against the papers' 16-shell full field — rays and time to produce the data.
+pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String {
+    let mut parts = Vec::new();
+    for ex in configs.iter().filter(|c| is_papers_extrapolation(&c.spec)) {
+        let e = ex.first();
+        let ff = configs.iter().find(|c| {
+            is_papers_field(&c.spec)
+                && matches!(c.spec, Spec::FullField(f) if f.count == 16)
+                && sampling(&c.spec) == sampling(&ex.spec)
+        });
+        if let Some(ff) = ff {
+            let f = ff.first();
+            let rays = t.num(f, "rays") / t.num(e, "rays");
+            // Per seed the ratio of the medians and the interval from the medians' intervals;
+            // the mean ratio over the seeds, the widest interval.
+            let mut ratio = 0.0;
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            let pairs: Vec<(usize, usize)> = (ff.rows.iter())
+                .filter_map(|&f| {
+                    let seed = t.cell(f, "probe_seed");
+                    let e = ex.rows.iter().find(|&&e| t.cell(e, "probe_seed") == seed)?;
+                    Some((f, *e))
+                })
+                .collect();
+            for &(f, e) in &pairs {
+                ratio += t.num(f, "frame_seconds") / t.num(e, "frame_seconds") / pairs.len() as f64;
+                lo = lo.min(t.num(f, "frame_seconds_lo") / t.num(e, "frame_seconds_hi"));
+                hi = hi.max(t.num(f, "frame_seconds_hi") / t.num(e, "frame_seconds_lo"));
+            }
+            let (ee, _, _) = ex.mean(t, err);
+            let (ef, _, _) = ff.mean(t, err);
+            let (layout, h) = sampling(&ex.spec).unwrap_or_default();
+            parts.push(format!(
+                "`{layout}`, H = {h}: the full field casts {rays:.0}× the rays and takes {ratio:.1}× the time per frame (interval {lo:.1}–{hi:.1}×); error ({err}) {ee:.3} extrapolated, {ef:.3} full field",
+            ));
+        }
+    }
+    if parts.is_empty() {
+        return "The claim as stated (the papers' 16-shell field against one sphere at the same sampling) is not among these runs.\n\n".into();
+    }
+    format!(
+        "*The claim as stated* (\"about 20 times faster than full shadow field computation\", at the papers' sampling: one sphere against the papers' 16-shell field of the same layout and H): {}.\n\n",
+        parts.join("; ")
+    )
+}
+
+/// A ray count in the discussion: `0` for none (sphere sets), else three significant digits.
+fn rays_text(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+/// A configuration's mean rays and error in one regime, and its index.
+type Point = (f64, f64, usize);
+
+/// The most accurate point passing `keep`.
+fn most_accurate<'a>(pts: &'a [Point], keep: impl Fn(usize) -> bool) -> Option<&'a Point> {
+    (pts.iter())
+        .filter(|p| keep(p.2))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// The cheapest point passing `keep` at least as accurate as `err`.
+fn cheapest_as_accurate<'a>(
+    pts: &'a [Point],
+    err: f64,
+    keep: impl Fn(usize) -> bool,
+) -> Option<&'a Point> {
+    (pts.iter())
+        .filter(|p| keep(p.2) && p.1 <= err)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// Equal accuracy in one regime (`col`): the Pareto front against rays, the cheapest full
+/// field at least as accurate as the best extrapolation, and how the papers' proposals and the
+/// successor compare with one sphere sampled on its sampling sphere.
+pub(crate) fn equal_accuracy(t: &Results, configs: &[Config], col: &str, regime: &str) -> String {
+    let pts: Vec<Point> = (configs.iter().enumerate())
+        .map(|(i, c)| (c.mean(t, "rays").0, c.mean(t, col).0, i))
+        .filter(|(x, y, _)| x.is_finite() && *x >= 0.0 && y.is_finite())
+        .collect();
+    if pts.is_empty() {
+        return String::new();
+    }
+    let front = pareto(pts.iter().map(|p| (p.0, p.1)));
+    let on_front: Vec<String> = front
+        .iter()
+        .filter_map(|f| pts.iter().find(|p| p.0 == f.0 && p.1 == f.1))
+        .map(|&(x, _, i)| {
+            let (m, lo, hi) = configs[i].mean(t, col);
+            format!(
+                "{} at {} rays ({m:.3} [{lo:.3}–{hi:.3}])",
+                name(&configs[i]),
+                rays_text(x)
+            )
+        })
+        .collect();
+    let method = |i: usize| configs[i].method();
+    let verdict = match most_accurate(&pts, |i| method(i) == Method::Extrapolated) {
+        Some(bx) => {
+            let families: [(&str, &dyn Fn(usize) -> bool); 2] = [
+                ("papers' full field", &|i| is_papers_field(&configs[i].spec)),
+                ("full field of any construction", &|i| {
+                    method(i) == Method::FullField
+                }),
+            ];
+            let parts: Vec<String> = (families.iter())
+                .map(
+                    |(label, keep)| match cheapest_as_accurate(&pts, bx.1, keep) {
+                        Some(f) => format!(
+                            "{label}: {} ({:.3}) at {:.2e} rays, {:.2}× the extrapolation's",
+                            name(&configs[f.2]),
+                            f.1,
+                            f.0,
+                            f.0 / bx.0
+                        ),
+                        None => format!("{label}: none of these runs"),
+                    },
+                )
+                .collect();
+            format!(
+                " The most accurate extrapolation is {} ({:.3} at {:.2e} rays); the cheapest as accurate — {}.",
+                name(&configs[bx.2]),
+                bx.1,
+                bx.0,
+                parts.join("; ")
+            )
+        }
+        None => String::new(),
+    };
+    format!(
+        "*{regime}*: lowest error for the rays (Pareto front) — {}.{verdict}{}\n\n",
+        on_front.join("; "),
+        proposals(configs, &pts)
+    )
+}
+
+/// The papers' proposals and the successor: does each beat one sphere sampled on its sampling
+/// sphere, and which full field is as accurate for fewer rays?
+fn proposals(configs: &[Config], pts: &[Point]) -> String {
+    let spec = |i: usize| &configs[i].spec;
+    let one_sphere = most_accurate(pts, |i| {
+        spec(i).method() == Method::Extrapolated && !is_radial(spec(i))
+    });
+    let new_methods: [(&str, &dyn Fn(usize) -> bool); 3] = [
+        ("Sub-volumes", &|i| spec(i).method() == Method::SubVolumes),
+        ("Per-direction radii", &|i| {
+            spec(i).method() == Method::Extrapolated && is_radial(spec(i))
+        }),
+        ("Sphere sets", &|i| spec(i).method() == Method::SphereSet),
+    ];
+    let mut sub = String::new();
+    for (label, keep) in new_methods {
+        let Some(b) = most_accurate(pts, keep) else {
+            continue;
+        };
+        sub.push_str(&format!(
+            " {label}: the most accurate is {} ({:.3} at {} rays)",
+            name(&configs[b.2]),
+            b.1,
+            rays_text(b.0)
+        ));
+        if let Some(o) = one_sphere {
+            sub.push_str(&format!(
+                ", {} the most accurate extrapolation sampled on its sphere ({:.3})",
+                if b.1 < o.1 {
+                    "better than"
+                } else {
+                    "no better than"
+                },
+                o.1
+            ));
+        }
+        match cheapest_as_accurate(pts, b.1, |i| spec(i).method() == Method::FullField) {
+            Some(f) => sub.push_str(&format!(
+                "; the cheapest full field as accurate: {} ({:.3}) at {:.2e} rays.",
+                name(&configs[f.2]),
+                f.1,
+                f.0
+            )),
+            None => sub.push_str("; no full field in these runs is as accurate."),
+        }
+    }
+    sub
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_mean_interval_is_the_normal_one_and_needs_two_values() {
+        // [1, 2, 3]: mean 2, sample s.d. 1, so 1.96/√3.
+        let (m, ci) = super::mean_ci95(&[1.0, 2.0, 3.0]);
+        assert_eq!(m, Some(2.0));
+        assert!((ci.unwrap() - 1.96 / 3f64.sqrt()).abs() < 1e-15);
+        assert_eq!(super::mean_ci95(&[4.0]), (Some(4.0), None));
+        assert_eq!(super::mean_ci95(&[]), (None, None));
+        // Equal values: no spread.
+        assert_eq!(super::mean_ci95(&[0.5; 4]).1, Some(0.0));
+    }
+
+    #[test]
+    fn the_pareto_front_keeps_strict_improvements_in_order() {
+        let f = super::pareto(
+            [
+                (3.0, 1.0),
+                (1.0, 5.0),
+                (2.0, 5.0),
+                (0.0, 9.0),
+                (4.0, f64::NAN),
+            ]
+            .into_iter(),
+        );
+        assert_eq!(f, vec![(0.0, 9.0), (1.0, 5.0), (3.0, 1.0)]);
+    }
+}
