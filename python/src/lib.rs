@@ -464,7 +464,9 @@ fn probe<'py>(
         let occ = shscale_scene::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
         let analytic = (mesh == "sphere").then(|| shscale_geometry::AnalyticSphere::unit().sphere);
         let res = py
-            .allow_threads(|| shscale_field::probe::probe(occ.as_ref(), analytic, &spec))
+            .allow_threads(|| {
+                shscale_experiments::probe::driver::probe(occ.as_ref(), analytic, &spec)
+            })
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let d = PyDict::new(py);
         d.set_item("mesh", mesh)?;
@@ -494,7 +496,7 @@ fn probe<'py>(
 /// its field order: the same columns as `shscale probe`), undefined metrics as NaN.
 fn probe_columns<'py>(
     py: Python<'py>,
-    rows: &[shscale_field::probe::ProbeRow],
+    rows: &[shscale_experiments::probe::ProbeRow],
 ) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
     let values = serde_json::to_value(rows).map_err(|e| PyValueError::new_err(e.to_string()))?;

@@ -5,8 +5,8 @@ use crate::geometry_cmd::occluder;
 use crate::output::print_json;
 use anyhow::anyhow;
 use serde::Serialize;
-use shscale_experiments::probe::ProbeParams;
-use shscale_field::probe::{probe, ProbeRow};
+use shscale_experiments::probe::driver::probe;
+use shscale_experiments::probe::{ProbeParams, ProbeRow};
 use shscale_geometry::AnalyticSphere;
 use std::process::ExitCode;
 

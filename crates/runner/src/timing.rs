@@ -149,6 +149,32 @@ impl Procedure {
     }
 }
 
+impl Procedure {
+    /// [`Procedure::measure_parts`] for a number of parts known at run time (a time per probe
+    /// radius, say): every call yields the same number of named times; the median etc. per
+    /// part. A call yielding a different count is an error of the caller's closure.
+    pub fn measure_each<T, E>(
+        &self,
+        mut f: impl FnMut() -> Result<(T, Vec<f64>), E>,
+    ) -> Result<(T, Vec<Timing>), E> {
+        for _ in 0..self.warmup {
+            f()?;
+        }
+        let mut samples: Vec<Vec<f64>> = Vec::new();
+        let mut last = None;
+        for _ in 0..self.repeats.max(1) {
+            let (v, t) = f()?;
+            samples.resize(samples.len().max(t.len()), Vec::new());
+            for (s, x) in samples.iter_mut().zip(t) {
+                s.push(x);
+            }
+            last = Some(v);
+        }
+        let v = last.expect("at least one repeat ran");
+        Ok((v, samples.iter().map(|s| Timing::of(s)).collect()))
+    }
+}
+
 /// Occlusion rays per second of the CPU path on this machine (2 threads, bunny BSV workload:
 /// 12×20 × 32² rays in ≈ 29 ms, docs/BENCHMARKS.md).
 pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;

@@ -11,10 +11,12 @@
 //! | `verdict` | configurations, fronts, the claim, equal accuracy, names in words | — |
 //! | `frames` | one frame of each method on spherical receivers | — |
 //! | `spheres` | the kind `budget` | `frames`, `verdict` |
-//! | `plane` | the kind `budget_plane` | `verdict` |
+//! | `plane` | the kind `budget_plane` | `plane_images`, `verdict` |
+//! | `plane_images` | the plane's image measures (flicker, RMSE over a subset) and its figure | `plane`'s `spec_of`, `verdict` |
 
 mod frames;
 pub mod plane;
+mod plane_images;
 pub mod spheres;
 mod verdict;
 

@@ -21,15 +21,16 @@
 //! projection and the BVH build, which every method shares — as the median of the timing
 //! procedure's repeats with its order-statistic interval.
 
+use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, params_of, pareto, speed_claim, variant,
+    by_config, config_keys, distinct_pairs, equal_accuracy, params_of, speed_claim, variant,
+    write_front, Front,
 };
 use super::NEAR_RHO;
 use crate::figures::flat;
 use serde::{Deserialize, Serialize};
 use shscale_field::metrics::ssim;
 use shscale_field::shading::shade_rmse_rel;
-use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::method::{Keys, Method, Spec};
@@ -37,7 +38,6 @@ use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::MAX_ORDER;
 use shscale_scene::Error;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -137,7 +137,7 @@ impl Params {
 const MAX_RT_RES: usize = 255;
 
 /// Row `r`'s method, parsed from its cells.
-fn spec_of(t: &Results, r: usize) -> Option<Spec> {
+pub(super) fn spec_of(t: &Results, r: usize) -> Option<Spec> {
     params_of::<Params>(t, r)?.spec().ok()
 }
 
@@ -199,12 +199,6 @@ fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
     let mut s = scene.clone();
     s.pose_t = (frames > 1).then(|| f as f64 / frames as f64);
     s
-}
-
-/// RMS of a truth's per-pixel error estimate over the mean unshadowed irradiance
-/// ([`crate::figures::own_err`]).
-fn own_err(e: &[[f32; 3]], open: &[f64]) -> f64 {
-    crate::figures::own_err(e, open.iter().sum::<f64>() / open.len().max(1) as f64)
 }
 
 /// The scene of a group: the file with the order override.
@@ -273,108 +267,6 @@ fn run_scene(p: &Typed<Params, PlaneSpec>, base: &Scene) -> Result<Scene, Error>
     Ok(s)
 }
 
-/// The runs of the plane figure among the saved ones (`rows`, one scene): the papers' full
-/// field, the papers' extrapolation, and the most accurate other saved run (against
-/// full-frequency truth) that casts no more rays than the extrapolation; `None` without the
-/// first two.
-fn figure_runs(t: &Results, rows: &[usize]) -> Option<Vec<usize>> {
-    let specs: Vec<(usize, Spec)> = (rows.iter())
-        .filter_map(|&r| Some((r, spec_of(t, r)?)))
-        .collect();
-    let find = |v: &str| specs.iter().find(|(_, s)| variant(s) == v).map(|(r, _)| *r);
-    let ff = find("full field (papers')")?;
-    let ex = find("extrapolation")?;
-    let best = (specs.iter())
-        .filter(|(_, s)| s.method() != Method::RayTraced)
-        .map(|(r, _)| *r)
-        .filter(|&r| r != ff && r != ex && t.num(r, "rays") <= t.num(ex, "rays"))
-        .min_by(|&a, &b| {
-            t.num(a, "rmse_vs_full_frequency")
-                .total_cmp(&t.num(b, "rmse_vs_full_frequency"))
-        });
-    Some([Some(ff), Some(ex), best].into_iter().flatten().collect())
-}
-
-/// The plane figure: the full-frequency truth and each shown method's irradiance on one scale,
-/// then each method's difference from the truth on a symmetric diverging scale.
-fn write_plane_figure(
-    png: &Path,
-    (w, h): (usize, usize),
-    truth: &[[f32; 3]],
-    shown: &[(String, Vec<[f32; 3]>)],
-) -> Result<(), Error> {
-    let tr = crate::figures::lum(truth);
-    let mut top = vec![("full-frequency ray-traced truth".to_string(), tr.clone())];
-    top.extend((shown.iter()).map(|(t, p)| (t.clone(), crate::figures::lum(p))));
-    let methods = (shown.iter())
-        .map(|(t, p)| {
-            let name = t.split(" (").next().unwrap_or(t).to_string();
-            (name, crate::figures::lum(p))
-        })
-        .collect();
-    crate::figures::write_irradiance_figure(
-        png,
-        (w, h),
-        (
-            (0.0, w as f64, "receiver column"),
-            (0.0, h as f64, "receiver row"),
-        ),
-        "irradiance on the receiver plane (in brackets: shade_rmse_rel vs full-frequency truth, rays per frame)",
-        top,
-        &tr,
-        methods,
-        300,
-    )
-}
-
-/// `shade_rmse_rel` over the receivers where `keep` holds (RGB flattened, 3 values per receiver).
-fn rmse_where(e: &[f64], truth: &[f64], open: &[f64], keep: &[bool], want: bool) -> Option<f64> {
-    let pick = |v: &[f64]| -> Vec<f64> {
-        v.chunks(3)
-            .zip(keep)
-            .filter(|(_, k)| **k == want)
-            .flat_map(|(c, _)| c.iter().copied())
-            .collect()
-    };
-    shade_rmse_rel(&pick(e), &pick(truth), &pick(open))
-}
-
-/// Temporal flicker: the RMS over frames f ≥ 1 and receivers of the change of the error image
-/// from frame f − 1 to f, `sqrt(mean_f mean_i ((e_f − t_f) − (e_{f−1} − t_{f−1}))²)`, over the
-/// mean unshadowed irradiance — 0 when the error is the same in every frame (however large),
-/// large when it jumps. `None` for fewer than two frames or a black unshadowed image.
-pub fn flicker(images: &[Vec<f64>], truths: &[Vec<f64>], open: &[f64]) -> Option<f64> {
-    let mean = open.iter().sum::<f64>() / open.len().max(1) as f64;
-    if images.len() < 2 || mean <= 0.0 {
-        return None;
-    }
-    let err = |f: usize| -> Vec<f64> {
-        images[f]
-            .iter()
-            .zip(&truths[f])
-            .map(|(a, b)| a - b)
-            .collect()
-    };
-    let mut sum = 0.0;
-    let mut n = 0usize;
-    let mut prev = err(0);
-    for f in 1..images.len() {
-        let cur = err(f);
-        sum += cur
-            .iter()
-            .zip(&prev)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>();
-        n += cur.len();
-        prev = cur;
-    }
-    Some((sum / n.max(1) as f64).sqrt() / mean)
-}
-
-fn lum(v: &[f64]) -> Vec<f64> {
-    v.chunks(3).map(|c| c.iter().sum::<f64>() / 3.0).collect()
-}
-
 impl Kind for BudgetPlane {
     const NAME: &'static str = "budget_plane";
     const QUESTION: &'static str = "On a scene's receiver plane, in image space against full-frequency truth, which is most accurate for the rays, bytes and time of a frame — SH-scaling extrapolation, the full shadow field as Zhou et al. build it, or ray tracing — near the object and far from it, and does the papers' \"about 20× faster\" hold as stated?";
@@ -389,7 +281,7 @@ impl Kind for BudgetPlane {
             ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),
             ("order", "override of the scene's SH order, 1..=16 (empty: the scene's)"),
             ("frames", "frames of the deformers' sequence (t = f/frames), each rendered from scratch by every method, 1..=64; 1: the rest pose"),
-            ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model)"),
+            ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model). A method key the method does not read (docs/methods.md) must keep its default"),
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
@@ -629,7 +521,9 @@ impl Kind for BudgetPlane {
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
         for (si, (scene, frames)) in distinct_pairs(t, "scene", "frames").iter().enumerate() {
-            let of = |r: usize| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames;
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
+                .collect();
             let name = Path::new(scene)
                 .file_stem()
                 .map_or(scene.clone(), |s| s.to_string_lossy().into_owned());
@@ -638,7 +532,7 @@ impl Kind for BudgetPlane {
             } else {
                 format!("{name}, {frames} frames")
             };
-            for (x, stem, xl, short) in [
+            for (x, stem, x_label, short) in [
                 ("rays", format!("plane_rays_{si}"), "rays per frame", "rays"),
                 (
                     "frame_seconds",
@@ -647,37 +541,15 @@ impl Kind for BudgetPlane {
                     "time",
                 ),
             ] {
-                let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-                let mut bars = Vec::new();
-                for r in (0..t.rows.len()).filter(|&r| of(r)) {
-                    let (xv, y) = (t.num(r, x), t.num(r, "rmse_vs_full_frequency"));
-                    let Some(spec) = spec_of(t, r) else { continue };
-                    if xv.is_finite() && xv > 0.0 && y.is_finite() {
-                        let name = variant(&spec);
-                        series.entry(name).or_default().push((xv, y));
-                        bars.push((
-                            y,
-                            t.num(r, "frame_seconds_lo"),
-                            t.num(r, "frame_seconds_hi"),
-                        ));
-                    }
-                }
-                if series.is_empty() {
-                    continue;
-                }
-                for v in series.values_mut() {
-                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
-                }
-                let front = pareto(series.values().flatten().copied());
-                let labels = Labels {
-                    title: &format!("{title}: error against {short}"),
-                    x: xl,
-                    y: "shade_rmse_rel vs full-frequency truth",
+                let front = Front {
+                    stem,
+                    title: format!("{title}: error against {short}"),
+                    x,
+                    x_label,
+                    y: "rmse_vs_full_frequency",
+                    y_label: "shade_rmse_rel vs full-frequency truth",
                 };
-                let bars = if x == "frame_seconds" { &bars[..] } else { &[] };
-                files.extend(write_scatter_with_bars(
-                    dir, &stem, &labels, &series, &front, bars, true,
-                )?);
+                files.extend(write_front(dir, t, &rows, &front, &|r| spec_of(t, r))?);
             }
         }
         Ok(files)
@@ -764,36 +636,5 @@ impl Kind for BudgetPlane {
             }
         }
         Ok(s)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::flicker;
-
-    #[test]
-    fn flicker_is_the_rms_change_of_the_error_between_frames() {
-        let open = vec![2.0; 4];
-        let truth = vec![vec![1.0, 2.0, 3.0, 4.0]; 3];
-        // The same error in every frame, however large: no flicker.
-        let steady = vec![vec![1.5, 2.5, 3.5, 4.5]; 3];
-        assert_eq!(flicker(&steady, &truth, &open), Some(0.0));
-        // An error alternating between +a and −a: every change is 2a; over the mean open 2.
-        let a = 0.3;
-        let alt: Vec<Vec<f64>> = (0..3)
-            .map(|f| {
-                let s = if f % 2 == 0 { a } else { -a };
-                truth[0].iter().map(|t| t + s).collect()
-            })
-            .collect();
-        let got = flicker(&alt, &truth, &open).unwrap();
-        println!(
-            "alternating ±{a}: flicker {got} (closed form {})",
-            2.0 * a / 2.0
-        );
-        assert!((got - a).abs() < 1e-12);
-        // One frame, or a black unshadowed image: none.
-        assert_eq!(flicker(&alt[..1], &truth[..1], &open), None);
-        assert_eq!(flicker(&alt, &truth, &[0.0; 4]), None);
     }
 }

@@ -27,8 +27,8 @@
 
 use super::frames::{self, FrameFn};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, pareto,
-    plot_name, speed_claim, variant,
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, plot_name,
+    speed_claim, write_front, Front,
 };
 use super::NEAR_RHO;
 use glam::DVec3;
@@ -39,12 +39,10 @@ use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Occluder, VisibilitySampler};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::method::{Keys, Spec};
 use shscale_scene::Error;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -580,61 +578,30 @@ impl Kind for Budget {
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let mut files = Vec::new();
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
-            let of = |r: usize| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order;
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
+                .collect();
             // A mesh given as a path is named by its file stem in the plot's file name.
             let m = plot_name(&mesh);
-            for (x, stem, xl, short) in [
-                (
-                    "rays",
-                    format!("pareto_rays_{m}_n{order}"),
-                    "rays per frame",
-                    "rays",
-                ),
-                (
-                    "memory_bytes",
-                    format!("pareto_memory_{m}_n{order}"),
-                    "memory (bytes)",
-                    "memory",
-                ),
+            for (x, axis, x_label, short) in [
+                ("rays", "rays", "rays per frame", "rays"),
+                ("memory_bytes", "memory", "memory (bytes)", "memory"),
                 (
                     "frame_seconds",
-                    format!("pareto_time_{m}_n{order}"),
+                    "time",
                     "time per frame (s; bars: interval of the median)",
                     "time",
                 ),
             ] {
-                let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-                let mut bars = Vec::new();
-                for r in (0..t.rows.len()).filter(|&r| of(r)) {
-                    let (xv, y) = (t.num(r, x), t.num(r, "occ_rel_l2_mean"));
-                    let Some(spec) = spec_of(t, r) else { continue };
-                    if xv.is_finite() && xv > 0.0 && y.is_finite() {
-                        series.entry(variant(&spec)).or_default().push((xv, y));
-                        if x == "frame_seconds" {
-                            bars.push((
-                                y,
-                                t.num(r, "frame_seconds_lo"),
-                                t.num(r, "frame_seconds_hi"),
-                            ));
-                        }
-                    }
-                }
-                for v in series.values_mut() {
-                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
-                }
-                if series.is_empty() {
-                    continue;
-                }
-                let front = pareto(series.values().flatten().copied());
-                let labels = Labels {
-                    title: &format!("{mesh}, N = {order}: error against {short}"),
-                    x: xl,
-                    y: "mean occ_rel_l2 (spherical receivers)",
+                let front = Front {
+                    stem: format!("pareto_{axis}_{m}_n{order}"),
+                    title: format!("{mesh}, N = {order}: error against {short}"),
+                    x,
+                    x_label,
+                    y: "occ_rel_l2_mean",
+                    y_label: "mean occ_rel_l2 (spherical receivers)",
                 };
-                let bars = if x == "frame_seconds" { &bars[..] } else { &[] };
-                files.extend(write_scatter_with_bars(
-                    dir, &stem, &labels, &series, &front, bars, true,
-                )?);
+                files.extend(write_front(dir, t, &rows, &front, &|r| spec_of(t, r))?);
             }
         }
         Ok(files)

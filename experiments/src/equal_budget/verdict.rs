@@ -8,9 +8,12 @@ use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
+use shscale_runner::plots::{write_scatter_with_bars, Labels};
 use shscale_runner::records::Results;
 use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
-use std::path::Path;
+use shscale_scene::Error;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 /// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
 /// deviation; `None` for fewer than 2 values).
@@ -278,6 +281,62 @@ fn sampling(s: &Spec) -> Option<(String, usize)> {
             .extrapolation()
             .map(|e| (e.layout.name(), e.hemisphere_res)),
     }
+}
+
+/// One front plot: the error column `y` of `rows` against the budget column `x` (rays, bytes or
+/// `frame_seconds`, then with the interval of each median as bars), one series per method
+/// variant ([`variant`] of `spec_of`), the Pareto front drawn over them. Nothing is written
+/// without a finite point.
+pub(crate) struct Front<'a> {
+    pub stem: String,
+    pub title: String,
+    pub x: &'a str,
+    pub x_label: &'a str,
+    pub y: &'a str,
+    pub y_label: &'a str,
+}
+
+pub(crate) fn write_front(
+    dir: &Path,
+    t: &Results,
+    rows: &[usize],
+    f: &Front,
+    spec_of: &dyn Fn(usize) -> Option<Spec>,
+) -> Result<Vec<PathBuf>, Error> {
+    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut bars = Vec::new();
+    for &r in rows {
+        let (xv, y) = (t.num(r, f.x), t.num(r, f.y));
+        let Some(spec) = spec_of(r) else { continue };
+        if xv.is_finite() && xv > 0.0 && y.is_finite() {
+            series.entry(variant(&spec)).or_default().push((xv, y));
+            bars.push((
+                y,
+                t.num(r, "frame_seconds_lo"),
+                t.num(r, "frame_seconds_hi"),
+            ));
+        }
+    }
+    if series.is_empty() {
+        return Ok(Vec::new());
+    }
+    for v in series.values_mut() {
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let front = pareto(series.values().flatten().copied());
+    let labels = Labels {
+        title: &f.title,
+        x: f.x_label,
+        y: f.y_label,
+    };
+    let bars = if f.x == "frame_seconds" {
+        &bars[..]
+    } else {
+        &[]
+    };
+    Ok(write_scatter_with_bars(
+        dir, &f.stem, &labels, &series, &front, bars, true,
+    )?)
 }
 
 /// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed

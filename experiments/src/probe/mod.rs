@@ -3,16 +3,29 @@
 //! per run and radius. Runs sharing mesh, order, layout, H, sampling radius, ε, probe directions,
 //! truth resolution and seed, and radii share the BSV and the truth (computed once); α, the
 //! k-table, the contact threshold and the plausibility mitigation vary per run.
+//!
+//! | module | what it owns |
+//! |---|---|
+//! | `row` | the one row type (CSV, `shscale probe`, Python) |
+//! | `driver` | the shared work and one repeat of a run, timed; the rows with their times |
+//! | `subvolumes` | runs with `parts > 1` through the same assessment and timing procedure |
+//! | `discussion` | the summary's text from the rows |
 
+mod discussion;
+pub mod driver;
+pub mod row;
+mod subvolumes;
+
+pub use discussion::FOLLOWS;
+use discussion::{follows_sentence, single_run_table, truth_note};
+pub use row::ProbeRow;
 use serde::{Deserialize, Serialize};
 use shscale_field::extrapolate::Plausibility;
-use shscale_field::probe::{
-    probe_base_on, probe_with, sample_bsv, ProbeBase, ProbeDirs, ProbeSpec,
-};
+use shscale_field::probe::{ProbeDirs, ProbeSpec};
 use shscale_field::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
-use shscale_runner::timing::{Timing, CPU_RAYS_PER_SECOND, TRUTH_RAYS_PER_SECOND};
+use shscale_runner::timing::{CPU_RAYS_PER_SECOND, TRUTH_RAYS_PER_SECOND};
 
 /// The cost model's untimed work of a probe group beyond its rays: the mesh's load and BVH, the
 /// GPU path's set-up and the group's bookkeeping (`shscale bench estimates`, docs/BENCHMARKS.md).
@@ -165,74 +178,12 @@ impl ProbeParams {
     }
 }
 
-/// One row: a run at one probe radius (metric names of docs/conventions.md §6; the accuracy
-/// columns are those of [`shscale_field::probe::ProbeRow`], documented there).
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct ProbeRow {
-    pub radius: f64,
-    pub k: f64,
-    pub k_node_offset: f64,
-    pub alpha_used_deg: f64,
-    /// The BSV's effective cap θ₀, degrees (what `alpha_mode = "fit"` uses).
-    pub effective_cap_deg: f64,
-    pub probes: usize,
-    pub inside_count: usize,
-    pub unoccluded_truth_count: usize,
-    pub clamped_count: usize,
-    pub vis_rel_l2_mean: Option<f64>,
-    pub vis_rel_l2_max: Option<f64>,
-    pub occ_rel_l2_mean: Option<f64>,
-    pub occ_rel_l2_max: Option<f64>,
-    /// Quantiles of `occ_rel_l2` over the probes with a truth (p5, p25, median, p75, p95;
-    /// linear rule, `metrics::quantiles`).
-    pub occ_rel_l2_p05: Option<f64>,
-    pub occ_rel_l2_p25: Option<f64>,
-    pub occ_rel_l2_p50: Option<f64>,
-    pub occ_rel_l2_p75: Option<f64>,
-    pub occ_rel_l2_p95: Option<f64>,
-    pub truth_rel_err_mean: Option<f64>,
-    pub truth_rel_err_max: Option<f64>,
-    pub truth_limited_count: usize,
-    pub occ_rel_l2_exact_k_mean: Option<f64>,
-    pub occ_rel_l2_exact_dir_mean: Option<f64>,
-    pub occ_rel_l2_model_mean: Option<f64>,
-    pub band_limit_rel_mean: Option<f64>,
-    pub implausible_count: usize,
-    pub occ_solid_angle_min: Option<f64>,
-    pub occ_solid_angle_max: Option<f64>,
-    pub on_surface_count: usize,
-    pub vis_rel_l2_on_surface_mean: Option<f64>,
-    pub occ_rel_l2_on_surface_mean: Option<f64>,
-    pub occ_rel_l2_on_surface_max: Option<f64>,
-    pub contact_count: usize,
-    pub occ_rel_l2_contact_mean: Option<f64>,
-    pub occ_rel_l2_contact_max: Option<f64>,
-    pub bsv_rays: usize,
-    /// Rays per probe of the truth (0: closed form).
-    pub truth_rays: usize,
-    /// Median over the timing procedure; `*_spread` = (max − min) / median.
-    pub bsv_sampling_seconds: f64,
-    pub bsv_sampling_spread: f64,
-    pub table_build_seconds: f64,
-    pub table_build_spread: f64,
-    pub extrapolation_seconds: f64,
-    pub extrapolation_spread: f64,
-    /// The truth at this radius, measured once (it is the reference, not a method under test).
-    pub truth_seconds: f64,
-    pub gpu_bsv_sampling_seconds: Option<f64>,
-    pub gpu_sh_conversion_seconds: Option<f64>,
-    pub gpu_device: String,
-    /// `parts > 1`: the partition's time (k-means, the parts' meshes and BVHs), once per run.
-    pub partition_seconds: Option<f64>,
-}
-
 /// What runs of a group share.
 pub struct ProbeShared {
     occ: Box<dyn shscale_geometry::Occluder>,
     /// The mesh (none for the analytic sphere), for `parts > 1`.
     mesh: Option<shscale_geometry::Mesh>,
-    base: ProbeBase,
-    bsv_timing: Timing,
+    base: driver::Base,
     gpu: (Option<f64>, Option<f64>, String),
 }
 
@@ -417,8 +368,7 @@ impl Kind for Probe {
     fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<ProbeShared, Error> {
         let spec = &p.typed;
         let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
-        let (bsv, bsv_timing) = ctx.timing.measure(|| sample_bsv(u.occ.as_ref(), spec))?;
-        let base = probe_base_on(bsv, bsv_timing.median, u.occ.as_ref(), u.analytic, spec)?;
+        let base = driver::base(u.occ.as_ref(), u.analytic, spec, ctx.timing)?;
         let gpu = match (shscale_scene::gpu_path::gpu_of(ctx), u.mesh.as_ref()) {
             (Some(g), Some(m)) if p.order <= shscale_gpu::MAX_GPU_ORDER => {
                 let b = m.bounding_sphere();
@@ -447,7 +397,6 @@ impl Kind for Probe {
             occ: u.occ,
             mesh: u.mesh,
             base,
-            bsv_timing,
             gpu,
         })
     }
@@ -460,44 +409,22 @@ impl Kind for Probe {
     ) -> Result<Vec<ProbeRow>, Error> {
         let spec = &p.typed;
         if p.parts > 1 {
-            return sub_volume_rows(p, sh, ctx);
+            return subvolumes::rows(p, sh.mesh.as_ref(), &sh.base, ctx);
         }
         // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
         // extrapolation at each radius.
-        let mut results = Vec::new();
-        for i in 0..ctx.timing.warmup + ctx.timing.repeats.max(1) {
-            let r = probe_with(&sh.base, spec)?;
-            if i >= ctx.timing.warmup {
-                results.push(r);
-            }
-        }
-        let table = Timing::of(
-            &results
-                .iter()
-                .map(|r| r.table_build_seconds)
-                .collect::<Vec<_>>(),
-        );
-        let res = results.pop().expect("one repeat at least");
+        let (once, t) = ctx
+            .timing
+            .measure_each(|| driver::once(&sh.base.base, spec))?;
         crate::probe_figure::visibility_figure(
             ctx.dir,
             run_id,
             p.order,
             sh.occ.as_ref(),
-            &res.examples,
+            &once.examples,
         )?;
-        Ok(res
-            .rows
-            .iter()
-            .enumerate()
-            .map(|(ri, r)| {
-                let mut ext: Vec<f64> = results
-                    .iter()
-                    .map(|x| x.rows[ri].extrapolation_seconds)
-                    .collect();
-                ext.push(r.extrapolation_seconds);
-                row_of(r, &res, sh, &table, &Timing::of(&ext))
-            })
-            .collect())
+        let rows = driver::with_times(once.rows, &sh.base, &t[0], &t[1..]);
+        Ok(with_gpu(rows, &sh.gpu))
     }
 
     fn time_columns() -> &'static [&'static str] {
@@ -591,215 +518,14 @@ impl Kind for Probe {
     }
 }
 
-/// One radius's row of a run: the field's row `r` of the last repeat `res`, with the shared
-/// work's rays and times and the timed stages' medians and spreads.
-fn row_of(
-    r: &shscale_field::probe::ProbeRow,
-    res: &shscale_field::probe::ProbeResult,
-    sh: &ProbeShared,
-    table: &Timing,
-    ext: &Timing,
-) -> ProbeRow {
-    ProbeRow {
-        radius: r.radius,
-        k: r.k,
-        k_node_offset: r.k_node_offset,
-        alpha_used_deg: r.alpha_used_deg,
-        effective_cap_deg: res.effective_cap_deg,
-        probes: r.probes,
-        inside_count: r.inside_count,
-        unoccluded_truth_count: r.unoccluded_truth_count,
-        clamped_count: r.clamped_count,
-        vis_rel_l2_mean: r.vis_rel_l2_mean,
-        vis_rel_l2_max: r.vis_rel_l2_max,
-        occ_rel_l2_mean: r.occ_rel_l2_mean,
-        occ_rel_l2_max: r.occ_rel_l2_max,
-        occ_rel_l2_p05: r.occ_rel_l2_p05,
-        occ_rel_l2_p25: r.occ_rel_l2_p25,
-        occ_rel_l2_p50: r.occ_rel_l2_p50,
-        occ_rel_l2_p75: r.occ_rel_l2_p75,
-        occ_rel_l2_p95: r.occ_rel_l2_p95,
-        truth_rel_err_mean: r.truth_rel_err_mean,
-        truth_rel_err_max: r.truth_rel_err_max,
-        truth_limited_count: r.truth_limited_count,
-        occ_rel_l2_exact_k_mean: r.occ_rel_l2_exact_k_mean,
-        occ_rel_l2_exact_dir_mean: r.occ_rel_l2_exact_dir_mean,
-        occ_rel_l2_model_mean: r.occ_rel_l2_model_mean,
-        band_limit_rel_mean: r.band_limit_rel_mean,
-        implausible_count: r.implausible_count,
-        occ_solid_angle_min: r.occ_solid_angle_min,
-        occ_solid_angle_max: r.occ_solid_angle_max,
-        on_surface_count: r.on_surface_count,
-        vis_rel_l2_on_surface_mean: r.vis_rel_l2_on_surface_mean,
-        occ_rel_l2_on_surface_mean: r.occ_rel_l2_on_surface_mean,
-        occ_rel_l2_on_surface_max: r.occ_rel_l2_on_surface_max,
-        contact_count: r.contact_count,
-        occ_rel_l2_contact_mean: r.occ_rel_l2_contact_mean,
-        occ_rel_l2_contact_max: r.occ_rel_l2_contact_max,
-        bsv_rays: res.bsv_rays,
-        truth_rays: res.truth_rays_per_probe,
-        bsv_sampling_seconds: sh.bsv_timing.median,
-        bsv_sampling_spread: sh.bsv_timing.spread(),
-        table_build_seconds: table.median,
-        table_build_spread: table.spread(),
-        extrapolation_seconds: ext.median,
-        extrapolation_spread: ext.spread(),
-        truth_seconds: r.truth_seconds,
-        gpu_bsv_sampling_seconds: sh.gpu.0,
-        gpu_sh_conversion_seconds: sh.gpu.1,
-        gpu_device: sh.gpu.2.clone(),
-        partition_seconds: None,
+/// Rows with the group's GPU timings of the BSV (empty without a device).
+fn with_gpu(mut rows: Vec<ProbeRow>, gpu: &(Option<f64>, Option<f64>, String)) -> Vec<ProbeRow> {
+    for r in &mut rows {
+        r.gpu_bsv_sampling_seconds = gpu.0;
+        r.gpu_sh_conversion_seconds = gpu.1;
+        r.gpu_device = gpu.2.clone();
     }
-}
-
-/// The rows of a run with `parts > 1`: the mesh partitioned once per run (timed on its own);
-/// per repeat of the timing procedure (timed stage by stage, as the one-sphere rows are,
-/// except that the evaluation covers every radius) every part's BSV (the run's layout, H and
-/// sampling radius on the part's own sphere), its k-table (fixed α, or α by distance at the part's
-/// effective cap; over the k its probes need, widened by `K_MARGIN`, at least 1e-3) and the
-/// product of the parts near to far at every probe point ([`SubVolumeField`]); scored against
-/// the group's truth at the same points, as the one-sphere rows are. The decomposition, the
-/// on-surface and the contact columns belong to one sphere and stay empty.
-fn sub_volume_rows(
-    p: &Typed<ProbeParams, ProbeSpec>,
-    sh: &ProbeShared,
-    ctx: &Ctx,
-) -> Result<Vec<ProbeRow>, Error> {
-    use rayon::prelude::*;
-    use shscale_field::metrics::{mean_max, occ_rel_l2, quantiles, vis_rel_l2};
-    use shscale_scaling::{Eta, KTable, TauFamily};
-    let spec = &p.typed;
-    let mesh = (sh.mesh.as_ref()).ok_or_else(|| {
-        Error::config("sub-volumes split a mesh; the analytic sphere has none".into())
-    })?;
-    let t0 = std::time::Instant::now();
-    let labels = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
-        .map_err(|e| Error::config(e.to_string()))?;
-    let bvhs: Vec<shscale_geometry::MeshBvh> =
-        (shscale_geometry::partition::split(mesh, &labels, p.parts).iter())
-            .map(|m| {
-                shscale_geometry::MeshBvh::build(m, shscale_geometry::ray::UpdateStrategy::Rebuild)
-            })
-            .collect();
-    let partition_seconds = t0.elapsed().as_secs_f64();
-    let s = sh.base.bsv.sphere;
-    let points: Vec<Vec<glam::DVec3>> = (spec.radii.iter())
-        .map(|rho| {
-            sh.base
-                .dirs
-                .iter()
-                .map(|d| s.center + rho * s.radius * *d)
-                .collect()
-        })
-        .collect();
-    let gaunt =
-        shscale_sh::GauntTensor::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
-    let nn = p.order * p.order;
-    let (values, [sampling, table, eval]) = ctx.timing.measure_parts(|| -> Result<_, Error> {
-        let t0 = std::time::Instant::now();
-        let bsvs = (bvhs.iter())
-            .map(|b| sample_bsv(b, spec))
-            .collect::<Result<Vec<_>, _>>()?;
-        let t1 = std::time::Instant::now();
-        let tables = (bsvs.iter())
-            .map(|b| {
-                let (lo, hi) = shscale_field::probe::k_range_to(
-                    b.sphere.center,
-                    b.sampling_radius,
-                    points.iter().flatten().copied(),
-                    shscale_field::probe::K_MARGIN,
-                );
-                let lo = lo.max(1e-3);
-                let family = if spec.alpha_fit {
-                    TauFamily::ConeFit {
-                        theta0: shscale_field::alpha::effective_cap_angle(b),
-                    }
-                } else {
-                    TauFamily::Cone { alpha: spec.alpha }
-                };
-                KTable::build(
-                    family,
-                    Eta::Plain,
-                    p.order,
-                    spec.k_count,
-                    lo,
-                    hi.max(lo * 1.01),
-                    spec.k_spacing,
-                    spec.k_interp,
-                )
-                .map_err(|e| Error::config(e.to_string()))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let t2 = std::time::Instant::now();
-        let exs = (bsvs.iter().zip(&tables))
-            .map(|(b, t)| {
-                shscale_field::extrapolate::Extrapolator::new(b, t)
-                    .with_plausibility(spec.plausibility)
-            })
-            .collect();
-        let field = shscale_field::subvolume::SubVolumeField::new(exs, &gaunt);
-        let values: Vec<Vec<Vec<f64>>> = (points.iter())
-            .map(|ps| {
-                ps.par_iter()
-                    .map(|q| {
-                        let mut out = vec![0.0; nn];
-                        shscale_field::evaluator::VisibilityField::eval(&field, *q, &mut out);
-                        out
-                    })
-                    .collect()
-            })
-            .collect();
-        let rays: usize = bsvs.iter().map(|b| b.rays).sum();
-        let secs = |a: std::time::Instant, b: std::time::Instant| (b - a).as_secs_f64();
-        let t3 = std::time::Instant::now();
-        Ok(((values, rays), [secs(t0, t1), secs(t1, t2), secs(t2, t3)]))
-    })?;
-    let (values, rays) = values;
-    Ok((spec.radii.iter().enumerate())
-        .map(|(ri, &rho)| {
-            let truths = &sh.base.truth[ri];
-            let pairs: Vec<(&Vec<f64>, &shscale_field::truth::Truth)> = (values[ri].iter())
-                .zip(truths)
-                .filter_map(|(v, t)| t.as_ref().map(|t| (v, t)))
-                .collect();
-            let occ: Vec<Option<f64>> = pairs
-                .iter()
-                .map(|(v, t)| occ_rel_l2(v, &t.coeffs))
-                .collect();
-            let (om, ox, _) = mean_max(occ.iter().copied());
-            let (vm, vx, _) = mean_max(pairs.iter().map(|(v, t)| vis_rel_l2(v, &t.coeffs)));
-            let q = quantiles(occ.iter().copied(), &[0.05, 0.25, 0.5, 0.75, 0.95]);
-            ProbeRow {
-                radius: rho,
-                k: rho / spec.sampling_radius,
-                alpha_used_deg: spec.alpha.to_degrees(),
-                probes: truths.len(),
-                inside_count: truths.iter().filter(|t| t.is_none()).count(),
-                unoccluded_truth_count: occ.iter().filter(|o| o.is_none()).count(),
-                vis_rel_l2_mean: vm,
-                vis_rel_l2_max: vx,
-                occ_rel_l2_mean: om,
-                occ_rel_l2_max: ox,
-                occ_rel_l2_p05: q[0],
-                occ_rel_l2_p25: q[1],
-                occ_rel_l2_p50: q[2],
-                occ_rel_l2_p75: q[3],
-                occ_rel_l2_p95: q[4],
-                bsv_rays: rays,
-                truth_rays: sh.base.truth_rays_per_probe,
-                bsv_sampling_seconds: sampling.median,
-                bsv_sampling_spread: sampling.spread(),
-                table_build_seconds: table.median,
-                table_build_spread: table.spread(),
-                // Every radius at once (the one-sphere rows time each radius).
-                extrapolation_seconds: eval.median,
-                extrapolation_spread: eval.spread(),
-                truth_seconds: sh.base.truth_seconds[ri],
-                partition_seconds: Some(partition_seconds),
-                ..ProbeRow::default()
-            }
-        })
-        .collect())
+    rows
 }
 
 /// 1 to [`MAX_RADII`] distinct probe radii, each in (0, 1e6].
@@ -823,125 +549,3 @@ fn check_radii(radii: &[f64]) -> Result<(), KeyError> {
     }
     Ok(())
 }
-
-/// A finite error to three decimals, `—` otherwise.
-fn fmt3(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v:.3}")
-    } else {
-        "—".into()
-    }
-}
-
-/// The discussion's table of a single run: its setting, then per radius the mean errors.
-fn single_run_table(t: &Results, rows: &[usize]) -> String {
-    let r0 = rows[0];
-    let mut out = format!(
-        "**Ours.** Mesh `{}`, N = {}, α = {}°, BSV on `{}` × {}² rays, K = {} ({} k, {} interpolation). Mean errors over the \
-probe directions per radius (`probe_dirs = {}`: seeded directions between the samples unless `samples`; docs/conventions.md §6; \
-`occ_rel_l2` is relative to the occluded part; both compare coefficients with the converged truth projected to order N — its own \
-error is in the CSV's `truth_rel_err_mean` — so they measure the extrapolation alone, not band-limiting). Image: one probe direction \
-per radius (rows), actual full-frequency visibility (left, white = visible; lat-long, +z at the top) beside the extrapolated \
-visibility (right).\n\n\
-| radius (× r) | k | probes | vis_rel_l2 | occ_rel_l2 | inside the mesh |\n|---:|---:|---:|---:|---:|---:|\n",
-        t.cell(r0, "mesh"),
-        t.cell(r0, "order"),
-        t.cell(r0, "alpha_deg"),
-        t.cell(r0, "layout"),
-        t.cell(r0, "hemisphere_res"),
-        t.cell(r0, "k_count"),
-        t.cell(r0, "k_spacing"),
-        t.cell(r0, "k_interp"),
-        t.cell(r0, "probe_dirs"),
-    );
-    for &r in rows {
-        out.push_str(&format!(
-            "| {} | {:.2} | {} | {} | {} | {} |\n",
-            t.cell(r, "radius"),
-            t.num(r, "k"),
-            t.cell(r, "probes"),
-            fmt3(t.num(r, "vis_rel_l2_mean")),
-            fmt3(t.num(r, "occ_rel_l2_mean")),
-            t.cell(r, "inside_count")
-        ));
-    }
-    out
-}
-
-/// Where one run (`who`, its rows) follows the actual occlusion (occ_rel_l2 < [`FOLLOWS`]) and
-/// where it departs from it, with its best and worst radius.
-fn follows_sentence(t: &Results, who: &str, rows: &[usize]) -> String {
-    let occ = |r: usize| t.num(r, "occ_rel_l2_mean");
-    let finite: Vec<usize> = rows
-        .iter()
-        .copied()
-        .filter(|&r| occ(r).is_finite())
-        .collect();
-    let list = |follows: bool| {
-        let v: Vec<String> = (finite.iter())
-            .filter(|&&r| (occ(r) < FOLLOWS) == follows)
-            .map(|&r| format!("{}r", t.cell(r, "radius")))
-            .collect();
-        if v.is_empty() {
-            "no radius".to_string()
-        } else {
-            v.join(", ")
-        }
-    };
-    let best = finite
-        .iter()
-        .copied()
-        .min_by(|&a, &b| occ(a).total_cmp(&occ(b)));
-    let worst = finite
-        .iter()
-        .copied()
-        .max_by(|&a, &b| occ(a).total_cmp(&occ(b)));
-    match (best, worst) {
-        (Some(b), Some(w)) => format!(
-            "{who} follows the actual occlusion (occ_rel_l2 < {FOLLOWS}) at {} and departs from it at {}: best at {}r ({:.3}), worst at {}r \
-({:.3}; above 1 is worse than predicting no occlusion).\n",
-            list(true),
-            list(false),
-            t.cell(b, "radius"),
-            occ(b),
-            t.cell(w, "radius"),
-            occ(w)
-        ),
-        _ => format!("{who}: no radius has a finite occ_rel_l2 (no occluded truth).\n"),
-    }
-}
-
-/// The truth's own error against the method's: rows where the truth does not resolve the error
-/// are flagged (docs/conventions.md §6).
-fn truth_note(t: &Results) -> String {
-    let limited: Vec<String> = (0..t.rows.len())
-        .filter(|&r| t.num(r, "truth_limited_count") > 0.0)
-        .map(|r| {
-            format!(
-                "run `{}` at {}r ({} probes)",
-                t.cell(r, "run_id"),
-                t.cell(r, "radius"),
-                t.cell(r, "truth_limited_count")
-            )
-        })
-        .collect();
-    let worst = (0..t.rows.len())
-        .map(|r| t.num(r, "truth_rel_err_mean"))
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
-    if limited.is_empty() {
-        format!(
-            "\n**Truth.** The converged truth's own error (mean per row) is at most {worst:.4} of the occlusion, and no probe's \
-occ_rel_l2 is within 3× of its truth's error.\n"
-        )
-    } else {
-        format!(
-            "\n**Truth-limited** (occ_rel_l2 within 3× of the truth's own error; raise `truth_res`): {}. The truth's mean \
-error per row is at most {worst:.4} of the occlusion.\n",
-            limited.join(", ")
-        )
-    }
-}
-
-/// occ_rel_l2 below which the discussion says the extrapolation follows the actual occlusion.
-pub const FOLLOWS: f64 = 0.5;
