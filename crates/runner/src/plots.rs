@@ -44,6 +44,31 @@ struct Axes {
 }
 
 impl Axes {
+    /// A tick label of the x (`x_axis`) or y axis at drawn coordinate `v`: a log axis over two
+    /// decades or more is labelled at the decades, a narrower one at every tick with its value;
+    /// an integer x axis without decimals; else rounded to 1e-6.
+    fn tick(&self, v: f64, x_axis: bool) -> String {
+        let (log, (lo, hi)) = if x_axis {
+            (self.log_x, self.x)
+        } else {
+            (self.log_y, self.y)
+        };
+        if log && hi - lo >= 2.0 {
+            if (v - v.round()).abs() < 1e-9 {
+                format!("1e{}", v.round())
+            } else {
+                String::new()
+            }
+        } else if log {
+            let x = 10f64.powf(v);
+            format!("{}", (x * 1e3).round() / 1e3)
+        } else if x_axis && self.integer_x {
+            format!("{v:.0}")
+        } else {
+            format!("{}", (v * 1e6).round() / 1e6)
+        }
+    }
+
     /// The axes of the finite points of `series`. Data spanning two decades or more (all > 0)
     /// are drawn on a log axis unless `log` says otherwise: y becomes log10 y and the ticks are
     /// labelled as powers of ten.
@@ -195,26 +220,13 @@ fn panel_plot<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    // The bands' ends count for the range too (a band is never clipped).
-    let mut ranged = series.clone();
-    for (name, b) in bands {
-        let e = ranged.entry(format!("{name}\u{1f}band")).or_default();
-        e.extend(b.iter().flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)]));
-    }
-    if !xbars.is_empty() {
-        let e = ranged.entry("\u{1f}bars".into()).or_default();
-        e.extend(xbars.iter().flat_map(|&(y, lo, hi)| [(lo, y), (hi, y)]));
-    }
-    let ax = Axes::of_xy(&ranged, log, log_x)?;
-    let y_desc = if ax.log_y {
-        format!("{} — log scale", labels.y)
-    } else {
-        labels.y.to_string()
-    };
-    let x_desc = if ax.log_x {
-        format!("{} — log scale", labels.x)
-    } else {
-        labels.x.to_string()
+    let ax = Axes::of_xy(&ranged(series, bands, xbars), log, log_x)?;
+    let desc = |label: &str, log: bool| {
+        if log {
+            format!("{label} — log scale")
+        } else {
+            label.to_string()
+        }
     };
     // The legend goes right of the data, in a margin as wide as its longest entry (at most 40 %
     // of the panel): it never covers a point.
@@ -232,48 +244,79 @@ where
         .y_label_area_size(64)
         .build_cartesian_2d(ax.x.0..ax.x.1, ax.y.0..ax.y.1)
         .map_err(|e| e.to_string())?;
-    // A log axis over two decades or more is labelled at the decades; a narrower one at every
-    // tick, with its value.
-    let log_label = |v: f64, span: f64| {
-        if span >= 2.0 {
-            if (v - v.round()).abs() < 1e-9 {
-                format!("1e{}", v.round())
-            } else {
-                String::new()
-            }
-        } else {
-            let x = 10f64.powf(v);
-            format!("{}", (x * 1e3).round() / 1e3)
-        }
-    };
-    let x_fmt = |v: &f64| {
-        if ax.log_x {
-            log_label(*v, ax.x.1 - ax.x.0)
-        } else if ax.integer_x {
-            format!("{v:.0}")
-        } else {
-            format!("{}", (v * 1e6).round() / 1e6)
-        }
-    };
-    let y_fmt = |v: &f64| {
-        if ax.log_y {
-            // Decades only (1e-3, 1e-2, …) when the axis spans two or more.
-            log_label(*v, ax.y.1 - ax.y.0)
-        } else {
-            format!("{}", (v * 1e6).round() / 1e6)
-        }
-    };
+    let (x_fmt, y_fmt) = (|v: &f64| ax.tick(*v, true), |v: &f64| ax.tick(*v, false));
     chart
         .configure_mesh()
-        .x_desc(x_desc)
-        .y_desc(y_desc)
+        .x_desc(desc(labels.x, ax.log_x))
+        .y_desc(desc(labels.y, ax.log_y))
         .x_labels(ax.x_ticks)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(|e| e.to_string())?;
-    // Bands first, under the lines: the polygon of (x, low) forward and (x, high) back.
+    draw_bands(&mut chart, &ax, series, bands)?;
+    draw_xbars(&mut chart, &ax, xbars)?;
+    for (i, points) in series.values().enumerate() {
+        let mut pts: Vec<(f64, f64)> = (points.iter().copied())
+            .filter(|&(x, y)| drawable(x) && drawable(y))
+            .filter(|&(x, _)| !(ax.log_x && x <= 0.0))
+            .map(|(x, y)| (ax.tx(x), ax.ty(y)))
+            .filter(|(_, y)| y.is_finite())
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        draw_series(&mut chart, i, &pts, scatter_only)?;
+    }
+    if !front.is_empty() {
+        let front: Vec<(f64, f64)> = (front.iter())
+            .filter(|&&(x, y)| drawable(x) && drawable(y))
+            .map(|&(x, y)| (ax.tx(x), ax.ty(y)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?;
+    }
+    let (px, py) = chart.plotting_area().get_base_pixel();
+    let (bx, by) = area.get_base_pixel();
+    let at = (
+        px - bx + chart.plotting_area().dim_in_pixel().0 as i32 + 10,
+        py - by + 8,
+    );
+    let names: Vec<&str> = series.keys().map(String::as_str).collect();
+    draw_legend(area, at, legend_w, &names, scatter_only, !front.is_empty())
+    // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
+}
+
+/// The points that set a panel's ranges: the series, the bands' ends (a band is never clipped)
+/// and the bars' ends.
+fn ranged(
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    bands: &Bands,
+    xbars: &[(f64, f64, f64)],
+) -> BTreeMap<String, Vec<(f64, f64)>> {
+    let mut ranged = series.clone();
+    for (name, b) in bands {
+        let e = ranged.entry(format!("{name}\u{1f}band")).or_default();
+        e.extend(b.iter().flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)]));
+    }
+    if !xbars.is_empty() {
+        let e = ranged.entry("\u{1f}bars".into()).or_default();
+        e.extend(xbars.iter().flat_map(|&(y, lo, hi)| [(lo, y), (hi, y)]));
+    }
+    ranged
+}
+
+/// The bands of `series` (by name), under the lines: the polygon of (x, low) forward and
+/// (x, high) back, at most `MAX_POINTS / 4` vertices a side.
+fn draw_bands<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    ax: &Axes,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    bands: &Bands,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
     for (i, name) in series.keys().enumerate() {
         let Some(band) = bands.get(name) else {
             continue;
@@ -306,12 +349,23 @@ where
             )))
             .map_err(|e| e.to_string())?;
     }
-    // Horizontal error bars (y, x low, x high), grey, under the markers.
+    Ok(())
+}
+
+/// Horizontal error bars (y, x low, x high), grey, under the markers; clipped to the axis in
+/// drawn coordinates (a log axis has no place for x ≤ 0).
+fn draw_xbars<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    ax: &Axes,
+    xbars: &[(f64, f64, f64)],
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
     for &(y, lo, hi) in xbars {
         if !(drawable(y) && drawable(lo) && drawable(hi)) || (ax.log_y && y <= 0.0) {
             continue;
         }
-        // Clipped to the axis in drawn coordinates (a log axis has no place for x ≤ 0).
         let a = if ax.log_x && lo <= 0.0 {
             ax.x.0
         } else {
@@ -325,30 +379,23 @@ where
             )))
             .map_err(|e| e.to_string())?;
     }
-    for (i, points) in series.values().enumerate() {
-        let mut pts: Vec<(f64, f64)> = (points.iter().copied())
-            .filter(|&(x, y)| drawable(x) && drawable(y))
-            .filter(|&(x, _)| !(ax.log_x && x <= 0.0))
-            .map(|(x, y)| (ax.tx(x), ax.ty(y)))
-            .filter(|(_, y)| y.is_finite())
-            .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        draw_series(&mut chart, i, &pts, scatter_only)?;
-    }
-    if !front.is_empty() {
-        let front: Vec<(f64, f64)> = (front.iter())
-            .filter(|&&(x, y)| drawable(x) && drawable(y))
-            .map(|&(x, y)| (ax.tx(x), ax.ty(y)))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
-            .map_err(|e| e.to_string())?;
-    }
-    // The legend, drawn by hand in the right margin (plotters draws its own inside the data):
-    // per series its line and marker, then its name, cut to the margin's width.
-    let (px, py) = chart.plotting_area().get_base_pixel();
-    let (bx, by) = area.get_base_pixel();
-    let lx = px - bx + chart.plotting_area().dim_in_pixel().0 as i32 + 10;
+    Ok(())
+}
+
+/// The legend, drawn by hand in the right margin at `(x, y)` of `area` (plotters draws its own
+/// inside the data): per series its line and marker, then its name, cut to the margin's width
+/// `legend_w`; then the Pareto front's line where there is one.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    (lx, y0): (i32, i32),
+    legend_w: u32,
+    names: &[&str],
+    scatter_only: bool,
+    front: bool,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
     let fits = ((legend_w.saturating_sub(34)) / 7).max(4) as usize;
     let cut = |s: &str| -> String {
         if s.chars().count() <= fits {
@@ -361,8 +408,8 @@ where
         }
     };
     let font = ("sans-serif", 13).into_font();
-    for (i, name) in series.keys().enumerate() {
-        let y = py - by + 8 + 18 * i as i32;
+    for (i, name) in names.iter().enumerate() {
+        let y = y0 + 18 * i as i32;
         let color = palette(i);
         if !scatter_only {
             area.draw(&PathElement::new(
@@ -380,17 +427,16 @@ where
         area.draw(&Text::new(cut(name), (lx + 24, y - 7), font.clone()))
             .map_err(|e| e.to_string())?;
     }
-    if !front.is_empty() {
-        let y = py - by + 8 + 18 * series.len() as i32;
+    if front {
+        let y = y0 + 18 * names.len() as i32;
         area.draw(&PathElement::new(
             vec![(lx, y), (lx + 18, y)],
             BLACK.stroke_width(1),
         ))
         .map_err(|e| e.to_string())?;
-        area.draw(&Text::new("Pareto front", (lx + 24, y - 7), font.clone()))
+        area.draw(&Text::new("Pareto front", (lx + 24, y - 7), font))
             .map_err(|e| e.to_string())?;
     }
-    // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
     Ok(())
 }
 
@@ -497,45 +543,8 @@ pub fn write_panels(
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
-    fn draw<DB: DrawingBackend>(
-        area: DrawingArea<DB, plotters::coord::Shift>,
-        title: &str,
-        (x, y): (&str, &str),
-        panels: &[Panel],
-        (rows, cols): (usize, usize),
-        (log_y, log_x, title_font): (Option<bool>, bool, u32),
-    ) -> Result<(), String>
-    where
-        DB::ErrorType: 'static,
-    {
-        area.fill(&WHITE).map_err(|e| e.to_string())?;
-        let area = area
-            .titled(title, ("sans-serif", title_font))
-            .map_err(|e| e.to_string())?;
-        for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
-            let (series, panel_title) = capped(&p.series, &p.title);
-            let labels = Labels {
-                title: &panel_title,
-                x,
-                y,
-            };
-            panel_plot(
-                cell,
-                &labels,
-                &series,
-                &p.bands,
-                false,
-                &[],
-                log_y,
-                log_x,
-                16,
-                &[],
-            )?;
-        }
-        area.present().map_err(|e| e.to_string())
-    }
     let shape = (rows, cols);
-    draw(
+    panels_figure(
         BitMapBackend::new(&tmp_png, size).into_drawing_area(),
         title,
         (x, y),
@@ -544,7 +553,7 @@ pub fn write_panels(
         (log_y, log_x, title_font),
     )
     .map_err(|e| err(&png, e))?;
-    draw(
+    panels_figure(
         SVGBackend::new(&tmp_svg, size).into_drawing_area(),
         title,
         (x, y),
@@ -556,6 +565,45 @@ pub fn write_panels(
     finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
+}
+
+/// The panels figure on one backend: the title, then `rows × cols` panels ([`panel_plot`]).
+fn panels_figure<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    (x, y): (&str, &str),
+    panels: &[Panel],
+    (rows, cols): (usize, usize),
+    (log_y, log_x, title_font): (Option<bool>, bool, u32),
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE).map_err(|e| e.to_string())?;
+    let area = area
+        .titled(title, ("sans-serif", title_font))
+        .map_err(|e| e.to_string())?;
+    for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
+        let (series, panel_title) = capped(&p.series, &p.title);
+        let labels = Labels {
+            title: &panel_title,
+            x,
+            y,
+        };
+        panel_plot(
+            cell,
+            &labels,
+            &series,
+            &p.bands,
+            false,
+            &[],
+            log_y,
+            log_x,
+            16,
+            &[],
+        )?;
+    }
+    area.present().map_err(|e| e.to_string())
 }
 
 /// Series `i` (`pts` as drawn, sorted by x): a line unless `scatter_only`, and markers (the
@@ -637,103 +685,15 @@ pub fn plot_column(
     spec: &PlotSpec,
 ) -> Result<Vec<PathBuf>, Error> {
     let (metric, x) = (spec.metric, spec.x);
-    let named = [metric, x]
-        .into_iter()
-        .chain(spec.series.iter().map(String::as_str))
-        .chain(spec.facet)
-        .chain(spec.filters.iter().map(|(k, _)| k.as_str()));
-    for c in named {
-        if t.col(c).is_none() {
-            return Err(Error::Config(format!(
-                "{c:?} is not a column of {} (columns: {})",
-                dir.join("runs.csv").display(),
-                t.columns.join(", ")
-            )));
-        }
-    }
-    let same = |cell: &str, want: &str| {
-        cell == want
-            || matches!((cell.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
-    };
-    let rows: Vec<usize> = (0..t.rows.len())
-        .filter(|&r| spec.filters.iter().all(|(k, v)| same(t.cell(r, k), v)))
-        .filter(|&r| t.num(r, x).is_finite() && t.num(r, metric).is_finite())
-        .collect();
-    if rows.is_empty() {
-        let filters: Vec<String> = spec
-            .filters
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect();
-        return Err(Error::Config(if filters.is_empty() {
-            format!("no row has numbers in both {metric:?} and {x:?}")
-        } else {
-            format!(
-                "no row matches --where {} with numbers in both {metric:?} and {x:?}",
-                filters.join(" --where ")
-            )
-        }));
-    }
+    check_columns(dir, t, spec)?;
+    let rows = plot_rows(t, spec)?;
     let distinct = |c: &str| t.distinct_in(rows.iter().copied(), c);
     let varying: Vec<String> = (keys.iter())
         .filter(|k| t.col(k).is_some() && distinct(k).len() > 1)
         .cloned()
         .collect();
-    // Series and facet: as asked, or every other varying key, faceted when too many.
-    let mut facet = spec.facet.map(str::to_string);
-    let mut series: Vec<String> = if spec.series.is_empty() {
-        (varying.iter())
-            .filter(|c| *c != x && *c != metric && Some(c.as_str()) != spec.facet)
-            .cloned()
-            .collect()
-    } else {
-        spec.series.to_vec()
-    };
-    let combos = |cols: &[String]| -> usize {
-        let mut seen: Vec<Vec<&str>> = rows
-            .iter()
-            .map(|&r| cols.iter().map(|c| t.cell(r, c)).collect())
-            .collect();
-        seen.sort();
-        seen.dedup();
-        seen.len()
-    };
-    if spec.series.is_empty() && facet.is_none() && combos(&series) > MAX_SERIES_PER_PANEL {
-        let pick = (series.iter())
-            .filter(|c| distinct(c).len() <= MAX_PANELS)
-            .max_by_key(|c| (c.as_str() == "radius", distinct(c).len()))
-            .cloned();
-        if let Some(f) = pick {
-            series.retain(|c| *c != f);
-            facet = Some(f);
-        }
-    }
-    // A key that varies within one series and panel at one x makes a zigzag: refuse, naming it.
-    let mut at: BTreeMap<(String, String, String), usize> = BTreeMap::new();
-    for &r in &rows {
-        let label: Vec<&str> = series.iter().map(|c| t.cell(r, c)).collect();
-        let f = facet.as_deref().map_or("", |c| t.cell(r, c));
-        let k = (
-            f.to_string(),
-            label.join("\u{1f}"),
-            t.cell(r, x).to_string(),
-        );
-        if let Some(&first) = at.get(&k) {
-            let differ: Vec<&String> = (varying.iter())
-                .filter(|c| t.cell(r, c) != t.cell(first, c))
-                .collect();
-            if let Some(c) = differ.first() {
-                return Err(Error::Config(format!(
-                    "--x {x}: rows of one series differ in {c:?} at the same x ({x} = {}: {c} = {} and {}), which would draw a zigzag; add --series {c}, --facet {c} or --where {c}=VALUE",
-                    t.cell(r, x),
-                    t.cell(first, c),
-                    t.cell(r, c)
-                )));
-            }
-        } else {
-            at.insert(k, r);
-        }
-    }
+    let (series, facet) = series_and_facet(t, &rows, &varying, spec);
+    check_zigzag(t, &rows, &series, facet.as_deref(), &varying, x)?;
     let base = metric.strip_suffix("_mean");
     let band_cols = base.map(|b| (format!("{b}_p25"), format!("{b}_p75")));
     let band_cols = band_cols.filter(|(lo, hi)| t.col(lo).is_some() && t.col(hi).is_some());
@@ -748,45 +708,21 @@ pub fn plot_column(
             facets.len()
         )));
     }
-    let mut panels = Vec::new();
-    for fv in &facets {
-        let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        let mut bands = Bands::new();
-        for &r in &rows {
-            if let (Some(c), Some(v)) = (&facet, fv) {
-                if t.cell(r, c) != v {
-                    continue;
-                }
-            }
-            let label = if series.is_empty() {
-                words(metric)
-            } else {
-                (series.iter())
-                    .map(|g| format!("{} = {}", words(g), t.cell(r, g)))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+    let panels: Vec<Panel> = (facets.iter())
+        .map(|fv| {
+            let keep: Vec<usize> = (rows.iter().copied())
+                .filter(|&r| match (&facet, fv) {
+                    (Some(c), Some(v)) => t.cell(r, c) == v,
+                    _ => true,
+                })
+                .collect();
+            let title = match (&facet, fv) {
+                (Some(c), Some(v)) => format!("{} = {v}", words(c)),
+                _ => String::new(),
             };
-            let xv = t.num(r, x);
-            by.entry(label.clone())
-                .or_default()
-                .push((xv, t.num(r, metric)));
-            if let Some((lo, hi)) = &band_cols {
-                let (l, h) = (t.num(r, lo), t.num(r, hi));
-                if l.is_finite() && h.is_finite() {
-                    bands.entry(label).or_default().push((xv, l, h));
-                }
-            }
-        }
-        let title = match (&facet, fv) {
-            (Some(c), Some(v)) => format!("{} = {v}", words(c)),
-            _ => String::new(),
-        };
-        panels.push(Panel {
-            title,
-            series: by,
-            bands,
-        });
-    }
+            panel_of(t, &keep, &series, spec, band_cols.as_ref(), title)
+        })
+        .collect();
     let mut title = spec.title.map_or_else(
         || format!("{} against {}", words(metric), words(x)),
         str::to_string,
@@ -814,6 +750,169 @@ pub fn plot_column(
         spec.log_y,
         spec.log_x,
     )
+}
+
+/// Every column a plot names exists, or an error naming it and listing the columns.
+fn check_columns(dir: &Path, t: &Table, spec: &PlotSpec) -> Result<(), Error> {
+    let named = [spec.metric, spec.x]
+        .into_iter()
+        .chain(spec.series.iter().map(String::as_str))
+        .chain(spec.facet)
+        .chain(spec.filters.iter().map(|(k, _)| k.as_str()));
+    for c in named {
+        if t.col(c).is_none() {
+            return Err(Error::Config(format!(
+                "{c:?} is not a column of {} (columns: {})",
+                dir.join("runs.csv").display(),
+                t.columns.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The rows a plot draws: those passing its `--where` filters (cells equal as text or as
+/// numbers) with numbers in both the metric and x; an error saying which when none.
+fn plot_rows(t: &Table, spec: &PlotSpec) -> Result<Vec<usize>, Error> {
+    let (metric, x) = (spec.metric, spec.x);
+    let same = |cell: &str, want: &str| {
+        cell == want
+            || matches!((cell.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
+    };
+    let rows: Vec<usize> = (0..t.rows.len())
+        .filter(|&r| spec.filters.iter().all(|(k, v)| same(t.cell(r, k), v)))
+        .filter(|&r| t.num(r, x).is_finite() && t.num(r, metric).is_finite())
+        .collect();
+    if !rows.is_empty() {
+        return Ok(rows);
+    }
+    let filters: Vec<String> = (spec.filters.iter())
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    Err(Error::Config(if filters.is_empty() {
+        format!("no row has numbers in both {metric:?} and {x:?}")
+    } else {
+        format!(
+            "no row matches --where {} with numbers in both {metric:?} and {x:?}",
+            filters.join(" --where ")
+        )
+    }))
+}
+
+/// Series and facet: as asked, or every other varying key, faceted (by the radius where it
+/// varies, else the key with the most values that fits) when the series would be too many.
+fn series_and_facet(
+    t: &Table,
+    rows: &[usize],
+    varying: &[String],
+    spec: &PlotSpec,
+) -> (Vec<String>, Option<String>) {
+    let distinct = |c: &str| t.distinct_in(rows.iter().copied(), c);
+    let mut facet = spec.facet.map(str::to_string);
+    let mut series: Vec<String> = if spec.series.is_empty() {
+        (varying.iter())
+            .filter(|c| *c != spec.x && *c != spec.metric && Some(c.as_str()) != spec.facet)
+            .cloned()
+            .collect()
+    } else {
+        spec.series.to_vec()
+    };
+    let combos = |cols: &[String]| -> usize {
+        let mut seen: Vec<Vec<&str>> = rows
+            .iter()
+            .map(|&r| cols.iter().map(|c| t.cell(r, c)).collect())
+            .collect();
+        seen.sort();
+        seen.dedup();
+        seen.len()
+    };
+    if spec.series.is_empty() && facet.is_none() && combos(&series) > MAX_SERIES_PER_PANEL {
+        let pick = (series.iter())
+            .filter(|c| distinct(c).len() <= MAX_PANELS)
+            .max_by_key(|c| (c.as_str() == "radius", distinct(c).len()))
+            .cloned();
+        if let Some(f) = pick {
+            series.retain(|c| *c != f);
+            facet = Some(f);
+        }
+    }
+    (series, facet)
+}
+
+/// A key that varies within one series and panel at one x makes a zigzag: refused, naming it.
+fn check_zigzag(
+    t: &Table,
+    rows: &[usize],
+    series: &[String],
+    facet: Option<&str>,
+    varying: &[String],
+    x: &str,
+) -> Result<(), Error> {
+    let mut at: BTreeMap<(String, String, String), usize> = BTreeMap::new();
+    for &r in rows {
+        let label: Vec<&str> = series.iter().map(|c| t.cell(r, c)).collect();
+        let f = facet.map_or("", |c| t.cell(r, c));
+        let k = (
+            f.to_string(),
+            label.join("\u{1f}"),
+            t.cell(r, x).to_string(),
+        );
+        if let Some(&first) = at.get(&k) {
+            let differ: Vec<&String> = (varying.iter())
+                .filter(|c| t.cell(r, c) != t.cell(first, c))
+                .collect();
+            if let Some(c) = differ.first() {
+                return Err(Error::Config(format!(
+                    "--x {x}: rows of one series differ in {c:?} at the same x ({x} = {}: {c} = {} and {}), which would draw a zigzag; add --series {c}, --facet {c} or --where {c}=VALUE",
+                    t.cell(r, x),
+                    t.cell(first, c),
+                    t.cell(r, c)
+                )));
+            }
+        } else {
+            at.insert(k, r);
+        }
+    }
+    Ok(())
+}
+
+/// One panel of `rows`: a line per series label, and the interquartile band where the table
+/// has the metric's `_p25`/`_p75` columns.
+fn panel_of(
+    t: &Table,
+    rows: &[usize],
+    series: &[String],
+    spec: &PlotSpec,
+    band_cols: Option<&(String, String)>,
+    title: String,
+) -> Panel {
+    let mut by: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut bands = Bands::new();
+    for &r in rows {
+        let label = if series.is_empty() {
+            words(spec.metric)
+        } else {
+            (series.iter())
+                .map(|g| format!("{} = {}", words(g), t.cell(r, g)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let xv = t.num(r, spec.x);
+        by.entry(label.clone())
+            .or_default()
+            .push((xv, t.num(r, spec.metric)));
+        if let Some((lo, hi)) = band_cols {
+            let (l, h) = (t.num(r, lo), t.num(r, hi));
+            if l.is_finite() && h.is_finite() {
+                bands.entry(label).or_default().push((xv, l, h));
+            }
+        }
+    }
+    Panel {
+        title,
+        series: by,
+        bands,
+    }
 }
 
 /// One panel of a heat map: its title and the value of each (x, y) cell, `None` where no row
@@ -847,18 +946,7 @@ pub fn write_heatmap(
             ys.len()
         )));
     }
-    let values: Vec<f64> = (panels.iter())
-        .flat_map(|p| p.cells.iter().flatten().flatten().copied())
-        .filter(|v| drawable(*v))
-        .collect();
-    let (lo, hi) = values
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-    let (lo, hi) = if hi > lo {
-        (lo, hi)
-    } else {
-        (lo - 0.5, lo + 0.5)
-    };
+    let (lo, hi) = heat_range(panels);
     let cols = panels.len().min(3);
     let rows = panels.len().div_ceil(cols);
     let size = ((cols * 560) as u32, (rows * 440 + 40) as u32);
@@ -866,86 +954,8 @@ pub fn write_heatmap(
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
-    fn one<DB: DrawingBackend>(
-        area: DrawingArea<DB, plotters::coord::Shift>,
-        title: &str,
-        (x_name, xs): (&str, &[String]),
-        (y_name, ys): (&str, &[String]),
-        panels: &[HeatPanel],
-        (rows, cols, lo, hi): (usize, usize, f64, f64),
-    ) -> Result<(), String>
-    where
-        DB::ErrorType: 'static,
-    {
-        let e = |x: &dyn std::fmt::Display| x.to_string();
-        area.fill(&WHITE).map_err(|x| e(&x))?;
-        let area = area.titled(title, ("sans-serif", 20)).map_err(|x| e(&x))?;
-        for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
-            let mut chart = ChartBuilder::on(cell)
-                .caption(&p.title, ("sans-serif", 16))
-                .margin(10)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(0f64..xs.len() as f64, 0f64..ys.len() as f64)
-                .map_err(|x| e(&x))?;
-            let label = |names: &[String], v: f64| {
-                let i = (v - 0.5).round();
-                if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
-                    names.get(i as usize).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            };
-            chart
-                .configure_mesh()
-                .disable_mesh()
-                .x_desc(x_name)
-                .y_desc(y_name)
-                .x_labels(2 * xs.len() + 1)
-                .y_labels(2 * ys.len() + 1)
-                .x_label_formatter(&|v| label(xs, *v))
-                .y_label_formatter(&|v| label(ys, *v))
-                .label_style(("sans-serif", 13))
-                .draw()
-                .map_err(|x| e(&x))?;
-            for (j, row) in p.cells.iter().enumerate() {
-                for (i, v) in row.iter().enumerate() {
-                    let (x, y) = (i as f64, j as f64);
-                    let colour = match v {
-                        Some(v) if drawable(*v) => crate::figure::ColourMap::Heat
-                            .at((v - lo) / (hi - lo))
-                            .to_rgba(),
-                        _ => RGBColor(200, 200, 200).to_rgba(),
-                    };
-                    chart
-                        .draw_series(std::iter::once(Rectangle::new(
-                            [(x, y), (x + 1.0, y + 1.0)],
-                            colour.filled(),
-                        )))
-                        .map_err(|x| e(&x))?;
-                    let text = v.map_or("—".to_string(), |v| format!("{v:.3}"));
-                    // Dark text on the light end of the map, light text on the dark end.
-                    let light = v.is_some_and(|v| (v - lo) / (hi - lo) > 0.55);
-                    let ink = if light { BLACK } else { WHITE };
-                    chart
-                        .draw_series(std::iter::once(Text::new(
-                            text,
-                            (x + 0.5, y + 0.5),
-                            ("sans-serif", 13).into_font().color(&ink).pos(
-                                plotters::style::text_anchor::Pos::new(
-                                    plotters::style::text_anchor::HPos::Center,
-                                    plotters::style::text_anchor::VPos::Center,
-                                ),
-                            ),
-                        )))
-                        .map_err(|x| e(&x))?;
-                }
-            }
-        }
-        area.present().map_err(|x| e(&x))
-    }
     let shape = (rows, cols, lo, hi);
-    one(
+    heat_figure(
         BitMapBackend::new(&tmp_png, size).into_drawing_area(),
         title,
         (x_name, xs),
@@ -954,7 +964,7 @@ pub fn write_heatmap(
         shape,
     )
     .map_err(|x| err(&png, x))?;
-    one(
+    heat_figure(
         SVGBackend::new(&tmp_svg, size).into_drawing_area(),
         title,
         (x_name, xs),
@@ -966,6 +976,113 @@ pub fn write_heatmap(
     finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
+}
+
+/// The colour range of heat-map panels: the drawable values' extremes, widened to a unit range
+/// about a single value.
+fn heat_range(panels: &[HeatPanel]) -> (f64, f64) {
+    let (lo, hi) = (panels.iter())
+        .flat_map(|p| p.cells.iter().flatten().flatten().copied())
+        .filter(|v| drawable(*v))
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    if hi > lo {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
+    }
+}
+
+/// The heat-map figure on one backend: the title, then `rows × cols` panels of labelled cells.
+fn heat_figure<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    (x_name, xs): (&str, &[String]),
+    (y_name, ys): (&str, &[String]),
+    panels: &[HeatPanel],
+    (rows, cols, lo, hi): (usize, usize, f64, f64),
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    area.fill(&WHITE).map_err(|x| e(&x))?;
+    let area = area.titled(title, ("sans-serif", 20)).map_err(|x| e(&x))?;
+    for (cell, p) in area.split_evenly((rows, cols)).iter().zip(panels) {
+        let mut chart = ChartBuilder::on(cell)
+            .caption(&p.title, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..xs.len() as f64, 0f64..ys.len() as f64)
+            .map_err(|x| e(&x))?;
+        let label = |names: &[String], v: f64| {
+            let i = (v - 0.5).round();
+            if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(x_name)
+            .y_desc(y_name)
+            .x_labels(2 * xs.len() + 1)
+            .y_labels(2 * ys.len() + 1)
+            .x_label_formatter(&|v| label(xs, *v))
+            .y_label_formatter(&|v| label(ys, *v))
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|x| e(&x))?;
+        for (j, row) in p.cells.iter().enumerate() {
+            for (i, v) in row.iter().enumerate() {
+                heat_cell(&mut chart, (i as f64, j as f64), *v, (lo, hi))?;
+            }
+        }
+    }
+    area.present().map_err(|x| e(&x))
+}
+
+/// One heat-map cell at `(x, y)`: its colour on the heat scale over `(lo, hi)` (grey without a
+/// value) and its value written in it, dark on the light end of the map, light on the dark end.
+fn heat_cell<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    (x, y): (f64, f64),
+    v: Option<f64>,
+    (lo, hi): (f64, f64),
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let colour = match v {
+        Some(v) if drawable(v) => crate::figure::ColourMap::Heat
+            .at((v - lo) / (hi - lo))
+            .to_rgba(),
+        _ => RGBColor(200, 200, 200).to_rgba(),
+    };
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x, y), (x + 1.0, y + 1.0)],
+            colour.filled(),
+        )))
+        .map_err(|x| e(&x))?;
+    let text = v.map_or("—".to_string(), |v| format!("{v:.3}"));
+    let light = v.is_some_and(|v| (v - lo) / (hi - lo) > 0.55);
+    let ink = if light { BLACK } else { WHITE };
+    let centred = plotters::style::text_anchor::Pos::new(
+        plotters::style::text_anchor::HPos::Center,
+        plotters::style::text_anchor::VPos::Center,
+    );
+    chart
+        .draw_series(std::iter::once(Text::new(
+            text,
+            (x + 0.5, y + 0.5),
+            ("sans-serif", 13).into_font().color(&ink).pos(centred),
+        )))
+        .map_err(|x| e(&x))?;
+    Ok(())
 }
 
 /// A column name as part of a file name: letters, digits, `_`, `-` and `.` kept, anything else
