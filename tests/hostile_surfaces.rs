@@ -457,8 +457,8 @@ const CASES: &[(&str, &str)] = &[
         "--reference extrapolated",
     ),
     (
-        "render|--scene|scene.toml|--out|o/x.exr|--reference|full-field",
-        "--reference full-field",
+        "render|--scene|scene.toml|--out|o/x.exr|--reference|full_field",
+        "--reference full_field",
     ),
 ];
 

@@ -107,29 +107,7 @@ pub fn regenerate(
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<PathBuf>, Error> {
     let io = |p: &Path, e: std::io::Error| Error::io(p, e);
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(configs)
-        .map_err(|e| io(configs, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    paths.sort();
-    if paths.is_empty() {
-        return Err(Error::config(format!(
-            "{}: no *.toml figure configs",
-            configs.display()
-        )));
-    }
-    let registry = registry();
-    // Resolve every config before any work: a bad one fails the command with nothing written.
-    let mut plans = Vec::new();
-    for p in &paths {
-        let mut plan = Plan::load(p, &Overrides::default(), &registry)?;
-        if let Some(g) = gpu {
-            plan.gpu = g;
-        }
-        plan.check_limits(false)?;
-        plans.push(plan);
-    }
+    let (paths, plans) = figure_plans(configs, gpu)?;
     // Every figure goes to a staging folder first and moves into `out` only when all succeeded:
     // a failing figure (or a bad `--runs`) creates and changes nothing there.
     let staging = shscale_runner::Staging::new(out)?;
@@ -179,6 +157,35 @@ Zhou et al., *Shadow Fields for Deformable Objects*, MSR-TR-2005-96 (\"TR\").\n\
     shscale_runner::write_atomic(&readme, &index)?;
     all.push(readme);
     Ok(staging.commit(&all)?)
+}
+
+/// The figure configs of a folder (`*.toml`, sorted) and their plans, every one resolved and
+/// checked against the limits before any work: a bad one fails the command with nothing
+/// written.
+fn figure_plans(configs: &Path, gpu: Option<GpuMode>) -> Result<(Vec<PathBuf>, Vec<Plan>), Error> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(configs)
+        .map_err(|e| Error::io(configs, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        return Err(Error::config(format!(
+            "{}: no *.toml figure configs",
+            configs.display()
+        )));
+    }
+    let registry = registry();
+    let mut plans = Vec::new();
+    for p in &paths {
+        let mut plan = Plan::load(p, &Overrides::default(), &registry)?;
+        if let Some(g) = gpu {
+            plan.gpu = g;
+        }
+        plan.check_limits(false)?;
+        plans.push(plan);
+    }
+    Ok((paths, plans))
 }
 
 /// A figure's section of `paper-figs/README.md`: its title, config, the paper's claim, our

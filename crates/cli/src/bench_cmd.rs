@@ -185,20 +185,7 @@ fn kernel(k: BenchKernel) -> anyhow::Result<ExitCode> {
 /// of the largest one's shards), or of one config against its runs' own work.
 fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     use shscale_runner::bench::{self, TALLY};
-    use shscale_runner::config::MAX_COMBINATIONS;
-    let sizes: Vec<usize> = match &a.config {
-        Some(_) => Vec::new(),
-        None => crate::args::parse_list("runs", &a.runs)?
-            .into_iter()
-            .map(|v| {
-                let n = v as usize;
-                if v.fract() != 0.0 || v < 1.0 {
-                    anyhow::bail!("--runs: {v} is not a whole number ≥ 1");
-                }
-                flags::int("--runs", n, 1, MAX_COMBINATIONS)
-            })
-            .collect::<anyhow::Result<_>>()?,
-    };
+    let sizes = runner_sizes(a)?;
     flags::int("--shards", a.shards, 0, 100_000)?;
     let root = a.out_dir.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()))
@@ -254,9 +241,38 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
         }))?;
         return Ok(());
     }
+    print_runner_table(a.config.is_some(), &sweeps, merge.as_ref());
+    Ok(())
+}
+
+/// The plan sizes of `bench runner` (`--runs`, each a whole number in 1..=MAX_COMBINATIONS);
+/// none with `--config`.
+fn runner_sizes(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<Vec<usize>> {
+    use shscale_runner::config::MAX_COMBINATIONS;
+    if a.config.is_some() {
+        return Ok(Vec::new());
+    }
+    crate::args::parse_list("runs", &a.runs)?
+        .into_iter()
+        .map(|v| {
+            let n = v as usize;
+            if v.fract() != 0.0 || v < 1.0 {
+                anyhow::bail!("--runs: {v} is not a whole number ≥ 1");
+            }
+            flags::int("--runs", n, 1, MAX_COMBINATIONS)
+        })
+        .collect()
+}
+
+/// `bench runner`'s table: a line per sweep, then the merge of the shards.
+fn print_runner_table(
+    config: bool,
+    sweeps: &[shscale_runner::bench::SweepCost],
+    merge: Option<&shscale_runner::bench::MergeCost>,
+) {
     println!(
         "runner bookkeeping — {}, {} rayon threads; seconds of wall time",
-        if a.config.is_some() {
+        if config {
             "the config's sweep"
         } else {
             "a kind that does no work"
@@ -266,7 +282,7 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     println!();
     println!("| runs | plan | run | runs' work | report | total / work | overhead per run | resume (nothing to do) | runs.csv | report.html | peak RSS |");
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for s in &sweeps {
+    for s in sweeps {
         println!(
             "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} µs | {:.3} | {:.1} MB | {:.0} kB | {:.0} MB |",
             s.runs,
@@ -289,7 +305,6 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
             m.shards, m.rows, m.merge_s, m.report_s
         );
     }
-    Ok(())
 }
 
 /// `bench estimates`: each config's `--dry-run` estimate against its measured wall time from

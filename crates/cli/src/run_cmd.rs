@@ -61,28 +61,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let progress = RunProgress::new(json);
-    {
-        let dir = runner::plan::plan_dir(&plan, &a.out_dir);
-        let csv = match shard {
-            Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
-            None => dir.join("runs.csv"),
-        };
-        let plain = |a: &str| {
-            !a.is_empty()
-                && a.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "_./=:,+-@%".contains(c))
-        };
-        let resume: Vec<String> = std::env::args()
-            .map(|a| {
-                if plain(&a) {
-                    a
-                } else {
-                    runner::shell_quote(&a)
-                }
-            })
-            .collect();
-        crate::interrupt::explain_on_interrupt(&csv, &resume.join(" "));
-    }
+    explain_interrupts(&plan, &a.out_dir, shard);
     let s = run_plan(&plan, &a.out_dir, shard, &|ev| progress.on(ev))?;
     progress.finish();
     if !json {
@@ -124,6 +103,31 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// On Ctrl-C, say what was kept (the CSV this run appends to) and the command that resumes it
+/// (this one, every argument that needs it shell-quoted).
+fn explain_interrupts(plan: &Plan, out_dir: &std::path::Path, shard: Option<(usize, usize)>) {
+    let dir = runner::plan::plan_dir(plan, out_dir);
+    let csv = match shard {
+        Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
+        None => dir.join("runs.csv"),
+    };
+    let plain = |a: &str| {
+        !a.is_empty()
+            && a.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_./=:,+-@%".contains(c))
+    };
+    let resume: Vec<String> = std::env::args()
+        .map(|a| {
+            if plain(&a) {
+                a
+            } else {
+                runner::shell_quote(&a)
+            }
+        })
+        .collect();
+    crate::interrupt::explain_on_interrupt(&csv, &resume.join(" "));
 }
 
 /// A progress bar with ETA over the pending runs (drawn on stderr only when it is a terminal);

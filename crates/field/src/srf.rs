@@ -87,14 +87,7 @@ pub fn compare(
     let truth_sampler =
         crate::truth::TruthSampler::new(order, truth_res, crate::truth::DEFAULT_TRUTH_SEED)?;
     let bsv = radiance_bsv(e, layout, &sampler, inflate)?;
-    let (kmin, kmax) = radii.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
-        (a.min(r / inflate), b.max(r / inflate))
-    });
-    let (kmin, kmax) = if kmax / kmin < 1.0 + 1e-9 {
-        (kmin / 2.0, kmax * 2.0)
-    } else {
-        (kmin, kmax)
-    };
+    let (kmin, kmax) = srf_k_range(radii, inflate);
     let table = |eta| {
         KTable::build(
             TauFamily::Cone { alpha },
@@ -157,6 +150,19 @@ pub fn compare(
         });
     }
     Ok(rows)
+}
+
+/// The k range of the source radiance tables: the radii over the sampling radius, doubled both
+/// ways when they span no range (one radius).
+fn srf_k_range(radii: &[f64], inflate: f64) -> (f64, f64) {
+    let (kmin, kmax) = radii.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+        (a.min(r / inflate), b.max(r / inflate))
+    });
+    if kmax / kmin < 1.0 + 1e-9 {
+        (kmin / 2.0, kmax * 2.0)
+    } else {
+        (kmin, kmax)
+    }
 }
 
 /// The papers' deformable light: a red and a green planar emitter (squares of side `size`) joined

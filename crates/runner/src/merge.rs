@@ -65,8 +65,6 @@ pub fn merge(
     }
     let kind = kind_of(first, &files[0], registry)?;
     let kind_name = kind.name().to_string();
-    let mut seen: HashSet<String> = HashSet::new();
-    let mut rows = Vec::new();
     let mut manifest = Manifest {
         experiment: kind_name.clone(),
         name: first
@@ -79,32 +77,7 @@ pub fn merge(
     if !opts.allow_mixed {
         one_version(&manifest)?;
     }
-    let want = header(kind);
-    let revision_at = want.iter().position(|c| c == "git_revision");
-    let dirty_at = want.iter().position(|c| c == "git_dirty");
-    let mut revision: Option<(String, PathBuf)> = None;
-    for f in &files {
-        let l = load_rows(kind, f)?;
-        if let Some((line, why, _)) = l.rejected.first() {
-            return Err(Error::Io {
-                path: format!("{}:{line}", f.display()),
-                reason: format!("{why}; nothing merged"),
-            });
-        }
-        if !opts.allow_mixed {
-            if let (Some(ri), Some(di)) = (revision_at, dirty_at) {
-                one_revision(&l.rows, ri, di, f, &mut revision)?;
-            }
-        }
-        let mut ids_here = HashSet::new();
-        for r in l.rows {
-            if !seen.contains(&r[0]) {
-                ids_here.insert(r[0].clone());
-                rows.push(r);
-            }
-        }
-        seen.extend(ids_here);
-    }
+    let (seen, rows) = union_rows(kind, &files, opts)?;
     // The plan is known: every shard of an `N`-way split, and every run of a one-version plan.
     manifest.missing = missing_shards(&files);
     if let [v] = manifest.versions.as_slice() {
@@ -136,6 +109,45 @@ pub fn merge(
         rows: rows.len(),
         kind,
     })
+}
+
+/// The rows of every shard file, each run's first (a run in two files is kept once), and the
+/// run ids seen; a file with an invalid row, or (unless `allow_mixed`) rows of two revisions,
+/// refused.
+fn union_rows(
+    kind: &dyn DynKind,
+    files: &[PathBuf],
+    opts: MergeOptions,
+) -> Result<(HashSet<String>, Vec<Vec<String>>), Error> {
+    let want = header(kind);
+    let revision_at = want.iter().position(|c| c == "git_revision");
+    let dirty_at = want.iter().position(|c| c == "git_dirty");
+    let mut revision: Option<(String, PathBuf)> = None;
+    let mut seen: HashSet<String> = HashSet::new();
+    let mut rows = Vec::new();
+    for f in files {
+        let l = load_rows(kind, f)?;
+        if let Some((line, why, _)) = l.rejected.first() {
+            return Err(Error::Io {
+                path: format!("{}:{line}", f.display()),
+                reason: format!("{why}; nothing merged"),
+            });
+        }
+        if !opts.allow_mixed {
+            if let (Some(ri), Some(di)) = (revision_at, dirty_at) {
+                one_revision(&l.rows, ri, di, f, &mut revision)?;
+            }
+        }
+        let mut ids_here = HashSet::new();
+        for r in l.rows {
+            if !seen.contains(&r[0]) {
+                ids_here.insert(r[0].clone());
+                rows.push(r);
+            }
+        }
+        seen.extend(ids_here);
+    }
+    Ok((seen, rows))
 }
 
 /// The united manifest holds one config version, else an error naming two of them.

@@ -221,13 +221,6 @@ where
     DB::ErrorType: 'static,
 {
     let ax = Axes::of_xy(&ranged(series, bands, xbars), log, log_x)?;
-    let desc = |label: &str, log: bool| {
-        if log {
-            format!("{label} — log scale")
-        } else {
-            label.to_string()
-        }
-    };
     // The legend goes right of the data, in a margin as wide as its longest entry (at most 40 %
     // of the panel): it never covers a point.
     let (area_w, _) = area.dim_in_pixel();
@@ -247,8 +240,8 @@ where
     let (x_fmt, y_fmt) = (|v: &f64| ax.tick(*v, true), |v: &f64| ax.tick(*v, false));
     chart
         .configure_mesh()
-        .x_desc(desc(labels.x, ax.log_x))
-        .y_desc(desc(labels.y, ax.log_y))
+        .x_desc(axis_desc(labels.x, ax.log_x))
+        .y_desc(axis_desc(labels.y, ax.log_y))
         .x_labels(ax.x_ticks)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
@@ -285,6 +278,15 @@ where
     let names: Vec<&str> = series.keys().map(String::as_str).collect();
     draw_legend(area, at, legend_w, &names, scatter_only, !front.is_empty())
     // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
+}
+
+/// An axis's description, saying when it is drawn on a log scale.
+fn axis_desc(label: &str, log: bool) -> String {
+    if log {
+        format!("{label} — log scale")
+    } else {
+        label.to_string()
+    }
 }
 
 /// The points that set a panel's ranges: the series, the bands' ends (a band is never clipped)

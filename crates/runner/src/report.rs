@@ -55,50 +55,6 @@ pub fn markdown_to_html(md: &str) -> String {
     let mut para: Vec<&str> = Vec::new();
     let mut table: Vec<Vec<String>> = Vec::new();
     let mut fence: Option<Vec<&str>> = None;
-    // A paragraph, or a list when its lines start with "- " (each such line an item; other
-    // lines continue the item before them).
-    let flush_para = |para: &mut Vec<&str>, html: &mut String| {
-        if para.is_empty() {
-            return;
-        }
-        if para[0].starts_with("- ") {
-            let mut items: Vec<String> = Vec::new();
-            for l in para.iter() {
-                match l.strip_prefix("- ") {
-                    Some(item) => items.push(item.to_string()),
-                    None => {
-                        if let Some(last) = items.last_mut() {
-                            last.push(' ');
-                            last.push_str(l);
-                        }
-                    }
-                }
-            }
-            html.push_str("<ul>\n");
-            for i in items {
-                html.push_str(&format!("<li>{}</li>\n", inline(&i)));
-            }
-            html.push_str("</ul>\n");
-        } else {
-            html.push_str(&format!("<p>{}</p>\n", inline(&para.join(" "))));
-        }
-        para.clear();
-    };
-    let flush_table = |table: &mut Vec<Vec<String>>, html: &mut String| {
-        if !table.is_empty() {
-            html.push_str("<table>\n");
-            for (i, row) in table.iter().enumerate() {
-                let tag = if i == 0 { "th" } else { "td" };
-                html.push_str("<tr>");
-                for c in row {
-                    html.push_str(&format!("<{tag}>{}</{tag}>", inline(c)));
-                }
-                html.push_str("</tr>\n");
-            }
-            html.push_str("</table>\n");
-            table.clear();
-        }
-    };
     for line in md.lines() {
         if let Some(block) = fence.as_mut() {
             if line.starts_with("```") {
@@ -147,6 +103,54 @@ pub fn markdown_to_html(md: &str) -> String {
         html.push_str(&format!("<pre>{}</pre>\n", esc(&block.join("\n"))));
     }
     html
+}
+
+/// A paragraph of [`markdown_to_html`] into `html`, or a list when its lines start with "- "
+/// (each such line an item; other lines continue the item before them); `para` emptied.
+fn flush_para(para: &mut Vec<&str>, html: &mut String) {
+    if para.is_empty() {
+        return;
+    }
+    if para[0].starts_with("- ") {
+        let mut items: Vec<String> = Vec::new();
+        for l in para.iter() {
+            match l.strip_prefix("- ") {
+                Some(item) => items.push(item.to_string()),
+                None => {
+                    if let Some(last) = items.last_mut() {
+                        last.push(' ');
+                        last.push_str(l);
+                    }
+                }
+            }
+        }
+        html.push_str("<ul>\n");
+        for i in items {
+            html.push_str(&format!("<li>{}</li>\n", inline(&i)));
+        }
+        html.push_str("</ul>\n");
+    } else {
+        html.push_str(&format!("<p>{}</p>\n", inline(&para.join(" "))));
+    }
+    para.clear();
+}
+
+/// A table of [`markdown_to_html`] into `html` (the first row the header); `table` emptied.
+fn flush_table(table: &mut Vec<Vec<String>>, html: &mut String) {
+    if table.is_empty() {
+        return;
+    }
+    html.push_str("<table>\n");
+    for (i, row) in table.iter().enumerate() {
+        let tag = if i == 0 { "th" } else { "td" };
+        html.push_str("<tr>");
+        for c in row {
+            html.push_str(&format!("<{tag}>{}</{tag}>", inline(c)));
+        }
+        html.push_str("</tr>\n");
+    }
+    html.push_str("</table>\n");
+    table.clear();
 }
 
 /// The caption of a plot: the title plotters drew first in its SVG (its first `<text>`).
@@ -344,32 +348,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         Results::read(&a.join("runs.csv"))?,
         Results::read(&b.join("runs.csv"))?,
     );
-    // A side without rows has nothing to compare (its fixed parameters would read as blanks).
-    for (t, dir, side) in [(&ta, a, "A"), (&tb, b, "B")] {
-        if t.rows.is_empty() {
-            return Err(Error::Io {
-                path: dir.join("runs.csv").display().to_string(),
-                reason: format!("compare: {side} holds no rows (runs.csv is its header alone)"),
-            });
-        }
-    }
-    // A headline metric column on one side only is an error naming it, never a column of "—".
-    // (A metric present on both sides but without a number on one — e.g. no on-surface samples —
-    // is a result, shown as "—".)
-    for metric in kind.summary_columns() {
-        let sides = [(&ta, a, "A"), (&tb, b, "B")];
-        let has = sides.map(|(t, _, _)| t.col(metric).is_some());
-        for (i, (_, dir, side)) in sides.iter().enumerate() {
-            if has[1 - i] && !has[i] {
-                return Err(Error::Io {
-                    path: dir.join("runs.csv").display().to_string(),
-                    reason: format!(
-                        "compare: {side} has no column {metric:?}, which the other has"
-                    ),
-                });
-            }
-        }
-    }
+    check_comparable(kind, (a, &ta), (b, &tb))?;
     let m = Matching::of(kind, &ta, &tb);
     let (ma, mb) = (m.means(&ta), m.means(&tb));
     let mut md = m.header_md(kind, (a, &ta), (b, &tb));
@@ -406,6 +385,57 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
     ));
     // Everything goes to a staging folder first: a comparison that fails creates nothing.
     let staging = crate::atomic::Staging::new(out)?;
+    let mut files = compare_plots(staging.path(), &m, &plots)?;
+    let p = staging.path().join("compare.md");
+    write_atomic(&p, &md)?;
+    files.insert(0, p);
+    let files = staging.commit(&files)?;
+    Ok(Comparison {
+        markdown: md,
+        files,
+    })
+}
+
+/// Two sides that can be compared: each holds rows (a side without rows would read its fixed
+/// parameters as blanks), and a headline metric column is on both or neither — never a column
+/// of "—" (a metric on both sides without a number on one, e.g. no on-surface samples, is a
+/// result, shown as "—").
+fn check_comparable(
+    kind: &dyn DynKind,
+    (a, ta): (&Path, &Results),
+    (b, tb): (&Path, &Results),
+) -> Result<(), Error> {
+    let sides = [(ta, a, "A"), (tb, b, "B")];
+    for (t, dir, side) in sides {
+        if t.rows.is_empty() {
+            return Err(Error::Io {
+                path: dir.join("runs.csv").display().to_string(),
+                reason: format!("compare: {side} holds no rows (runs.csv is its header alone)"),
+            });
+        }
+    }
+    for metric in kind.summary_columns() {
+        let has = sides.map(|(t, _, _)| t.col(metric).is_some());
+        for (i, (_, dir, side)) in sides.iter().enumerate() {
+            if has[1 - i] && !has[i] {
+                return Err(Error::Io {
+                    path: dir.join("runs.csv").display().to_string(),
+                    reason: format!(
+                        "compare: {side} has no column {metric:?}, which the other has"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A plot per metric of the matched rows, A against B over the first key, into `dir`.
+fn compare_plots(
+    dir: &Path,
+    m: &Matching,
+    plots: &[BTreeMap<String, Vec<(f64, f64)>>],
+) -> Result<Vec<PathBuf>, Error> {
     let mut files = Vec::new();
     for (i, c) in m.metrics.iter().enumerate() {
         if plots[i].is_empty() || m.keys.is_empty() {
@@ -420,7 +450,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         };
         let stem = format!("compare_{c}");
         files.extend(crate::plots::write_both(
-            staging.path(),
+            dir,
             &stem,
             &labels,
             &plots[i],
@@ -428,14 +458,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
             &[],
         )?);
     }
-    let p = staging.path().join("compare.md");
-    write_atomic(&p, &md)?;
-    files.insert(0, p);
-    let files = staging.commit(&files)?;
-    Ok(Comparison {
-        markdown: md,
-        files,
-    })
+    Ok(files)
 }
 
 /// The last component of a directory, for series names.
@@ -616,44 +639,7 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         s.push_str(&best_table(&t, &varying, key, metric));
     }
     s.push_str(&format!("\n{EVERY_RUN}\n\n"));
-    let mut cols: Vec<String> = std::iter::once("run_id".to_string())
-        .chain(varying.iter().cloned())
-        .collect();
-    // A headline column empty in every row (e.g. the on-surface error of a run without
-    // on-surface samples) is left out, and the table says which.
-    let mut empty = Vec::new();
-    for c in kind.summary_columns() {
-        if cols.iter().any(|x| x == c) {
-            continue;
-        }
-        if t.col(c).is_some()
-            && (0..t.rows.len()).all(|r| t.cell(r, c).is_empty())
-            && !t.rows.is_empty()
-        {
-            empty.push(format!("`{c}`"));
-        } else {
-            cols.push(c.to_string());
-        }
-    }
-    if !empty.is_empty() {
-        s.push_str(&format!(
-            "Left out of the table, empty in every row: {}.\n\n",
-            empty.join(", ")
-        ));
-    }
-    if t.rows.len() <= MAX_LISTED_ROWS {
-        s.push_str(&row_table(&t, &cols));
-    } else {
-        s.push_str(&distribution_tables(&t, &varying, kind.summary_columns()));
-    }
-    let concurrent = (0..t.rows.len())
-        .filter(|&r| t.cell(r, "timing_concurrent") == "true")
-        .count();
-    if concurrent > 0 {
-        s.push_str(&format!(
-            "\n{concurrent} row(s) were timed while other runs executed (`timing_concurrent`): their times are not comparable and are left out of speed plots.\n"
-        ));
-    }
+    s.push_str(&every_run(kind, &t, &varying));
     // The kind's figures first (each written as a unit); the texts that describe them — summary,
     // discussion, report.md and report.html — only when every figure succeeded, together.
     let figures = kind.report(dir, &t)?;
@@ -677,6 +663,51 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
         discussion,
         files,
     })
+}
+
+/// The per-run section of a summary: every row (or, beyond `MAX_LISTED_ROWS`, the distributions)
+/// in the run id, the varying parameters and the kind's headline columns; a headline column
+/// empty in every row (the on-surface error of a run without on-surface samples, say) left out
+/// and named; the rows timed concurrently counted.
+fn every_run(kind: &dyn DynKind, t: &Results, varying: &[String]) -> String {
+    let mut s = String::new();
+    let mut cols: Vec<String> = std::iter::once("run_id".to_string())
+        .chain(varying.iter().cloned())
+        .collect();
+    let mut empty = Vec::new();
+    for c in kind.summary_columns() {
+        if cols.iter().any(|x| x == c) {
+            continue;
+        }
+        if t.col(c).is_some()
+            && (0..t.rows.len()).all(|r| t.cell(r, c).is_empty())
+            && !t.rows.is_empty()
+        {
+            empty.push(format!("`{c}`"));
+        } else {
+            cols.push(c.to_string());
+        }
+    }
+    if !empty.is_empty() {
+        s.push_str(&format!(
+            "Left out of the table, empty in every row: {}.\n\n",
+            empty.join(", ")
+        ));
+    }
+    if t.rows.len() <= MAX_LISTED_ROWS {
+        s.push_str(&row_table(t, &cols));
+    } else {
+        s.push_str(&distribution_tables(t, varying, kind.summary_columns()));
+    }
+    let concurrent = (0..t.rows.len())
+        .filter(|&r| t.cell(r, "timing_concurrent") == "true")
+        .count();
+    if concurrent > 0 {
+        s.push_str(&format!(
+            "\n{concurrent} row(s) were timed while other runs executed (`timing_concurrent`): their times are not comparable and are left out of speed plots.\n"
+        ));
+    }
+    s
 }
 
 /// The heading of the per-run section of a summary; `report.html` shows what follows it

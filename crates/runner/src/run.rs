@@ -90,18 +90,10 @@ pub fn run_plan(
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(RunEvent) + Sync),
 ) -> Result<RunSummary, Error> {
-    if let Some((i, n)) = shard {
-        if n == 0 || i >= n {
-            return Err(Error::Config(format!("--shard {i}/{n}: need 0 ≤ I < N")));
-        }
-    }
     let kind = plan.kind;
     let dir = plan_dir(plan, out_root);
+    let csv = shard_csv(&dir, shard)?;
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let csv = match shard {
-        Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
-        None => dir.join("runs.csv"),
-    };
     let waiting = |p: &Path| {
         progress(RunEvent::Warn(&format!(
             "waiting for another shscale process holding {}",
@@ -120,22 +112,7 @@ pub fn run_plan(
         pending: pending.len(),
     });
     let version = version_of(plan, Provenance::here(&gpu_device));
-    let provenance_cells = [false, true].map(|concurrent| {
-        let prov = RowProvenance {
-            threads: rayon::current_num_threads(),
-            timing_concurrent: concurrent,
-            timing_warmup: plan.timing.warmup,
-            timing_repeats: plan.timing.repeats,
-            git_revision: version.provenance.git_revision.clone(),
-            git_dirty: version.provenance.git_dirty,
-        };
-        records::to_cells(&prov).map(|(_, c)| c)
-    });
-    let [alone, concurrent] = provenance_cells;
-    let provenance_cells = [
-        alone.map_err(Error::Config)?,
-        concurrent.map_err(Error::Config)?,
-    ];
+    let provenance_cells = provenance_cells(plan, &version)?;
     let writer = Writer {
         plan,
         dir: &dir,
@@ -158,8 +135,55 @@ pub fn run_plan(
         device: device.as_ref(),
         timing: plan.timing,
     };
-    // A run's label in the log: its id and the swept parameters' values, not every parameter.
-    let columns = kind.param_columns();
+    run_groups(plan, &pending, &ctx, &writer, progress)?;
+    // On an error above, dropping the writer commits what finished before it.
+    summary.ran = writer.finish()?;
+    Ok(summary)
+}
+
+/// The CSV a run of `plan` (or of one shard `(i, n)` of it) writes in `dir`; a shard outside
+/// `0 ≤ i < n` refused.
+fn shard_csv(dir: &Path, shard: Option<(usize, usize)>) -> Result<PathBuf, Error> {
+    Ok(match shard {
+        Some((i, n)) if n == 0 || i >= n => {
+            return Err(Error::Config(format!("--shard {i}/{n}: need 0 ≤ I < N")))
+        }
+        Some((i, n)) => dir.join(format!("runs.shard-{i}-of-{n}.csv")),
+        None => dir.join("runs.csv"),
+    })
+}
+
+/// The provenance cells every row of the plan carries: timed alone, and timed while other runs
+/// of the process ran (`timing_concurrent`).
+fn provenance_cells(plan: &Plan, version: &Version) -> Result<[Vec<String>; 2], Error> {
+    let [alone, concurrent] = [false, true].map(|concurrent| {
+        let prov = RowProvenance {
+            threads: rayon::current_num_threads(),
+            timing_concurrent: concurrent,
+            timing_warmup: plan.timing.warmup,
+            timing_repeats: plan.timing.repeats,
+            git_revision: version.provenance.git_revision.clone(),
+            git_dirty: version.provenance.git_dirty,
+        };
+        records::to_cells(&prov).map(|(_, c)| c)
+    });
+    Ok([
+        alone.map_err(Error::Config)?,
+        concurrent.map_err(Error::Config)?,
+    ])
+}
+
+/// Every group with pending runs (`pending`: indices into the plan), its shared work once and
+/// then its runs, each run's rows handed to `writer` as it finishes and logged by its id and the
+/// swept parameters' values.
+fn run_groups(
+    plan: &Plan,
+    pending: &[usize],
+    ctx: &Ctx,
+    writer: &Writer,
+    progress: &(dyn Fn(RunEvent) + Sync),
+) -> Result<(), Error> {
+    let columns = plan.kind.param_columns();
     let swept: Vec<(&str, usize)> = (plan.axes.iter())
         .filter_map(|a| columns.iter().position(|c| c == a).map(|i| (a.as_str(), i)))
         .collect();
@@ -176,7 +200,7 @@ pub fn run_plan(
     let groups = plan.groups();
     let group_count = groups.len();
     let mut todo = vec![false; plan.runs.len()];
-    for &i in &pending {
+    for &i in pending {
         todo[i] = true;
     }
     for (gi, g) in groups.into_iter().enumerate() {
@@ -196,18 +220,17 @@ pub fn run_plan(
             )));
         }
         let concurrent = plan.parallel_runs && runs.len() > 1;
-        kind.run_group(&runs, &ctx, concurrent, &|r, rows, secs| {
-            writer.write_run(r, rows, concurrent)?;
-            progress(RunEvent::Done {
-                line: &format!("{} in {secs:.2} s", label(r)),
-                secs,
-            });
-            Ok(())
-        })?;
+        plan.kind
+            .run_group(&runs, ctx, concurrent, &|r, rows, secs| {
+                writer.write_run(r, rows, concurrent)?;
+                progress(RunEvent::Done {
+                    line: &format!("{} in {secs:.2} s", label(r)),
+                    secs,
+                });
+                Ok(())
+            })?;
     }
-    // On an error above, dropping the writer commits what finished before it.
-    summary.ran = writer.finish()?;
-    Ok(summary)
+    Ok(())
 }
 
 /// The runs of this shard still to do (not complete in `loaded`), and the summary so far: how

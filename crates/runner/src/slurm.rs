@@ -23,17 +23,25 @@ pub fn shell_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', "'\\''"))
 }
 
-/// A Slurm job-array script that runs `config` (with the plan's overrides) in `tasks` shards
-/// and then, in a dependent job (`afterok`: a failed shard leaves it undone), merges them into
-/// `<dir>/merged` with plots and summary. Every value written into the script is shell-quoted.
-///
-/// Submitting the script again after a failure completes only the missing runs (each shard
-/// resumes its own file) and merges again: the merge job owns `<dir>/merged` and replaces its
-/// The values `sbatch` is given, checked: each a word (not empty, no whitespace or control
+/// The values `sbatch` is given, checked: `--tasks` 1..=100000, `--array-parallel` at most the
+/// tasks, `--dependency` one word; each a word (not empty, no whitespace or control
 /// character); `--cpus-per-task` ≥ 1; `--time` in one of Slurm's forms (minutes, `MM:SS`,
 /// `HH:MM:SS`, `D-HH[:MM[:SS]]`, or `UNLIMITED`); `--mem` a whole number with an optional
 /// unit K, M, G or T; `--binary` not empty.
-fn check_options(binary: &str, opts: &SlurmOptions) -> Result<(), Error> {
+fn check_options(binary: &str, tasks: usize, opts: &SlurmOptions) -> Result<(), Error> {
+    crate::check::int(tasks, 1, 100_000)
+        .map_err(|m| Error::Config(format!("slurm: --tasks: {m}")))?;
+    if let Some(k) = opts.array_parallel {
+        crate::check::int(k, 1, tasks)
+            .map_err(|m| Error::Config(format!("slurm: --array-parallel: {m} (the tasks)")))?;
+    }
+    if let Some(d) = &opts.dependency {
+        if d.is_empty() || d.chars().any(|c| c.is_whitespace() || c.is_control()) {
+            return Err(Error::Config(format!(
+                "slurm: --dependency {d:?}: a Slurm dependency list has no spaces (e.g. afterok:123:456)"
+            )));
+        }
+    }
     let word = |flag: &str, v: &str| -> Result<(), Error> {
         if v.is_empty() || v.chars().any(|c| c.is_whitespace() || c.is_control()) {
             return Err(Error::Config(format!(
@@ -88,33 +96,9 @@ fn check_options(binary: &str, opts: &SlurmOptions) -> Result<(), Error> {
     Ok(())
 }
 
-/// own earlier output atomically (`merge --replace`).
-pub fn slurm_script(
-    config: &Path,
-    plan: &Plan,
-    tasks: usize,
-    binary: &str,
-    out_root: &Path,
-    opts: &SlurmOptions,
-) -> Result<String, Error> {
-    crate::check::int(tasks, 1, 100_000)
-        .map_err(|m| Error::Config(format!("slurm: --tasks: {m}")))?;
-    if let Some(k) = opts.array_parallel {
-        crate::check::int(k, 1, tasks)
-            .map_err(|m| Error::Config(format!("slurm: --array-parallel: {m} (the tasks)")))?;
-    }
-    if let Some(d) = &opts.dependency {
-        if d.is_empty() || d.chars().any(|c| c.is_whitespace() || c.is_control()) {
-            return Err(Error::Config(format!(
-                "slurm: --dependency {d:?}: a Slurm dependency list has no spaces (e.g. afterok:123:456)"
-            )));
-        }
-    }
-    check_options(binary, opts)?;
-    // More tasks than runs would leave array tasks with nothing to do: capped (the caller says so).
-    let tasks = tasks.min(plan.runs.len().max(1));
+/// The `sbatch` options of both jobs, each value shell-quoted.
+fn sbatch_options(opts: &SlurmOptions) -> Vec<String> {
     let q = shell_quote;
-    let dir = plan_dir(plan, out_root);
     let mut sb = Vec::new();
     if let Some(t) = &opts.time {
         sb.push(format!("--time={}", q(t)));
@@ -131,6 +115,30 @@ pub fn slurm_script(
     if let Some(a) = &opts.account {
         sb.push(format!("--account={}", q(a)));
     }
+    sb
+}
+
+/// A Slurm job-array script that runs `config` (with the plan's overrides) in `tasks` shards
+/// and then, in a dependent job (`afterok`: a failed shard leaves it undone), merges them into
+/// `<dir>/merged` with plots and summary. Every value written into the script is shell-quoted.
+///
+/// Submitting the script again after a failure completes only the missing runs (each shard
+/// resumes its own file) and merges again: the merge job owns `<dir>/merged` and replaces its
+/// own earlier output atomically (`merge --replace`).
+pub fn slurm_script(
+    config: &Path,
+    plan: &Plan,
+    tasks: usize,
+    binary: &str,
+    out_root: &Path,
+    opts: &SlurmOptions,
+) -> Result<String, Error> {
+    check_options(binary, tasks, opts)?;
+    // More tasks than runs would leave array tasks with nothing to do: capped (the caller says so).
+    let tasks = tasks.min(plan.runs.len().max(1));
+    let q = shell_quote;
+    let dir = plan_dir(plan, out_root);
+    let sb = sbatch_options(opts);
     let mut run_words = vec![
         q(binary),
         "run".into(),

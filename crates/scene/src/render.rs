@@ -123,19 +123,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let spheres: Vec<SphereVisibility> = (built.spheres.iter())
         .map(|s| SphereVisibility::new(*s, &basis))
         .collect();
-    let fields: Vec<&dyn VisibilityField> = match method {
-        Method::SphereSet => (spheres.iter())
-            .map(|s| s as &dyn VisibilityField)
-            .collect(),
-        Method::Extrapolated | Method::SubVolumes => {
-            exs.iter().map(|e| e as &dyn VisibilityField).collect()
-        }
-        Method::FullField => (built.fulls.iter())
-            .map(|f| f as &dyn VisibilityField)
-            .collect(),
-        Method::RayTraced => rts.iter().map(|r| r as &dyn VisibilityField).collect(),
-        Method::FullFrequency => Vec::new(),
-    };
+    let fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
     if !emitters.is_empty() {
@@ -164,14 +152,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
             ..out
         });
     }
-    // Near to far by the fields' centres: the occluders', or every part's.
-    let centers: Vec<DVec3> = if method == Method::SubVolumes {
-        built.bsvs.iter().map(|b| b.sphere.center).collect()
-    } else if method == Method::SphereSet {
-        built.spheres.iter().map(|s| s.center).collect()
-    } else {
-        occs.iter().map(|o| o.bounding_sphere().center).collect()
-    };
+    let centers = field_centers(method, &built, &occs);
     let local = LocalLights::new(&emitters, &light_fields, &sampler);
     let mut out = shade_all(
         scene,
@@ -184,6 +165,37 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     stages.push("shading", t);
     out.stages = stages.0;
     Ok(out)
+}
+
+/// The method's visibility field per occluder (per part for sub-volumes and sphere sets); none
+/// for full-frequency truth, which is not shaded through SH.
+fn fields_of<'a>(
+    method: Method,
+    spheres: &'a [SphereVisibility],
+    exs: &'a [Extrapolator],
+    fulls: &'a [FullField],
+    rts: &'a [ConvergedTruth],
+) -> Vec<&'a dyn VisibilityField> {
+    fn all<'a, F: VisibilityField>(v: &'a [F]) -> Vec<&'a dyn VisibilityField> {
+        v.iter().map(|f| f as &dyn VisibilityField).collect()
+    }
+    match method {
+        Method::SphereSet => all(spheres),
+        Method::Extrapolated | Method::SubVolumes => all(exs),
+        Method::FullField => all(fulls),
+        Method::RayTraced => all(rts),
+        Method::FullFrequency => Vec::new(),
+    }
+}
+
+/// The centres of the fields multiplied near to far: every part's for sub-volumes and sphere
+/// sets, else the occluders'.
+fn field_centers(method: Method, built: &Built, occs: &[Box<dyn Occluder>]) -> Vec<DVec3> {
+    match method {
+        Method::SubVolumes => built.bsvs.iter().map(|b| b.sphere.center).collect(),
+        Method::SphereSet => built.spheres.iter().map(|s| s.center).collect(),
+        _ => occs.iter().map(|o| o.bounding_sphere().center).collect(),
+    }
 }
 
 /// Every receiver shaded by the product of the occluders' visibility fields under the light's

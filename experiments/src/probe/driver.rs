@@ -127,49 +127,28 @@ pub fn once(base: &ProbeBase, spec: &ProbeSpec) -> Result<(Once, Vec<f64>), Erro
     )
     .map_err(|e| Error::config(e.to_string()))?;
     let mut times = vec![t1.elapsed().as_secs_f64()];
-    let ex = Extrapolator::new(bsv, &table).with_plausibility(spec.plausibility);
-    let clamp = (spec.plausibility == Plausibility::Clamp)
-        .then(|| Clamp::new(spec.order))
-        .transpose()?;
-    let rot = shscale_sh::EulerRotator::<f64>::new(spec.order)
-        .map_err(|e| Error::config(e.to_string()))?;
-    let s = bsv.sphere;
+    let at = Radii {
+        base,
+        spec,
+        ex: Extrapolator::new(bsv, &table).with_plausibility(spec.plausibility),
+        clamp: (spec.plausibility == Plausibility::Clamp)
+            .then(|| Clamp::new(spec.order))
+            .transpose()?,
+        rot: shscale_sh::EulerRotator::<f64>::new(spec.order)
+            .map_err(|e| Error::config(e.to_string()))?,
+        family,
+        table: &table,
+        theta0,
+    };
     let mut rows = Vec::new();
     let mut examples = Vec::new();
     let mut example: Option<usize> = None;
     for (ri, &rho) in spec.radii.iter().enumerate() {
-        let k = rho / spec.sampling_radius;
-        let points: Vec<DVec3> = (base.dirs.iter())
-            .map(|d| s.center + rho * s.radius * *d)
-            .collect();
-        let t2 = Instant::now();
-        let ext = extrapolate_at(&ex, spec.order, &points);
-        times.push(t2.elapsed().as_secs_f64());
-        // The decomposition's exact matrix at this k.
-        let exact_m = family
-            .at(k)
-            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))
-            .map_err(|e| Error::config(e.to_string()))?;
-        let dec = Decomposition {
-            base,
-            contact_occlusion: spec.contact_occlusion,
-            clamp: clamp.as_ref(),
-            rot: &rot,
-            exact_m: &exact_m,
-        };
-        let (values, kinds): (Vec<Vec<f64>>, Vec<_>) = ext.into_iter().unzip();
-        let truth = &base.truth[ri];
-        let a = assess(rho, &values, Some(&kinds), truth, &points, Some(&dec));
-        let mut row = ProbeRow::assessed(rho, k, &a);
-        row.k_node_offset = Some(node_offset(table.ks(), k, table.log_k()));
-        row.alpha_used_deg = if spec.alpha_fit {
-            shscale_scaling::alpha_law::fitted_alpha(theta0, k).to_degrees()
-        } else {
-            spec.alpha.to_degrees()
-        };
-        row.effective_cap_deg = Some(theta0.to_degrees());
+        let (row, values, points, secs) = at.radius(ri, rho)?;
+        times.push(secs);
         // Every radius gets its example, at the one point chosen at the first radius that had
         // one; where that point lies inside the mesh the figure says so.
+        let truth = &base.truth[ri];
         example = example.or_else(|| example_of(truth, &values));
         if let Some(i) = example {
             examples.push(Example {
@@ -189,6 +168,62 @@ pub fn once(base: &ProbeBase, spec: &ProbeSpec) -> Result<(Once, Vec<f64>), Erro
         k_max,
     };
     Ok((once, times))
+}
+
+/// What every radius of one repeat shares.
+struct Radii<'a> {
+    base: &'a ProbeBase,
+    spec: &'a ProbeSpec,
+    ex: Extrapolator<'a>,
+    clamp: Option<Clamp>,
+    rot: shscale_sh::EulerRotator<f64>,
+    family: TauFamily,
+    table: &'a KTable,
+    /// The BSV's effective cap (the fitted cone angle's input), radians.
+    theta0: f64,
+}
+
+impl Radii<'_> {
+    /// Radius `rho` (index `ri`, `k = ρ / s`): the extrapolation at every probe point (timed),
+    /// assessed with the decomposition's exact `M_k`; its row, values, points and seconds.
+    fn radius(
+        &self,
+        ri: usize,
+        rho: f64,
+    ) -> Result<(ProbeRow, Vec<Vec<f64>>, Vec<DVec3>, f64), Error> {
+        let (spec, s) = (self.spec, self.base.bsv.sphere);
+        let k = rho / spec.sampling_radius;
+        let points: Vec<DVec3> = (self.base.dirs.iter())
+            .map(|d| s.center + rho * s.radius * *d)
+            .collect();
+        let t2 = Instant::now();
+        let ext = extrapolate_at(&self.ex, spec.order, &points);
+        let secs = t2.elapsed().as_secs_f64();
+        let exact_m = (self.family.at(k))
+            .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))
+            .map_err(|e| Error::config(e.to_string()))?;
+        let dec = Decomposition {
+            base: self.base,
+            contact_occlusion: spec.contact_occlusion,
+            clamp: self.clamp.as_ref(),
+            rot: &self.rot,
+            exact_m: &exact_m,
+        };
+        let (values, kinds): (Vec<Vec<f64>>, Vec<_>) = ext.into_iter().unzip();
+        let truth = &self.base.truth[ri];
+        let a = assess(rho, &values, Some(&kinds), truth, &points, Some(&dec));
+        let row = ProbeRow {
+            k_node_offset: Some(node_offset(self.table.ks(), k, self.table.log_k())),
+            alpha_used_deg: if spec.alpha_fit {
+                shscale_scaling::alpha_law::fitted_alpha(self.theta0, k).to_degrees()
+            } else {
+                spec.alpha.to_degrees()
+            },
+            effective_cap_deg: Some(self.theta0.to_degrees()),
+            ..ProbeRow::assessed(rho, k, &a)
+        };
+        Ok((row, values, points, secs))
+    }
 }
 
 /// The probe whose truth is the least visible among those with a defined error (the Fig. 5
