@@ -57,20 +57,16 @@ impl Default for Params {
     }
 }
 
-/// One row per probe radius.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct Row {
-    pub radius: f64,
-    pub plain_rel_l2: f64,
-    pub energy_rel_l2: f64,
-    /// The energy-preserving result × (r_s/d)² (radiant intensity conserved).
-    pub energy_r2_rel_l2: f64,
-    /// The radiance truth's own error relative to its norm (mean over the probes).
-    pub truth_rel_err: f64,
-    /// Sample directions whose truth is lit (the errors' denominator).
-    pub probes: usize,
-    /// `plain`, `energy` or `energy_r2`: the closest variant.
-    pub better: String,
+/// One row per probe radius: the field crate's row as it is.
+pub type Row = shscale_field::srf::SrfRow;
+
+/// The light whose radiance field is extrapolated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmitterKind {
+    /// The papers' two-panel light; truth ray-traced.
+    Hinged,
+    /// A unit sphere of radiance 1; truth closed form.
+    Sphere,
 }
 
 /// The kind `srf`.
@@ -83,7 +79,7 @@ impl Kind for Srf {
     type Shared = ();
     type Row = Row;
     type Error = Error;
-    type Spec = Typed<Params, Layout>;
+    type Spec = Typed<Params, (Layout, EmitterKind)>;
 
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
@@ -115,13 +111,18 @@ impl Kind for Srf {
             shscale_field::truth::MAX_TRUTH_RES,
         )?;
         KeyError::int("order", p.order, 1, MAX_ORDER)?;
-        if !["hinged", "sphere"].contains(&p.emitter.as_str()) {
-            return Err(KeyError::new(
-                "emitter",
-                format!("{:?} is not `hinged` or `sphere`", p.emitter),
-            ));
-        }
-        Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
+        let emitter = match p.emitter.as_str() {
+            "hinged" => EmitterKind::Hinged,
+            "sphere" => EmitterKind::Sphere,
+            e => {
+                return Err(KeyError::new(
+                    "emitter",
+                    format!("{e:?} is not `hinged` or `sphere`"),
+                ))
+            }
+        };
+        let layout =
+            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
         KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
         KeyError::real("hinge_deg", p.hinge_deg, 0.0, 360.0, Ends::Open)?;
@@ -140,19 +141,14 @@ impl Kind for Srf {
                 return Err(KeyError::new("radii", format!("{r} appears twice")));
             }
         }
-        let layout =
-            Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         Ok(Typed {
             params: p.clone(),
-            typed: layout,
+            typed: (layout, emitter),
         })
     }
 
     fn cost(p: &Self::Spec) -> (Cost, Cost) {
-        let samples = Layout::parse(&p.layout)
-            .ok()
-            .and_then(|l| l.sample_count())
-            .unwrap_or(0) as f64;
+        let samples = p.typed.0.sample_count().unwrap_or(0) as f64;
         let h = p.hemisphere_res as f64;
         // The BSV on the bounding sphere plus the ray-traced truth at every radius.
         let rays = samples * h * h * (1.0 + p.radii.len() as f64);
@@ -185,20 +181,21 @@ impl Kind for Srf {
     }
 
     fn run(p: &Self::Spec, _: &str, _: &(), _: &Ctx) -> Result<Vec<Row>, Error> {
-        let layout = p.typed;
-        let e: Box<dyn Radiant> = if p.emitter == "sphere" {
-            Box::new(SphereEmitter {
+        let (layout, emitter) = p.typed;
+        let e: Box<dyn Radiant> = match emitter {
+            EmitterKind::Sphere => Box::new(SphereEmitter {
                 sphere: shscale_geometry::Sphere {
                     center: glam::DVec3::ZERO,
                     radius: 1.0,
                 },
                 radiance: 1.0,
-            })
-        } else {
-            let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, p.hinge_deg.to_radians());
-            let radiance: Vec<f64> = rgb.iter().map(|c| c[0] + c[1] + c[2]).collect();
-            let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
-            Box::new(Emitter::new(&mesh, bvh, radiance)?)
+            }),
+            EmitterKind::Hinged => {
+                let (mesh, rgb) = shscale_field::srf::hinged_light(1.0, p.hinge_deg.to_radians());
+                let radiance: Vec<f64> = rgb.iter().map(|c| c[0] + c[1] + c[2]).collect();
+                let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
+                Box::new(Emitter::new(&mesh, bvh, radiance)?)
+            }
         };
         let res = shscale_field::srf::compare(
             e.as_ref(),
@@ -210,18 +207,7 @@ impl Kind for Srf {
             &p.radii,
             p.truth_res,
         )?;
-        Ok(res
-            .iter()
-            .map(|r| Row {
-                radius: r.radius,
-                plain_rel_l2: r.plain_rel_l2,
-                energy_rel_l2: r.energy_rel_l2,
-                energy_r2_rel_l2: r.energy_r2_rel_l2,
-                truth_rel_err: r.truth_rel_err,
-                probes: r.probes,
-                better: r.better().into(),
-            })
-            .collect())
+        Ok(res)
     }
 
     fn summary_columns() -> &'static [&'static str] {

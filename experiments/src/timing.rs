@@ -10,8 +10,9 @@
 
 use serde::{Deserialize, Serialize};
 use shscale_runner::records::Results;
+use shscale_runner::Typed;
 use shscale_runner::{Cost, Ctx, Device, GpuMode, KeyError, Kind};
-use shscale_scene::bench::bench_scene;
+use shscale_scene::bench::{bench_scene, BenchPath, FrameTimes};
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 
@@ -38,29 +39,9 @@ impl Default for Params {
     }
 }
 
-/// One row per run (none for a `gpu` run without an adapter).
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct Row {
-    /// CPU: `cpu (N threads)`; GPU: the adapter's name, backend and driver.
-    pub device: String,
-    pub vertices: usize,
-    pub triangles: usize,
-    pub samples: usize,
-    pub rays_per_sample: usize,
-    pub receivers: usize,
-    /// GPU stage times from timestamp queries (else wall clock).
-    pub timestamps: bool,
-    pub setup_ms: Option<f64>,
-    pub deform_ms: f64,
-    pub bvh_update_ms: f64,
-    pub upload_ms: Option<f64>,
-    pub bsv_sampling_ms: f64,
-    /// Empty where it is inside `bsv_sampling_ms` (the CPU path).
-    pub sh_conversion_ms: Option<f64>,
-    pub shadowing_ms: f64,
-    pub frame_ms: f64,
-    pub fps: f64,
-}
+/// One row per run (none for a `gpu` run without an adapter): the bench's per-stage medians as
+/// they are.
+pub type Row = FrameTimes;
 
 /// The kind `timing`.
 pub struct Timing;
@@ -75,7 +56,7 @@ impl Kind for Timing {
     type Shared = ();
     type Row = Row;
     type Error = Error;
-    type Spec = Params;
+    type Spec = Typed<Params, BenchPath>;
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }
@@ -98,19 +79,14 @@ impl Kind for Timing {
         ]
     }
 
-    fn resolve(p: &Params) -> Result<Params, KeyError> {
+    fn resolve(p: &Params) -> Result<Self::Spec, KeyError> {
         if !matches!(p.scene.as_str(), "bird" | "egg" | "sponge") {
             return Err(KeyError::new(
                 "scene",
                 format!("{:?} is not one of bird, egg, sponge", p.scene),
             ));
         }
-        if !matches!(p.path.as_str(), "cpu" | "gpu") {
-            return Err(KeyError::new(
-                "path",
-                format!("{:?} is not cpu or gpu", p.path),
-            ));
-        }
+        let path = BenchPath::parse(&p.path).map_err(|m| KeyError::new("path", m))?;
         KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
         if p.warmup > MAX_FRAMES {
             return Err(KeyError::new(
@@ -118,7 +94,10 @@ impl Kind for Timing {
                 format!("{} is more than the limit {MAX_FRAMES}", p.warmup),
             ));
         }
-        Ok(p.clone())
+        Ok(Typed {
+            params: p.clone(),
+            typed: path,
+        })
     }
 
     fn cost(p: &Self::Spec) -> (Cost, Cost) {
@@ -148,12 +127,12 @@ impl Kind for Timing {
         1
     }
 
-    fn shared(_: &Params, _: &Ctx) -> Result<(), Error> {
+    fn shared(_: &Self::Spec, _: &Ctx) -> Result<(), Error> {
         Ok(())
     }
 
-    fn run(p: &Params, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
-        let gpu = if p.path == "gpu" {
+    fn run(p: &Self::Spec, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
+        let gpu = if p.typed == BenchPath::Gpu {
             match shscale_scene::gpu_path::gpu_of(ctx) {
                 Some(g) => Some(g),
                 None => return Ok(Vec::new()),
@@ -161,28 +140,11 @@ impl Kind for Timing {
         } else {
             None
         };
-        let rows = bench_scene(&p.scene, p.frames, p.warmup, p.path == "cpu", gpu)?;
-        Ok(rows
-            .into_iter()
-            .filter(|r| r.path == p.path)
-            .map(|r| Row {
-                device: r.device,
-                vertices: r.vertices,
-                triangles: r.triangles,
-                samples: r.samples,
-                rays_per_sample: r.rays_per_sample,
-                receivers: r.receivers,
-                timestamps: r.timestamps,
-                setup_ms: r.setup_ms,
-                deform_ms: r.deform_ms,
-                bvh_update_ms: r.bvh_update_ms,
-                upload_ms: r.upload_ms,
-                bsv_sampling_ms: r.bsv_sampling_ms,
-                sh_conversion_ms: r.sh_conversion_ms,
-                shadowing_ms: r.shadowing_ms,
-                frame_ms: r.frame_ms,
-                fps: r.fps,
-            })
+        let cpu = p.typed == BenchPath::Cpu;
+        let rows = bench_scene(&p.scene, p.frames, p.warmup, cpu, gpu)?;
+        Ok((rows.into_iter())
+            .filter(|r| r.path == p.typed)
+            .map(|r| r.times)
             .collect())
     }
 

@@ -13,8 +13,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
 
-/// Per radius: mean relative L2 error of each η variant against ray-traced radiance.
-#[derive(Clone, Debug, PartialEq)]
+/// Per radius: mean relative L2 error of each η variant against ray-traced radiance — the `srf`
+/// kind's row as it is (one struct: its CSV columns, in this order).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SrfRow {
     pub radius: f64,
     pub plain_rel_l2: f64,
@@ -24,12 +25,15 @@ pub struct SrfRow {
     pub energy_r2_rel_l2: f64,
     /// The radiance truth's own error relative to its norm (mean over the probes).
     pub truth_rel_err: f64,
+    /// Sample directions whose truth is lit (the errors' denominator).
     pub probes: usize,
+    /// `plain`, `energy` or `energy_r2`: the closest variant ([`SrfRow::closest`]).
+    pub better: String,
 }
 
 impl SrfRow {
     /// `"plain"`, `"energy"` or `"energy_r2"`: the variant with the smallest error.
-    pub fn better(&self) -> &'static str {
+    pub fn closest(&self) -> &'static str {
         if self.plain_rel_l2 <= self.energy_rel_l2 && self.plain_rel_l2 <= self.energy_r2_rel_l2 {
             "plain"
         } else if self.energy_rel_l2 <= self.energy_r2_rel_l2 {
@@ -140,14 +144,17 @@ pub fn compare(
             })
             .collect();
         let n = errs.len().max(1) as f64;
-        rows.push(SrfRow {
+        let mut row = SrfRow {
             radius: rho,
             plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
             energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
             energy_r2_rel_l2: errs.iter().map(|x| x.2).sum::<f64>() / n,
             truth_rel_err: errs.iter().map(|x| x.3).sum::<f64>() / n,
             probes: errs.len(),
-        });
+            better: String::new(),
+        };
+        row.better = row.closest().into();
+        rows.push(row);
     }
     Ok(rows)
 }

@@ -250,7 +250,7 @@ fn source_radiance_fields_plain_versus_energy_preserving() {
                 r.energy_r2_rel_l2,
                 r.truth_rel_err,
                 r.probes,
-                r.better()
+                r.closest()
             );
             assert!(r.probes > 0);
             assert!(r.plain_rel_l2.is_finite() && r.energy_rel_l2.is_finite());

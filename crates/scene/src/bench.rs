@@ -16,7 +16,7 @@ use crate::gpu_path::render_sequence_gpu;
 use crate::render::render_sequence;
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use shscale_gpu::timing::median;
 use shscale_gpu::GpuContext;
 use std::path::Path;
@@ -38,22 +38,44 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
     Scene::parse(&format!("configs/bench/{name}.toml"), text, Path::new("."))
 }
 
-/// One row of the table: one scene on one path.
-#[derive(Clone, Debug, Serialize)]
-pub struct BenchRow {
-    pub scene: String,
+/// Which sequence path a row measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BenchPath {
+    Cpu,
+    Gpu,
+}
+
+impl BenchPath {
     /// `cpu` or `gpu`.
-    pub path: String,
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "cpu" => Ok(Self::Cpu),
+            "gpu" => Ok(Self::Gpu),
+            _ => Err(format!("{s:?} is not cpu or gpu")),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Cpu => "cpu",
+            Self::Gpu => "gpu",
+        }
+    }
+}
+
+/// One path's per-stage medians of a scene: the `timing` kind's row as it is (its CSV
+/// columns, in this order), and the measured part of [`BenchRow`].
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct FrameTimes {
     /// CPU: `cpu (N threads)`; GPU: the adapter's name, backend and driver.
     pub device: String,
-    pub threads: usize,
     pub vertices: usize,
     pub triangles: usize,
     pub samples: usize,
     pub rays_per_sample: usize,
     pub receivers: usize,
-    pub frames: usize,
-    pub warmup: usize,
+    /// GPU stage times from timestamp queries (else wall clock).
     pub timestamps: bool,
     /// One-off setup (GPU: table, cache, buffers and pipelines).
     pub setup_ms: Option<f64>,
@@ -67,6 +89,18 @@ pub struct BenchRow {
     /// Median wall clock of a whole frame.
     pub frame_ms: f64,
     pub fps: f64,
+}
+
+/// One row of the table: one scene on one path, with how it was measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    pub path: BenchPath,
+    pub threads: usize,
+    pub frames: usize,
+    pub warmup: usize,
+    #[serde(flatten)]
+    pub times: FrameTimes,
 }
 
 /// Measure `scene` over `warmup + frames` frames: the CPU path always (unless `cpu` is false),
@@ -84,35 +118,31 @@ pub fn bench_scene(
     let o = &sc.occluders[0];
     let mesh = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
     let threads = rayon::current_num_threads();
-    let base = BenchRow {
-        scene: name.to_string(),
-        path: String::new(),
-        device: String::new(),
-        threads,
+    let base = FrameTimes {
         vertices: mesh.positions.len(),
         triangles: mesh.triangles.len(),
         samples: sc.layout.directions().len(),
         rays_per_sample: sc.hemisphere_res * sc.hemisphere_res,
         receivers: sc.resolution[0] * sc.resolution[1],
+        ..FrameTimes::default()
+    };
+    let row = |path, times| BenchRow {
+        scene: name.to_string(),
+        path,
+        threads,
         frames,
         warmup,
-        timestamps: false,
-        setup_ms: None,
-        deform_ms: 0.0,
-        bvh_update_ms: 0.0,
-        upload_ms: None,
-        bsv_sampling_ms: 0.0,
-        sh_conversion_ms: None,
-        shadowing_ms: 0.0,
-        frame_ms: 0.0,
-        fps: 0.0,
+        times,
     };
     let mut rows = Vec::new();
     if cpu {
-        rows.push(cpu_row(&sc, total, warmup, &base)?);
+        rows.push(row(BenchPath::Cpu, cpu_times(&sc, total, warmup, &base)?));
     }
     if let Some(ctx) = gpu {
-        rows.push(gpu_row(&sc, total, warmup, ctx, &base)?);
+        rows.push(row(
+            BenchPath::Gpu,
+            gpu_times(&sc, total, warmup, ctx, &base)?,
+        ));
     }
     Ok(rows)
 }
@@ -123,8 +153,13 @@ fn ms(v: Vec<f64>) -> f64 {
 }
 
 /// The CPU sequence's row: per-stage medians over the frames after `warmup`.
-fn cpu_row(sc: &Scene, total: usize, warmup: usize, base: &BenchRow) -> Result<BenchRow, Error> {
-    let threads = base.threads;
+fn cpu_times(
+    sc: &Scene,
+    total: usize,
+    warmup: usize,
+    base: &FrameTimes,
+) -> Result<FrameTimes, Error> {
+    let threads = rayon::current_num_threads();
     let (_, stats) = render_sequence(sc, total)?;
     let st = &stats[warmup.min(stats.len() - 1)..];
     let frame: Vec<f64> = st
@@ -134,8 +169,7 @@ fn cpu_row(sc: &Scene, total: usize, warmup: usize, base: &BenchRow) -> Result<B
         })
         .collect();
     let frame_ms = ms(frame);
-    Ok(BenchRow {
-        path: "cpu".into(),
+    Ok(FrameTimes {
         device: format!("cpu ({threads} threads)"),
         deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
         bvh_update_ms: ms(st.iter().map(|s| s.bvh_update_seconds).collect()),
@@ -148,13 +182,13 @@ fn cpu_row(sc: &Scene, total: usize, warmup: usize, base: &BenchRow) -> Result<B
 }
 
 /// The GPU sequence's row on `ctx`: per-stage device times (timestamps where available).
-fn gpu_row(
+fn gpu_times(
     sc: &Scene,
     total: usize,
     warmup: usize,
     ctx: &GpuContext,
-    base: &BenchRow,
-) -> Result<BenchRow, Error> {
+    base: &FrameTimes,
+) -> Result<FrameTimes, Error> {
     let run = render_sequence_gpu(sc, total, ctx)?;
     let (stats, setup) = (&run.frames, run.setup_seconds);
     let st = &stats[warmup.min(stats.len() - 1)..];
@@ -162,8 +196,7 @@ fn gpu_row(
         .iter()
         .map(|s| s.deform_seconds + s.gpu.frame_seconds)
         .collect());
-    Ok(BenchRow {
-        path: "gpu".into(),
+    Ok(FrameTimes {
         device: ctx.describe(),
         timestamps: st[0].gpu.timestamps,
         setup_ms: Some(1e3 * setup),
@@ -190,29 +223,29 @@ pub const CSV_COLUMNS: &str = "scene,path,device,threads,vertices,triangles,samp
 pub fn to_csv(rows: &[BenchRow]) -> String {
     let mut s = format!("{CSV_COLUMNS}\n");
     for r in rows {
-        let device = format!("\"{}\"", r.device.replace('"', "\"\""));
+        let device = format!("\"{}\"", r.times.device.replace('"', "\"\""));
         s.push_str(&format!(
             "{},{},{device},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{},{:.6},{},{:.6},{:.6},{:.3}\n",
             r.scene,
-            r.path,
+            r.path.name(),
             r.threads,
-            r.vertices,
-            r.triangles,
-            r.samples,
-            r.rays_per_sample,
-            r.receivers,
+            r.times.vertices,
+            r.times.triangles,
+            r.times.samples,
+            r.times.rays_per_sample,
+            r.times.receivers,
             r.frames,
             r.warmup,
-            r.timestamps,
-            opt(r.setup_ms, 6),
-            r.deform_ms,
-            r.bvh_update_ms,
-            opt(r.upload_ms, 6),
-            r.bsv_sampling_ms,
-            opt(r.sh_conversion_ms, 6),
-            r.shadowing_ms,
-            r.frame_ms,
-            r.fps
+            r.times.timestamps,
+            opt(r.times.setup_ms, 6),
+            r.times.deform_ms,
+            r.times.bvh_update_ms,
+            opt(r.times.upload_ms, 6),
+            r.times.bsv_sampling_ms,
+            opt(r.times.sh_conversion_ms, 6),
+            r.times.shadowing_ms,
+            r.times.frame_ms,
+            r.times.fps
         ));
     }
     s
@@ -224,20 +257,21 @@ pub fn to_markdown(rows: &[BenchRow]) -> String {
         "| scene | vertices | path | device | BSV sampling (ms) | SH conversion (ms) | shadowing (ms) | deform + BVH + upload (ms) | frame (ms) | FPS |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in rows {
-        let host = r.deform_ms + r.bvh_update_ms + r.upload_ms.unwrap_or(0.0);
+        let host = r.times.deform_ms + r.times.bvh_update_ms + r.times.upload_ms.unwrap_or(0.0);
         s.push_str(&format!(
             "| {} | {} | {} | {} | {:.3} | {} | {:.3} | {:.3} | {:.3} | {:.1} |\n",
             r.scene,
-            r.vertices,
-            r.path,
-            r.device,
-            r.bsv_sampling_ms,
-            r.sh_conversion_ms
+            r.times.vertices,
+            r.path.name(),
+            r.times.device,
+            r.times.bsv_sampling_ms,
+            r.times
+                .sh_conversion_ms
                 .map_or("(in sampling)".to_string(), |v| format!("{v:.3}")),
-            r.shadowing_ms,
+            r.times.shadowing_ms,
             host,
-            r.frame_ms,
-            r.fps
+            r.times.frame_ms,
+            r.times.fps
         ));
     }
     s
