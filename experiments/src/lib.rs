@@ -6,7 +6,7 @@
 //!   really independent of τ?
 //! - [`m_elements`] — Fig. 3: how smoothly do elements of `M_k` vary with k, and how well does a
 //!   40-entry table interpolate them?
-//! - [`probe`] (pictures in [`probe_figure`]) — Fig. 5 and the accuracy sweeps: extrapolated
+//! - [`probe`] (pictures in [`probe::figure`]) — Fig. 5 and the accuracy sweeps: extrapolated
 //!   vs actual visibility at radii around the sampling sphere.
 //! - [`shadows`] — Fig. 7: shadows of the extrapolated field vs a fully sampled shadow field and
 //!   ray-traced truth.
@@ -31,7 +31,6 @@ mod figures;
 pub mod m_elements;
 pub mod midrange;
 pub mod probe;
-pub mod probe_figure;
 pub mod shadows;
 pub mod sparsity;
 pub mod srf;

@@ -464,7 +464,7 @@ pub struct RenderArgs {
     /// (band-limited truth), `full_frequency` (full-frequency truth), `sub_volumes` or
     /// `sphere_set` (the scene's occluders split into 4 parts); `full-field`, `raytraced` and
     /// `raytraced-full` are the earlier spellings.
-    #[arg(long, value_parser = method_arg, default_value = "extrapolated")]
+    #[arg(long, value_parser = method_arg, default_value_t = Method::Extrapolated)]
     pub method: Method,
     /// Parts of every mesh occluder for `--method sub_volumes`, or its spheres for `sphere_set`,
     /// 1..=64 (k-means on triangle centroids).

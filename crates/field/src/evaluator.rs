@@ -14,16 +14,11 @@ use shscale_scaling::ScalingMatrix;
 
 /// A visibility field around one entity.
 pub trait VisibilityField: Sync {
-    /// Short name for output (`extrapolated`, `full-field`, `raytraced`).
-    fn name(&self) -> &'static str;
     /// Visibility SH (entity frame) at `p` into `out` (length N²).
     fn eval(&self, p: DVec3, out: &mut [f64]);
 }
 
 impl VisibilityField for Extrapolator<'_> {
-    fn name(&self) -> &'static str {
-        "extrapolated"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let n = self.table.order();
         let mut m = ScalingMatrix::identity(n).expect("valid order");
@@ -39,9 +34,6 @@ pub struct RayTraced<'a> {
 }
 
 impl VisibilityField for RayTraced<'_> {
-    fn name(&self) -> &'static str {
-        "raytraced"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let (v, _) = self.sampler.full_sphere(self.occ, p, Frame::Entity);
         out.copy_from_slice(&v);
@@ -56,9 +48,6 @@ pub struct ConvergedTruth<'a> {
 }
 
 impl VisibilityField for ConvergedTruth<'_> {
-    fn name(&self) -> &'static str {
-        "raytraced"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         out.copy_from_slice(&self.truth.sample(self.occ, p).coeffs);
     }
@@ -374,9 +363,6 @@ impl FullField {
 }
 
 impl VisibilityField for FullField {
-    fn name(&self) -> &'static str {
-        "full-field"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let d = p - self.sphere.center;
         let rho = d.length() / self.sphere.radius;

@@ -32,9 +32,6 @@ impl<'a> SphereVisibility<'a> {
 }
 
 impl VisibilityField for SphereVisibility<'_> {
-    fn name(&self) -> &'static str {
-        "sphere"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         out.iter_mut().for_each(|o| *o = 0.0);
         if self.sphere.radius <= 0.0 {
@@ -72,9 +69,6 @@ impl<'a> SphereSetField<'a> {
 }
 
 impl VisibilityField for SphereSetField<'_> {
-    fn name(&self) -> &'static str {
-        "sphere-set"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let fields: Vec<&dyn VisibilityField> = (self.spheres.iter())
             .map(|s| s as &dyn VisibilityField)
@@ -151,9 +145,6 @@ impl<'a> SphereSetQuadrature<'a> {
 }
 
 impl VisibilityField for SphereSetQuadrature<'_> {
-    fn name(&self) -> &'static str {
-        "sphere-set-quadrature"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         out.iter_mut().for_each(|o| *o = 0.0);
         let g = self.grid;

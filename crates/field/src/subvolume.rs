@@ -49,9 +49,6 @@ pub fn product_near_to_far(gaunt: &GauntTensor<f64>, v: &[Vec<f64>], out: &mut [
 }
 
 impl VisibilityField for SubVolumeField<'_> {
-    fn name(&self) -> &'static str {
-        "sub-volumes"
-    }
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let fields: Vec<&dyn VisibilityField> = self
             .parts

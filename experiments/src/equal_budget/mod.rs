@@ -12,7 +12,7 @@
 //! | `frames` | one frame of each method on spherical receivers | — |
 //! | `spheres` | the kind `budget` | `frames`, `verdict` |
 //! | `plane` | the kind `budget_plane` | `plane_images`, `verdict` |
-//! | `plane_images` | the plane's image measures (flicker, RMSE over a subset) and its figure | `plane`'s `spec_of`, `verdict` |
+//! | `plane_images` | the plane's image measures (flicker, RMSE over a subset) and its figure | `verdict` |
 
 mod frames;
 pub mod plane;

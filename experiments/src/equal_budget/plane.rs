@@ -81,7 +81,7 @@ impl Default for Params {
             scene: "../scene_bunny.toml".into(),
             order: None,
             frames: 1,
-            method: "extrapolated".into(),
+            method: shscale_scene::method::Method::Extrapolated.name().into(),
             parts: 4,
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,
@@ -137,7 +137,7 @@ impl Params {
 const MAX_RT_RES: usize = 255;
 
 /// Row `r`'s method, parsed from its cells.
-pub(super) fn spec_of(t: &Results, r: usize) -> Option<Spec> {
+fn spec_of(t: &Results, r: usize) -> Option<Spec> {
     params_of::<Params>(t, r)?.spec().ok()
 }
 
@@ -559,7 +559,7 @@ impl Kind for BudgetPlane {
         let saved: Vec<usize> = (0..t.rows.len())
             .filter(|&r| t.cell(r, "save_image") == "true")
             .collect();
-        let Some(panels) = figure_runs(t, &saved) else {
+        let Some(panels) = figure_runs(t, &saved, &|r| spec_of(t, r)) else {
             return Ok(Vec::new());
         };
         let read = |name: &str, r: usize| {

@@ -3,7 +3,6 @@
 //! full-frequency truth beside the papers' full field, the papers' extrapolation and the most
 //! accurate other saved method at no more rays, with their differences from the truth).
 
-use super::plane::spec_of;
 use super::verdict::variant;
 use shscale_field::shading::shade_rmse_rel;
 use shscale_runner::records::Results;
@@ -21,9 +20,13 @@ pub(super) fn own_err(e: &[[f32; 3]], open: &[f64]) -> f64 {
 /// field, the papers' extrapolation, and the most accurate other saved run (against
 /// full-frequency truth) that casts no more rays than the extrapolation; `None` without the
 /// first two.
-pub(super) fn figure_runs(t: &Results, rows: &[usize]) -> Option<Vec<usize>> {
+pub(super) fn figure_runs(
+    t: &Results,
+    rows: &[usize],
+    spec_of: &dyn Fn(usize) -> Option<Spec>,
+) -> Option<Vec<usize>> {
     let specs: Vec<(usize, Spec)> = (rows.iter())
-        .filter_map(|&r| Some((r, spec_of(t, r)?)))
+        .filter_map(|&r| Some((r, spec_of(r)?)))
         .collect();
     let find = |v: &str| specs.iter().find(|(_, s)| variant(s) == v).map(|(r, _)| *r);
     let ff = find("full field (papers')")?;

@@ -105,7 +105,7 @@ impl Default for Params {
         Self {
             mesh: "bunny".into(),
             order: 4,
-            method: "extrapolated".into(),
+            method: shscale_scene::method::Method::Extrapolated.name().into(),
             parts: 4,
             layout: "latlong:12x20".into(),
             hemisphere_res: 32,

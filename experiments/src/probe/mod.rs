@@ -10,9 +10,11 @@
 //! | `driver` | the shared work and one repeat of a run, timed; the rows with their times |
 //! | `subvolumes` | runs with `parts > 1` through the same assessment and timing procedure |
 //! | `discussion` | the summary's text from the rows |
+//! | `figure` | the pictures: Fig. 5 of a run, the plots of a results directory |
 
 mod discussion;
 pub mod driver;
+pub mod figure;
 pub mod row;
 mod subvolumes;
 
@@ -409,20 +411,14 @@ impl Kind for Probe {
     ) -> Result<Vec<ProbeRow>, Error> {
         let spec = &p.typed;
         if p.parts > 1 {
-            return subvolumes::rows(p, sh.mesh.as_ref(), &sh.base, ctx);
+            return subvolumes::rows(spec, p.parts, sh.mesh.as_ref(), &sh.base, ctx);
         }
         // The α- and K-dependent work, timed by the procedure: per repeat the table build and the
         // extrapolation at each radius.
         let (once, t) = ctx
             .timing
             .measure_each(|| driver::once(&sh.base.base, spec))?;
-        crate::probe_figure::visibility_figure(
-            ctx.dir,
-            run_id,
-            p.order,
-            sh.occ.as_ref(),
-            &once.examples,
-        )?;
+        figure::visibility_figure(ctx.dir, run_id, p.order, sh.occ.as_ref(), &once.examples)?;
         let rows = driver::with_times(once.rows, &sh.base, &t[0], &t[1..]);
         Ok(with_gpu(rows, &sh.gpu))
     }
@@ -457,7 +453,7 @@ impl Kind for Probe {
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let params = shscale_runner::Erased::<Probe>::new();
         let varying = t.varying(&shscale_runner::DynKind::param_columns(&params));
-        crate::probe_figure::probe_plots(dir, t, &varying)
+        figure::probe_plots(dir, t, &varying)
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {

@@ -16,27 +16,27 @@ use shscale_field::extrapolate::Extrapolator;
 use shscale_field::probe::{assess, k_range_to, sample_bsv, ProbeSpec, K_MARGIN};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::Bsv;
-use shscale_runner::{Ctx, Typed};
+use shscale_runner::Ctx;
 use shscale_scaling::{Eta, KTable, TauFamily};
 use shscale_scene::Error;
 use std::time::Instant;
 
 /// The rows of a run with `parts > 1` (see the module documentation).
 pub(super) fn rows(
-    p: &Typed<super::ProbeParams, ProbeSpec>,
+    spec: &ProbeSpec,
+    parts: usize,
     mesh: Option<&shscale_geometry::Mesh>,
     b: &Base,
     ctx: &Ctx,
 ) -> Result<Vec<ProbeRow>, Error> {
-    let spec = &p.typed;
     let mesh = mesh.ok_or_else(|| {
         Error::config("sub-volumes split a mesh; the analytic sphere has none".into())
     })?;
     let t0 = Instant::now();
-    let labels = shscale_geometry::partition::kmeans_parts(mesh, p.parts)
+    let labels = shscale_geometry::partition::kmeans_parts(mesh, parts)
         .map_err(|e| Error::config(e.to_string()))?;
     let bvhs: Vec<shscale_geometry::MeshBvh> =
-        (shscale_geometry::partition::split(mesh, &labels, p.parts).iter())
+        (shscale_geometry::partition::split(mesh, &labels, parts).iter())
             .map(|m| {
                 shscale_geometry::MeshBvh::build(m, shscale_geometry::ray::UpdateStrategy::Rebuild)
             })
@@ -50,8 +50,8 @@ pub(super) fn rows(
                 .collect()
         })
         .collect();
-    let gaunt =
-        shscale_sh::GauntTensor::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(spec.order)
+        .map_err(|e| Error::config(e.to_string()))?;
     let ((values, bsvs), t) = ctx
         .timing
         .measure_each(|| once(spec, &bvhs, &points, &gaunt))?;

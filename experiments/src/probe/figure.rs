@@ -22,7 +22,7 @@ pub fn visibility_figure(
     run_id: &str,
     order: usize,
     occ: &dyn Occluder,
-    examples: &[crate::probe::driver::Example],
+    examples: &[super::driver::Example],
 ) -> Result<(), Error> {
     const W: usize = 256;
     const H: usize = 128;
