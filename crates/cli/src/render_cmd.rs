@@ -218,7 +218,7 @@ fn write_figure(
     };
     let mut panels = vec![panel(a.method.to_string(), lum(img))];
     if let Some((r, t)) = reference {
-        panels.push(panel(format!("{} (reference)", r.to_string()), lum(t)));
+        panels.push(panel(format!("{r} (reference)"), lum(t)));
     }
     let range = |vals: &[&Vec<f32>]| {
         vals.iter()
@@ -252,7 +252,7 @@ fn write_figure(
     }];
     if let Some((r, t)) = reference {
         let d: Vec<f32> = lum(img).iter().zip(lum(t)).map(|(a, b)| a - b).collect();
-        let title = format!("{} − {}", a.method.to_string(), r.to_string());
+        let title = format!("{} − {r}", a.method);
         let dr = range(&[&d]);
         grids.push(Grid {
             title: "difference from the reference",
@@ -325,7 +325,7 @@ impl Rendered<'_> {
             img.width,
             img.height,
             self.scene.occluders.len(),
-            a.method.to_string(),
+            a.method,
             rayon::current_num_threads()
         );
         for (stage, s) in &img.stages {
@@ -343,7 +343,7 @@ impl Rendered<'_> {
         if let Some((r, rel, secs)) = self.reference {
             println!(
                 "shade_rmse_rel vs {}: {rel:.4e}  (reference rendered in {:.1} ms)",
-                r.to_string(),
+                r,
                 secs * 1e3
             );
         }

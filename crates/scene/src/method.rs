@@ -610,7 +610,8 @@ mod tests {
             assert_eq!(Spec::parse(&k, &d, 1024).unwrap().method(), m);
         }
         // sphere_combine under extrapolation, α under ray tracing, δ under uniform radii.
-        let cases: [(&str, fn(&mut Keys)); 4] = [
+        type Set = fn(&mut Keys);
+        let cases: [(&str, Set); 4] = [
             ("sphere_combine", |k| k.sphere_combine = Some("quadrature")),
             ("alpha_deg", |k| {
                 k.method = "ray_traced";

@@ -176,7 +176,7 @@ fn fields_of<'a>(
     fulls: &'a [FullField],
     rts: &'a [ConvergedTruth],
 ) -> Vec<&'a dyn VisibilityField> {
-    fn all<'a, F: VisibilityField>(v: &'a [F]) -> Vec<&'a dyn VisibilityField> {
+    fn all<F: VisibilityField>(v: &[F]) -> Vec<&dyn VisibilityField> {
         v.iter().map(|f| f as &dyn VisibilityField).collect()
     }
     match method {

@@ -399,18 +399,14 @@ fn rays_text(x: f64) -> String {
 type Point = (f64, f64, usize);
 
 /// The most accurate point passing `keep`.
-fn most_accurate<'a>(pts: &'a [Point], keep: impl Fn(usize) -> bool) -> Option<&'a Point> {
+fn most_accurate(pts: &[Point], keep: impl Fn(usize) -> bool) -> Option<&Point> {
     (pts.iter())
         .filter(|p| keep(p.2))
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 /// The cheapest point passing `keep` at least as accurate as `err`.
-fn cheapest_as_accurate<'a>(
-    pts: &'a [Point],
-    err: f64,
-    keep: impl Fn(usize) -> bool,
-) -> Option<&'a Point> {
+fn cheapest_as_accurate(pts: &[Point], err: f64, keep: impl Fn(usize) -> bool) -> Option<&Point> {
     (pts.iter())
         .filter(|p| keep(p.2) && p.1 <= err)
         .min_by(|a, b| a.0.total_cmp(&b.0))

@@ -170,6 +170,10 @@ pub fn once(base: &ProbeBase, spec: &ProbeSpec) -> Result<(Once, Vec<f64>), Erro
     Ok((once, times))
 }
 
+/// One radius of a repeat: its row, the extrapolated values at its points, the points and the
+/// extrapolation's seconds.
+type Radius = (ProbeRow, Vec<Vec<f64>>, Vec<DVec3>, f64);
+
 /// What every radius of one repeat shares.
 struct Radii<'a> {
     base: &'a ProbeBase,
@@ -186,11 +190,7 @@ struct Radii<'a> {
 impl Radii<'_> {
     /// Radius `rho` (index `ri`, `k = ρ / s`): the extrapolation at every probe point (timed),
     /// assessed with the decomposition's exact `M_k`; its row, values, points and seconds.
-    fn radius(
-        &self,
-        ri: usize,
-        rho: f64,
-    ) -> Result<(ProbeRow, Vec<Vec<f64>>, Vec<DVec3>, f64), Error> {
+    fn radius(&self, ri: usize, rho: f64) -> Result<Radius, Error> {
         let (spec, s) = (self.spec, self.base.bsv.sphere);
         let k = rho / spec.sampling_radius;
         let points: Vec<DVec3> = (self.base.dirs.iter())
