@@ -503,8 +503,11 @@ fn snapshot(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
 
 #[test]
 fn a_report_that_fails_changes_nothing_and_leaves_no_temporary() {
-    // Every metric cell not a number: the kind's plot refuses ("no finite data to plot"). Before,
-    // summary.md had already been rewritten and a `.name.tmp-PID.png` was left behind.
+    // The report's last file cannot be written (`report.html` is a folder): it fails after the
+    // plots and the summary were drawn. Before, summary.md and the plots had already been
+    // rewritten (and once a `.name.tmp-PID.png` was left behind); now all of them are staged and
+    // none moves. Every metric cell not a number makes the plots empty (nothing to draw), which
+    // is a result the report states, not a failure.
     let d = tmp("fail");
     let dir = run(&d, &[]);
     let csv = dir.join("runs.csv");
@@ -520,16 +523,31 @@ fn a_report_that_fails_changes_nothing_and_leaves_no_temporary() {
         w.write_record(&cells).unwrap();
     }
     drop(w);
+    std::fs::remove_file(dir.join("report.html")).unwrap();
+    std::fs::create_dir(dir.join("report.html")).unwrap();
     let before = snapshot(&dir);
     let o = shscale(&["report", dir.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("no row has numbers in both"), "{err}");
+    assert!(
+        err.contains("report.html") && err.contains("is a directory"),
+        "{err}"
+    );
     let after = snapshot(&dir);
     let changed: Vec<&String> = (before.keys().chain(after.keys()))
         .filter(|k| before.get(*k) != after.get(*k))
         .collect();
     assert!(changed.is_empty(), "a failed report changed {changed:?}");
+    let left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.contains("staging") || n.contains(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporaries left: {left:?}");
+    // With the folder gone, the same rows report: nothing to plot, said so.
+    std::fs::remove_dir(dir.join("report.html")).unwrap();
+    let o = shscale(&["report", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::remove_dir_all(&d).ok();
 }
 

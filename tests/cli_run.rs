@@ -128,15 +128,20 @@ fn slurm_script_runs_end_to_end_with_a_stand_in_sbatch() {
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let cfg = d.join("tiny.toml");
     std::fs::write(&cfg, "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\n[sweep]\nalpha_deg = [20, 40, 60]\n").unwrap();
-    // A path with a space, a quote and shell syntax: every value in the script is quoted.
+    // A path with a space, a quote and shell syntax: every value in the script is quoted — the
+    // results folder's and the binary's (a copy of it at such a path).
     let out = d.join("out dir 'q' $(touch INJECTED)");
+    let bin_dir = d.join("bin dir `touch INJECTED` \"q\" $(touch INJECTED)");
+    std::fs::create_dir_all(&bin_dir).unwrap();
+    let binary = bin_dir.join("shscale");
+    std::fs::copy(env!("CARGO_BIN_EXE_shscale"), &binary).unwrap();
     let gen = shscale(&[
         "slurm",
         cfg.to_str().unwrap(),
         "--tasks",
         "2",
         "--binary",
-        env!("CARGO_BIN_EXE_shscale"),
+        binary.to_str().unwrap(),
         "--out-dir",
         out.to_str().unwrap(),
     ]);
@@ -1417,4 +1422,41 @@ fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
         assert!(err.contains(key), "{key}: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A valid probe whose radii all lie inside the occluder (the papers' Fig. 5 has such radii) has
+/// no error to plot: it runs, and its report says what it has instead of failing; `report`
+/// again does the same.
+#[test]
+fn a_probe_inside_the_occluder_reports_what_it_has() {
+    let d = dir("inside");
+    std::fs::write(
+        d.join("c.toml"),
+        "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [0.5, 0.9]\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let out = d.join("r");
+    let o = shscale(&[
+        "run",
+        d.join("c.toml").to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let res = out.join("probe/c");
+    let summary = std::fs::read_to_string(res.join("summary.md")).unwrap();
+    println!("{summary}");
+    assert!(
+        summary.contains("no radius has an occ_rel_l2")
+            && summary.contains("lie inside the occluder"),
+        "{summary}"
+    );
+    assert!(res.join("report.html").exists());
+    let again = shscale(&["report", res.to_str().unwrap()]);
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    std::fs::remove_dir_all(&d).ok();
 }

@@ -373,7 +373,7 @@ const CASES: &[(&str, &str)] = &[
     ("slurm|c.toml|--tasks|2|--mem|8GB", "--mem"),
     ("slurm|c.toml|--tasks|2|--mem|G", "--mem"),
     ("slurm|c.toml|--tasks|2|--binary|", "--binary"),
-    ("slurm|c.toml|--tasks|2|--binary|a b", "--binary"),
+    ("slurm|c.toml|--tasks|2|--binary|a\u{7}b", "--binary"),
     ("slurm|c.toml|--tasks|2|--partition|", "--partition"),
     ("slurm|c.toml|--tasks|2|--partition|-x y", "--partition"),
     ("slurm|c.toml|--tasks|2|--account|", "--account"),
@@ -590,5 +590,93 @@ fn extreme_cells_partial_merges_and_too_many_tasks_work() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let m = std::fs::read_to_string(d.join("o/partial/manifest.toml")).unwrap();
     assert!(m.contains("1 of 3 shard files missing"), "{m}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A failing `report` or `merge --replace` changes no file. With `summary.md` a directory both
+/// fail after their work (exit 2, naming it): the report's plots and the merge's rows were
+/// staged, never moved — before, `report` had rewritten the plots and `merge --replace` the
+/// merged `runs.csv` and `manifest.toml` by then.
+#[test]
+fn failing_reports_and_merges_change_no_file() {
+    let d = std::env::temp_dir().join(format!("shscale-staged-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(
+        d.join("c.toml"),
+        "experiment = \"probe\"\nmesh = \"sphere\"\norder = 2\nlayout = \"fib:20\"\nhemisphere_res = 4\nk_count = 4\nradii = [2.0]\ngpu = \"off\"\n[sweep]\nalpha_deg = [20, 40]\n",
+    )
+    .unwrap();
+    assert!(shscale(&d, &["run", "c.toml", "--out-dir", "r"])
+        .status
+        .success());
+    let dir = d.join("r/probe/c");
+    assert!(shscale(&d, &["merge", dir.to_str().unwrap()])
+        .status
+        .success());
+    // A stale merged file that `merge --replace` would rewrite, and summaries that are folders.
+    let merged = dir.join("merged");
+    let rows = std::fs::read_to_string(merged.join("runs.csv")).unwrap();
+    let stale: Vec<&str> = rows.lines().take(2).collect();
+    std::fs::write(merged.join("runs.csv"), stale.join("\n") + "\n").unwrap();
+    for s in [dir.join("summary.md"), merged.join("summary.md")] {
+        std::fs::remove_file(&s).unwrap();
+        std::fs::create_dir(&s).unwrap();
+    }
+    let args = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let d_str = dir.to_str().unwrap();
+    for (case, needle) in [
+        (args(&["report", d_str]), "summary.md"),
+        (args(&["merge", d_str, "--replace"]), "summary.md"),
+    ] {
+        if let Err(why) = common::refusal::check(&d, &case, needle) {
+            panic!("{case:?}: {why}");
+        }
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// `bench runner` holds its plans to the limits `run` does: a `--config` over the ray limit is
+/// refused before any work (naming the config, as `run` would), `--runs` takes at most 8 sizes
+/// of at most 100 000 runs (naming the flag), and nothing is written.
+#[test]
+fn bench_runner_plans_are_held_to_the_limits() {
+    let d = std::env::temp_dir().join(format!("shscale-bench-limits-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    // 10⁶ samples × 256² rays = 6.6·10¹⁰ rays: over the 10¹⁰ limit.
+    std::fs::write(
+        d.join("big.toml"),
+        "experiment = \"probe\"\nmesh = \"sphere\"\nlayout = \"fib:1000000\"\nhemisphere_res = 256\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let args = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let out = d.join("o");
+    let out = out.to_str().unwrap();
+    for (case, needle) in [
+        (
+            args(&["bench", "runner", "--config", "big.toml", "--out-dir", out]),
+            "big.toml",
+        ),
+        (
+            args(&["bench", "runner", "--runs", "100001", "--out-dir", out]),
+            "--runs",
+        ),
+        (
+            args(&[
+                "bench",
+                "runner",
+                "--runs",
+                "1,2,3,4,5,6,7,8,9",
+                "--out-dir",
+                out,
+            ]),
+            "--runs",
+        ),
+    ] {
+        if let Err(why) = common::refusal::check(&d, &case, needle) {
+            panic!("{case:?}: {why}");
+        }
+    }
     std::fs::remove_dir_all(&d).ok();
 }

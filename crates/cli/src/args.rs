@@ -242,6 +242,9 @@ pub struct BenchRunnerArgs {
     pub out_dir: Option<std::path::PathBuf>,
     #[arg(long, value_enum, default_value_t = TextFormat::Text)]
     pub format: TextFormat,
+    /// Run a `--config` plan beyond the limits (10^10 rays, 8 GiB per group), as `run` takes it.
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Args, Debug)]

@@ -211,13 +211,17 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
         let text = shscale_runner::input::read_regular_string(cfg)
             .map_err(|e| anyhow::anyhow!("--config: {e}"))?;
         let registry = shscale_experiments::registry();
-        sweeps.push(bench::sweep(&text, &registry, &root.join("config"))?);
+        let file = cfg.display().to_string();
+        let out = root.join("config");
+        sweeps.push(bench::sweep(&text, &file, &registry, &out, a.allow_large)?);
     }
     for &n in &sizes {
         sweeps.push(bench::sweep(
             &bench::tally_config(n),
+            &format!("--runs {n}"),
             &[&TALLY],
             &root.join(n.to_string()),
+            a.allow_large,
         )?);
         if !json {
             eprintln!("{} runs done", n);
@@ -245,21 +249,30 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The plan sizes of `bench runner` (`--runs`, each a whole number in 1..=MAX_COMBINATIONS);
-/// none with `--config`.
+/// The most runs of one `bench runner` sweep, and the most sweeps (`--runs` entries).
+const MAX_BENCH_RUNS: usize = 100_000;
+const MAX_BENCH_SWEEPS: usize = 8;
+
+/// The plan sizes of `bench runner` (`--runs`: at most `MAX_BENCH_SWEEPS` whole numbers, each
+/// in 1..=`MAX_BENCH_RUNS`); none with `--config`.
 fn runner_sizes(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<Vec<usize>> {
-    use shscale_runner::config::MAX_COMBINATIONS;
     if a.config.is_some() {
         return Ok(Vec::new());
     }
-    crate::args::parse_list("runs", &a.runs)?
-        .into_iter()
+    let list = crate::args::parse_list("runs", &a.runs)?;
+    if list.len() > MAX_BENCH_SWEEPS {
+        anyhow::bail!(
+            "--runs: {} sizes; give at most {MAX_BENCH_SWEEPS}",
+            list.len()
+        );
+    }
+    list.into_iter()
         .map(|v| {
             let n = v as usize;
             if v.fract() != 0.0 || v < 1.0 {
                 anyhow::bail!("--runs: {v} is not a whole number ≥ 1");
             }
-            flags::int("--runs", n, 1, MAX_COMBINATIONS)
+            flags::int("--runs", n, 1, MAX_BENCH_RUNS)
         })
         .collect()
 }

@@ -68,11 +68,23 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
-            eprintln!("error: {msg}");
+            eprintln!("error: {}", terminal_safe(&format!("{e:#}")));
             ExitCode::from(2)
         }
     }
+}
+
+/// An error message as one terminal line: a newline as a space, every other control character
+/// (ESC, BEL, CR — from a file name or a cell of a shared results directory) as its escape, so
+/// none reaches the terminal raw.
+fn terminal_safe(msg: &str) -> String {
+    msg.chars()
+        .map(|c| match c {
+            '\n' => " ".to_string(),
+            c if c.is_control() => c.escape_unicode().to_string(),
+            c => c.to_string(),
+        })
+        .collect()
 }
 
 /// Help and version on stdout (exit 0); a missing subcommand's help (exit 2); any other

@@ -224,8 +224,33 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
         allow_mixed: a.allow_mixed,
         allow_partial: a.allow_partial,
     };
-    let m = runner::merge(&a.dirs, a.out.as_deref(), &registry, opts)?;
-    let r = runner::report(m.kind, &m.out)?;
+    // Merge and report into a staging folder, moved into the output only when both succeeded:
+    // a merge whose report fails (a `summary.md` that is a directory, say) replaces nothing.
+    let Some(first) = a.dirs.first() else {
+        runner::merge(&a.dirs, a.out.as_deref(), &registry, opts)?;
+        bail!("merge: give at least one directory");
+    };
+    let out = a.out.clone().unwrap_or_else(|| first.join("merged"));
+    let target = out.join("runs.csv");
+    if target.exists() && !a.replace {
+        bail!(
+            "{}: exists; merge never overwrites — choose another --out (or --replace)",
+            target.display()
+        );
+    }
+    let staging = runner::Staging::new(&out)?;
+    let m = runner::merge(&a.dirs, Some(staging.path()), &registry, opts)?;
+    let mut staged = runner::report_staged(m.kind, staging.path(), &staging)?;
+    staged.files.extend([
+        staging.path().join("runs.csv"),
+        staging.path().join("manifest.toml"),
+    ]);
+    let mut r = runner::commit_report(staging, staged)?;
+    r.files.retain(|f| {
+        f.file_name()
+            .is_none_or(|n| n != "runs.csv" && n != "manifest.toml")
+    });
+    let m = runner::MergeSummary { out, ..m };
     if a.format == crate::args::TextFormat::Json {
         crate::output::print_json(&serde_json::json!({
             "experiment": m.kind.name(),

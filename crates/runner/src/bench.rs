@@ -108,15 +108,20 @@ pub struct SweepCost {
     pub peak_rss_bytes: u64,
 }
 
-/// Plan, run, report and resume `text` (a config of a kind in `registry`) under `out_root`,
-/// which should be empty.
+/// Plan, run, report and resume `text` (a config of a kind in `registry`; `file` names it in
+/// errors, and the paths it holds — a scene — are read relative to its folder, as `run` does)
+/// under `out_root`, which should be empty. The plan is held to the work limits unless
+/// `allow_large`, as `run` holds it.
 pub fn sweep(
     text: &str,
+    file: &str,
     registry: &[&'static dyn DynKind],
     out_root: &Path,
+    allow_large: bool,
 ) -> Result<SweepCost, Error> {
     let t = Instant::now();
-    let plan = Plan::parse("bench.toml", "bench", text, &Overrides::default(), registry)?;
+    let plan = Plan::parse(file, "bench", text, &Overrides::default(), registry)?;
+    plan.check_limits(allow_large)?;
     let plan_s = t.elapsed().as_secs_f64();
     let work = std::sync::Mutex::new(0.0f64);
     let t = Instant::now();
@@ -131,7 +136,7 @@ pub fn sweep(
     report(plan.kind, &dir)?;
     let report_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let again = Plan::parse("bench.toml", "bench", text, &Overrides::default(), registry)?;
+    let again = Plan::parse(file, "bench", text, &Overrides::default(), registry)?;
     let s = run_plan(&again, out_root, None, &|_| {})?;
     let resume_s = t.elapsed().as_secs_f64();
     if s.ran != 0 {
@@ -241,7 +246,7 @@ mod tests {
         let root =
             std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);
-        let s = sweep(&tally_config(200), &[&TALLY], &root).unwrap();
+        let s = sweep(&tally_config(200), "--runs 200", &[&TALLY], &root, false).unwrap();
         assert_eq!(s.runs, 200);
         assert!(s.csv_bytes > 0 && s.html_bytes > 0, "{s:?}");
         let m = merge_shards(&root.join("tally").join("tally-200"), 7).unwrap();

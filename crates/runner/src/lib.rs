@@ -54,7 +54,7 @@ pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells, T
 pub use manifest::Manifest;
 pub use merge::{merge, MergeOptions, MergeSummary};
 pub use plan::Plan;
-pub use report::{report, title_and_claim, Report};
+pub use report::{commit_report, report, report_staged, title_and_claim, Report};
 pub use run::{run_plan, RunEvent, RunSummary};
 pub use slurm::{shell_quote, slurm_script, SlurmOptions};
 pub use store::{header, load_rows};

@@ -688,7 +688,7 @@ pub fn plot_column(
 ) -> Result<Vec<PathBuf>, Error> {
     let (metric, x) = (spec.metric, spec.x);
     check_columns(dir, t, spec)?;
-    let rows = plot_rows(t, spec)?;
+    let rows = plot_rows(dir, t, spec)?;
     let distinct = |c: &str| t.distinct_in(rows.iter().copied(), c);
     let varying: Vec<String> = (keys.iter())
         .filter(|k| t.col(k).is_some() && distinct(k).len() > 1)
@@ -775,8 +775,14 @@ fn check_columns(dir: &Path, t: &Table, spec: &PlotSpec) -> Result<(), Error> {
 
 /// The rows a plot draws: those passing its `--where` filters (cells equal as text or as
 /// numbers) with numbers in both the metric and x; an error saying which when none.
-fn plot_rows(t: &Table, spec: &PlotSpec) -> Result<Vec<usize>, Error> {
+fn plot_rows(dir: &Path, t: &Table, spec: &PlotSpec) -> Result<Vec<usize>, Error> {
     let (metric, x) = (spec.metric, spec.x);
+    if t.rows.is_empty() {
+        return Err(Error::Config(format!(
+            "{} has no rows (its header alone): nothing to plot",
+            dir.join("runs.csv").display()
+        )));
+    }
     let same = |cell: &str, want: &str| {
         cell == want
             || matches!((cell.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)

@@ -20,13 +20,45 @@ pub fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-/// Inline Markdown of the summaries: `**bold**` and `` `code` ``, escaped.
+/// Text from data (a cell of the CSV, a path, a config's title or claim) as Markdown text that
+/// shows it as it is: `&`, `<`, `>` as entities (no raw HTML reaches `summary.md`), `\`, `|`,
+/// `` ` `` and `*` escaped (no table cell is split, no code span or emphasis opened), and every
+/// control character — a newline that would forge a table row, ESC, BEL, CR — written as its
+/// escape (`\u{1b}`).
+pub fn md_text(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '\\' | '|' | '`' | '*' => {
+                out.push('\\');
+                out.push(c);
+            }
+            c if c.is_control() => out.push_str(&c.escape_unicode().to_string()),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// A cell of a Markdown table: [`md_text`] of the value.
+fn md_cell(s: &str) -> String {
+    md_text(s)
+}
+
+/// Inline Markdown of the summaries: `**bold**` and `` `code` ``, escaped; the escapes of
+/// [`md_text`] (`\|`, `&lt;`, …) shown as the characters they stand for.
 fn inline(s: &str) -> String {
     let mut out = String::new();
     let (mut bold, mut code) = (false, false);
     let mut rest = s;
     while !rest.is_empty() {
-        if !code && rest.starts_with("**") {
+        if let Some((c, n)) = md_escape(rest) {
+            out.push_str(&esc(&c.to_string()));
+            rest = &rest[n..];
+        } else if !code && rest.starts_with("**") {
             out.push_str(if bold { "</strong>" } else { "<strong>" });
             bold = !bold;
             rest = &rest[2..];
@@ -49,15 +81,68 @@ fn inline(s: &str) -> String {
     out
 }
 
+/// The character an escape of [`md_text`] at the start of `s` stands for, and the escape's length.
+fn md_escape(s: &str) -> Option<(char, usize)> {
+    for (e, c) in [("&amp;", '&'), ("&lt;", '<'), ("&gt;", '>')] {
+        if s.starts_with(e) {
+            return Some((c, e.len()));
+        }
+    }
+    let mut it = s.chars();
+    match (it.next(), it.next()) {
+        (Some('\\'), Some(c @ ('\\' | '|' | '`' | '*'))) => Some((c, 1 + c.len_utf8())),
+        _ => None,
+    }
+}
+
+/// The cells of a Markdown table row: split at every `|` not escaped by `\`.
+fn table_cells(row: &str) -> Vec<String> {
+    let row = row.trim();
+    let row = row.strip_prefix('|').unwrap_or(row);
+    let mut cells: Vec<String> = Vec::new();
+    let mut cell = String::new();
+    let mut chars = row.chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '\\' => {
+                cell.push(c);
+                cell.extend(chars.next());
+            }
+            '|' => cells.push(std::mem::take(&mut cell)),
+            c => cell.push(c),
+        }
+    }
+    cells.push(cell);
+    // The closing `|` leaves an empty last cell.
+    if cells.len() > 1 && cells.last().is_some_and(|l| l.trim().is_empty()) {
+        cells.pop();
+    }
+    cells.into_iter().map(|c| c.trim().to_string()).collect()
+}
+
+/// A code fence for `text`: three backticks, or one more than the longest run of backticks in
+/// it, so no line of the text closes the block (CommonMark).
+fn fence_for(text: &str) -> String {
+    let mut longest = 0;
+    let mut run = 0;
+    for c in text.chars() {
+        run = if c == '`' { run + 1 } else { 0 };
+        longest = longest.max(run);
+    }
+    "`".repeat((longest + 1).max(3))
+}
+
 /// The Markdown the summaries use — headings, paragraphs, pipe tables, fenced code — as HTML.
 pub fn markdown_to_html(md: &str) -> String {
     let mut html = String::new();
     let mut para: Vec<&str> = Vec::new();
     let mut table: Vec<Vec<String>> = Vec::new();
-    let mut fence: Option<Vec<&str>> = None;
+    // An open fence: its backtick count (a line of at least as many backticks closes it).
+    let mut fence: Option<(usize, Vec<&str>)> = None;
+    let ticks = |l: &str| l.chars().take_while(|c| *c == '`').count();
     for line in md.lines() {
-        if let Some(block) = fence.as_mut() {
-            if line.starts_with("```") {
+        if let Some((n, block)) = fence.as_mut() {
+            if ticks(line) >= *n && line.trim().chars().all(|c| c == '`') {
                 html.push_str(&format!("<pre>{}</pre>\n", esc(&block.join("\n"))));
                 fence = None;
             } else {
@@ -66,19 +151,16 @@ pub fn markdown_to_html(md: &str) -> String {
             continue;
         }
         let t = line.trim();
-        if t.starts_with("```") {
+        if ticks(t) >= 3 {
             flush_para(&mut para, &mut html);
             flush_table(&mut table, &mut html);
-            fence = Some(Vec::new());
+            fence = Some((ticks(t), Vec::new()));
         } else if t.starts_with('|') {
             flush_para(&mut para, &mut html);
-            let cells: Vec<String> = t
-                .trim_matches('|')
-                .split('|')
-                .map(|c| c.trim().to_string())
-                .collect();
+            let cells = table_cells(t);
             // The separator row (|---|---:|).
-            if !cells.iter().all(|c| c.chars().all(|ch| "-: ".contains(ch))) {
+            let rule = |c: &String| c.contains('-') && c.chars().all(|ch| "-: ".contains(ch));
+            if !cells.iter().all(rule) {
                 table.push(cells);
             }
         } else if t.is_empty() {
@@ -99,7 +181,7 @@ pub fn markdown_to_html(md: &str) -> String {
     }
     flush_para(&mut para, &mut html);
     flush_table(&mut table, &mut html);
-    if let Some(block) = fence {
+    if let Some((_, block)) = fence {
         html.push_str(&format!("<pre>{}</pre>\n", esc(&block.join("\n"))));
     }
     html
@@ -244,33 +326,34 @@ fn provenance_md(versions: &[crate::manifest::Version]) -> String {
         let p = &v.provenance;
         md.push_str(&format!(
             "| `{}` | `{}` | {} | {} | {} | `{}{}` | {} | {} | {} | {} | {} | {} |\n",
-            v.id,
-            v.config_file,
+            md_cell(&v.id),
+            md_cell(&v.config_file),
             if v.overrides.is_empty() {
                 "—".into()
             } else {
-                v.overrides.join(" ")
+                md_cell(&v.overrides.join(" "))
             },
             if v.axes.is_empty() {
                 "—".into()
             } else {
-                v.axes.join(", ")
+                md_cell(&v.axes.join(", "))
             },
             v.runs_in_plan,
-            p.git_revision,
+            md_cell(&p.git_revision),
             if p.git_dirty { "+dirty" } else { "" },
-            p.shscale_version,
-            p.cpu_model,
+            md_cell(&p.shscale_version),
+            md_cell(&p.cpu_model),
             p.threads,
-            p.gpu_device,
+            md_cell(&p.gpu_device),
             crate::manifest::iso8601_utc(v.first_unix_time),
             crate::manifest::iso8601_utc(v.last_unix_time)
         ));
     }
     if let Some(v) = versions.last() {
+        let text = v.config_text.trim_end();
+        let f = fence_for(text);
         md.push_str(&format!(
-            "\n## Config (newest version)\n\n```toml\n{}\n```\n",
-            v.config_text.trim_end()
+            "\n## Config (newest version)\n\n{f}toml\n{text}\n{f}\n"
         ));
     }
     md
@@ -359,7 +442,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
     for (k, va) in &ma {
         let Some(vb) = mb.get(k) else { continue };
         matched += 1;
-        let mut cells: Vec<String> = k.clone();
+        let mut cells: Vec<String> = k.iter().map(|c| md_cell(c)).collect();
         for i in 0..m.metrics.len() {
             let (x, y) = (avg(va[i]), avg(vb[i]));
             cells.extend([compare_cell(x), compare_cell(y), compare_cell(y - x)]);
@@ -598,21 +681,51 @@ pub struct Report {
 }
 
 /// The summary table and the kind's plots of a results directory's `runs.csv`: one line per
-/// run, with every parameter that varies in the CSV and the kind's headline columns.
+/// run, with every parameter that varies in the CSV and the kind's headline columns. All or
+/// nothing: every file (plots, summary, reports) is written to a staging folder first and moved
+/// into `dir` only when all succeeded, so a failing report changes no file there.
 pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
+    let staging = crate::atomic::Staging::new(dir)?;
+    let staged = report_staged(kind, dir, &staging)?;
+    commit_report(staging, staged)
+}
+
+/// Move a staged report ([`report_staged`]) into its folder, with the other staged files, and
+/// remove a `discussion.md` of an earlier, longer discussion that the summary now holds whole.
+pub fn commit_report(staging: crate::atomic::Staging, staged: Report) -> Result<Report, Error> {
+    let out = staging.target(staging.path());
+    let files = staging.commit(&staged.files)?;
+    let full = out.join("discussion.md");
+    if staged.discussion.len() <= MAX_DISCUSSION_BYTES && full.exists() {
+        std::fs::remove_file(&full).map_err(|e| Error::io(&full, e))?;
+    }
+    Ok(Report { files, ..staged })
+}
+
+/// [`report`] of the rows and manifest in `dir`, written into `staging` (named after the
+/// staging's target, not the staging folder); nothing moves until [`commit_report`].
+pub fn report_staged(
+    kind: &dyn DynKind,
+    dir: &Path,
+    staging: &crate::atomic::Staging,
+) -> Result<Report, Error> {
     let csv = dir.join("runs.csv");
     let t = Results::read(&csv)?;
     let varying = t.varying(&kind.param_columns());
     let (title, claim) = title_and_claim(dir);
     let mut s = format!(
         "# {}{} — {}\n\n{}{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
-        title.map_or(String::new(), |t| format!("{t}\n\nExperiment ")),
+        title.map_or(String::new(), |t| format!("{}\n\nExperiment ", md_text(&t))),
         kind.name(),
-        dir.file_name()
-            .map_or(String::new(), |n| n.to_string_lossy().to_string()),
+        md_text(
+            &staging
+                .target(dir)
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().to_string())
+        ),
         claim.map_or(String::new(), |c| format!(
             "**Claim.** {}\n\n**Question.** ",
-            c.trim()
+            md_text(c.trim())
         )),
         kind.question(),
         t.rows.len(),
@@ -625,7 +738,7 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
     // The answer first: the kind's discussion of its claim, and the best configuration per row
     // key; every run's row after it (collapsed in the HTML, after the figures).
     let discussion = kind.discussion(&t)?;
-    let full = dir.join("discussion.md");
+    let out = staging.path();
     if !discussion.trim().is_empty() {
         let (shown, cut) = cap_lines(discussion.trim_end(), MAX_DISCUSSION_BYTES);
         s.push_str(&format!("## Our numbers against the claim\n\n{shown}\n"));
@@ -642,10 +755,14 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
     s.push_str(&every_run(kind, &t, &varying));
     // The kind's figures first (each written as a unit); the texts that describe them — summary,
     // discussion, report.md and report.html — only when every figure succeeded, together.
-    let figures = kind.report(dir, &t)?;
+    let figures = kind.report(out, &t)?;
     let (md, html) = report_texts(dir, &s, &figures)?;
-    let p = dir.join("summary.md");
-    let (pm, ph) = (dir.join("report.md"), dir.join("report.html"));
+    let p = out.join("summary.md");
+    let (pm, ph, full) = (
+        out.join("report.md"),
+        out.join("report.html"),
+        out.join("discussion.md"),
+    );
     let long = format!("# Our numbers against the claim\n\n{discussion}");
     let mut texts: Vec<(&Path, &str)> = vec![(&p, &s), (&pm, &md), (&ph, &html)];
     if discussion.len() > MAX_DISCUSSION_BYTES {
@@ -653,10 +770,6 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
     }
     write_atomic_all(&texts)?;
     let mut files: Vec<PathBuf> = texts.iter().map(|(f, _)| f.to_path_buf()).collect();
-    if discussion.len() <= MAX_DISCUSSION_BYTES && full.exists() {
-        // A discussion that now fits in the summary: an older, longer one would mislead.
-        std::fs::remove_file(&full).map_err(|e| Error::io(&full, e))?;
-    }
     files.extend(figures);
     Ok(Report {
         summary: s,
@@ -759,11 +872,12 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
             )
         });
         md.push_str(&format!(
-            "| {k} | {} |{spread}{}\n",
+            "| {} | {} |{spread}{}\n",
+            md_cell(k),
             summary_decimal(v),
             params
                 .iter()
-                .map(|p| format!(" {} |", summary_cell(t.cell(r, p))))
+                .map(|p| format!(" {} |", md_cell(&summary_cell(t.cell(r, p)))))
                 .collect::<String>()
         ));
     }
@@ -776,9 +890,15 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
 pub const MAX_DISCUSSION_BYTES: usize = 32 * 1024;
 
 /// The first lines of `text` within `max` bytes (at least one line), and how many were left out.
+/// The cut is at a line end, never inside a character: `max` is first moved down to a character
+/// boundary (a multi-byte character straddling it, the kinds' own "α = 45°" say, once panicked).
 fn cap_lines(text: &str, max: usize) -> (&str, usize) {
     if text.len() <= max {
         return (text, 0);
+    }
+    let mut max = max;
+    while !text.is_char_boundary(max) {
+        max -= 1;
     }
     let end = text[..max]
         .rfind('\n')
@@ -819,7 +939,9 @@ fn summary_decimal(x: f64) -> String {
 fn row_table(t: &Results, cols: &[String]) -> String {
     let mut s = format!("| {} |\n|{}\n", cols.join(" | "), "---|".repeat(cols.len()));
     for r in 0..t.rows.len() {
-        let cells: Vec<String> = cols.iter().map(|c| summary_cell(t.cell(r, c))).collect();
+        let cells: Vec<String> = (cols.iter())
+            .map(|c| md_cell(&summary_cell(t.cell(r, c))))
+            .collect();
         s.push_str(&format!("| {} |\n", cells.join(" | ")));
     }
     s
@@ -884,7 +1006,7 @@ fn distribution_tables(t: &Results, varying: &[String], headline: &[&str]) -> St
             s.push_str(&format!("\n`{c}` by `{p}`:\n\n| {p} | count | mean | p10 | median | p90 |\n|---|---:|---:|---:|---:|---:|\n"));
             for v in &values {
                 let rows: Vec<usize> = all.iter().copied().filter(|&r| t.cell(r, p) == v).collect();
-                s.push_str(&line(v, &rows, c));
+                s.push_str(&line(&md_cell(v), &rows, c));
             }
         }
     }
@@ -908,6 +1030,85 @@ pub fn title_and_claim(dir: &Path) -> (Option<String>, Option<String>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Text from data through `md_text` into a table, then to HTML: whatever the text (pipes,
+    /// backslashes, backticks, stars, `<script>`, newlines, ESC, BEL, CR, multi-byte
+    /// characters), the row keeps its cells and each shows the text itself, control characters
+    /// as their escapes — over 2,000 seeded strings.
+    #[test]
+    fn cells_and_text_from_data_cannot_break_out_of_their_place() {
+        let alphabet: Vec<char> = "ab|\\`*<>&\"' \n\r\t\u{1b}\u{7}é∑🦆#-_:.".chars().collect();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let shown = |x: &str| -> String {
+            x.chars()
+                .map(|c| {
+                    if c.is_control() {
+                        c.escape_unicode().to_string()
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect()
+        };
+        for _ in 0..2000 {
+            let mut word = || -> String {
+                let n = (next() % 12) as usize;
+                (0..n)
+                    .map(|_| alphabet[(next() % alphabet.len() as u64) as usize])
+                    .collect()
+            };
+            let (a, b) = (word(), word());
+            let md = format!(
+                "| h1 | h2 |\n|---|---|\n| {} | {} |\n",
+                md_cell(&a),
+                md_cell(&b)
+            );
+            assert_eq!(md.lines().count(), 3, "a cell forged a row: {md:?}");
+            let html = markdown_to_html(&md);
+            // (A cell's spaces at its ends are not part of it, in Markdown as here.)
+            let want = format!(
+                "<tr><td>{}</td><td>{}</td></tr>",
+                esc(shown(&a).trim()),
+                esc(shown(&b).trim())
+            );
+            assert!(html.contains(&want), "{a:?} {b:?}: {html}");
+            assert!(!md.contains("<script") && !html.contains("<script"), "{md}");
+        }
+        // A code block holds any text: its fence is longer than the text's backtick runs.
+        let text = "title = \"```\"\n````\nk = 1";
+        let f = fence_for(text);
+        assert_eq!(f, "`````");
+        let html = markdown_to_html(&format!("{f}toml\n{text}\n{f}\nafter\n"));
+        assert_eq!(html, format!("<pre>{}</pre>\n<p>after</p>\n", esc(text)));
+    }
+
+    /// A cut at every byte of text made of multi-byte characters (2-, 3- and 4-byte ones) and
+    /// lines: never a panic, always whole lines within the cap (at least one), the count of the
+    /// lines left out exact.
+    #[test]
+    fn capped_discussions_cut_at_lines_never_inside_a_character() {
+        let lines: Vec<String> = (0..40)
+            .map(|i| format!("run {i}: α = 45.0°, ∑ = {}, 🦆 ok", i * 7))
+            .collect();
+        let text = lines.join("\n");
+        for max in 0..=text.len() + 1 {
+            let (shown, cut) = cap_lines(&text, max);
+            let n = shown.lines().count();
+            assert!(text.starts_with(shown), "max {max}");
+            assert!(n >= 1 && n + cut == lines.len(), "max {max}: {n} + {cut}");
+            assert!(
+                shown.len() <= max || n == 1,
+                "max {max}: {} bytes",
+                shown.len()
+            );
+        }
+    }
 
     #[test]
     fn markdown_subset_to_html() {

@@ -16,8 +16,9 @@
 //!
 //! **Bookkeeping in linear time.** The existing rows are read and validated once, when the plan
 //! starts; finished runs' rows are then appended whole (flushed and synced) in group commits —
-//! every run that finished within [`COMMIT_INTERVAL`] (100 ms) in one append and one sync, a run
-//! of longer work at once — and their ids kept in memory, so each run costs the same whatever the
+//! every run that finished within [`COMMIT_INTERVAL`] (100 ms) in one append and one sync, by a
+//! timer that commits what finished at most [`COMMIT_INTERVAL`] after it finished (so a long run
+//! never holds the rows of the runs before it) — and their ids kept in memory, so each run costs the same whatever the
 //! file holds (docs/BENCHMARKS.md, "Group commits": 12–21 µs per run from 10³ to 10⁵
 //! runs, where rewriting the file per run cost 113 ms per run at 10³). The file is put in plan
 //! order once, and the manifest's last time moved, when the plan ends; on a long unsharded plan
@@ -135,7 +136,29 @@ pub fn run_plan(
         device: device.as_ref(),
         timing: plan.timing,
     };
-    run_groups(plan, &pending, &ctx, &writer, progress)?;
+    // Finished runs are committed on a timer, not only when the next run finishes: a long run
+    // never holds the rows of the runs that finished before it (SIGKILL loses at most
+    // COMMIT_INTERVAL of finished runs).
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        let ticker = scope.spawn(|| -> Result<(), Error> {
+            while !stop.load(std::sync::atomic::Ordering::Acquire) {
+                std::thread::park_timeout(COMMIT_INTERVAL / 4);
+                let batch = (writer.queue.lock())
+                    .unwrap_or_else(|e| e.into_inner())
+                    .take(false);
+                writer.commit(batch, false)?;
+            }
+            Ok(())
+        });
+        let ran = run_groups(plan, &pending, &ctx, &writer, progress);
+        stop.store(true, std::sync::atomic::Ordering::Release);
+        ticker.thread().unpark();
+        let ticked = ticker
+            .join()
+            .unwrap_or_else(|_| Err(Error::Config("the commit timer panicked".into())));
+        ran.and(ticked)
+    })?;
     // On an error above, dropping the writer commits what finished before it.
     summary.ran = writer.finish()?;
     Ok(summary)

@@ -27,7 +27,8 @@ pub fn shell_quote(s: &str) -> String {
 /// tasks, `--dependency` one word; each a word (not empty, no whitespace or control
 /// character); `--cpus-per-task` ≥ 1; `--time` in one of Slurm's forms (minutes, `MM:SS`,
 /// `HH:MM:SS`, `D-HH[:MM[:SS]]`, or `UNLIMITED`); `--mem` a whole number with an optional
-/// unit K, M, G or T; `--binary` not empty.
+/// unit K, M, G or T; `--binary` not empty and without control characters (spaces and quotes
+/// are quoted in the script).
 fn check_options(binary: &str, tasks: usize, opts: &SlurmOptions) -> Result<(), Error> {
     crate::check::int(tasks, 1, 100_000)
         .map_err(|m| Error::Config(format!("slurm: --tasks: {m}")))?;
@@ -50,7 +51,13 @@ fn check_options(binary: &str, tasks: usize, opts: &SlurmOptions) -> Result<(), 
         }
         Ok(())
     };
-    word("--binary", binary)?;
+    // The binary is quoted in the script like every value: spaces and shell syntax in its path
+    // are data, not refused; only an empty path or a control character is.
+    if binary.is_empty() || binary.chars().any(|c| c.is_control()) {
+        return Err(Error::Config(format!(
+            "slurm: --binary {binary:?}: needs a path without control characters"
+        )));
+    }
     for (flag, v) in [
         ("--time", &opts.time),
         ("--mem", &opts.mem),

@@ -471,6 +471,39 @@ fn runs_finished_before_an_error_are_committed_not_lost() {
 }
 
 #[test]
+fn a_run_finished_before_a_long_one_is_committed_while_the_long_one_runs() {
+    // The first run finishes at once, within the commit window of the plan's start; the second
+    // sleeps 2 s. The first run's row must reach the file by the commit timer (within
+    // COMMIT_INTERVAL, 100 ms, of finishing), not wait for the second run to finish: a SIGKILL
+    // during the long run would otherwise lose it.
+    let text = "experiment = \"product\"\nparallel_runs = false\n\n[sweep.zip]\nn = [1, 2]\nsleep_ms = [0, 2000]\n";
+    let plan = parse(text).unwrap();
+    let d = tmp("commit-timer");
+    let csv = d.join("product").join("c").join("runs.csv");
+    std::thread::scope(|s| {
+        let run = s.spawn(|| run_plan(&plan, &d, None, &|_| {}));
+        let t0 = std::time::Instant::now();
+        let mut seen = None;
+        while t0.elapsed() < std::time::Duration::from_millis(1500) {
+            if csv.exists() && ids_in(&csv).contains(&plan.runs[0].id) {
+                seen = Some(t0.elapsed());
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        let seen = seen.expect("the finished run's row was not committed while the long run ran");
+        println!(
+            "the first run's row was in the file {} ms after the plan started",
+            seen.as_millis()
+        );
+        assert!(!run.is_finished(), "the long run was still running");
+        run.join().unwrap().unwrap();
+    });
+    assert_eq!(ids_in(&csv).len(), 2);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn a_long_plan_writes_its_report_while_it_runs_never_per_run_when_fast() {
     // Runs of 150 ms are each committed at once; with the interim interval at zero, the summary
     // of the rows so far follows each commit, and says how many rows it saw.

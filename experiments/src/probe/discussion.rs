@@ -86,7 +86,16 @@ pub(super) fn follows_sentence(t: &Results, who: &str, rows: &[usize]) -> String
             t.cell(w, "radius"),
             occ(w)
         ),
-        _ => format!("{who}: no radius has a finite occ_rel_l2 (no occluded truth).\n"),
+        _ => {
+            let sum = |c: &str| rows.iter().map(|&r| t.num(r, c)).filter(|v| v.is_finite()).sum::<f64>();
+            format!(
+                "{who}: no radius has an occ_rel_l2 — of {} probe points over {} radii, {} lie inside the occluder (no truth there) and {} see nothing occluded; there is no error to report or plot.\n",
+                sum("probes"),
+                rows.len(),
+                sum("inside_count"),
+                sum("unoccluded_truth_count")
+            )
+        }
     }
 }
 

@@ -183,6 +183,12 @@ fn error_against(
     varying: &[String],
     param: &str,
 ) -> Result<Vec<PathBuf>, Error> {
+    // A run whose probes are all inside the occluder (or all see nothing occluded) has no error
+    // to plot; the summary says what it has.
+    let plotted = |r: usize| t.num(r, "occ_rel_l2_mean").is_finite() && t.num(r, param).is_finite();
+    if !(0..t.rows.len()).any(plotted) {
+        return Ok(Vec::new());
+    }
     let mut keys: Vec<String> = (varying.iter())
         .filter(|k| k.as_str() != "radii")
         .cloned()
