@@ -69,6 +69,17 @@ pub enum EmitterKind {
     Sphere,
 }
 
+impl EmitterKind {
+    /// `hinged` or `sphere`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "hinged" => Ok(Self::Hinged),
+            "sphere" => Ok(Self::Sphere),
+            e => Err(format!("{e:?} is not `hinged` or `sphere`")),
+        }
+    }
+}
+
 /// The kind `srf`.
 pub struct Srf;
 
@@ -111,16 +122,7 @@ impl Kind for Srf {
             shscale_field::truth::MAX_TRUTH_RES,
         )?;
         KeyError::int("order", p.order, 1, MAX_ORDER)?;
-        let emitter = match p.emitter.as_str() {
-            "hinged" => EmitterKind::Hinged,
-            "sphere" => EmitterKind::Sphere,
-            e => {
-                return Err(KeyError::new(
-                    "emitter",
-                    format!("{e:?} is not `hinged` or `sphere`"),
-                ))
-            }
-        };
+        let emitter = EmitterKind::parse(&p.emitter).map_err(|m| KeyError::new("emitter", m))?;
         let layout =
             Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
@@ -302,7 +304,7 @@ fn discussion_of(t: &Results, rows: &[usize], emitter: &str) -> String {
         .map(|&r| {
             format!(
                 "| {} | {}° | {} | {:.4} | {:.4} | {:.4} | {} |",
-                if emitter == "sphere" {
+                if EmitterKind::parse(emitter) == Ok(EmitterKind::Sphere) {
                     "—".to_string()
                 } else {
                     format!("{}°", t.cell(r, "hinge_deg"))
@@ -330,7 +332,7 @@ fn discussion_of(t: &Results, rows: &[usize], emitter: &str) -> String {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(*v), b.max(*v))
         });
-    let light = if emitter == "sphere" {
+    let light = if EmitterKind::parse(emitter) == Ok(EmitterKind::Sphere) {
         "A unit sphere of uniform radiance 1 (an analytic emitter: from distance d it fills the cap asin(1/d), so the truth is the cap's closed-form projection, own error 0)"
     } else {
         "The hinged two-panel light (side 1, both panels radiance 1; truth: the converged stratified projection, its own error in the CSV's `truth_rel_err`)"

@@ -284,9 +284,18 @@ def load_results(directory: str | os.PathLike):
     """The rows of a results directory (its ``runs.csv``) as a pandas DataFrame."""
     import pandas as pd
 
+    import stat
+
     path = os.path.join(os.fspath(directory), "runs.csv")
-    if not os.path.exists(path):
-        raise ValueError(f"{path}: no runs.csv (run an experiment into this directory first)")
+    try:
+        # lstat: a FIFO, a device or a link is never opened (a FIFO would block forever).
+        st = os.lstat(path)
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no runs.csv (run an experiment into this directory first)") from None
+    except OSError as e:
+        raise ValueError(f"{path}: {e.strerror}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"{path}: not a regular file (a FIFO, a device, a link or a folder); nothing read")
     return pd.read_csv(path, keep_default_na=True)
 
 

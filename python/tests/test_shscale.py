@@ -104,10 +104,14 @@ def test_visibility_inspect_probe_equal_the_cli():
 
     assert isinstance(p["rows"], pd.DataFrame) and len(p["rows"]) == 2
     assert p["rows"]["probes"].dtype.kind == "i" and p["rows"]["radius"].dtype.kind == "f"
-    # Every column of the CLI's rows (the row struct through serde), the device columns aside.
+    # Every column of the CLI's rows (the probe's one row struct through serde, the CSV's too),
+    # the CLI's device columns aside.
     cli_cols = [c for c in want["rows"][0] if c not in ("device", "threads")]
     assert list(p["rows"]) == cli_cols
-    for col in [c for c in cli_cols if not c.endswith("_seconds")]:  # times differ run to run
+    # Times (and their spreads) differ run to run; the GPU's device name is text.
+    numeric = [c for c in cli_cols if not c.endswith(("_seconds", "_spread")) and c != "gpu_device"]
+    assert (p["rows"]["gpu_device"] == "").all() or p["rows"]["gpu_device"].isna().all()
+    for col in numeric:
         got = p["rows"][col]
         ref = np.array([np.nan if r[col] is None else r[col] for r in want["rows"]], dtype=float)
         np.testing.assert_array_equal(got, ref, err_msg=col)
@@ -191,6 +195,13 @@ def test_hostile_calls_raise_and_never_crash_the_interpreter(tmp_path):
         with pytest.raises(exc) as e:
             call()
         assert needle in str(e.value), str(e.value)[:300]
+    # A runs.csv that is a FIFO blocked load_results forever; now refused without opening it.
+    fifo_dir = tmp_path / "fifo"
+    fifo_dir.mkdir()
+    os.mkfifo(fifo_dir / "runs.csv")
+    with pytest.raises(ValueError) as e:
+        shscale.load_results(fifo_dir)
+    assert "not a regular file" in str(e.value), str(e.value)
     # Non-contiguous and integer inputs are taken as they are.
     d = np.array([[0, 0, 1, 9], [1, 0, 0, 9]], dtype=np.int64)[:, :3]
     assert np.allclose(shscale.sh_eval(2, d), shscale.sh_eval(2, [[0.0, 0, 1], [1, 0, 0]]))

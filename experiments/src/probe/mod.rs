@@ -316,7 +316,7 @@ impl Kind for Probe {
         } else {
             (radii + 1.0) * samples * t4
         };
-        let direct_rays = if p.probe_dirs == "samples" {
+        let direct_rays = if p.typed.probe_dirs == ProbeDirs::Samples {
             0.0
         } else {
             samples * h2
