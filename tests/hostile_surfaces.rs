@@ -374,6 +374,9 @@ const CASES: &[(&str, &str)] = &[
     ("slurm|c.toml|--tasks|2|--mem|G", "--mem"),
     ("slurm|c.toml|--tasks|2|--binary|", "--binary"),
     ("slurm|c.toml|--tasks|2|--binary|a\u{7}b", "--binary"),
+    // An output folder that is a file: named by its flag (was only "Not a directory").
+    ("run|c.toml|--out-dir|c.toml", "--out-dir"),
+    ("run|c.toml|--out-dir|c.toml/deeper", "--out-dir"),
     ("slurm|c.toml|--tasks|2|--partition|", "--partition"),
     ("slurm|c.toml|--tasks|2|--partition|-x y", "--partition"),
     ("slurm|c.toml|--tasks|2|--account|", "--account"),

@@ -254,6 +254,10 @@ pub struct BenchEstimatesArgs {
     pub configs: Vec<std::path::PathBuf>,
     #[arg(long, value_enum, default_value_t = TextFormat::Text)]
     pub format: TextFormat,
+    /// Run configs beyond the limits (10^10 rays, 8 GiB per group), as `run` takes them: the
+    /// limit's message advises this flag.
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -331,7 +331,7 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
     let mut plans = Vec::new();
     for c in &a.configs {
         let plan = shscale_runner::Plan::load(c, &overrides, &registry)?;
-        plan.check_limits(false)?;
+        plan.check_limits(a.allow_large)?;
         plans.push(plan);
     }
     let root = std::env::temp_dir().join(format!("shscale-bench-estimates-{}", std::process::id()));

@@ -6,6 +6,27 @@ use shscale_runner::check::{self, Ends};
 use std::fmt::Display;
 
 /// `v` when `lo ≤ v ≤ hi`, else the error `"{flag}: {v} is outside {lo}..={hi}"`.
+/// An output folder given by `flag`: refused, naming the flag, where it (or the nearest part of
+/// its path that exists) is not a folder — `run --out-dir FILE` said only "Not a directory".
+pub fn out_folder(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    let mut p = path.to_path_buf();
+    loop {
+        if let Ok(m) = std::fs::metadata(&p) {
+            if m.is_dir() {
+                return Ok(());
+            }
+            if p == path {
+                anyhow::bail!("{flag} {}: exists and is not a folder", path.display());
+            }
+            anyhow::bail!("{flag} {}: {} is not a folder", path.display(), p.display());
+        }
+        match p.parent() {
+            Some(q) if !q.as_os_str().is_empty() => p = q.to_path_buf(),
+            _ => return Ok(()),
+        }
+    }
+}
+
 pub fn int<T: PartialOrd + Display + Copy>(flag: &str, v: T, lo: T, hi: T) -> anyhow::Result<T> {
     check::int(v, lo, hi).map_err(|m| anyhow::anyhow!("{flag}: {m}"))
 }

@@ -38,6 +38,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::from(2));
     };
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
+    crate::flags::out_folder("--out-dir", &a.out_dir)?;
     let registry = shscale_experiments::registry();
     if a.dry_run {
         // Surveyed run by run, never held: a plan of 10⁶ runs in bounded memory.

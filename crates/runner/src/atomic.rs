@@ -125,7 +125,16 @@ impl Staging {
         }
         let n = N.fetch_add(1, Ordering::Relaxed);
         let dir = base.join(format!(".shscale-staging-{}-{n}", std::process::id()));
-        std::fs::create_dir(&dir).map_err(|e| Error::io(&dir, e))?;
+        // The error names the target the user gave, not the staging folder it never saw.
+        std::fs::create_dir(&dir).map_err(|e| {
+            Error::io(
+                out,
+                format!(
+                    "cannot write there (its staging folder in {}: {e})",
+                    base.display()
+                ),
+            )
+        })?;
         Ok(Self {
             dir,
             out: out.to_path_buf(),
@@ -188,6 +197,24 @@ mod staging_tests {
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
+    }
+
+    #[test]
+    fn a_target_that_cannot_be_written_is_named_not_its_staging_folder() {
+        // /proc takes no new folder: the error names the target the user gave.
+        if !Path::new("/proc/self").exists() {
+            eprintln!("notice: no /proc: skipped");
+            return;
+        }
+        let e = Staging::new(Path::new("/proc/figs"))
+            .err()
+            .expect("/proc is not writable");
+        let m = e.to_string();
+        println!("{m}");
+        assert!(
+            m.starts_with("/proc/figs:") && m.contains("cannot write there"),
+            "{m}"
+        );
     }
 
     #[test]
