@@ -191,7 +191,19 @@ def _toml(v: Any) -> str:
             return "inf" if f > 0 else "-inf"
         return repr(f)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        # A TOML basic string: backslash and quote escaped, and every control character (a
+        # newline in a title, legal TOML when escaped) as its \\uXXXX escape.
+        out = []
+        for c in v:
+            if c == "\\":
+                out.append("\\\\")
+            elif c == '"':
+                out.append('\\"')
+            elif ord(c) < 0x20 or ord(c) == 0x7F:
+                out.append(f"\\u{ord(c):04X}")
+            else:
+                out.append(c)
+        return '"' + "".join(out) + '"'
     if isinstance(v, (list, tuple, np.ndarray)):
         return "[" + ", ".join(_toml(x) for x in v) + "]"
     raise ValueError(f"{v!r}: not a value a config can hold (bool, number, string or list)")

@@ -317,6 +317,17 @@ def test_run_takes_a_path_a_toml_string_or_a_dict(tmp_path):
         out_dir=tmp_path / "e",
     )
     assert sorted(set(blocks["k"])) == [1.5, 3.0]
+    # A title with a newline, a tab and an ESC is legal TOML once escaped: it runs, and the
+    # manifest keeps it.
+    title = "two\nlines\tand \x1b escape"
+    _, t = shscale.run(
+        {"experiment": "sparsity", "order": 2, "title": title, "k": 2.0},
+        out_dir=tmp_path / "t",
+    )
+    tomllib = pytest.importorskip("tomllib")
+
+    manifest = tomllib.loads((Path(t) / "manifest.toml").read_text())
+    assert tomllib.loads(manifest["versions"][-1]["config_text"])["title"] == title
     for call, exc, needle in [
         (lambda: shscale.run(cfg, sweep={"k": 4}, out_dir=tmp_path / "f"), ValueError, "not a list"),
         (lambda: shscale.run(cfg, sweep={"k": "4"}, out_dir=tmp_path / "f"), ValueError, "not a list"),
