@@ -576,3 +576,29 @@ fn a_column_name_is_data_never_a_path() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A manifest whose kind does not match its rows is named as such (it once read as a plot
+/// without data), and nothing is written.
+#[test]
+fn a_manifest_of_another_kind_than_its_rows_is_named() {
+    let d = tmp("kind-mismatch");
+    let dir = run(&d, &[]);
+    let m = dir.join("manifest.toml");
+    let text = std::fs::read_to_string(&m).unwrap();
+    std::fs::write(
+        &m,
+        text.replacen("experiment = \"probe\"", "experiment = \"sparsity\"", 1),
+    )
+    .unwrap();
+    let before = snapshot(&dir);
+    let o = shscale(&["report", dir.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    println!("{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("manifest.toml") && err.contains("rows of another kind"),
+        "{err}"
+    );
+    assert_eq!(snapshot(&dir), before, "a refused report changed files");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -683,3 +683,53 @@ fn bench_runner_plans_are_held_to_the_limits() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Control characters from a file name never reach the terminal raw through an error line: a
+/// config whose name holds ESC and BEL is named with their escapes.
+#[test]
+fn error_lines_show_control_characters_as_escapes() {
+    let d = std::env::temp_dir().join(format!("shscale-ctl-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let name = "bad\u{1b}[31m\u{7}.toml";
+    std::fs::write(d.join(name), "experiment = \"nosuch\"\n").unwrap();
+    let o = shscale(&d, &["run", name]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    println!("{err:?}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(!err.contains('\u{1b}') && !err.contains('\u{7}'), "{err:?}");
+    assert!(err.contains("\\u{1b}"), "{err:?}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A `runs.csv` holding its header alone is said to have no rows (it read as "no row has numbers
+/// in both …"), and nothing is written.
+#[test]
+fn a_header_only_results_file_is_named_as_such() {
+    let d = std::env::temp_dir().join(format!("shscale-header-only-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("c.toml"), CONFIG).unwrap();
+    assert!(shscale(&d, &["run", "c.toml", "--out-dir", "o"])
+        .status
+        .success());
+    let dir = d.join("o/sparsity/c");
+    let csv = dir.join("runs.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    std::fs::write(&csv, format!("{}\n", text.lines().next().unwrap())).unwrap();
+    let args: Vec<String> = [
+        "plot",
+        dir.to_str().unwrap(),
+        "--metric",
+        "nonzeros",
+        "--x",
+        "k",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    if let Err(why) = common::refusal::check(&d, &args, "has no rows") {
+        panic!("{why}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -711,6 +711,28 @@ pub fn report_staged(
 ) -> Result<Report, Error> {
     let csv = dir.join("runs.csv");
     let t = Results::read(&csv)?;
+    // Rows of another kind than the manifest names: say so, naming both files (they once read
+    // as a plot without data).
+    let missing: Vec<String> = (kind.param_columns().into_iter())
+        .chain(kind.row_columns())
+        .filter(|c| t.col(c).is_none())
+        .collect();
+    if !missing.is_empty() {
+        return Err(Error::Io {
+            path: dir.join("manifest.toml").display().to_string(),
+            reason: format!(
+                "names experiment {:?}, but {} lacks its column(s) {}: rows of another kind",
+                kind.name(),
+                csv.display(),
+                missing
+                    .iter()
+                    .take(5)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
+    }
     let varying = t.varying(&kind.param_columns());
     let (title, claim) = title_and_claim(dir);
     let mut s = format!(

@@ -668,6 +668,23 @@ mod tests {
                 assert_eq!(e.key, "radial_delta");
             }
         }
+        // Not a number, or infinite: refused under the rule that reads it, and under any other
+        // (not its default).
+        for v in [f64::NAN, f64::INFINITY, -5.0] {
+            let mut k = keys("extrapolated");
+            k.radial_delta = v;
+            assert_eq!(
+                Spec::parse(&k, &d, 1024).unwrap_err().key,
+                "radial_delta",
+                "{v}"
+            );
+            k.radial = "clearance";
+            assert_eq!(
+                Spec::parse(&k, &d, 1024).unwrap_err().key,
+                "radial_delta",
+                "{v}"
+            );
+        }
         let mut k = keys("extrapolated");
         k.radial = "occlusion";
         for (tau, max, bad) in [
