@@ -383,7 +383,22 @@ fn plot_refuses_zigzags_and_filters_facets_and_bands() {
         &["--series", "order", "--where", "radius=1.5"],
     ));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let svg = std::fs::read_to_string(a.join("plot_occ_rel_l2_mean_vs_alpha_deg.svg")).unwrap();
+    let named = "plot_occ_rel_l2_mean_vs_alpha_deg_series_order_where_radius-1.5.svg";
+    let svg = std::fs::read_to_string(a.join(named)).unwrap();
+    // Another filter draws other rows: another file, the first one kept.
+    let o = shscale(&with(
+        &base,
+        &["--series", "order", "--where", "radius=2.0"],
+    ));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(a
+        .join("plot_occ_rel_l2_mean_vs_alpha_deg_series_order_where_radius-2.0.svg")
+        .exists());
+    assert_eq!(
+        std::fs::read_to_string(a.join(named)).unwrap(),
+        svg,
+        "the first plot was replaced"
+    );
     assert!(
         svg.contains("interquartile range over probes"),
         "no band named"

@@ -275,7 +275,7 @@ def test_plot_facets_filters_and_refuses_zigzags(tmp_path):
     svg = Path(files[1]).read_text()
     assert svg.count("probe radius ρ = ") == 2 and "interquartile" in svg
     one = shscale.plot(directory, "occ_rel_l2_mean", "alpha_deg", series="order", where={"radius": 1.5})
-    assert Path(one[0]).name == "plot_occ_rel_l2_mean_vs_alpha_deg.png"
+    assert Path(one[0]).name == "plot_occ_rel_l2_mean_vs_alpha_deg_series_order_where_radius-1.5.png"
     with pytest.raises(ValueError, match='differ in "radius"'):
         shscale.plot(directory, "occ_rel_l2_mean", "alpha_deg", series="order")
     with pytest.raises(ValueError, match='"nosuch" is not a column'):

@@ -83,7 +83,7 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = TextFormat::Text)]
         format: TextFormat,
     },
-    /// Re-plot any column of a results directory without rerunning: plot_<METRIC>_vs_<X>.png/.svg.
+    /// Re-plot any column of a results directory without rerunning: plot_<METRIC>_vs_<X>[_by_<FACET>][_series_<S>][_where_<K>-<V>].png/.svg (every selecting argument in the name: two plots of different rows never overwrite each other).
     /// Example: shscale plot results/probe/quickstart --metric occ_rel_l2_mean --x alpha_deg --facet radius --where sampling_radius=1.0
     Plot(PlotArgs),
     /// Print the config reference (runner keys, every kind's parameters, scene-file keys) as

@@ -735,9 +735,18 @@ pub fn plot_column(
     let stem = match spec.stem {
         Some(s) => s.to_string(),
         None => {
+            // Every argument that selects what is drawn is in the name, so two plots of
+            // different rows or series never overwrite each other.
             let mut stem = format!("plot_{}_vs_{}", stem_part(metric), stem_part(x));
             if let Some(f) = &facet {
                 stem.push_str(&format!("_by_{}", stem_part(f)));
+            }
+            if !spec.series.is_empty() {
+                let s: Vec<String> = spec.series.iter().map(|c| stem_part(c)).collect();
+                stem.push_str(&format!("_series_{}", s.join("-")));
+            }
+            for (k, v) in spec.filters {
+                stem.push_str(&format!("_where_{}-{}", stem_part(k), stem_part(v)));
             }
             stem
         }
