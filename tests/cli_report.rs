@@ -322,7 +322,9 @@ fn report_compare_and_plot_work_on_existing_results() {
         "radius",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(a.join("plot_occ_rel_l2_mean_vs_alpha_deg.svg").exists());
+    assert!(a
+        .join("plot_occ_rel_l2_mean_vs_alpha_deg_series_radius.svg")
+        .exists());
     fails(
         &[
             "plot",

@@ -438,6 +438,27 @@ impl Expanded {
         self.blocks.iter().map(|(_, n)| n).sum()
     }
 
+    /// Combination `i` in words: its number (1-based) and, with several `[[sweep]]` blocks, the
+    /// block (1-based) and its place there — for errors that name two combinations.
+    pub fn describe_combination(&self, i: usize) -> String {
+        if self.blocks.len() < 2 {
+            return format!("{}", i + 1);
+        }
+        let mut rest = i;
+        for (b, (_, n)) in self.blocks.iter().enumerate() {
+            if rest < *n {
+                return format!(
+                    "{} ([[sweep]] block {}, its run {})",
+                    i + 1,
+                    b + 1,
+                    rest + 1
+                );
+            }
+            rest -= n;
+        }
+        format!("{}", i + 1)
+    }
+
     /// Whether the sweep makes no combination (never: an empty axis is refused).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
@@ -622,6 +643,14 @@ fn apply_overrides(
         let (k, v) = key_value(s, &flag, "key=value")?;
         let path = parse_flag_key(k.trim()).map_err(at_flag(&flag, k))?;
         set_path(doc, &path, cli_value(v)).map_err(at_flag(&flag, k))?;
+        // A sweep block that sweeps the key would override the set value: the value replaces
+        // that axis there too (every entry of a zipped one), so `--set` reaches every block.
+        if path.first() != Some(&Seg::Key("sweep".into())) {
+            for (p, value) in sweep_axes_of(doc, &path, &cli_value(v)) {
+                set_path(doc, &p, value).map_err(at_flag(&flag, k))?;
+                set_places.push((p, flag.clone()));
+            }
+        }
         set_places.push((path, flag));
     }
     let mut sweep_flags = Vec::new();
@@ -651,6 +680,52 @@ fn apply_overrides(
         ));
     }
     Ok((set_places, sweep_flags))
+}
+
+/// The sweep axes of `doc` that sweep `path` — in the `[sweep]` table or any `[[sweep]]` block,
+/// directly or in its `zip` — each with the list that sets them all to `value`.
+fn sweep_axes_of(
+    doc: &toml::Table,
+    path: &[Seg],
+    value: &toml::Value,
+) -> Vec<(KeyPath, toml::Value)> {
+    let blocks: Vec<(KeyPath, &toml::Table)> = match doc.get("sweep") {
+        Some(toml::Value::Table(t)) => vec![(vec![Seg::Key("sweep".into())], t)],
+        Some(toml::Value::Array(list)) => (list.iter().enumerate())
+            .filter_map(|(i, b)| {
+                let root = vec![Seg::Key("sweep".into()), Seg::Index(i)];
+                b.as_table().map(|t| (root, t))
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    let get = |t: &toml::Table, p: &[Seg]| -> Option<toml::Value> {
+        let mut v = toml::Value::Table(t.clone());
+        for seg in p {
+            v = match (seg, v) {
+                (Seg::Key(k), toml::Value::Table(t)) => t.get(k)?.clone(),
+                (Seg::Index(i), toml::Value::Array(a)) => a.get(*i)?.clone(),
+                _ => return None,
+            };
+        }
+        Some(v)
+    };
+    let mut out = Vec::new();
+    for (root, block) in blocks {
+        if let Some(toml::Value::Array(_)) = get(block, path) {
+            let mut p = root.clone();
+            p.extend(path.iter().cloned());
+            out.push((p, toml::Value::Array(vec![value.clone()])));
+        }
+        let mut zip = vec![Seg::Key("zip".into())];
+        zip.extend(path.iter().cloned());
+        if let Some(toml::Value::Array(list)) = get(block, &zip) {
+            let mut p = root.clone();
+            p.extend(zip);
+            out.push((p, toml::Value::Array(vec![value.clone(); list.len()])));
+        }
+    }
+    out
 }
 
 /// Take the runner's keys out of `doc`: them deserialised, and the `sweep` value.

@@ -123,14 +123,35 @@ fn resolve_runs(
     for (i, r) in runs.iter().enumerate() {
         if let Some(j) = ids.insert(r.id.as_str(), i) {
             return Err(Error::Config(format!(
-                "{file}: sweep: combinations {} and {} resolve to the same run ({})",
-                j + 1,
-                i + 1,
-                r.canonical
+                "{file}: sweep: combinations {} and {} resolve to the same run ({}){}",
+                ex.describe_combination(j),
+                ex.describe_combination(i),
+                r.canonical,
+                same_run_hint(ex)
             )));
         }
     }
     Ok(runs)
+}
+
+/// The way out of two combinations of one run: the overrides that made them alike, if any.
+fn same_run_hint(ex: &config::Expanded) -> String {
+    let flags: Vec<String> = (ex.set_places.iter())
+        .filter_map(|(_, p)| match p {
+            config::Place::Flag(f) if f.starts_with("--set") => Some(f.clone()),
+            _ => None,
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    if flags.is_empty() {
+        "; make the blocks differ in a parameter, or drop the run from one of them".into()
+    } else {
+        format!(
+            "; {} set the same value in every block, making them alike — narrow the config to the blocks you want (a config of its own)",
+            flags.join(", ")
+        )
+    }
 }
 
 /// What a plan takes from the runner's keys: its kind, name, `gpu` setting and timing.
@@ -359,9 +380,10 @@ pub fn survey(
     }
     if let Some((j, i)) = all.duplicate() {
         return Err(Error::Config(format!(
-            "{file}: sweep: combinations {} and {} resolve to the same run",
-            j + 1,
-            i + 1
+            "{file}: sweep: combinations {} and {} resolve to the same run{}",
+            ex.describe_combination(j),
+            ex.describe_combination(i),
+            same_run_hint(&ex)
         )));
     }
     Ok(Survey {

@@ -626,3 +626,45 @@ fn large_results_are_summarised_by_distributions_not_listed() {
     assert_eq!(ids, want);
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `--set KEY=V` reaches every sweep block that sweeps KEY (it was silently overridden by the
+/// blocks' own lists): the blocks keep their other axes; where that makes two blocks' runs the
+/// same, the error names both blocks and the flag.
+#[test]
+fn set_overrides_reach_every_sweep_block() {
+    let text = "experiment = \"product\"\n\n[[sweep]]\nn = [1, 2]\nlabel = [\"a\"]\n\n[[sweep]]\nlabel = [\"b\"]\n[sweep.zip]\nn = [3, 4]\nscale = [1.0, 2.0]\n";
+    let set = |v: &str| Overrides {
+        set: vec![v.to_string()],
+        ..Overrides::default()
+    };
+    let plan = Plan::parse("c.toml", "c", text, &set("n=5"), &registry()).unwrap();
+    let cells: Vec<(String, String)> = (plan.runs.iter())
+        .map(|r| {
+            let col = |name: &str| {
+                let i = plan
+                    .kind
+                    .param_columns()
+                    .iter()
+                    .position(|c| c == name)
+                    .unwrap();
+                r.cells[i].clone()
+            };
+            (col("n"), col("label"))
+        })
+        .collect();
+    println!("{cells:?}");
+    // Block 1: n = [5] × label a; block 2: the zip's n set to 5 in both entries (scale 1, 2).
+    assert_eq!(cells.len(), 3);
+    assert!(cells.iter().all(|(n, _)| n == "5"), "{cells:?}");
+    // Two blocks alike after the override: named, with the flag.
+    let alike = "experiment = \"product\"\n\n[[sweep]]\nn = [1, 2]\n\n[[sweep]]\nn = [3]\n";
+    let e = Plan::parse("c.toml", "c", alike, &set("n=5"), &registry())
+        .err()
+        .unwrap()
+        .to_string();
+    println!("{e}");
+    assert!(
+        e.contains("block 1") && e.contains("block 2") && e.contains("--set n=5"),
+        "{e}"
+    );
+}
