@@ -32,6 +32,23 @@ pub struct SrfRow {
 }
 
 impl SrfRow {
+    /// The row of radius `rho` from each probe's (plain, energy, energy × 1/k², truth) errors:
+    /// their means, and the closest variant.
+    fn of(rho: f64, errs: &[(f64, f64, f64, f64)]) -> Self {
+        let n = errs.len().max(1) as f64;
+        let mut row = SrfRow {
+            radius: rho,
+            plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
+            energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
+            energy_r2_rel_l2: errs.iter().map(|x| x.2).sum::<f64>() / n,
+            truth_rel_err: errs.iter().map(|x| x.3).sum::<f64>() / n,
+            probes: errs.len(),
+            better: String::new(),
+        };
+        row.better = row.closest().into();
+        row
+    }
+
     /// `"plain"`, `"energy"` or `"energy_r2"`: the variant with the smallest error.
     pub fn closest(&self) -> &'static str {
         if self.plain_rel_l2 <= self.energy_rel_l2 && self.plain_rel_l2 <= self.energy_r2_rel_l2 {
@@ -143,18 +160,7 @@ pub fn compare(
                 ))
             })
             .collect();
-        let n = errs.len().max(1) as f64;
-        let mut row = SrfRow {
-            radius: rho,
-            plain_rel_l2: errs.iter().map(|x| x.0).sum::<f64>() / n,
-            energy_rel_l2: errs.iter().map(|x| x.1).sum::<f64>() / n,
-            energy_r2_rel_l2: errs.iter().map(|x| x.2).sum::<f64>() / n,
-            truth_rel_err: errs.iter().map(|x| x.3).sum::<f64>() / n,
-            probes: errs.len(),
-            better: String::new(),
-        };
-        row.better = row.closest().into();
-        rows.push(row);
+        rows.push(SrfRow::of(rho, &errs));
     }
     Ok(rows)
 }

@@ -732,25 +732,9 @@ pub fn plot_column(
     if band_cols.is_some() {
         title.push_str(" (band: interquartile range over probes)");
     }
-    let stem = match spec.stem {
-        Some(s) => s.to_string(),
-        None => {
-            // Every argument that selects what is drawn is in the name, so two plots of
-            // different rows or series never overwrite each other.
-            let mut stem = format!("plot_{}_vs_{}", stem_part(metric), stem_part(x));
-            if let Some(f) = &facet {
-                stem.push_str(&format!("_by_{}", stem_part(f)));
-            }
-            if !spec.series.is_empty() {
-                let s: Vec<String> = spec.series.iter().map(|c| stem_part(c)).collect();
-                stem.push_str(&format!("_series_{}", s.join("-")));
-            }
-            for (k, v) in spec.filters {
-                stem.push_str(&format!("_where_{}-{}", stem_part(k), stem_part(v)));
-            }
-            stem
-        }
-    };
+    let stem = spec
+        .stem
+        .map_or_else(|| plot_stem(spec, facet.as_deref()), str::to_string);
     write_panels(
         dir,
         &stem,
@@ -761,6 +745,23 @@ pub fn plot_column(
         spec.log_y,
         spec.log_x,
     )
+}
+
+/// A plot's file name: every argument that selects what is drawn (facet, series, filters) is in
+/// it, so two plots of different rows or series never overwrite each other.
+fn plot_stem(spec: &PlotSpec, facet: Option<&str>) -> String {
+    let mut stem = format!("plot_{}_vs_{}", stem_part(spec.metric), stem_part(spec.x));
+    if let Some(f) = facet {
+        stem.push_str(&format!("_by_{}", stem_part(f)));
+    }
+    if !spec.series.is_empty() {
+        let s: Vec<String> = spec.series.iter().map(|c| stem_part(c)).collect();
+        stem.push_str(&format!("_series_{}", s.join("-")));
+    }
+    for (k, v) in spec.filters {
+        stem.push_str(&format!("_where_{}-{}", stem_part(k), stem_part(v)));
+    }
+    stem
 }
 
 /// Every column a plot names exists, or an error naming it and listing the columns.

@@ -690,6 +690,32 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
     commit_report(staging, staged)
 }
 
+/// Rows of another kind than the manifest names: said so, naming both files (they once read as
+/// a plot without data).
+fn check_kind(kind: &dyn DynKind, dir: &Path, t: &Results) -> Result<(), Error> {
+    let missing: Vec<String> = (kind.param_columns().into_iter())
+        .chain(kind.row_columns())
+        .filter(|c| t.col(c).is_none())
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(Error::Io {
+        path: dir.join("manifest.toml").display().to_string(),
+        reason: format!(
+            "names experiment {:?}, but {} lacks its column(s) {}: rows of another kind",
+            kind.name(),
+            dir.join("runs.csv").display(),
+            missing
+                .iter()
+                .take(5)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    })
+}
+
 /// Move a staged report ([`report_staged`]) into its folder, with the other staged files, and
 /// remove a `discussion.md` of an earlier, longer discussion that the summary now holds whole.
 pub fn commit_report(staging: crate::atomic::Staging, staged: Report) -> Result<Report, Error> {
@@ -711,28 +737,7 @@ pub fn report_staged(
 ) -> Result<Report, Error> {
     let csv = dir.join("runs.csv");
     let t = Results::read(&csv)?;
-    // Rows of another kind than the manifest names: say so, naming both files (they once read
-    // as a plot without data).
-    let missing: Vec<String> = (kind.param_columns().into_iter())
-        .chain(kind.row_columns())
-        .filter(|c| t.col(c).is_none())
-        .collect();
-    if !missing.is_empty() {
-        return Err(Error::Io {
-            path: dir.join("manifest.toml").display().to_string(),
-            reason: format!(
-                "names experiment {:?}, but {} lacks its column(s) {}: rows of another kind",
-                kind.name(),
-                csv.display(),
-                missing
-                    .iter()
-                    .take(5)
-                    .cloned()
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        });
-    }
+    check_kind(kind, dir, &t)?;
     let varying = t.varying(&kind.param_columns());
     let (title, claim) = title_and_claim(dir);
     let mut s = format!(
