@@ -275,13 +275,7 @@ impl<'a> Keys<'a> {
             alpha,
             plausibility: Plausibility::parse(self.plausibility)
                 .map_err(|m| KeyError::new("plausibility", m))?,
-            sampling_radius: KeyError::real(
-                "sampling_radius",
-                self.sampling_radius,
-                1.0,
-                1e3,
-                Ends::Closed,
-            )?,
+            sampling_radius: self.sampling_radius()?,
             radial: self.radial_rule()?,
             k_count: self
                 .k_count
@@ -313,6 +307,17 @@ impl<'a> Keys<'a> {
         }
     }
 
+    /// The sampling sphere (and innermost shell) in bounding radii, [1, 1000].
+    fn sampling_radius(&self) -> Result<f64, KeyError> {
+        KeyError::real(
+            "sampling_radius",
+            self.sampling_radius,
+            1.0,
+            1e3,
+            Ends::Closed,
+        )
+    }
+
     fn field(&self) -> Result<FieldSpec, KeyError> {
         let f = FieldSpec {
             layout: layout(self.layout)?,
@@ -323,13 +328,7 @@ impl<'a> Keys<'a> {
                 .map_err(|e| KeyError::new("shell_spacing", e.to_string()))?,
             interp: FieldInterp::parse(self.field_interp)
                 .map_err(|e| KeyError::new("field_interp", e.to_string()))?,
-            sampling_radius: KeyError::real(
-                "sampling_radius",
-                self.sampling_radius,
-                1.0,
-                1e3,
-                Ends::Closed,
-            )?,
+            sampling_radius: self.sampling_radius()?,
         };
         (f.shells().check(f.layout)).map_err(|e| KeyError::new("field_interp", e.to_string()))?;
         Ok(f)
