@@ -619,3 +619,19 @@ fn a_manifest_of_another_kind_than_its_rows_is_named() {
     assert_eq!(snapshot(&dir), before, "a refused report changed files");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// The summary shows parameters as the config wrote them (α = 60.0, not 60.0000) and metrics as
+/// summary numbers.
+#[test]
+fn the_summary_shows_parameters_as_written() {
+    let d = tmp("as-written");
+    let dir = run(&d, &[]);
+    let text = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    let rows: Vec<&str> = (text.lines())
+        .filter(|l| l.starts_with("| ") && l.contains(" | 60.0 |"))
+        .collect();
+    println!("{rows:?}");
+    assert!(!rows.is_empty(), "no row shows α = 60.0:\n{text}");
+    assert!(!text.contains("| 60.0000 |"), "{text}");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -835,7 +835,7 @@ fn every_run(kind: &dyn DynKind, t: &Results, varying: &[String]) -> String {
         ));
     }
     if t.rows.len() <= MAX_LISTED_ROWS {
-        s.push_str(&row_table(t, &cols));
+        s.push_str(&row_table(t, &cols, 1 + varying.len()));
     } else {
         s.push_str(&distribution_tables(t, varying, kind.summary_columns()));
     }
@@ -904,7 +904,7 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
             summary_decimal(v),
             params
                 .iter()
-                .map(|p| format!(" {} |", md_cell(&summary_cell(t.cell(r, p)))))
+                .map(|p| format!(" {} |", md_cell(t.cell(r, p))))
                 .collect::<String>()
         ));
     }
@@ -962,12 +962,20 @@ fn summary_decimal(x: f64) -> String {
     }
 }
 
-/// Every row, the columns `cols`.
-fn row_table(t: &Results, cols: &[String]) -> String {
+/// Every row, the columns `cols`: the first `params` (the run id and the parameters) as the
+/// config wrote them (α = 60.0, not 60.0000), the metrics as summary numbers.
+fn row_table(t: &Results, cols: &[String], params: usize) -> String {
     let mut s = format!("| {} |\n|{}\n", cols.join(" | "), "---|".repeat(cols.len()));
     for r in 0..t.rows.len() {
-        let cells: Vec<String> = (cols.iter())
-            .map(|c| md_cell(&summary_cell(t.cell(r, c))))
+        let cells: Vec<String> = (cols.iter().enumerate())
+            .map(|(i, c)| {
+                let v = t.cell(r, c);
+                md_cell(&if i < params {
+                    v.to_string()
+                } else {
+                    summary_cell(v)
+                })
+            })
             .collect();
         s.push_str(&format!("| {} |\n", cells.join(" | ")));
     }
