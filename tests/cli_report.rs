@@ -635,3 +635,32 @@ fn the_summary_shows_parameters_as_written() {
     assert!(!text.contains("| 60.0000 |"), "{text}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A plot an earlier report wrote and a later one does not is removed with the later report (an
+/// interim report drew the error against the radius before α varied, and that stale plot stayed
+/// beside the current ones); files the reports never wrote are left alone.
+#[test]
+fn a_later_report_removes_the_plots_it_no_longer_draws() {
+    let d = tmp("stale-plots");
+    let dir = run(&d, &[]);
+    let by_alpha = dir.join("occ_rel_l2_vs_alpha_deg.svg");
+    assert!(by_alpha.exists(), "the sweep's plot against α");
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    // Keep the rows of one α: α no longer varies, the report draws the error against the radius.
+    let csv = dir.join("runs.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let alpha = header.split(',').position(|c| c == "alpha_deg").unwrap();
+    let kept: Vec<&str> = lines
+        .filter(|l| l.split(',').nth(alpha) == Some("20.0"))
+        .collect();
+    assert!(!kept.is_empty());
+    std::fs::write(&csv, format!("{header}\n{}\n", kept.join("\n"))).unwrap();
+    let o = shscale(&["report", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.join("occ_rel_l2_vs_radius.svg").exists());
+    assert!(!by_alpha.exists(), "the stale plot against α is still there");
+    assert!(dir.join("notes.txt").exists(), "a file the reports never wrote was removed");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -720,13 +720,43 @@ fn check_kind(kind: &dyn DynKind, dir: &Path, t: &Results) -> Result<(), Error> 
 /// remove a `discussion.md` of an earlier, longer discussion that the summary now holds whole.
 pub fn commit_report(staging: crate::atomic::Staging, staged: Report) -> Result<Report, Error> {
     let out = staging.target(staging.path());
+    // The plots an earlier report wrote and this one does not (an interim report drew the error
+    // against the radius before the swept parameter varied, say) are removed after the commit:
+    // a stale plot never sits beside the current ones.
+    let record = out.join(REPORT_FILES);
+    let earlier: Vec<String> = match std::fs::symlink_metadata(&record) {
+        Ok(m) if m.is_file() => std::fs::read_to_string(&record)
+            .map_err(|e| Error::io(&record, e))?
+            .lines()
+            .map(str::to_string)
+            .collect(),
+        _ => Vec::new(),
+    };
+    let names: Vec<String> = (staged.files.iter())
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().to_string()))
+        .filter(|n| n != "runs.csv" && n != "manifest.toml")
+        .collect();
+    let staged_record = staging.path().join(REPORT_FILES);
+    write_atomic(&staged_record, &(names.join("\n") + "\n"))?;
     let files = staging.commit(&staged.files)?;
+    for name in earlier.iter().filter(|n| !names.contains(n)) {
+        // Only plain file names this report itself recorded, never a path.
+        let stale = out.join(name);
+        let plain = !name.is_empty() && !name.contains(['/', '\\']) && !name.starts_with('.');
+        if plain && std::fs::symlink_metadata(&stale).is_ok_and(|m| m.is_file()) {
+            std::fs::remove_file(&stale).map_err(|e| Error::io(&stale, e))?;
+        }
+    }
     let full = out.join("discussion.md");
     if staged.discussion.len() <= MAX_DISCUSSION_BYTES && full.exists() {
         std::fs::remove_file(&full).map_err(|e| Error::io(&full, e))?;
     }
     Ok(Report { files, ..staged })
 }
+
+/// The file in a results directory listing what its last report wrote (hidden), so the next
+/// report removes what it no longer writes.
+pub const REPORT_FILES: &str = ".report-files";
 
 /// [`report`] of the rows and manifest in `dir`, written into `staging` (named after the
 /// staging's target, not the staging folder); nothing moves until [`commit_report`].
