@@ -660,7 +660,13 @@ fn a_later_report_removes_the_plots_it_no_longer_draws() {
     let o = shscale(&["report", dir.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(dir.join("occ_rel_l2_vs_radius.svg").exists());
-    assert!(!by_alpha.exists(), "the stale plot against α is still there");
-    assert!(dir.join("notes.txt").exists(), "a file the reports never wrote was removed");
+    assert!(
+        !by_alpha.exists(),
+        "the stale plot against α is still there"
+    );
+    assert!(
+        dir.join("notes.txt").exists(),
+        "a file the reports never wrote was removed"
+    );
     std::fs::remove_dir_all(&d).ok();
 }
