@@ -339,7 +339,7 @@ pub fn compare(
             .unwrap_or(std::path::Path::new("."))
             .join(format!("compare_{}_vs_{}", name(a), name(b)))
     });
-    let c = shscale_runner::report::compare(ka, a, b, &out)?;
+    let c = shscale_runner::compare::compare(ka, a, b, &out)?;
     if json {
         crate::output::print_json(&serde_json::json!({
             "experiment": ka.name(),
@@ -377,8 +377,8 @@ pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    let keys = shscale_runner::plots::row_keys(kind);
-    let spec = shscale_runner::plots::PlotSpec {
+    let keys = shscale_runner::column_plot::row_keys(kind);
+    let spec = shscale_runner::column_plot::PlotSpec {
         metric,
         x,
         series: &f.series,
@@ -389,7 +389,7 @@ pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
         stem: None,
         title: None,
     };
-    let files = shscale_runner::plots::plot_column(dir, &t, &keys, &spec)
+    let files = shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec)
         .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
     for f in files {
         println!("wrote {}", f.display());

@@ -142,7 +142,7 @@ fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Err
     if radii.len() > shscale_runner::plots::MAX_PANELS {
         return Ok(Vec::new());
     }
-    let panels: Vec<shscale_runner::plots::HeatPanel> = (radii.iter())
+    let panels: Vec<shscale_runner::heatmap::HeatPanel> = (radii.iter())
         .map(|rho| {
             let mut cells = vec![vec![None; xs.len()]; ys.len()];
             for r in (0..t.rows.len()).filter(|&r| t.cell(r, "radius") == rho) {
@@ -153,7 +153,7 @@ fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Err
                     cells[j][i] = v.is_finite().then_some(v);
                 }
             }
-            shscale_runner::plots::HeatPanel {
+            shscale_runner::heatmap::HeatPanel {
                 title: format!("probe radius ρ = {rho}"),
                 cells,
             }
@@ -164,7 +164,7 @@ fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Err
         words(x),
         words(y)
     );
-    Ok(shscale_runner::plots::write_heatmap(
+    Ok(shscale_runner::heatmap::write_heatmap(
         dir,
         &format!("occ_rel_l2_heatmap_{x}_{y}"),
         &title,
@@ -196,7 +196,7 @@ fn error_against(
     keys.push("radius".to_string());
     let title = format!("extrapolation error against {}", words(param));
     let stem = format!("occ_rel_l2_vs_{param}");
-    let spec = shscale_runner::plots::PlotSpec {
+    let spec = shscale_runner::column_plot::PlotSpec {
         metric: "occ_rel_l2_mean",
         x: param,
         series: &[],
@@ -207,7 +207,9 @@ fn error_against(
         stem: Some(&stem),
         title: Some(&title),
     };
-    Ok(shscale_runner::plots::plot_column(dir, t, &keys, &spec)?)
+    Ok(shscale_runner::column_plot::plot_column(
+        dir, t, &keys, &spec,
+    )?)
 }
 
 /// Per run: total time of the extrapolation path against its error averaged over radii, with
