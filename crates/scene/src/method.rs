@@ -746,5 +746,17 @@ mod tests {
             spec(&keys("sphere_set")).memory_bytes(3, 2.0, 40),
             2.0 * 4.0 * 32.0
         );
+        // Time: rays at the rate; sphere sets by products add SPHERE_SECONDS per receiver and
+        // sphere, by quadrature their rays are priced per direction and sphere test instead.
+        let rate = 1e7;
+        assert_eq!(ex.seconds(1e7, 100.0, rate), 1.0);
+        assert_eq!(ex.seconds(0.0, 100.0, rate), 0.0);
+        let prod = spec(&keys("sphere_set"));
+        let want = 100.0 * 4.0 * SPHERE_SECONDS;
+        assert!((prod.seconds(0.0, 100.0, rate) - want).abs() < 1e-18);
+        let quad = spec(&q);
+        let rays = quad.rays(1.0, 10.0);
+        let want = rays * (SPHERE_DIRECTION_SECONDS + 4.0 * SPHERE_TEST_SECONDS);
+        assert!((quad.seconds(rays, 10.0, rate) - want).abs() < 1e-15);
     }
 }

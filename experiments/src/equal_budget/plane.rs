@@ -23,7 +23,7 @@
 
 use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, params_of, speed_claim, variant,
+    by_config, config_keys, distinct_pairs, equal_accuracy, specs_of, speed_claim, variant,
     write_front, Front,
 };
 use super::NEAR_RHO;
@@ -136,9 +136,9 @@ impl Params {
 /// The largest `rt_res` of a plane (and below the scene's `truth_res`, checked at plan time).
 const MAX_RT_RES: usize = 255;
 
-/// Row `r`'s method, parsed from its cells.
-fn spec_of(t: &Results, r: usize) -> Option<Spec> {
-    params_of::<Params>(t, r)?.spec().ok()
+/// Every row's method, parsed once from its cells.
+fn specs(t: &Results) -> Vec<Option<Spec>> {
+    specs_of::<Params>(t, |p| p.spec().ok())
 }
 
 /// One row per run.
@@ -519,6 +519,7 @@ impl Kind for BudgetPlane {
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
+        let specs = specs(t);
         let mut files = Vec::new();
         for (si, (scene, frames)) in distinct_pairs(t, "scene", "frames").iter().enumerate() {
             let rows: Vec<usize> = (0..t.rows.len())
@@ -549,17 +550,18 @@ impl Kind for BudgetPlane {
                     y: "rmse_vs_full_frequency",
                     y_label: "shade_rmse_rel vs full-frequency truth",
                 };
-                files.extend(write_front(dir, t, &rows, &front, &|r| spec_of(t, r))?);
+                files.extend(write_front(dir, t, &rows, &front, &|r| specs[r])?);
             }
         }
         Ok(files)
     }
 
     fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        let specs = specs(t);
         let saved: Vec<usize> = (0..t.rows.len())
             .filter(|&r| t.cell(r, "save_image") == "true")
             .collect();
-        let Some(panels) = figure_runs(t, &saved, &|r| spec_of(t, r)) else {
+        let Some(panels) = figure_runs(t, &saved, &|r| specs[r]) else {
             return Ok(Vec::new());
         };
         let read = |name: &str, r: usize| {
@@ -572,7 +574,7 @@ impl Kind for BudgetPlane {
             let (_, _, px) = read("plane", r)?;
             let title = format!(
                 "{} ({:.3} at {:.3e} rays)",
-                spec_of(t, r).map_or_else(|| t.cell(r, "method").to_string(), |s| variant(&s)),
+                specs[r].map_or_else(|| t.cell(r, "method").to_string(), |s| variant(&s)),
                 t.num(r, "rmse_vs_full_frequency"),
                 t.num(r, "rays")
             );
@@ -584,13 +586,14 @@ impl Kind for BudgetPlane {
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
+        let specs = specs(t);
         let keys = config_keys::<Params>(&["scene", "frames"]);
         let mut s = String::new();
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
                 .collect();
-            let configs = by_config(t, &rows, &keys, &|r| spec_of(t, r));
+            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
             let r0 = rows[0];
             let seq = if frames == "1" {
                 String::new()

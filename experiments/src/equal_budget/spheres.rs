@@ -27,7 +27,7 @@
 
 use super::frames::{self, FrameFn};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, plot_name,
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, plot_name, specs_of,
     speed_claim, write_front, Front,
 };
 use super::NEAR_RHO;
@@ -576,6 +576,7 @@ impl Kind for Budget {
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
+        let specs = specs(t);
         let mut files = Vec::new();
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let rows: Vec<usize> = (0..t.rows.len())
@@ -601,13 +602,14 @@ impl Kind for Budget {
                     y: "occ_rel_l2_mean",
                     y_label: "mean occ_rel_l2 (spherical receivers)",
                 };
-                files.extend(write_front(dir, t, &rows, &front, &|r| spec_of(t, r))?);
+                files.extend(write_front(dir, t, &rows, &front, &|r| specs[r])?);
             }
         }
         Ok(files)
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
+        let specs = specs(t);
         let mut s = String::new();
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let rows: Vec<usize> = (0..t.rows.len())
@@ -621,7 +623,7 @@ impl Kind for Budget {
                 "truth_seed",
                 "radii",
             ]);
-            let configs = by_config(t, &rows, &keys, &|r| spec_of(t, r));
+            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
             let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
             s.push_str(&format!(
                 "**{mesh}, N = {order}** ({} configurations, {seeds} receiver seed(s); errors are means over the seeds, in brackets their range).\n\n",
@@ -646,7 +648,7 @@ impl Kind for Budget {
     }
 }
 
-/// Row `r`'s method, parsed from its cells.
-fn spec_of(t: &Results, r: usize) -> Option<Spec> {
-    params_of::<Params>(t, r)?.spec().ok()
+/// Every row's method, parsed once from its cells.
+fn specs(t: &Results) -> Vec<Option<Spec>> {
+    specs_of::<Params>(t, |p| p.spec().ok())
 }

@@ -74,14 +74,20 @@ pub(crate) fn config_keys<P: Default + Serialize>(grouping: &[&str]) -> Vec<Stri
         .collect()
 }
 
-/// Row `r`'s parameters, read back from its cells (`None` where they no longer parse).
-pub(crate) fn params_of<P: Default + Serialize + DeserializeOwned>(
+/// Every row's method, parsed once from its cells with `spec` (`None` where they no longer
+/// parse): the kind's parameter columns are found once for the table, not once per row and use.
+pub(crate) fn specs_of<P: Default + Serialize + DeserializeOwned>(
     t: &Results,
-    r: usize,
-) -> Option<P> {
+    spec: impl Fn(&P) -> Option<Spec>,
+) -> Vec<Option<Spec>> {
     let headers = param_columns::<P>();
-    let cells: Vec<String> = headers.iter().map(|h| t.cell(r, h).to_string()).collect();
-    shscale_runner::records::from_cells(&headers, &cells).ok()
+    (0..t.rows.len())
+        .map(|r| {
+            let cells: Vec<String> = headers.iter().map(|h| t.cell(r, h).to_string()).collect();
+            let p: P = shscale_runner::records::from_cells(&headers, &cells).ok()?;
+            spec(&p)
+        })
+        .collect()
 }
 
 /// A configuration: its rows (one per seed) and its method, parsed once.
@@ -172,10 +178,7 @@ fn is_radial(s: &Spec) -> bool {
 /// The series a spec belongs to: its method and, where it is not the papers', its variant.
 pub(crate) fn variant(s: &Spec) -> String {
     match s {
-        Spec::FullField(f) if is_papers_field(s) => {
-            let _ = f;
-            "full field (papers')".into()
-        }
+        Spec::FullField(_) if is_papers_field(s) => "full field (papers')".into(),
         Spec::FullField(f) => format!(
             "full field ({}, [1, {}]r, {})",
             f.spacing.name(),
@@ -283,10 +286,8 @@ fn sampling(s: &Spec) -> Option<(String, usize)> {
     }
 }
 
-/// One front plot: the error column `y` of `rows` against the budget column `x` (rays, bytes or
-/// `frame_seconds`, then with the interval of each median as bars), one series per method
-/// variant ([`variant`] of `spec_of`), the Pareto front drawn over them. Nothing is written
-/// without a finite point.
+/// What a front plot shows: its file stem and title, the budget column `x` and the error column
+/// `y`, each with its axis label.
 pub(crate) struct Front<'a> {
     pub stem: String,
     pub title: String,
@@ -296,6 +297,10 @@ pub(crate) struct Front<'a> {
     pub y_label: &'a str,
 }
 
+/// One front plot: the error column `y` of `rows` against the budget column `x` (rays, bytes or
+/// `frame_seconds`, then with the interval of each median as bars), one series per method
+/// variant ([`variant`] of `spec_of`), the Pareto front drawn over them. Nothing is written
+/// without a finite point.
 pub(crate) fn write_front(
     dir: &Path,
     t: &Results,
