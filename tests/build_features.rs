@@ -17,7 +17,15 @@ fn features(selection: &[&str]) -> BTreeMap<String, String> {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
     let out = Command::new(cargo)
         .current_dir(root)
-        .args(["tree", "--offline", "--locked", "--prefix", "none", "-f", "{p}|{f}"])
+        .args([
+            "tree",
+            "--offline",
+            "--locked",
+            "--prefix",
+            "none",
+            "-f",
+            "{p}|{f}",
+        ])
         .args(selection)
         .output()
         .expect("cargo tree runs");
@@ -44,12 +52,22 @@ fn features(selection: &[&str]) -> BTreeMap<String, String> {
 fn every_command_resolves_the_same_features() {
     let workspace = features(&["--workspace"]);
     let commands: [(&str, &[&str]); 2] = [
-        ("cargo run (the CLI alone)", &["-p", "shscale", "-e", "normal,build"]),
-        ("maturin (the Python binding alone)", &["-p", "shscale-python", "-e", "normal,build"]),
+        (
+            "cargo run (the CLI alone)",
+            &["-p", "shscale", "-e", "normal,build"],
+        ),
+        (
+            "maturin (the Python binding alone)",
+            &["-p", "shscale-python", "-e", "normal,build"],
+        ),
     ];
     for (name, selection) in commands {
         let alone = features(selection);
-        assert!(alone.len() > 50, "{name}: only {} packages listed", alone.len());
+        assert!(
+            alone.len() > 50,
+            "{name}: only {} packages listed",
+            alone.len()
+        );
         let differ: Vec<String> = alone
             .iter()
             .filter_map(|(id, f)| {
@@ -57,7 +75,11 @@ fn every_command_resolves_the_same_features() {
                 (w != f).then(|| format!("{id}: [{f}] there, [{w}] in cargo test --workspace"))
             })
             .collect();
-        println!("{name}: {} packages, {} with other features", alone.len(), differ.len());
+        println!(
+            "{name}: {} packages, {} with other features",
+            alone.len(),
+            differ.len()
+        );
         assert!(
             differ.is_empty(),
             "{name} resolves other features than `cargo test --workspace`, so switching between \

@@ -298,6 +298,35 @@ fn report_compare_and_plot_work_on_existing_results() {
         "{text}"
     );
     assert!(out.join("compare.md").exists() && out.join("compare_occ_rel_l2_mean.svg").exists());
+    // Its plots split per probe radius, as the report's do: one panel per radius, whose series
+    // no longer repeat the radius; and the kind's stage times are compared, not only the
+    // headline columns.
+    let svg = std::fs::read_to_string(out.join("compare_occ_rel_l2_mean.svg")).unwrap();
+    let radii = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("| 20.0 | "))
+        .count();
+    assert!(radii >= 2, "{text}");
+    assert_eq!(
+        svg.matches("probe radius ρ = ").count(),
+        radii,
+        "one panel title per radius"
+    );
+    assert!(
+        !svg.contains(", radius = "),
+        "a series repeats the facet's radius"
+    );
+    for t in ["bsv_sampling_seconds", "extrapolation_seconds"] {
+        assert!(
+            text.contains(&format!("{t} B − A")),
+            "{t} not compared: {text}"
+        );
+        assert!(out.join(format!("compare_{t}.svg")).exists());
+    }
+    assert!(
+        !text.contains("bsv_sampling_spread"),
+        "a spread is not a time: {text}"
+    );
     // The differences are B − A of the two CSVs' own numbers.
     let row = text
         .lines()

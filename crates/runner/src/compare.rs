@@ -33,7 +33,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
     let avg = |v: (f64, usize)| if v.1 > 0 { v.0 / v.1 as f64 } else { f64::NAN };
     let (na, nb) = (dir_name(a), dir_name(b));
     let mut matched = 0;
-    let mut plots: Vec<BTreeMap<String, Vec<(f64, f64)>>> = vec![BTreeMap::new(); m.metrics.len()];
+    let mut plots: Vec<Facets> = vec![BTreeMap::new(); m.metrics.len()];
     for (k, va) in &ma {
         let Some(vb) = mb.get(k) else { continue };
         matched += 1;
@@ -43,7 +43,8 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
             cells.extend([compare_cell(x), compare_cell(y), compare_cell(y - x)]);
             if let Some(xv) = k.first().and_then(|s| s.parse::<f64>().ok()) {
                 let rest = m.rest_of(k);
-                let series = &mut plots[i];
+                let facet = m.facet.map_or(String::new(), |f| k[f].clone());
+                let series = plots[i].entry(facet).or_default();
                 series
                     .entry(format!("A: {na}{rest}"))
                     .or_default()
@@ -108,12 +109,14 @@ fn check_comparable(
     Ok(())
 }
 
-/// A plot per metric of the matched rows, A against B over the first key, into `dir`.
-fn compare_plots(
-    dir: &Path,
-    m: &Matching,
-    plots: &[BTreeMap<String, Vec<(f64, f64)>>],
-) -> Result<Vec<PathBuf>, Error> {
+/// A metric's plotted series per facet value (`""` when the rows have no facet).
+type Facets = BTreeMap<String, BTreeMap<String, Vec<(f64, f64)>>>;
+
+/// A plot per metric of the matched rows, A against B over the first key, into `dir`: one panel
+/// per value of the kind's row coordinate (the probe radius, say) when the rows have one and it
+/// takes 2 to [`crate::plots::MAX_PANELS`] values — as the report splits its plots —, else one
+/// panel.
+fn compare_plots(dir: &Path, m: &Matching, plots: &[Facets]) -> Result<Vec<PathBuf>, Error> {
     let mut files = Vec::new();
     for (i, c) in m.metrics.iter().enumerate() {
         if plots[i].is_empty() || m.keys.is_empty() {
@@ -121,22 +124,59 @@ fn compare_plots(
         }
         let title = format!("{c}: A vs B");
         let (x_words, y_words) = (crate::plots::words(&m.keys[0]), crate::plots::words(c));
-        let labels = crate::plots::Labels {
-            title: &title,
-            x: &x_words,
-            y: &y_words,
-        };
         let stem = format!("compare_{c}");
-        files.extend(crate::plots::write_both(
-            dir,
-            &stem,
-            &labels,
-            &plots[i],
-            false,
-            &[],
-        )?);
+        let facet = m.facet.map(|f| crate::plots::words(&m.keys[f]));
+        match facet {
+            Some(name) if plots[i].len() <= crate::plots::MAX_PANELS => {
+                let mut values: Vec<(&String, _)> = plots[i].iter().collect();
+                values.sort_by(|a, b| numeric_order(a.0, b.0));
+                let panels: Vec<crate::plots::Panel> = (values.into_iter())
+                    .map(|(v, series)| crate::plots::Panel {
+                        title: format!("{name} = {v}"),
+                        series: series.clone(),
+                        bands: Default::default(),
+                    })
+                    .collect();
+                files.extend(crate::plots::write_panels(
+                    dir, &stem, &title, &x_words, &y_words, &panels, None, false,
+                )?);
+            }
+            _ => {
+                let mut all: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+                for (v, series) in &plots[i] {
+                    for (name, pts) in series {
+                        let name = match (&facet, v.is_empty()) {
+                            (Some(f), false) => format!("{name}, {f} = {v}"),
+                            _ => name.clone(),
+                        };
+                        all.entry(name).or_default().extend(pts);
+                    }
+                }
+                let labels = crate::plots::Labels {
+                    title: &title,
+                    x: &x_words,
+                    y: &y_words,
+                };
+                files.extend(crate::plots::write_both(
+                    dir,
+                    &stem,
+                    &labels,
+                    &all,
+                    false,
+                    &[],
+                )?);
+            }
+        }
     }
     Ok(files)
+}
+
+/// Cells in numeric order where both are numbers, else as text.
+fn numeric_order(a: &str, b: &str) -> std::cmp::Ordering {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => x.total_cmp(&y),
+        _ => a.cmp(b),
+    }
 }
 
 /// The last component of a directory, for series names.
@@ -161,6 +201,9 @@ fn compare_cell(x: f64) -> String {
 /// different values (reported), and the metrics compared.
 struct Matching<'a> {
     keys: Vec<String>,
+    /// The index in `keys` of the kind's row coordinate (the first summary column), when rows
+    /// are matched on it and another key gives the x axis: the plots' facet.
+    facet: Option<usize>,
     differ: Vec<String>,
     metrics: Vec<&'a str>,
 }
@@ -188,7 +231,16 @@ impl<'a> Matching<'a> {
             }
         }
         let summary = kind.summary_columns();
+        // The headline metrics, then the kind's stage times (where the time goes), once each.
         let mut metrics: Vec<&str> = summary.to_vec();
+        for t in kind.time_columns() {
+            // A stage's time, not its spread or interval ends.
+            let spread = ["_spread", "_lo", "_hi"].iter().any(|s| t.ends_with(s));
+            if !spread && !metrics.contains(t) {
+                metrics.push(t);
+            }
+        }
+        let mut facet = None;
         if let Some(first) = summary.first() {
             if !params.iter().any(|p| p == first)
                 && distinct(ta, first) == distinct(tb, first)
@@ -196,6 +248,7 @@ impl<'a> Matching<'a> {
             {
                 keys.push(first.to_string());
                 metrics.retain(|m| m != first);
+                facet = (keys.len() > 1).then_some(keys.len() - 1);
             }
         }
         metrics.retain(|m| {
@@ -203,6 +256,7 @@ impl<'a> Matching<'a> {
         });
         Self {
             keys,
+            facet,
             differ,
             metrics,
         }
@@ -256,14 +310,18 @@ impl<'a> Matching<'a> {
         m
     }
 
-    /// `, key = value, …` of a key's values after the first (a series' name).
+    /// `, key = value, …` of a key's values after the first, the facet left out (a series'
+    /// name).
     fn rest_of(&self, k: &[String]) -> String {
-        if k.len() <= 1 {
-            return String::new();
-        }
-        let pairs: Vec<String> = (self.keys[1..].iter().zip(&k[1..]))
-            .map(|(n, v)| format!("{n} = {v}"))
+        let pairs: Vec<String> = (self.keys.iter().zip(k).enumerate())
+            .skip(1)
+            .filter(|(i, _)| Some(*i) != self.facet)
+            .map(|(_, (n, v))| format!("{n} = {v}"))
             .collect();
-        format!(", {}", pairs.join(", "))
+        if pairs.is_empty() {
+            String::new()
+        } else {
+            format!(", {}", pairs.join(", "))
+        }
     }
 }

@@ -166,6 +166,13 @@ pub trait Kind: Send + Sync + 'static {
         let _ = table;
         Ok(String::new())
     }
+    /// The answer first: a short table (at most [`MAX_VERDICT_LINES`] lines of Markdown, computed
+    /// from the rows) that opens `summary.md` before the long discussion — which method wins
+    /// per regime, with the grid it covers. Default: nothing.
+    fn verdict(table: &records::Results) -> Result<String, Self::Error> {
+        let _ = table;
+        Ok(String::new())
+    }
     /// The paper figure of the results in `dir`: files written to `out`, named `<stem>.*`
     /// (`shscale figs`). Default: none.
     fn figure(
@@ -232,6 +239,8 @@ pub trait DynKind: Send + Sync {
     /// [`Kind::open_device`].
     fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error>;
     fn discussion(&self, table: &records::Results) -> Result<String, Error>;
+    /// [`Kind::verdict`].
+    fn verdict(&self, table: &records::Results) -> Result<String, Error>;
     fn best_of(&self) -> Option<(&'static str, &'static str)>;
     fn describe(&self) -> &'static [(&'static str, &'static str)];
     /// The parameter keys with their default cells (the CSV/TOML form).
@@ -386,6 +395,9 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn discussion(&self, table: &records::Results) -> Result<String, Error> {
         K::discussion(table).map_err(Into::into)
+    }
+    fn verdict(&self, table: &records::Results) -> Result<String, Error> {
+        K::verdict(table).map_err(Into::into)
     }
     fn describe(&self) -> &'static [(&'static str, &'static str)] {
         K::describe()

@@ -314,6 +314,20 @@ pub fn report_staged(
     );
     // The answer first: the kind's discussion of its claim, and the best configuration per row
     // key; every run's row after it (collapsed in the HTML, after the figures).
+    let verdict = kind.verdict(&t)?;
+    if !verdict.trim().is_empty() {
+        let lines = verdict.trim_end().lines().count();
+        if lines > MAX_VERDICT_LINES {
+            return Err(Error::Kind(
+                format!(
+                    "kind {}'s verdict table has {lines} lines, more than the {MAX_VERDICT_LINES} a summary opens with",
+                    kind.name()
+                )
+                .into(),
+            ));
+        }
+        s.push_str(&format!("## The answer\n\n{}\n\n", verdict.trim_end()));
+    }
     let discussion = kind.discussion(&t)?;
     let out = staging.path();
     if !discussion.trim().is_empty() {
@@ -460,6 +474,10 @@ fn best_table(t: &Results, varying: &[String], key: &str, metric: &str) -> Strin
     }
     md
 }
+
+/// The most lines of a kind's verdict table ([`crate::kind::Kind::verdict`]): the answer that
+/// opens a summary stays on its first screen.
+pub const MAX_VERDICT_LINES: usize = 20;
 
 /// The most bytes of a kind's discussion the summary (and so `report.html`) holds: a longer
 /// one — a sentence per run at 10⁵ runs is megabytes — is cut at a line and written whole to

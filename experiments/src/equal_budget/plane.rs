@@ -23,8 +23,8 @@
 
 use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, specs_of, speed_claim, variant,
-    write_front, Front,
+    by_config, config_keys, distinct_pairs, equal_accuracy, plot_name, specs_of, speed_claim,
+    variant, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
 use crate::figures::flat;
@@ -583,6 +583,51 @@ impl Kind for BudgetPlane {
         let png = out.join(format!("{stem}.png"));
         write_plane_figure(&png, (w, h), &truth, &shown)?;
         Ok(vec![png])
+    }
+
+    fn verdict(t: &Results) -> Result<String, Error> {
+        let specs = specs(t);
+        let keys = config_keys::<Params>(&["scene", "frames"]);
+        let mut splits: Vec<Split> = Vec::new();
+        for (scene, frames) in distinct_pairs(t, "scene", "frames") {
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
+                .collect();
+            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
+            let label = if frames == "1" {
+                "still".to_string()
+            } else {
+                format!("{frames} frames")
+            };
+            let name = plot_name(&scene);
+            match splits.iter_mut().find(|s| s.label == label) {
+                Some(s) => s.groups.push((name, configs)),
+                None => splits.push(Split {
+                    label,
+                    groups: vec![(name, configs)],
+                }),
+            }
+        }
+        if splits.is_empty() {
+            return Ok(String::new());
+        }
+        let grid = format!(
+            "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder ({} of them in the first scene); shade_rmse_rel against full-frequency truth unless said, sequences meaned over their frames",
+            t.cell(0, "receivers"),
+            t.cell(0, "near_receivers")
+        );
+        Ok(verdict_table(
+            t,
+            &splits,
+            &[
+                ("rmse_vs_full_frequency", "all, full-frequency truth"),
+                ("rmse_near_vs_full_frequency", "near"),
+                ("rmse_far_vs_full_frequency", "far"),
+                ("rmse_vs_band_limited", "all, band-limited truth"),
+            ],
+            &grid,
+            false,
+        ))
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {

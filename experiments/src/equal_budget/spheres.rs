@@ -27,8 +27,8 @@
 
 use super::frames::{self, FrameFn};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, plot_name, specs_of,
-    speed_claim, write_front, Front,
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, plot_name,
+    specs_of, speed_claim, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
 use glam::DVec3;
@@ -608,6 +608,49 @@ impl Kind for Budget {
         Ok(files)
     }
 
+    fn verdict(t: &Results) -> Result<String, Error> {
+        let specs = specs(t);
+        let keys = config_keys::<Params>(&CONFIG_GROUPING);
+        let mut splits: Vec<Split> = Vec::new();
+        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
+            let rows: Vec<usize> = (0..t.rows.len())
+                .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
+                .collect();
+            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
+            let label = format!("N = {order}");
+            match splits.iter_mut().find(|s| s.label == label) {
+                Some(s) => s.groups.push((mesh, configs)),
+                None => splits.push(Split {
+                    label,
+                    groups: vec![(mesh, configs)],
+                }),
+            }
+        }
+        if splits.is_empty() {
+            return Ok(String::new());
+        }
+        let p0: Params = params_of(t, 0).unwrap_or_default();
+        let radii: Vec<String> = p0.radii.iter().map(|r| format!("{r}")).collect();
+        let grid = format!(
+            "Spherical receivers: {} directions at ρ = {} bounding radii (near: ρ ≤ {NEAR_RHO}, far: ρ > {NEAR_RHO}; contact: directions whose base-sphere point is ≥ 40 % occluded), {} receiver seed(s)",
+            p0.receivers,
+            radii.join(", "),
+            t.distinct_in(0..t.rows.len(), "probe_seed").len()
+        );
+        Ok(verdict_table(
+            t,
+            &splits,
+            &[
+                ("occ_rel_l2_mean", "all receivers"),
+                ("occ_rel_l2_near_mean", "near"),
+                ("occ_rel_l2_far_mean", "far"),
+                ("occ_rel_l2_contact_mean", "contact"),
+            ],
+            &grid,
+            true,
+        ))
+    }
+
     fn discussion(t: &Results) -> Result<String, Error> {
         let specs = specs(t);
         let mut s = String::new();
@@ -615,14 +658,7 @@ impl Kind for Budget {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
                 .collect();
-            let keys = config_keys::<Params>(&[
-                "mesh",
-                "probe_seed",
-                "receivers",
-                "truth_res",
-                "truth_seed",
-                "radii",
-            ]);
+            let keys = config_keys::<Params>(&CONFIG_GROUPING);
             let configs = by_config(t, &rows, &keys, &|r| specs[r]);
             let seeds = t.distinct_in(rows.iter().copied(), "probe_seed").len();
             s.push_str(&format!(
@@ -647,6 +683,16 @@ impl Kind for Budget {
         Ok(s)
     }
 }
+
+/// The columns a configuration repeats over (or is split by): what is not the method.
+const CONFIG_GROUPING: [&str; 6] = [
+    "mesh",
+    "probe_seed",
+    "receivers",
+    "truth_res",
+    "truth_seed",
+    "radii",
+];
 
 /// Every row's method, parsed once from its cells.
 fn specs(t: &Results) -> Vec<Option<Spec>> {

@@ -8,7 +8,7 @@ use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
-use shscale_runner::plots::{write_scatter_with_bars, Labels};
+use shscale_runner::plots::{write_panels, write_scatter_with_bars, Labels, Panel};
 use shscale_runner::records::Results;
 use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
 use shscale_scene::Error;
@@ -88,6 +88,16 @@ pub(crate) fn specs_of<P: Default + Serialize + DeserializeOwned>(
             spec(&p)
         })
         .collect()
+}
+
+/// Row `r`'s parameters, parsed from its cells (`None` where they no longer parse).
+pub(crate) fn params_of<P: Default + Serialize + DeserializeOwned>(
+    t: &Results,
+    r: usize,
+) -> Option<P> {
+    let headers = param_columns::<P>();
+    let cells: Vec<String> = headers.iter().map(|h| t.cell(r, h).to_string()).collect();
+    shscale_runner::records::from_cells(&headers, &cells).ok()
 }
 
 /// A configuration: its rows (one per seed) and its method, parsed once.
@@ -259,6 +269,117 @@ fn name(c: &Config) -> String {
     }
 }
 
+/// One part of a verdict table: its label (the order, or the scenes' kind) and its groups (a
+/// mesh or a scene each, with its configurations), every group scored alike.
+pub(crate) struct Split {
+    pub label: String,
+    pub groups: Vec<(String, Vec<Config>)>,
+}
+
+/// The rays of the papers' extrapolation in `configs` (its largest sampling): the equal-rays
+/// budget of the study. `None` when the papers' method is not among them.
+fn papers_rays(t: &Results, configs: &[Config]) -> Option<f64> {
+    (configs.iter())
+        .filter(|c| is_papers_extrapolation(&c.spec))
+        .map(|c| c.mean(t, "rays").0)
+        .filter(|x| x.is_finite())
+        .max_by(f64::total_cmp)
+}
+
+/// The winners of one regime over a split's groups, one cell: each winning variant with the
+/// groups it wins, then the winners' error range (seed means) and, in brackets, the lowest and
+/// highest single seed among them. `within(group configs)` bounds the rays (`None`: any).
+fn winners_cell(
+    t: &Results,
+    split: &Split,
+    col: &str,
+    within: &dyn Fn(&[Config]) -> Option<f64>,
+    seeded: bool,
+) -> String {
+    let mut by_variant: Vec<(String, Vec<&str>)> = Vec::new();
+    let (mut m_lo, mut m_hi, mut s_lo, mut s_hi) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for (group, configs) in &split.groups {
+        let cap = within(configs).unwrap_or(f64::INFINITY);
+        let best = (configs.iter())
+            .map(|c| (c, c.mean(t, "rays").0, c.mean(t, col)))
+            .filter(|(_, rays, (m, _, _))| rays.is_finite() && *rays <= cap && m.is_finite())
+            .min_by(|a, b| a.2 .0.total_cmp(&b.2 .0));
+        let Some((c, _, (m, lo, hi))) = best else {
+            continue;
+        };
+        let v = variant(&c.spec);
+        match by_variant.iter_mut().find(|(name, _)| *name == v) {
+            Some((_, gs)) => gs.push(group),
+            None => by_variant.push((v, vec![group])),
+        }
+        (m_lo, m_hi, s_lo, s_hi) = (m_lo.min(m), m_hi.max(m), s_lo.min(lo), s_hi.max(hi));
+    }
+    if by_variant.is_empty() {
+        return "—".into();
+    }
+    let names: Vec<String> = (by_variant.iter())
+        .map(|(v, gs)| format!("{v}: {}", gs.join(", ")))
+        .collect();
+    let range = if m_lo == m_hi {
+        format!("{m_lo:.3}")
+    } else {
+        format!("{m_lo:.3}–{m_hi:.3}")
+    };
+    let seeds = if seeded {
+        format!(" [{s_lo:.3}–{s_hi:.3}]")
+    } else {
+        String::new()
+    };
+    format!("{} — {range}{seeds}", names.join("; "))
+}
+
+/// The verdict table that opens a summary ([`shscale_runner::kind::Kind::verdict`]): per split
+/// and regime (`(column, label)`), the most accurate configuration of each group at no more
+/// rays than the papers' extrapolation there, and at any rays. `grid` says which receivers the
+/// verdict covers; it is printed under the table with how to read it. `seeded`: the
+/// configurations repeat over seeds (their single-seed range is shown).
+pub(crate) fn verdict_table(
+    t: &Results,
+    splits: &[Split],
+    regimes: &[(&str, &str)],
+    grid: &str,
+    seeded: bool,
+) -> String {
+    let budgets: Vec<f64> = (splits.iter())
+        .flat_map(|s| s.groups.iter().filter_map(|(_, c)| papers_rays(t, c)))
+        .collect();
+    let at = match (
+        budgets.iter().copied().reduce(f64::min),
+        budgets.iter().copied().reduce(f64::max),
+    ) {
+        (Some(a), Some(b)) if a == b => format!(" ({a:.0})"),
+        (Some(a), Some(b)) => format!(" ({a:.0}–{b:.0})"),
+        _ => String::new(),
+    };
+    let mut s = format!(
+        "| | regime | most accurate at ≤ the papers' rays{at} | most accurate at any rays in the sweep |\n|---|---|---|---|\n"
+    );
+    for split in splits {
+        for (col, label) in regimes {
+            let equal = winners_cell(t, split, col, &|c| papers_rays(t, c).or(Some(-1.0)), seeded);
+            let any = winners_cell(t, split, col, &|_| None, seeded);
+            s.push_str(&format!(
+                "| {} | {label} | {equal} | {any} |\n",
+                split.label
+            ));
+        }
+    }
+    s.push_str(&format!(
+        "\n{grid}. Each cell: the winning method and where it wins; the winners' error{}. Rays are not the whole budget (time and memory differ, see below); a verdict holds on this grid only.\n",
+        if seeded {
+            " (seed means), in brackets the lowest and highest single seed"
+        } else {
+            " (one run per configuration: no seeds)"
+        }
+    ));
+    s
+}
+
 /// The lower-left Pareto front of `(x, y)` points: sorted by x, each with a lower y than all
 /// before it.
 pub fn pareto(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
@@ -297,10 +418,43 @@ pub(crate) struct Front<'a> {
     pub y_label: &'a str,
 }
 
+/// A method's family: one colour and marker each on the front plots (at most eight).
+fn family(s: &Spec) -> &'static str {
+    match s {
+        Spec::FullField(_) if is_papers_field(s) => "full field (papers')",
+        Spec::FullField(_) => "full field (other shells)",
+        Spec::RayTraced { .. } => "ray tracing",
+        Spec::SphereSet { .. } => "sphere sets",
+        Spec::SubVolumes { .. } => "sub-volumes",
+        Spec::Extrapolated(_) if is_papers_extrapolation(s) => "extrapolation (papers')",
+        Spec::Extrapolated(_) => "extrapolation (variants)",
+    }
+}
+
+/// Points at x = 0 (a method that casts no rays) cannot sit on a log axis: they are drawn at
+/// `x0` (a quarter of the smallest positive x of the figure), and their series says so. Returns
+/// whether any point moved.
+fn place_zeros(series: &mut BTreeMap<String, Vec<(f64, f64)>>, x0: f64) -> bool {
+    let zero_keys: Vec<String> = (series.iter())
+        .filter(|(_, v)| v.iter().any(|p| p.0 == 0.0))
+        .map(|(k, _)| k.clone())
+        .collect();
+    for k in &zero_keys {
+        let mut v = series.remove(k).unwrap_or_default();
+        for p in v.iter_mut().filter(|p| p.0 == 0.0) {
+            p.0 = x0;
+        }
+        series.insert(format!("{k} (0 at the left edge)"), v);
+    }
+    !zero_keys.is_empty()
+}
+
 /// One front plot: the error column `y` of `rows` against the budget column `x` (rays, bytes or
 /// `frame_seconds`, then with the interval of each median as bars), one series per method
-/// variant ([`variant`] of `spec_of`), the Pareto front drawn over them. Nothing is written
-/// without a finite point.
+/// family ([`family`]: one colour and marker each), the Pareto front drawn over them; a method
+/// at zero cost is drawn at the left edge (log axes have no 0), its legend entry says so. A
+/// companion `<stem>_by_family` draws one panel per family, one series per variant
+/// ([`variant`]). Nothing is written without a finite point.
 pub(crate) fn write_front(
     dir: &Path,
     t: &Results,
@@ -309,12 +463,20 @@ pub(crate) fn write_front(
     spec_of: &dyn Fn(usize) -> Option<Spec>,
 ) -> Result<Vec<PathBuf>, Error> {
     let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut variants: BTreeMap<&str, BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
     let mut bars = Vec::new();
     for &r in rows {
         let (xv, y) = (t.num(r, f.x), t.num(r, f.y));
         let Some(spec) = spec_of(r) else { continue };
-        if xv.is_finite() && xv > 0.0 && y.is_finite() {
-            series.entry(variant(&spec)).or_default().push((xv, y));
+        if xv.is_finite() && xv >= 0.0 && y.is_finite() {
+            series
+                .entry(family(&spec).into())
+                .or_default()
+                .push((xv, y));
+            (variants.entry(family(&spec)).or_default())
+                .entry(variant(&spec))
+                .or_default()
+                .push((xv, y));
             bars.push((
                 y,
                 t.num(r, "frame_seconds_lo"),
@@ -322,15 +484,30 @@ pub(crate) fn write_front(
             ));
         }
     }
-    if series.is_empty() {
+    let Some(min_pos) = (series.values().flatten())
+        .map(|p| p.0)
+        .filter(|&x| x > 0.0)
+        .reduce(f64::min)
+    else {
         return Ok(Vec::new());
+    };
+    let x0 = min_pos / 4.0;
+    // The front over the true costs, then placed like its points.
+    let mut front = pareto(series.values().flatten().copied());
+    for p in front.iter_mut().filter(|p| p.0 == 0.0) {
+        p.0 = x0;
     }
+    let zeros = place_zeros(&mut series, x0);
     for v in series.values_mut() {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
-    let front = pareto(series.values().flatten().copied());
+    let title = if zeros {
+        format!("{} (zero cost at the left edge)", f.title)
+    } else {
+        f.title.clone()
+    };
     let labels = Labels {
-        title: &f.title,
+        title: &title,
         x: f.x_label,
         y: f.y_label,
     };
@@ -339,9 +516,28 @@ pub(crate) fn write_front(
     } else {
         &[]
     };
-    Ok(write_scatter_with_bars(
-        dir, &f.stem, &labels, &series, &front, bars, true,
-    )?)
+    let mut files = write_scatter_with_bars(dir, &f.stem, &labels, &series, &front, bars, true)?;
+    let panels: Vec<Panel> = (variants.into_iter())
+        .map(|(fam, mut series)| {
+            place_zeros(&mut series, x0);
+            Panel {
+                title: fam.to_string(),
+                series,
+                bands: Default::default(),
+            }
+        })
+        .collect();
+    files.extend(write_panels(
+        dir,
+        &format!("{}_by_family", f.stem),
+        &format!("{}: each family's variants", f.title),
+        f.x_label,
+        f.y_label,
+        &panels,
+        None,
+        true,
+    )?);
+    Ok(files)
 }
 
 /// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed
