@@ -301,5 +301,6 @@ fn panel_of(
         title,
         series: by,
         bands,
+        scatter: false,
     }
 }

@@ -135,6 +135,7 @@ fn compare_plots(dir: &Path, m: &Matching, plots: &[Facets]) -> Result<Vec<PathB
                         title: format!("{name} = {v}"),
                         series: series.clone(),
                         bands: Default::default(),
+                        scatter: false,
                     })
                     .collect();
                 files.extend(crate::plots::write_panels(

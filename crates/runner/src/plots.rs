@@ -60,8 +60,7 @@ impl Axes {
                 String::new()
             }
         } else if log {
-            let x = 10f64.powf(v);
-            format!("{}", (x * 1e3).round() / 1e3)
+            significant(10f64.powf(v), 3)
         } else if x_axis && self.integer_x {
             format!("{v:.0}")
         } else {
@@ -126,8 +125,12 @@ impl Axes {
             y_range(y0, y1)
         };
         // Integer parameters get integer ticks (one per value when there are few).
+        // A log axis under two decades is labelled at every tick with its value: fewer of them,
+        // so the labels (up to six characters) never run into each other.
         let x_ticks = if integer_x && x.1 - x.0 <= 12.0 {
             (x.1 - x.0).round() as usize + 1
+        } else if log_x && x.1 - x.0 < 2.0 {
+            5
         } else {
             10
         };
@@ -278,6 +281,32 @@ where
     let names: Vec<&str> = series.keys().map(String::as_str).collect();
     draw_legend(area, at, legend_w, &names, scatter_only, !front.is_empty())
     // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
+}
+
+/// `x` to `digits` significant digits, as a tick label: plain decimals from 10⁻² to below 10⁴
+/// (`0.0123`, `251`, `6310`), else `6.31e4`; no trailing zeros. Domain: any finite `x` (`0` is
+/// "0"); a non-finite one is printed as Rust prints it.
+pub fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = digits.max(1);
+    let e = x.abs().log10().floor() as i32;
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if (-2..4).contains(&e) {
+        let decimals = (digits as i32 - 1 - e).max(0) as usize;
+        trim(format!("{x:.decimals$}"))
+    } else {
+        let s = format!("{:.*e}", digits - 1, x);
+        let (m, exp) = s.split_once('e').unwrap_or((&s, "0"));
+        format!("{}e{exp}", trim(m.to_string()))
+    }
 }
 
 /// An axis's description, saying when it is drawn on a log scale.
@@ -501,6 +530,8 @@ pub struct Panel {
     pub title: String,
     pub series: BTreeMap<String, Vec<(f64, f64)>>,
     pub bands: Bands,
+    /// Markers only, no lines (points that are not a curve: configurations of a front).
+    pub scatter: bool,
 }
 
 /// The most panels one faceted figure draws.
@@ -597,7 +628,7 @@ where
             &labels,
             &series,
             &p.bands,
-            false,
+            p.scatter,
             &[],
             log_y,
             log_x,
@@ -876,6 +907,24 @@ pub fn write_both_log(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn tick_labels_keep_three_significant_digits() {
+        for (x, want) in [
+            (63095.734, "6.31e4"),
+            (251.188, "251"),
+            (0.0123456, "0.0123"),
+            (1.0, "1"),
+            (2.5, "2.5"),
+            (-2.5, "-2.5"),
+            (0.001234, "1.23e-3"),
+            (1e-9, "1e-9"),
+            (1e6, "1e6"),
+            (0.0, "0"),
+        ] {
+            assert_eq!(super::significant(x, 3), want, "{x}");
+        }
+    }
+
     #[test]
     fn plots_cap_their_series_and_say_so() {
         use std::collections::BTreeMap;

@@ -631,11 +631,11 @@ impl Kind for Budget {
         }
         let p0: Params = params_of(t, 0).unwrap_or_default();
         let radii: Vec<String> = p0.radii.iter().map(|r| format!("{r}")).collect();
+        let seeds = t.distinct_in(0..t.rows.len(), "probe_seed").len();
         let grid = format!(
-            "Spherical receivers: {} directions at ρ = {} bounding radii (near: ρ ≤ {NEAR_RHO}, far: ρ > {NEAR_RHO}; contact: directions whose base-sphere point is ≥ 40 % occluded), {} receiver seed(s)",
+            "Spherical receivers: {} directions at ρ = {} bounding radii (near: ρ ≤ {NEAR_RHO}, far: ρ > {NEAR_RHO}; contact: directions whose base-sphere point is ≥ 40 % occluded), {seeds} receiver seed(s)",
             p0.receivers,
             radii.join(", "),
-            t.distinct_in(0..t.rows.len(), "probe_seed").len()
         );
         Ok(verdict_table(
             t,
@@ -647,7 +647,7 @@ impl Kind for Budget {
                 ("occ_rel_l2_contact_mean", "contact"),
             ],
             &grid,
-            true,
+            seeds > 1,
         ))
     }
 
