@@ -343,7 +343,7 @@ where
     DB::ErrorType: 'static,
 {
     let e = |x: &dyn std::fmt::Display| x.to_string();
-    let style = ("sans-serif", 13).into_font();
+    let style = ("sans-serif", 12).into_font();
     for ((x, y), (fill, text)) in [(20, 10), (210, 10), (20, 28)].into_iter().zip([
         (BLACK, "numerically non-zero"),
         (grey, "structurally allowed (same m), numerically zero"),
@@ -411,7 +411,7 @@ where
         .y_labels(nn * 2 + 1)
         .x_label_formatter(&idx)
         .y_label_formatter(&idx)
-        .label_style(("sans-serif", 11))
+        .label_style(("sans-serif", 12))
         .draw()
         .map_err(|x| e(&x))?;
     chart

@@ -76,6 +76,10 @@ pub struct Grid<'a> {
     pub panel_px: (u32, u32),
 }
 
+/// The width of a grid's colour bar with its ticks and rotated label (the label's line sits
+/// inside it, never at the figure's edge).
+const COLOUR_BAR_W: u32 = 160;
+
 /// The colour scale of a grid: its range, symmetric for a diverging map, never empty.
 fn scale(g: &Grid) -> (f64, f64) {
     let (mut lo, mut hi) = g.range;
@@ -103,7 +107,7 @@ where
         .titled(g.title, ("sans-serif", 22))
         .map_err(|x| e(&x))?;
     let (w, _) = body.dim_in_pixel();
-    let (grid, bar) = body.split_horizontally(w - 130);
+    let (grid, bar) = body.split_horizontally(w - COLOUR_BAR_W);
     let rows = g.rows.len().max(1);
     let cols = g.rows.first().map_or(1, |r| r.len().max(1));
     let (lo, hi) = scale(g);
@@ -113,7 +117,7 @@ where
                 continue;
             };
             let mut chart = ChartBuilder::on(area)
-                .caption(&p.title, ("sans-serif", 15))
+                .caption(&p.title, ("sans-serif", 16))
                 .margin(6)
                 .x_label_area_size(34)
                 .y_label_area_size(46)
@@ -170,7 +174,7 @@ where
         .margin_bottom(50)
         .margin_right(4)
         .margin_left(24)
-        .right_y_label_area_size(64)
+        .right_y_label_area_size(COLOUR_BAR_W as i32 - 70)
         .build_cartesian_2d(0f64..1f64, lo..hi)
         .map_err(|x| e(&x))?;
     let tick = |v: &f64| {
@@ -210,7 +214,7 @@ fn size_of(g: &Grid) -> (u32, u32) {
     let rows = g.rows.len().max(1) as u32;
     let cols = g.rows.first().map_or(1, |r| r.len().max(1)) as u32;
     let (pw, ph) = g.panel_px;
-    (cols * (pw + 60) + 130, rows * (ph + 60) + 44)
+    (cols * (pw + 60) + COLOUR_BAR_W, rows * (ph + 60) + 44)
 }
 
 /// Write the grid as a PNG at `path` (atomically: a temporary beside it, then renamed).

@@ -124,7 +124,7 @@ where
             .y_labels(2 * ys.len() + 1)
             .x_label_formatter(&|v| label(xs, *v))
             .y_label_formatter(&|v| label(ys, *v))
-            .label_style(("sans-serif", 13))
+            .label_style(("sans-serif", 12))
             .draw()
             .map_err(|x| e(&x))?;
         for (j, row) in p.cells.iter().enumerate() {
@@ -171,7 +171,7 @@ where
         .draw_series(std::iter::once(Text::new(
             text,
             (x + 0.5, y + 0.5),
-            ("sans-serif", 13).into_font().color(&ink).pos(centred),
+            ("sans-serif", 12).into_font().color(&ink).pos(centred),
         )))
         .map_err(|x| e(&x))?;
     Ok(())

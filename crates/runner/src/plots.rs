@@ -186,11 +186,14 @@ fn line_plot<DB: DrawingBackend>(
     log: Option<bool>,
     log_x: bool,
     xbars: &[(f64, f64, f64)],
+    notes: &[Note],
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
 {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
+    // A title too long for the figure's width at the usual size is drawn smaller, never clipped.
+    let caption = caption_size(labels.title, area.dim_in_pixel().0);
     panel_plot(
         &area,
         labels,
@@ -200,8 +203,9 @@ where
         front,
         log,
         log_x,
-        22,
+        caption,
         xbars,
+        notes,
     )?;
     area.present().map_err(|e| e.to_string())
 }
@@ -219,6 +223,7 @@ fn panel_plot<DB: DrawingBackend>(
     log_x: bool,
     caption: u32,
     xbars: &[(f64, f64, f64)],
+    notes: &[Note],
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -226,14 +231,31 @@ where
     let ax = Axes::of_xy(&ranged(series, bands, xbars), log, log_x)?;
     // The legend goes right of the data, in a margin as wide as its longest entry (at most 40 %
     // of the panel): it never covers a point.
+    // One series and no front: no legend (its name joins the title), the data get the width.
     let (area_w, _) = area.dim_in_pixel();
+    let solo = (series.len() == 1 && front.is_empty())
+        .then(|| series.keys().next())
+        .flatten();
+    let title = match solo {
+        // A name that only repeats the axis or the title adds nothing.
+        Some(name)
+            if !name.is_empty() && name != labels.y && !labels.title.contains(name.as_str()) =>
+        {
+            format!("{} ({name})", labels.title)
+        }
+        _ => labels.title.to_string(),
+    };
     let longest = (series.keys().map(|k| k.chars().count()))
         .chain((!front.is_empty()).then_some(12))
         .max()
         .unwrap_or(0);
-    let legend_w = ((longest as u32) * 7 + 44).min(area_w * 2 / 5);
+    let legend_w = if solo.is_some() {
+        0
+    } else {
+        ((longest as u32) * 7 + 44).min(area_w * 2 / 5)
+    };
     let mut chart = ChartBuilder::on(area)
-        .caption(labels.title, ("sans-serif", caption))
+        .caption(&title, ("sans-serif", caption))
         .margin(12)
         .margin_right(12 + legend_w)
         .x_label_area_size(44)
@@ -272,12 +294,16 @@ where
             .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))
             .map_err(|e| e.to_string())?;
     }
+    draw_notes(area, &chart, &ax, notes)?;
     let (px, py) = chart.plotting_area().get_base_pixel();
     let (bx, by) = area.get_base_pixel();
     let at = (
         px - bx + chart.plotting_area().dim_in_pixel().0 as i32 + 10,
         py - by + 8,
     );
+    if solo.is_some() {
+        return Ok(());
+    }
     let names: Vec<&str> = series.keys().map(String::as_str).collect();
     draw_legend(area, at, legend_w, &names, scatter_only, !front.is_empty())
     // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
@@ -307,6 +333,54 @@ pub fn significant(x: f64, digits: usize) -> String {
         let (m, exp) = s.split_once('e').unwrap_or((&s, "0"));
         format!("{}e{exp}", trim(m.to_string()))
     }
+}
+
+/// The notes beside their points: each label starts 7 px right of its point and 16 px above it;
+/// a label that would overlap one already placed moves up a line at a time (a grey leader joins
+/// it to its point), so crowded front points stay readable.
+fn draw_notes<'a, DB: DrawingBackend + 'a>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart<'a, DB>,
+    ax: &Axes,
+    notes: &[Note],
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    const LINE: i32 = 14;
+    let (bx, by) = area.get_base_pixel();
+    let mut pts: Vec<((i32, i32), &str)> = (notes.iter())
+        .filter(|((x, y), _)| drawable(*x) && drawable(*y) && !(ax.log_x && *x <= 0.0))
+        .map(|((x, y), t)| {
+            let (px, py) = chart.backend_coord(&(ax.tx(*x), ax.ty(*y)));
+            ((px - bx, py - by), t.as_str())
+        })
+        .collect();
+    // Lowest points first: their labels move up into the free space above.
+    pts.sort_by_key(|&((_, y), _)| std::cmp::Reverse(y));
+    let mut placed: Vec<(i32, i32, i32)> = Vec::new();
+    let font = ("sans-serif", 12).into_font();
+    for ((px, py), text) in pts {
+        let w = (text.chars().count() as f64 * 6.8) as i32;
+        let (x, mut y) = (px + 7, py - 16);
+        while placed
+            .iter()
+            .any(|&(ox, oy, ow)| x < ox + ow && ox < x + w && (y - oy).abs() < LINE)
+        {
+            y -= LINE;
+        }
+        if y != py - 16 {
+            area.draw(&PathElement::new(
+                vec![(px, py), (x, y + LINE / 2)],
+                RGBColor(150, 150, 150).stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        area.draw(&Text::new(text.to_string(), (x, y), font.clone()))
+            .map_err(|e| e.to_string())?;
+        placed.push((x, y, w));
+    }
+    Ok(())
 }
 
 /// An axis's description, saying when it is drawn on a log scale.
@@ -438,7 +512,7 @@ where
                 .collect()
         }
     };
-    let font = ("sans-serif", 13).into_font();
+    let font = ("sans-serif", 12).into_font();
     for (i, name) in names.iter().enumerate() {
         let y = y0 + 18 * i as i32;
         let color = palette(i);
@@ -471,6 +545,18 @@ where
     Ok(())
 }
 
+/// A text drawn beside a point of a scatter (data coordinates): what a front point is.
+pub type Note = ((f64, f64), String);
+
+/// The caption size of a figure `width` pixels wide: 22, or smaller (to 14) where the title
+/// would not fit (DejaVu Sans averages about 0.55 em a character); always even (see
+/// [`crate::font::TEXT_SIZES`]).
+fn caption_size(title: &str, width: u32) -> u32 {
+    let chars = title.chars().count().max(1) as f64;
+    let fits = (f64::from(width.saturating_sub(24)) / (0.55 * chars)).floor() as u32;
+    (fits.min(22) & !1).max(14)
+}
+
 /// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front` and a horizontal
 /// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time; none: no
 /// bars); `log_x` draws x as log10 x (for budgets spanning decades). Written as a unit like
@@ -483,6 +569,22 @@ pub fn write_scatter_with_bars(
     front: &[(f64, f64)],
     xbars: &[(f64, f64, f64)],
     log_x: bool,
+) -> Result<Vec<PathBuf>, Error> {
+    write_scatter_noted(dir, stem, labels, series, front, xbars, log_x, &[])
+}
+
+/// [`write_scatter_with_bars`] with `notes`: a short text beside each of those points (the
+/// configuration a front point is, say).
+#[allow(clippy::too_many_arguments)]
+pub fn write_scatter_noted(
+    dir: &Path,
+    stem: &str,
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    front: &[(f64, f64)],
+    xbars: &[(f64, f64, f64)],
+    log_x: bool,
+    notes: &[Note],
 ) -> Result<Vec<PathBuf>, Error> {
     check_stem(dir, stem)?;
     ensure_font();
@@ -514,11 +616,15 @@ pub fn write_scatter_with_bars(
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
     let png_area = BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area();
-    line_plot(png_area, labels, series, true, front, None, log_x, xbars)
-        .map_err(|e| err(&png, e))?;
+    line_plot(
+        png_area, labels, series, true, front, None, log_x, xbars, notes,
+    )
+    .map_err(|e| err(&png, e))?;
     let svg_area = SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area();
-    line_plot(svg_area, labels, series, true, front, None, log_x, xbars)
-        .map_err(|e| err(&svg, e))?;
+    line_plot(
+        svg_area, labels, series, true, front, None, log_x, xbars, notes,
+    )
+    .map_err(|e| err(&svg, e))?;
     finish(&tmp_png, &png)?;
     finish(&tmp_svg, &svg)?;
     Ok(vec![png, svg])
@@ -633,6 +739,7 @@ where
             log_y,
             log_x,
             16,
+            &[],
             &[],
         )?;
     }
@@ -887,6 +994,7 @@ pub fn write_both_log(
         log,
         false,
         &[],
+        &[],
     )
     .map_err(|e| err(&png, e))?;
     line_plot(
@@ -897,6 +1005,7 @@ pub fn write_both_log(
         front,
         log,
         false,
+        &[],
         &[],
     )
     .map_err(|e| err(&svg, e))?;

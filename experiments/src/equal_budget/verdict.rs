@@ -13,6 +13,9 @@ use shscale_runner::records::Results;
 use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
+
+/// Named point series of a plot.
+type Series = BTreeMap<String, Vec<(f64, f64)>>;
 use std::path::{Path, PathBuf};
 
 /// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
@@ -486,7 +489,7 @@ pub(crate) fn write_front(
     spec_of: &dyn Fn(usize) -> Option<Spec>,
 ) -> Result<Vec<PathBuf>, Error> {
     let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let mut variants: BTreeMap<&str, BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
+    let mut variants: BTreeMap<&str, Series> = BTreeMap::new();
     let mut bars = Vec::new();
     for &r in rows {
         let (xv, y) = (t.num(r, f.x), t.num(r, f.y));

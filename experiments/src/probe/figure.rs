@@ -130,7 +130,7 @@ pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<Path
             files.extend(heat_map(dir, t, a, b)?);
         }
     }
-    files.extend(pareto(dir, t)?);
+    files.extend(pareto(dir, t, varying)?);
     Ok(files)
 }
 
@@ -213,10 +213,12 @@ fn error_against(
 }
 
 /// Per run: total time of the extrapolation path against its error averaged over radii, with
-/// the Pareto front; rows timed alongside other runs are left out (none when all were).
-fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
-    // Per run: (time, the bound on its spread, error sum, error count).
+/// the Pareto front, each front point named by the run's `varying` parameters; rows timed
+/// alongside other runs are left out (none when all were).
+fn pareto(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Error> {
+    // Per run: (time, the bound on its spread, error sum, error count), and its name.
     let mut runs: BTreeMap<String, (f64, f64, f64, usize)> = BTreeMap::new();
+    let mut names: BTreeMap<String, String> = BTreeMap::new();
     let spread = |r: usize, c: &str| {
         let s = t.num(r, &format!("{c}_spread"));
         t.num(r, &format!("{c}_seconds")) * if s.is_finite() { s } else { 0.0 }
@@ -226,6 +228,12 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
             continue;
         }
         let id = t.rows[r][0].clone();
+        names.entry(id.clone()).or_insert_with(|| {
+            (varying.iter())
+                .map(|c| format!("{c} = {}", t.cell(r, c)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        });
         let time = t.num(r, "bsv_sampling_seconds") + t.num(r, "table_build_seconds");
         let bound = spread(r, "bsv_sampling") + spread(r, "table_build");
         let e = runs.entry(id).or_insert((time, bound, 0.0, 0));
@@ -237,10 +245,11 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
         e.0 += t.num(r, "extrapolation_seconds");
         e.1 += spread(r, "extrapolation");
     }
-    let runs: Vec<(f64, f64, f64)> = (runs.values())
-        .filter(|v| v.3 > 0 && v.0.is_finite())
-        .map(|v| (v.0 * 1e3, v.1 * 1e3, v.2 / v.3 as f64))
+    let named: Vec<(String, (f64, f64, f64))> = (runs.iter())
+        .filter(|(_, v)| v.3 > 0 && v.0.is_finite())
+        .map(|(id, v)| (names[id].clone(), (v.0 * 1e3, v.1 * 1e3, v.2 / v.3 as f64)))
         .collect();
+    let runs: Vec<(f64, f64, f64)> = named.iter().map(|(_, v)| *v).collect();
     let pts: Vec<(f64, f64)> = runs.iter().map(|&(x, _, y)| (x, y)).collect();
     if pts.is_empty() {
         // Every run was timed alongside others (parallel_runs = true): no comparable times.
@@ -269,7 +278,14 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
         x: "time per run (ms: BSV sampling + k-table + extrapolation)",
         y: "occ_rel_l2, mean over the run's probe radii (1)",
     };
-    Ok(shscale_runner::plots::write_scatter_with_bars(
+    // Each front point named by its run (the first run with those coordinates).
+    let notes: Vec<((f64, f64), String)> = (front.iter())
+        .filter_map(|&p| {
+            let (name, _) = named.iter().find(|(_, v)| (v.0, v.2) == p)?;
+            (!name.is_empty()).then(|| (p, name.clone()))
+        })
+        .collect();
+    Ok(shscale_runner::plots::write_scatter_noted(
         dir,
         "pareto_time_vs_error",
         &labels,
@@ -277,5 +293,6 @@ fn pareto(dir: &Path, t: &Table) -> Result<Vec<PathBuf>, Error> {
         &front,
         &bars,
         false,
+        &notes,
     )?)
 }
