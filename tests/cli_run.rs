@@ -1511,3 +1511,63 @@ fn a_probe_inside_the_occluder_reports_what_it_has() {
     );
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `--dry-run`'s time is in this machine's seconds: measured (the line says so and gives the
+/// speed), or given by SHSCALE_SPEED — twice the speed halves the estimate, 1 keeps the
+/// development VM's — and a speed that is not a positive number is refused naming the variable.
+#[test]
+fn dry_run_estimates_scale_with_the_machine_speed() {
+    let d = dir("speed");
+    let cfg = tiny(&d, "");
+    let c = cfg.to_str().unwrap();
+    let seconds = |speed: Option<&str>| -> (f64, String) {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"));
+        cmd.args(["run", c, "--dry-run"]);
+        match speed {
+            Some(s) => cmd.env("SHSCALE_SPEED", s),
+            None => cmd.env_remove("SHSCALE_SPEED"),
+        };
+        let o = cmd.output().unwrap();
+        let text = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let line = text
+            .lines()
+            .find(|l| l.contains("estimated:"))
+            .unwrap()
+            .to_string();
+        let s: f64 = line
+            .split(" s on ")
+            .next()
+            .and_then(|h| h.rsplit(", ").next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no seconds in {line}"));
+        (s, line)
+    };
+    let (vm, line) = seconds(Some("1"));
+    assert!(
+        line.contains("on this machine (at 1.00× the development VM's ray rate)"),
+        "{line}"
+    );
+    let (fast, _) = seconds(Some("2"));
+    println!("estimate at speed 1: {vm} s, at speed 2: {fast} s");
+    assert!(
+        vm > 0.0 && (fast - vm / 2.0).abs() <= 0.006 + 1e-3 * vm,
+        "{vm} {fast}"
+    );
+    let (_, measured) = seconds(None);
+    assert!(
+        measured.contains("× the development VM's ray rate"),
+        "{measured}"
+    );
+    for bad in ["0", "-1", "fast", "inf"] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
+            .args(["run", c, "--dry-run"])
+            .env("SHSCALE_SPEED", bad)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("SHSCALE_SPEED"), "{bad}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

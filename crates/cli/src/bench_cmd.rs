@@ -327,6 +327,8 @@ fn print_runner_table(
 fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
     let registry = shscale_experiments::registry();
     let overrides = shscale_runner::config::Overrides::default();
+    crate::flags::calibrate_estimates()?;
+    let speed = shscale_runner::timing::machine_speed().unwrap_or(1.0);
     // Every config resolved before any runs: a bad one fails the bench at once.
     let mut plans = Vec::new();
     for c in &a.configs {
@@ -353,6 +355,8 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
         let measured = t0.elapsed().as_secs_f64();
         let _ = std::fs::remove_dir_all(&dir);
         let ratio = (estimate.is_finite() && measured > 0.0).then(|| estimate / measured);
+        // The development VM's seconds, as the model prints them without a speed.
+        let vm = estimate * speed;
         if !json {
             eprintln!("{}: {measured:.2} s", c.display());
         }
@@ -362,34 +366,39 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
             "estimate_s": estimate.is_finite().then_some(estimate),
             "measured_s": measured,
             "estimate_over_measured": ratio,
+            "estimate_dev_vm_s": vm.is_finite().then_some(vm),
+            "dev_vm_estimate_over_measured": (vm.is_finite() && measured > 0.0).then(|| vm / measured),
         }));
     }
     if json {
         crate::output::print_json(&serde_json::json!({
             "threads": rayon::current_num_threads(),
+            "speed": speed,
             "configs": rows,
         }))?;
         return Ok(());
     }
     println!(
-        "`--dry-run` estimate against measured wall time, {} rayon threads",
-        rayon::current_num_threads()
+        "`--dry-run` estimate against measured wall time, {} rayon threads; this machine's ray rate {speed:.2}× the development VM's ({})",
+        rayon::current_num_threads(),
+        if std::env::var_os("SHSCALE_SPEED").is_some() { "SHSCALE_SPEED" } else { "measured" }
     );
     println!();
-    println!("| config | runs | estimate (s) | measured (s) | estimate / measured |");
-    println!("|---|---:|---:|---:|---:|");
+    println!("| config | runs | estimate (s) | measured (s) | estimate / measured | uncalibrated estimate / measured |");
+    println!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
         let f = |k: &str, p: usize| {
             r[k].as_f64()
                 .map_or("not estimated".to_string(), |v| format!("{v:.p$}"))
         };
         println!(
-            "| {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} |",
             r["config"].as_str().unwrap_or_default(),
             r["runs"],
             f("estimate_s", 2),
             f("measured_s", 2),
-            f("estimate_over_measured", 2)
+            f("estimate_over_measured", 2),
+            f("dev_vm_estimate_over_measured", 2)
         );
     }
     Ok(())

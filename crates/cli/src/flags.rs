@@ -35,3 +35,24 @@ pub fn int<T: PartialOrd + Display + Copy>(flag: &str, v: T, lo: T, hi: T) -> an
 pub fn real(flag: &str, v: f64, lo: f64, hi: f64, ends: Ends) -> anyhow::Result<f64> {
     check::real(v, lo, hi, ends).map_err(|m| anyhow::anyhow!("{flag}: {m}"))
 }
+
+/// Measure this machine's speed against the development VM for `--dry-run`'s estimates
+/// (`shscale_scene::calibrate`, about 0.15 s), or take it from `SHSCALE_SPEED` (a positive
+/// number; `1` keeps the development VM's seconds, for reproducible listings). A value that is
+/// not a positive number is refused naming the variable.
+pub fn calibrate_estimates() -> anyhow::Result<()> {
+    let speed = match std::env::var("SHSCALE_SPEED") {
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(k) if k.is_finite() && k > 0.0 && k <= 1e6 => k,
+            _ => anyhow::bail!(
+                "SHSCALE_SPEED={v:?}: give this machine's speed against the development VM as a positive number (1 = the development VM), or unset it to measure"
+            ),
+        },
+        Err(_) => match shscale_scene::calibrate::rays_per_second() {
+            Some(rate) => rate / shscale_runner::timing::CALIBRATION_REFERENCE_RAYS_PER_SECOND,
+            None => return Ok(()),
+        },
+    };
+    shscale_runner::timing::set_machine_speed(speed);
+    Ok(())
+}

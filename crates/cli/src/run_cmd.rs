@@ -41,6 +41,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     crate::flags::out_folder("--out-dir", &a.out_dir)?;
     let registry = shscale_experiments::registry();
     if a.dry_run {
+        crate::flags::calibrate_estimates()?;
         // Surveyed run by run, never held: a plan of 10⁶ runs in bounded memory.
         let s = runner::plan::survey_file(&config, &overrides(&a.overrides), &registry)?;
         print!("{}", s.describe(shard));

@@ -174,8 +174,11 @@ impl Tally {
         self.duplicate
     }
 
-    /// The estimate, every time column timed with `timing`'s warm-up and repeats.
+    /// The estimate, every time column timed with `timing`'s warm-up and repeats; in this
+    /// machine's seconds when its speed was measured ([`timing::set_machine_speed`]), else the
+    /// development VM's.
     pub(crate) fn estimate(&self, timing: Procedure) -> Estimate {
+        let speed = timing::machine_speed().unwrap_or(1.0);
         let factor = (timing.warmup + timing.repeats) as f64;
         let (shared_rays, shared_seconds, shared_once) = (self.groups.values())
             .fold((0.0, 0.0, 0.0), |(r, s, o), (gr, gs, go)| {
@@ -188,11 +191,12 @@ impl Tally {
             groups: self.groups.len(),
             rays: self.rays + shared_rays,
             bytes: self.bytes,
-            seconds: (self.seconds + shared_seconds) * factor
+            seconds: ((self.seconds + shared_seconds) * factor
                 + self.once_seconds
                 + shared_once
-                + bookkeeping,
-            bookkeeping_seconds: bookkeeping,
+                + bookkeeping)
+                / speed,
+            bookkeeping_seconds: bookkeeping / speed,
             max_group_rays: self.max_group_rays,
             rays_driver: self.rays_driver.1.clone(),
             bytes_driver: self.bytes_driver.1.clone(),

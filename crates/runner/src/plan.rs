@@ -422,10 +422,18 @@ impl Survey {
             e.bytes / (1u64 << 20) as f64,
             if e.seconds.is_nan() {
                 "time not estimated (a run's cost depends on a file read when it runs)".to_string()
-            } else if e.seconds < 10.0 {
-                format!("{:.2} s on the development VM", e.seconds)
             } else {
-                format!("{:.1} s on the development VM", e.seconds)
+                let on = match timing::machine_speed() {
+                    Some(k) => {
+                        format!("on this machine (at {k:.2}× the development VM's ray rate)")
+                    }
+                    None => "on the development VM".to_string(),
+                };
+                if e.seconds < 10.0 {
+                    format!("{:.2} s {on}", e.seconds)
+                } else {
+                    format!("{:.1} s {on}", e.seconds)
+                }
             },
             self.timing.warmup,
             self.timing.repeats,

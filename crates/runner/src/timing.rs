@@ -185,6 +185,36 @@ pub const CPU_RAYS_PER_SECOND: f64 = 8.0e6;
 /// 4.2e7 at 2r (`shscale run configs/quickstart.toml`); the model takes the middle.
 pub const TRUTH_RAYS_PER_SECOND: f64 = 2.6e7;
 
+/// The calibration workload's rate on the machine the rates above describe
+/// (`shscale_scene::calibrate::rays_per_second`: the bundled bunny's occlusion rays from 1.1r,
+/// every thread). A machine that measures `k` times this rate is estimated to take `1/k` of the
+/// development VM's seconds. The rates above were fitted on an earlier sitting's VM, which is
+/// gone; this reference was set on the development VM of 2026-12-04, evening (AMD EPYC, family
+/// 26 model 2 (Zen 5), 2 vCPUs): its calibration rate (6.2·10⁷ rays/s, the median of seven
+/// `--dry-run`s) divided by 1.79, the geometric middle of the smallest and largest ratio of
+/// estimated to measured seconds over every shipped config there (1.06 and 3.01,
+/// `SHSCALE_SPEED=1 shscale bench estimates …`, docs/BENCHMARKS.md "Dry-run estimates"), the
+/// factor that keeps the worst ratio nearest to 1.
+pub const CALIBRATION_REFERENCE_RAYS_PER_SECOND: f64 = 3.46e7;
+
+static MACHINE_SPEED: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+
+/// Record this machine's speed against the development VM (its calibration rate over
+/// [`CALIBRATION_REFERENCE_RAYS_PER_SECOND`]), once per process: every estimate after it is in
+/// this machine's seconds. A speed that is not finite and positive is ignored. Returns the speed
+/// in force.
+pub fn set_machine_speed(speed: f64) -> Option<f64> {
+    if speed.is_finite() && speed > 0.0 {
+        let _ = MACHINE_SPEED.set(speed);
+    }
+    machine_speed()
+}
+
+/// The speed recorded by [`set_machine_speed`], if any.
+pub fn machine_speed() -> Option<f64> {
+    MACHINE_SPEED.get().copied()
+}
+
 /// What the runner itself spends per run on the development VM (2 threads): the plan, the
 /// rows appended and synced (group commits, about ten a second), resume, summary and report —
 /// 12–21 µs per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench runner`,
@@ -195,9 +225,10 @@ pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;
 
 /// What a plan costs whatever its runs: the manifest, the summary, the report and its plots
 /// (`configs/paper/fig2_sparsity.toml`, whose 12 runs' matrices take milliseconds: 0.04 s in
-/// `shscale bench estimates`, 0.07 s through `shscale run` with the process's start). Part of the
-/// bookkeeping of every estimate.
-pub const PLAN_OVERHEAD_SECONDS: f64 = 0.04;
+/// `shscale bench estimates` on the morning's development VM of 2026-12-04, 0.0074 s on the
+/// evening's — 0.013 s in the morning VM's seconds after calibration; set between the two).
+/// Part of the bookkeeping of every estimate.
+pub const PLAN_OVERHEAD_SECONDS: f64 = 0.02;
 
 /// The most rays a plan may trace without `--allow-large`.
 pub const MAX_PLAN_RAYS: f64 = 1e10;

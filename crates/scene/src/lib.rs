@@ -16,8 +16,10 @@
 //! | [`gpu_path`] | opening the GPU, the GPU sequence, GPU BSV timing | `frame`, `render`, `scene` |
 //! | [`bench`] | Table 1: CPU and GPU sequences per stage | `gpu_path`, `render`, `scene` |
 //! | [`kernels`] | `shscale bench rays|bsv|sh` against the peers | `error` |
+//! | [`calibrate`] | this machine's ray rate, to scale `--dry-run`'s estimates | — |
 
 pub mod bench;
+pub mod calibrate;
 pub mod camera;
 pub mod error;
 pub mod frame;
