@@ -3,8 +3,10 @@
 //! spheres ([`shscale_geometry::partition::fit_spheres`], refitted every frame of a deforming
 //! sequence), each sphere's visibility the closed-form cap, the caps multiplied near to far with
 //! the truncated SH product ([`crate::subvolume::near_to_far`]), the order in which
-//! shadow fields combine occluders. Ren et al. accumulate the spheres' log-visibilities and
-//! exponentiate once; that variant is not built here (docs/math.md says why).
+//! shadow fields combine occluders — at an internal order M ≥ N when built with a basis and
+//! Gaunt tensor of order M, truncated to N once at the end ([`SphereSetField`]). Ren et al.
+//! accumulate the spheres' log-visibilities and exponentiate once; that variant is not built
+//! here (docs/math.md says why).
 //!
 //! The visibility of one sphere of radius R, centre c, at a point p with d = |c − p| > R is
 //! `√(4π)e₀ − cap(asin(R/d))` about `(c − p)/d` (exact, band-limited to order N by
@@ -44,22 +46,39 @@ impl VisibilityField for SphereVisibility<'_> {
     }
 }
 
-/// The product of a sphere set's visibilities, near to far by the distance to each centre.
+/// The product of a sphere set's visibilities, near to far by the distance to each centre, at
+/// the order M of its `basis` and `gaunt` (the internal order), returned truncated to the
+/// order N its caller asks for (`out.len() = N²`, N ≤ M). At M = N every product is truncated
+/// to N; a larger M keeps the caps' and the partial products' bands up to M and truncates once,
+/// at the end — the caps are closed-form at any order, so only the products' cost grows (a
+/// sparse Gaunt product at M, about M⁵ terms).
 pub struct SphereSetField<'a> {
     spheres: Vec<SphereVisibility<'a>>,
     gaunt: &'a GauntTensor<f64>,
+    internal: usize,
 }
 
 impl<'a> SphereSetField<'a> {
-    /// At least one sphere; `basis` and `gaunt` of one order.
+    /// At least one sphere; `basis` and `gaunt` of one order (the internal order).
     pub fn new(spheres: &[Sphere], basis: &'a ShBasis<f64>, gaunt: &'a GauntTensor<f64>) -> Self {
         assert!(!spheres.is_empty(), "a sphere set needs a sphere");
+        assert_eq!(
+            basis.order(),
+            gaunt.order(),
+            "basis and Gaunt tensor of one order"
+        );
         Self {
             spheres: (spheres.iter())
                 .map(|s| SphereVisibility::new(*s, basis))
                 .collect(),
             gaunt,
+            internal: basis.order(),
         }
+    }
+
+    /// The order the products are computed at.
+    pub fn internal_order(&self) -> usize {
+        self.internal
     }
 
     /// Bytes a frame's set holds (centre and radius per sphere).
@@ -69,12 +88,27 @@ impl<'a> SphereSetField<'a> {
 }
 
 impl VisibilityField for SphereSetField<'_> {
+    /// `out`: N² coefficients, N at most the internal order (its first N² coefficients are the
+    /// order-N truncation, the l-major order of docs/conventions.md).
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let fields: Vec<&dyn VisibilityField> = (self.spheres.iter())
             .map(|s| s as &dyn VisibilityField)
             .collect();
         let centers: Vec<DVec3> = self.spheres.iter().map(|s| s.sphere.center).collect();
-        near_to_far(self.gaunt, &fields, &centers, p, out);
+        let mm = self.internal * self.internal;
+        assert!(
+            out.len() <= mm,
+            "asked for {} coefficients of an order-{} set",
+            out.len(),
+            self.internal
+        );
+        if out.len() == mm {
+            near_to_far(self.gaunt, &fields, &centers, p, out);
+        } else {
+            let mut full = vec![0.0; mm];
+            near_to_far(self.gaunt, &fields, &centers, p, &mut full);
+            out.copy_from_slice(&full[..out.len()]);
+        }
     }
 }
 
