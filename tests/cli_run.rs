@@ -33,6 +33,9 @@ fn run_writes_csv_and_manifest_and_resumes() {
         out.join("probe/tiny/occ_rel_l2_vs_alpha_deg.png").exists()
             && out.join("probe/tiny/pareto_time_vs_error.svg").exists()
     );
+    // The speed/accuracy front names its points by the runs' varying parameters.
+    let svg = std::fs::read_to_string(out.join("probe/tiny/pareto_time_vs_error.svg")).unwrap();
+    assert!(svg.contains("alpha_deg = "), "front points unnamed");
     assert!(
         text.contains("| run_id | alpha_deg | radius | occ_rel_l2_mean"),
         "summary table missing: {text}"

@@ -1017,6 +1017,27 @@ pub fn write_both_log(
 #[cfg(test)]
 mod tests {
     #[test]
+    fn a_title_too_long_for_its_figure_is_drawn_smaller_at_an_even_size() {
+        // 0.55 em a character: a short title keeps 22 px; the probe front's 95-character title
+        // on 900 px fits at 16; nothing goes below 14, and every size is even.
+        assert_eq!(super::caption_size("error against rays", 900), 22);
+        let long = "speed against accuracy per run, with the Pareto front (bars: spread of the timed repeats)";
+        let s = super::caption_size(long, 900);
+        assert!(s < 22 && s % 2 == 0, "{s}");
+        assert!(
+            long.chars().count() as f64 * 0.55 * f64::from(s) <= 876.0,
+            "{s}"
+        );
+        assert_eq!(super::caption_size(&"x".repeat(1000), 900), 14);
+        for w in [300, 620, 900, 1860] {
+            for n in [1, 40, 80, 160] {
+                let s = super::caption_size(&"y".repeat(n), w);
+                assert!(s % 2 == 0 && (14..=22).contains(&s), "{w} {n} {s}");
+            }
+        }
+    }
+
+    #[test]
     fn tick_labels_keep_three_significant_digits() {
         for (x, want) in [
             (63095.734, "6.31e4"),
