@@ -1023,7 +1023,7 @@ mod tests {
         assert_eq!(super::caption_size("error against rays", 900), 22);
         let long = "speed against accuracy per run, with the Pareto front (bars: spread of the timed repeats)";
         let s = super::caption_size(long, 900);
-        assert!(s < 22 && s % 2 == 0, "{s}");
+        assert!(s < 22 && s.is_multiple_of(2), "{s}");
         assert!(
             long.chars().count() as f64 * 0.55 * f64::from(s) <= 876.0,
             "{s}"
@@ -1032,7 +1032,7 @@ mod tests {
         for w in [300, 620, 900, 1860] {
             for n in [1, 40, 80, 160] {
                 let s = super::caption_size(&"y".repeat(n), w);
-                assert!(s % 2 == 0 && (14..=22).contains(&s), "{w} {n} {s}");
+                assert!(s.is_multiple_of(2) && (14..=22).contains(&s), "{w} {n} {s}");
             }
         }
     }
