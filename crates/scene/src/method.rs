@@ -192,10 +192,25 @@ impl FieldSpec {
 pub enum Spec {
     Extrapolated(Extrapolation),
     FullField(FieldSpec),
-    RayTraced { rt_res: usize },
-    SubVolumes { parts: usize, ex: Extrapolation },
-    SphereSet { parts: usize, combine: Combine },
+    RayTraced {
+        rt_res: usize,
+    },
+    SubVolumes {
+        parts: usize,
+        ex: Extrapolation,
+    },
+    /// `internal_order`: the order M the caps are multiplied at before truncating to the run's
+    /// N (0: N itself, the plain order-N chain).
+    SphereSet {
+        parts: usize,
+        combine: Combine,
+        internal_order: usize,
+    },
 }
+
+/// The highest internal order of a sphere set's products (a product at M = 16 does about
+/// 1,150× the work of one at 4: docs/math.md, "Combining many spheres").
+pub const MAX_SPHERE_ORDER: usize = 16;
 
 /// The raw method keys of a kind's parameters (each kind fills the ones it has; a key it does
 /// not offer is `None`, and the method uses the fixed value the kind documents).
@@ -219,6 +234,8 @@ pub struct Keys<'a> {
     pub radial_tau: Option<f64>,
     pub radial_max: Option<f64>,
     pub sphere_combine: Option<&'a str>,
+    /// The internal order of a sphere set's products (0: the run's order).
+    pub sphere_order: Option<usize>,
     pub k_count: Option<usize>,
 }
 
@@ -248,6 +265,7 @@ impl<'a> Keys<'a> {
             ("radial_tau", self.radial_tau.map(|x| x.to_string())),
             ("radial_max", self.radial_max.map(|x| x.to_string())),
             ("sphere_combine", self.sphere_combine.map(str::to_string)),
+            ("sphere_order", self.sphere_order.map(|x| x.to_string())),
             ("k_count", self.k_count.map(|x| x.to_string())),
         ];
         v.extend(opt.into_iter().filter_map(|(k, c)| Some((k, c?))));
@@ -372,6 +390,10 @@ impl Spec {
                         ))
                     }
                 },
+                internal_order: match k.sphere_order.unwrap_or(0) {
+                    0 => 0,
+                    m => KeyError::int("sphere_order", m, 1, MAX_SPHERE_ORDER)?,
+                },
             },
             Method::FullFrequency => unreachable!("not among the budgeted methods"),
         };
@@ -440,6 +462,10 @@ impl Spec {
                 "sampling_radius",
             ],
             Spec::RayTraced { .. } => vec!["rt_res"],
+            Spec::SphereSet {
+                combine: Combine::Product,
+                ..
+            } => vec!["parts", "sphere_combine", "sphere_order"],
             Spec::SphereSet { .. } => vec!["parts", "sphere_combine"],
         }
     }
@@ -498,14 +524,24 @@ impl Spec {
     /// [`SPHERE_SECONDS`] per sphere for sphere sets by products; the quadrature's rays meet
     /// spheres, not a mesh, and are priced per direction ([`SPHERE_DIRECTION_SECONDS`]) and
     /// sphere test ([`SPHERE_TEST_SECONDS`]) instead.
+    ///
+    /// At an internal order M above 4 a sphere's time grows with its product's Gaunt entries,
+    /// about `0.2·M⁵` (194 at M = 4, 51,814 at 12, 222,376 at 16): `(M/4)⁵` times
+    /// [`SPHERE_SECONDS`].
     pub fn seconds(&self, rays: f64, receivers: f64, rays_per_second: f64) -> f64 {
         match *self {
             Spec::SphereSet {
                 parts,
                 combine: Combine::Quadrature,
+                ..
             } => rays * (SPHERE_DIRECTION_SECONDS + parts as f64 * SPHERE_TEST_SECONDS),
-            Spec::SphereSet { parts, .. } => {
-                rays / rays_per_second + receivers * parts as f64 * SPHERE_SECONDS
+            Spec::SphereSet {
+                parts,
+                internal_order,
+                ..
+            } => {
+                let work = (internal_order as f64 / 4.0).powi(5).max(1.0);
+                rays / rays_per_second + receivers * parts as f64 * SPHERE_SECONDS * work
             }
             _ => rays / rays_per_second,
         }
@@ -575,6 +611,7 @@ mod tests {
             radial_tau: Some(0.5),
             radial_max: Some(2.0),
             sphere_combine: Some("product"),
+            sphere_order: Some(0),
             k_count: Some(40),
         }
     }
@@ -610,8 +647,15 @@ mod tests {
         }
         // sphere_combine under extrapolation, α under ray tracing, δ under uniform radii.
         type Set = fn(&mut Keys);
-        let cases: [(&str, Set); 4] = [
+        let cases: [(&str, Set); 6] = [
             ("sphere_combine", |k| k.sphere_combine = Some("quadrature")),
+            ("sphere_order", |k| k.sphere_order = Some(8)),
+            // The internal order is read by the products only, not by the quadrature.
+            ("sphere_order", |k| {
+                k.method = "sphere_set";
+                k.sphere_combine = Some("quadrature");
+                k.sphere_order = Some(8)
+            }),
             ("alpha_deg", |k| {
                 k.method = "ray_traced";
                 k.alpha_deg = 30.0
@@ -634,6 +678,18 @@ mod tests {
                 e.message
             );
         }
+        // The internal order: read by products, within 1..=MAX_SPHERE_ORDER (0: the run's N).
+        let mut k = keys("sphere_set");
+        k.sphere_order = Some(12);
+        assert!(matches!(
+            Spec::parse(&k, &d, 1024).unwrap(),
+            Spec::SphereSet {
+                internal_order: 12,
+                ..
+            }
+        ));
+        k.sphere_order = Some(MAX_SPHERE_ORDER + 1);
+        assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_order");
         // Read keys off their defaults are fine: δ with clearance, α with a fixed α.
         let mut k = keys("extrapolated");
         k.radial = "clearance";

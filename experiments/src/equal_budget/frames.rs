@@ -133,19 +133,25 @@ pub(crate) fn extrapolation<'a>(
 }
 
 /// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
-/// frame — the analytic sphere is its own one-sphere set — combined by truncated products or by
-/// the quadrature, whose rays (cast at the spheres, not at the mesh) are counted.
+/// frame — the analytic sphere is its own one-sphere set — combined by truncated products at
+/// the `internal` order (≥ `order`, truncated to `order` once) or by the quadrature, whose rays
+/// (cast at the spheres, not at the mesh) are counted.
 pub(crate) fn sphere_set<'a>(
-    order: usize,
+    (order, internal): (usize, usize),
     (parts, combine): (usize, Combine),
     occ: &'a dyn Occluder,
     mesh: Option<(&'a shscale_geometry::Mesh, Vec<u32>)>,
     points: &'a Points,
 ) -> Result<FrameFn<'a>, Error> {
     let nn = order * order;
-    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
-    let gaunt =
-        shscale_sh::GauntTensor::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
+    let sh = |m: usize| -> Result<_, Error> {
+        let basis = shscale_sh::ShBasis::<f64>::new(m).map_err(|e| Error::config(e.to_string()))?;
+        let gaunt =
+            shscale_sh::GauntTensor::<f64>::new(m).map_err(|e| Error::config(e.to_string()))?;
+        Ok((basis, gaunt))
+    };
+    let (basis, _) = sh(order)?;
+    let (basis_m, gaunt_m) = sh(internal.max(order))?;
     let grid = (combine == Combine::Quadrature)
         .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
     Ok(Box::new(move || {
@@ -166,7 +172,7 @@ pub(crate) fn sphere_set<'a>(
                 )
             }
             None => {
-                let set = SphereSetField::new(&spheres, &basis, &gaunt);
+                let set = SphereSetField::new(&spheres, &basis_m, &gaunt_m);
                 (eval_all(&set, points, nn), 0, set.size_bytes())
             }
         };

@@ -123,6 +123,7 @@ impl Params {
             radial_tau: None,
             radial_max: None,
             sphere_combine: None,
+            sphere_order: None,
             k_count: None,
         }
     }

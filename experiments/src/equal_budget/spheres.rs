@@ -90,6 +90,9 @@ pub struct Params {
     /// far, as every multi-occluder method here) or `quadrature` (the set's joint visibility
     /// projected by a quadrature, no truncated products).
     pub sphere_combine: String,
+    /// The order M a `sphere_set` multiplies its caps at before truncating to `order` (0: the
+    /// run's order, the plain chain; else order ≤ M ≤ 16).
+    pub sphere_order: usize,
     pub k_count: usize,
     /// Receivers: as many seeded directions as `receivers` at each radius.
     pub receivers: usize,
@@ -123,6 +126,7 @@ impl Default for Params {
             radial_tau: 0.5,
             radial_max: 2.0,
             sphere_combine: "product".into(),
+            sphere_order: 0,
             k_count: 40,
             receivers: 240,
             probe_seed: 1,
@@ -155,6 +159,7 @@ impl Params {
             radial_tau: Some(self.radial_tau),
             radial_max: Some(self.radial_max),
             sphere_combine: Some(&self.sphere_combine),
+            sphere_order: Some(self.sphere_order),
             k_count: Some(self.k_count),
         }
     }
@@ -334,6 +339,7 @@ impl Kind for Budget {
             ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
             ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) or `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`)"),
+            ("sphere_order", "the internal order M of `sphere_set` with `sphere_combine = \"product\"`: each cap projected to M, every product at M, the result truncated to `order` once (docs/math.md, \"Combining many spheres\"); 0 (default) for the run's order, else order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -352,6 +358,17 @@ impl Kind for Budget {
             p.hemisphere_res,
         )?;
         let spec = p.spec()?;
+        if let Spec::SphereSet { internal_order, .. } = spec {
+            if internal_order != 0 && internal_order < p.order {
+                return Err(KeyError::new(
+                    "sphere_order",
+                    format!(
+                        "{internal_order} is below the run's order {}: give 0 (the run's order) or an order from {} to 16",
+                        p.order, p.order
+                    ),
+                ));
+            }
+        }
         if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
             return Err(KeyError::new(
                 "mesh",
@@ -540,13 +557,18 @@ impl Kind for Budget {
                     .collect();
                 frames::extrapolation(ex, (order, p.k_count), parts, &sampler, &sh.points)?
             }
-            Spec::SphereSet { parts, combine } => {
+            Spec::SphereSet {
+                parts,
+                combine,
+                internal_order,
+            } => {
                 let labels = partition(*parts)?;
                 if labels.is_some() {
                     partition_seconds = Some(t0.elapsed().as_secs_f64());
                 }
                 let mesh = sh.mesh.as_ref().zip(labels);
-                frames::sphere_set(order, (*parts, *combine), occ, mesh, &sh.points)?
+                let internal = (*internal_order).max(order);
+                frames::sphere_set((order, internal), (*parts, *combine), occ, mesh, &sh.points)?
             }
             Spec::FullField(f) => frames::full_field(f, order, occ, &sampler, &sh.points),
             Spec::RayTraced { rt_res } => {

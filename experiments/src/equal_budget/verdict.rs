@@ -199,12 +199,16 @@ pub(crate) fn variant(s: &Spec) -> String {
             f.interp.name()
         ),
         Spec::RayTraced { .. } => "ray tracing".into(),
-        Spec::SphereSet { parts, combine } => format!(
+        Spec::SphereSet {
+            parts,
+            combine,
+            internal_order,
+        } => format!(
             "sphere set (S = {parts}{})",
-            if *combine == Combine::Quadrature {
-                ", quadrature"
-            } else {
-                ""
+            match (combine, internal_order) {
+                (Combine::Quadrature, _) => ", quadrature".to_string(),
+                (_, 0) => String::new(),
+                (_, m) => format!(", M = {m}"),
             }
         ),
         Spec::Extrapolated(e) => extrapolation_variant("extrapolation", None, e),
@@ -303,11 +307,11 @@ fn winners_cell(
     split: &Split,
     col: &str,
     within: &dyn Fn(&[Config]) -> Option<f64>,
-    seeded: bool,
+    (seeded, methods): (bool, bool),
 ) -> String {
     let mut by_variant: Vec<(String, Vec<&str>)> = Vec::new();
     let (mut m_lo, mut m_hi, mut s_lo, mut s_hi) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
-    for (group, configs) in split.groups.iter().filter(|(_, c)| contested(c)) {
+    for (group, configs) in (split.groups.iter()).filter(|(_, c)| !methods || contested(c)) {
         let cap = within(configs).unwrap_or(f64::INFINITY);
         let best = (configs.iter())
             .map(|c| (c, c.mean(t, "rays").0, c.mean(t, col)))
@@ -372,14 +376,19 @@ pub(crate) fn verdict_table(
         (Some(a), Some(b)) => format!(" ({a:.0}–{b:.0})"),
         _ => String::new(),
     };
+    // Methods against each other where any group holds several; else (a study of one
+    // method's variants) its variants against each other.
+    let methods = (splits.iter()).any(|s| s.groups.iter().any(|(_, c)| contested(c)));
     let (layout, h) = EQUAL_RAYS_SAMPLING;
+    let mut rows = 0;
     let mut s = format!(
         "| | regime | most accurate at ≤ the rays of the papers' method, `{layout}` at H = {h}{at} | most accurate at any rays in the sweep |\n|---|---|---|---|\n"
     );
     for split in splits {
         for (col, label) in regimes {
-            let equal = winners_cell(t, split, col, &|c| papers_rays(t, c).or(Some(-1.0)), seeded);
-            let any = winners_cell(t, split, col, &|_| None, seeded);
+            let papers = |c: &[Config]| papers_rays(t, c).or(Some(-1.0));
+            let equal = winners_cell(t, split, col, &papers, (seeded, methods));
+            let any = winners_cell(t, split, col, &|_| None, (seeded, methods));
             if any == "—" {
                 // No group scores this regime (no near receivers under floating objects).
                 continue;
@@ -388,10 +397,16 @@ pub(crate) fn verdict_table(
                 "| {} | {label} | {equal} | {any} |\n",
                 split.label
             ));
+            rows += 1;
         }
     }
+    if rows == 0 {
+        return String::new();
+    }
     s.push_str(&format!(
-        "\n{grid}. Each cell: the winning method and where it wins (a mesh or scene holding one method only is left out); the winners' error{}. Rays are not the whole budget (time and memory differ, see below); a verdict holds on this grid only.\n",
+        "\n{grid}. Each cell: the winning {} and where it wins{}; the winners' error{}. Rays are not the whole budget (time and memory differ, see below); a verdict holds on this grid only.\n",
+        if methods { "method" } else { "variant (these runs compare one method's variants)" },
+        if methods { " (a mesh or scene holding one method only is left out)" } else { "" },
         if seeded {
             " (seed means), in brackets the lowest and highest single seed"
         } else {
