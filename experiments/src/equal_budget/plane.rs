@@ -600,14 +600,7 @@ impl Kind for BudgetPlane {
             } else {
                 format!("{frames} frames")
             };
-            let name = plot_name(&scene);
-            match splits.iter_mut().find(|s| s.label == label) {
-                Some(s) => s.groups.push((name, configs)),
-                None => splits.push(Split {
-                    label,
-                    groups: vec![(name, configs)],
-                }),
-            }
+            Split::add(&mut splits, label, plot_name(&scene), configs);
         }
         if splits.is_empty() {
             return Ok(String::new());

@@ -639,14 +639,7 @@ impl Kind for Budget {
                 .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
                 .collect();
             let configs = by_config(t, &rows, &keys, &|r| specs[r]);
-            let label = format!("N = {order}");
-            match splits.iter_mut().find(|s| s.label == label) {
-                Some(s) => s.groups.push((mesh, configs)),
-                None => splits.push(Split {
-                    label,
-                    groups: vec![(mesh, configs)],
-                }),
-            }
+            Split::add(&mut splits, format!("N = {order}"), mesh, configs);
         }
         if splits.is_empty() {
             return Ok(String::new());

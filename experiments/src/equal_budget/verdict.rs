@@ -288,6 +288,20 @@ pub(crate) struct Split {
 /// study was designed around (fixed before its runs; 61,440 rays).
 const EQUAL_RAYS_SAMPLING: (&str, usize) = ("latlong:12x20", 16);
 
+impl Split {
+    /// Add `group` with its configurations to the split labelled `label` in `splits` (a new
+    /// split, in order of first appearance, when there is none).
+    pub(crate) fn add(splits: &mut Vec<Split>, label: String, group: String, configs: Vec<Config>) {
+        match splits.iter_mut().find(|s| s.label == label) {
+            Some(s) => s.groups.push((group, configs)),
+            None => splits.push(Split {
+                label,
+                groups: vec![(group, configs)],
+            }),
+        }
+    }
+}
+
 /// The rays of the papers' extrapolation at [`EQUAL_RAYS_SAMPLING`] in `configs`: the study's
 /// equal-rays budget. `None` when that configuration is not among them.
 fn papers_rays(t: &Results, configs: &[Config]) -> Option<f64> {
