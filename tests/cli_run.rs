@@ -962,6 +962,23 @@ fn budget_rows_count_what_each_method_costs() {
         svg.contains("sphere sets (0 at the left edge)"),
         "no zero-ray entry"
     );
+    // Rows written before the kind gained a parameter (here: without `sphere_order`) still
+    // report, the parameter read as its default; the file is left as it was.
+    let csv_path = dir.join("r/budget/b/runs.csv");
+    let csv = std::fs::read_to_string(&csv_path).unwrap();
+    let at = head.iter().position(|h| h == "sphere_order").unwrap();
+    let old: String = csv
+        .lines()
+        .map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells.remove(at);
+            cells.join(",") + "\n"
+        })
+        .collect();
+    std::fs::write(&csv_path, &old).unwrap();
+    let o = shscale(&["report", dir.join("r/budget/b").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&csv_path).unwrap(), old);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -212,6 +212,26 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
 
 /// Rows of another kind than the manifest names: said so, naming both files (they once read as
 /// a plot without data).
+/// A parameter the kind gained after these rows were written (`sphere_order`, say) is read as
+/// its default, the value that reproduces the runs made before it existed (a kind adds a
+/// parameter only with such a default); it is added as a column of `t`, the file is not
+/// touched. Only when the rows hold some of the kind's parameters: rows of another kind are
+/// still refused by [`check_kind`].
+fn fill_added_parameters(kind: &dyn DynKind, t: &mut Results) {
+    let params = kind.param_columns();
+    if !params.iter().any(|p| t.col(p).is_some()) {
+        return;
+    }
+    for (key, default) in kind.defaults() {
+        if t.col(&key).is_none() {
+            t.columns.push(key);
+            for row in &mut t.rows {
+                row.push(default.clone());
+            }
+        }
+    }
+}
+
 fn check_kind(kind: &dyn DynKind, dir: &Path, t: &Results) -> Result<(), Error> {
     let missing: Vec<String> = (kind.param_columns().into_iter())
         .chain(kind.row_columns())
@@ -286,7 +306,8 @@ pub fn report_staged(
     staging: &crate::atomic::Staging,
 ) -> Result<Report, Error> {
     let csv = dir.join("runs.csv");
-    let t = Results::read(&csv)?;
+    let mut t = Results::read(&csv)?;
+    fill_added_parameters(kind, &mut t);
     check_kind(kind, dir, &t)?;
     let varying = t.varying(&kind.param_columns());
     let (title, claim) = title_and_claim(dir);
