@@ -27,7 +27,7 @@
 
 use super::frames::{self, FrameFn};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95, params_of, plot_name,
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of, plot_name,
     specs_of, speed_claim, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
@@ -192,7 +192,8 @@ pub struct Row {
     /// `sub_volumes`: the partition (k-means, the parts' meshes and BVHs), once per run — for a
     /// deforming mesh once per sequence, as the partition is per triangle.
     pub partition_seconds: Option<f64>,
-    /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval.
+    /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval clustered
+    /// by direction (the radii of one direction are not independent receivers).
     pub occ_rel_l2_mean: Option<f64>,
     pub occ_rel_l2_ci95: Option<f64>,
     /// The same near the object (ρ ≤ 1.3) and beyond.
@@ -220,7 +221,9 @@ pub struct Shared {
     occ: Box<dyn shscale_geometry::Occluder>,
     /// The mesh (none for the analytic sphere), for the sub-volumes' partition.
     mesh: Option<shscale_geometry::Mesh>,
+    /// Radius by radius, the same `directions` directions at each.
     points: Vec<(f64, DVec3)>,
+    directions: usize,
     truth: Vec<Option<Truth>>,
     /// Per receiver: its direction is a contact direction — the bounding sphere's point in that
     /// direction has its facing hemisphere occluded at least
@@ -237,6 +240,8 @@ pub const MAX_RECEIVERS: usize = 100_000;
 /// One receiver's error: its radius, `‖S − S_true‖²`, `‖S_occ,true‖²` and the truth's own error.
 struct Err2 {
     rho: f64,
+    /// The receiver's direction (its radii share it: the intervals' cluster).
+    dir: usize,
     /// The receiver's direction is a contact direction ([`Shared::contact`]).
     contact: bool,
     diff2: f64,
@@ -248,11 +253,11 @@ struct Err2 {
 /// something occluded, ‖S_occ‖ > 1e-12) with its interval, and the occlusion-weighted error.
 fn scores(e: &[Err2], keep: impl Fn(&Err2) -> bool) -> (Option<f64>, Option<f64>, Option<f64>) {
     let kept: Vec<&Err2> = e.iter().filter(|x| keep(x)).collect();
-    let rel: Vec<f64> = (kept.iter())
+    let rel: Vec<(usize, f64)> = (kept.iter())
         .filter(|x| x.occ2 > 1e-24)
-        .map(|x| (x.diff2 / x.occ2).sqrt())
+        .map(|x| (x.dir, (x.diff2 / x.occ2).sqrt()))
         .collect();
-    let (m, ci) = mean_ci95(&rel);
+    let (m, ci) = mean_ci95_clustered(&rel);
     let (d, o) = (kept.iter()).fold((0.0, 0.0), |(d, o), x| (d + x.diff2, o + x.occ2));
     (m, ci, (o > 1e-24).then(|| (d / o).sqrt()))
 }
@@ -264,12 +269,16 @@ fn row_of(
     t: [shscale_runner::timing::Timing; 3],
 ) -> Row {
     let [build, eval, total] = t;
+    let dirs = sh.directions.max(1);
     let errs: Vec<Err2> = (values.iter().zip(&sh.truth).zip(&sh.points))
         .zip(&sh.contact)
-        .filter_map(|(((v, t), (rho, _)), contact)| {
+        .enumerate()
+        .filter_map(|(i, (((v, t), (rho, _)), contact))| {
             let t = t.as_ref()?;
             Some(Err2 {
                 rho: *rho,
+                // Points run radius by radius over the same directions.
+                dir: i % dirs,
                 contact: *contact,
                 diff2: l2_diff(v, &t.coeffs).powi(2),
                 occ2: l2(&occlusion(&t.coeffs)).powi(2),
@@ -493,6 +502,7 @@ impl Kind for Budget {
             occ,
             mesh,
             points,
+            directions: p.receivers,
             truth,
             contact,
         })

@@ -30,6 +30,32 @@ pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
     (m, ci)
 }
 
+/// Mean of `(cluster, value)` pairs and the half-width of its 95 % interval clustered by
+/// `cluster` (receivers that share a direction are not independent): the cluster-robust
+/// variance of the mean, `G/(G−1) · Σ_g (S_g − n_g·m)² / n²` over the G clusters (`S_g` the sum
+/// of cluster g's n_g values), times 1.96². With one value per cluster it is the normal
+/// interval with the population variance scaled by n/(n−1), i.e. [`mean_ci95`]'s. `None` for
+/// fewer than 2 clusters.
+pub fn mean_ci95_clustered(v: &[(usize, f64)]) -> (Option<f64>, Option<f64>) {
+    if v.is_empty() {
+        return (None, None);
+    }
+    let n = v.len() as f64;
+    let m = v.iter().map(|x| x.1).sum::<f64>() / n;
+    let mut clusters: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+    for &(c, x) in v {
+        let e = clusters.entry(c).or_insert((0.0, 0.0));
+        e.0 += x;
+        e.1 += 1.0;
+    }
+    let g = clusters.len() as f64;
+    let ci = (clusters.len() >= 2).then(|| {
+        let ss: f64 = clusters.values().map(|(s, k)| (s - k * m).powi(2)).sum();
+        1.96 * (g / (g - 1.0) * ss / (n * n)).sqrt()
+    });
+    (Some(m), ci)
+}
+
 /// A file-name-safe name of a mesh parameter: a bundled name as is, a path by its file stem,
 /// every character but letters, digits, `.`, `_` and `-` replaced by `_`.
 pub(crate) fn plot_name(mesh: &str) -> String {
@@ -798,6 +824,30 @@ mod tests {
         assert_eq!(super::mean_ci95(&[]), (None, None));
         // Equal values: no spread.
         assert_eq!(super::mean_ci95(&[0.5; 4]).1, Some(0.0));
+    }
+
+    #[test]
+    fn the_clustered_interval_is_the_normal_one_for_singletons_and_wider_for_shared_clusters() {
+        // One value per cluster: the same as the normal interval.
+        let v = [1.0, 2.0, 3.0, 7.0];
+        let single: Vec<(usize, f64)> = v.iter().enumerate().map(|(i, x)| (i, *x)).collect();
+        let (m, ci) = super::mean_ci95_clustered(&single);
+        let (m0, ci0) = super::mean_ci95(&v);
+        assert_eq!(m, m0);
+        assert!((ci.unwrap() - ci0.unwrap()).abs() < 1e-12, "{ci:?} {ci0:?}");
+        // Each value repeated five times in its cluster (five radii on one direction): the
+        // independent interval shrinks by √5, the clustered one stays that of the four clusters.
+        let rep: Vec<(usize, f64)> = single.iter().flat_map(|&p| [p; 5]).collect();
+        let flat: Vec<f64> = rep.iter().map(|p| p.1).collect();
+        let (_, naive) = super::mean_ci95(&flat);
+        let (mr, clustered) = super::mean_ci95_clustered(&rep);
+        assert_eq!(mr, m0);
+        // 4 clusters: G/(G−1)·Σ(5(x−m))²/20² = (4/3)·Σ(x−m)²/16 — the singletons' value.
+        assert!((clustered.unwrap() - ci0.unwrap()).abs() < 1e-12);
+        assert!(naive.unwrap() < 0.5 * clustered.unwrap(), "{naive:?} {clustered:?}");
+        // Degenerate inputs: nothing, and one cluster.
+        assert_eq!(super::mean_ci95_clustered(&[]), (None, None));
+        assert_eq!(super::mean_ci95_clustered(&[(3, 1.0), (3, 2.0)]).1, None);
     }
 
     #[test]
