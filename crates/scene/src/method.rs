@@ -577,7 +577,14 @@ impl Spec {
                 scene.full_field = Some(f.shells());
             }
             Spec::RayTraced { rt_res } => scene.truth_res = *rt_res,
-            Spec::SphereSet { parts, .. } => scene.parts = *parts,
+            Spec::SphereSet {
+                parts,
+                internal_order,
+                ..
+            } => {
+                scene.parts = *parts;
+                scene.sphere_order = *internal_order;
+            }
         }
     }
 }

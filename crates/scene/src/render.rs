@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
-use shscale_field::sphereset::SphereVisibility;
+use shscale_field::sphereset::{SphereSetField, SphereVisibility};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
@@ -123,7 +123,24 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let spheres: Vec<SphereVisibility> = (built.spheres.iter())
         .map(|s| SphereVisibility::new(*s, &basis))
         .collect();
-    let fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
+    // A sphere set at a higher internal order is one field: its caps multiplied at that order,
+    // truncated to the scene's once (the shader then multiplies nothing more).
+    let internal = (method == Method::SphereSet && scene.sphere_order > scene.order)
+        .then(|| {
+            let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+            Ok::<_, Error>((
+                shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
+                shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
+            ))
+        })
+        .transpose()?;
+    let high = (internal.as_ref())
+        .filter(|_| !built.spheres.is_empty())
+        .map(|(b, g)| SphereSetField::new(&built.spheres, b, g));
+    let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
+    if let Some(set) = &high {
+        fields = vec![set as &dyn VisibilityField];
+    }
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
     if !emitters.is_empty() {
@@ -152,7 +169,10 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
             ..out
         });
     }
-    let centers = field_centers(method, &built, &occs);
+    let mut centers = field_centers(method, &built, &occs);
+    if high.is_some() {
+        centers.truncate(1);
+    }
     let local = LocalLights::new(&emitters, &light_fields, &sampler);
     let mut out = shade_all(
         scene,

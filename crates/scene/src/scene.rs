@@ -194,6 +194,10 @@ pub struct Scene {
     /// Parts of every mesh occluder for [`crate::render::Method::SubVolumes`], set by
     /// experiments (no scene-file key); 1 otherwise.
     pub parts: usize,
+    /// The internal order of a [`crate::render::Method::SphereSet`]'s products (its caps
+    /// multiplied at this order, truncated to `order` once), set by experiments (no scene-file
+    /// key); 0 (the scene's order) otherwise.
+    pub sphere_order: usize,
     /// Where the extrapolation's base-sphere samples lie along their directions, set by
     /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
     pub radial: shscale_field::bsv::RadialRule,
@@ -354,6 +358,7 @@ impl Scene {
             full_field: None,
             pose_t: None,
             parts: 1,
+            sphere_order: 0,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }

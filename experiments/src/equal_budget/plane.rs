@@ -70,6 +70,9 @@ pub struct Params {
     /// `radial_delta`·r from the surface), as in `budget`.
     pub radial: String,
     pub radial_delta: f64,
+    /// The order M a `sphere_set` multiplies its caps at before truncating to the scene's order
+    /// (0: that order, the plain chain; else order ≤ M ≤ 16), as in `budget`.
+    pub sphere_order: usize,
     /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
     /// (`shscale figs`); one frame only.
     pub save_image: bool,
@@ -95,6 +98,7 @@ impl Default for Params {
             sampling_radius: 1.0,
             radial: "uniform".into(),
             radial_delta: 0.1,
+            sphere_order: 0,
             save_image: false,
         }
     }
@@ -123,7 +127,7 @@ impl Params {
             radial_tau: None,
             radial_max: None,
             sphere_combine: None,
-            sphere_order: None,
+            sphere_order: Some(self.sphere_order),
             k_count: None,
         }
     }
@@ -284,6 +288,7 @@ impl Kind for BudgetPlane {
             ("frames", "frames of the deformers' sequence (t = f/frames), each rendered from scratch by every method, 1..=64; 1: the rest pose"),
             ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model). A method key the method does not read (docs/methods.md) must keep its default"),
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
+            ("sphere_order", "the internal order M of `sphere_set`: each cap projected to M, every product at M, the result truncated to the scene's order once (docs/math.md, \"Combining many spheres\"); 0 (default) for the scene's order, else that order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
@@ -330,6 +335,17 @@ impl Kind for BudgetPlane {
         let scene =
             planned_scene(p, config_dir).map_err(|e| KeyError::new("scene", e.to_string()))?;
         check_rt_res(&spec.typed.method, p, &scene)?;
+        if let Spec::SphereSet { internal_order, .. } = spec.typed.method {
+            let order = p.order.unwrap_or(scene.order);
+            if internal_order != 0 && internal_order < order {
+                return Err(KeyError::new(
+                    "sphere_order",
+                    format!(
+                        "{internal_order} is below the order {order}: give 0 (that order) or an order from {order} to 16"
+                    ),
+                ));
+            }
+        }
         spec.typed.scene = Some(scene);
         Ok(spec)
     }

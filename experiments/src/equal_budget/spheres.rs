@@ -27,8 +27,8 @@
 
 use super::frames::{self, FrameFn};
 use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of, plot_name,
-    specs_of, speed_claim, verdict_table, write_front, Front, Split,
+    by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of,
+    plot_name, specs_of, speed_claim, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
 use glam::DVec3;

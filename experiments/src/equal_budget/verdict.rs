@@ -844,7 +844,10 @@ mod tests {
         assert_eq!(mr, m0);
         // 4 clusters: G/(G−1)·Σ(5(x−m))²/20² = (4/3)·Σ(x−m)²/16 — the singletons' value.
         assert!((clustered.unwrap() - ci0.unwrap()).abs() < 1e-12);
-        assert!(naive.unwrap() < 0.5 * clustered.unwrap(), "{naive:?} {clustered:?}");
+        assert!(
+            naive.unwrap() < 0.5 * clustered.unwrap(),
+            "{naive:?} {clustered:?}"
+        );
         // Degenerate inputs: nothing, and one cluster.
         assert_eq!(super::mean_ci95_clustered(&[]), (None, None));
         assert_eq!(super::mean_ci95_clustered(&[(3, 1.0), (3, 2.0)]).1, None);
