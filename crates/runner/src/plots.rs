@@ -6,6 +6,7 @@
 //! (assets/fonts, Bitstream Vera licence), so nothing is needed from the system at run time.
 
 use crate::error::Error;
+use crate::font::{caption_size, significant};
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -229,31 +230,7 @@ where
     DB::ErrorType: 'static,
 {
     let ax = Axes::of_xy(&ranged(series, bands, xbars), log, log_x)?;
-    // The legend goes right of the data, in a margin as wide as its longest entry (at most 40 %
-    // of the panel): it never covers a point.
-    // One series and no front: no legend (its name joins the title), the data get the width.
-    let (area_w, _) = area.dim_in_pixel();
-    let solo = (series.len() == 1 && front.is_empty())
-        .then(|| series.keys().next())
-        .flatten();
-    let title = match solo {
-        // A name that only repeats the axis or the title adds nothing.
-        Some(name)
-            if !name.is_empty() && name != labels.y && !labels.title.contains(name.as_str()) =>
-        {
-            format!("{} ({name})", labels.title)
-        }
-        _ => labels.title.to_string(),
-    };
-    let longest = (series.keys().map(|k| k.chars().count()))
-        .chain((!front.is_empty()).then_some(12))
-        .max()
-        .unwrap_or(0);
-    let legend_w = if solo.is_some() {
-        0
-    } else {
-        ((longest as u32) * 7 + 44).min(area_w * 2 / 5)
-    };
+    let (title, legend_w) = title_and_legend(labels, series, front, area.dim_in_pixel().0);
     let mut chart = ChartBuilder::on(area)
         .caption(&title, ("sans-serif", caption))
         .margin(12)
@@ -301,7 +278,7 @@ where
         px - bx + chart.plotting_area().dim_in_pixel().0 as i32 + 10,
         py - by + 8,
     );
-    if solo.is_some() {
+    if legend_w == 0 {
         return Ok(());
     }
     let names: Vec<&str> = series.keys().map(String::as_str).collect();
@@ -309,30 +286,30 @@ where
     // Not presented here: an SVG backend writes its file once, when the whole figure is drawn.
 }
 
-/// `x` to `digits` significant digits, as a tick label: plain decimals from 10⁻² to below 10⁴
-/// (`0.0123`, `251`, `6310`), else `6.31e4`; no trailing zeros. Domain: any finite `x` (`0` is
-/// "0"); a non-finite one is printed as Rust prints it.
-pub fn significant(x: f64, digits: usize) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
+/// A panel's title and the width of its legend margin. The legend goes right of the data, in a
+/// margin as wide as its longest entry (at most 40 % of the panel `area_w`): it never covers a
+/// point. One series and no front: no legend (width 0), the series' name joins the title unless
+/// it only repeats the axis or the title.
+fn title_and_legend(
+    labels: &Labels,
+    series: &BTreeMap<String, Vec<(f64, f64)>>,
+    front: &[(f64, f64)],
+    area_w: u32,
+) -> (String, u32) {
+    if let (1, true) = (series.len(), front.is_empty()) {
+        let name = series.keys().next().map_or("", String::as_str);
+        let says_more = !name.is_empty() && name != labels.y && !labels.title.contains(name);
+        return match says_more {
+            true => (format!("{} ({name})", labels.title), 0),
+            false => (labels.title.to_string(), 0),
+        };
     }
-    let digits = digits.max(1);
-    let e = x.abs().log10().floor() as i32;
-    let trim = |s: String| {
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    };
-    if (-2..4).contains(&e) {
-        let decimals = (digits as i32 - 1 - e).max(0) as usize;
-        trim(format!("{x:.decimals$}"))
-    } else {
-        let s = format!("{:.*e}", digits - 1, x);
-        let (m, exp) = s.split_once('e').unwrap_or((&s, "0"));
-        format!("{}e{exp}", trim(m.to_string()))
-    }
+    let longest = (series.keys().map(|k| k.chars().count()))
+        .chain((!front.is_empty()).then_some(12))
+        .max()
+        .unwrap_or(0);
+    let legend_w = ((longest as u32) * 7 + 44).min(area_w * 2 / 5);
+    (labels.title.to_string(), legend_w)
 }
 
 /// The notes beside their points: each label starts 7 px right of its point and 16 px above it;
@@ -547,15 +524,6 @@ where
 
 /// A text drawn beside a point of a scatter (data coordinates): what a front point is.
 pub type Note = ((f64, f64), String);
-
-/// The caption size of a figure `width` pixels wide: 22, or smaller (to 14) where the title
-/// would not fit (DejaVu Sans averages about 0.55 em a character); always even (see
-/// [`crate::font::TEXT_SIZES`]).
-fn caption_size(title: &str, width: u32) -> u32 {
-    let chars = title.chars().count().max(1) as f64;
-    let fits = (f64::from(width.saturating_sub(24)) / (0.55 * chars)).floor() as u32;
-    (fits.min(22) & !1).max(14)
-}
 
 /// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front` and a horizontal
 /// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time; none: no
@@ -1016,27 +984,6 @@ pub fn write_both_log(
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn a_title_too_long_for_its_figure_is_drawn_smaller_at_an_even_size() {
-        // 0.55 em a character: a short title keeps 22 px; the probe front's 95-character title
-        // on 900 px fits at 16; nothing goes below 14, and every size is even.
-        assert_eq!(super::caption_size("error against rays", 900), 22);
-        let long = "speed against accuracy per run, with the Pareto front (bars: spread of the timed repeats)";
-        let s = super::caption_size(long, 900);
-        assert!(s < 22 && s.is_multiple_of(2), "{s}");
-        assert!(
-            long.chars().count() as f64 * 0.55 * f64::from(s) <= 876.0,
-            "{s}"
-        );
-        assert_eq!(super::caption_size(&"x".repeat(1000), 900), 14);
-        for w in [300, 620, 900, 1860] {
-            for n in [1, 40, 80, 160] {
-                let s = super::caption_size(&"y".repeat(n), w);
-                assert!(s.is_multiple_of(2) && (14..=22).contains(&s), "{w} {n} {s}");
-            }
-        }
-    }
-
     #[test]
     fn tick_labels_keep_three_significant_digits() {
         for (x, want) in [

@@ -212,6 +212,27 @@ pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
 
 /// Rows of another kind than the manifest names: said so, naming both files (they once read as
 /// a plot without data).
+/// "## The answer": the kind's verdict table ([`crate::kind::Kind::verdict`]), at most
+/// [`MAX_VERDICT_LINES`] lines (a longer one is the kind's error); empty without one.
+fn answer_section(kind: &dyn DynKind, t: &Results) -> Result<String, Error> {
+    let verdict = kind.verdict(t)?;
+    let verdict = verdict.trim_end();
+    if verdict.trim().is_empty() {
+        return Ok(String::new());
+    }
+    let lines = verdict.lines().count();
+    if lines > MAX_VERDICT_LINES {
+        return Err(Error::Kind(
+            format!(
+                "kind {}'s verdict table has {lines} lines, more than the {MAX_VERDICT_LINES} a summary opens with",
+                kind.name()
+            )
+            .into(),
+        ));
+    }
+    Ok(format!("## The answer\n\n{verdict}\n\n"))
+}
+
 /// A parameter the kind gained after these rows were written (`sphere_order`, say) is read as
 /// its default, the value that reproduces the runs made before it existed (a kind adds a
 /// parameter only with such a default); it is added as a column of `t`, the file is not
@@ -335,20 +356,7 @@ pub fn report_staged(
     );
     // The answer first: the kind's discussion of its claim, and the best configuration per row
     // key; every run's row after it (collapsed in the HTML, after the figures).
-    let verdict = kind.verdict(&t)?;
-    if !verdict.trim().is_empty() {
-        let lines = verdict.trim_end().lines().count();
-        if lines > MAX_VERDICT_LINES {
-            return Err(Error::Kind(
-                format!(
-                    "kind {}'s verdict table has {lines} lines, more than the {MAX_VERDICT_LINES} a summary opens with",
-                    kind.name()
-                )
-                .into(),
-            ));
-        }
-        s.push_str(&format!("## The answer\n\n{}\n\n", verdict.trim_end()));
-    }
+    s.push_str(&answer_section(kind, &t)?);
     let discussion = kind.discussion(&t)?;
     let out = staging.path();
     if !discussion.trim().is_empty() {

@@ -817,6 +817,13 @@ mod tests {
         let prod = spec(&keys("sphere_set"));
         let want = 100.0 * 4.0 * SPHERE_SECONDS;
         assert!((prod.seconds(0.0, 100.0, rate) - want).abs() < 1e-18);
+        // At an internal order M the product's work scales as (M/4)⁵; at M ≤ 4 as the plain chain.
+        let mut k8 = keys("sphere_set");
+        k8.sphere_order = Some(8);
+        let m8 = spec(&k8).seconds(0.0, 100.0, rate);
+        assert!((m8 - 32.0 * want).abs() < 1e-15, "{m8}");
+        k8.sphere_order = Some(3);
+        assert!((spec(&k8).seconds(0.0, 100.0, rate) - want).abs() < 1e-18);
         let quad = spec(&q);
         let rays = quad.rays(1.0, 10.0);
         let want = rays * (SPHERE_DIRECTION_SECONDS + 4.0 * SPHERE_TEST_SECONDS);

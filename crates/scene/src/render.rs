@@ -101,23 +101,13 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
     let built = build_fields(scene, method, &occs, &sampler, &recv, &mut stages)?;
-    let exs: Vec<Extrapolator> = (built.bsvs.iter().zip(&built.tables))
-        .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(scene.plausibility))
-        .collect();
+    let exs = extrapolators(&built, scene.plausibility);
     let truth = shscale_field::truth::TruthSampler::new(
         scene.order,
         scene.truth_res,
         shscale_field::truth::DEFAULT_TRUTH_SEED,
     )?;
-    let rts: Vec<ConvergedTruth> = match method {
-        Method::RayTraced => (occs.iter())
-            .map(|o| ConvergedTruth {
-                occ: o.as_ref(),
-                truth: &truth,
-            })
-            .collect(),
-        _ => Vec::new(),
-    };
+    let rts = converged_truths(method, &occs, &truth);
     let basis = shscale_sh::ShBasis::<f64>::new(scene.order)
         .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
     let spheres: Vec<SphereVisibility> = (built.spheres.iter())
@@ -125,15 +115,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         .collect();
     // A sphere set at a higher internal order is one field: its caps multiplied at that order,
     // truncated to the scene's once (the shader then multiplies nothing more).
-    let internal = (method == Method::SphereSet && scene.sphere_order > scene.order)
-        .then(|| {
-            let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-            Ok::<_, Error>((
-                shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
-                shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
-            ))
-        })
-        .transpose()?;
+    let internal = internal_order_sh(scene, method)?;
     let high = (internal.as_ref())
         .filter(|_| !built.spheres.is_empty())
         .map(|(b, g)| SphereSetField::new(&built.spheres, b, g));
@@ -185,6 +167,51 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     stages.push("shading", t);
     out.stages = stages.0;
     Ok(out)
+}
+
+/// The extrapolated field of every base-sphere visibility built (one per occluder, or per part
+/// of sub-volumes), with the scene's plausibility mitigation.
+fn extrapolators(
+    built: &Built,
+    plausibility: shscale_field::extrapolate::Plausibility,
+) -> Vec<Extrapolator<'_>> {
+    (built.bsvs.iter().zip(&built.tables))
+        .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(plausibility))
+        .collect()
+}
+
+/// Ray tracing's field per occluder (the converged truth at `truth`'s resolution); none for
+/// the other methods.
+fn converged_truths<'a>(
+    method: Method,
+    occs: &'a [Box<dyn Occluder>],
+    truth: &'a shscale_field::truth::TruthSampler,
+) -> Vec<ConvergedTruth<'a>> {
+    match method {
+        Method::RayTraced => (occs.iter())
+            .map(|o| ConvergedTruth {
+                occ: o.as_ref(),
+                truth,
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// An SH basis and Gaunt tensor of one order.
+type OrderSh = (shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>);
+
+/// The basis and Gaunt tensor of a sphere set's internal order ([`Scene::sphere_order`]) when
+/// it is above the scene's order; `None` otherwise (and for every other method).
+fn internal_order_sh(scene: &Scene, method: Method) -> Result<Option<OrderSh>, Error> {
+    if method != Method::SphereSet || scene.sphere_order <= scene.order {
+        return Ok(None);
+    }
+    let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+    Ok(Some((
+        shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
+        shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
+    )))
 }
 
 /// The method's visibility field per occluder (per part for sub-volumes and sphere sets); none

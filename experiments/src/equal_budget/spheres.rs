@@ -38,6 +38,8 @@ use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
 use shscale_field::probe::random_directions;
 use shscale_field::truth::{Truth, TruthSampler};
 use shscale_field::{Occluder, VisibilitySampler};
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
@@ -528,7 +530,7 @@ impl Kind for Budget {
                 .transpose()
                 .map_err(|e| Error::config(e.to_string()))
         };
-        let part_bvhs: Vec<shscale_geometry::MeshBvh>;
+        let part_bvhs: Vec<MeshBvh>;
         let mut partition_seconds = None;
         let mut frame: FrameFn<'_> = match &p.typed {
             Spec::Extrapolated(ex) => {
@@ -543,28 +545,10 @@ impl Kind for Budget {
                     ));
                 };
                 part_bvhs = (shscale_geometry::partition::split(mesh, &labels, *parts).iter())
-                    .map(|m| {
-                        shscale_geometry::MeshBvh::build(
-                            m,
-                            shscale_geometry::ray::UpdateStrategy::Rebuild,
-                        )
-                    })
+                    .map(|m| MeshBvh::build(m, UpdateStrategy::Rebuild))
                     .collect();
                 partition_seconds = Some(t0.elapsed().as_secs_f64());
-                // Each part's k range: its receivers' distances over its sampling radius, with
-                // 5 % margins.
-                let parts = (part_bvhs.iter())
-                    .map(|b| {
-                        let s = b.bounding_sphere();
-                        let range = shscale_field::probe::k_range_to(
-                            s.center,
-                            s.radius * ex.sampling_radius,
-                            sh.points.iter().map(|(_, q)| *q),
-                            1.05,
-                        );
-                        (b as &dyn Occluder, range)
-                    })
-                    .collect();
+                let parts = part_ranges(&part_bvhs, ex.sampling_radius, &sh.points);
                 frames::extrapolation(ex, (order, p.k_count), parts, &sampler, &sh.points)?
             }
             Spec::SphereSet {
@@ -718,6 +702,27 @@ const CONFIG_GROUPING: [&str; 6] = [
     "truth_seed",
     "radii",
 ];
+
+/// Each sub-volume part with its k range: its receivers' distances over its sampling radius
+/// (`sampling_radius` times its bounding radius), with 5 % margins.
+fn part_ranges<'a>(
+    parts: &'a [MeshBvh],
+    sampling_radius: f64,
+    points: &[(f64, DVec3)],
+) -> Vec<(&'a dyn Occluder, (f64, f64))> {
+    (parts.iter())
+        .map(|b| {
+            let s = b.bounding_sphere();
+            let range = shscale_field::probe::k_range_to(
+                s.center,
+                s.radius * sampling_radius,
+                points.iter().map(|(_, q)| *q),
+                1.05,
+            );
+            (b as &dyn Occluder, range)
+        })
+        .collect()
+}
 
 /// Every row's method, parsed once from its cells.
 fn specs(t: &Results) -> Vec<Option<Spec>> {

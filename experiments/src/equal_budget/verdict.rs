@@ -16,6 +16,9 @@ use std::collections::BTreeMap;
 
 /// Named point series of a plot.
 type Series = BTreeMap<String, Vec<(f64, f64)>>;
+
+/// A front's series per method family ([`family`]), one per variant.
+type ByFamily = BTreeMap<&'static str, Series>;
 use std::path::{Path, PathBuf};
 
 /// Mean and the half-width of its normal 95 % interval, `1.96·s/√n` (s the sample standard
@@ -33,7 +36,9 @@ pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
 /// Mean of `(cluster, value)` pairs and the half-width of its 95 % interval clustered by
 /// `cluster` (receivers that share a direction are not independent): the cluster-robust
 /// variance of the mean, `G/(G−1) · Σ_g (S_g − n_g·m)² / n²` over the G clusters (`S_g` the sum
-/// of cluster g's n_g values), times 1.96². With one value per cluster it is the normal
+/// of cluster g's n_g values), times 1.96² — the sandwich estimator of Liang & Zeger (1986) for
+/// an intercept-only model, with the usual G/(G−1) small-sample factor; it assumes clusters are
+/// independent and G large (here 240 directions). With one value per cluster it is the normal
 /// interval with the population variance scaled by n/(n−1), i.e. [`mean_ci95`]'s. `None` for
 /// fewer than 2 clusters.
 pub fn mean_ci95_clustered(v: &[(usize, f64)]) -> (Option<f64>, Option<f64>) {
@@ -543,28 +548,11 @@ pub(crate) fn write_front(
     f: &Front,
     spec_of: &dyn Fn(usize) -> Option<Spec>,
 ) -> Result<Vec<PathBuf>, Error> {
-    let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let mut variants: BTreeMap<&str, Series> = BTreeMap::new();
-    let mut bars = Vec::new();
-    for &r in rows {
-        let (xv, y) = (t.num(r, f.x), t.num(r, f.y));
-        let Some(spec) = spec_of(r) else { continue };
-        if xv.is_finite() && xv >= 0.0 && y.is_finite() {
-            series
-                .entry(family(&spec).into())
-                .or_default()
-                .push((xv, y));
-            (variants.entry(family(&spec)).or_default())
-                .entry(variant(&spec))
-                .or_default()
-                .push((xv, y));
-            bars.push((
-                y,
-                t.num(r, "frame_seconds_lo"),
-                t.num(r, "frame_seconds_hi"),
-            ));
-        }
-    }
+    let (variants, bars) = front_points(t, rows, f, spec_of);
+    // One series per family: its variants' points together.
+    let mut series: Series = (variants.iter())
+        .map(|(fam, v)| (fam.to_string(), v.values().flatten().copied().collect()))
+        .collect();
     let Some(min_pos) = (series.values().flatten())
         .map(|p| p.0)
         .filter(|&x| x > 0.0)
@@ -598,6 +586,43 @@ pub(crate) fn write_front(
         &[]
     };
     let mut files = write_scatter_with_bars(dir, &f.stem, &labels, &series, &front, bars, true)?;
+    files.extend(write_by_family(dir, f, variants, x0)?);
+    Ok(files)
+}
+
+/// The points of a front: per family ([`family`]) its variants' ([`variant`]) `(x, y)` with a
+/// finite y and a finite x ≥ 0, and per point its `(y, time low, time high)` bar.
+fn front_points(
+    t: &Results,
+    rows: &[usize],
+    f: &Front,
+    spec_of: &dyn Fn(usize) -> Option<Spec>,
+) -> (ByFamily, Vec<(f64, f64, f64)>) {
+    let mut variants: ByFamily = BTreeMap::new();
+    let mut bars = Vec::new();
+    for &r in rows {
+        let (xv, y) = (t.num(r, f.x), t.num(r, f.y));
+        let Some(spec) = spec_of(r) else { continue };
+        if xv.is_finite() && xv >= 0.0 && y.is_finite() {
+            (variants.entry(family(&spec)).or_default())
+                .entry(variant(&spec))
+                .or_default()
+                .push((xv, y));
+            let (lo, hi) = (t.num(r, "frame_seconds_lo"), t.num(r, "frame_seconds_hi"));
+            bars.push((y, lo, hi));
+        }
+    }
+    (variants, bars)
+}
+
+/// The `<stem>_by_family` companion of a front: one panel per family, markers only, one series
+/// per variant, zero-cost points at `x0` (said in the panel's title).
+fn write_by_family(
+    dir: &Path,
+    f: &Front,
+    variants: ByFamily,
+    x0: f64,
+) -> Result<Vec<PathBuf>, Error> {
     let panels: Vec<Panel> = (variants.into_iter())
         .map(|(fam, mut series)| {
             let zeros = place_zeros(&mut series, x0, false);
@@ -613,7 +638,7 @@ pub(crate) fn write_front(
             }
         })
         .collect();
-    files.extend(write_panels(
+    Ok(write_panels(
         dir,
         &format!("{}_by_family", f.stem),
         &format!("{}: each family's variants", f.title),
@@ -622,8 +647,7 @@ pub(crate) fn write_front(
         &panels,
         None,
         true,
-    )?);
-    Ok(files)
+    )?)
 }
 
 /// The papers' claim as stated: at the same layout and H, the papers' method (one sphere, fixed

@@ -212,10 +212,11 @@ fn error_against(
     )?)
 }
 
-/// Per run: total time of the extrapolation path against its error averaged over radii, with
-/// the Pareto front, each front point named by the run's `varying` parameters; rows timed
-/// alongside other runs are left out (none when all were).
-fn pareto(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Error> {
+/// Per run not timed alongside others, in run-id order: its name (its `varying` parameters),
+/// and (time in ms, the bound on its spread in ms, its error averaged over its radii). The time
+/// is BSV sampling + k-table once plus the extrapolation at every radius; a stage's bound is
+/// its median × its spread.
+fn timed_runs(t: &Table, varying: &[String]) -> Vec<(String, (f64, f64, f64))> {
     // Per run: (time, the bound on its spread, error sum, error count), and its name.
     let mut runs: BTreeMap<String, (f64, f64, f64, usize)> = BTreeMap::new();
     let mut names: BTreeMap<String, String> = BTreeMap::new();
@@ -245,10 +246,17 @@ fn pareto(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Err
         e.0 += t.num(r, "extrapolation_seconds");
         e.1 += spread(r, "extrapolation");
     }
-    let named: Vec<(String, (f64, f64, f64))> = (runs.iter())
+    (runs.iter())
         .filter(|(_, v)| v.3 > 0 && v.0.is_finite())
         .map(|(id, v)| (names[id].clone(), (v.0 * 1e3, v.1 * 1e3, v.2 / v.3 as f64)))
-        .collect();
+        .collect()
+}
+
+/// Per run: total time of the extrapolation path against its error averaged over radii, with
+/// the Pareto front, each front point named by the run's `varying` parameters; rows timed
+/// alongside other runs are left out (none when all were).
+fn pareto(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Error> {
+    let named = timed_runs(t, varying);
     let runs: Vec<(f64, f64, f64)> = named.iter().map(|(_, v)| *v).collect();
     let pts: Vec<(f64, f64)> = runs.iter().map(|&(x, _, y)| (x, y)).collect();
     if pts.is_empty() {
