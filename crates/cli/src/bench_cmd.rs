@@ -69,12 +69,13 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     match a.format {
         BenchFormat::Markdown => {
             println!(
-                "Table 1 reproduction — medians of {} frames after {} warm-up; {} {}, {} rayon threads",
+                "Table 1 reproduction — medians of {} frames after {} warm-up; {} {}, {} rayon threads; CPU: {}",
                 a.frames,
                 a.warmup,
                 std::env::consts::OS,
                 std::env::consts::ARCH,
-                rayon::current_num_threads()
+                rayon::current_num_threads(),
+                shscale_sh::cpu::cpu().summary()
             );
             println!();
             print!("{}", to_markdown(&rows));
@@ -240,6 +241,7 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     if json {
         crate::output::print_json(&serde_json::json!({
             "threads": rayon::current_num_threads(),
+            "cpu": kernels::CpuRow::this(),
             "sweeps": sweeps,
             "merge": merge,
         }))?;
@@ -284,13 +286,14 @@ fn print_runner_table(
     merge: Option<&shscale_runner::bench::MergeCost>,
 ) {
     println!(
-        "runner bookkeeping — {}, {} rayon threads; seconds of wall time",
+        "runner bookkeeping — {}, {} rayon threads; seconds of wall time; CPU: {}",
         if config {
             "the config's sweep"
         } else {
             "a kind that does no work"
         },
-        rayon::current_num_threads()
+        rayon::current_num_threads(),
+        shscale_sh::cpu::cpu().summary()
     );
     println!();
     println!("| runs | plan | run | runs' work | report | total / work | overhead per run | resume (nothing to do) | runs.csv | report.html | peak RSS |");
@@ -373,15 +376,17 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
     if json {
         crate::output::print_json(&serde_json::json!({
             "threads": rayon::current_num_threads(),
+            "cpu": kernels::CpuRow::this(),
             "speed": speed,
             "configs": rows,
         }))?;
         return Ok(());
     }
     println!(
-        "`--dry-run` estimate against measured wall time, {} rayon threads; this machine's ray rate {speed:.2}× the development VM's ({})",
+        "`--dry-run` estimate against measured wall time, {} rayon threads; this machine's ray rate {speed:.2}× the development VM's ({}); CPU: {}",
         rayon::current_num_threads(),
-        if std::env::var_os("SHSCALE_SPEED").is_some() { "SHSCALE_SPEED" } else { "measured" }
+        if std::env::var_os("SHSCALE_SPEED").is_some() { "SHSCALE_SPEED" } else { "measured" },
+        shscale_sh::cpu::cpu().summary()
     );
     println!();
     println!("| config | runs | estimate (s) | measured (s) | estimate / measured | uncalibrated estimate / measured |");
@@ -446,7 +451,7 @@ fn bench_rays(
         r.simd,
         r.hits as f64 / r.rays as f64,
         r.mismatches.map_or(String::new(), |m| format!(", {m} disagreements with the file's answers"))
-    );
+    ) + &format!("; CPU: {}", r.cpu.summary);
     print(a.common.format, &r, text)?;
     Ok(())
 }
@@ -489,7 +494,7 @@ fn bench_bsv(a: &crate::args::BenchBsvArgs, level: shscale_sh::simd::Level) -> a
         r.rays_per_second / 1e6,
         r.threads,
         r.simd
-    );
+    ) + &format!("; CPU: {}", r.cpu.summary);
     print(a.common.format, &r, text)?;
     Ok(())
 }
@@ -514,7 +519,7 @@ fn bench_sh(a: &crate::args::BenchShArgs, level: shscale_sh::simd::Level) -> any
     let text = format!(
         "sh N={} {}: {:.2} ns/point over {} points (median of {} in {:.3} s), 1 thread, {}",
         r.order, r.precision, r.ns_per_point, r.points, r.timing.reps, r.median_seconds, r.simd
-    );
+    ) + &format!("; CPU: {}", r.cpu.summary);
     print(a.common.format, &r, text)?;
     Ok(())
 }

@@ -68,7 +68,8 @@ impl BenchPath {
 /// columns, in this order), and the measured part of [`BenchRow`].
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct FrameTimes {
-    /// CPU: `cpu (N threads)`; GPU: the adapter's name, backend and driver.
+    /// CPU: `cpu (N threads, kernels LEVEL): ` and the CPU ([`shscale_sh::cpu::Cpu::summary`]); GPU: the
+    /// adapter's name, backend and driver.
     pub device: String,
     pub vertices: usize,
     pub triangles: usize,
@@ -170,7 +171,11 @@ fn cpu_times(
         .collect();
     let frame_ms = ms(frame);
     Ok(FrameTimes {
-        device: format!("cpu ({threads} threads)"),
+        device: format!(
+            "cpu ({threads} threads, kernels {}): {}",
+            shscale_sh::simd::level().name(),
+            shscale_sh::cpu::cpu().summary()
+        ),
         deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
         bvh_update_ms: ms(st.iter().map(|s| s.bvh_update_seconds).collect()),
         bsv_sampling_ms: ms(st.iter().map(|s| s.bsv_sampling_seconds).collect()),

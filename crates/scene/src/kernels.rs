@@ -265,6 +265,36 @@ pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Re
     Ok(pool.install(f))
 }
 
+/// The CPU a kernel benchmark ran on ([`shscale_sh::cpu::Cpu`]), as its rows report it.
+#[derive(Clone, Debug, Serialize)]
+pub struct CpuRow {
+    pub vendor: String,
+    pub family: u32,
+    pub model: u32,
+    pub microarchitecture: String,
+    pub brand: String,
+    /// The best SIMD level the CPU has (the row's `simd` is the one the kernel ran).
+    pub simd_detected: String,
+    /// The whole identity on one line.
+    pub summary: String,
+}
+
+impl CpuRow {
+    /// This machine's.
+    pub fn this() -> Self {
+        let c = shscale_sh::cpu::cpu();
+        CpuRow {
+            summary: c.summary(),
+            vendor: c.vendor,
+            family: c.family,
+            model: c.model,
+            microarchitecture: c.microarchitecture,
+            brand: c.brand,
+            simd_detected: c.simd_detected,
+        }
+    }
+}
+
 /// The result of `bench rays` and `bench bsv`.
 #[derive(Clone, Debug, Serialize)]
 pub struct RayBench {
@@ -280,6 +310,7 @@ pub struct RayBench {
     pub tree: Tree,
     pub threads: usize,
     pub simd: String,
+    pub cpu: CpuRow,
     pub median_seconds: f64,
     pub rays_per_second: f64,
     pub timing: Timing,
@@ -339,6 +370,7 @@ pub fn bench_rays(
         tree: Tree::of(&bvh),
         threads,
         simd: bvh.level().name().into(),
+        cpu: CpuRow::this(),
         median_seconds: timing.median_seconds,
         rays_per_second: set.len() as f64 / timing.median_seconds,
         timing,
@@ -377,6 +409,7 @@ pub fn bench_bsv(
         tree: Tree::of(&bvh),
         threads,
         simd: bvh.level().name().into(),
+        cpu: CpuRow::this(),
         median_seconds: timing.median_seconds,
         rays_per_second: bsv.rays as f64 / timing.median_seconds,
         timing,
@@ -392,6 +425,7 @@ pub struct ShBench {
     pub points: usize,
     pub threads: usize,
     pub simd: String,
+    pub cpu: CpuRow,
     pub ns_per_point: f64,
     pub median_seconds: f64,
     pub timing: Timing,
@@ -467,6 +501,7 @@ pub fn bench_sh(
         threads: 1,
         // The SH kernels have no AVX-512 code: at that level they run their AVX2 code.
         simd: level.min(Level::Avx2Fma).name().into(),
+        cpu: CpuRow::this(),
         ns_per_point: timing.median_seconds * 1e9 / points as f64,
         median_seconds: timing.median_seconds,
         timing,

@@ -10,6 +10,7 @@
 //! formed in `f64` and rounded once.
 
 pub mod cap;
+pub mod cpu;
 pub mod error;
 pub mod eval;
 pub mod gaunt;

@@ -2,7 +2,9 @@
 //! from one origin (packets of 8 rays on AVX2 / AVX-512), the slab and triangle tests, each
 //! written once as lane-array code and instantiated per SIMD level (module doc of `wide`).
 
+use super::lanes::*;
 use super::layout::*;
+use super::packet::*;
 use shscale_sh::simd::Level;
 
 impl WideBvh {
@@ -48,27 +50,26 @@ impl WideBvh {
             Level::Portable => {}
         }
         let _ = level;
-        self.fan::<false>(o, dirs, tmin, tmax, hit)
+        self.fan_packets(o, dirs, tmin, tmax, hit, packet_occluded_portable)
     }
 
+    /// The fan in packets of 8 consecutive directions (callers order fans coherently: the BSV
+    /// sampler's hemisphere comes in 2×4 tiles of its grid), each answered by `packet`.
     #[inline(always)]
-    pub(super) fn fan<const F: bool>(
+    pub(super) fn fan_packets(
         &self,
         o: [f32; 3],
         dirs: &[[f32; 3]],
         tmin: f32,
         tmax: f32,
         hit: &mut [bool],
+        packet: impl Fn(&WideBvh, [f32; 3], &[[f32; 3]], f32, f32) -> u32,
     ) {
-        for (d, h) in dirs.iter().zip(hit.iter_mut()) {
-            *h = self
-                .traverse::<true, F>(&WideRay {
-                    o,
-                    d: *d,
-                    tmin,
-                    tmax,
-                })
-                .is_some();
+        for (d, h) in dirs.chunks(8).zip(hit.chunks_mut(8)) {
+            let m = packet(self, o, d, tmin, tmax);
+            for (i, h) in h.iter_mut().enumerate() {
+                *h = m >> i & 1 == 1;
+            }
         }
     }
 
@@ -82,7 +83,10 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
-        self.fan_packets::<false>(o, dirs, tmin, tmax, hit)
+        // SAFETY (the closure): this function enables the packet kernel's features.
+        self.fan_packets(o, dirs, tmin, tmax, hit, |w, o, d, t0, t1| unsafe {
+            packet_occluded_avx2(w, o, d, t0, t1)
+        })
     }
 
     /// [`WideBvh::fan_avx2`]'s code compiled with AVX-512 F, VL, BW and DQ as well.
@@ -96,33 +100,10 @@ impl WideBvh {
         tmax: f32,
         hit: &mut [bool],
     ) {
-        self.fan_packets::<true>(o, dirs, tmin, tmax, hit)
-    }
-
-    /// The fan in 8-ray packets; only inlined into a function that enables AVX2, FMA, POPCNT,
-    /// BMI1 and BMI2 (`AVX512`: and AVX-512 F/VL/BW/DQ, whose packet kernel it then calls).
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(super) unsafe fn fan_packets<const AVX512: bool>(
-        &self,
-        o: [f32; 3],
-        dirs: &[[f32; 3]],
-        tmin: f32,
-        tmax: f32,
-        hit: &mut [bool],
-    ) {
-        // Packets of 8 consecutive directions: callers order fans coherently (the BSV
-        // sampler's hemisphere comes in 2×4 tiles of its grid).
-        for (d, h) in dirs.chunks(8).zip(hit.chunks_mut(8)) {
-            let m = if AVX512 {
-                packet_occluded_avx512(self, o, d, tmin, tmax)
-            } else {
-                packet_occluded(self, o, d, tmin, tmax)
-            };
-            for (i, h) in h.iter_mut().enumerate() {
-                *h = m >> i & 1 == 1;
-            }
-        }
+        // SAFETY (the closure): this function enables the packet kernel's features.
+        self.fan_packets(o, dirs, tmin, tmax, hit, |w, o, d, t0, t1| unsafe {
+            packet_occluded_avx512(w, o, d, t0, t1)
+        })
     }
 
     /// The nearest hit `(t, triangle index)` for `t ∈ (tmin, tmax)`.
@@ -198,15 +179,15 @@ impl WideBvh {
         let mut n = start;
         loop {
             let node = &self.nodes[n as usize];
+            // `F` is true only in the AVX2 + FMA instantiations, where the `Avx2` form is sound.
             #[cfg(target_arch = "x86_64")]
             let mut mask = if F {
-                // SAFETY: `F` is true only in the AVX2 + FMA instantiations.
-                unsafe { box_mask_avx2(node, pre, ray.tmin, tmax) }
+                box_mask::<Avx2>(node, pre, ray.tmin, tmax)
             } else {
-                box_mask::<F>(node, pre, ray.tmin, tmax)
+                box_mask::<Portable>(node, pre, ray.tmin, tmax)
             };
             #[cfg(not(target_arch = "x86_64"))]
-            let mut mask = box_mask::<F>(node, pre, ray.tmin, tmax);
+            let mut mask = box_mask::<Portable>(node, pre, ray.tmin, tmax);
             // The last inner child entered is visited next without a round trip through the
             // stack; the others are pushed.
             let mut next = EMPTY;
@@ -329,7 +310,6 @@ impl Prepared {
 
     /// Lane `i` of the packet kernel's reciprocals and `o·inv`, which it computes 8 lanes at
     /// a time with the same operations as [`Prepared::new`] (so the values are identical).
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(super) fn lane(inv: &[[f32; 8]; 3], oi: &[[f32; 8]; 3], i: usize) -> Self {
         Self::with(
@@ -352,432 +332,20 @@ impl Prepared {
 }
 
 /// The slab test of one ray against a node's 8 boxes: bit j set when box j is entered for some
-/// `t ∈ [tmin, tmax]`.
+/// `t ∈ [tmin, tmax]`. In the [`Avx2`] form (only inside AVX2 + FMA functions) the plane
+/// distances are fused multiply-adds; in the [`Portable`] form `near · inv − o·inv` unfused.
 #[inline(always)]
-pub(super) fn box_mask<const F: bool>(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
-    let mut tn = [tmin; WIDTH];
-    let mut tf = [tmax; WIDTH];
+pub(super) fn box_mask<V: Lanes>(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
+    let mut tn = V::splat(tmin);
+    let mut tf = V::splat(tmax);
     for a in 0..3 {
         let (near, far) = (&node.b[pre.near[a]], &node.b[pre.far[a]]);
-        let (inv, oi) = (pre.inv[a], pre.oi[a]);
-        for j in 0..WIDTH {
-            let (t0, t1) = if F {
-                (near[j].mul_add(inv, -oi), far[j].mul_add(inv, -oi))
-            } else {
-                (near[j] * inv - oi, far[j] * inv - oi)
-            };
-            tn[j] = if t0 > tn[j] { t0 } else { tn[j] };
-            tf[j] = if t1 < tf[j] { t1 } else { tf[j] };
-        }
+        let (i, n) = (V::splat(pre.inv[a]), V::splat(-pre.oi[a]));
+        tn = V::load(near).mul_add(i, n).max(tn);
+        tf = V::load(far).mul_add(i, n).min(tf);
     }
-    let mut mask = 0u32;
-    for j in 0..WIDTH {
-        let slack = tf[j] + tf[j].abs() * SLAB_SLACK;
-        mask |= ((tn[j] <= slack) as u32) << j;
-    }
-    mask
-}
-
-/// [`box_mask`] in AVX2 + FMA intrinsics (LLVM splits the lane-array form into two 128-bit
-/// halves); the same operations with fused multiply-adds.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
-#[inline]
-pub(super) unsafe fn box_mask_avx2(node: &Node, pre: &Prepared, tmin: f32, tmax: f32) -> u32 {
-    use std::arch::x86_64::*;
-    let mut tn = _mm256_set1_ps(tmin);
-    let mut tf = _mm256_set1_ps(tmax);
-    for a in 0..3 {
-        let (near, far) = (&node.b[pre.near[a]], &node.b[pre.far[a]]);
-        let (i, n) = (_mm256_set1_ps(pre.inv[a]), _mm256_set1_ps(-pre.oi[a]));
-        // SAFETY: each row is 8 contiguous f32 (unaligned loads).
-        let t0 = _mm256_fmadd_ps(_mm256_loadu_ps(near.as_ptr()), i, n);
-        let t1 = _mm256_fmadd_ps(_mm256_loadu_ps(far.as_ptr()), i, n);
-        tn = _mm256_max_ps(t0, tn);
-        tf = _mm256_min_ps(t1, tf);
-    }
-    let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), tf);
-    let slack = _mm256_fmadd_ps(abs, _mm256_set1_ps(SLAB_SLACK), tf);
-    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, slack)) as u32
-}
-
-/// The packet's slab test of one box, as a macro so that it is expanded in place inside the
-/// packet kernel (as a `#[target_feature]` function LLVM left it out of line there, 25 % more
-/// instructions): `$t(a, k)` is the distance vector to the box's lower (`k = 0`) or upper
-/// (`k = 1`) plane on axis `a`, lanes = rays. Bit i is set when ray i enters the box for some
-/// `t ∈ [tmin, tmax]`, with the exit distance widened by [`SLAB_SLACK`] like [`box_mask`]'s
-/// (each axis takes the lesser and the greater plane distance, so the lanes' signs may differ).
-#[cfg(target_arch = "x86_64")]
-macro_rules! lanes_entering {
-    ($t:expr, $vtmin:expr, $vtmax:expr) => {{
-        let t = $t;
-        let (x0, x1) = (t(0, 0), t(0, 1));
-        let (y0, y1) = (t(1, 0), t(1, 1));
-        let (z0, z1) = (t(2, 0), t(2, 1));
-        let tn = _mm256_max_ps(
-            _mm256_max_ps(_mm256_min_ps(x0, x1), _mm256_min_ps(y0, y1)),
-            _mm256_max_ps(_mm256_min_ps(z0, z1), $vtmin),
-        );
-        let tf = _mm256_min_ps(
-            _mm256_min_ps(_mm256_max_ps(x0, x1), _mm256_max_ps(y0, y1)),
-            _mm256_min_ps(_mm256_max_ps(z0, z1), $vtmax),
-        );
-        let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), tf);
-        let widened = _mm256_fmadd_ps(abs, _mm256_set1_ps(SLAB_SLACK), tf);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, widened)) as u32
-    }};
-}
-
-/// A packet subtree with at most this many live lanes is finished ray by ray. 6 (was 4 until
-/// the seventh session of 2026-12-02): −7 % fan-kernel instructions on the kit's dragon_19k A
-/// rays, −9 % on bunny A, and on the Zen 4 VM faster on dragon_19k A on two threads (alternating
-/// runs, docs/BENCHMARKS.md); bunny A and `bench bsv` unchanged within noise.
-#[cfg(target_arch = "x86_64")]
-pub(super) const SOLO_LANES: u32 = 6;
-
-/// Any-hit for up to 8 rays from one origin, traversed together (AVX2 lanes = rays): each
-/// child box is tested against every live lane, a subtree is entered by the lanes that hit
-/// its box, and a lane leaves when a triangle occludes it; the packet stops when every lane
-/// has. The triangle test is [`pack_hit`]'s operations lane by lane (unfused, so the answers
-/// are bit-identical to the one-ray traversal); the box test is conservative like
-/// [`box_mask`]. Returns the occluded lanes as bits.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
-pub(super) unsafe fn packet_occluded(
-    w: &WideBvh,
-    o: [f32; 3],
-    dirs: &[[f32; 3]],
-    tmin: f32,
-    tmax: f32,
-) -> u32 {
-    packet_body(w, o, dirs, tmin, tmax)
-}
-
-/// [`packet_occluded`] compiled with AVX-512 F, VL, BW and DQ as well.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,avx512f,avx512vl,avx512bw,avx512dq")]
-pub(super) unsafe fn packet_occluded_avx512(
-    w: &WideBvh,
-    o: [f32; 3],
-    dirs: &[[f32; 3]],
-    tmin: f32,
-    tmax: f32,
-) -> u32 {
-    packet_body(w, o, dirs, tmin, tmax)
-}
-
-/// The packet kernel's code, inlined into [`packet_occluded`] and [`packet_occluded_avx512`]
-/// (only into functions that enable AVX2, FMA, POPCNT, BMI1 and BMI2).
-///
-/// A hot kernel, kept as one body of ~165 lines on purpose: the traversal loop holds the packet's
-/// slab vectors and lane masks in registers across the box test, the leaf test and the solo
-/// hand-over, and every piece moved into a function of its own was either left out of line by
-/// LLVM (25 % more instructions for the slab macro as a function, module doc) or had to pass
-/// the register state through memory.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(super) unsafe fn packet_body(
-    w: &WideBvh,
-    o: [f32; 3],
-    dirs: &[[f32; 3]],
-    tmin: f32,
-    tmax: f32,
-) -> u32 {
-    use std::arch::x86_64::*;
-    let n = dirs.len().min(8);
-    let valid = (1u32 << n) - 1;
-    let (vdx, vdy, vdz) = if n == 8 {
-        soa8(dirs)
-    } else {
-        // A short packet: the last direction fills the empty lanes.
-        let (mut dx, mut dy, mut dz) = ([0f32; 8], [0f32; 8], [0f32; 8]);
-        for i in 0..8 {
-            let d = dirs[i.min(n - 1)];
-            (dx[i], dy[i], dz[i]) = (d[0], d[1], d[2]);
-        }
-        (
-            _mm256_loadu_ps(dx.as_ptr()),
-            _mm256_loadu_ps(dy.as_ptr()),
-            _mm256_loadu_ps(dz.as_ptr()),
-        )
-    };
-    let (inv, linv, loi) = lane_slabs(o, [vdx, vdy, vdz]);
-    let (vtmin, vtmax) = (_mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
-    // The whole packet against the root's children's boxes together first: a packet that
-    // misses them all (a common case: fans see the object from outside) ends after one test.
-    let root = |a: usize, k: usize| _mm256_mul_ps(_mm256_set1_ps(w.bounds[k][a] - o[a]), inv[a]);
-    if lanes_entering!(root, vtmin, vtmax) & valid == 0 {
-        return 0;
-    }
-    let mut occluded = 0u32;
-    let need = w.stack_need();
-    // The one-ray traversals below share one stack.
-    let (mut fixed_solo, mut heap_solo) = (uninit_slots(), Vec::new());
-    let mut solo = stack_slots(&mut fixed_solo, &mut heap_solo, need);
-    let (mut fixed, mut heap) = (uninit_slots(), Vec::new());
-    let mut stack = stack_slots(&mut fixed, &mut heap, need);
-    let (mut fixed_masks, mut heap_masks) = (uninit_slots(), Vec::new());
-    let mut masks = stack_slots(&mut fixed_masks, &mut heap_masks, need);
-    stack.push(0);
-    masks.push(valid);
-    'outer: while let (Some(node_id), Some(m)) = (stack.pop(), masks.pop()) {
-        let live = m & !occluded & valid;
-        if live == 0 {
-            continue;
-        }
-        if live.count_ones() <= SOLO_LANES {
-            // Few lanes left in this subtree: one-ray traversals are cheaper than the packet's
-            // 8-lane tests.
-            let mut l = live;
-            while l != 0 {
-                let i = l.trailing_zeros() as usize;
-                l &= l - 1;
-                let ray = WideRay {
-                    o,
-                    d: dirs[i.min(n - 1)],
-                    tmin,
-                    tmax,
-                };
-                let pre = Prepared::lane(&linv, &loi, i);
-                if w.traverse_prepared::<true, true>(&ray, &pre, node_id, &mut solo)
-                    .is_some()
-                {
-                    occluded |= 1 << i;
-                }
-            }
-            if occluded & valid == valid {
-                break 'outer;
-            }
-            continue;
-        }
-        let node = &w.nodes[node_id as usize];
-        // The planes relative to the common origin, for all 8 children at once.
-        let mut rel = [[0f32; WIDTH]; 6];
-        for (row, r) in rel.iter_mut().enumerate() {
-            let v = _mm256_sub_ps(
-                _mm256_loadu_ps(node.b[row].as_ptr()),
-                _mm256_set1_ps(o[row % 3]),
-            );
-            _mm256_storeu_ps(r.as_mut_ptr(), v);
-        }
-        // Every child against every lane first (no branch), then the children some lane
-        // enters.
-        let mut hits = [0u32; WIDTH];
-        let mut any = 0u32;
-        for j in 0..WIDTH {
-            let child =
-                |a: usize, k: usize| _mm256_mul_ps(_mm256_set1_ps(rel[a + 3 * k][j]), inv[a]);
-            hits[j] = lanes_entering!(child, vtmin, vtmax) & live;
-            any |= u32::from(hits[j] != 0) << j;
-        }
-        // Empty slots: their inverted boxes become unbounded under the min/max of the lane
-        // test, so they are masked out here.
-        let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
-            _mm256_loadu_si256(node.child.as_ptr() as *const __m256i),
-            _mm256_set1_epi32(-1),
-        ))) as u32;
-        any &= !empty;
-        // Nearest boxes first (squared distance from the common origin to the box centre, for
-        // all 8 children at once): occluded lanes then leave the packet sooner. Leaves are
-        // tested in that order, inner nodes pushed farthest first.
-        let mut key = [0f32; WIDTH];
-        {
-            let half = _mm256_set1_ps(0.5);
-            let c = |a: usize| {
-                let lo = _mm256_loadu_ps(rel[a].as_ptr());
-                let hi = _mm256_loadu_ps(rel[a + 3].as_ptr());
-                _mm256_mul_ps(_mm256_add_ps(lo, hi), half)
-            };
-            let (cx, cy, cz) = (c(0), c(1), c(2));
-            let d2 = _mm256_fmadd_ps(cx, cx, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cz, cz)));
-            _mm256_storeu_ps(key.as_mut_ptr(), d2);
-        }
-        let mut order = [0usize; WIDTH];
-        let mut k = 0;
-        while any != 0 {
-            let j = any.trailing_zeros() as usize;
-            any &= any - 1;
-            let mut i = k;
-            while i > 0 && key[order[i - 1]] > key[j] {
-                order[i] = order[i - 1];
-                i -= 1;
-            }
-            order[i] = j;
-            k += 1;
-        }
-        let mut inner = [(0u32, 0u32); WIDTH];
-        let mut ni = 0;
-        for &j in &order[..k] {
-            let c = node.child[j];
-            let lanes = hits[j] & !occluded;
-            if lanes == 0 {
-                continue;
-            }
-            if c & LEAF == 0 {
-                inner[ni] = (c, lanes);
-                ni += 1;
-                continue;
-            }
-            let (first, count) = leaf_range(c);
-            for (p, ids) in w.packs[first..first + count]
-                .iter()
-                .zip(&w.ids[first..first + count])
-            {
-                for k in 0..PACK {
-                    if ids[k] == u32::MAX {
-                        break; // padding lanes are at the end of a pack
-                    }
-                    occluded |= tri_lanes(p, k, o, vdx, vdy, vdz, vtmin, vtmax) & lanes;
-                }
-                if occluded & valid == valid {
-                    break 'outer;
-                }
-            }
-        }
-        for &(c, lanes) in inner[..ni].iter().rev() {
-            stack.push(c);
-            masks.push(lanes);
-        }
-    }
-    occluded & valid
-}
-
-/// The packet's slab data: the reciprocals of its 8 directions (`d`, lanes = rays) as vectors,
-/// and per lane the reciprocals and `o·inv` for the one-ray traversals it hands subtrees to —
-/// the values [`Prepared::new`] makes, with the same operations (bit-identical, tested), without
-/// its three divisions per ray.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
-#[inline]
-#[allow(clippy::type_complexity)]
-pub(super) unsafe fn lane_slabs(
-    o: [f32; 3],
-    d: [std::arch::x86_64::__m256; 3],
-) -> ([std::arch::x86_64::__m256; 3], [[f32; 8]; 3], [[f32; 8]; 3]) {
-    use std::arch::x86_64::*;
-    let recip = |v: __m256| {
-        // |d| < TINY_DIR → ±TINY_DIR (sign kept), then 1/d.
-        let sign = _mm256_and_ps(v, _mm256_set1_ps(-0.0));
-        let small = _mm256_cmp_ps::<_CMP_LT_OQ>(
-            _mm256_andnot_ps(_mm256_set1_ps(-0.0), v),
-            _mm256_set1_ps(TINY_DIR),
-        );
-        let fixed = _mm256_blendv_ps(v, _mm256_or_ps(sign, _mm256_set1_ps(TINY_DIR)), small);
-        _mm256_div_ps(_mm256_set1_ps(1.0), fixed)
-    };
-    let inv = [recip(d[0]), recip(d[1]), recip(d[2])];
-    let (mut linv, mut loi) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
-    for a in 0..3 {
-        _mm256_storeu_ps(linv[a].as_mut_ptr(), inv[a]);
-        _mm256_storeu_ps(
-            loi[a].as_mut_ptr(),
-            _mm256_mul_ps(_mm256_set1_ps(o[a]), inv[a]),
-        );
-    }
-    (inv, linv, loi)
-}
-
-/// Eight `[x, y, z]` directions (AoS, 96 bytes) as x, y and z vectors (lane i = `dirs[i]`):
-/// three unaligned loads of two 16-byte halves each, then five shuffles — no round trip through
-/// memory, whose 4-byte stores a 32-byte load could not forward.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt,bmi1,bmi2")]
-#[inline]
-pub(super) unsafe fn soa8(
-    dirs: &[[f32; 3]],
-) -> (
-    std::arch::x86_64::__m256,
-    std::arch::x86_64::__m256,
-    std::arch::x86_64::__m256,
-) {
-    use std::arch::x86_64::*;
-    let f = dirs[..8].as_flattened();
-    let p = f.as_ptr();
-    // Halves: m03 = x0 y0 z0 x1 | x4 y4 z4 x5, m14 = y1 z1 x2 y2 | y5 z5 x6 y6,
-    // m25 = z2 x3 y3 z3 | z6 x7 y7 z7.
-    // SAFETY: `f` holds 24 floats; each load reads 4 of them at offsets ≤ 20.
-    let half = |lo: usize, hi: usize| {
-        _mm256_insertf128_ps::<1>(
-            _mm256_castps128_ps256(_mm_loadu_ps(p.add(lo))),
-            _mm_loadu_ps(p.add(hi)),
-        )
-    };
-    let (m03, m14, m25) = (half(0, 12), half(4, 16), half(8, 20));
-    // xy = x2 y2 x3 y3 | x6 y6 x7 y7, yz = y0 z0 y1 z1 | y4 z4 y5 z5
-    let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25);
-    let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14);
-    let x = _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy);
-    let y = _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy);
-    let z = _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25);
-    (x, y, z)
-}
-
-/// [`pack_hit`]'s test of triangle `k` of a pack against 8 rays from `o` (lanes), with the same
-/// unfused operations in the same order: bit i set when ray i hits in `(tmin, tmax)`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt,bmi1,bmi2")]
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn tri_lanes(
-    p: &Pack,
-    k: usize,
-    o: [f32; 3],
-    dx: std::arch::x86_64::__m256,
-    dy: std::arch::x86_64::__m256,
-    dz: std::arch::x86_64::__m256,
-    tmin: std::arch::x86_64::__m256,
-    tmax: std::arch::x86_64::__m256,
-) -> u32 {
-    use std::arch::x86_64::*;
-    let b = _mm256_set1_ps;
-    let (mul, sub, add) = (
-        |a, c| _mm256_mul_ps(a, c),
-        |a, c| _mm256_sub_ps(a, c),
-        |a, c| _mm256_add_ps(a, c),
-    );
-    let (e1x, e1y, e1z) = (b(p.e1[0][k]), b(p.e1[1][k]), b(p.e1[2][k]));
-    let (e2x, e2y, e2z) = (b(p.e2[0][k]), b(p.e2[1][k]), b(p.e2[2][k]));
-    let px = sub(mul(dy, e2z), mul(dz, e2y));
-    let py = sub(mul(dz, e2x), mul(dx, e2z));
-    let pz = sub(mul(dx, e2y), mul(dy, e2x));
-    let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
-    let neg = b(-0.0);
-    let sign = _mm256_and_ps(det, neg);
-    let adet = _mm256_andnot_ps(neg, det);
-    // s = o − v0 and q = s × e1 are the same for every lane.
-    let (sx, sy, sz) = (o[0] - p.v0[0][k], o[1] - p.v0[1][k], o[2] - p.v0[2][k]);
-    let (qx, qy, qz) = (
-        sy * p.e1[2][k] - sz * p.e1[1][k],
-        sz * p.e1[0][k] - sx * p.e1[2][k],
-        sx * p.e1[1][k] - sy * p.e1[0][k],
-    );
-    let u = _mm256_xor_ps(
-        add(add(mul(b(sx), px), mul(b(sy), py)), mul(b(sz), pz)),
-        sign,
-    );
-    let v = _mm256_xor_ps(
-        add(add(mul(dx, b(qx)), mul(dy, b(qy))), mul(dz, b(qz))),
-        sign,
-    );
-    let t = _mm256_xor_ps(b(p.e2[0][k] * qx + p.e2[1][k] * qy + p.e2[2][k] * qz), sign);
-    let zero = _mm256_setzero_ps();
-    let ok = _mm256_and_ps(
-        _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, zero),
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GE_OQ>(u, zero),
-                _mm256_cmp_ps::<_CMP_GE_OQ>(v, zero),
-            ),
-        ),
-        _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), adet),
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(t, mul(tmin, adet)),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, mul(tmax, adet)),
-            ),
-        ),
-    );
-    _mm256_movemask_ps(ok) as u32
+    let slack = V::splat(-0.0).andnot(tf).mul_add(V::splat(SLAB_SLACK), tf);
+    tn.le(slack).bits()
 }
 
 /// Möller–Trumbore on the pack's triangles, decided without a division: with

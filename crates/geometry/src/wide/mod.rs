@@ -21,24 +21,30 @@
 //! against a scan of every pack and against brute force). Zero direction components are
 //! replaced by ±[`TINY_DIR`] in the box test only (no NaN from `0 · ∞`).
 //!
-//! **Kernels.** Written once as `#[inline(always)]` lane-array code and instantiated for AVX2 and
-//! FMA, for AVX2 and FMA with AVX-512 F/VL/BW/DQ as well (the same code and operations,
-//! EVEX-encoded, 32 vector registers), both chosen at run time, and for the target's default
-//! features (`shscale_sh::simd`). The packet kernel's body is inlined into one wrapper per
-//! level (`packet_occluded`, `packet_occluded_avx512`); the smaller AVX2 intrinsic helpers
-//! (`box_mask_avx2`, `lane_slabs`, `soa8`, `tri_lanes`) keep their AVX2 feature set and are
-//! inlined where LLVM chooses — into an AVX-512 function they compile with AVX-512 enabled (a
-//! helper left out of line runs its AVX2 code).
+//! **Kernels.** Written once over eight f32 lanes (`lanes.rs`: the `Lanes` vocabulary, an AVX2
+//! form on `__m256` and a portable form on `[f32; 8]` that LLVM turns into two SSE2 or NEON
+//! vectors) and instantiated per level: AVX2 + FMA, AVX2 + FMA with AVX-512 F/VL/BW/DQ as well
+//! (the same code EVEX-encoded, 32 vector registers), both chosen at run time, and the target's
+//! default features (`shscale_sh::simd`). The one-ray box test (`box_mask`) and the packet
+//! kernel (`packet_body`: 8 rays from one origin, the BSV fans) are each one generic function;
+//! the packet kernel is inlined into one wrapper per level (`packet_occluded_avx2`,
+//! `packet_occluded_avx512`, `packet_occluded_portable`). The two forms agree bit for bit on
+//! every lane operation but the fused multiply-add (tested), so every level's answers are the
+//! same.
 //!
 //! | file | what it owns |
 //! |---|---|
 //! | `layout.rs` | the node and pack layouts (sizes asserted at compile time), rays, the tree |
 //! | `build.rs` | the collapse of a binary BVH, refit, the tree's shape and area |
-//! | `kernels.rs` | the traversal kernels: one ray, fans and packets, per SIMD level |
+//! | `kernels.rs` | the traversal kernels: one ray (any-hit, closest) and fans, per SIMD level |
+//! | `lanes.rs` | eight f32 lanes: the operations the kernels use, per SIMD level |
+//! | `packet.rs` | the packet kernel: 8 rays from one origin traversed together |
 
 mod build;
 mod kernels;
+mod lanes;
 mod layout;
+mod packet;
 #[cfg(test)]
 mod tests;
 

@@ -468,15 +468,12 @@ fn traversal_equals_scan_of_every_pack() {
 }
 
 /// The packet's per-lane slab data equals `Prepared::new`'s bit for bit, for directions
-/// with zero, signed-zero, denormal, tiny and ordinary components.
-#[cfg(target_arch = "x86_64")]
+/// with zero, signed-zero, denormal, tiny and ordinary components — in the portable lane form,
+/// and in the AVX2 form where the CPU has it.
 #[test]
 fn packet_lane_slabs_equal_the_one_ray_ones() {
-    if shscale_sh::simd::detected() < shscale_sh::simd::Level::Avx2Fma {
-        eprintln!("notice: no AVX2 + FMA level here; the packet kernel is not used");
-        return;
-    }
-    use std::arch::x86_64::*;
+    use super::lanes::{Lanes, Portable};
+    use super::packet::lane_slabs;
     let special = [
         0.0f32,
         -0.0,
@@ -494,6 +491,8 @@ fn packet_lane_slabs_equal_the_one_ray_ones() {
     let mut rng = Rng(7);
     let o = [0.31f32, -1.7, 2.9];
     let mut checked = 0;
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = shscale_sh::simd::detected() >= shscale_sh::simd::Level::Avx2Fma;
     for round in 0..64 {
         let mut dirs = [[0f32; 3]; 8];
         for (i, d) in dirs.iter_mut().enumerate() {
@@ -506,30 +505,56 @@ fn packet_lane_slabs_equal_the_one_ray_ones() {
                 };
             }
         }
-        let col = |a: usize| {
-            let v: [f32; 8] = std::array::from_fn(|i| dirs[i][a]);
-            // SAFETY: the level checked above includes AVX2; `v` holds 8 floats.
-            unsafe { _mm256_loadu_ps(v.as_ptr()) }
-        };
-        // SAFETY: the AVX2 + FMA level (with POPCNT and BMI) was detected above.
-        let (_, linv, loi) = unsafe { lane_slabs(o, [col(0), col(1), col(2)]) };
-        for (i, d) in dirs.iter().enumerate() {
-            let pre = Prepared::new(&WideRay {
-                o,
-                d: *d,
-                tmin: 0.0,
-                tmax: f32::MAX,
-            });
-            let lane = Prepared::lane(&linv, &loi, i);
-            for a in 0..3 {
-                assert_eq!(pre.inv[a].to_bits(), lane.inv[a].to_bits(), "inv {d:?}");
-                assert_eq!(pre.oi[a].to_bits(), lane.oi[a].to_bits(), "o·inv {d:?}");
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
+        let mut forms = vec![("portable", {
+            let (_, linv, loi) = lane_slabs(o, Portable::soa8(&dirs));
+            (linv, loi)
+        })];
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: the AVX2 + FMA level (with POPCNT and BMI) was detected above.
+            forms.push(("avx2", unsafe { avx2_slabs(o, &dirs) }));
+        }
+        for (form, (linv, loi)) in forms {
+            for (i, d) in dirs.iter().enumerate() {
+                let pre = Prepared::new(&WideRay {
+                    o,
+                    d: *d,
+                    tmin: 0.0,
+                    tmax: f32::MAX,
+                });
+                let lane = Prepared::lane(&linv, &loi, i);
+                for a in 0..3 {
+                    assert_eq!(
+                        pre.inv[a].to_bits(),
+                        lane.inv[a].to_bits(),
+                        "{form} inv {d:?}"
+                    );
+                    assert_eq!(
+                        pre.oi[a].to_bits(),
+                        lane.oi[a].to_bits(),
+                        "{form} o·inv {d:?}"
+                    );
+                }
+                assert_eq!(
+                    (pre.near, pre.far),
+                    (lane.near, lane.far),
+                    "{form} rows {d:?}"
+                );
+                checked += 1;
             }
-            assert_eq!((pre.near, pre.far), (lane.near, lane.far), "rows {d:?}");
-            checked += 1;
         }
     }
-    eprintln!("{checked} directions: packet lane slabs equal Prepared::new bit for bit");
+    eprintln!("{checked} directions × forms: packet lane slabs equal Prepared::new bit for bit");
+}
+
+/// The AVX2 form's per-lane slab data.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
+unsafe fn avx2_slabs(o: [f32; 3], dirs: &[[f32; 3]; 8]) -> ([[f32; 8]; 3], [[f32; 8]; 3]) {
+    use super::lanes::{Avx2, Lanes};
+    let (_, linv, loi) = super::packet::lane_slabs(o, Avx2::soa8(dirs));
+    (linv, loi)
 }
 
 /// A finite `tmax` stops the search; `tmin` skips the nearer hit.
@@ -560,4 +585,106 @@ fn interval_is_honoured() {
     assert!(!w.occluded(l, &ray(0.0, 0.99)));
     assert!(!w.occluded(l, &ray(1.6, 10.0)));
     assert!(w.occluded(l, &ray(1.2, 1.6)));
+}
+
+/// The two lane forms agree bit for bit on every operation the kernels use (all but the fused
+/// `mul_add`, which the AVX2 form fuses), on ordinary values and on ±0, ±∞, NaN and
+/// denormals — the "same NaN rules" the packet and box tests rely on for identical answers.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn lane_forms_agree_bit_for_bit() {
+    if shscale_sh::simd::detected() < shscale_sh::simd::Level::Avx2Fma {
+        eprintln!("notice: no AVX2 + FMA level here; only the portable form exists");
+        return;
+    }
+    let special = [
+        0.0f32,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1e-40,
+        -1e-40,
+        1.5,
+        -2.25,
+        f32::MAX,
+    ];
+    let mut rng = Rng(11);
+    let mut pick = |k: usize| {
+        if k.is_multiple_of(3) {
+            rng.f() * 8.0 - 4.0
+        } else {
+            special[k % special.len()]
+        }
+    };
+    let mut compared = 0;
+    for round in 0..200 {
+        let a: [f32; 8] = std::array::from_fn(|i| pick(round * 16 + i));
+        let b: [f32; 8] = std::array::from_fn(|i| pick(round * 16 + 8 + i * 7));
+        // SAFETY: the AVX2 + FMA level was detected above.
+        let (got, want) = unsafe { avx2_ops(a, b) };
+        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+            for i in 0..8 {
+                assert_eq!(
+                    g[i].to_bits(),
+                    w[i].to_bits(),
+                    "op {k}, lane {i}: {a:?} {b:?}"
+                );
+            }
+            compared += 8;
+        }
+    }
+    eprintln!("{compared} lane results: the AVX2 and portable forms agree bit for bit");
+}
+
+/// Every lane operation but `mul_add` in both forms: (AVX2 results, portable results).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2")]
+unsafe fn avx2_ops(a: [f32; 8], b: [f32; 8]) -> (Vec<[f32; 8]>, Vec<[f32; 8]>) {
+    use super::lanes::{Avx2, Lanes, Portable};
+    fn all<V: Lanes>(a: [f32; 8], b: [f32; 8]) -> Vec<[f32; 8]> {
+        let (x, y) = (V::load(&a), V::load(&b));
+        let mut out = vec![
+            x.add(y),
+            x.sub(y),
+            x.mul(y),
+            x.div(y),
+            x.min(y),
+            x.max(y),
+            x.and(y),
+            x.andnot(y),
+            x.or(y),
+            x.xor(y),
+            x.lt(y),
+            x.le(y),
+            x.gt(y),
+            x.ge(y),
+            x.ne(y),
+            V::select(x, x, y),
+            x.recip_dir(),
+        ]
+        .into_iter()
+        .map(|v| {
+            let mut s = [0f32; 8];
+            v.store(&mut s);
+            s
+        })
+        .collect::<Vec<_>>();
+        let bits = [
+            x.bits(),
+            x.lt(y).bits(),
+            V::empty_slots(&a.map(f32::to_bits)),
+        ];
+        out.push(
+            bits.map(f32::from_bits)
+                .iter()
+                .copied()
+                .chain([0.0; 5])
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap(),
+        );
+        out
+    }
+    (all::<Avx2>(a, b), all::<Portable>(a, b))
 }
