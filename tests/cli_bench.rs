@@ -439,4 +439,61 @@ fn simd_setting_is_checked_and_reported() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["simd"], "portable");
+    // The row names its CPU, and the CPU's best level is not capped by the setting.
+    let cpu = &v["cpu"];
+    for k in ["vendor", "microarchitecture", "summary", "simd_detected"] {
+        assert!(cpu[k].as_str().is_some_and(|s| !s.is_empty()), "{k}: {v}");
+    }
+    assert!(cpu["family"].as_u64().is_some(), "{v}");
+    let detected = shscale_sh::simd::detected().name();
+    assert_eq!(cpu["simd_detected"], detected, "{v}");
+    assert!(cpu["summary"].as_str().unwrap().contains(detected), "{v}");
+}
+
+/// `scripts/bench-peers` refuses a kit folder without the kit's files, and a bad level, with
+/// exit 2 naming the culprit, before measuring anything.
+#[test]
+fn peers_driver_refuses_bad_arguments() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let script = root.join("scripts/bench-peers");
+    let kit = std::env::temp_dir().join(format!("shscale-no-kit-{}", std::process::id()));
+    std::fs::create_dir_all(&kit).unwrap();
+    let out = Command::new("python3")
+        .arg(&script)
+        .arg(&kit)
+        .arg(&kit)
+        .env("SHSCALE_BIN", env!("CARGO_BIN_EXE_shscale"))
+        .output()
+        .expect("python3 runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("KIT") && err.contains("bench_rays.py"),
+        "{err}"
+    );
+    // A complete-looking kit and meshes folder, then a level that does not exist.
+    for f in [
+        "bench_rays.py",
+        "bench_sh.py",
+        "build/embree_direct",
+        ".venv/bin/python",
+        "workloads/workloads.json",
+        "bunny.obj",
+        "dragon_19k.obj",
+    ] {
+        let p = kit.join(f);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(&p, "").unwrap();
+    }
+    let out = Command::new("python3")
+        .arg(&script)
+        .args([&kit, &kit])
+        .args(["--levels", "auto,avx9"])
+        .env("SHSCALE_BIN", env!("CARGO_BIN_EXE_shscale"))
+        .output()
+        .expect("python3 runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--levels") && err.contains("avx9"), "{err}");
+    let _ = std::fs::remove_dir_all(&kit);
 }
