@@ -1,10 +1,27 @@
 //! Deformers: deterministic functions of a time parameter `t` that rewrite positions only
-//! (topology fixed), applied to a rest pose.
+//! (topology fixed), applied to a rest pose. Each maps every vertex on its own, in parallel over
+//! chunks of [`CHUNK`] vertices (the same values on any number of threads).
 
 use crate::mesh::Mesh;
 use crate::ray::UpdateStrategy;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::f64::consts::PI;
+
+/// Vertices per parallel task of a deformer: a mesh of at most this many is posed on the
+/// calling thread (a task costs a few microseconds to hand over).
+pub const CHUNK: usize = 2048;
+
+/// `out[i] = f(rest[i])` for every vertex, in parallel chunks.
+fn per_vertex(rest: &[DVec3], out: &mut [DVec3], f: impl Fn(DVec3) -> DVec3 + Sync) {
+    (out.par_chunks_mut(CHUNK))
+        .zip(rest.par_chunks(CHUNK))
+        .for_each(|(o, r)| {
+            for (o, p) in o.iter_mut().zip(r) {
+                *o = f(*p);
+            }
+        });
+}
 
 /// The deformers of this module, for choosing how a BVH follows them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,30 +54,29 @@ impl DeformerKind {
 /// (t ∈ [0, 1] bends and straightens). The papers' bending plane and sponge.
 pub fn bend(rest: &Mesh, out: &mut Mesh, max_curvature: f64, t: f64) {
     let k = max_curvature * (PI * t).sin();
-    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
-        *o = if k.abs() < 1e-12 {
-            *p
+    per_vertex(&rest.positions, &mut out.positions, |p| {
+        if k.abs() < 1e-12 {
+            p
         } else {
             // Map x ↦ angle κx on a circle of radius 1/κ − z (z is the thickness offset).
             let (s, c) = (k * p.x).sin_cos();
             let r = 1.0 / k - p.z;
             DVec3::new(r * s, p.y, 1.0 / k - r * c)
-        };
-    }
+        }
+    });
 }
 
 /// Twist about the z axis by `max_turns · 2π · sin(πt) · z / h` (h = half height of the rest pose).
 pub fn twist(rest: &Mesh, out: &mut Mesh, max_turns: f64, t: f64) {
-    let h = rest
-        .positions
-        .iter()
+    // The maximum is exact, so the parallel reduction gives the serial value.
+    let h = (rest.positions.par_iter().with_min_len(CHUNK))
         .map(|p| p.z.abs())
-        .fold(1e-12, f64::max);
+        .reduce(|| 1e-12, f64::max);
     let a = max_turns * 2.0 * PI * (PI * t).sin();
-    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
+    per_vertex(&rest.positions, &mut out.positions, |p| {
         let (s, c) = (a * p.z / h).sin_cos();
-        *o = DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z);
-    }
+        DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+    });
 }
 
 /// Morph between two poses of the same topology: `(1 − w) a + w b`, `w = (1 − cos 2πt)/2`.
@@ -71,26 +87,31 @@ pub fn morph(a: &Mesh, b: &Mesh, out: &mut Mesh, t: f64) {
         "morph targets differ in vertex count"
     );
     let w = 0.5 * (1.0 - (2.0 * PI * t).cos());
-    for ((o, p), q) in out.positions.iter_mut().zip(&a.positions).zip(&b.positions) {
-        *o = *p * (1.0 - w) + *q * w;
-    }
+    (out.positions.par_chunks_mut(CHUNK))
+        .zip(a.positions.par_chunks(CHUNK))
+        .zip(b.positions.par_chunks(CHUNK))
+        .for_each(|((o, p), q)| {
+            for ((o, p), q) in o.iter_mut().zip(p).zip(q) {
+                *o = *p * (1.0 - w) + *q * w;
+            }
+        });
 }
 
 /// Flap wings: vertices with `|y| > y0` rotate about the x axis (through `y = ±y0`) by
 /// `amplitude · sin(2πt)` times a smooth span weight, so the wing bends as it flaps.
 pub fn flap(rest: &Mesh, out: &mut Mesh, y0: f64, amplitude: f64, t: f64) {
     let a = amplitude * (2.0 * PI * t).sin();
-    for (o, p) in out.positions.iter_mut().zip(&rest.positions) {
+    per_vertex(&rest.positions, &mut out.positions, |p| {
         let d = p.y.abs() - y0;
-        *o = if d <= 0.0 {
-            *p
+        if d <= 0.0 {
+            p
         } else {
             let ang = a * (1.0 - (-d).exp()) * p.y.signum();
             let (s, c) = ang.sin_cos();
             let (yy, zz) = (p.y - p.y.signum() * y0, p.z);
             DVec3::new(p.x, p.y.signum() * y0 + c * yy - s * zz, s * yy + c * zz)
-        };
-    }
+        }
+    });
 }
 
 #[cfg(test)]
@@ -145,5 +166,39 @@ mod tests {
             .iter()
             .zip(&rest.positions)
             .all(|(p, q)| ((p.x * p.x + p.y * p.y) - (q.x * q.x + q.y * q.y)).abs() < 1e-12));
+    }
+
+    /// Above `CHUNK` vertices the deformers run in parallel: one thread and two give the same
+    /// positions, bit for bit, for every deformer.
+    #[test]
+    fn deformers_give_the_same_pose_on_any_number_of_threads() {
+        let rest = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 37);
+        assert!(rest.positions.len() > 2 * CHUNK);
+        let mut target = rest.clone();
+        target.positions.iter_mut().for_each(|p| *p *= 1.3);
+        let pose = |threads: usize, which: usize| {
+            let mut out = rest.clone();
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| match which {
+                    0 => bend(&rest, &mut out, 1.2, 0.3),
+                    1 => twist(&rest, &mut out, 0.25, 0.4),
+                    2 => morph(&rest, &target, &mut out, 0.3),
+                    _ => flap(&rest, &mut out, 0.1, 0.8, 0.2),
+                });
+            out.positions
+        };
+        for which in 0..4 {
+            let (a, b) = (pose(1, which), pose(2, which));
+            assert!(a != rest.positions, "deformer {which} moved nothing");
+            assert!(
+                a.iter()
+                    .zip(&b)
+                    .all(|(p, q)| p.to_array().map(f64::to_bits) == q.to_array().map(f64::to_bits)),
+                "deformer {which}: 1 and 2 threads differ"
+            );
+        }
     }
 }

@@ -28,6 +28,7 @@ use glam::{DVec3, Vec3A};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
+use rayon::prelude::*;
 use shscale_sh::simd::Level;
 use std::time::Duration;
 
@@ -312,9 +313,9 @@ impl MeshBvh {
         assert_eq!(mesh.triangles.len(), self.tris.len(), "topology changed");
         self.sphere = mesh.bounding_sphere();
         self.frame = frame_of(self.sphere);
-        for f in 0..self.tris.len() {
-            self.tris[f] = to_tri(mesh, f, &self.frame);
-        }
+        let frame = &self.frame;
+        (self.tris.par_iter_mut().enumerate().with_min_len(4096))
+            .for_each(|(f, t)| *t = to_tri(mesh, f, frame));
         match self.strategy {
             UpdateStrategy::Rebuild => {
                 self.accel = Self::make_accel(&self.tris);
@@ -419,7 +420,6 @@ impl MeshBvh {
     /// Any-hit queries for a batch of rays `(origin, unit direction)` in parallel (rayon), all
     /// from `tmin` to infinity: `true` = occluded.
     pub fn occluded_batch(&self, rays: &[(DVec3, DVec3)], tmin: f64) -> Vec<bool> {
-        use rayon::prelude::*;
         rays.par_iter()
             .with_min_len(256)
             .map(|(o, d)| self.occluded(*o, *d, tmin, f64::INFINITY))

@@ -216,24 +216,53 @@ pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, Error> {
     Ok(out)
 }
 
-/// Pose `rest` at time `t ∈ [0, 1)` of its deformer (strength `amount`) into `out`.
-pub fn pose_mesh(rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh) {
-    match kind {
-        deform::DeformerKind::Flap => {
-            let y0 = 0.3 * rest.bounding_sphere().radius / 2.3;
-            deform::flap(rest, out, y0, amount, t)
-        }
-        deform::DeformerKind::Bend => {
-            deform::bend(rest, out, amount / rest.bounding_sphere().radius, t)
-        }
-        deform::DeformerKind::Twist => deform::twist(rest, out, amount, t),
-        deform::DeformerKind::Morph => {
-            let s = rest.bounding_sphere();
+/// A deformer with what it derives from the rest pose computed once (its bounding radius, the
+/// morph's target sphere), so that posing a frame is only the per-vertex map (in parallel,
+/// `shscale_geometry::deform`).
+pub struct Poser {
+    kind: deform::DeformerKind,
+    amount: f64,
+    /// The rest pose's bounding radius (flap and bend scale with it).
+    radius: f64,
+    /// The morph's target: a sphere fitted to the rest pose's bounding sphere.
+    target: Option<Mesh>,
+}
+
+impl Poser {
+    pub fn new(rest: &Mesh, kind: deform::DeformerKind, amount: f64) -> Self {
+        let s = rest.bounding_sphere();
+        let target = (kind == deform::DeformerKind::Morph).then(|| {
             let mut sphere = shapes::uv_sphere(1.0, 22, 24);
             sphere.fit_to(&s);
-            deform::morph(rest, &sphere, out, t)
+            sphere
+        });
+        Poser {
+            kind,
+            amount,
+            radius: s.radius,
+            target,
         }
     }
+
+    /// Pose `rest` (the mesh this was made for) at time `t ∈ [0, 1)` into `out`.
+    pub fn pose(&self, rest: &Mesh, t: f64, out: &mut Mesh) {
+        match self.kind {
+            deform::DeformerKind::Flap => {
+                deform::flap(rest, out, 0.3 * self.radius / 2.3, self.amount, t)
+            }
+            deform::DeformerKind::Bend => deform::bend(rest, out, self.amount / self.radius, t),
+            deform::DeformerKind::Twist => deform::twist(rest, out, self.amount, t),
+            deform::DeformerKind::Morph => {
+                deform::morph(rest, self.target.as_ref().expect("made for morph"), out, t)
+            }
+        }
+    }
+}
+
+/// Pose `rest` at time `t ∈ [0, 1)` of its deformer (strength `amount`) into `out` (a
+/// [`Poser`] made and used once; sequences keep theirs).
+pub fn pose_mesh(rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, out: &mut Mesh) {
+    Poser::new(rest, kind, amount).pose(rest, t, out)
 }
 
 /// The minimal sphere enclosing every pose `t = f/frames` of a sequence (the rest pose alone
@@ -247,8 +276,9 @@ pub fn sequence_sphere(
     let mut all = rest.positions.clone();
     if let Some((kind, amount)) = deformer {
         let mut p = rest.clone();
+        let poser = Poser::new(rest, kind, amount);
         for f in 0..frames {
-            pose_mesh(rest, kind, amount, f as f64 / frames as f64, &mut p);
+            poser.pose(rest, f as f64 / frames as f64, &mut p);
             all.extend_from_slice(&p.positions);
         }
     }

@@ -4,7 +4,7 @@
 //! GPU BSV sampling for experiment runs.
 
 use crate::error::Error;
-use crate::frame::{light_of, pose_mesh, receiver_grid, sequence_sphere, table_for};
+use crate::frame::{light_of, receiver_grid, sequence_sphere, table_for};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
@@ -165,12 +165,13 @@ pub fn render_sequence_gpu(
     )?;
     let setup = t_setup.elapsed().as_secs_f64();
     let mut posed: Mesh = rest.clone();
+    let poser = (o.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
     let mut stats = Vec::with_capacity(frames);
     for f in 0..frames {
         let t = f as f64 / frames as f64;
         let t0 = Instant::now();
-        if let Some((kind, amount)) = o.deformer {
-            pose_mesh(&rest, kind, amount, t, &mut posed);
+        if let Some(p) = &poser {
+            p.pose(&rest, t, &mut posed);
         }
         let deform_seconds = t0.elapsed().as_secs_f64();
         let gpu = seq.frame(ctx, &posed)?;

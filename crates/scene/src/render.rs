@@ -8,8 +8,8 @@
 
 use crate::error::Error;
 use crate::frame::{
-    build_emitters, build_occluder, build_occluder_at, light_of, pose_mesh, receiver_grid,
-    sequence_sphere, table_for, LightSource,
+    build_emitters, build_occluder, build_occluder_at, light_of, receiver_grid, sequence_sphere,
+    table_for, LightSource,
 };
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
@@ -720,6 +720,8 @@ struct Entity {
     occ: Box<dyn Occluder>,
     bvh: Option<MeshBvh>,
     deformer: Option<(deform::DeformerKind, f64)>,
+    /// The deformer with its rest-pose constants (meshes with a deformer).
+    poser: Option<crate::frame::Poser>,
     sampling: Sphere,
     bsv: Option<Bsv>,
 }
@@ -733,6 +735,7 @@ impl Entity {
                 occ: build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?,
                 bvh: None,
                 deformer: None,
+                poser: None,
                 sampling: Sphere {
                     center: o.center,
                     radius: o.radius * scene.sampling_radius,
@@ -745,6 +748,7 @@ impl Entity {
         let strategy = (o.deformer).map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
         let bvh = MeshBvh::build(&rest, strategy);
         Ok(Entity {
+            poser: (o.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a)),
             posed: Some(rest.clone()),
             rest: Some(rest),
             occ: Box::new(AnalyticSphere { sphere: s }),
@@ -768,11 +772,11 @@ impl Entity {
         st: &mut FrameStats,
     ) -> Result<(), Error> {
         let changed = self.deformer.is_some() || self.bsv.is_none();
-        if let (Some((kind, amount)), Some(rest), Some(posed)) =
-            (self.deformer, self.rest.as_ref(), self.posed.as_mut())
+        if let (Some(poser), Some(rest), Some(posed)) =
+            (self.poser.as_ref(), self.rest.as_ref(), self.posed.as_mut())
         {
             let t0 = Instant::now();
-            pose_mesh(rest, kind, amount, t, posed);
+            poser.pose(rest, t, posed);
             st.deform_seconds += t0.elapsed().as_secs_f64();
             let t0 = Instant::now();
             self.bvh.as_mut().expect("meshes have a BVH").update(posed);

@@ -5,6 +5,7 @@
 use super::layout::*;
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;
+use rayon::prelude::*;
 
 pub(super) fn tri_bounds(t: &Triangle) -> ([f32; 3], [f32; 3]) {
     let lo = t.v0.min(t.v1).min(t.v2);
@@ -220,15 +221,30 @@ impl WideBvh {
         w
     }
 
-    /// Follow moved vertices (same triangles, same tree): new packs, then boxes bottom-up.
+    /// Follow moved vertices (same triangles, same tree): new packs (in parallel), then boxes
+    /// bottom-up.
     pub fn refit(&mut self, tris: &[Triangle]) {
-        for (p, ids) in self.packs.iter_mut().zip(&self.ids) {
-            *p = pack_of(tris, ids);
-        }
+        (self.packs.par_iter_mut().zip(&self.ids).with_min_len(512))
+            .for_each(|(p, ids)| *p = pack_of(tris, ids));
         self.refit_boxes(tris);
     }
 
     pub(super) fn refit_boxes(&mut self, tris: &[Triangle]) {
+        // Each pack's box first, in parallel (min and max are exact: the union of the packs'
+        // boxes is the union of their triangles' boxes, in any order).
+        let pack_boxes: Vec<([f32; 3], [f32; 3])> = (self.ids.par_iter().with_min_len(512))
+            .map(|ids| {
+                let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                for &id in ids.iter().filter(|&&id| id != u32::MAX) {
+                    let (a, b) = tri_bounds(&tris[id as usize]);
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(a[k]);
+                        hi[k] = hi[k].max(b[k]);
+                    }
+                }
+                (lo, hi)
+            })
+            .collect();
         // Children have larger indices than their parents: a reverse sweep sees them first.
         for n in (0..self.nodes.len()).rev() {
             for j in 0..WIDTH {
@@ -239,13 +255,10 @@ impl WideBvh {
                 let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
                 if c & LEAF != 0 {
                     let (first, count) = leaf_range(c);
-                    for ids in &self.ids[first..first + count] {
-                        for &id in ids.iter().filter(|&&id| id != u32::MAX) {
-                            let (a, b) = tri_bounds(&tris[id as usize]);
-                            for k in 0..3 {
-                                lo[k] = lo[k].min(a[k]);
-                                hi[k] = hi[k].max(b[k]);
-                            }
+                    for (a, b) in &pack_boxes[first..first + count] {
+                        for k in 0..3 {
+                            lo[k] = lo[k].min(a[k]);
+                            hi[k] = hi[k].max(b[k]);
                         }
                     }
                 } else {

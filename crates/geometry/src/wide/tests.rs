@@ -688,3 +688,79 @@ unsafe fn avx2_ops(a: [f32; 8], b: [f32; 8]) -> (Vec<[f32; 8]>, Vec<[f32; 8]>) {
     }
     (all::<Avx2>(a, b), all::<Portable>(a, b))
 }
+
+/// After a refit every child box is exactly the union of its triangles' boxes (a leaf) or of
+/// its children's stored boxes with their padding removed (an inner node), then padded by
+/// `BOX_PAD`, computed here triangle by triangle from the tree's ids and recursively; on one
+/// thread and on two the same boxes.
+#[test]
+fn refit_boxes_are_the_unions_of_their_triangles() {
+    let mut rng = Rng(21);
+    let mut t = tris(5000, &mut rng);
+    let mut dur = std::time::Duration::default();
+    let params = BvhBuildParams {
+        max_prims_per_leaf: 1,
+        ..BvhBuildParams::fast_build()
+    };
+    let w0 = WideBvh::from_bvh2(&build_bvh2_from_tris(&t, params, &mut dur), &t);
+    for tri in &mut t {
+        tri.v0.x += 0.05 * tri.v1.y;
+        tri.v2.z -= 0.04;
+    }
+    let refit = |threads: usize| {
+        let mut w = w0.clone();
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| w.refit(&t));
+        w
+    };
+    let (w, w2) = (refit(1), refit(2));
+    // The union of a subtree's triangles, recursively, as the refit defines it.
+    fn union(w: &WideBvh, t: &[Triangle], c: u32) -> ([f32; 3], [f32; 3]) {
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        if c & LEAF != 0 {
+            let (first, count) = leaf_range(c);
+            for ids in &w.ids[first..first + count] {
+                for &id in ids.iter().filter(|&&id| id != u32::MAX) {
+                    let (a, b) = tri_bounds(&t[id as usize]);
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(a[k]);
+                        hi[k] = hi[k].max(b[k]);
+                    }
+                }
+            }
+        } else {
+            let n = &w.nodes[c as usize];
+            for j in (0..WIDTH).filter(|&j| n.child[j] != EMPTY) {
+                let (a, b) = union(w, t, n.child[j]);
+                for k in 0..3 {
+                    // As stored in the child (padded), the padding then removed.
+                    lo[k] = lo[k].min((a[k] - BOX_PAD) + BOX_PAD);
+                    hi[k] = hi[k].max((b[k] + BOX_PAD) - BOX_PAD);
+                }
+            }
+        }
+        (lo, hi)
+    }
+    let mut checked = 0;
+    for (n, node) in w.nodes.iter().enumerate() {
+        for j in (0..WIDTH).filter(|&j| node.child[j] != EMPTY) {
+            let (lo, hi) = union(&w, &t, node.child[j]);
+            let mut want = Node::empty();
+            want.set_box(j, lo, hi);
+            for row in 0..6 {
+                assert_eq!(
+                    node.b[row][j].to_bits(),
+                    want.b[row][j].to_bits(),
+                    "node {n} child {j} row {row}"
+                );
+                assert_eq!(node.b[row][j].to_bits(), w2.nodes[n].b[row][j].to_bits());
+            }
+            checked += 1;
+        }
+    }
+    assert_eq!(w.bounds, w2.bounds);
+    println!("{checked} child boxes equal their triangles' unions, on 1 and 2 threads");
+}
