@@ -319,3 +319,76 @@ fn camera_renders_see_the_plane_with_its_irradiance() {
     assert_eq!(v[0], v[w - 1]);
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `render --frames` with every budgeted method: per-frame rows with the method's stages and,
+/// with `--reference`, each frame's error (JSON); `--gpu` with a method the GPU sequence does
+/// not have is refused (exit 2, the flag named) before any work.
+#[test]
+fn sequences_take_every_method() {
+    let d = tmpdir("seq");
+    let scene = d.join("flap.toml");
+    std::fs::write(
+        &scene,
+        "order = 4\nlayout = \"fib:40\"\nhemisphere_res = 8\n\n[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[receiver]\ncenter = [0, 0, 0]\nsize = [5, 5]\nresolution = [12, 12]\n\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let out = d.join("s.exr");
+    let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    for method in [
+        "extrapolated",
+        "full_field",
+        "sub_volumes",
+        "sphere_set",
+        "ray_traced",
+    ] {
+        let v = json(&[
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            out,
+            "--method",
+            method,
+            "--frames",
+            "2",
+            "--parts",
+            "2",
+            "--reference",
+            "ray_traced",
+            "--format",
+            "json",
+        ]);
+        assert_eq!(v["method"], method, "{v}");
+        let frames = v["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 2, "{v}");
+        for f in frames {
+            let e = f["shade_rmse_rel"].as_f64().unwrap();
+            // The truth against itself is exact; every other method is off by something.
+            if method == "ray_traced" {
+                assert_eq!(e, 0.0, "{v}");
+            } else {
+                assert!(e > 0.0 && e < 1.0, "{method}: {e}");
+            }
+            assert!(f["seconds"].as_f64().unwrap() > 0.0);
+            assert!(!f["stages"].as_object().unwrap().is_empty());
+        }
+        let cached = v["path"].as_str().unwrap().starts_with("cached");
+        assert_eq!(cached, method == "extrapolated", "{v}");
+    }
+    fails(
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            out,
+            "--method",
+            "sphere_set",
+            "--frames",
+            "2",
+            "--gpu",
+        ],
+        "--gpu",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -480,13 +480,15 @@ pub struct RenderArgs {
     /// Output EXR path; a PNG preview is written beside it.
     #[arg(long)]
     pub out: std::path::PathBuf,
-    /// Animate the scene's deformers over this many frames (t = f/frames; extrapolated method
-    /// only) and print per-frame stage times; the image is the last frame.
+    /// Animate the scene's deformers over this many frames (t = f/frames, any method) and print
+    /// per-frame stage times (with --reference, each frame's error); the image is the last
+    /// frame. The papers' extrapolation takes the cached real-time path; every other method
+    /// renders each frame from its posed mesh.
     #[arg(value_parser = whole, long)]
     pub frames: Option<usize>,
     /// Also render this reference on the same scene and print `shade_rmse_rel` against it
-    /// (docs/conventions.md §6): `ray_traced` (band-limited truth) or `full_frequency`
-    /// (full-frequency truth).
+    /// (docs/conventions.md §6; with --frames, per frame at the frame's pose): `ray_traced`
+    /// (band-limited truth) or `full_frequency` (full-frequency truth).
     #[arg(long, value_parser = method_arg)]
     pub reference: Option<Method>,
     /// With --frames: render the sequence on the GPU (wgpu; one mesh occluder, N ≤ 8) and print

@@ -3,7 +3,7 @@
 use crate::args::{RenderArgs, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
-use shscale_scene::render::{render, render_sequence, Method, RenderOutput};
+use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
 
@@ -118,9 +118,10 @@ fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result
     let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, method);
     rays *= frames;
     if let Some(r) = a.reference {
+        // The reference of every frame, and the unshadowed image once.
         let (r2, b2) = shscale_scene::render::estimated_work(scene, r);
         let (r3, _) = shscale_scene::render::estimated_work(scene, Method::RayTraced);
-        rays += r2 + r3;
+        rays += r2 * frames + r3;
         bytes = bytes.max(b2);
     }
     shscale_runner::limits::check_work(
@@ -365,51 +366,103 @@ fn sequence(
     method: Method,
     frames: usize,
 ) -> anyhow::Result<ExitCode> {
-    if method != Method::Extrapolated {
-        bail!("--frames: sequences are rendered with --method extrapolated only");
-    }
+    use shscale_scene::sequence::{cached_path, render_sequence_with};
     flags::int("--frames", frames, 1, MAX_FRAMES)?;
     if a.gpu {
+        if !cached_path(scene, method) {
+            bail!(
+                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\") only; --method {method} runs on the CPU path (without --gpu)"
+            );
+        }
+        if a.reference.is_some() {
+            bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
+        }
         return gpu_sequence(a, scene, frames);
     }
-    let (img, stats) = render_sequence(scene, frames)?;
+    let bar = crate::output::Progress::new(frames, "frames");
+    let (img, seq) = render_sequence_with(scene, method, frames, a.reference, &mut |_| bar.inc())?;
+    bar.finish();
     let png = write_image(&a.out, &img).context("--out")?;
+    let n = seq.len() as f64;
+    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / n;
+    let errors: Vec<f64> = seq.iter().filter_map(|f| f.error).collect();
+    let path = if cached_path(scene, method) {
+        "cached: refit, one BSV per frame, receiver cache"
+    } else {
+        "every frame rendered from its posed mesh"
+    };
+    if a.format == TextFormat::Json {
+        crate::output::print_json(&serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "method": method.to_string(),
+            "path": path,
+            "threads": rayon::current_num_threads(),
+            "reference": a.reference.map(|r| r.to_string()),
+            "frames": seq.iter().map(|f| serde_json::json!({
+                "frame": f.frame,
+                "t": f.t,
+                "seconds": f.seconds,
+                "stages": f.stages.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+                "shade_rmse_rel": f.error,
+            })).collect::<Vec<_>>(),
+            "mean_frame_seconds": mean,
+            "out": a.out.display().to_string(),
+            "png": png.display().to_string(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
-        "sequence {} ({}×{} receivers, {} occluder(s), {frames} frames, {} threads)",
+        "sequence {} --method {method} ({path}; {}×{} receivers, {} occluder(s), {frames} frames, {} threads)",
         a.scene.display(),
         img.width,
         img.height,
         scene.occluders.len(),
         rayon::current_num_threads()
     );
-    println!(
-        "{:>5} {:>6} {:>10} {:>10} {:>10} {:>10} {:>9} {:>6}",
-        "frame", "t", "deform_ms", "bvh_ms", "bsv_ms", "shade_ms", "resampled", "reused"
-    );
-    for s in &stats {
+    print_sequence_table(&seq, a.reference);
+    println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
+    if let (Some(r), false) = (a.reference, errors.is_empty()) {
+        let m = errors.iter().sum::<f64>() / errors.len() as f64;
+        let max = errors.iter().copied().fold(0.0, f64::max);
         println!(
-            "{:>5} {:>6.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>9} {:>6}",
-            s.frame,
-            s.t,
-            s.deform_seconds * 1e3,
-            s.bvh_update_seconds * 1e3,
-            s.bsv_sampling_seconds * 1e3,
-            s.shading_seconds * 1e3,
-            s.resampled,
-            s.reused
+            "shade_rmse_rel against {r}: mean {m:.4}, max {max:.4} over {} frames",
+            errors.len()
         );
     }
-    let n = stats.len() as f64;
-    let total: f64 = stats
-        .iter()
-        .map(|s| {
-            s.deform_seconds + s.bvh_update_seconds + s.bsv_sampling_seconds + s.shading_seconds
-        })
-        .sum::<f64>()
-        / n;
-    println!("mean frame {:.3} ms ({:.1} FPS)", total * 1e3, 1.0 / total);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// One line per frame: its stages (ms, the first frame's names as columns), the total and, with
+/// a reference, the frame's error.
+fn print_sequence_table(seq: &[shscale_scene::sequence::SequenceFrame], reference: Option<Method>) {
+    let names: Vec<&str> = seq[0].stages.iter().map(|(n, _)| n.as_str()).collect();
+    let mut head = format!("{:>5} {:>6}", "frame", "t");
+    for n in &names {
+        head.push_str(&format!(" {:>12}", format!("{n}_ms")));
+    }
+    head.push_str(&format!(" {:>10}", "frame_ms"));
+    if reference.is_some() {
+        head.push_str(&format!(" {:>14}", "shade_rmse_rel"));
+    }
+    println!("{head}");
+    for f in seq {
+        let mut line = format!("{:>5} {:>6.3}", f.frame, f.t);
+        for n in &names {
+            let v = f
+                .stages
+                .iter()
+                .filter(|(k, _)| k == n)
+                .map(|s| s.1)
+                .sum::<f64>();
+            line.push_str(&format!(" {:>12.3}", v * 1e3));
+        }
+        line.push_str(&format!(" {:>10.3}", f.seconds * 1e3));
+        if let Some(e) = f.error {
+            line.push_str(&format!(" {e:>14.4}"));
+        }
+        println!("{line}");
+    }
 }
 
 fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {

@@ -12,6 +12,7 @@
 //! | [`scene`] | scene files, lights, the camera | `vocab`, `error` |
 //! | [`frame`] | one frame's set-up: lights, receivers, posed meshes, k-tables | `scene`, `vocab` |
 //! | [`render`] | the CPU receiver-plane render and sequence | `frame`, `scene`, `vocab` |
+//! | [`sequence`] | sequences with every method, per-frame errors | `render`, `scene` |
 //! | [`camera`] | camera images of a render | `render`, `scene`, `vocab` |
 //! | [`gpu_path`] | opening the GPU, the GPU sequence, GPU BSV timing | `frame`, `render`, `scene` |
 //! | [`bench`] | Table 1: CPU and GPU sequences per stage | `gpu_path`, `render`, `scene` |
@@ -28,6 +29,7 @@ pub mod kernels;
 pub mod method;
 pub mod render;
 pub mod scene;
+pub mod sequence;
 pub mod vocab;
 
 pub use error::Error;

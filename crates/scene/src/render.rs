@@ -653,6 +653,17 @@ pub fn render_sequence(
     scene: &Scene,
     frames: usize,
 ) -> Result<(RenderOutput, Vec<FrameStats>), Error> {
+    render_sequence_each(scene, frames, &mut |_, _| Ok(()))
+}
+
+/// [`render_sequence`], with `each` called after every frame (outside its times) with the
+/// frame's stats and pixels: a per-frame error, progress.
+#[allow(clippy::type_complexity)]
+pub fn render_sequence_each(
+    scene: &Scene,
+    frames: usize,
+    each: &mut dyn FnMut(&FrameStats, &[[f32; 3]]) -> Result<(), Error>,
+) -> Result<(RenderOutput, Vec<FrameStats>), Error> {
     let frames = frames.max(1);
     let light = light_of(scene)?;
     let [w, h] = scene.resolution;
@@ -698,6 +709,7 @@ pub fn render_sequence(
                 shade_direct(scene, &ents, &tables, &shader, &transfer, &recv);
         }
         st.shading_seconds = t0.elapsed().as_secs_f64();
+        each(&st, &pixels)?;
         stats.push(st);
     }
     let out = RenderOutput {

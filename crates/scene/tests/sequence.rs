@@ -183,3 +183,102 @@ fn real_hdr_environment_map_loads_and_lights_a_scene() {
         img.pixels[0][1]
     );
 }
+
+/// Every method renders a deforming sequence; each frame of a method without the cached path
+/// is the single image of its pose (`pose_t = f / frames`), bit for bit, and each frame's error
+/// against the band-limited truth equals the error computed from that image directly — at
+/// every frame, the cached path's too.
+#[test]
+fn every_method_renders_sequences_frame_by_frame() {
+    use shscale_scene::sequence::{cached_path, render_sequence_with};
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    // Sub-volumes and sphere sets split the bird in three.
+    s.parts = 3;
+    let frames = 3;
+    let mut open = s.clone();
+    open.occluders.clear();
+    let flat = |p: &[[f32; 3]]| {
+        p.iter()
+            .flat_map(|p| p.map(f64::from))
+            .collect::<Vec<f64>>()
+    };
+    let unshadowed = flat(&render(&open, Method::RayTraced).unwrap().pixels);
+    for method in [
+        Method::Extrapolated,
+        Method::FullField,
+        Method::SubVolumes,
+        Method::SphereSet,
+    ] {
+        let mut seen = 0;
+        let (img, seq) =
+            render_sequence_with(&s, method, frames, Some(Method::RayTraced), &mut |_| {
+                seen += 1
+            })
+            .unwrap();
+        assert_eq!((seq.len(), seen), (frames, frames), "{method}");
+        for f in &seq {
+            let posed = Scene {
+                pose_t: Some(f.t),
+                ..s.clone()
+            };
+            let truth = render(&posed, Method::RayTraced).unwrap();
+            let direct = render(&posed, method).unwrap();
+            let want = shscale_field::shading::shade_rmse_rel(
+                &flat(&direct.pixels),
+                &flat(&truth.pixels),
+                &unshadowed,
+            )
+            .unwrap();
+            let got = f.error.expect("a reference was given");
+            println!(
+                "{method} frame {}: shade_rmse_rel {got:.4} (direct {want:.4})",
+                f.frame
+            );
+            if cached_path(&s, method) {
+                // The cached path samples on the sequence's sphere and shades through f32
+                // caches: its frames are not the direct images; its last frame's error is
+                // checked against its own image below.
+                assert!(got > 0.0 && got < 1.0, "{method} frame {}: {got}", f.frame);
+            } else {
+                assert_eq!(got, want, "{method} frame {}", f.frame);
+            }
+            assert!(f.seconds > 0.0 && !f.stages.is_empty());
+        }
+        let last = Scene {
+            pose_t: Some((frames - 1) as f64 / frames as f64),
+            ..s.clone()
+        };
+        if cached_path(&s, method) {
+            let truth = render(&last, Method::RayTraced).unwrap();
+            let own = shscale_field::shading::shade_rmse_rel(
+                &flat(&img.pixels),
+                &flat(&truth.pixels),
+                &unshadowed,
+            )
+            .unwrap();
+            assert_eq!(
+                seq[frames - 1].error,
+                Some(own),
+                "{method}: the last frame's error"
+            );
+        } else {
+            let want = render(&last, method).unwrap();
+            assert_eq!(img.pixels, want.pixels, "{method}: the last frame");
+        }
+    }
+    // Per-direction sampling radii leave the cached path (it samples one sphere).
+    let mut radial = s.clone();
+    radial.radial = shscale_field::bsv::RadialRule::Clearance { delta: 0.2 };
+    assert!(!cached_path(&radial, Method::Extrapolated));
+    let (_, seq) =
+        render_sequence_with(&radial, Method::Extrapolated, 2, None, &mut |_| ()).unwrap();
+    assert!(
+        seq.iter().all(|f| f.error.is_none()
+            && f.stages
+                .iter()
+                .any(|(n, _)| n.contains("sampling") || n.contains("bsv"))),
+        "{seq:?}"
+    );
+}

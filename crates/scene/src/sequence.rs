@@ -1,0 +1,151 @@
+//! Deforming sequences with every method of the vocabulary (`render --frames --method M`).
+//!
+//! The papers' extrapolation from a uniform sampling sphere has the real-time path
+//! ([`crate::render::render_sequence`]: the BVH refitted, one BSV per frame, the receiver
+//! cache). Every other method — the papers' full field, sub-volumes, sphere sets (fitted to each
+//! frame's posed mesh), per-direction sampling radii, the truths — is rendered frame by frame
+//! from the posed mesh with [`crate::render::render`]: the same code as a single image at
+//! `pose_t = f / frames`, so a sequence's frame equals that image, and its stage times are that
+//! render's (nothing is carried from frame to frame: no refit, no cache). With a reference, each
+//! frame's `shade_rmse_rel` against the reference of the same pose is computed after the frame,
+//! outside its times.
+
+use crate::error::Error;
+use crate::method::Method;
+use crate::render::{render, render_sequence_each, FrameStats, RenderOutput};
+use crate::scene::Scene;
+use shscale_field::bsv::RadialRule;
+
+/// One frame of a sequence: its stage times (seconds, in execution order) and, with a
+/// reference, its error.
+#[derive(Clone, Debug)]
+pub struct SequenceFrame {
+    pub frame: usize,
+    pub t: f64,
+    pub stages: Vec<(String, f64)>,
+    /// The sum of the stages.
+    pub seconds: f64,
+    /// `shade_rmse_rel` against the reference at the same pose.
+    pub error: Option<f64>,
+}
+
+/// Whether `method` on `scene` takes the cached real-time path: the papers' extrapolation
+/// sampled on one sphere (uniform radial rule).
+pub fn cached_path(scene: &Scene, method: Method) -> bool {
+    method == Method::Extrapolated && scene.radial == RadialRule::Uniform
+}
+
+/// The pixels as one flat list of channels.
+fn flat(p: &[[f32; 3]]) -> Vec<f64> {
+    p.iter().flat_map(|p| p.map(f64::from)).collect()
+}
+
+/// A frame's error against its reference: `shade_rmse_rel(image, truth, unshadowed)`.
+struct Scorer {
+    reference: Method,
+    unshadowed: Vec<f64>,
+}
+
+impl Scorer {
+    fn new(scene: &Scene, reference: Method) -> Result<Self, Error> {
+        let mut open = scene.clone();
+        open.occluders.clear();
+        Ok(Scorer {
+            reference,
+            unshadowed: flat(&render(&open, Method::RayTraced)?.pixels),
+        })
+    }
+
+    fn error(&self, scene: &Scene, t: f64, pixels: &[[f32; 3]]) -> Result<f64, Error> {
+        let posed = Scene {
+            pose_t: Some(t),
+            ..scene.clone()
+        };
+        let truth = render(&posed, self.reference)?;
+        shscale_field::shading::shade_rmse_rel(
+            &flat(pixels),
+            &flat(&truth.pixels),
+            &self.unshadowed,
+        )
+        .ok_or_else(|| Error::config(format!("{}: the unshadowed image is black", scene.file)))
+    }
+}
+
+/// `frames` poses `t = f / frames` of `scene` rendered with `method`, each frame's stage times
+/// and (with `reference`) its error; the image is the last frame's. `each` sees every frame
+/// as it is done (progress).
+pub fn render_sequence_with(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    reference: Option<Method>,
+    each: &mut dyn FnMut(&SequenceFrame),
+) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
+    let frames = frames.max(1);
+    let scorer = reference.map(|r| Scorer::new(scene, r)).transpose()?;
+    if cached_path(scene, method) {
+        return cached(scene, frames, scorer.as_ref(), each);
+    }
+    let mut out = Vec::with_capacity(frames);
+    let mut last = None;
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let posed = Scene {
+            pose_t: Some(t),
+            ..scene.clone()
+        };
+        let img = render(&posed, method)?;
+        let error = match &scorer {
+            Some(s) => Some(s.error(scene, t, &img.pixels)?),
+            None => None,
+        };
+        let fr = SequenceFrame {
+            frame: f,
+            t,
+            seconds: img.stages.iter().map(|s| s.1).sum(),
+            stages: img.stages.clone(),
+            error,
+        };
+        each(&fr);
+        out.push(fr);
+        last = Some(img);
+    }
+    Ok((last.expect("at least one frame"), out))
+}
+
+/// The cached path's frames as [`SequenceFrame`]s (stages `deform`, `bvh_update`,
+/// `bsv_sampling`, `shading`).
+fn cached(
+    scene: &Scene,
+    frames: usize,
+    scorer: Option<&Scorer>,
+    each: &mut dyn FnMut(&SequenceFrame),
+) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
+    let mut out = Vec::with_capacity(frames);
+    let (img, _) = render_sequence_each(scene, frames, &mut |st: &FrameStats, pixels| {
+        let error = match scorer {
+            Some(s) => Some(s.error(scene, st.t, pixels)?),
+            None => None,
+        };
+        let stages: Vec<(String, f64)> = [
+            ("deform", st.deform_seconds),
+            ("bvh_update", st.bvh_update_seconds),
+            ("bsv_sampling", st.bsv_sampling_seconds),
+            ("shading", st.shading_seconds),
+        ]
+        .iter()
+        .map(|(n, s)| (n.to_string(), *s))
+        .collect();
+        let fr = SequenceFrame {
+            frame: st.frame,
+            t: st.t,
+            seconds: stages.iter().map(|s| s.1).sum(),
+            stages,
+            error,
+        };
+        each(&fr);
+        out.push(fr);
+        Ok(())
+    })?;
+    Ok((img, out))
+}
