@@ -497,3 +497,48 @@ fn peers_driver_refuses_bad_arguments() {
     assert!(err.contains("--levels") && err.contains("avx9"), "{err}");
     let _ = std::fs::remove_dir_all(&kit);
 }
+
+/// `bench --methods`: one row per scene and variant with the variant's path, its stages and,
+/// with `--errors`, the error against each measured frame's band-limited truth; the papers'
+/// method is the cached path and the other methods per-frame; bad variants and `--gpu` refused.
+#[test]
+fn table1_per_method_rows() {
+    let v = common::json(&[
+        "bench",
+        "--scene",
+        "egg",
+        "--methods",
+        "extrapolated,sphere_set:parts=2",
+        "--errors",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--format",
+        "json",
+    ]);
+    let rows = v.as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{v}");
+    assert_eq!(
+        (rows[0]["method"].as_str(), rows[0]["path"].as_str()),
+        (Some("extrapolated"), Some("cached"))
+    );
+    assert_eq!(
+        (rows[1]["method"].as_str(), rows[1]["path"].as_str()),
+        (Some("sphere_set:parts=2"), Some("per-frame"))
+    );
+    for r in rows {
+        let e = r["error_mean"].as_f64().unwrap();
+        assert!(
+            e > 0.0 && e < 1.0 && r["error_max"].as_f64() == Some(e),
+            "{r}"
+        );
+        let stages = r["stages_ms"].as_object().unwrap();
+        let sum: f64 = stages.values().map(|x| x.as_f64().unwrap()).sum();
+        // One frame: the frame is the sum of its stages.
+        assert!((sum - r["frame_ms"].as_f64().unwrap()).abs() < 1e-6, "{r}");
+    }
+    assert!(rows[1]["stages_ms"]["sphere_fit"].as_f64().is_some(), "{v}");
+    common::fails(&["bench", "--methods", "sphere_set:s=2"], "sphere_set");
+    common::fails(&["bench", "--methods", "default", "--gpu"], "--gpu");
+}

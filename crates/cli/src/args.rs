@@ -200,6 +200,17 @@ pub struct BenchArgs {
     /// Also write the rows as CSV to this file (atomically).
     #[arg(long)]
     pub csv: Option<std::path::PathBuf>,
+    /// Table 1 per method on the CPU sequence path: a comma-separated list of variants
+    /// `name[:key=value,…]` (keys `parts`, `s` = sampling radius, `clearance` = δ of per-direction
+    /// radii), or `default` (extrapolated, full_field, extrapolated:s=1.2,
+    /// extrapolated:clearance=0.1, sub_volumes:parts=2, sphere_set:parts=4, sphere_set:parts=16).
+    /// The GPU path has the papers' extrapolation only, so not with --gpu.
+    #[arg(long, conflicts_with = "gpu")]
+    pub methods: Option<String>,
+    /// With --methods: score every measured frame against the band-limited truth of its pose
+    /// (ray_traced at the scene's truth_res; once per frame, shared by the methods, not timed).
+    #[arg(long, requires = "methods")]
+    pub errors: bool,
     /// Run even when the estimated work exceeds 1e10 rays (docs/limits.md).
     #[arg(long)]
     pub allow_large: bool,

@@ -37,6 +37,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     if a.warmup > max {
         anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
     }
+    if let Some(list) = &a.methods {
+        return bench_methods(&a, scenes, list);
+    }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
     let paths = usize::from(cpu) + usize::from(ctx.is_some());
     let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
@@ -74,6 +77,89 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
                 a.warmup,
                 std::env::consts::OS,
                 std::env::consts::ARCH,
+                rayon::current_num_threads(),
+                shscale_sh::cpu::cpu().summary()
+            );
+            println!();
+            print!("{}", to_markdown(&rows));
+        }
+        BenchFormat::Csv => print!("{}", to_csv(&rows)),
+        BenchFormat::Json => println!("{}", serde_json::to_string_pretty(&rows)?),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --methods`: Table 1 per method on the CPU sequence path (`shscale_scene::bench_methods`).
+fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<ExitCode> {
+    use shscale_scene::bench_methods::{bench_method, to_csv, to_markdown, Truths, Variant};
+    use shscale_scene::render::estimated_work;
+    let variants = Variant::parse_list(list).map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
+    let total = (a.frames + a.warmup) as f64;
+    let mut rays = 0.0;
+    for s in scenes {
+        let sc = shscale_scene::bench::scene(s)?;
+        for v in &variants {
+            rays += estimated_work(&v.apply(&sc), v.method).0 * total;
+        }
+        if a.errors {
+            rays += estimated_work(&sc, shscale_scene::method::Method::RayTraced).0
+                * (a.frames + 1) as f64;
+        }
+    }
+    shscale_runner::limits::check_work(
+        "bench --methods",
+        rays,
+        0.0,
+        &format!(
+            "{} scene(s) × {} method(s) × (--frames {} + --warmup {}){}",
+            scenes.len(),
+            variants.len(),
+            a.frames,
+            a.warmup,
+            if a.errors {
+                ", and a truth per measured frame"
+            } else {
+                ""
+            }
+        ),
+        a.allow_large,
+    )?;
+    let mut rows = Vec::new();
+    let bar = crate::output::Progress::new(scenes.len() * variants.len(), "sequences");
+    for s in scenes {
+        let sc = shscale_scene::bench::scene(s)?;
+        let truths = if a.errors {
+            bar.set_message(format!("{s}: band-limited truths of {} frames", a.frames));
+            Some(Truths::new(&sc, a.warmup, a.warmup + a.frames)?)
+        } else {
+            None
+        };
+        for v in &variants {
+            bar.set_message(format!("{s} {}", v.label));
+            rows.push(bench_method(
+                s,
+                &sc,
+                v,
+                a.frames,
+                a.warmup,
+                truths.as_ref(),
+            )?);
+            bar.inc();
+        }
+    }
+    bar.finish();
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+        }
+        shscale_runner::write_atomic(path, &to_csv(&rows))?;
+    }
+    match a.format {
+        BenchFormat::Markdown => {
+            println!(
+                "Table 1 per method (CPU sequence path) — medians of {} frames after {} warm-up; {} rayon threads; CPU: {}",
+                a.frames,
+                a.warmup,
                 rayon::current_num_threads(),
                 shscale_sh::cpu::cpu().summary()
             );

@@ -380,7 +380,8 @@ fn sequence(
         return gpu_sequence(a, scene, frames);
     }
     let bar = crate::output::Progress::new(frames, "frames");
-    let (img, seq) = render_sequence_with(scene, method, frames, a.reference, &mut |_| bar.inc())?;
+    let (img, seq) =
+        render_sequence_with(scene, method, frames, a.reference, &mut |_, _| bar.inc())?;
     bar.finish();
     let png = write_image(&a.out, &img).context("--out")?;
     let n = seq.len() as f64;

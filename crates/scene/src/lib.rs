@@ -16,10 +16,12 @@
 //! | [`camera`] | camera images of a render | `render`, `scene`, `vocab` |
 //! | [`gpu_path`] | opening the GPU, the GPU sequence, GPU BSV timing | `frame`, `render`, `scene` |
 //! | [`bench`] | Table 1: CPU and GPU sequences per stage | `gpu_path`, `render`, `scene` |
+//! | [`bench_methods`] | Table 1 per method on the CPU, with per-frame errors | `sequence`, `render`, `scene` |
 //! | [`kernels`] | `shscale bench rays|bsv|sh` against the peers | `error` |
 //! | [`calibrate`] | this machine's ray rate, to scale `--dry-run`'s estimates | — |
 
 pub mod bench;
+pub mod bench_methods;
 pub mod calibrate;
 pub mod camera;
 pub mod error;

@@ -36,7 +36,7 @@ pub fn cached_path(scene: &Scene, method: Method) -> bool {
 }
 
 /// The pixels as one flat list of channels.
-fn flat(p: &[[f32; 3]]) -> Vec<f64> {
+pub fn flat(p: &[[f32; 3]]) -> Vec<f64> {
     p.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
@@ -71,15 +71,19 @@ impl Scorer {
     }
 }
 
+/// What [`render_sequence_with`] calls after every frame (outside its times): the frame and its
+/// pixels.
+pub type EachFrame<'a> = dyn FnMut(&SequenceFrame, &[[f32; 3]]) + 'a;
+
 /// `frames` poses `t = f / frames` of `scene` rendered with `method`, each frame's stage times
 /// and (with `reference`) its error; the image is the last frame's. `each` sees every frame
-/// as it is done (progress).
+/// and its pixels as it is done (progress, errors against other references).
 pub fn render_sequence_with(
     scene: &Scene,
     method: Method,
     frames: usize,
     reference: Option<Method>,
-    each: &mut dyn FnMut(&SequenceFrame),
+    each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let frames = frames.max(1);
     let scorer = reference.map(|r| Scorer::new(scene, r)).transpose()?;
@@ -106,7 +110,7 @@ pub fn render_sequence_with(
             stages: img.stages.clone(),
             error,
         };
-        each(&fr);
+        each(&fr, &img.pixels);
         out.push(fr);
         last = Some(img);
     }
@@ -119,7 +123,7 @@ fn cached(
     scene: &Scene,
     frames: usize,
     scorer: Option<&Scorer>,
-    each: &mut dyn FnMut(&SequenceFrame),
+    each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let mut out = Vec::with_capacity(frames);
     let (img, _) = render_sequence_each(scene, frames, &mut |st: &FrameStats, pixels| {
@@ -143,7 +147,7 @@ fn cached(
             stages,
             error,
         };
-        each(&fr);
+        each(&fr, pixels);
         out.push(fr);
         Ok(())
     })?;

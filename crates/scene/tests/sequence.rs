@@ -213,7 +213,7 @@ fn every_method_renders_sequences_frame_by_frame() {
     ] {
         let mut seen = 0;
         let (img, seq) =
-            render_sequence_with(&s, method, frames, Some(Method::RayTraced), &mut |_| {
+            render_sequence_with(&s, method, frames, Some(Method::RayTraced), &mut |_, _| {
                 seen += 1
             })
             .unwrap();
@@ -273,7 +273,7 @@ fn every_method_renders_sequences_frame_by_frame() {
     radial.radial = shscale_field::bsv::RadialRule::Clearance { delta: 0.2 };
     assert!(!cached_path(&radial, Method::Extrapolated));
     let (_, seq) =
-        render_sequence_with(&radial, Method::Extrapolated, 2, None, &mut |_| ()).unwrap();
+        render_sequence_with(&radial, Method::Extrapolated, 2, None, &mut |_, _| ()).unwrap();
     assert!(
         seq.iter().all(|f| f.error.is_none()
             && f.stages

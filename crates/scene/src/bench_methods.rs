@@ -1,0 +1,367 @@
+//! Table 1 per method (`shscale bench --methods …`): the three deforming sequences rendered with
+//! every method of the vocabulary on the CPU sequence path ([`crate::sequence`]), each row with
+//! its frame time, FPS, per-stage medians and each frame's error against the band-limited truth
+//! of the same pose (`ray_traced` at the scene's `truth_res`, computed once per frame and shared
+//! by the methods, outside the times).
+//!
+//! A method is given as a *variant*: `name[:key=value,…]` with `parts=P` (sub-volumes, sphere
+//! sets), `s=S` (the sampling radius, in bounding radii) or `clearance=D` (per-direction radii,
+//! `radial = "clearance"` with δ = D) — e.g. `sphere_set:parts=16`, `extrapolated:s=1.2`.
+
+use crate::error::Error;
+use crate::method::Method;
+use crate::scene::Scene;
+use crate::sequence::{cached_path, flat, render_sequence_with};
+use serde::Serialize;
+use shscale_field::bsv::RadialRule;
+use shscale_gpu::timing::median;
+
+/// The variants `--methods` runs when given `default`: the papers' method and full field, the
+/// extrapolation's inflation and clearance radii, sub-volumes, sphere sets at two sizes.
+pub const DEFAULT_VARIANTS: &str = "extrapolated,full_field,extrapolated:s=1.2,extrapolated:clearance=0.1,sub_volumes:parts=2,sphere_set:parts=4,sphere_set:parts=16";
+
+/// The most variants one bench takes.
+pub const MAX_VARIANTS: usize = 16;
+
+/// One method with the scene keys it changes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variant {
+    /// As given (`sphere_set:parts=16`).
+    pub label: String,
+    pub method: Method,
+    pub parts: Option<usize>,
+    pub sampling_radius: Option<f64>,
+    pub clearance: Option<f64>,
+}
+
+impl Variant {
+    /// Parse `name[:key=value,…]`; every error names the variant and the key.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let text = text.trim();
+        let (name, keys) = text.split_once(':').unwrap_or((text, ""));
+        let method = Method::parse(name).map_err(|e| format!("{text:?}: {e}"))?;
+        if method == Method::FullFrequency {
+            return Err(format!(
+                "{text:?}: full_frequency is a reference, not a method timed per frame"
+            ));
+        }
+        let mut v = Variant {
+            label: text.to_string(),
+            method,
+            parts: None,
+            sampling_radius: None,
+            clearance: None,
+        };
+        for kv in keys.split(',').filter(|k| !k.trim().is_empty()) {
+            let (k, val) = kv
+                .split_once('=')
+                .ok_or_else(|| format!("{text:?}: {kv:?} is not key=value"))?;
+            let num: f64 = val
+                .trim()
+                .parse()
+                .map_err(|_| format!("{text:?}: {k}={val:?} is not a number"))?;
+            let allowed = match k.trim() {
+                "parts" => matches!(method, Method::SubVolumes | Method::SphereSet),
+                "s" => matches!(
+                    method,
+                    Method::Extrapolated | Method::SubVolumes | Method::FullField
+                ),
+                "clearance" => method == Method::Extrapolated,
+                other => {
+                    return Err(format!(
+                        "{text:?}: unknown key {other:?} (parts, s, clearance)"
+                    ))
+                }
+            };
+            if !allowed {
+                return Err(format!("{text:?}: {name} does not read {}", k.trim()));
+            }
+            match k.trim() {
+                "parts" => {
+                    let max = shscale_geometry::partition::MAX_PARTS;
+                    if num.fract() != 0.0 || !(1.0..=max as f64).contains(&num) {
+                        return Err(format!(
+                            "{text:?}: parts={val} is not a whole number in 1..={max}"
+                        ));
+                    }
+                    v.parts = Some(num as usize);
+                }
+                "s" => {
+                    if !(1.0..=10.0).contains(&num) {
+                        return Err(format!(
+                            "{text:?}: s={val} is outside [1, 10] bounding radii"
+                        ));
+                    }
+                    v.sampling_radius = Some(num);
+                }
+                _ => {
+                    if !(0.0..=10.0).contains(&num) {
+                        return Err(format!(
+                            "{text:?}: clearance={val} is outside [0, 10] bounding radii"
+                        ));
+                    }
+                    v.clearance = Some(num);
+                }
+            }
+        }
+        Ok(v)
+    }
+
+    /// A comma-separated list (`default` = [`DEFAULT_VARIANTS`]), at most [`MAX_VARIANTS`].
+    pub fn parse_list(text: &str) -> Result<Vec<Self>, String> {
+        let text = if text.trim() == "default" {
+            DEFAULT_VARIANTS
+        } else {
+            text
+        };
+        // Commas separate variants and a variant's keys: a key continues the variant before it.
+        let mut items: Vec<String> = Vec::new();
+        for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            match items.last_mut() {
+                Some(last) if part.contains('=') && !part.contains(':') => {
+                    last.push(',');
+                    last.push_str(part);
+                }
+                _ => items.push(part.to_string()),
+            }
+        }
+        if items.is_empty() || items.len() > MAX_VARIANTS {
+            return Err(format!(
+                "{} variants: give 1 to {MAX_VARIANTS}",
+                items.len()
+            ));
+        }
+        items.iter().map(|i| Self::parse(i)).collect()
+    }
+
+    /// `scene` with this variant's keys.
+    pub fn apply(&self, scene: &Scene) -> Scene {
+        let mut s = scene.clone();
+        if let Some(p) = self.parts {
+            s.parts = p;
+        } else if matches!(self.method, Method::SubVolumes | Method::SphereSet) {
+            s.parts = 4;
+        }
+        if let Some(r) = self.sampling_radius {
+            s.sampling_radius = r;
+        }
+        if let Some(d) = self.clearance {
+            s.radial = RadialRule::Clearance { delta: d };
+        }
+        s
+    }
+}
+
+fn as_map<S: serde::Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_map(v.iter().map(|(k, x)| (k, x)))
+}
+
+/// One row: a scene with one variant on the CPU sequence path.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodRow {
+    pub scene: String,
+    pub method: String,
+    /// `cached` (the real-time path) or `per-frame` (every frame rendered from its pose).
+    pub path: String,
+    pub device: String,
+    pub frames: usize,
+    pub warmup: usize,
+    /// Median of each stage over the measured frames (ms), in execution order (an object in
+    /// JSON).
+    #[serde(serialize_with = "as_map")]
+    pub stages_ms: Vec<(String, f64)>,
+    pub frame_ms: f64,
+    pub fps: f64,
+    /// `shade_rmse_rel` against the band-limited truth of each measured frame's pose: mean and
+    /// largest (absent without `--errors`).
+    pub error_mean: Option<f64>,
+    pub error_max: Option<f64>,
+}
+
+/// The band-limited truth of every pose of a sequence (pixels, flat) and the unshadowed image.
+pub struct Truths {
+    frames: Vec<Vec<f64>>,
+    unshadowed: Vec<f64>,
+}
+
+impl Truths {
+    /// `ray_traced` at `t = f / total` for `f` in `from..total`.
+    pub fn new(scene: &Scene, from: usize, total: usize) -> Result<Self, Error> {
+        let mut open = scene.clone();
+        open.occluders.clear();
+        let unshadowed = flat(&crate::render::render(&open, Method::RayTraced)?.pixels);
+        let frames = (from..total)
+            .map(|f| {
+                let posed = Scene {
+                    pose_t: Some(f as f64 / total as f64),
+                    ..scene.clone()
+                };
+                Ok(flat(
+                    &crate::render::render(&posed, Method::RayTraced)?.pixels,
+                ))
+            })
+            .collect::<Result<_, Error>>()?;
+        Ok(Truths { frames, unshadowed })
+    }
+}
+
+/// `variant` on `scene` (named `name`) over `warmup + frames` frames, scored against `truths`
+/// (of the measured frames) when given.
+pub fn bench_method(
+    name: &str,
+    scene: &Scene,
+    variant: &Variant,
+    frames: usize,
+    warmup: usize,
+    truths: Option<&Truths>,
+) -> Result<MethodRow, Error> {
+    let frames = frames.max(1);
+    let total = warmup + frames;
+    let s = variant.apply(scene);
+    let mut errors = Vec::new();
+    let mut failed = None;
+    let (_, seq) = render_sequence_with(&s, variant.method, total, None, &mut |f, px| {
+        if let (Some(t), true) = (truths, f.frame >= warmup) {
+            let truth = &t.frames[f.frame - warmup];
+            match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
+                Some(e) => errors.push(e),
+                None => failed = Some(f.frame),
+            }
+        }
+    })?;
+    if let Some(f) = failed {
+        return Err(Error::config(format!(
+            "--scene {name}: frame {f}: the unshadowed image is black"
+        )));
+    }
+    let measured = &seq[warmup.min(seq.len() - 1)..];
+    let names: Vec<String> = measured[0].stages.iter().map(|(n, _)| n.clone()).collect();
+    let stages_ms = names
+        .iter()
+        .map(|n| {
+            let v: Vec<f64> = measured
+                .iter()
+                .map(|f| f.stages.iter().filter(|(k, _)| k == n).map(|s| s.1).sum())
+                .collect();
+            (n.clone(), 1e3 * median(&v))
+        })
+        .collect();
+    let frame_ms = 1e3 * median(&measured.iter().map(|f| f.seconds).collect::<Vec<_>>());
+    let threads = rayon::current_num_threads();
+    Ok(MethodRow {
+        scene: name.to_string(),
+        method: variant.label.clone(),
+        path: if cached_path(&s, variant.method) {
+            "cached"
+        } else {
+            "per-frame"
+        }
+        .into(),
+        device: format!(
+            "cpu ({threads} threads, kernels {}): {}",
+            shscale_sh::simd::level().name(),
+            shscale_sh::cpu::cpu().summary()
+        ),
+        frames,
+        warmup,
+        stages_ms,
+        frame_ms,
+        fps: 1e3 / frame_ms,
+        error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
+        error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
+    })
+}
+
+/// The rows as Markdown.
+pub fn to_markdown(rows: &[MethodRow]) -> String {
+    let mut s = String::from(
+        "| scene | method | path | frame (ms) | FPS | stages (ms, medians) | error vs band-limited truth: mean (max) |\n|---|---|---|---:|---:|---|---|\n",
+    );
+    for r in rows {
+        let stages: Vec<String> = r
+            .stages_ms
+            .iter()
+            .map(|(n, v)| format!("{n} {v:.3}"))
+            .collect();
+        let err = match (r.error_mean, r.error_max) {
+            (Some(m), Some(x)) => format!("{m:.4} ({x:.4})"),
+            _ => "—".into(),
+        };
+        s.push_str(&format!(
+            "| {} | {} | {} | {:.3} | {:.1} | {} | {} |\n",
+            r.scene,
+            r.method,
+            r.path,
+            r.frame_ms,
+            r.fps,
+            stages.join(", "),
+            err
+        ));
+    }
+    s
+}
+
+/// The rows as CSV (stages as `name=ms;…`).
+pub fn to_csv(rows: &[MethodRow]) -> String {
+    let mut s = String::from(
+        "scene,method,path,device,frames,warmup,frame_ms,fps,error_mean,error_max,stages_ms\n",
+    );
+    let opt = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.6}"));
+    for r in rows {
+        let stages: Vec<String> = r
+            .stages_ms
+            .iter()
+            .map(|(n, v)| format!("{n}={v:.6}"))
+            .collect();
+        s.push_str(&format!(
+            "{},\"{}\",{},\"{}\",{},{},{:.6},{:.3},{},{},{}\n",
+            r.scene,
+            r.method,
+            r.path,
+            r.device.replace('"', "\"\""),
+            r.frames,
+            r.warmup,
+            r.frame_ms,
+            r.fps,
+            opt(r.error_mean),
+            opt(r.error_max),
+            stages.join(";")
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variants_parse_and_refuse_what_a_method_does_not_read() {
+        let v = Variant::parse_list("default").unwrap();
+        assert_eq!(v.len(), 7);
+        assert_eq!(v[6].parts, Some(16));
+        assert_eq!(v[2].sampling_radius, Some(1.2));
+        assert_eq!(v[3].clearance, Some(0.1));
+        let two = Variant::parse_list("sphere_set:parts=8,s=1.1 , extrapolated").unwrap_err();
+        assert!(two.contains("sphere_set") && two.contains("s"), "{two}");
+        let ok = Variant::parse_list("sub_volumes:parts=3,s=1.1,ray_traced").unwrap();
+        assert_eq!((ok[0].parts, ok[0].sampling_radius), (Some(3), Some(1.1)));
+        assert_eq!(ok[1].method, Method::RayTraced);
+        for (bad, needle) in [
+            ("sphere_set:parts=0", "parts=0"),
+            ("sphere_set:parts=2.5", "parts=2.5"),
+            ("extrapolated:s=0.5", "s=0.5"),
+            ("extrapolated:clearance=-1", "clearance=-1"),
+            ("extrapolated:radius=2", "radius"),
+            ("full_frequency", "reference"),
+            ("nope", "nope"),
+            ("extrapolated:s", "key=value"),
+            ("", "0 variants"),
+        ] {
+            let e = Variant::parse_list(bad).unwrap_err();
+            assert!(e.contains(needle), "{bad}: {e}");
+        }
+        let many = vec!["extrapolated"; MAX_VARIANTS + 1].join(",");
+        assert!(Variant::parse_list(&many).is_err());
+    }
+}
