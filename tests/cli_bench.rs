@@ -542,3 +542,82 @@ fn table1_per_method_rows() {
     common::fails(&["bench", "--methods", "sphere_set:s=2"], "sphere_set");
     common::fails(&["bench", "--methods", "default", "--gpu"], "--gpu");
 }
+
+/// `bench bsv --write-rays`: the sampling's exact rays in the peer kit's format, our answers and
+/// the mesh; traced again from the files by `bench rays`, they give the same answers (0
+/// disagreements) — the files are what Embree is timed on.
+#[test]
+fn bsv_rays_are_written_for_a_peer() {
+    let d = std::env::temp_dir().join(format!("shscale-bsv-rays-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let prefix = d.join("bsv");
+    let v = common::json(&[
+        "bench",
+        "bsv",
+        "--mesh",
+        "bunny",
+        "--layout",
+        "latlong:4x6",
+        "--hemisphere-res",
+        "8",
+        "--order",
+        "4",
+        "--threads",
+        "1",
+        "--min-time",
+        "0.01",
+        "--warmup",
+        "0",
+        "--write-rays",
+        prefix.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    let w = &v["written"];
+    let n = w["count"].as_u64().unwrap() as usize;
+    assert_eq!(n, 24 * 64, "{v}");
+    assert_eq!(
+        std::fs::metadata(w["rays"].as_str().unwrap())
+            .unwrap()
+            .len() as usize,
+        24 * n
+    );
+    assert_eq!(
+        std::fs::metadata(w["hits"].as_str().unwrap())
+            .unwrap()
+            .len() as usize,
+        n.div_ceil(8)
+    );
+    let hf = w["hit_fraction"].as_f64().unwrap();
+    assert!(hf > 0.0 && hf < 1.0, "{v}");
+    let r = common::json(&[
+        "bench",
+        "rays",
+        "--mesh",
+        w["mesh"].as_str().unwrap(),
+        "--rays",
+        w["rays"].as_str().unwrap(),
+        "--hits",
+        w["hits"].as_str().unwrap(),
+        "--threads",
+        "1",
+        "--min-time",
+        "0.01",
+        "--warmup",
+        "0",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(r["rays"].as_u64(), Some(n as u64));
+    assert_eq!(r["mismatches"].as_u64(), Some(0), "{r}");
+    common::fails(
+        &[
+            "bench",
+            "bsv",
+            "--write-rays",
+            d.join("no/such/dir/x").to_str().unwrap(),
+        ],
+        "--write-rays",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

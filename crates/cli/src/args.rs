@@ -341,6 +341,11 @@ pub struct BenchBsvArgs {
     pub order: usize,
     #[arg(long, default_value_t = 2, value_parser = whole)]
     pub threads: usize,
+    /// Also write the sampling's exact rays for a peer: PREFIX.rays.f32 (origins then
+    /// directions, f32, the peer kit's format), PREFIX.hits.bits (our answers) and PREFIX.obj (the
+    /// mesh as traced); the rays' tmin is printed (Embree's tnear).
+    #[arg(long, value_name = "PREFIX")]
+    pub write_rays: Option<std::path::PathBuf>,
     #[command(flatten)]
     pub common: KernelCommon,
 }

@@ -566,7 +566,20 @@ fn bench_bsv(a: &crate::args::BenchBsvArgs, level: shscale_sh::simd::Level) -> a
         "layout samples × H²",
         a.common.allow_large,
     )?;
-    let r = kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
+    if let Some(prefix) = &a.write_rays {
+        if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if !dir.is_dir() {
+                anyhow::bail!("--write-rays: directory {} does not exist", dir.display());
+            }
+        }
+    }
+    let mut r = kernels::bench_bsv(&m, &a.mesh, layout, a.hemisphere_res, a.order, t, level, p)?;
+    if let Some(prefix) = &a.write_rays {
+        r.written = Some(
+            kernels::write_bsv_rays(&m, layout, a.hemisphere_res, a.order, prefix)
+                .map_err(|e| anyhow::anyhow!("--write-rays: {e}"))?,
+        );
+    }
     let text = format!(
         "bsv {} {} ({} triangles): {} rays in {:.3} ms (median of {}; min {:.3}, max {:.3}), {:.2} Mrays/s, {} thread(s), {}",
         r.mesh,
@@ -580,7 +593,13 @@ fn bench_bsv(a: &crate::args::BenchBsvArgs, level: shscale_sh::simd::Level) -> a
         r.rays_per_second / 1e6,
         r.threads,
         r.simd
-    ) + &format!("; CPU: {}", r.cpu.summary);
+    ) + &format!("; CPU: {}", r.cpu.summary)
+        + &r.written.as_ref().map_or(String::new(), |w| {
+            format!(
+                "\nwrote {} rays to {} ({}, {}), tnear {:e}, hit fraction {:.4}",
+                w.count, w.rays, w.hits, w.mesh, w.tnear, w.hit_fraction
+            )
+        });
     print(a.common.format, &r, text)?;
     Ok(())
 }

@@ -50,6 +50,18 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {
     write_atomic_all(&[(path, text)])
 }
 
+/// Write `bytes` to `path` through a temporary file and a rename (binary files: ray sets, bit
+/// masks); the temporary is removed when either step fails. A directory at `path` is refused.
+pub fn write_atomic_bytes(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    if path.is_dir() {
+        return Err(Error::io(path, "is a directory"));
+    }
+    let mut guard = Temporaries::new();
+    let tmp = guard.beside(path);
+    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
 /// Write several files as a unit: every text to a temporary beside its target first, then the
 /// renames, in order; when any write fails no target is touched, and every error path removes
 /// the temporaries not yet renamed. A directory at a target is refused before anything is

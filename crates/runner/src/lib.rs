@@ -51,7 +51,7 @@ pub mod slurm;
 pub mod store;
 pub mod timing;
 
-pub use atomic::{write_atomic, write_atomic_all, Staging};
+pub use atomic::{write_atomic, write_atomic_all, write_atomic_bytes, Staging};
 pub use device::{Device, GpuMode};
 pub use error::Error;
 pub use kind::{Cost, Ctx, DynKind, Erased, KeyError, Kind, Resolved, RowCells, Typed};

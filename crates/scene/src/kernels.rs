@@ -313,6 +313,9 @@ pub struct RayBench {
     pub cpu: CpuRow,
     pub median_seconds: f64,
     pub rays_per_second: f64,
+    /// `bench bsv --write-rays`: the files the sampling's rays went to.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub written: Option<WrittenRays>,
     pub timing: Timing,
 }
 
@@ -373,6 +376,7 @@ pub fn bench_rays(
         cpu: CpuRow::this(),
         median_seconds: timing.median_seconds,
         rays_per_second: set.len() as f64 / timing.median_seconds,
+        written: None,
         timing,
     })
 }
@@ -412,7 +416,118 @@ pub fn bench_bsv(
         cpu: CpuRow::this(),
         median_seconds: timing.median_seconds,
         rays_per_second: bsv.rays as f64 / timing.median_seconds,
+        written: None,
         timing,
+    })
+}
+
+/// An occluder that answers with a mesh BVH and records every fan it is asked (origin, f32
+/// directions, `tmin`, answers), so the exact rays of a BSV sampling can be handed to a peer.
+struct Recorder<'a> {
+    bvh: &'a MeshBvh,
+    fans: std::sync::Mutex<Vec<([f32; 3], Vec<[f32; 3]>, f64, Vec<bool>)>>,
+}
+
+impl shscale_geometry::Occluder for Recorder<'_> {
+    fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        self.bvh.occluded(o, d, tmin, tmax)
+    }
+    fn occluded_fan_f32(&self, o: DVec3, dirs: &[[f32; 3]], tmin: f64, hit: &mut [bool]) {
+        self.bvh.occluded_fan_f32(o, dirs, tmin, hit);
+        let rec = (o.as_vec3().to_array(), dirs.to_vec(), tmin, hit.to_vec());
+        self.fans.lock().expect("not poisoned").push(rec);
+    }
+    fn fans_in_f32(&self) -> bool {
+        true
+    }
+    fn closest_hit(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
+        self.bvh.closest_hit(o, d, tmin, tmax)
+    }
+    fn bounding_sphere(&self) -> shscale_geometry::Sphere {
+        self.bvh.bounding_sphere()
+    }
+    fn distance_to_surface(&self, p: DVec3) -> f64 {
+        self.bvh.distance_to_surface(p)
+    }
+    fn farthest_distance(&self, p: DVec3) -> f64 {
+        self.bvh.farthest_distance(p)
+    }
+}
+
+/// What `bench bsv --write-rays PREFIX` wrote.
+#[derive(Clone, Debug, Serialize)]
+pub struct WrittenRays {
+    /// `PREFIX.rays.f32`: N origins then N directions, little-endian f32 (the peer kit's format).
+    pub rays: String,
+    /// `PREFIX.hits.bits`: our answers, one bit per ray, least significant bit first.
+    pub hits: String,
+    /// `PREFIX.obj`: the mesh the rays were traced against, in the rays' coordinates.
+    pub mesh: String,
+    pub count: usize,
+    /// The rays' `tmin` (world units; every fan of one sampling shares it).
+    pub tnear: f64,
+    pub hit_fraction: f64,
+}
+
+/// The rays of one BSV sampling of `mesh` (`layout`, `H = h`), written for a peer: every fan the
+/// sampling traced, in the order the samples were traced, with our answers and the mesh.
+pub fn write_bsv_rays(
+    mesh: &Mesh,
+    layout: Layout,
+    h: usize,
+    order: usize,
+    prefix: &std::path::Path,
+) -> Result<WrittenRays, Error> {
+    let bvh = MeshBvh::build(mesh, UpdateStrategy::Rebuild);
+    let sampler = VisibilitySampler::new(order, h)?;
+    let rec = Recorder {
+        bvh: &bvh,
+        fans: std::sync::Mutex::new(Vec::new()),
+    };
+    Bsv::sample(&rec, layout, &sampler, 1.0, 0.0)?;
+    let fans = rec.fans.into_inner().expect("not poisoned");
+    let tnear = fans.first().map_or(0.0, |f| f.2);
+    if fans.iter().any(|f| f.2 != tnear) {
+        return Err(Error::config(
+            "the sampling's fans differ in tmin".to_string(),
+        ));
+    }
+    let (mut origins, mut dirs, mut hits) = (Vec::new(), Vec::new(), Vec::new());
+    for (o, d, _, h) in &fans {
+        origins.extend(std::iter::repeat_n(*o, d.len()));
+        dirs.extend_from_slice(d);
+        hits.extend_from_slice(h);
+    }
+    let n = dirs.len();
+    let mut bytes = Vec::with_capacity(24 * n);
+    for v in origins.iter().chain(&dirs) {
+        for x in v {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let mut bits = vec![0u8; n.div_ceil(8)];
+    for (i, &h) in hits.iter().enumerate() {
+        bits[i / 8] |= u8::from(h) << (i % 8);
+    }
+    let mut obj = String::new();
+    for p in &mesh.positions {
+        obj.push_str(&format!("v {:?} {:?} {:?}\n", p.x, p.y, p.z));
+    }
+    for t in &mesh.triangles {
+        obj.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
+    }
+    let path = |ext: &str| std::path::PathBuf::from(format!("{}.{ext}", prefix.display()));
+    let (rp, hp, mp) = (path("rays.f32"), path("hits.bits"), path("obj"));
+    shscale_runner::write_atomic_bytes(&rp, &bytes)?;
+    shscale_runner::write_atomic_bytes(&hp, &bits)?;
+    shscale_runner::write_atomic(&mp, &obj)?;
+    Ok(WrittenRays {
+        rays: rp.display().to_string(),
+        hits: hp.display().to_string(),
+        mesh: mp.display().to_string(),
+        count: n,
+        tnear,
+        hit_fraction: hits.iter().filter(|h| **h).count() as f64 / n.max(1) as f64,
     })
 }
 
