@@ -425,8 +425,11 @@ pub fn bench_bsv(
 /// directions, `tmin`, answers), so the exact rays of a BSV sampling can be handed to a peer.
 struct Recorder<'a> {
     bvh: &'a MeshBvh,
-    fans: std::sync::Mutex<Vec<([f32; 3], Vec<[f32; 3]>, f64, Vec<bool>)>>,
+    fans: std::sync::Mutex<Vec<Fan>>,
 }
+
+/// One recorded fan: origin, directions, `tmin`, answers.
+type Fan = ([f32; 3], Vec<[f32; 3]>, f64, Vec<bool>);
 
 impl shscale_geometry::Occluder for Recorder<'_> {
     fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
