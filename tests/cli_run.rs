@@ -1658,3 +1658,37 @@ fn sphere_sets_on_the_plane_multiply_at_their_internal_order() {
     assert!(!dir.join("r2").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every experiment config the project ships resolves and passes its limits: `run --dry-run`
+/// succeeds on each (with the development VM's rates, `SHSCALE_SPEED=1`, no calibration), so a
+/// renamed key or a changed bound cannot leave a shipped config broken.
+#[test]
+fn every_shipped_config_resolves() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut configs = Vec::new();
+    for sub in ["configs", "configs/experiments", "configs/paper"] {
+        for e in std::fs::read_dir(root.join(sub)).unwrap().flatten() {
+            let p = e.path();
+            let text = std::fs::read_to_string(&p).unwrap_or_default();
+            // Experiment configs name their kind; scene files do not.
+            if p.extension().is_some_and(|x| x == "toml") && text.contains("experiment =") {
+                configs.push(p);
+            }
+        }
+    }
+    assert!(configs.len() >= 25, "{} configs found", configs.len());
+    for c in &configs {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
+            .args(["run", c.to_str().unwrap(), "--dry-run"])
+            .env("SHSCALE_SPEED", "1")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            c.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    println!("{} shipped configs resolve", configs.len());
+}
