@@ -91,7 +91,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
 
 /// `bench --methods`: Table 1 per method on the CPU sequence path (`shscale_scene::bench_methods`).
 fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<ExitCode> {
-    use shscale_scene::bench_methods::{bench_method, to_csv, to_markdown, Truths, Variant};
+    use shscale_scene::bench_methods::{bench_method, Truths, Variant};
     use shscale_scene::render::estimated_work;
     let variants = Variant::parse_list(list).map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
     let total = (a.frames + a.warmup) as f64;
@@ -148,11 +148,21 @@ fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<E
         }
     }
     bar.finish();
+    print_method_rows(a, &rows)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --methods`' rows: to `--csv`, then to stdout in `--format`.
+fn print_method_rows(
+    a: &BenchArgs,
+    rows: &[shscale_scene::bench_methods::MethodRow],
+) -> anyhow::Result<()> {
+    use shscale_scene::bench_methods::{to_csv, to_markdown};
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
         }
-        shscale_runner::write_atomic(path, &to_csv(&rows))?;
+        shscale_runner::write_atomic(path, &to_csv(rows))?;
     }
     match a.format {
         BenchFormat::Markdown => {
@@ -164,12 +174,12 @@ fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<E
                 shscale_sh::cpu::cpu().summary()
             );
             println!();
-            print!("{}", to_markdown(&rows));
+            print!("{}", to_markdown(rows));
         }
-        BenchFormat::Csv => print!("{}", to_csv(&rows)),
-        BenchFormat::Json => println!("{}", serde_json::to_string_pretty(&rows)?),
+        BenchFormat::Csv => print!("{}", to_csv(rows)),
+        BenchFormat::Json => println!("{}", serde_json::to_string_pretty(rows)?),
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 pub fn figs(a: FigsArgs) -> anyhow::Result<ExitCode> {
@@ -468,6 +478,12 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
         }))?;
         return Ok(());
     }
+    print_estimates(&rows, speed);
+    Ok(())
+}
+
+/// `bench estimates`' text table.
+fn print_estimates(rows: &[serde_json::Value], speed: f64) {
     println!(
         "`--dry-run` estimate against measured wall time, {} rayon threads; this machine's ray rate {speed:.2}× the development VM's ({}); CPU: {}",
         rayon::current_num_threads(),
@@ -477,7 +493,7 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
     println!();
     println!("| config | runs | estimate (s) | measured (s) | estimate / measured | uncalibrated estimate / measured |");
     println!("|---|---:|---:|---:|---:|---:|");
-    for r in &rows {
+    for r in rows {
         let f = |k: &str, p: usize| {
             r[k].as_f64()
                 .map_or("not estimated".to_string(), |v| format!("{v:.p$}"))
@@ -492,7 +508,6 @@ fn bench_estimates(a: &crate::args::BenchEstimatesArgs) -> anyhow::Result<()> {
             f("dev_vm_estimate_over_measured", 2)
         );
     }
-    Ok(())
 }
 
 /// `bench rays`: a ray set (a file, the BSV workload or random rays) through the BVH.
