@@ -39,12 +39,14 @@
 //! | `kernels.rs` | the traversal kernels: one ray (any-hit, closest) and fans, per SIMD level |
 //! | `lanes.rs` | eight f32 lanes: the operations the kernels use, per SIMD level |
 //! | `packet.rs` | the packet kernel: 8 rays from one origin traversed together |
+//! | `prepared.rs` | a ray's prepared slab data and its traversal stack |
 
 mod build;
 mod kernels;
 mod lanes;
 mod layout;
 mod packet;
+mod prepared;
 #[cfg(test)]
 mod tests;
 

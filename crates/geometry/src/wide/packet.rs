@@ -2,9 +2,9 @@
 //! over [`Lanes`] and instantiated per SIMD level — [`Avx2`] inside AVX2 + FMA and AVX-512
 //! wrappers, [`Portable`] (two SSE2 or NEON vectors) everywhere else.
 
-use super::kernels::{stack_slots, uninit_slots, Prepared};
 use super::lanes::*;
 use super::layout::*;
+use super::prepared::{stack_slots, uninit_slots, Prepared};
 
 /// A packet subtree with at most this many live lanes is finished ray by ray. 6 (was 4 until
 /// the seventh session of 2026-12-02): −7 % fan-kernel instructions on the kit's dragon_19k A

@@ -4,6 +4,7 @@
 use super::build::*;
 use super::kernels::*;
 use super::layout::*;
+use super::prepared::*;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::bvh2::Bvh2;
 use obvhs::triangle::Triangle;
