@@ -18,6 +18,7 @@ pub mod radiance;
 pub mod receivers;
 pub mod selfshadow;
 pub mod shading;
+pub mod shexp;
 pub mod sphereset;
 pub mod srf;
 pub mod subvolume;

@@ -5,8 +5,9 @@
 //! the truncated SH product ([`crate::subvolume::near_to_far`]), the order in which
 //! shadow fields combine occluders — at an internal order M ≥ N when built with a basis and
 //! Gaunt tensor of order M, truncated to N once at the end ([`SphereSetField`]). Ren et al.
-//! accumulate the spheres' log-visibilities and exponentiate once; that variant is not built
-//! here (docs/math.md says why).
+//! accumulate the spheres' log-visibilities and exponentiate once; its exact form (the summed
+//! clamped logs, exponentiated by quadrature) is [`crate::shexp::SphereSetLog`], measured in
+//! docs/math.md ("Combining in log space").
 //!
 //! The visibility of one sphere of radius R, centre c, at a point p with d = |c − p| > R is
 //! `√(4π)e₀ − cap(asin(R/d))` about `(c − p)/d` (exact, band-limited to order N by
@@ -115,10 +116,11 @@ impl VisibilityField for SphereSetField<'_> {
 /// A product quadrature of the sphere: `n` Gauss–Legendre nodes in cos θ × `2n` uniform φ,
 /// with the basis at every node (`2n²` directions × N² values).
 pub struct QuadratureGrid {
-    dirs: Vec<DVec3>,
-    w: Vec<f64>,
-    y: Vec<f64>,
-    nn: usize,
+    pub(crate) dirs: Vec<DVec3>,
+    pub(crate) w: Vec<f64>,
+    /// The basis at every node, `nn` values per node.
+    pub(crate) y: Vec<f64>,
+    pub(crate) nn: usize,
 }
 
 impl QuadratureGrid {
