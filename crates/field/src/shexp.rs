@@ -61,13 +61,40 @@ pub fn log_sphere(basis: &ShBasis<f64>, s: &Sphere, p: DVec3, ln_eps: f64) -> Op
     Some(v)
 }
 
+/// A window on the log's bands before it is exponentiated (the log of a hard cap rings; a
+/// window trades the ringing for a softer edge): band `l` of an order-M log scaled by `σ_l`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Window {
+    /// `σ_l = 1`.
+    None,
+    /// Hann: `σ_l = (1 + cos(π l / M)) / 2`.
+    Hann,
+    /// Lanczos: `σ_l = sinc(l / M) = sin(π l / M) / (π l / M)` (`σ_0 = 1`).
+    Lanczos,
+}
+
+impl Window {
+    /// `σ_l` for band `l` of an order-`m` function.
+    pub fn factor(self, l: usize, m: usize) -> f64 {
+        let x = std::f64::consts::PI * l as f64 / m as f64;
+        match self {
+            Window::None => 1.0,
+            Window::Hann => 0.5 * (1.0 + x.cos()),
+            Window::Lanczos if l == 0 => 1.0,
+            Window::Lanczos => x.sin() / x,
+        }
+    }
+}
+
 /// A sphere set's visibility by the exact exponential of its summed clamped logs (module doc).
-/// The log is kept at the order M of `basis` (= the grid's order); `eval` returns order N ≤ M.
+/// The log is kept at the order M of `basis` (= the grid's order), windowed, and exponentiated;
+/// `eval` returns order N ≤ M.
 pub struct SphereSetLog<'a> {
     spheres: Vec<Sphere>,
     basis: &'a ShBasis<f64>,
     grid: &'a QuadratureGrid,
     ln_eps: f64,
+    window: Window,
 }
 
 impl<'a> SphereSetLog<'a> {
@@ -92,15 +119,31 @@ impl<'a> SphereSetLog<'a> {
             basis,
             grid,
             ln_eps: eps.ln(),
+            window: Window::None,
         }
     }
 
-    /// The summed log at `p` (order M), or `None` when `p` is inside a sphere.
+    /// The same set with its log windowed before the exponential.
+    pub fn with_window(mut self, window: Window) -> Self {
+        self.window = window;
+        self
+    }
+
+    /// The summed (windowed) log at `p` (order M), or `None` when `p` is inside a sphere.
     pub fn log_at(&self, p: DVec3) -> Option<Vec<f64>> {
         let mut sum = vec![0.0; self.grid.nn];
         for s in &self.spheres {
             let l = log_sphere(self.basis, s, p, self.ln_eps)?;
             sum.iter_mut().zip(&l).for_each(|(a, b)| *a += b);
+        }
+        let m = self.basis.order();
+        if self.window != Window::None {
+            for l in 0..m {
+                let f = self.window.factor(l, m);
+                sum[l * l..(l + 1) * (l + 1)]
+                    .iter_mut()
+                    .for_each(|x| *x *= f);
+            }
         }
         Some(sum)
     }
@@ -258,5 +301,21 @@ mod tests {
         println!("one sphere at 1.3r: by M (ε = 0.01) {by_m:.3?}; by ε (M = 8) {by_eps:.3?}");
         assert!(by_m[1] < by_m[0] && by_m[2] < by_m[1], "{by_m:?}");
         assert!(by_eps[0] < by_eps[1] && by_eps[1] < by_eps[2], "{by_eps:?}");
+    }
+
+    /// The windows' factors at their edges: band 0 untouched by every window; Hann `cos²`-shaped
+    /// (½ at l = M/2); Lanczos `2/π` at l = M/2; none of them negative below M.
+    #[test]
+    fn windows_at_their_edges() {
+        for w in [Window::None, Window::Hann, Window::Lanczos] {
+            assert_eq!(w.factor(0, 8), 1.0, "{w:?}");
+            assert!(
+                (0..8).all(|l| w.factor(l, 8) > 0.0 && w.factor(l, 8) <= 1.0),
+                "{w:?}"
+            );
+        }
+        assert!((Window::Hann.factor(4, 8) - 0.5).abs() < 1e-15);
+        assert!((Window::Lanczos.factor(4, 8) - 2.0 / PI).abs() < 1e-15);
+        assert_eq!(Window::None.factor(7, 8), 1.0);
     }
 }

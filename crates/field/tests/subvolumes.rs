@@ -404,7 +404,7 @@ fn a_higher_internal_order_closes_the_truncated_products_gap() {
 #[test]
 #[ignore]
 fn log_space_combination_against_products() {
-    use shscale_field::shexp::SphereSetLog;
+    use shscale_field::shexp::{SphereSetLog, Window};
     use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
     let n = 4;
     let nn = n * n;
@@ -434,7 +434,7 @@ fn log_space_combination_against_products() {
             DVec3::new(s * phi.cos(), s * phi.sin(), z)
         })
         .collect();
-    println!("| mesh | S | truth's mean change 128→256 | products M=4 | M=8 | M=12 | log M=4 ε=0.1 | ε=0.01 | ε=0.001 | log M=8 ε=0.1 | ε=0.01 | ε=0.001 | µs/receiver: products M=4, M=12, log M=8 |");
+    println!("| mesh | S | truth's mean change 128→256 | products M=4 | M=8 | M=12 | log M=4 ε=0.1 | ε=0.01 | ε=0.001 | log M=8 ε=0.1 | ε=0.01 | ε=0.001 | Hann M=8 ε=0.1 | ε=0.01 | Lanczos M=8 ε=0.1 | ε=0.01 | µs/receiver: products M=4, M=12, log M=8 |");
     for mesh_name in ["bunny", "duck"] {
         let mesh = shscale_geometry::bundled::load(mesh_name).unwrap();
         let bs = mesh.bounding_sphere();
@@ -464,6 +464,14 @@ fn log_space_combination_against_products() {
                     methods.push((
                         format!("l{m}:{eps}"),
                         Box::new(SphereSetLog::new(&fits, b, q, eps)),
+                    ));
+                }
+            }
+            for w in [Window::Hann, Window::Lanczos] {
+                for eps in [0.1, 0.01] {
+                    methods.push((
+                        format!("l8:{eps}:{w:?}"),
+                        Box::new(SphereSetLog::new(&fits, &b8, &q8, eps).with_window(w)),
                     ));
                 }
             }
