@@ -383,12 +383,39 @@ fn sequences_take_every_method() {
             "--out",
             out,
             "--method",
-            "sphere_set",
+            "full_field",
             "--frames",
             "2",
             "--gpu",
         ],
         "--gpu",
     );
+    // Sphere sets have a GPU sequence (where an adapter exists).
+    let g = shscale(&[
+        "render",
+        "--scene",
+        scene,
+        "--out",
+        out,
+        "--method",
+        "sphere_set",
+        "--frames",
+        "2",
+        "--parts",
+        "2",
+        "--gpu",
+    ]);
+    let text = String::from_utf8_lossy(&g.stdout);
+    if g.status.success() {
+        assert!(
+            text.contains("GPU sphere-set sequence") && text.contains("shading_ms"),
+            "{text}"
+        );
+    } else {
+        let err = String::from_utf8_lossy(&g.stderr);
+        let required = std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1");
+        assert!(!required && err.contains("--gpu"), "{err}");
+        eprintln!("notice: no adapter; the GPU sphere-set sequence was not run ({err})");
+    }
     std::fs::remove_dir_all(&d).ok();
 }

@@ -369,13 +369,16 @@ fn sequence(
     use shscale_scene::sequence::{cached_path, render_sequence_with};
     flags::int("--frames", frames, 1, MAX_FRAMES)?;
     if a.gpu {
-        if !cached_path(scene, method) {
-            bail!(
-                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\") only; --method {method} runs on the CPU path (without --gpu)"
-            );
-        }
         if a.reference.is_some() {
             bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
+        }
+        if method == Method::SphereSet {
+            return gpu_sphere_sequence(a, scene, frames);
+        }
+        if !cached_path(scene, method) {
+            bail!(
+                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\") and sphere sets only; --method {method} runs on the CPU path (without --gpu)"
+            );
         }
         return gpu_sequence(a, scene, frames);
     }
@@ -464,6 +467,50 @@ fn print_sequence_table(seq: &[shscale_scene::sequence::SequenceFrame], referenc
         }
         println!("{line}");
     }
+}
+
+/// `render --frames --method sphere_set --gpu`: spheres fitted on the host, shading on the GPU.
+fn gpu_sphere_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+    use shscale_runner::GpuMode;
+    use shscale_scene::gpu_path::open_gpu;
+    use shscale_scene::gpu_sets::{check, render_sequence_sphere_set_gpu};
+    check(scene)?;
+    let ctx = (open_gpu(GpuMode::Required).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?)
+        .context("--gpu")?;
+    let (img, stats) = render_sequence_sphere_set_gpu(scene, frames, &ctx, &mut |_, _| {})?;
+    let png = write_image(&a.out, &img).context("--out")?;
+    println!(
+        "GPU sphere-set sequence {} ({}×{} receivers, {} occluder(s) × {} parts, {frames} frames, adapter {})",
+        a.scene.display(),
+        img.width,
+        img.height,
+        scene.occluders.len(),
+        scene.parts,
+        ctx.describe()
+    );
+    println!(
+        "{:>5} {:>6} {:>10} {:>13} {:>12} {:>13} {:>10}",
+        "frame", "t", "deform_ms", "sphere_fit_ms", "shading_ms", "readback_ms", "frame_ms"
+    );
+    let mut total = 0.0;
+    for s in &stats {
+        let f = s.deform_seconds + s.sphere_fit_seconds + s.shading_seconds + s.readback_seconds;
+        total += f;
+        println!(
+            "{:>5} {:>6.3} {:>10.3} {:>13.3} {:>12.3} {:>13.3} {:>10.3}",
+            s.frame,
+            s.t,
+            s.deform_seconds * 1e3,
+            s.sphere_fit_seconds * 1e3,
+            s.shading_seconds * 1e3,
+            s.readback_seconds * 1e3,
+            f * 1e3
+        );
+    }
+    let mean = total / stats.len() as f64;
+    println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {

@@ -108,6 +108,23 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of the sphere-set shading kernel (a uniform).
+    GpuSetParams [32] {
+        receivers: u32 => "u32",
+        /// SH order N (≤ 8) and N².
+        order: u32 => "u32",
+        nn: u32 => "u32",
+        /// Spheres of the set (≤ 64) and entries of the order-N Gaunt tensor.
+        spheres: u32 => "u32",
+        entries: u32 => "u32",
+        /// Shaded channels (1 grey, 3 RGB).
+        channels: u32 => "u32",
+        pad0: u32 => "u32",
+        pad1: u32 => "u32",
+    }
+}
+
 /// Every struct's WGSL declaration, prepended to each shader.
 pub fn wgsl_structs() -> String {
     [
@@ -117,6 +134,7 @@ pub fn wgsl_structs() -> String {
         GpuParams::WGSL,
         GpuReceiver::WGSL,
         GpuCacheParams::WGSL,
+        GpuSetParams::WGSL,
     ]
     .concat()
 }

@@ -28,6 +28,7 @@ pub mod layout;
 pub mod sampling;
 pub mod sequence;
 pub mod shading;
+pub mod sphereset;
 pub mod timing;
 
 pub use context::{require_gpu_from_env, GpuContext};

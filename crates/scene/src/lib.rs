@@ -15,6 +15,7 @@
 //! | [`sequence`] | sequences with every method, per-frame errors | `render`, `scene` |
 //! | [`camera`] | camera images of a render | `render`, `scene`, `vocab` |
 //! | [`gpu_path`] | opening the GPU, the GPU sequence, GPU BSV timing | `frame`, `render`, `scene` |
+//! | [`gpu_sets`] | sphere sets on the GPU sequence path | `frame`, `render`, `scene` |
 //! | [`bench`] | Table 1: CPU and GPU sequences per stage | `gpu_path`, `render`, `scene` |
 //! | [`bench_methods`] | Table 1 per method on the CPU, with per-frame errors | `sequence`, `render`, `scene` |
 //! | [`kernels`] | `shscale bench rays|bsv|sh` against the peers | `error` |
@@ -27,6 +28,7 @@ pub mod camera;
 pub mod error;
 pub mod frame;
 pub mod gpu_path;
+pub mod gpu_sets;
 pub mod kernels;
 pub mod method;
 pub mod render;

@@ -1,0 +1,182 @@
+//! Sphere sets on the GPU: every receiver's visibility as the closed-form caps of a set of
+//! spheres multiplied near to far with the order-N Gaunt product, shaded with the light's
+//! transfer — the twin of the CPU's `SphereVisibility` fields through `near_to_far` and
+//! `Shader::shade` (sphereset.wgsl). Built once per receiver set and light ([`GpuSphereSet`]);
+//! per frame only the spheres (refitted to the posed mesh on the host) are uploaded. The plain
+//! chain only (internal order = N); at most [`MAX_GPU_SPHERES`] spheres; `N ≤ 8`.
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::layout::{shader, GpuSetParams, SH_WGSL};
+use crate::timing::{grid_64, StageTimer};
+use glam::DVec3;
+use shscale_geometry::Sphere;
+use shscale_sh::GauntTensor;
+
+const SPHERESET_WGSL: &str = include_str!("sphereset.wgsl");
+
+/// The most spheres the kernel sorts and multiplies per receiver.
+pub const MAX_GPU_SPHERES: usize = 64;
+
+/// The sphere-set shading kernel's source.
+pub fn source() -> String {
+    shader(&[SH_WGSL, SPHERESET_WGSL])
+}
+
+/// A receiver set and light on the GPU, shaded from a sphere set per frame.
+pub struct GpuSphereSet {
+    receivers: usize,
+    order: usize,
+    channels: usize,
+    entries: usize,
+    params_buf: wgpu::Buffer,
+    spheres_buf: wgpu::Buffer,
+    image_buf: wgpu::Buffer,
+    pipe: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+}
+
+impl GpuSphereSet {
+    /// Receivers at `points`, light transfer `transfer` (per channel, N² each; grey when the
+    /// three are equal), order N of `gaunt`.
+    pub fn new(
+        ctx: &GpuContext,
+        points: &[DVec3],
+        transfer: &[Vec<f64>; 3],
+        gaunt: &GauntTensor<f64>,
+    ) -> Result<Self, GpuError> {
+        let order = gaunt.order();
+        crate::sampling::check_gpu_order(order)?;
+        let nn = order * order;
+        if points.is_empty() || transfer.iter().any(|t| t.len() != nn) {
+            return Err(GpuError::Input(format!(
+                "{} receivers with transfers of {:?} coefficients for order {order}",
+                points.len(),
+                transfer.iter().map(Vec::len).collect::<Vec<_>>()
+            )));
+        }
+        let channels = if transfer[0] == transfer[1] && transfer[1] == transfer[2] {
+            1
+        } else {
+            3
+        };
+        let pts: Vec<[f32; 4]> = (points.iter())
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
+            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
+            .collect();
+        let t: Vec<f32> = (transfer[..channels].iter())
+            .flat_map(|c| c.iter().map(|&v| v as f32))
+            .collect();
+        let params = GpuSetParams {
+            receivers: points.len() as u32,
+            order: order as u32,
+            nn: nn as u32,
+            entries: g.len() as u32,
+            channels: channels as u32,
+            ..Default::default()
+        };
+        use wgpu::util::DeviceExt;
+        let params_buf = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("set params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
+        let points_buf = ctx.storage_init("set points", bytemuck::cast_slice(&pts));
+        let spheres_buf = ctx.storage("set spheres", (16 * MAX_GPU_SPHERES) as u64);
+        let gaunt_buf = ctx.storage_init("set gaunt", bytemuck::cast_slice(&g));
+        let transfer_buf = ctx.storage_init("set transfer", bytemuck::cast_slice(&t));
+        let knorm_buf = ctx.storage_init(
+            "knorm",
+            bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
+        );
+        let image_buf = ctx.storage("set image", (16 * points.len()) as u64);
+        let pipe = ctx.pipeline("sphere set", &source(), "shade_set");
+        let bind = ctx.bind(
+            &pipe,
+            &[
+                &params_buf,
+                &points_buf,
+                &spheres_buf,
+                &gaunt_buf,
+                &transfer_buf,
+                &knorm_buf,
+                &image_buf,
+            ],
+        );
+        Ok(Self {
+            receivers: points.len(),
+            order,
+            channels,
+            entries: g.len(),
+            params_buf,
+            spheres_buf,
+            image_buf,
+            pipe,
+            bind,
+        })
+    }
+
+    /// Shade every receiver under `spheres`: the image (RGB per receiver) and the kernel's
+    /// device time in seconds (timestamps where available, else the synchronised wall clock of
+    /// the upload and the dispatch).
+    pub fn frame(
+        &self,
+        ctx: &GpuContext,
+        spheres: &[Sphere],
+    ) -> Result<(Vec<[f32; 3]>, f64), GpuError> {
+        if spheres.is_empty() || spheres.len() > MAX_GPU_SPHERES {
+            return Err(GpuError::Input(format!(
+                "{} spheres: the GPU sphere set takes 1 to {MAX_GPU_SPHERES}",
+                spheres.len()
+            )));
+        }
+        let s: Vec<[f32; 4]> = (spheres.iter())
+            .map(|s| {
+                let c = s.center;
+                [c.x as f32, c.y as f32, c.z as f32, s.radius as f32]
+            })
+            .collect();
+        let params = GpuSetParams {
+            receivers: self.receivers as u32,
+            order: self.order as u32,
+            nn: (self.order * self.order) as u32,
+            spheres: s.len() as u32,
+            entries: self.entries as u32,
+            channels: self.channels as u32,
+            ..Default::default()
+        };
+        let t0 = std::time::Instant::now();
+        ctx.queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
+        ctx.queue
+            .write_buffer(&self.spheres_buf, 0, bytemuck::cast_slice(&s));
+        let timer = StageTimer::new(ctx, 1);
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = enc.begin_compute_pass(&timer.pass("sphere set", 0));
+            let (x, y) = grid_64(self.receivers as u32);
+            pass.set_pipeline(&self.pipe);
+            pass.set_bind_group(0, &self.bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        let wall = t0.elapsed().as_secs_f64();
+        let device = timer.read(ctx)?.map_or(wall, |v| v[0]);
+        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&ctx.read_buffer(&self.image_buf)?).to_vec();
+        Ok((
+            raw[..self.receivers]
+                .iter()
+                .map(|p| [p[0], p[1], p[2]])
+                .collect(),
+            device,
+        ))
+    }
+}

@@ -1,0 +1,161 @@
+//! Sphere sets on the GPU path (`render --frames --method sphere_set --gpu`): per frame the
+//! mesh is posed and one sphere fitted per part on the host (the partition made once, on the
+//! rest pose, as the CPU render makes it), then every receiver is shaded on the GPU from the
+//! spheres' closed-form caps multiplied near to far (`shscale_gpu::sphereset`). The image of a
+//! frame is the CPU render's of the same pose within f32 rounding (tested on lavapipe).
+//!
+//! Scope: the plain chain (`sphere_order` at most the scene's order), `N ≤ 8`, at most
+//! [`MAX_GPU_SPHERES`] spheres over all occluders, no local lights; anything else is refused by
+//! name.
+
+use crate::error::Error;
+use crate::frame::{light_of, receiver_grid, Poser};
+use crate::render::RenderOutput;
+use crate::scene::Scene;
+use crate::vocab::placed_mesh;
+use shscale_field::shading::Shader;
+use shscale_geometry::{Mesh, Sphere};
+use shscale_gpu::sphereset::{GpuSphereSet, MAX_GPU_SPHERES};
+use shscale_gpu::GpuContext;
+use std::time::Instant;
+
+/// Per-frame times of the GPU sphere-set sequence.
+#[derive(Clone, Debug, Default)]
+pub struct GpuSetFrame {
+    pub frame: usize,
+    pub t: f64,
+    /// Host: posing the meshes, fitting the spheres.
+    pub deform_seconds: f64,
+    pub sphere_fit_seconds: f64,
+    /// Device: the shading kernel (timestamps where available).
+    pub shading_seconds: f64,
+    /// Host: the image read back.
+    pub readback_seconds: f64,
+}
+
+/// One occluder as the sequence needs it: the rest pose, its poser, the part of each triangle;
+/// or the analytic sphere (its own set, fixed).
+enum SetOccluder {
+    Mesh(Box<PosedParts>),
+    Sphere(Sphere),
+}
+
+/// A mesh occluder of the set: rest pose, current pose, deformer, part of each triangle.
+struct PosedParts {
+    rest: Mesh,
+    posed: Mesh,
+    poser: Option<Poser>,
+    labels: Vec<u32>,
+}
+
+/// Whether the GPU sphere-set path takes `scene`, or why not.
+pub fn check(scene: &Scene) -> Result<(), Error> {
+    let why = if scene.sphere_order > scene.order {
+        Some(format!(
+            "sphere_order {} multiplies above the scene's order; the GPU sphere set is the plain chain",
+            scene.sphere_order
+        ))
+    } else if !scene.light_sources.is_empty() {
+        Some("local lights are shaded on the CPU only".to_string())
+    } else if scene.occluders.len() * scene.parts > MAX_GPU_SPHERES {
+        Some(format!(
+            "{} occluders × {} parts: the GPU sphere set takes at most {MAX_GPU_SPHERES} spheres",
+            scene.occluders.len(),
+            scene.parts
+        ))
+    } else {
+        None
+    };
+    match why {
+        Some(w) => Err(Error::config(format!(
+            "{}: --gpu with sphere_set: {w}",
+            scene.file
+        ))),
+        None => shscale_gpu::sampling::check_gpu_order(scene.order).map_err(Error::from),
+    }
+}
+
+/// `frames` poses of `scene` shaded on the GPU from their sphere sets; the last frame's image
+/// and every frame's times. `each` sees every frame and its pixels after it is done.
+pub fn render_sequence_sphere_set_gpu(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
+) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
+    check(scene)?;
+    let frames = frames.max(1);
+    let mut occs = Vec::new();
+    for o in &scene.occluders {
+        if o.mesh == "sphere" {
+            let b = crate::frame::build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?;
+            occs.push(SetOccluder::Sphere(b.bounding_sphere()));
+            continue;
+        }
+        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+            .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+        occs.push(SetOccluder::Mesh(Box::new(PosedParts {
+            poser: (o.deformer).map(|(k, a)| Poser::new(&rest, k, a)),
+            posed: rest.clone(),
+            rest,
+            labels,
+        })));
+    }
+    let light = light_of(scene)?;
+    let shader = Shader::new(scene.order)?;
+    let transfer = shader.transfer(&light, glam::DVec3::Z);
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
+        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+    let recv = receiver_grid(scene);
+    let gpu = GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?;
+    let mut stats = Vec::with_capacity(frames);
+    let mut pixels = Vec::new();
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let mut st = GpuSetFrame {
+            frame: f,
+            t,
+            ..Default::default()
+        };
+        let mut spheres = Vec::new();
+        for o in occs.iter_mut() {
+            match o {
+                SetOccluder::Sphere(s) => spheres.push(*s),
+                SetOccluder::Mesh(m) => {
+                    let t0 = Instant::now();
+                    if let Some(p) = &m.poser {
+                        p.pose(&m.rest, t, &mut m.posed);
+                    }
+                    st.deform_seconds += t0.elapsed().as_secs_f64();
+                    let t0 = Instant::now();
+                    spheres.extend(shscale_geometry::partition::fit_spheres(
+                        &m.posed,
+                        &m.labels,
+                        scene.parts,
+                    ));
+                    st.sphere_fit_seconds += t0.elapsed().as_secs_f64();
+                }
+            }
+        }
+        let t0 = Instant::now();
+        let (img, device) = gpu.frame(ctx, &spheres)?;
+        st.shading_seconds = device;
+        st.readback_seconds = (t0.elapsed().as_secs_f64() - device).max(0.0);
+        each(&st, &img);
+        pixels = img;
+        stats.push(st);
+    }
+    Ok((
+        RenderOutput {
+            width: scene.resolution[0],
+            height: scene.resolution[1],
+            pixels,
+            stages: Vec::new(),
+            products: 0,
+            skipped: 0,
+            error: Vec::new(),
+        },
+        stats,
+    ))
+}
