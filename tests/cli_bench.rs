@@ -500,7 +500,7 @@ fn peers_driver_refuses_bad_arguments() {
 
 /// `bench --methods`: one row per scene and variant with the variant's path, its stages and,
 /// with `--errors`, the error against each measured frame's band-limited truth; the papers'
-/// method is the cached path and the other methods per-frame; bad variants and `--gpu` refused.
+/// method is the cached path and the other methods per-frame; a bad variant refused.
 #[test]
 fn table1_per_method_rows() {
     let v = common::json(&[
@@ -540,7 +540,6 @@ fn table1_per_method_rows() {
     }
     assert!(rows[1]["stages_ms"]["sphere_fit"].as_f64().is_some(), "{v}");
     common::fails(&["bench", "--methods", "sphere_set:s=2"], "sphere_set");
-    common::fails(&["bench", "--methods", "default", "--gpu"], "--gpu");
 }
 
 /// `bench bsv --write-rays`: the sampling's exact rays in the peer kit's format, our answers and
@@ -620,4 +619,41 @@ fn bsv_rays_are_written_for_a_peer() {
         "--write-rays",
     );
     std::fs::remove_dir_all(&d).ok();
+}
+
+/// `bench --methods --gpu`: a GPU row beside the CPU row for a method with a GPU form; the GPU
+/// sphere set's per-frame error equals the CPU's within f32 rounding (the same spheres, the same
+/// caps and products). Without an adapter the CPU rows alone (a notice), unless
+/// `SHSCALE_REQUIRE_GPU=1`.
+#[test]
+fn table1_per_method_gpu_rows() {
+    let v = common::json(&[
+        "bench",
+        "--scene",
+        "egg",
+        "--methods",
+        "sphere_set:parts=2",
+        "--errors",
+        "--gpu",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--format",
+        "json",
+    ]);
+    let rows = v.as_array().unwrap();
+    if rows.len() == 1 {
+        assert!(!require_gpu(), "no GPU row: {v}");
+        eprintln!("notice: no adapter; the GPU rows were not measured");
+        return;
+    }
+    assert_eq!(rows.len(), 2, "{v}");
+    assert_eq!(rows[1]["path"], "gpu", "{v}");
+    let (c, g) = (
+        rows[0]["error_mean"].as_f64().unwrap(),
+        rows[1]["error_mean"].as_f64().unwrap(),
+    );
+    println!("egg, 2 spheres: CPU error {c:.6}, GPU error {g:.6}");
+    assert!((c - g).abs() < 1e-4 * c.max(1e-3), "{c} vs {g}");
 }

@@ -204,8 +204,9 @@ pub struct BenchArgs {
     /// `name[:key=value,…]` (keys `parts`, `s` = sampling radius, `clearance` = δ of per-direction
     /// radii), or `default` (extrapolated, full_field, extrapolated:s=1.2,
     /// extrapolated:clearance=0.1, sub_volumes:parts=2, sphere_set:parts=4, sphere_set:parts=16).
-    /// The GPU path has the papers' extrapolation only, so not with --gpu.
-    #[arg(long, conflicts_with = "gpu")]
+    /// With --gpu, a GPU row too for each variant with a GPU form (the papers' extrapolation
+    /// from one sampling sphere, sphere sets).
+    #[arg(long)]
     pub methods: Option<String>,
     /// With --methods: score every measured frame against the band-limited truth of its pose
     /// (ray_traced at the scene's truth_res; once per frame, shared by the methods, not timed).

@@ -38,7 +38,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
     }
     if let Some(list) = &a.methods {
-        return bench_methods(&a, scenes, list);
+        return bench_methods(&a, scenes, list, ctx.as_ref());
     }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
     let paths = usize::from(cpu) + usize::from(ctx.is_some());
@@ -90,8 +90,13 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `bench --methods`: Table 1 per method on the CPU sequence path (`shscale_scene::bench_methods`).
-fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<ExitCode> {
-    use shscale_scene::bench_methods::{bench_method, Truths, Variant};
+fn bench_methods(
+    a: &BenchArgs,
+    scenes: &[&str],
+    list: &str,
+    gpu: Option<&shscale_scene::gpu_path::GpuContext>,
+) -> anyhow::Result<ExitCode> {
+    use shscale_scene::bench_methods::{bench_method, bench_method_gpu, Truths, Variant};
     use shscale_scene::render::estimated_work;
     let variants = Variant::parse_list(list).map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
     let total = (a.frames + a.warmup) as f64;
@@ -144,6 +149,10 @@ fn bench_methods(a: &BenchArgs, scenes: &[&str], list: &str) -> anyhow::Result<E
                 a.warmup,
                 truths.as_ref(),
             )?);
+            if let Some(ctx) = gpu {
+                let fw = (a.frames, a.warmup);
+                rows.extend(bench_method_gpu(s, &sc, v, fw, truths.as_ref(), ctx)?);
+            }
             bar.inc();
         }
     }

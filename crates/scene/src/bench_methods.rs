@@ -161,7 +161,8 @@ fn as_map<S: serde::Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::E
 pub struct MethodRow {
     pub scene: String,
     pub method: String,
-    /// `cached` (the real-time path) or `per-frame` (every frame rendered from its pose).
+    /// `cached` (the CPU real-time path), `per-frame` (every frame rendered from its pose) or
+    /// `gpu` (the GPU sequence path).
     pub path: String,
     pub device: String,
     pub frames: usize,
@@ -270,6 +271,95 @@ pub fn bench_method(
         error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
         error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
     })
+}
+
+/// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
+/// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
+/// sequence; no per-frame image, so no error) and sphere sets (`gpu_sets`, scored against
+/// `truths` like the CPU rows); `None` for the others.
+pub fn bench_method_gpu(
+    name: &str,
+    scene: &Scene,
+    variant: &Variant,
+    (frames, warmup): (usize, usize),
+    truths: Option<&Truths>,
+    ctx: &shscale_gpu::GpuContext,
+) -> Result<Option<MethodRow>, Error> {
+    let frames = frames.max(1);
+    let total = warmup + frames;
+    let s = variant.apply(scene);
+    let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match variant.method {
+        Method::Extrapolated if cached_path(&s, Method::Extrapolated) => {
+            let run = crate::gpu_path::render_sequence_gpu(&s, total, ctx)?;
+            let stages = (run.frames.iter().skip(warmup))
+                .map(|f| {
+                    let g = &f.gpu;
+                    [
+                        ("deform", f.deform_seconds),
+                        ("bvh_update", g.bvh_seconds),
+                        ("upload", g.upload_seconds),
+                        ("bsv_sampling", g.sampling_seconds),
+                        ("sh_conversion", g.projection_seconds),
+                        ("shading", g.shading_seconds),
+                    ]
+                    .iter()
+                    .map(|(n, v)| (n.to_string(), *v))
+                    .collect()
+                })
+                .collect();
+            (stages, Vec::new())
+        }
+        Method::SphereSet => {
+            let (mut stages, mut errors, mut failed) = (Vec::new(), Vec::new(), None);
+            crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
+                if f.frame < warmup {
+                    return;
+                }
+                stages.push(vec![
+                    ("deform".to_string(), f.deform_seconds),
+                    ("sphere_fit".to_string(), f.sphere_fit_seconds),
+                    ("shading".to_string(), f.shading_seconds),
+                    ("readback".to_string(), f.readback_seconds),
+                ]);
+                if let Some(t) = truths {
+                    let truth = &t.frames[f.frame - warmup];
+                    match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
+                        Some(e) => errors.push(e),
+                        None => failed = Some(f.frame),
+                    }
+                }
+            })?;
+            if let Some(f) = failed {
+                return Err(Error::config(format!(
+                    "--scene {name}: frame {f}: the unshadowed image is black"
+                )));
+            }
+            (stages, errors)
+        }
+        _ => return Ok(None),
+    };
+    let names: Vec<String> = stages[0].iter().map(|(n, _)| n.clone()).collect();
+    let stages_ms = (names.iter().enumerate())
+        .map(|(i, n)| {
+            let v: Vec<f64> = stages.iter().map(|f| f[i].1).collect();
+            (n.clone(), 1e3 * median(&v))
+        })
+        .collect();
+    let totals: Vec<f64> = stages.iter().map(|f| f.iter().map(|s| s.1).sum()).collect();
+    let frame_ms = 1e3 * median(&totals);
+    Ok(Some(MethodRow {
+        scene: name.to_string(),
+        method: variant.label.clone(),
+        path: "gpu".into(),
+        device: ctx.describe(),
+        frames,
+        warmup,
+        stages_ms,
+        frame_ms,
+        fps: 1e3 / frame_ms,
+        error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
+        error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
+    }))
 }
 
 /// The rows as Markdown.

@@ -13,7 +13,9 @@ use shscale_field::shading::Shader;
 use shscale_field::{Bsv, BsvSample, Layout};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{Mesh, Sphere};
-use shscale_gpu::{GpuContext, GpuSequence, GpuStageTimes, ReceiverSetup, Receivers};
+/// The adapter the GPU paths run on (re-exported for callers that hold one).
+pub use shscale_gpu::GpuContext;
+use shscale_gpu::{GpuSequence, GpuStageTimes, ReceiverSetup, Receivers};
 use shscale_runner::{Ctx, Device, GpuMode};
 use shscale_scaling::Eta;
 use std::time::Instant;
