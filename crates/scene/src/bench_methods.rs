@@ -273,6 +273,32 @@ pub fn bench_method(
     })
 }
 
+/// The GPU Table 1 sequence's stage times per measured frame (seconds).
+fn gpu_extrapolated_stages(
+    s: &Scene,
+    total: usize,
+    warmup: usize,
+    ctx: &shscale_gpu::GpuContext,
+) -> Result<Vec<Vec<(String, f64)>>, Error> {
+    let run = crate::gpu_path::render_sequence_gpu(s, total, ctx)?;
+    Ok((run.frames.iter().skip(warmup))
+        .map(|f| {
+            let g = &f.gpu;
+            [
+                ("deform", f.deform_seconds),
+                ("bvh_update", g.bvh_seconds),
+                ("upload", g.upload_seconds),
+                ("bsv_sampling", g.sampling_seconds),
+                ("sh_conversion", g.projection_seconds),
+                ("shading", g.shading_seconds),
+            ]
+            .iter()
+            .map(|(n, v)| (n.to_string(), *v))
+            .collect()
+        })
+        .collect())
+}
+
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
 /// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
 /// sequence; no per-frame image, so no error) and sphere sets (`gpu_sets`, scored against
@@ -290,24 +316,7 @@ pub fn bench_method_gpu(
     let s = variant.apply(scene);
     let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match variant.method {
         Method::Extrapolated if cached_path(&s, Method::Extrapolated) => {
-            let run = crate::gpu_path::render_sequence_gpu(&s, total, ctx)?;
-            let stages = (run.frames.iter().skip(warmup))
-                .map(|f| {
-                    let g = &f.gpu;
-                    [
-                        ("deform", f.deform_seconds),
-                        ("bvh_update", g.bvh_seconds),
-                        ("upload", g.upload_seconds),
-                        ("bsv_sampling", g.sampling_seconds),
-                        ("sh_conversion", g.projection_seconds),
-                        ("shading", g.shading_seconds),
-                    ]
-                    .iter()
-                    .map(|(n, v)| (n.to_string(), *v))
-                    .collect()
-                })
-                .collect();
-            (stages, Vec::new())
+            (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new())
         }
         Method::SphereSet => {
             let (mut stages, mut errors, mut failed) = (Vec::new(), Vec::new(), None);

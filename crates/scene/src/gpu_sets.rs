@@ -75,16 +75,9 @@ pub fn check(scene: &Scene) -> Result<(), Error> {
     }
 }
 
-/// `frames` poses of `scene` shaded on the GPU from their sphere sets; the last frame's image
-/// and every frame's times. `each` sees every frame and its pixels after it is done.
-pub fn render_sequence_sphere_set_gpu(
-    scene: &Scene,
-    frames: usize,
-    ctx: &GpuContext,
-    each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
-) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
-    check(scene)?;
-    let frames = frames.max(1);
+/// Every occluder of `scene` as the sequence needs it: meshes placed, partitioned once on the
+/// rest pose (as the CPU render partitions them), with their posers.
+fn set_occluders(scene: &Scene) -> Result<Vec<SetOccluder>, Error> {
     let mut occs = Vec::new();
     for o in &scene.occluders {
         if o.mesh == "sphere" {
@@ -102,6 +95,20 @@ pub fn render_sequence_sphere_set_gpu(
             labels,
         })));
     }
+    Ok(occs)
+}
+
+/// `frames` poses of `scene` shaded on the GPU from their sphere sets; the last frame's image
+/// and every frame's times. `each` sees every frame and its pixels after it is done.
+pub fn render_sequence_sphere_set_gpu(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
+) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
+    check(scene)?;
+    let frames = frames.max(1);
+    let mut occs = set_occluders(scene)?;
     let light = light_of(scene)?;
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, glam::DVec3::Z);
