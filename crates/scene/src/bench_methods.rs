@@ -206,6 +206,79 @@ impl Truths {
     }
 }
 
+/// Each measured frame's `shade_rmse_rel` against its pose's truth, as the frames arrive.
+struct Scores<'a> {
+    truths: Option<&'a Truths>,
+    warmup: usize,
+    errors: Vec<f64>,
+    failed: Option<usize>,
+}
+
+impl<'a> Scores<'a> {
+    fn new(truths: Option<&'a Truths>, warmup: usize) -> Self {
+        Scores {
+            truths,
+            warmup,
+            errors: Vec::new(),
+            failed: None,
+        }
+    }
+
+    /// Score frame `frame` (warm-up frames and runs without truths are not scored).
+    fn add(&mut self, frame: usize, px: &[[f32; 3]]) {
+        let Some(t) = self.truths.filter(|_| frame >= self.warmup) else {
+            return;
+        };
+        let truth = &t.frames[frame - self.warmup];
+        match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
+            Some(e) => self.errors.push(e),
+            None => self.failed = Some(frame),
+        }
+    }
+
+    /// The errors, or the frame whose unshadowed image was black.
+    fn finish(self, name: &str) -> Result<Vec<f64>, Error> {
+        match self.failed {
+            Some(f) => Err(Error::config(format!(
+                "--scene {name}: frame {f}: the unshadowed image is black"
+            ))),
+            None => Ok(self.errors),
+        }
+    }
+}
+
+/// A row from the measured frames' stage times (seconds, the same stages in every frame) and
+/// errors: each stage's median, the median frame (the sum of its stages).
+fn row_of(
+    (name, variant): (&str, &Variant),
+    (path, device): (&str, String),
+    (frames, warmup): (usize, usize),
+    stages: &[Vec<(String, f64)>],
+    errors: &[f64],
+) -> MethodRow {
+    let stages_ms = (stages[0].iter().enumerate())
+        .map(|(i, (n, _))| {
+            let v: Vec<f64> = stages.iter().map(|f| f[i].1).collect();
+            (n.clone(), 1e3 * median(&v))
+        })
+        .collect();
+    let totals: Vec<f64> = stages.iter().map(|f| f.iter().map(|s| s.1).sum()).collect();
+    let frame_ms = 1e3 * median(&totals);
+    MethodRow {
+        scene: name.to_string(),
+        method: variant.label.clone(),
+        path: path.into(),
+        device,
+        frames,
+        warmup,
+        stages_ms,
+        frame_ms,
+        fps: 1e3 / frame_ms,
+        error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
+        error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
+    }
+}
+
 /// `variant` on `scene` (named `name`) over `warmup + frames` frames, scored against `truths`
 /// (of the measured frames) when given.
 pub fn bench_method(
@@ -217,60 +290,34 @@ pub fn bench_method(
     truths: Option<&Truths>,
 ) -> Result<MethodRow, Error> {
     let frames = frames.max(1);
-    let total = warmup + frames;
     let s = variant.apply(scene);
-    let mut errors = Vec::new();
-    let mut failed = None;
-    let (_, seq) = render_sequence_with(&s, variant.method, total, None, &mut |f, px| {
-        if let (Some(t), true) = (truths, f.frame >= warmup) {
-            let truth = &t.frames[f.frame - warmup];
-            match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
-                Some(e) => errors.push(e),
-                None => failed = Some(f.frame),
-            }
-        }
-    })?;
-    if let Some(f) = failed {
-        return Err(Error::config(format!(
-            "--scene {name}: frame {f}: the unshadowed image is black"
-        )));
-    }
-    let measured = &seq[warmup.min(seq.len() - 1)..];
-    let names: Vec<String> = measured[0].stages.iter().map(|(n, _)| n.clone()).collect();
-    let stages_ms = names
-        .iter()
-        .map(|n| {
-            let v: Vec<f64> = measured
-                .iter()
-                .map(|f| f.stages.iter().filter(|(k, _)| k == n).map(|s| s.1).sum())
-                .collect();
-            (n.clone(), 1e3 * median(&v))
-        })
+    let mut scores = Scores::new(truths, warmup);
+    let (_, seq) =
+        render_sequence_with(&s, variant.method, warmup + frames, None, &mut |f, px| {
+            scores.add(f.frame, px)
+        })?;
+    let errors = scores.finish(name)?;
+    let stages: Vec<Vec<(String, f64)>> = (seq.iter().skip(warmup))
+        .map(|f| f.stages.clone())
         .collect();
-    let frame_ms = 1e3 * median(&measured.iter().map(|f| f.seconds).collect::<Vec<_>>());
-    let threads = rayon::current_num_threads();
-    Ok(MethodRow {
-        scene: name.to_string(),
-        method: variant.label.clone(),
-        path: if cached_path(&s, variant.method) {
-            "cached"
-        } else {
-            "per-frame"
-        }
-        .into(),
-        device: format!(
-            "cpu ({threads} threads, kernels {}): {}",
-            shscale_sh::simd::level().name(),
-            shscale_sh::cpu::cpu().summary()
-        ),
-        frames,
-        warmup,
-        stages_ms,
-        frame_ms,
-        fps: 1e3 / frame_ms,
-        error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
-        error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
-    })
+    let path = if cached_path(&s, variant.method) {
+        "cached"
+    } else {
+        "per-frame"
+    };
+    let device = format!(
+        "cpu ({} threads, kernels {}): {}",
+        rayon::current_num_threads(),
+        shscale_sh::simd::level().name(),
+        shscale_sh::cpu::cpu().summary()
+    );
+    Ok(row_of(
+        (name, variant),
+        (path, device),
+        (frames, warmup),
+        &stages,
+        &errors,
+    ))
 }
 
 /// The GPU Table 1 sequence's stage times per measured frame (seconds).
@@ -319,56 +366,29 @@ pub fn bench_method_gpu(
             (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new())
         }
         Method::SphereSet => {
-            let (mut stages, mut errors, mut failed) = (Vec::new(), Vec::new(), None);
+            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
             crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
-                if f.frame < warmup {
-                    return;
+                if f.frame >= warmup {
+                    stages.push(vec![
+                        ("deform".to_string(), f.deform_seconds),
+                        ("sphere_fit".to_string(), f.sphere_fit_seconds),
+                        ("shading".to_string(), f.shading_seconds),
+                        ("readback".to_string(), f.readback_seconds),
+                    ]);
                 }
-                stages.push(vec![
-                    ("deform".to_string(), f.deform_seconds),
-                    ("sphere_fit".to_string(), f.sphere_fit_seconds),
-                    ("shading".to_string(), f.shading_seconds),
-                    ("readback".to_string(), f.readback_seconds),
-                ]);
-                if let Some(t) = truths {
-                    let truth = &t.frames[f.frame - warmup];
-                    match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
-                        Some(e) => errors.push(e),
-                        None => failed = Some(f.frame),
-                    }
-                }
+                scores.add(f.frame, px);
             })?;
-            if let Some(f) = failed {
-                return Err(Error::config(format!(
-                    "--scene {name}: frame {f}: the unshadowed image is black"
-                )));
-            }
-            (stages, errors)
+            (stages, scores.finish(name)?)
         }
         _ => return Ok(None),
     };
-    let names: Vec<String> = stages[0].iter().map(|(n, _)| n.clone()).collect();
-    let stages_ms = (names.iter().enumerate())
-        .map(|(i, n)| {
-            let v: Vec<f64> = stages.iter().map(|f| f[i].1).collect();
-            (n.clone(), 1e3 * median(&v))
-        })
-        .collect();
-    let totals: Vec<f64> = stages.iter().map(|f| f.iter().map(|s| s.1).sum()).collect();
-    let frame_ms = 1e3 * median(&totals);
-    Ok(Some(MethodRow {
-        scene: name.to_string(),
-        method: variant.label.clone(),
-        path: "gpu".into(),
-        device: ctx.describe(),
-        frames,
-        warmup,
-        stages_ms,
-        frame_ms,
-        fps: 1e3 / frame_ms,
-        error_mean: (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64),
-        error_max: (!errors.is_empty()).then(|| errors.iter().copied().fold(0.0, f64::max)),
-    }))
+    Ok(Some(row_of(
+        (name, variant),
+        ("gpu", ctx.describe()),
+        (frames, warmup),
+        &stages,
+        &errors,
+    )))
 }
 
 /// The rows as Markdown.
