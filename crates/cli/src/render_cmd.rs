@@ -173,17 +173,10 @@ fn reference_error(
     r: Method,
 ) -> anyhow::Result<(Method, f64, f64, RenderOutput)> {
     let t = std::time::Instant::now();
-    let truth = render(scene, r)?;
-    let mut open = scene.clone();
-    open.occluders.clear();
-    let unshadowed = render(&open, Method::RayTraced)?;
-    let flat = |img: &RenderOutput| {
-        img.pixels
-            .iter()
-            .flat_map(|p| p.map(f64::from))
-            .collect::<Vec<f64>>()
-    };
-    let rel = shscale_field::shading::shade_rmse_rel(&flat(img), &flat(&truth), &flat(&unshadowed))
+    let reference = shscale_scene::sequence::Reference::new(scene, r)?;
+    let truth = reference.image(scene, None)?;
+    let flat = shscale_scene::sequence::flat(&truth.pixels);
+    let rel = (reference.error(&img.pixels, &flat))
         .context("shade_rmse_rel: the unshadowed image is black")?;
     Ok((r, rel, t.elapsed().as_secs_f64(), truth))
 }
@@ -488,26 +481,9 @@ fn gpu_sphere_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::
         scene.parts,
         ctx.describe()
     );
-    println!(
-        "{:>5} {:>6} {:>10} {:>13} {:>12} {:>13} {:>10}",
-        "frame", "t", "deform_ms", "sphere_fit_ms", "shading_ms", "readback_ms", "frame_ms"
-    );
-    let mut total = 0.0;
-    for s in &stats {
-        let f = s.deform_seconds + s.sphere_fit_seconds + s.shading_seconds + s.readback_seconds;
-        total += f;
-        println!(
-            "{:>5} {:>6.3} {:>10.3} {:>13.3} {:>12.3} {:>13.3} {:>10.3}",
-            s.frame,
-            s.t,
-            s.deform_seconds * 1e3,
-            s.sphere_fit_seconds * 1e3,
-            s.shading_seconds * 1e3,
-            s.readback_seconds * 1e3,
-            f * 1e3
-        );
-    }
-    let mean = total / stats.len() as f64;
+    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
+    print_sequence_table(&seq, None);
+    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
     println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)

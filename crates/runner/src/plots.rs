@@ -525,24 +525,11 @@ where
 /// A text drawn beside a point of a scatter (data coordinates): what a front point is.
 pub type Note = ((f64, f64), String);
 
-/// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front` and a horizontal
+/// Write `stem.png` and `stem.svg`: a scatter of `series` with the black `front`, a horizontal
 /// grey bar per `(y, x low, x high)` of `xbars` (the spread of each point's time; none: no
-/// bars); `log_x` draws x as log10 x (for budgets spanning decades). Written as a unit like
+/// bars) and a short text beside each of `notes` (the configuration a front point is, say);
+/// `log_x` draws x as log10 x (for budgets spanning decades). Written as a unit like
 /// [`write_both`].
-pub fn write_scatter_with_bars(
-    dir: &Path,
-    stem: &str,
-    labels: &Labels,
-    series: &BTreeMap<String, Vec<(f64, f64)>>,
-    front: &[(f64, f64)],
-    xbars: &[(f64, f64, f64)],
-    log_x: bool,
-) -> Result<Vec<PathBuf>, Error> {
-    write_scatter_noted(dir, stem, labels, series, front, xbars, log_x, &[])
-}
-
-/// [`write_scatter_with_bars`] with `notes`: a short text beside each of those points (the
-/// configuration a front point is, say).
 #[allow(clippy::too_many_arguments)]
 pub fn write_scatter_noted(
     dir: &Path,

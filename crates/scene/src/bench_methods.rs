@@ -11,7 +11,7 @@
 use crate::error::Error;
 use crate::method::Method;
 use crate::scene::Scene;
-use crate::sequence::{cached_path, flat, render_sequence_with};
+use crate::sequence::{cached_path, flat, render_sequence_with, Reference};
 use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_gpu::timing::median;
@@ -134,7 +134,8 @@ impl Variant {
         items.iter().map(|i| Self::parse(i)).collect()
     }
 
-    /// `scene` with this variant's keys.
+    /// `scene` with this variant's keys; sub-volumes and sphere sets without `parts` take 4,
+    /// as `render --parts` does by default.
     pub fn apply(&self, scene: &Scene) -> Scene {
         let mut s = scene.clone();
         if let Some(p) = self.parts {
@@ -182,27 +183,23 @@ pub struct MethodRow {
 /// The band-limited truth of every pose of a sequence (pixels, flat) and the unshadowed image.
 pub struct Truths {
     frames: Vec<Vec<f64>>,
-    unshadowed: Vec<f64>,
+    reference: Reference,
 }
 
 impl Truths {
     /// `ray_traced` at `t = f / total` for `f` in `from..total`.
     pub fn new(scene: &Scene, from: usize, total: usize) -> Result<Self, Error> {
-        let mut open = scene.clone();
-        open.occluders.clear();
-        let unshadowed = flat(&crate::render::render(&open, Method::RayTraced)?.pixels);
+        let reference = Reference::new(scene, Method::RayTraced)?;
         let frames = (from..total)
             .map(|f| {
-                let posed = Scene {
-                    pose_t: Some(f as f64 / total as f64),
-                    ..scene.clone()
-                };
                 Ok(flat(
-                    &crate::render::render(&posed, Method::RayTraced)?.pixels,
+                    &reference
+                        .image(scene, Some(f as f64 / total as f64))?
+                        .pixels,
                 ))
             })
             .collect::<Result<_, Error>>()?;
-        Ok(Truths { frames, unshadowed })
+        Ok(Truths { frames, reference })
     }
 }
 
@@ -229,8 +226,7 @@ impl<'a> Scores<'a> {
         let Some(t) = self.truths.filter(|_| frame >= self.warmup) else {
             return;
         };
-        let truth = &t.frames[frame - self.warmup];
-        match shscale_field::shading::shade_rmse_rel(&flat(px), truth, &t.unshadowed) {
+        match t.reference.error(px, &t.frames[frame - self.warmup]) {
             Some(e) => self.errors.push(e),
             None => self.failed = Some(frame),
         }
@@ -369,12 +365,7 @@ pub fn bench_method_gpu(
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
             crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
                 if f.frame >= warmup {
-                    stages.push(vec![
-                        ("deform".to_string(), f.deform_seconds),
-                        ("sphere_fit".to_string(), f.sphere_fit_seconds),
-                        ("shading".to_string(), f.shading_seconds),
-                        ("readback".to_string(), f.readback_seconds),
-                    ]);
+                    stages.push(f.as_sequence_frame().stages);
                 }
                 scores.add(f.frame, px);
             })?;

@@ -33,6 +33,29 @@ pub struct GpuSetFrame {
     pub readback_seconds: f64,
 }
 
+impl GpuSetFrame {
+    /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `shading`,
+    /// `readback`), the form every sequence's frames are printed and benchmarked in.
+    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+        let stages: Vec<(String, f64)> = [
+            ("deform", self.deform_seconds),
+            ("sphere_fit", self.sphere_fit_seconds),
+            ("shading", self.shading_seconds),
+            ("readback", self.readback_seconds),
+        ]
+        .iter()
+        .map(|(n, v)| (n.to_string(), *v))
+        .collect();
+        crate::sequence::SequenceFrame {
+            frame: self.frame,
+            t: self.t,
+            seconds: stages.iter().map(|s| s.1).sum(),
+            stages,
+            error: None,
+        }
+    }
+}
+
 /// One occluder as the sequence needs it: the rest pose, its poser, the part of each triangle;
 /// or the analytic sphere (its own set, fixed).
 enum SetOccluder {

@@ -40,34 +40,51 @@ pub fn flat(p: &[[f32; 3]]) -> Vec<f64> {
     p.iter().flat_map(|p| p.map(f64::from)).collect()
 }
 
-/// A frame's error against its reference: `shade_rmse_rel(image, truth, unshadowed)`.
-struct Scorer {
-    reference: Method,
+/// A reference to score images against (docs/conventions.md §6): a truth method rendered at any
+/// pose of a scene, and the scene's unshadowed image (band-limited, no occluders), computed once
+/// — `shade_rmse_rel(image, truth, unshadowed)`. Used by `render --reference` (one image or every
+/// frame) and `bench --methods --errors`.
+pub struct Reference {
+    pub method: Method,
     unshadowed: Vec<f64>,
 }
 
-impl Scorer {
-    fn new(scene: &Scene, reference: Method) -> Result<Self, Error> {
+impl Reference {
+    pub fn new(scene: &Scene, method: Method) -> Result<Self, Error> {
         let mut open = scene.clone();
         open.occluders.clear();
-        Ok(Scorer {
-            reference,
+        Ok(Reference {
+            method,
             unshadowed: flat(&render(&open, Method::RayTraced)?.pixels),
         })
     }
 
-    fn error(&self, scene: &Scene, t: f64, pixels: &[[f32; 3]]) -> Result<f64, Error> {
-        let posed = Scene {
-            pose_t: Some(t),
-            ..scene.clone()
-        };
-        let truth = render(&posed, self.reference)?;
-        shscale_field::shading::shade_rmse_rel(
-            &flat(pixels),
-            &flat(&truth.pixels),
-            &self.unshadowed,
-        )
-        .ok_or_else(|| Error::config(format!("{}: the unshadowed image is black", scene.file)))
+    /// The reference's image of `scene` at the deformers' time `t` (`None`: the scene's own
+    /// `pose_t`).
+    pub fn image(&self, scene: &Scene, t: Option<f64>) -> Result<RenderOutput, Error> {
+        match t {
+            None => render(scene, self.method),
+            Some(t) => render(
+                &Scene {
+                    pose_t: Some(t),
+                    ..scene.clone()
+                },
+                self.method,
+            ),
+        }
+    }
+
+    /// `shade_rmse_rel` of `pixels` against `truth` (flat, [`flat`]); `None` where the
+    /// unshadowed image is black.
+    pub fn error(&self, pixels: &[[f32; 3]], truth: &[f64]) -> Option<f64> {
+        shscale_field::shading::shade_rmse_rel(&flat(pixels), truth, &self.unshadowed)
+    }
+
+    /// The error of `pixels` against the reference at `t`, rendered for it.
+    fn error_at(&self, scene: &Scene, t: f64, pixels: &[[f32; 3]]) -> Result<f64, Error> {
+        let truth = flat(&self.image(scene, Some(t))?.pixels);
+        self.error(pixels, &truth)
+            .ok_or_else(|| Error::config(format!("{}: the unshadowed image is black", scene.file)))
     }
 }
 
@@ -86,7 +103,7 @@ pub fn render_sequence_with(
     each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let frames = frames.max(1);
-    let scorer = reference.map(|r| Scorer::new(scene, r)).transpose()?;
+    let scorer = reference.map(|r| Reference::new(scene, r)).transpose()?;
     if cached_path(scene, method) {
         return cached(scene, frames, scorer.as_ref(), each);
     }
@@ -100,7 +117,7 @@ pub fn render_sequence_with(
         };
         let img = render(&posed, method)?;
         let error = match &scorer {
-            Some(s) => Some(s.error(scene, t, &img.pixels)?),
+            Some(s) => Some(s.error_at(scene, t, &img.pixels)?),
             None => None,
         };
         let fr = SequenceFrame {
@@ -122,13 +139,13 @@ pub fn render_sequence_with(
 fn cached(
     scene: &Scene,
     frames: usize,
-    scorer: Option<&Scorer>,
+    scorer: Option<&Reference>,
     each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let mut out = Vec::with_capacity(frames);
     let (img, _) = render_sequence_each(scene, frames, &mut |st: &FrameStats, pixels| {
         let error = match scorer {
-            Some(s) => Some(s.error(scene, st.t, pixels)?),
+            Some(s) => Some(s.error_at(scene, st.t, pixels)?),
             None => None,
         };
         let stages: Vec<(String, f64)> = [

@@ -284,7 +284,9 @@ fn every_method_renders_sequences_frame_by_frame() {
 }
 
 /// Sphere sets on the GPU path against the CPU render of the same pose, frame by frame: a
-/// flapping bird of 4 spheres and a static analytic sphere (5 spheres multiplied near to far),
+/// flapping bird of 4 spheres and three static analytic spheres, one cutting the receiver plane
+/// (receivers inside it see nothing) and one 10⁴ radii away (a cap of 1e-4 rad; 7 spheres
+/// multiplied near to far),
 /// 3 frames; the worst difference over every pixel and channel, relative to the brightest CPU
 /// pixel, printed and bounded by f32 rounding. Skips with a notice without an adapter unless
 /// `SHSCALE_REQUIRE_GPU=1`.
@@ -300,7 +302,7 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
         }
     };
     let mut s = scene(
-        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n",
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 3000]\nradius = 0.3\n",
     );
     s.parts = 4;
     let mut frames = Vec::new();
@@ -322,6 +324,11 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
                 worst = worst.max((g[ch] - c[ch]).abs() / top);
             }
         }
+        // Receivers inside the sphere that cuts the plane see nothing, on both paths.
+        let inside = (gpu.iter().zip(&cpu.pixels))
+            .filter(|(g, c)| **g == [0.0; 3] && **c == [0.0; 3])
+            .count();
+        assert!(inside > 0, "no receiver inside the plane-cutting sphere");
         // The shadows move with the wings: the frames differ.
         assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
     }

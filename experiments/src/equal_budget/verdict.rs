@@ -8,7 +8,7 @@ use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
-use shscale_runner::plots::{write_panels, write_scatter_with_bars, Labels, Panel};
+use shscale_runner::plots::{write_panels, write_scatter_noted, Labels, Panel};
 use shscale_runner::records::Results;
 use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
 use shscale_scene::Error;
@@ -585,7 +585,7 @@ pub(crate) fn write_front(
     } else {
         &[]
     };
-    let mut files = write_scatter_with_bars(dir, &f.stem, &labels, &series, &front, bars, true)?;
+    let mut files = write_scatter_noted(dir, &f.stem, &labels, &series, &front, bars, true, &[])?;
     files.extend(write_by_family(dir, f, variants, x0)?);
     Ok(files)
 }

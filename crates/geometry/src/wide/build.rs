@@ -13,6 +13,19 @@ pub(super) fn tri_bounds(t: &Triangle) -> ([f32; 3], [f32; 3]) {
     (lo.to_array(), hi.to_array())
 }
 
+/// The box of a pack's triangles (padding ids skipped).
+fn pack_box(tris: &[Triangle], ids: &[u32; PACK]) -> ([f32; 3], [f32; 3]) {
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for &id in ids.iter().filter(|&&id| id != u32::MAX) {
+        let (a, b) = tri_bounds(&tris[id as usize]);
+        for k in 0..3 {
+            lo[k] = lo[k].min(a[k]);
+            hi[k] = hi[k].max(b[k]);
+        }
+    }
+    (lo, hi)
+}
+
 pub(super) fn pack_of(tris: &[Triangle], ids: &[u32; PACK]) -> Pack {
     let mut p = Pack::default();
     for (lane, &id) in ids.iter().enumerate() {
@@ -221,30 +234,30 @@ impl WideBvh {
         w
     }
 
-    /// Follow moved vertices (same triangles, same tree): new packs (in parallel), then boxes
-    /// bottom-up.
+    /// Follow moved vertices (same triangles, same tree): new packs and their boxes in one
+    /// parallel pass, then the node boxes bottom-up.
     pub fn refit(&mut self, tris: &[Triangle]) {
-        (self.packs.par_iter_mut().zip(&self.ids).with_min_len(512))
-            .for_each(|(p, ids)| *p = pack_of(tris, ids));
-        self.refit_boxes(tris);
+        let pack_boxes: Vec<([f32; 3], [f32; 3])> =
+            (self.packs.par_iter_mut().zip(&self.ids).with_min_len(512))
+                .map(|(p, ids)| {
+                    *p = pack_of(tris, ids);
+                    pack_box(tris, ids)
+                })
+                .collect();
+        self.sweep_boxes(&pack_boxes);
     }
 
+    /// Every box from the triangles (the packs as they are).
     pub(super) fn refit_boxes(&mut self, tris: &[Triangle]) {
-        // Each pack's box first, in parallel (min and max are exact: the union of the packs'
-        // boxes is the union of their triangles' boxes, in any order).
         let pack_boxes: Vec<([f32; 3], [f32; 3])> = (self.ids.par_iter().with_min_len(512))
-            .map(|ids| {
-                let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-                for &id in ids.iter().filter(|&&id| id != u32::MAX) {
-                    let (a, b) = tri_bounds(&tris[id as usize]);
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(a[k]);
-                        hi[k] = hi[k].max(b[k]);
-                    }
-                }
-                (lo, hi)
-            })
+            .map(|ids| pack_box(tris, ids))
             .collect();
+        self.sweep_boxes(&pack_boxes);
+    }
+
+    /// The node boxes and the root bounds from each pack's box (min and max are exact: the
+    /// union of the packs' boxes is the union of their triangles' boxes, in any order).
+    fn sweep_boxes(&mut self, pack_boxes: &[([f32; 3], [f32; 3])]) {
         // Children have larger indices than their parents: a reverse sweep sees them first.
         for n in (0..self.nodes.len()).rev() {
             for j in 0..WIDTH {
