@@ -23,6 +23,7 @@ pub mod sphereset;
 pub mod srf;
 pub mod subvolume;
 pub mod truth;
+pub mod union;
 pub mod visibility;
 
 pub use bsv::{Bsv, BsvSample, Layout};
