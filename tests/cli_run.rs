@@ -1659,6 +1659,70 @@ fn sphere_sets_on_the_plane_multiply_at_their_internal_order() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `sphere_combine = "union"` on the plane: the analytic sphere is its own one-sphere set, whose
+/// union is its cap, so the union and the product chain render the same image (the union's
+/// one-cap error is below 1e-13, shscale-field's `union` tests) — equal to 1e-9 of the error
+/// against band-limited truth, which both carry alike. `quadrature` is refused on the plane,
+/// naming the key, before anything runs; `render --sphere-combine union` refuses another method.
+#[test]
+fn sphere_sets_on_the_plane_combine_as_their_union() {
+    let tag = "spu";
+    let dir = std::env::temp_dir().join(format!("shscale-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("one.toml"),
+        "order = 4\ntruth_res = 16\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0.3, 0, 1.3]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [5, 5]\nresolution = [16, 16]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let (dir, head, rows) = run_csv(
+        tag,
+        "budget_plane",
+        "experiment = \"budget_plane\"\nscene = \"one.toml\"\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\nmethod = \"sphere_set\"\nparts = 1\n[sweep]\nsphere_combine = [\"product\", \"union\"]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let by = |m: &str| {
+        rows.iter()
+            .find(|r| r[col("sphere_combine")] == m)
+            .unwrap_or_else(|| panic!("no row at sphere_combine = {m}"))
+    };
+    let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
+    let (p, u) = (
+        num(by("product"), "rmse_vs_band_limited"),
+        num(by("union"), "rmse_vs_band_limited"),
+    );
+    println!("one sphere against band-limited truth: product {p:.6e}, union {u:.6e}");
+    assert!((p - u).abs() <= 1e-9 * p.max(1e-6), "{p} vs {u}");
+    assert_eq!(num(by("union"), "rays"), 0.0);
+    let cfg = dir.join("quad.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget_plane\"\nscene = \"one.toml\"\ngpu = \"off\"\nmethod = \"sphere_set\"\nsphere_combine = \"quadrature\"\n",
+    )
+    .unwrap();
+    let out = dir.join("rq");
+    let o = shscale(&["run", cfg.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("sphere_combine") && err.contains("quadrature"), "{err}");
+    assert!(!out.exists());
+    let o = shscale(&[
+        "render",
+        "--scene",
+        dir.join("one.toml").to_str().unwrap(),
+        "--method",
+        "extrapolated",
+        "--sphere-combine",
+        "union",
+        "--out",
+        dir.join("x.exr").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--sphere-combine"), "{err}");
+    assert!(!dir.join("x.exr").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every experiment config the project ships resolves and passes its limits: `run --dry-run`
 /// succeeds on each (with the development VM's rates, `SHSCALE_SPEED=1`, no calibration), so a
 /// renamed key or a changed bound cannot leave a shipped config broken.

@@ -494,6 +494,10 @@ pub struct RenderArgs {
     /// 1..=64 (k-means on triangle centroids).
     #[arg(long, value_parser = whole, default_value_t = 4)]
     pub parts: usize,
+    /// How `--method sphere_set` combines its spheres: `product` (truncated SH products near to
+    /// far) or `union` (the exact union of the caps, no products; CPU only).
+    #[arg(long, value_enum, default_value_t = SphereCombine::Product)]
+    pub sphere_combine: SphereCombine,
     /// Output EXR path; a PNG preview is written beside it.
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -573,6 +577,12 @@ pub struct InspectArgs {
     pub mesh: String,
     #[arg(long, value_enum, default_value_t = Format::Json)]
     pub format: Format,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SphereCombine {
+    Product,
+    Union,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{RenderArgs, TextFormat};
+use crate::args::{RenderArgs, SphereCombine, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
 use shscale_scene::render::{render, Method, RenderOutput};
@@ -17,6 +17,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if matches!(method, Method::SubVolumes | Method::SphereSet) {
         scene.parts = a.parts;
     }
+    scene.sphere_union = a.sphere_combine == SphereCombine::Union;
     let rays = check_limits(&a, &scene, method)?;
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
@@ -105,6 +106,12 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
         1,
         shscale_geometry::partition::MAX_PARTS,
     )?;
+    if a.sphere_combine != SphereCombine::Product && a.method != Method::SphereSet {
+        bail!(
+            "--sphere-combine union: only --method sphere_set combines spheres (this is {})",
+            a.method
+        );
+    }
     if let Some(r) = a.reference.filter(|r| !r.is_truth()) {
         bail!("--reference {r}: only the truths are references — ray_traced (band-limited) or full_frequency (full-frequency)");
     }

@@ -19,6 +19,7 @@ use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, V
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
 use shscale_field::sphereset::{SphereSetField, SphereVisibility};
+use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
@@ -119,8 +120,17 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let high = (internal.as_ref())
         .filter(|_| !built.spheres.is_empty())
         .map(|(b, g)| SphereSetField::new(&built.spheres, b, g));
+    // The union of the caps is one field too (`render --sphere-combine union`).
+    let rings = (method == Method::SphereSet && scene.sphere_union)
+        .then(|| RingGrid::new(&basis, crate::method::UNION_RINGS));
+    let union = (rings.as_ref())
+        .filter(|_| !built.spheres.is_empty())
+        .map(|g| SphereSetUnion::new(&built.spheres, g));
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
     if let Some(set) = &high {
+        fields = vec![set as &dyn VisibilityField];
+    }
+    if let Some(set) = &union {
         fields = vec![set as &dyn VisibilityField];
     }
     let t = Instant::now();
@@ -152,7 +162,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         });
     }
     let mut centers = field_centers(method, &built, &occs);
-    if high.is_some() {
+    if high.is_some() || union.is_some() {
         centers.truncate(1);
     }
     let local = LocalLights::new(&emitters, &light_fields, &sampler);

@@ -198,6 +198,10 @@ pub struct Scene {
     /// multiplied at this order, truncated to `order` once), set by experiments (no scene-file
     /// key); 0 (the scene's order) otherwise.
     pub sphere_order: usize,
+    /// Whether a [`crate::render::Method::SphereSet`] is combined as the exact union of its caps
+    /// (`shscale_field::union`) instead of by products, set by experiments and `render
+    /// --sphere-combine union` (no scene-file key); `false` otherwise.
+    pub sphere_union: bool,
     /// Where the extrapolation's base-sphere samples lie along their directions, set by
     /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
     pub radial: shscale_field::bsv::RadialRule,
@@ -359,6 +363,7 @@ impl Scene {
             pose_t: None,
             parts: 1,
             sphere_order: 0,
+            sphere_union: false,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }

@@ -8,11 +8,14 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
+use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::TruthSampler;
 use shscale_field::{Bsv, Occluder, VisibilitySampler};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
-use shscale_scene::method::{Alpha, Combine, Extrapolation, FieldSpec, SPHERE_QUADRATURE_RES};
+use shscale_scene::method::{
+    Alpha, Combine, Extrapolation, FieldSpec, SPHERE_QUADRATURE_RES, UNION_RINGS,
+};
 use shscale_scene::Error;
 use std::time::Instant;
 
@@ -134,8 +137,8 @@ pub(crate) fn extrapolation<'a>(
 
 /// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
 /// frame — the analytic sphere is its own one-sphere set — combined by truncated products at
-/// the `internal` order (≥ `order`, truncated to `order` once) or by the quadrature, whose rays
-/// (cast at the spheres, not at the mesh) are counted.
+/// the `internal` order (≥ `order`, truncated to `order` once), by the quadrature, whose rays
+/// (cast at the spheres, not at the mesh) are counted, or as the exact union of the caps.
 pub(crate) fn sphere_set<'a>(
     (order, internal): (usize, usize),
     (parts, combine): (usize, Combine),
@@ -154,6 +157,7 @@ pub(crate) fn sphere_set<'a>(
     let (basis_m, gaunt_m) = sh(internal.max(order))?;
     let grid = (combine == Combine::Quadrature)
         .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
+    let rings = (combine == Combine::Union).then(|| RingGrid::new(&basis, UNION_RINGS));
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let spheres = match &mesh {
@@ -162,8 +166,8 @@ pub(crate) fn sphere_set<'a>(
         };
         let build = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let (v, rays, bytes) = match &grid {
-            Some(g) => {
+        let (v, rays, bytes) = match (&grid, &rings) {
+            (Some(g), _) => {
                 let set = SphereSetQuadrature::new(&spheres, g);
                 (
                     eval_all(&set, points, nn),
@@ -171,7 +175,15 @@ pub(crate) fn sphere_set<'a>(
                     spheres.len() * 32 + g.size_bytes(),
                 )
             }
-            None => {
+            (None, Some(r)) => {
+                let set = SphereSetUnion::new(&spheres, r);
+                (
+                    eval_all(&set, points, nn),
+                    0,
+                    set.size_bytes() + r.size_bytes(),
+                )
+            }
+            (None, None) => {
                 let set = SphereSetField::new(&spheres, &basis_m, &gaunt_m);
                 (eval_all(&set, points, nn), 0, set.size_bytes())
             }

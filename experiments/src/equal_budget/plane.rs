@@ -33,7 +33,7 @@ use shscale_field::metrics::ssim;
 use shscale_field::shading::shade_rmse_rel;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Keys, Method, Spec};
+use shscale_scene::method::{Combine, Keys, Method, Spec};
 use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::MAX_ORDER;
@@ -73,6 +73,9 @@ pub struct Params {
     /// The order M a `sphere_set` multiplies its caps at before truncating to the scene's order
     /// (0: that order, the plain chain; else order ≤ M ≤ 16), as in `budget`.
     pub sphere_order: usize,
+    /// How a `sphere_set` combines its spheres: `product` (near to far, at `sphere_order`) or
+    /// `union` (the exact union of the caps, `shscale_field::union`).
+    pub sphere_combine: String,
     /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
     /// (`shscale figs`); one frame only.
     pub save_image: bool,
@@ -99,6 +102,7 @@ impl Default for Params {
             radial: "uniform".into(),
             radial_delta: 0.1,
             sphere_order: 0,
+            sphere_combine: "product".into(),
             save_image: false,
         }
     }
@@ -126,7 +130,7 @@ impl Params {
             radial_delta: self.radial_delta,
             radial_tau: None,
             radial_max: None,
-            sphere_combine: None,
+            sphere_combine: Some(&self.sphere_combine),
             sphere_order: Some(self.sphere_order),
             k_count: None,
         }
@@ -289,6 +293,7 @@ impl Kind for BudgetPlane {
             ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model). A method key the method does not read (docs/methods.md) must keep its default"),
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("sphere_order", "the internal order M of `sphere_set`: each cap projected to M, every product at M, the result truncated to the scene's order once (docs/math.md, \"Combining many spheres\"); 0 (default) for the scene's order, else that order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (default; truncated SH products near to far, at `sphere_order`) or `union` (the exact union of the caps: φ in closed form, 32 Gauss–Legendre rings in z, no rays; docs/math.md, \"The union of the caps\")"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
@@ -335,6 +340,16 @@ impl Kind for BudgetPlane {
         let scene =
             planned_scene(p, config_dir).map_err(|e| KeyError::new("scene", e.to_string()))?;
         check_rt_res(&spec.typed.method, p, &scene)?;
+        if let Spec::SphereSet {
+            combine: Combine::Quadrature,
+            ..
+        } = spec.typed.method
+        {
+            return Err(KeyError::new(
+                "sphere_combine",
+                "\"quadrature\" is the spherical receivers' diagnostic (kind `budget`); the plane renders `product` or `union`".to_string(),
+            ));
+        }
         if let Spec::SphereSet { internal_order, .. } = spec.typed.method {
             let order = p.order.unwrap_or(scene.order);
             if internal_order != 0 && internal_order < order {
