@@ -46,7 +46,8 @@ pub struct RingGrid {
     rotator: EulerRotator<f64>,
     legendre: Legendre<f64>,
     rings: usize,
-    /// Gauss–Legendre rules on [0, π] of 0..=rings nodes, ascending: `(u, w)`.
+    /// Gauss–Legendre rules on [0, π] of 0..=rings nodes, ascending in u: `(cos u, w·sin u)`
+    /// (the map's `z = mid − half·cos u`, `dz = half·sin u du`).
     rules: Vec<(Vec<f64>, Vec<f64>)>,
 }
 
@@ -64,8 +65,8 @@ impl RingGrid {
                     shscale_sh::GaussLegendre::new(k).on(0.0, PI).collect();
                 nodes.sort_by(|a, b| a.0.total_cmp(&b.0));
                 (
-                    nodes.iter().map(|n| n.0).collect(),
-                    nodes.iter().map(|n| n.1).collect(),
+                    nodes.iter().map(|n| n.0.cos()).collect(),
+                    nodes.iter().map(|n| n.1 * n.0.sin()).collect(),
                 )
             })
             .collect();
@@ -100,6 +101,8 @@ struct Cap {
     axis: [f64; 3],
     su: f64,
     phi_u: f64,
+    /// `(sin φ_u, cos φ_u)`.
+    sc_u: (f64, f64),
     cos_a: f64,
     /// The cap's z-range, `[cos min(π, θ_u + A), cos max(0, θ_u − A)]`.
     z_lo: f64,
@@ -137,6 +140,11 @@ impl Cap {
             axis: u.to_array(),
             su,
             phi_u: u.y.atan2(u.x),
+            sc_u: if su > 0.0 {
+                (u.y / su, u.x / su)
+            } else {
+                (0.0, 1.0)
+            },
             cos_a,
             z_lo,
             z_hi,
@@ -144,24 +152,76 @@ impl Cap {
     }
 
     /// The cap's φ-interval on the ring at height `z` (`s = √(1 − z²)`): `Some((lo, hi))` with
-    /// `hi − lo ≤ 2π`, or `None` where the ring misses it.
-    fn on_ring(&self, z: f64, s: f64) -> Option<(f64, f64)> {
+    /// `hi − lo ≤ 2π`, or `None` where the ring misses it. The ends' sines and cosines come
+    /// from `cos h` and `sin h = √(1 − cos²h)` by the angle-sum formulas (no trigonometric call
+    /// but the `acos` of the angle itself).
+    fn on_ring(&self, z: f64, s: f64) -> Option<(End, End)> {
         let ss = s * self.su;
         let num = self.cos_a - z * self.axis[2];
         if ss <= 1e-300 {
-            return (num <= 0.0).then_some((0.0, TAU));
+            return (num <= 0.0).then_some(FULL_RING);
         }
         let c = num / ss;
         if c <= -1.0 {
-            Some((0.0, TAU))
+            Some(FULL_RING)
         } else if c >= 1.0 {
             None
         } else {
             let h = c.acos();
-            Some((self.phi_u - h, self.phi_u + h))
+            let sh = ((1.0 - c) * (1.0 + c)).sqrt();
+            let (sp, cp) = self.sc_u;
+            Some((
+                End {
+                    angle: self.phi_u - h,
+                    sin: sp * c - cp * sh,
+                    cos: cp * c + sp * sh,
+                },
+                End {
+                    angle: self.phi_u + h,
+                    sin: sp * c + cp * sh,
+                    cos: cp * c - sp * sh,
+                },
+            ))
         }
     }
 }
+
+/// An end of a φ-interval: its angle and that angle's sine and cosine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct End {
+    angle: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl End {
+    #[cfg(test)]
+    fn at(angle: f64) -> Self {
+        let (sin, cos) = angle.sin_cos();
+        Self { angle, sin, cos }
+    }
+
+    /// The same direction `shift` radians on (a whole number of turns).
+    fn shifted(self, shift: f64) -> Self {
+        Self {
+            angle: self.angle + shift,
+            ..self
+        }
+    }
+}
+
+const FULL_RING: (End, End) = (
+    End {
+        angle: 0.0,
+        sin: 0.0,
+        cos: 1.0,
+    },
+    End {
+        angle: TAU,
+        sin: 0.0,
+        cos: 1.0,
+    },
+);
 
 /// A sphere set combined as the exact union of its caps (see the module's documentation).
 pub struct SphereSetUnion<'a> {
@@ -185,30 +245,29 @@ impl<'a> SphereSetUnion<'a> {
 }
 
 /// `[lo, hi]` (`hi − lo ≤ 2π`) moved into `[0, 2π)` and split where it wraps.
-fn push_wrapped(bucket: &mut Vec<(f64, f64)>, lo: f64, hi: f64) {
-    if hi - lo >= TAU {
-        bucket.push((0.0, TAU));
+fn push_wrapped(bucket: &mut Vec<(End, End)>, lo: End, hi: End) {
+    if hi.angle - lo.angle >= TAU {
+        bucket.push(FULL_RING);
         return;
     }
-    let shift = (lo / TAU).floor() * TAU;
-    let (lo, hi) = (lo - shift, hi - shift);
-    if hi > TAU {
-        bucket.push((lo, TAU));
-        bucket.push((0.0, hi - TAU));
+    let shift = -(lo.angle / TAU).floor() * TAU;
+    let (lo, hi) = (lo.shifted(shift), hi.shifted(shift));
+    if hi.angle > TAU {
+        bucket.push((lo, FULL_RING.1));
+        bucket.push((FULL_RING.0, hi.shifted(-TAU)));
     } else {
         bucket.push((lo, hi));
     }
 }
 
 /// Adds `∫ T_m` over `[a, b]` for m = 0..n to `c` (cos mφ, `c[0]` the length) and `s` (sin mφ).
-fn add_trig_integrals(a: f64, b: f64, c: &mut [f64], s: &mut [f64]) {
-    c[0] += b - a;
+fn add_trig_integrals(a: End, b: End, c: &mut [f64], s: &mut [f64]) {
+    c[0] += b.angle - a.angle;
     let n = c.len();
     if n < 2 {
         return;
     }
-    let (sa, ca) = a.sin_cos();
-    let (sb, cb) = b.sin_cos();
+    let (sa, ca, sb, cb) = (a.sin, a.cos, b.sin, b.cos);
     // sin(mx), cos(mx) by the Chebyshev recurrence from m − 1 and m − 2.
     let (mut sa0, mut ca0, mut sa1, mut ca1) = (0.0, 1.0, sa, ca);
     let (mut sb0, mut cb0, mut sb1, mut cb1) = (0.0, 1.0, sb, cb);
@@ -281,7 +340,7 @@ struct Scratch {
     z: Vec<f64>,
     w: Vec<f64>,
     s: Vec<f64>,
-    buckets: Vec<Vec<(f64, f64)>>,
+    buckets: Vec<Vec<(End, End)>>,
     cm: Vec<f64>,
     sm: Vec<f64>,
     leg: Vec<f64>,
@@ -301,7 +360,10 @@ const PANEL_RINGS: usize = 4;
 /// panel's end smooth in u).
 fn rings_of(g: &RingGrid, caps: &[Cap], z: &mut Vec<f64>, w: &mut Vec<f64>) {
     let z0 = caps.iter().map(|c| c.z_lo).fold(f64::INFINITY, f64::min);
-    let z1 = caps.iter().map(|c| c.z_hi).fold(f64::NEG_INFINITY, f64::max);
+    let z1 = caps
+        .iter()
+        .map(|c| c.z_hi)
+        .fold(f64::NEG_INFINITY, f64::max);
     let panels_max = (g.rings / PANEL_RINGS).max(1);
     let mut cuts: Vec<f64> = (caps.iter())
         .flat_map(|c| [c.z_lo, c.z_hi])
@@ -325,11 +387,10 @@ fn rings_of(g: &RingGrid, caps: &[Cap], z: &mut Vec<f64>, w: &mut Vec<f64>) {
         // The rings shared out as evenly as they go, the first panels taking the remainder.
         let k = g.rings / panels + usize::from(i < g.rings % panels);
         let (mid, half) = ((pair[0] + pair[1]) / 2.0, (pair[1] - pair[0]) / 2.0);
-        let (u, wu) = &g.rules[k];
-        for (u, wu) in u.iter().zip(wu) {
-            z.push(mid - half * u.cos());
-            // dz = half · sin u du.
-            w.push(wu * half * u.sin());
+        let (cos_u, w_sin_u) = &g.rules[k];
+        for (c, ws) in cos_u.iter().zip(w_sin_u) {
+            z.push(mid - half * c);
+            w.push(ws * half);
         }
     }
 }
@@ -369,13 +430,15 @@ fn subtract_union(g: &RingGrid, scratch: &mut Scratch, out: &mut [f64]) {
         if bucket.is_empty() {
             continue;
         }
-        bucket.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        bucket.sort_unstable_by(|a, b| a.0.angle.total_cmp(&b.0.angle));
         cm.iter_mut().for_each(|x| *x = 0.0);
         sm.iter_mut().for_each(|x| *x = 0.0);
         let (mut a, mut b) = bucket[0];
         for &(lo, hi) in &bucket[1..] {
-            if lo <= b {
-                b = b.max(hi);
+            if lo.angle <= b.angle {
+                if hi.angle > b.angle {
+                    b = hi;
+                }
             } else {
                 add_trig_integrals(a, b, cm, sm);
                 (a, b) = (lo, hi);
@@ -405,28 +468,52 @@ mod tests {
     fn trig_integrals_match_their_closed_forms() {
         let (a, b) = (0.3, 2.9);
         let (mut c, mut s) = (vec![0.0; 6], vec![0.0; 6]);
-        add_trig_integrals(a, b, &mut c, &mut s);
+        add_trig_integrals(End::at(a), End::at(b), &mut c, &mut s);
         assert!((c[0] - (b - a)).abs() < 1e-15);
         for m in 1..6 {
             let mf = m as f64;
             let wc = ((mf * b).sin() - (mf * a).sin()) / mf;
             let ws = ((mf * a).cos() - (mf * b).cos()) / mf;
-            assert!((c[m] - wc).abs() < 1e-13 && (s[m] - ws).abs() < 1e-13, "m {m}");
+            assert!(
+                (c[m] - wc).abs() < 1e-13 && (s[m] - ws).abs() < 1e-13,
+                "m {m}"
+            );
+        }
+    }
+
+    /// The ends' sines and cosines by the angle-sum formulas agree with the angles' own.
+    #[test]
+    fn interval_ends_carry_their_sines_and_cosines() {
+        let p = DVec3::new(0.1, -0.2, 0.3);
+        let s = Sphere {
+            center: DVec3::new(1.5, 1.0, 0.8),
+            radius: 0.6,
+        };
+        let cap = Cap::seen(&s, p).unwrap().unwrap();
+        let z = (cap.z_lo + cap.z_hi) / 2.0;
+        let (lo, hi) = cap.on_ring(z, (1.0 - z * z).sqrt()).unwrap();
+        for e in [lo, hi] {
+            let want = End::at(e.angle);
+            assert!((e.sin - want.sin).abs() < 1e-14 && (e.cos - want.cos).abs() < 1e-14);
         }
     }
 
     #[test]
     fn wrapped_intervals_split_at_two_pi() {
         let mut b = Vec::new();
-        push_wrapped(&mut b, -0.5, 0.5);
+        push_wrapped(&mut b, End::at(-0.5), End::at(0.5));
         assert_eq!(b.len(), 2);
-        assert!((b[0].0 - (TAU - 0.5)).abs() < 1e-15 && b[0].1 == TAU);
-        assert!(b[1].0 == 0.0 && (b[1].1 - 0.5).abs() < 1e-15);
+        assert!((b[0].0.angle - (TAU - 0.5)).abs() < 1e-15 && b[0].1.angle == TAU);
+        assert!(b[1].0.angle == 0.0 && (b[1].1.angle - 0.5).abs() < 1e-15);
+        assert_eq!(
+            (b[0].0.sin, b[0].0.cos),
+            (End::at(-0.5).sin, End::at(-0.5).cos)
+        );
         b.clear();
-        push_wrapped(&mut b, 7.0, 8.0);
-        assert!((b[0].0 - (7.0 - TAU)).abs() < 1e-15);
+        push_wrapped(&mut b, End::at(7.0), End::at(8.0));
+        assert!((b[0].0.angle - (7.0 - TAU)).abs() < 1e-15);
         b.clear();
-        push_wrapped(&mut b, 1.0, 1.0 + TAU);
-        assert_eq!(b, vec![(0.0, TAU)]);
+        push_wrapped(&mut b, End::at(1.0), End::at(1.0 + TAU));
+        assert_eq!(b, vec![FULL_RING]);
     }
 }

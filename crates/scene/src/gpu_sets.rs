@@ -74,7 +74,10 @@ struct PosedParts {
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
     let why = if scene.sphere_union {
-        Some("the union of the caps has no GPU form; the GPU sphere set is the plain chain".to_string())
+        Some(
+            "the union of the caps has no GPU form; the GPU sphere set is the plain chain"
+                .to_string(),
+        )
     } else if scene.sphere_order > scene.order {
         Some(format!(
             "sphere_order {} multiplies above the scene's order; the GPU sphere set is the plain chain",

@@ -8,9 +8,9 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
-use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::TruthSampler;
+use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::{Bsv, Occluder, VisibilitySampler};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use shscale_scene::method::{
