@@ -495,7 +495,8 @@ pub struct RenderArgs {
     #[arg(long, value_parser = whole, default_value_t = 4)]
     pub parts: usize,
     /// How `--method sphere_set` combines its spheres: `product` (truncated SH products near to
-    /// far) or `union` (the exact union of the caps, no products; CPU only).
+    /// far), `union` (the exact union of the caps, no products) or `shexp` (SH exponentiation,
+    /// Ren et al. 2006; orders up to 8); the last two on the CPU only.
     #[arg(long, value_enum, default_value_t = SphereCombine::Product)]
     pub sphere_combine: SphereCombine,
     /// Output EXR path; a PNG preview is written beside it.
@@ -583,6 +584,7 @@ pub struct InspectArgs {
 pub enum SphereCombine {
     Product,
     Union,
+    Shexp,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

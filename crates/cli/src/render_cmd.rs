@@ -3,6 +3,7 @@
 use crate::args::{RenderArgs, SphereCombine, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
+use shscale_scene::method::Combine;
 use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
 use std::process::ExitCode;
@@ -17,7 +18,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if matches!(method, Method::SubVolumes | Method::SphereSet) {
         scene.parts = a.parts;
     }
-    scene.sphere_union = a.sphere_combine == SphereCombine::Union;
+    scene.sphere_combine = match a.sphere_combine {
+        SphereCombine::Product => Combine::Product,
+        SphereCombine::Union => Combine::Union,
+        SphereCombine::Shexp => Combine::Shexp,
+    };
     let rays = check_limits(&a, &scene, method)?;
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
@@ -108,7 +113,8 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
     )?;
     if a.sphere_combine != SphereCombine::Product && a.method != Method::SphereSet {
         bail!(
-            "--sphere-combine union: only --method sphere_set combines spheres (this is {})",
+            "--sphere-combine {}: only --method sphere_set combines spheres (this is {})",
+            format!("{:?}", a.sphere_combine).to_lowercase(),
             a.method
         );
     }

@@ -19,6 +19,7 @@ pub mod receivers;
 pub mod selfshadow;
 pub mod shading;
 pub mod shexp;
+pub mod shexp_ol;
 pub mod sphereset;
 pub mod srf;
 pub mod subvolume;

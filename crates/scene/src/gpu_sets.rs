@@ -73,11 +73,11 @@ struct PosedParts {
 
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
-    let why = if scene.sphere_union {
-        Some(
-            "the union of the caps has no GPU form; the GPU sphere set is the plain chain"
-                .to_string(),
-        )
+    let why = if scene.sphere_combine != crate::method::Combine::Product {
+        Some(format!(
+            "sphere_combine {:?} has no GPU form; the GPU sphere set is the plain chain",
+            scene.sphere_combine
+        ))
     } else if scene.sphere_order > scene.order {
         Some(format!(
             "sphere_order {} multiplies above the scene's order; the GPU sphere set is the plain chain",

@@ -131,17 +131,22 @@ pub enum Combine {
     /// The union of the caps projected exactly in φ and by [`UNION_RINGS`] Gauss–Legendre
     /// rings in z (`shscale_field::union`): the quadrature's quantity without rays.
     Union,
+    /// SH exponentiation (Ren et al. 2006, `shscale_field::shexp_ol`): the blockers' product-
+    /// algebra logs summed and exponentiated by HYB, at orders up to
+    /// `shscale_field::shexp_ol::MAX_SHEXP_ORDER`.
+    Shexp,
 }
 
 impl Combine {
     /// The names `sphere_combine` takes.
-    pub const NAMES: [&'static str; 3] = ["product", "quadrature", "union"];
+    pub const NAMES: [&'static str; 4] = ["product", "quadrature", "union", "shexp"];
 
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "product" => Some(Self::Product),
             "quadrature" => Some(Self::Quadrature),
             "union" => Some(Self::Union),
+            "shexp" => Some(Self::Shexp),
             _ => None,
         }
     }
@@ -158,6 +163,12 @@ pub const UNION_RINGS: usize = 32;
 /// one thread's 2.1 / 3.1 / 5.6 / 8.4 µs at S = 2 / 8 / 32 / 64, N = 4, 32 rings.
 pub const UNION_SECONDS: f64 = 0.9e-6;
 pub const UNION_SPHERE_SECONDS: f64 = 0.05e-6;
+
+/// The cost model's time per receiver of [`Combine::Shexp`] on the 2-core development VM (both
+/// threads), per sphere (a table lookup and a zonal rotation) and per receiver (the HYB
+/// exponential: its squarings are truncated products, about `(N/4)⁵` times an order-4 one's).
+pub const SHEXP_SECONDS: f64 = 1.0e-6;
+pub const SHEXP_SPHERE_SECONDS: f64 = 0.05e-6;
 
 /// Gauss–Legendre nodes in cos θ of [`Combine::Quadrature`] (× twice as many φ).
 pub const SPHERE_QUADRATURE_RES: usize = 64;
@@ -570,6 +581,11 @@ impl Spec {
             } => receivers * (UNION_SECONDS + parts as f64 * UNION_SPHERE_SECONDS),
             Spec::SphereSet {
                 parts,
+                combine: Combine::Shexp,
+                ..
+            } => receivers * (SHEXP_SECONDS + parts as f64 * SHEXP_SPHERE_SECONDS),
+            Spec::SphereSet {
+                parts,
                 internal_order,
                 ..
             } => {
@@ -617,7 +633,7 @@ impl Spec {
             } => {
                 scene.parts = *parts;
                 scene.sphere_order = *internal_order;
-                scene.sphere_union = *combine == Combine::Union;
+                scene.sphere_combine = *combine;
             }
         }
     }

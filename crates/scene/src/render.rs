@@ -11,6 +11,7 @@ use crate::frame::{
     build_emitters, build_occluder, build_occluder_at, light_of, receiver_grid, sequence_sphere,
     table_for, LightSource,
 };
+use crate::method::Combine;
 use crate::scene::Scene;
 use crate::vocab::placed_mesh;
 use glam::DVec3;
@@ -18,6 +19,7 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
+use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, MAX_SHEXP_ORDER, SHEXP_EPS};
 use shscale_field::sphereset::{SphereSetField, SphereVisibility};
 use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
@@ -120,18 +122,32 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let high = (internal.as_ref())
         .filter(|_| !built.spheres.is_empty())
         .map(|(b, g)| SphereSetField::new(&built.spheres, b, g));
-    // The union of the caps is one field too (`render --sphere-combine union`).
-    let rings = (method == Method::SphereSet && scene.sphere_union)
+    // The union of the caps and SH exponentiation are one field too (`render
+    // --sphere-combine union|shexp`).
+    let combine =
+        (method == Method::SphereSet && !built.spheres.is_empty()).then_some(scene.sphere_combine);
+    let rings = (combine == Some(Combine::Union))
         .then(|| RingGrid::new(&basis, crate::method::UNION_RINGS));
-    let union = (rings.as_ref())
-        .filter(|_| !built.spheres.is_empty())
-        .map(|g| SphereSetUnion::new(&built.spheres, g));
+    let shexp = match combine {
+        Some(Combine::Shexp) => Some(shexp_of(scene)?),
+        _ => None,
+    };
+    let union: Option<Box<dyn VisibilityField + '_>> = match (&rings, &shexp) {
+        (Some(g), _) => Some(Box::new(SphereSetUnion::new(&built.spheres, g))),
+        (None, Some((g, t))) => Some(Box::new(SphereSetShexp::new(
+            &built.spheres,
+            (&basis, g),
+            t,
+            Exp::Hyb,
+        ))),
+        _ => None,
+    };
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
     if let Some(set) = &high {
         fields = vec![set as &dyn VisibilityField];
     }
     if let Some(set) = &union {
-        fields = vec![set as &dyn VisibilityField];
+        fields = vec![set.as_ref()];
     }
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
@@ -206,6 +222,21 @@ fn converged_truths<'a>(
             .collect(),
         _ => Vec::new(),
     }
+}
+
+/// The Gaunt tensor and SH exponentiation's log table at the scene's order (at most
+/// `MAX_SHEXP_ORDER`, refused by name above it).
+fn shexp_of(scene: &Scene) -> Result<(shscale_sh::GauntTensor<f64>, ZonalLogTable), Error> {
+    if scene.order > MAX_SHEXP_ORDER {
+        return Err(Error::config(format!(
+            "{}: sphere_combine \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
+            scene.file, scene.order
+        )));
+    }
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
+        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+    let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+    Ok((gaunt, table))
 }
 
 /// An SH basis and Gaunt tensor of one order.

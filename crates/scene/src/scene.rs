@@ -198,10 +198,11 @@ pub struct Scene {
     /// multiplied at this order, truncated to `order` once), set by experiments (no scene-file
     /// key); 0 (the scene's order) otherwise.
     pub sphere_order: usize,
-    /// Whether a [`crate::render::Method::SphereSet`] is combined as the exact union of its caps
-    /// (`shscale_field::union`) instead of by products, set by experiments and `render
-    /// --sphere-combine union` (no scene-file key); `false` otherwise.
-    pub sphere_union: bool,
+    /// How a [`crate::render::Method::SphereSet`] combines its spheres: products (at
+    /// `sphere_order`), the exact union of its caps (`shscale_field::union`) or SH
+    /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
+    /// --sphere-combine` (no scene-file key); products otherwise. The quadrature is not rendered.
+    pub sphere_combine: crate::method::Combine,
     /// Where the extrapolation's base-sphere samples lie along their directions, set by
     /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
     pub radial: shscale_field::bsv::RadialRule,
@@ -363,7 +364,7 @@ impl Scene {
             pose_t: None,
             parts: 1,
             sphere_order: 0,
-            sphere_union: false,
+            sphere_combine: crate::method::Combine::Product,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }

@@ -7,6 +7,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
+use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, SHEXP_EPS};
 use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::TruthSampler;
@@ -138,7 +139,8 @@ pub(crate) fn extrapolation<'a>(
 /// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
 /// frame — the analytic sphere is its own one-sphere set — combined by truncated products at
 /// the `internal` order (≥ `order`, truncated to `order` once), by the quadrature, whose rays
-/// (cast at the spheres, not at the mesh) are counted, or as the exact union of the caps.
+/// (cast at the spheres, not at the mesh) are counted, as the exact union of the caps, or by SH
+/// exponentiation (HYB).
 pub(crate) fn sphere_set<'a>(
     (order, internal): (usize, usize),
     (parts, combine): (usize, Combine),
@@ -158,6 +160,13 @@ pub(crate) fn sphere_set<'a>(
     let grid = (combine == Combine::Quadrature)
         .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
     let rings = (combine == Combine::Union).then(|| RingGrid::new(&basis, UNION_RINGS));
+    let shexp = (combine == Combine::Shexp)
+        .then(|| -> Result<_, Error> {
+            let (_, gaunt) = sh(order)?;
+            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+            Ok((gaunt, table))
+        })
+        .transpose()?;
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let spheres = match &mesh {
@@ -166,8 +175,12 @@ pub(crate) fn sphere_set<'a>(
         };
         let build = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let (v, rays, bytes) = match (&grid, &rings) {
-            (Some(g), _) => {
+        let (v, rays, bytes) = match (&grid, &rings, &shexp) {
+            (_, _, Some((gaunt, table))) => {
+                let set = SphereSetShexp::new(&spheres, (&basis, gaunt), table, Exp::Hyb);
+                (eval_all(&set, points, nn), 0, set.size_bytes())
+            }
+            (Some(g), _, _) => {
                 let set = SphereSetQuadrature::new(&spheres, g);
                 (
                     eval_all(&set, points, nn),
@@ -175,7 +188,7 @@ pub(crate) fn sphere_set<'a>(
                     spheres.len() * 32 + g.size_bytes(),
                 )
             }
-            (None, Some(r)) => {
+            (None, Some(r), None) => {
                 let set = SphereSetUnion::new(&spheres, r);
                 (
                     eval_all(&set, points, nn),
@@ -183,7 +196,7 @@ pub(crate) fn sphere_set<'a>(
                     set.size_bytes() + r.size_bytes(),
                 )
             }
-            (None, None) => {
+            (None, None, None) => {
                 let set = SphereSetField::new(&spheres, &basis_m, &gaunt_m);
                 (eval_all(&set, points, nn), 0, set.size_bytes())
             }

@@ -73,8 +73,9 @@ pub struct Params {
     /// The order M a `sphere_set` multiplies its caps at before truncating to the scene's order
     /// (0: that order, the plain chain; else order ≤ M ≤ 16), as in `budget`.
     pub sphere_order: usize,
-    /// How a `sphere_set` combines its spheres: `product` (near to far, at `sphere_order`) or
-    /// `union` (the exact union of the caps, `shscale_field::union`).
+    /// How a `sphere_set` combines its spheres: `product` (near to far, at `sphere_order`),
+    /// `union` (the exact union of the caps, `shscale_field::union`) or `shexp` (SH
+    /// exponentiation, `shscale_field::shexp_ol`).
     pub sphere_combine: String,
     /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
     /// (`shscale figs`); one frame only.
@@ -293,7 +294,7 @@ impl Kind for BudgetPlane {
             ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model). A method key the method does not read (docs/methods.md) must keep its default"),
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("sphere_order", "the internal order M of `sphere_set`: each cap projected to M, every product at M, the result truncated to the scene's order once (docs/math.md, \"Combining many spheres\"); 0 (default) for the scene's order, else that order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
-            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (default; truncated SH products near to far, at `sphere_order`) or `union` (the exact union of the caps: φ in closed form, 32 Gauss–Legendre rings in z, no rays; docs/math.md, \"The union of the caps\")"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (default; truncated SH products near to far, at `sphere_order`) `union` (the exact union of the caps: φ in closed form, 32 Gauss–Legendre rings in z, no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation by HYB, orders up to 8; docs/math.md, \"SH exponentiation\")"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),

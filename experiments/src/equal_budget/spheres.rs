@@ -43,7 +43,7 @@ use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Keys, Spec};
+use shscale_scene::method::{Combine, Keys, Spec};
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -90,8 +90,8 @@ pub struct Params {
     pub radial_max: f64,
     /// How `sphere_set` combines its spheres: `product` (the truncated SH products near to
     /// far, as every multi-occluder method here), `quadrature` (the set's joint visibility
-    /// projected by a quadrature, no truncated products) or `union` (the same joint visibility,
-    /// exact in φ, by rings in z, no rays).
+    /// projected by a quadrature, no truncated products), `union` (the same joint visibility,
+    /// exact in φ, by rings in z, no rays) or `shexp` (SH exponentiation).
     pub sphere_combine: String,
     /// The order M a `sphere_set` multiplies its caps at before truncating to `order` (0: the
     /// run's order, the plain chain; else order ≤ M ≤ 16).
@@ -350,7 +350,7 @@ impl Kind for Budget {
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
             ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
-            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`) or `union` (the same joint visibility, the caps' union integrated in φ in closed form on 32 Gauss–Legendre rings in z: no rays; docs/math.md, \"The union of the caps\")"),
+            ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`) `union` (the same joint visibility, the caps' union integrated in φ in closed form on 32 Gauss–Legendre rings in z: no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation, Ren et al. 2006: the blockers' product-algebra logs, clamped at 2 % of the largest eigenvalue, summed and exponentiated by HYB; orders up to 8; docs/math.md, \"SH exponentiation\")"),
             ("sphere_order", "the internal order M of `sphere_set` with `sphere_combine = \"product\"`: each cap projected to M, every product at M, the result truncated to `order` once (docs/math.md, \"Combining many spheres\"); 0 (default) for the run's order, else order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
@@ -380,6 +380,23 @@ impl Kind for Budget {
                     ),
                 ));
             }
+        }
+        let max = shscale_field::shexp_ol::MAX_SHEXP_ORDER;
+        if matches!(
+            spec,
+            Spec::SphereSet {
+                combine: Combine::Shexp,
+                ..
+            }
+        ) && p.order > max
+        {
+            return Err(KeyError::new(
+                "sphere_combine",
+                format!(
+                    "\"shexp\" takes orders up to {max} (its exact exponential's eigenproblem is N² × N²), not {}",
+                    p.order
+                ),
+            ));
         }
         if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
             return Err(KeyError::new(
