@@ -6,11 +6,10 @@
 //! rotated onto the sphere's direction as a zonal function). The logs of the S spheres are
 //! **summed** (no products), and the sum's exponential is taken **exactly**: the band-limited
 //! log evaluated on the product quadrature of [`QuadratureGrid`] (Gauss–Legendre × uniform),
-//! exponentiated node by node and projected back to order N ≤ M. SH exponentiation proper (DC
-//! isolation, the optimal-linear approximation, scaling and squaring) approximates this
-//! exponential for speed; those approximations are not built here, so this field is the upper
-//! bound of SHEXP's accuracy at a given ε and M, and the oracle its approximations would be
-//! measured against.
+//! exponentiated node by node and projected back to order N ≤ M — the pointwise reading of a
+//! log-space combination. SH exponentiation as Ren et al. define it (logs and exponentials in the
+//! truncated product's algebra, DC isolation, OL, HYB) is [`crate::shexp_ol`], whose
+//! `Exp::Pointwise` uses [`exp_by_quadrature`] from here.
 //!
 //! Domain: `ε ∈ (0, 1]` (`ε = 1`: every log is 0 and the visibility the constant 1); a point
 //! inside a sphere sees nothing (0, as in the product chain); spheres of radius 0 occlude

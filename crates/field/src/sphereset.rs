@@ -5,9 +5,10 @@
 //! the truncated SH product ([`crate::subvolume::near_to_far`]), the order in which
 //! shadow fields combine occluders — at an internal order M ≥ N when built with a basis and
 //! Gaunt tensor of order M, truncated to N once at the end ([`SphereSetField`]). Ren et al.
-//! accumulate the spheres' log-visibilities and exponentiate once; its exact form (the summed
-//! clamped logs, exponentiated by quadrature) is [`crate::shexp::SphereSetLog`], measured in
-//! docs/math.md ("Combining in log space").
+//! accumulate the spheres' log-visibilities and exponentiate once ([`crate::shexp_ol`]; a
+//! pointwise reading is [`crate::shexp::SphereSetLog`]); the exact union of the caps is
+//! [`crate::union`] (docs/math.md, "Combining in log space", "The union of the caps", "SH
+//! exponentiation").
 //!
 //! The visibility of one sphere of radius R, centre c, at a point p with d = |c − p| > R is
 //! `√(4π)e₀ − cap(asin(R/d))` about `(c − p)/d` (exact, band-limited to order N by

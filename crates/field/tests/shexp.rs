@@ -162,7 +162,9 @@ fn ol_and_hyb_against_the_exact_exponential() {
 
 /// The combination: one blocker is the band-limited cap within the clamp's error; several
 /// approximate the truncated product chain (what Ren et al. replace), not the union of the caps
-/// (the set's joint visibility): printed for the bunny-like set of 4 and 16 spheres. The edges:
+/// (the set's joint visibility): for a ring of 4 and 16 spheres the exact and HYB exponentials
+/// are within 2 % of the chain (tolerance), while the chain itself is 7–72 % from the union
+/// (printed). The edges:
 /// no sphere is the constant 1, a point inside a sphere sees 0, 10⁶ radii away the constant 1.
 #[test]
 fn shexp_combines_like_the_product_chain() {
@@ -193,6 +195,10 @@ fn shexp_combines_like_the_product_chain() {
         SphereSetUnion::new(&spheres, &rings).eval(p, &mut union);
         for (name, exp) in [("exact", Exp::Exact), ("OL", Exp::Ol), ("HYB", Exp::Hyb)] {
             SphereSetShexp::new(&spheres, (&basis, &gaunt), &table, exp).eval(p, &mut v);
+            // Exact and HYB reproduce the chain (measured 0.000–0.004); OL only near it.
+            if name != "OL" {
+                assert!(occ_rel(&v, &chain) < 0.02, "{name} at S = {s_count}");
+            }
             println!(
                 "S = {s_count}, SHEXP {name}: against the product chain {:.3}, against the union {:.3} (the chain against the union {:.3})",
                 occ_rel(&v, &chain),
