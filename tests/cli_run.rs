@@ -1662,7 +1662,8 @@ fn sphere_sets_on_the_plane_multiply_at_their_internal_order() {
 /// `sphere_combine = "union"` on the plane: the analytic sphere is its own one-sphere set, whose
 /// union is its cap, so the union and the product chain render the same image (the union's
 /// one-cap error is below 1e-13, shscale-field's `union` tests) — equal to 1e-9 of the error
-/// against band-limited truth, which both carry alike. `quadrature` is refused on the plane,
+/// against band-limited truth, which both carry alike; SH exponentiation within its log's clamp
+/// (0.5–1.5× that error). `quadrature` is refused on the plane, `shexp` above order 8,
 /// naming the key, before anything runs; `render --sphere-combine union` refuses another method.
 #[test]
 fn sphere_sets_on_the_plane_combine_as_their_union() {
@@ -1677,7 +1678,7 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     let (dir, head, rows) = run_csv(
         tag,
         "budget_plane",
-        "experiment = \"budget_plane\"\nscene = \"one.toml\"\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\nmethod = \"sphere_set\"\nparts = 1\n[sweep]\nsphere_combine = [\"product\", \"union\"]\n",
+        "experiment = \"budget_plane\"\nscene = \"one.toml\"\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\nmethod = \"sphere_set\"\nparts = 1\n[sweep]\nsphere_combine = [\"product\", \"union\", \"shexp\"]\n",
     );
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let by = |m: &str| {
@@ -1693,6 +1694,23 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     println!("one sphere against band-limited truth: product {p:.6e}, union {u:.6e}");
     assert!((p - u).abs() <= 1e-9 * p.max(1e-6), "{p} vs {u}");
     assert_eq!(num(by("union"), "rays"), 0.0);
+    // SH exponentiation of one blocker is the cap up to its log's clamp (docs/math.md).
+    let x = num(by("shexp"), "rmse_vs_band_limited");
+    println!("one sphere by SH exponentiation: {x:.6e}");
+    assert!(x < 1.5 * p && x > 0.5 * p, "{x} vs {p}");
+    // SH exponentiation above order 8 is refused by name (kind `budget`).
+    let cfg = dir.join("shexp9.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 9\nmethod = \"sphere_set\"\nparts = 1\nsphere_combine = \"shexp\"\n",
+    )
+    .unwrap();
+    let out = dir.join("r9");
+    let o = shscale(&["run", cfg.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("sphere_combine") && err.contains("up to 8"), "{err}");
+    assert!(!out.exists());
     let cfg = dir.join("quad.toml");
     std::fs::write(
         &cfg,
