@@ -42,6 +42,24 @@ pub fn exp_by_quadrature(grid: &QuadratureGrid, f: &[f64], out: &mut [f64]) {
     }
 }
 
+/// `ln max(ε, v(ω))` projected: `v` (SH coefficients, at most the grid's order) evaluated at
+/// every node of `grid`, its pointwise log clamped at ε, projected to `out.len()` coefficients
+/// — the pointwise log of a sampled visibility, the inverse of [`exp_by_quadrature`] where
+/// `v ≥ ε`.
+pub fn log_by_quadrature(grid: &QuadratureGrid, v: &[f64], eps: f64, out: &mut [f64]) {
+    assert!(
+        v.len() <= grid.nn && out.len() <= grid.nn,
+        "coefficients beyond the grid's order"
+    );
+    out.iter_mut().for_each(|o| *o = 0.0);
+    for (i, w) in grid.w.iter().enumerate() {
+        let row = &grid.y[i * grid.nn..(i + 1) * grid.nn];
+        let x: f64 = v.iter().zip(row).map(|(a, y)| a * y).sum();
+        let l = w * x.max(eps).ln();
+        out.iter_mut().zip(row).for_each(|(o, y)| *o += l * y);
+    }
+}
+
 /// The SH projection (order of `basis`) of the clamped log-visibility of one sphere seen from
 /// `p`: `ln ε` on the cap the sphere subtends, 0 elsewhere; `None` when `p` is inside it.
 pub fn log_sphere(basis: &ShBasis<f64>, s: &Sphere, p: DVec3, ln_eps: f64) -> Option<Vec<f64>> {

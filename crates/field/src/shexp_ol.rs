@@ -407,6 +407,71 @@ impl VisibilityField for SphereSetShexp<'_> {
     }
 }
 
+/// The product-algebra log of a sampled visibility `v` (order N, any direction dependence):
+/// `log(max(M_v, ε))·1`, the eigenvalues of `M_v` raised to the **absolute** floor ε (a sampled
+/// visibility can be blocked in every direction — a sample on the surface, inside a concavity —
+/// where `M_v`'s largest eigenvalue is itself near 0 and a relative floor would not bound the
+/// log; for a sphere blocker's cap, whose largest eigenvalue is about 1, the two agree).
+pub fn log_visibility(gaunt: &GauntTensor<f64>, v: &[f64], eps: f64) -> Vec<f64> {
+    let nn = v.len();
+    let (lambda, vecs) = sym_eigen(&product_matrix(gaunt, v), nn);
+    let mut one = vec![0.0; nn];
+    one[0] = (4.0 * PI).sqrt();
+    apply_function(&lambda, &vecs, |x| x.max(eps).ln(), &one)
+}
+
+/// `bsv` with every sample's visibility replaced by its clamped product-algebra log
+/// ([`log_visibility`]): the base-sphere log-visibility, which the extrapolator scales like any
+/// coefficient vector (SH scaling is an angular warp: `M_k log V` approximates the log of the
+/// scaled visibility).
+pub fn log_bsv(bsv: &crate::Bsv, gaunt: &GauntTensor<f64>, eps: f64) -> crate::Bsv {
+    let mut out = bsv.clone();
+    for s in &mut out.samples {
+        s.coeffs = log_visibility(gaunt, &s.coeffs, eps);
+    }
+    out
+}
+
+/// Sub-volumes combined in log space (the many-occluders issue, item 3): each part's
+/// base-sphere **log**-visibility extrapolated with its own k, the parts' logs summed, and the
+/// sum exponentiated once by HYB — against [`crate::subvolume::SubVolumeField`], which scales
+/// each part's visibility and multiplies them near to far.
+pub struct SubVolumeLog<'a> {
+    parts: Vec<crate::extrapolate::Extrapolator<'a>>,
+    gaunt: &'a GauntTensor<f64>,
+    table: &'a ZonalLogTable,
+}
+
+impl<'a> SubVolumeLog<'a> {
+    /// Extrapolators over log-BSVs ([`log_bsv`]; at least one, of the table's order, without
+    /// the plausibility clamp, which bounds visibilities, not logs).
+    pub fn new(
+        parts: Vec<crate::extrapolate::Extrapolator<'a>>,
+        gaunt: &'a GauntTensor<f64>,
+        table: &'a ZonalLogTable,
+    ) -> Self {
+        assert!(!parts.is_empty(), "a sub-volume field needs a part");
+        Self {
+            parts,
+            gaunt,
+            table,
+        }
+    }
+}
+
+impl VisibilityField for SubVolumeLog<'_> {
+    fn eval(&self, p: DVec3, out: &mut [f64]) {
+        let nn = self.table.order() * self.table.order();
+        let (mut sum, mut part) = (vec![0.0; nn], vec![0.0; nn]);
+        for e in &self.parts {
+            VisibilityField::eval(e, p, &mut part);
+            sum.iter_mut().zip(&part).for_each(|(a, b)| *a += b);
+        }
+        let v = exp_hyb(self.table, self.gaunt, &sum, HYB_MAGNITUDE);
+        out.copy_from_slice(&v[..out.len()]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

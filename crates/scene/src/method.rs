@@ -235,9 +235,12 @@ pub enum Spec {
     RayTraced {
         rt_res: usize,
     },
+    /// `combine`: [`Combine::Product`] (each part's scaled visibility multiplied near to far)
+    /// or [`Combine::Shexp`] (each part's log-visibility scaled, summed, exponentiated once).
     SubVolumes {
         parts: usize,
         ex: Extrapolation,
+        combine: Combine,
     },
     /// `internal_order`: the order M the caps are multiplied at before truncating to the run's
     /// N (0: N itself, the plain order-N chain).
@@ -276,6 +279,8 @@ pub struct Keys<'a> {
     pub sphere_combine: Option<&'a str>,
     /// The internal order of a sphere set's products (0: the run's order).
     pub sphere_order: Option<usize>,
+    /// How sub-volumes combine their parts: `product` or `shexp`.
+    pub part_combine: Option<&'a str>,
     pub k_count: Option<usize>,
 }
 
@@ -306,6 +311,7 @@ impl<'a> Keys<'a> {
             ("radial_max", self.radial_max.map(|x| x.to_string())),
             ("sphere_combine", self.sphere_combine.map(str::to_string)),
             ("sphere_order", self.sphere_order.map(|x| x.to_string())),
+            ("part_combine", self.part_combine.map(str::to_string)),
             ("k_count", self.k_count.map(|x| x.to_string())),
         ];
         v.extend(opt.into_iter().filter_map(|(k, c)| Some((k, c?))));
@@ -413,6 +419,16 @@ impl Spec {
             Method::SubVolumes => Spec::SubVolumes {
                 parts: parts()?,
                 ex: k.extrapolation()?,
+                combine: match k.part_combine.unwrap_or("product") {
+                    "product" => Combine::Product,
+                    "shexp" => Combine::Shexp,
+                    s => {
+                        return Err(KeyError::new(
+                            "part_combine",
+                            format!("{s:?} is not one of [\"product\", \"shexp\"]"),
+                        ))
+                    }
+                },
             },
             Method::FullField => Spec::FullField(k.field()?),
             Method::RayTraced => Spec::RayTraced {
@@ -490,7 +506,7 @@ impl Spec {
         };
         match self {
             Spec::Extrapolated(e) => ex(e),
-            Spec::SubVolumes { ex: e, .. } => [vec!["parts"], ex(e)].concat(),
+            Spec::SubVolumes { ex: e, .. } => [vec!["parts", "part_combine"], ex(e)].concat(),
             Spec::FullField(_) => vec![
                 "layout",
                 "hemisphere_res",
@@ -525,7 +541,7 @@ impl Spec {
         occluders
             * match self {
                 Spec::Extrapolated(e) => bsv(e),
-                Spec::SubVolumes { parts, ex } => *parts as f64 * bsv(ex),
+                Spec::SubVolumes { parts, ex, .. } => *parts as f64 * bsv(ex),
                 Spec::FullField(f) => {
                     f.count as f64
                         * samples(f.layout)
@@ -552,7 +568,7 @@ impl Spec {
         occluders
             * match self {
                 Spec::Extrapolated(e) => ex(e),
-                Spec::SubVolumes { parts, ex: e } => *parts as f64 * ex(e),
+                Spec::SubVolumes { parts, ex: e, .. } => *parts as f64 * ex(e),
                 Spec::FullField(f) => f.count as f64 * samples(f.layout) * nn * 8.0,
                 Spec::SphereSet { parts, .. } => *parts as f64 * 32.0,
                 Spec::RayTraced { .. } => 0.0,
@@ -592,6 +608,11 @@ impl Spec {
                 let work = (internal_order as f64 / 4.0).powi(5).max(1.0);
                 rays / rays_per_second + receivers * parts as f64 * SPHERE_SECONDS * work
             }
+            // The parts' logs cost about what their visibilities do; the exponential is added.
+            Spec::SubVolumes {
+                combine: Combine::Shexp,
+                ..
+            } => rays / rays_per_second + receivers * SHEXP_SECONDS,
             _ => rays / rays_per_second,
         }
     }
@@ -615,7 +636,7 @@ impl Spec {
         };
         match self {
             Spec::Extrapolated(e) => ex(scene, e),
-            Spec::SubVolumes { parts, ex: e } => {
+            Spec::SubVolumes { parts, ex: e, .. } => {
                 ex(scene, e);
                 scene.parts = *parts;
             }
@@ -669,6 +690,7 @@ mod tests {
             radial_max: Some(2.0),
             sphere_combine: Some("product"),
             sphere_order: Some(0),
+            part_combine: Some("product"),
             k_count: Some(40),
         }
     }

@@ -7,7 +7,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
-use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, SHEXP_EPS};
+use shscale_field::shexp_ol::{
+    log_bsv, Exp, SphereSetShexp, SubVolumeLog, ZonalLogTable, SHEXP_EPS,
+};
 use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::TruthSampler;
@@ -69,11 +71,14 @@ pub(crate) fn eval_all(
 /// part's BSV sampled at the sampling radius × its bounding radius, its k-table (built once,
 /// before the frames, for a fixed α — part of the memory, not of a frame's time; per frame for
 /// α by distance, which depends on the BSV) and, for several parts, their visibilities
-/// multiplied near to far ([`SubVolumeField`]). One part is the papers' method.
+/// multiplied near to far ([`SubVolumeField`]). One part is the papers' method. With
+/// `combine = Shexp` every part's samples are replaced by their product-algebra logs (their
+/// time in the frame's build), the logs extrapolated, summed and exponentiated once
+/// ([`SubVolumeLog`]), for any number of parts.
 pub(crate) fn extrapolation<'a>(
     ex: &'a Extrapolation,
     (order, k_count): (usize, usize),
-    parts: Vec<(&'a dyn Occluder, (f64, f64))>,
+    (parts, combine): (Vec<(&'a dyn Occluder, (f64, f64))>, Combine),
     sampler: &'a VisibilitySampler,
     points: &'a Points,
 ) -> Result<FrameFn<'a>, Error> {
@@ -96,10 +101,14 @@ pub(crate) fn extrapolation<'a>(
         }
         Alpha::Fit => None,
     };
-    let gaunt = (parts.len() > 1)
+    let log_space = combine == Combine::Shexp;
+    let gaunt = (parts.len() > 1 || log_space)
         .then(|| shscale_sh::GauntTensor::<f64>::new(order))
         .transpose()
         .map_err(|e| Error::config(e.to_string()))?;
+    let table = (gaunt.as_ref())
+        .filter(|_| log_space)
+        .map(|g| ZonalLogTable::new(g, SHEXP_EPS));
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let bsvs: Vec<Bsv> = (parts.iter())
@@ -118,14 +127,22 @@ pub(crate) fn extrapolation<'a>(
                 &own
             }
         };
+        let logs: Vec<Bsv> = match (&gaunt, &table) {
+            (Some(g), Some(_)) => (bsvs.iter())
+                .map(|b| log_bsv(b, g, SHEXP_EPS))
+                .collect(),
+            _ => Vec::new(),
+        };
         let build = t0.elapsed().as_secs_f64();
-        let mut exs: Vec<Extrapolator> = (bsvs.iter().zip(tables))
+        let sources = if log_space { &logs } else { &bsvs };
+        let mut exs: Vec<Extrapolator> = (sources.iter().zip(tables))
             .map(|(b, t)| Extrapolator::new(b, t).with_plausibility(ex.plausibility))
             .collect();
         let t1 = Instant::now();
-        let v = match &gaunt {
-            Some(g) => eval_all(&SubVolumeField::new(exs, g), points, nn),
-            None => eval_all(&exs.remove(0), points, nn),
+        let v = match (&gaunt, &table) {
+            (Some(g), Some(t)) => eval_all(&SubVolumeLog::new(exs, g, t), points, nn),
+            (Some(g), None) => eval_all(&SubVolumeField::new(exs, g), points, nn),
+            _ => eval_all(&exs.remove(0), points, nn),
         };
         let eval = t1.elapsed().as_secs_f64();
         let rays = bsvs.iter().map(|b| b.rays).sum::<usize>() as f64;

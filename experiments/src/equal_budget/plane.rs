@@ -132,6 +132,7 @@ impl Params {
             radial_tau: None,
             radial_max: None,
             sphere_combine: Some(&self.sphere_combine),
+            part_combine: None,
             sphere_order: Some(self.sphere_order),
             k_count: None,
         }

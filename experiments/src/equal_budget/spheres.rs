@@ -93,6 +93,10 @@ pub struct Params {
     /// projected by a quadrature, no truncated products), `union` (the same joint visibility,
     /// exact in φ, by rings in z, no rays) or `shexp` (SH exponentiation).
     pub sphere_combine: String,
+    /// How `sub_volumes` combines its parts: `product` (each part's scaled visibility
+    /// multiplied near to far) or `shexp` (each part's scaled log-visibility summed and
+    /// exponentiated once, SH exponentiation's HYB).
+    pub part_combine: String,
     /// The order M a `sphere_set` multiplies its caps at before truncating to `order` (0: the
     /// run's order, the plain chain; else order ≤ M ≤ 16).
     pub sphere_order: usize,
@@ -129,6 +133,7 @@ impl Default for Params {
             radial_tau: 0.5,
             radial_max: 2.0,
             sphere_combine: "product".into(),
+            part_combine: "product".into(),
             sphere_order: 0,
             k_count: 40,
             receivers: 240,
@@ -162,6 +167,7 @@ impl Params {
             radial_tau: Some(self.radial_tau),
             radial_max: Some(self.radial_max),
             sphere_combine: Some(&self.sphere_combine),
+            part_combine: Some(&self.part_combine),
             sphere_order: Some(self.sphere_order),
             k_count: Some(self.k_count),
         }
@@ -352,6 +358,7 @@ impl Kind for Budget {
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
             ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`) `union` (the same joint visibility, the caps' union integrated in φ in closed form on 32 Gauss–Legendre rings in z: no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation, Ren et al. 2006: the blockers' product-algebra logs, clamped at 2 % of the largest eigenvalue, summed and exponentiated by HYB; orders up to 8; docs/math.md, \"SH exponentiation\")"),
             ("sphere_order", "the internal order M of `sphere_set` with `sphere_combine = \"product\"`: each cap projected to M, every product at M, the result truncated to `order` once (docs/math.md, \"Combining many spheres\"); 0 (default) for the run's order, else order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
+            ("part_combine", "how `sub_volumes` combines its parts: `product` (default; each part's scaled visibility multiplied near to far) or `shexp` (scaling in log space: each part's base-sphere samples replaced by their product-algebra logs, clamped at ε = 0.02, extrapolated with the part's own k, summed, and exponentiated once by HYB; orders up to 8, without the plausibility clamp; docs/math.md, \"SH exponentiation\")"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
             ("receivers", "receiver directions per radius (seeded), 1..=100000"),
             ("probe_seed", "seed of the receiver directions"),
@@ -397,6 +404,25 @@ impl Kind for Budget {
                     p.order
                 ),
             ));
+        }
+        if let Spec::SubVolumes {
+            combine: Combine::Shexp,
+            ex,
+            ..
+        } = spec
+        {
+            if p.order > max {
+                return Err(KeyError::new(
+                    "part_combine",
+                    format!("\"shexp\" takes orders up to {max}, not {}", p.order),
+                ));
+            }
+            if ex.plausibility != shscale_field::extrapolate::Plausibility::None {
+                return Err(KeyError::new(
+                    "plausibility",
+                    "the clamp bounds visibilities, not the logs `part_combine = \"shexp\"` extrapolates: leave it at \"none\"".to_string(),
+                ));
+            }
         }
         if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
             return Err(KeyError::new(
@@ -554,9 +580,10 @@ impl Kind for Budget {
             Spec::Extrapolated(ex) => {
                 let range = shscale_field::probe::k_range(&p.radii, ex.sampling_radius);
                 let k = (order, p.k_count);
-                frames::extrapolation(ex, k, vec![(occ, range)], &sampler, &sh.points)?
+                let parts = vec![(occ, range)];
+                frames::extrapolation(ex, k, (parts, Combine::Product), &sampler, &sh.points)?
             }
-            Spec::SubVolumes { parts, ex } => {
+            Spec::SubVolumes { parts, ex, combine } => {
                 let (Some(mesh), Some(labels)) = (sh.mesh.as_ref(), partition(*parts)?) else {
                     return Err(Error::config(
                         "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
@@ -566,7 +593,10 @@ impl Kind for Budget {
                     .map(|m| MeshBvh::build(m, UpdateStrategy::Rebuild))
                     .collect();
                 partition_seconds = Some(t0.elapsed().as_secs_f64());
-                let parts = part_ranges(&part_bvhs, ex.sampling_radius, &sh.points);
+                let parts = (
+                    part_ranges(&part_bvhs, ex.sampling_radius, &sh.points),
+                    *combine,
+                );
                 frames::extrapolation(ex, (order, p.k_count), parts, &sampler, &sh.points)?
             }
             Spec::SphereSet {

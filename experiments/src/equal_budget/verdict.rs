@@ -238,12 +238,21 @@ pub(crate) fn variant(s: &Spec) -> String {
             "sphere set (S = {parts}{})",
             match (combine, internal_order) {
                 (Combine::Quadrature, _) => ", quadrature".to_string(),
+                (Combine::Union, _) => ", union".to_string(),
+                (Combine::Shexp, _) => ", SHEXP".to_string(),
                 (_, 0) => String::new(),
                 (_, m) => format!(", M = {m}"),
             }
         ),
         Spec::Extrapolated(e) => extrapolation_variant("extrapolation", None, e),
-        Spec::SubVolumes { parts, ex } => extrapolation_variant("sub-volumes", Some(*parts), ex),
+        Spec::SubVolumes {
+            parts,
+            ex,
+            combine: Combine::Shexp,
+        } => extrapolation_variant("sub-volumes in log space", Some(*parts), ex),
+        Spec::SubVolumes { parts, ex, .. } => {
+            extrapolation_variant("sub-volumes", Some(*parts), ex)
+        }
     }
 }
 
