@@ -1706,10 +1706,18 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     )
     .unwrap();
     let out = dir.join("r9");
-    let o = shscale(&["run", cfg.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("sphere_combine") && err.contains("up to 8"), "{err}");
+    assert!(
+        err.contains("sphere_combine") && err.contains("up to 8"),
+        "{err}"
+    );
     assert!(!out.exists());
     let cfg = dir.join("quad.toml");
     std::fs::write(

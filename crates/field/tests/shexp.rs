@@ -245,8 +245,13 @@ fn log_of_a_sampled_visibility_inverts_and_rotates() {
     let back = exp_exact(&gaunt, &log);
     let e_inv = l2_diff(&back, &v) / l2(&v);
     let mut rotated = vec![0.0; 16];
-    rotate_zonal(&basis, &zonal_log(&gaunt, &z, SHEXP_EPS), axis.to_array(), &mut rotated)
-        .unwrap();
+    rotate_zonal(
+        &basis,
+        &zonal_log(&gaunt, &z, SHEXP_EPS),
+        axis.to_array(),
+        &mut rotated,
+    )
+    .unwrap();
     let e_rot = l2_diff(&log, &rotated) / l2(&rotated);
     println!("exp(log v) vs v {e_inv:.1e}; log(R v) vs R log v {e_rot:.1e}");
     // exp(M_f)·1 with f = log(M_v)·1 is not exactly v: M_f is not log(M_v), the truncated
@@ -314,8 +319,8 @@ fn scaling_in_log_space_on_the_analytic_sphere() {
         let (mut ep, mut el, mut ew) = (0.0, 0.0, 0.0);
         for k in 0..16 {
             let t = k as f64 * 0.77;
-            let dir = DVec3::new(t.cos() * 0.8, t.sin() * 0.8, 0.6 * (k as f64 / 8.0 - 1.0))
-                .normalize();
+            let dir =
+                DVec3::new(t.cos() * 0.8, t.sin() * 0.8, 0.6 * (k as f64 / 8.0 - 1.0)).normalize();
             let p = rho * dir;
             let truth = sphere_truth(&basis, &unit, p).unwrap();
             VisibilityField::eval(&plain, p, &mut a);

@@ -67,6 +67,9 @@ pub(crate) fn eval_all(
         .collect()
 }
 
+/// Occluders (the object or its parts) with the k range each is extrapolated over.
+pub(crate) type Parts<'a> = Vec<(&'a dyn Occluder, (f64, f64))>;
+
 /// The frame of extrapolation from the spheres of `parts` (occluder and k range each): every
 /// part's BSV sampled at the sampling radius × its bounding radius, its k-table (built once,
 /// before the frames, for a fixed α — part of the memory, not of a frame's time; per frame for
@@ -78,7 +81,7 @@ pub(crate) fn eval_all(
 pub(crate) fn extrapolation<'a>(
     ex: &'a Extrapolation,
     (order, k_count): (usize, usize),
-    (parts, combine): (Vec<(&'a dyn Occluder, (f64, f64))>, Combine),
+    (parts, combine): (Parts<'a>, Combine),
     sampler: &'a VisibilitySampler,
     points: &'a Points,
 ) -> Result<FrameFn<'a>, Error> {
@@ -128,9 +131,7 @@ pub(crate) fn extrapolation<'a>(
             }
         };
         let logs: Vec<Bsv> = match (&gaunt, &table) {
-            (Some(g), Some(_)) => (bsvs.iter())
-                .map(|b| log_bsv(b, g, SHEXP_EPS))
-                .collect(),
+            (Some(g), Some(_)) => (bsvs.iter()).map(|b| log_bsv(b, g, SHEXP_EPS)).collect(),
             _ => Vec::new(),
         };
         let build = t0.elapsed().as_secs_f64();
