@@ -1698,6 +1698,27 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     let x = num(by("shexp"), "rmse_vs_band_limited");
     println!("one sphere by SH exponentiation: {x:.6e}");
     assert!(x < 1.5 * p && x > 0.5 * p, "{x} vs {p}");
+    // Sub-volumes in log space refuse the plausibility clamp, naming it (kind `budget`).
+    let cfg = dir.join("logclamp.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget\"\nmesh = \"bunny\"\nmethod = \"sub_volumes\"\nparts = 2\npart_combine = \"shexp\"\nplausibility = \"clamp\"\n",
+    )
+    .unwrap();
+    let out = dir.join("rc");
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("plausibility") && err.contains("logs"),
+        "{err}"
+    );
+    assert!(!out.exists());
     // SH exponentiation above order 8 is refused by name (kind `budget`).
     let cfg = dir.join("shexp9.toml");
     std::fs::write(

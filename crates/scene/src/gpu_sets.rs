@@ -73,7 +73,7 @@ struct PosedParts {
 
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
-    let why = if scene.sphere_combine != crate::method::Combine::Product {
+    let why = if scene.sphere_combine != crate::combine::Combine::Product {
         Some(format!(
             "sphere_combine {:?} has no GPU form; the GPU sphere set is the plain chain",
             scene.sphere_combine

@@ -25,6 +25,7 @@ pub mod bench;
 pub mod bench_methods;
 pub mod calibrate;
 pub mod camera;
+pub mod combine;
 pub mod error;
 pub mod frame;
 pub mod gpu_path;

@@ -120,37 +120,7 @@ pub enum Alpha {
     Fit,
 }
 
-/// How a sphere set combines its spheres.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Combine {
-    /// Truncated SH products near to far, as every multi-occluder method here.
-    Product,
-    /// The set's joint visibility projected by a quadrature at every receiver (no truncated
-    /// products; its rays, cast at the spheres, are counted).
-    Quadrature,
-    /// The union of the caps projected exactly in φ and by [`UNION_RINGS`] Gauss–Legendre
-    /// rings in z (`shscale_field::union`): the quadrature's quantity without rays.
-    Union,
-    /// SH exponentiation (Ren et al. 2006, `shscale_field::shexp_ol`): the blockers' product-
-    /// algebra logs summed and exponentiated by HYB, at orders up to
-    /// `shscale_field::shexp_ol::MAX_SHEXP_ORDER`.
-    Shexp,
-}
-
-impl Combine {
-    /// The names `sphere_combine` takes.
-    pub const NAMES: [&'static str; 4] = ["product", "quadrature", "union", "shexp"];
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "product" => Some(Self::Product),
-            "quadrature" => Some(Self::Quadrature),
-            "union" => Some(Self::Union),
-            "shexp" => Some(Self::Shexp),
-            _ => None,
-        }
-    }
-}
+pub use crate::combine::Combine;
 
 /// Rings of [`Combine::Union`], fixed before the study's runs from its convergence on random
 /// sets (`cargo test --release -p shscale-field --test union -- --ignored --nocapture`,
@@ -726,8 +696,9 @@ mod tests {
         }
         // sphere_combine under extrapolation, α under ray tracing, δ under uniform radii.
         type Set = fn(&mut Keys);
-        let cases: [(&str, Set); 6] = [
+        let cases: [(&str, Set); 7] = [
             ("sphere_combine", |k| k.sphere_combine = Some("quadrature")),
+            ("part_combine", |k| k.part_combine = Some("shexp")),
             ("sphere_order", |k| k.sphere_order = Some(8)),
             // The internal order is read by the products only, not by the quadrature.
             ("sphere_order", |k| {
@@ -769,6 +740,30 @@ mod tests {
         ));
         k.sphere_order = Some(MAX_SPHERE_ORDER + 1);
         assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_order");
+        // The combinations by name: every sphere_combine name parses, part_combine takes two.
+        for name in Combine::NAMES {
+            let mut k = keys("sphere_set");
+            k.sphere_combine = Some(name);
+            let Spec::SphereSet { combine, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
+                panic!("{name}")
+            };
+            assert_eq!(Combine::parse(name), Some(combine));
+        }
+        let mut k = keys("sub_volumes");
+        k.part_combine = Some("shexp");
+        assert!(matches!(
+            Spec::parse(&k, &d, 1024).unwrap(),
+            Spec::SubVolumes {
+                combine: Combine::Shexp,
+                ..
+            }
+        ));
+        k.part_combine = Some("union");
+        let e = Spec::parse(&k, &d, 1024).unwrap_err();
+        assert!(
+            e.key == "part_combine" && e.message.contains("union"),
+            "{e:?}"
+        );
         // Read keys off their defaults are fine: δ with clearance, α with a fixed α.
         let mut k = keys("extrapolated");
         k.radial = "clearance";

@@ -116,37 +116,12 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let spheres: Vec<SphereVisibility> = (built.spheres.iter())
         .map(|s| SphereVisibility::new(*s, &basis))
         .collect();
-    // A sphere set at a higher internal order is one field: its caps multiplied at that order,
-    // truncated to the scene's once (the shader then multiplies nothing more).
-    let internal = internal_order_sh(scene, method)?;
-    let high = (internal.as_ref())
-        .filter(|_| !built.spheres.is_empty())
-        .map(|(b, g)| SphereSetField::new(&built.spheres, b, g));
-    // The union of the caps and SH exponentiation are one field too (`render
-    // --sphere-combine union|shexp`).
-    let combine =
-        (method == Method::SphereSet && !built.spheres.is_empty()).then_some(scene.sphere_combine);
-    let rings = (combine == Some(Combine::Union))
-        .then(|| RingGrid::new(&basis, crate::method::UNION_RINGS));
-    let shexp = match combine {
-        Some(Combine::Shexp) => Some(shexp_of(scene)?),
-        _ => None,
-    };
-    let union: Option<Box<dyn VisibilityField + '_>> = match (&rings, &shexp) {
-        (Some(g), _) => Some(Box::new(SphereSetUnion::new(&built.spheres, g))),
-        (None, Some((g, t))) => Some(Box::new(SphereSetShexp::new(
-            &built.spheres,
-            (&basis, g),
-            t,
-            Exp::Hyb,
-        ))),
-        _ => None,
-    };
+    // A sphere set combined at a higher internal order, as its caps' union or by SH
+    // exponentiation is one field (the shader then multiplies nothing more).
+    let set_tables = SetTables::new(scene, method, &basis, !built.spheres.is_empty())?;
+    let one_set = set_tables.field(&built.spheres, &basis);
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
-    if let Some(set) = &high {
-        fields = vec![set as &dyn VisibilityField];
-    }
-    if let Some(set) = &union {
+    if let Some(set) = &one_set {
         fields = vec![set.as_ref()];
     }
     let t = Instant::now();
@@ -178,7 +153,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         });
     }
     let mut centers = field_centers(method, &built, &occs);
-    if high.is_some() || union.is_some() {
+    if one_set.is_some() {
         centers.truncate(1);
     }
     let local = LocalLights::new(&emitters, &light_fields, &sampler);
@@ -224,35 +199,76 @@ fn converged_truths<'a>(
     }
 }
 
-/// The Gaunt tensor and SH exponentiation's log table at the scene's order (at most
-/// `MAX_SHEXP_ORDER`, refused by name above it).
-fn shexp_of(scene: &Scene) -> Result<(shscale_sh::GauntTensor<f64>, ZonalLogTable), Error> {
-    if scene.order > MAX_SHEXP_ORDER {
-        return Err(Error::config(format!(
-            "{}: sphere_combine \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
-            scene.file, scene.order
-        )));
-    }
-    let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
-        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-    let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-    Ok((gaunt, table))
+/// The tables of a sphere set combined as one field: the basis and Gaunt tensor of its internal
+/// order ([`Scene::sphere_order`], when above the scene's order), the rings of its caps' union,
+/// or SH exponentiation's Gaunt tensor and log table (at most `MAX_SHEXP_ORDER`, refused by
+/// name above it); all `None` for the plain chain and every other method.
+struct SetTables {
+    internal: Option<(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>)>,
+    rings: Option<RingGrid>,
+    shexp: Option<(shscale_sh::GauntTensor<f64>, ZonalLogTable)>,
 }
 
-/// An SH basis and Gaunt tensor of one order.
-type OrderSh = (shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>);
-
-/// The basis and Gaunt tensor of a sphere set's internal order ([`Scene::sphere_order`]) when
-/// it is above the scene's order; `None` otherwise (and for every other method).
-fn internal_order_sh(scene: &Scene, method: Method) -> Result<Option<OrderSh>, Error> {
-    if method != Method::SphereSet || scene.sphere_order <= scene.order {
-        return Ok(None);
+impl SetTables {
+    fn new(
+        scene: &Scene,
+        method: Method,
+        basis: &shscale_sh::ShBasis<f64>,
+        has_spheres: bool,
+    ) -> Result<Self, Error> {
+        let mut t = Self {
+            internal: None,
+            rings: None,
+            shexp: None,
+        };
+        if method != Method::SphereSet || !has_spheres {
+            return Ok(t);
+        }
+        let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+        match scene.sphere_combine {
+            Combine::Union => t.rings = Some(RingGrid::new(basis, crate::method::UNION_RINGS)),
+            Combine::Shexp => {
+                if scene.order > MAX_SHEXP_ORDER {
+                    return Err(Error::config(format!(
+                        "{}: sphere_combine \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
+                        scene.file, scene.order
+                    )));
+                }
+                let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+                let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+                t.shexp = Some((gaunt, table));
+            }
+            _ if scene.sphere_order > scene.order => {
+                t.internal = Some((
+                    shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
+                    shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
+                ));
+            }
+            _ => {}
+        }
+        Ok(t)
     }
-    let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-    Ok(Some((
-        shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
-        shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
-    )))
+
+    /// The set's one field, or `None` for the plain chain (one field per sphere).
+    fn field<'a>(
+        &'a self,
+        spheres: &'a [shscale_geometry::Sphere],
+        basis: &'a shscale_sh::ShBasis<f64>,
+    ) -> Option<Box<dyn VisibilityField + 'a>> {
+        if let Some((b, g)) = &self.internal {
+            return Some(Box::new(SphereSetField::new(spheres, b, g)));
+        }
+        if let Some(r) = &self.rings {
+            return Some(Box::new(SphereSetUnion::new(spheres, r)));
+        }
+        let (g, t) = self.shexp.as_ref()?;
+        Some(Box::new(SphereSetShexp::new(
+            spheres,
+            (basis, g),
+            t,
+            Exp::Hyb,
+        )))
+    }
 }
 
 /// The method's visibility field per occluder (per part for sub-volumes and sphere sets); none

@@ -202,7 +202,7 @@ pub struct Scene {
     /// `sphere_order`), the exact union of its caps (`shscale_field::union`) or SH
     /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
     /// --sphere-combine` (no scene-file key); products otherwise. The quadrature is not rendered.
-    pub sphere_combine: crate::method::Combine,
+    pub sphere_combine: crate::combine::Combine,
     /// Where the extrapolation's base-sphere samples lie along their directions, set by
     /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
     pub radial: shscale_field::bsv::RadialRule,
@@ -364,7 +364,7 @@ impl Scene {
             pose_t: None,
             parts: 1,
             sphere_order: 0,
-            sphere_combine: crate::method::Combine::Product,
+            sphere_combine: crate::combine::Combine::Product,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }
