@@ -140,6 +140,12 @@ pub const UNION_SPHERE_SECONDS: f64 = 0.05e-6;
 pub const SHEXP_SECONDS: f64 = 1.0e-6;
 pub const SHEXP_SPHERE_SECONDS: f64 = 0.05e-6;
 
+/// The cost model's time of one base-sphere sample's product-algebra log (an N² × N²
+/// eigenproblem, one thread) at N = 4, growing as `(N/4)⁶`: 43 µs from `part_combine = "shexp"`
+/// at P = 16 in `configs/experiments/subvolumes_log.toml` (2.4 ms at N = 8) on the development
+/// VM.
+pub const LOG_SAMPLE_SECONDS: f64 = 43e-6;
+
 /// Gauss–Legendre nodes in cos θ of [`Combine::Quadrature`] (× twice as many φ).
 pub const SPHERE_QUADRATURE_RES: usize = 64;
 
@@ -553,7 +559,9 @@ impl Spec {
     /// At an internal order M above 4 a sphere's time grows with its product's Gaunt entries,
     /// about `0.2·M⁵` (194 at M = 4, 51,814 at 12, 222,376 at 16): `(M/4)⁵` times
     /// [`SPHERE_SECONDS`].
-    pub fn seconds(&self, rays: f64, receivers: f64, rays_per_second: f64) -> f64 {
+    pub fn seconds(&self, order: usize, rays: f64, receivers: f64, rays_per_second: f64) -> f64 {
+        // A truncated product's work at order M, against one at 4: its Gaunt entries, ~(M/4)⁵.
+        let product_work = |m: usize| (m as f64 / 4.0).powi(5).max(1.0);
         match *self {
             Spec::SphereSet {
                 parts,
@@ -569,20 +577,30 @@ impl Spec {
                 parts,
                 combine: Combine::Shexp,
                 ..
-            } => receivers * (SHEXP_SECONDS + parts as f64 * SHEXP_SPHERE_SECONDS),
+            } => {
+                receivers
+                    * (SHEXP_SECONDS * product_work(order) + parts as f64 * SHEXP_SPHERE_SECONDS)
+            }
             Spec::SphereSet {
                 parts,
                 internal_order,
                 ..
             } => {
-                let work = (internal_order as f64 / 4.0).powi(5).max(1.0);
+                let work = product_work(internal_order.max(order));
                 rays / rays_per_second + receivers * parts as f64 * SPHERE_SECONDS * work
             }
             // The parts' logs cost about what their visibilities do; the exponential is added.
             Spec::SubVolumes {
                 combine: Combine::Shexp,
-                ..
-            } => rays / rays_per_second + receivers * SHEXP_SECONDS,
+                parts,
+                ex,
+            } => {
+                let logs = parts as f64
+                    * samples(ex.layout)
+                    * LOG_SAMPLE_SECONDS
+                    * (order as f64 / 4.0).powi(6);
+                rays / rays_per_second + receivers * SHEXP_SECONDS * product_work(order) + logs
+            }
             _ => rays / rays_per_second,
         }
     }
@@ -879,21 +897,30 @@ mod tests {
         // Time: rays at the rate; sphere sets by products add SPHERE_SECONDS per receiver and
         // sphere, by quadrature their rays are priced per direction and sphere test instead.
         let rate = 1e7;
-        assert_eq!(ex.seconds(1e7, 100.0, rate), 1.0);
-        assert_eq!(ex.seconds(0.0, 100.0, rate), 0.0);
+        assert_eq!(ex.seconds(4, 1e7, 100.0, rate), 1.0);
+        assert_eq!(ex.seconds(4, 0.0, 100.0, rate), 0.0);
         let prod = spec(&keys("sphere_set"));
         let want = 100.0 * 4.0 * SPHERE_SECONDS;
-        assert!((prod.seconds(0.0, 100.0, rate) - want).abs() < 1e-18);
-        // At an internal order M the product's work scales as (M/4)⁵; at M ≤ 4 as the plain chain.
+        assert!((prod.seconds(4, 0.0, 100.0, rate) - want).abs() < 1e-18);
+        // At an internal order M the product's work scales as (M/4)⁵; at M ≤ 4 as the plain
+        // chain; the run's own order counts the same way (the chain at N = 8 is 32× N = 4's).
         let mut k8 = keys("sphere_set");
         k8.sphere_order = Some(8);
-        let m8 = spec(&k8).seconds(0.0, 100.0, rate);
+        let m8 = spec(&k8).seconds(4, 0.0, 100.0, rate);
         assert!((m8 - 32.0 * want).abs() < 1e-15, "{m8}");
         k8.sphere_order = Some(3);
-        assert!((spec(&k8).seconds(0.0, 100.0, rate) - want).abs() < 1e-18);
+        assert!((spec(&k8).seconds(3, 0.0, 100.0, rate) - want).abs() < 1e-18);
+        let n8 = prod.seconds(8, 0.0, 100.0, rate);
+        assert!((n8 - 32.0 * want).abs() < 1e-15, "{n8}");
         let quad = spec(&q);
         let rays = quad.rays(1.0, 10.0);
         let want = rays * (SPHERE_DIRECTION_SECONDS + 4.0 * SPHERE_TEST_SECONDS);
-        assert!((quad.seconds(rays, 10.0, rate) - want).abs() < 1e-15);
+        assert!((quad.seconds(4, rays, 10.0, rate) - want).abs() < 1e-15);
+        // Sub-volumes in log space add each sample's log, (N/4)⁶, and the exponential.
+        let mut kl = keys("sub_volumes");
+        kl.part_combine = Some("shexp");
+        let logs = spec(&kl).seconds(8, 0.0, 100.0, rate);
+        let want = 4.0 * 240.0 * LOG_SAMPLE_SECONDS * 64.0 + 100.0 * SHEXP_SECONDS * 32.0;
+        assert!((logs - want).abs() < 1e-12 * want, "{logs} vs {want}");
     }
 }

@@ -414,7 +414,8 @@ impl Kind for BudgetPlane {
             Cost {
                 rays,
                 bytes,
-                seconds: p.typed.method.seconds(rays, frames * receivers, rate)
+                seconds: (p.typed.method)
+                    .seconds(p.order.unwrap_or(base.order), rays, frames * receivers, rate)
                     + frames * receivers * SHADE_SECONDS_PER_RECEIVER,
                 once_seconds: 0.0,
                 drivers: format!(

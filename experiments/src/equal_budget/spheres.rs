@@ -443,9 +443,12 @@ impl Kind for Budget {
                 bytes: p.typed.memory_bytes(p.order, 1.0, p.k_count),
                 // Every method's frame ran at 1.9–2.4e7 rays/s in `configs/experiments/
                 // budget.toml` (the `rays` and `frame_seconds` columns): the truths' rate.
-                seconds: p
-                    .typed
-                    .seconds(rays, n, shscale_runner::timing::TRUTH_RAYS_PER_SECOND),
+                seconds: p.typed.seconds(
+                    p.order,
+                    rays,
+                    n,
+                    shscale_runner::timing::TRUTH_RAYS_PER_SECOND,
+                ),
                 once_seconds: 0.0,
                 drivers: format!("method {} → {rays:.3e} rays per frame", p.typed.method()),
             },
