@@ -25,6 +25,16 @@ impl Combine {
     /// The names `sphere_combine` takes.
     pub const NAMES: [&'static str; 4] = ["product", "quadrature", "union", "shexp"];
 
+    /// The name configs and flags give it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Product => "product",
+            Self::Quadrature => "quadrature",
+            Self::Union => "union",
+            Self::Shexp => "shexp",
+        }
+    }
+
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "product" => Some(Self::Product),

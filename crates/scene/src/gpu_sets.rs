@@ -75,8 +75,8 @@ struct PosedParts {
 pub fn check(scene: &Scene) -> Result<(), Error> {
     let why = if scene.sphere_combine != crate::combine::Combine::Product {
         Some(format!(
-            "sphere_combine {:?} has no GPU form; the GPU sphere set is the plain chain",
-            scene.sphere_combine
+            "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain",
+            scene.sphere_combine.name()
         ))
     } else if scene.sphere_order > scene.order {
         Some(format!(

@@ -766,6 +766,7 @@ mod tests {
                 panic!("{name}")
             };
             assert_eq!(Combine::parse(name), Some(combine));
+            assert_eq!(combine.name(), name);
         }
         let mut k = keys("sub_volumes");
         k.part_combine = Some("shexp");
