@@ -1698,68 +1698,27 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     let x = num(by("shexp"), "rmse_vs_band_limited");
     println!("one sphere by SH exponentiation: {x:.6e}");
     assert!(x < 1.5 * p && x > 0.5 * p, "{x} vs {p}");
-    // Sub-volumes in log space refuse the plausibility clamp, naming it (kind `budget`).
-    let cfg = dir.join("logclamp.toml");
-    std::fs::write(
-        &cfg,
+    // Refused by name before anything is written: sub-volumes in log space with the
+    // plausibility clamp, SH exponentiation above order 8 (kind `budget`), the quadrature on
+    // the plane.
+    refused_before_running(
+        &dir,
+        "logclamp",
         "experiment = \"budget\"\nmesh = \"bunny\"\nmethod = \"sub_volumes\"\nparts = 2\npart_combine = \"shexp\"\nplausibility = \"clamp\"\n",
-    )
-    .unwrap();
-    let out = dir.join("rc");
-    let o = shscale(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out-dir",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("plausibility") && err.contains("logs"),
-        "{err}"
+        &["plausibility", "logs"],
     );
-    assert!(!out.exists());
-    // SH exponentiation above order 8 is refused by name (kind `budget`).
-    let cfg = dir.join("shexp9.toml");
-    std::fs::write(
-        &cfg,
+    refused_before_running(
+        &dir,
+        "shexp9",
         "experiment = \"budget\"\nmesh = \"sphere\"\norder = 9\nmethod = \"sphere_set\"\nparts = 1\nsphere_combine = \"shexp\"\n",
-    )
-    .unwrap();
-    let out = dir.join("r9");
-    let o = shscale(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out-dir",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("sphere_combine") && err.contains("up to 8"),
-        "{err}"
+        &["sphere_combine", "up to 8"],
     );
-    assert!(!out.exists());
-    let cfg = dir.join("quad.toml");
-    std::fs::write(
-        &cfg,
+    refused_before_running(
+        &dir,
+        "quad",
         "experiment = \"budget_plane\"\nscene = \"one.toml\"\ngpu = \"off\"\nmethod = \"sphere_set\"\nsphere_combine = \"quadrature\"\n",
-    )
-    .unwrap();
-    let out = dir.join("rq");
-    let o = shscale(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out-dir",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("sphere_combine") && err.contains("quadrature"),
-        "{err}"
+        &["sphere_combine", "quadrature"],
     );
-    assert!(!out.exists());
     let o = shscale(&[
         "render",
         "--scene",
@@ -1776,6 +1735,24 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     assert!(err.contains("--sphere-combine"), "{err}");
     assert!(!dir.join("x.exr").exists());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `run` on the config `text` (written to `dir/NAME.toml`) exits 2 before writing anything, its
+/// message naming every one of `words`.
+fn refused_before_running(dir: &std::path::Path, name: &str, text: &str, words: &[&str]) {
+    let cfg = dir.join(format!("{name}.toml"));
+    std::fs::write(&cfg, text).unwrap();
+    let out = dir.join(format!("r_{name}"));
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{name}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(words.iter().all(|w| err.contains(w)), "{name}: {err}");
+    assert!(!out.exists(), "{name}");
 }
 
 /// Every experiment config the project ships resolves and passes its limits: `run --dry-run`

@@ -4,9 +4,12 @@
 //! combination against the truncated product chain it approximates and the exact union, and the
 //! edges.
 
+mod common;
+
+use common::{occ_rel, sphere};
 use glam::DVec3;
 use shscale_field::evaluator::VisibilityField;
-use shscale_field::metrics::{l2, l2_diff, occlusion};
+use shscale_field::metrics::{l2, l2_diff};
 use shscale_field::probe::sphere_truth;
 use shscale_field::shexp_ol::{
     exp_exact, exp_hyb, exp_ol, zonal_log, Exp, SphereSetShexp, ZonalLogTable, HYB_MAGNITUDE,
@@ -19,17 +22,6 @@ use shscale_sh::cap::cap_zonal;
 use shscale_sh::rotation::rotate_zonal;
 use shscale_sh::{GauntTensor, ShBasis};
 use std::f64::consts::PI;
-
-fn sphere(c: [f64; 3], r: f64) -> Sphere {
-    Sphere {
-        center: DVec3::from_array(c),
-        radius: r,
-    }
-}
-
-fn occ_rel(got: &[f64], want: &[f64]) -> f64 {
-    l2_diff(got, want) / l2(&occlusion(want)).max(1e-300)
-}
 
 /// A blocker's band-limited visibility, zonal.
 fn blocker(n: usize, a: f64) -> Vec<f64> {
@@ -105,13 +97,8 @@ fn ol_and_hyb_against_the_exact_exponential() {
     );
     let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
     println!("OL table: ‖f̂‖ up to {:.3}", table.max_magnitude());
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut rnd = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uniform = common::Uniform::new(0x2545_f491_4f6c_dd1d);
+    let mut rnd = || uniform.next();
     let mut errs = Vec::new();
     for s_count in [1, 2, 4, 16, 64] {
         let (mut ol_sum, mut hyb_sum, mut mag_sum) = (0.0, 0.0, 0.0);

@@ -2,31 +2,36 @@
 //! closed form, disjoint caps (the union is the sum), one sphere hiding another (the near cap
 //! alone), random sets against a converged indicator quadrature, and the domain's edges.
 
+mod common;
+
+use common::{occ_rel, sphere};
 use glam::DVec3;
 use shscale_field::evaluator::VisibilityField;
-use shscale_field::metrics::{l2, l2_diff, occlusion};
 use shscale_field::probe::sphere_truth;
 use shscale_field::sphereset::{QuadratureGrid, SphereSetQuadrature};
 use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_geometry::Sphere;
 use shscale_sh::ShBasis;
 
-fn sphere(c: [f64; 3], r: f64) -> Sphere {
-    Sphere {
-        center: DVec3::from_array(c),
-        radius: r,
-    }
-}
-
-/// Error relative to the truth's occlusion (the study's `occ_rel_l2`).
-fn occ_rel(got: &[f64], want: &[f64]) -> f64 {
-    l2_diff(got, want) / l2(&occlusion(want)).max(1e-300)
-}
-
 fn union_at(spheres: &[Sphere], grid: &RingGrid, p: DVec3, nn: usize) -> Vec<f64> {
     let mut v = vec![0.0; nn];
     SphereSetUnion::new(spheres, grid).eval(p, &mut v);
     v
+}
+
+/// `count` spheres of radius 0.05–0.35 with centres in [−1, 1]³, and a point at y = 2.5 to see
+/// them from.
+fn random_set(u: &mut common::Uniform, count: usize) -> (Vec<Sphere>, DVec3) {
+    let spheres = (0..count)
+        .map(|_| {
+            let c = [0; 3].map(|_| 2.0 * u.next() - 1.0);
+            sphere(c, 0.05 + 0.3 * u.next())
+        })
+        .collect();
+    (
+        spheres,
+        DVec3::new(2.5 * u.next() - 1.25, 2.5, 0.5 * u.next()),
+    )
 }
 
 /// One sphere: the union is its cap, exact in φ, so the only error is the z-quadrature's; it
@@ -100,13 +105,7 @@ fn disjoint_hidden_and_coincident_spheres_match_closed_forms() {
 /// estimate one quantity (tolerance 1e-2 of the occlusion, both errors together).
 #[test]
 fn random_sets_agree_with_a_converged_indicator_quadrature() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rnd = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uniform = common::Uniform::new(0x9e37_79b9_7f4a_7c15);
     for n in [4, 8] {
         let basis = ShBasis::<f64>::new(n).unwrap();
         let rings = RingGrid::new(&basis, 256);
@@ -119,15 +118,7 @@ fn random_sets_agree_with_a_converged_indicator_quadrature() {
         println!("N = {n}: the quadrature's own error on one cap {qerr:.2e}");
         assert!(qerr < 2e-3, "{qerr}");
         for s_count in [2, 8, 32] {
-            let spheres: Vec<Sphere> = (0..s_count)
-                .map(|_| {
-                    sphere(
-                        [2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0],
-                        0.05 + 0.3 * rnd(),
-                    )
-                })
-                .collect();
-            let p = DVec3::new(2.5 * rnd() - 1.25, 2.5, 0.5 * rnd());
+            let (spheres, p) = random_set(&mut uniform, s_count);
             SphereSetQuadrature::new(&spheres, &quad).eval(p, &mut q);
             let err = occ_rel(&union_at(&spheres, &rings, p, n * n), &q);
             println!("N = {n}, S = {s_count}: union against the quadrature {err:.2e}");
@@ -181,13 +172,7 @@ fn the_union_at_its_edges() {
 #[test]
 #[ignore]
 fn union_converges_on_random_sets() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rnd = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uniform = common::Uniform::new(0x9e37_79b9_7f4a_7c15);
     let time = |reps: usize, f: &mut dyn FnMut()| {
         let t = std::time::Instant::now();
         for _ in 0..reps {
@@ -204,15 +189,7 @@ fn union_converges_on_random_sets() {
             QuadratureGrid::new(&basis, 64),
         );
         for s_count in [2, 8, 32, 64] {
-            let spheres: Vec<Sphere> = (0..s_count)
-                .map(|_| {
-                    sphere(
-                        [2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0],
-                        0.05 + 0.3 * rnd(),
-                    )
-                })
-                .collect();
-            let p = DVec3::new(2.5 * rnd() - 1.25, 2.5, 0.5 * rnd());
+            let (spheres, p) = random_set(&mut uniform, s_count);
             let want = union_at(&spheres, &fine, p, n * n);
             let (mut q, mut q64) = (vec![0.0; n * n], vec![0.0; n * n]);
             SphereSetQuadrature::new(&spheres, &quad).eval(p, &mut q);
