@@ -1737,6 +1737,88 @@ fn sphere_sets_on_the_plane_combine_as_their_union() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `part_combine = "shexp"` on the plane: sub-volumes of the bunny scaled in log space render
+/// with the same rays as scaled and multiplied, and lose to them (the study's finding, 1.4–3.5×
+/// on spherical receivers; docs/math.md "Scaling in log space"); with the plausibility clamp it
+/// is refused by name. `render --part-combine shexp` combines a scene's two occluders in log
+/// space, refuses another method by name, and refuses `--gpu`.
+#[test]
+fn extrapolated_fields_combine_in_log_space() {
+    let tag = "plog";
+    let dir = std::env::temp_dir().join(format!("shscale-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("bunny.toml"),
+        "order = 4\ntruth_res = 24\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[occluder]]\nmesh = \"bunny\"\ncenter = [0, 0, 1.1]\nradius = 1.0\nup = \"y\"\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [24, 24]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let (dir, head, rows) = run_csv(
+        tag,
+        "budget_plane",
+        "experiment = \"budget_plane\"\nscene = \"bunny.toml\"\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\nmethod = \"sub_volumes\"\nparts = 2\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[sweep]\npart_combine = [\"product\", \"shexp\"]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let by = |m: &str| rows.iter().find(|r| r[col("part_combine")] == m).unwrap();
+    let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
+    let (p, l) = (
+        num(by("product"), "rmse_vs_band_limited"),
+        num(by("shexp"), "rmse_vs_band_limited"),
+    );
+    println!("sub-volumes (P = 2) on the plane: products {p:.4}, log space {l:.4}");
+    assert_eq!(num(by("product"), "rays"), num(by("shexp"), "rays"));
+    assert!(l > p, "{l} vs {p}");
+    refused_before_running(
+        &dir,
+        "plogclamp",
+        "experiment = \"budget_plane\"\nscene = \"bunny.toml\"\ngpu = \"off\"\nmethod = \"sub_volumes\"\npart_combine = \"shexp\"\nplausibility = \"clamp\"\n",
+        &["plausibility", "logs"],
+    );
+    std::fs::write(
+        dir.join("two.toml"),
+        "order = 4\ntruth_res = 16\nlayout = \"fib:60\"\nhemisphere_res = 8\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-0.8, 0, 1.2]\nradius = 0.5\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0.8, 0, 1.6]\nradius = 0.6\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [16, 16]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let render = |extra: &[&str], out: &str| {
+        let scene = dir.join("two.toml");
+        let out = dir.join(out);
+        let mut args = vec!["render", "--scene", scene.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        (shscale(&args), out)
+    };
+    let (o, out) = render(
+        &["--method", "extrapolated", "--part-combine", "shexp"],
+        "l.exr",
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.exists() && String::from_utf8_lossy(&o.stdout).contains("log_samples"));
+    for (extra, word) in [
+        (
+            &["--method", "full_field", "--part-combine", "shexp"][..],
+            "only extrapolated",
+        ),
+        (
+            &[
+                "--method",
+                "extrapolated",
+                "--part-combine",
+                "shexp",
+                "--frames",
+                "1",
+                "--gpu",
+            ][..],
+            "--gpu",
+        ),
+    ] {
+        let (o, out) = render(extra, "x.exr");
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(word), "{err}");
+        assert!(!out.exists());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `run` on the config `text` (written to `dir/NAME.toml`) exits 2 before writing anything, its
 /// message naming every one of `words`.
 fn refused_before_running(dir: &std::path::Path, name: &str, text: &str, words: &[&str]) {

@@ -499,6 +499,12 @@ pub struct RenderArgs {
     /// Ren et al. 2006; orders up to 8); the last two on the CPU only.
     #[arg(long, value_enum, default_value_t = SphereCombine::Product)]
     pub sphere_combine: SphereCombine,
+    /// How extrapolated fields combine — `--method sub_volumes`'s parts, or a scene's several
+    /// occluders under `extrapolated`: `product` (near to far) or `shexp` (scaling in log space:
+    /// the base-sphere samples' logs scaled, summed, exponentiated once; orders up to 8, no
+    /// plausibility clamp; CPU only).
+    #[arg(long, value_enum, default_value_t = PartCombine::Product)]
+    pub part_combine: PartCombine,
     /// Output EXR path; a PNG preview is written beside it.
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -584,6 +590,12 @@ pub struct InspectArgs {
 pub enum SphereCombine {
     Product,
     Union,
+    Shexp,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartCombine {
+    Product,
     Shexp,
 }
 

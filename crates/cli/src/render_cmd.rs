@@ -1,6 +1,6 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{RenderArgs, SphereCombine, TextFormat};
+use crate::args::{PartCombine, RenderArgs, SphereCombine, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
 use shscale_scene::method::Combine;
@@ -13,16 +13,8 @@ const MAX_FRAMES: usize = 10_000;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_args(&a)?;
-    let mut scene = Scene::load(&a.scene)?;
+    let scene = scene_of(&a)?;
     let method = a.method;
-    if matches!(method, Method::SubVolumes | Method::SphereSet) {
-        scene.parts = a.parts;
-    }
-    scene.sphere_combine = match a.sphere_combine {
-        SphereCombine::Product => Combine::Product,
-        SphereCombine::Union => Combine::Union,
-        SphereCombine::Shexp => Combine::Shexp,
-    };
     let rays = check_limits(&a, &scene, method)?;
     if let Some(frames) = a.frames {
         return sequence(&a, &scene, method, frames);
@@ -92,6 +84,24 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The scene file with the flags that set what it has no key for: the parts of sub-volumes and
+/// sphere sets, and how spheres and extrapolated fields combine.
+fn scene_of(a: &RenderArgs) -> anyhow::Result<Scene> {
+    let mut scene = Scene::load(&a.scene)?;
+    if matches!(a.method, Method::SubVolumes | Method::SphereSet) {
+        scene.parts = a.parts;
+    }
+    scene.sphere_combine = match a.sphere_combine {
+        SphereCombine::Product => Combine::Product,
+        SphereCombine::Union => Combine::Union,
+        SphereCombine::Shexp => Combine::Shexp,
+    };
+    if a.part_combine == PartCombine::Shexp {
+        scene.part_combine = Combine::Shexp;
+    }
+    Ok(scene)
+}
+
 /// `--out` (an `.exr` in an existing directory) and `--frames`.
 fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
     if a.out.extension().and_then(|e| e.to_str()) != Some("exr") {
@@ -117,6 +127,17 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
             format!("{:?}", a.sphere_combine).to_lowercase(),
             a.method
         );
+    }
+    if a.part_combine != PartCombine::Product {
+        if !matches!(a.method, Method::Extrapolated | Method::SubVolumes) {
+            bail!(
+                "--part-combine shexp: only extrapolated fields (--method extrapolated or sub_volumes) combine in log space (this is {})",
+                a.method
+            );
+        }
+        if a.gpu {
+            bail!("--part-combine shexp has no GPU form: drop --gpu");
+        }
     }
     if let Some(r) = a.reference.filter(|r| !r.is_truth()) {
         bail!("--reference {r}: only the truths are references — ray_traced (band-limited) or full_frequency (full-frequency)");

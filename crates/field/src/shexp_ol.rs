@@ -437,7 +437,7 @@ pub fn log_bsv(bsv: &crate::Bsv, gaunt: &GauntTensor<f64>, eps: f64) -> crate::B
 /// sum exponentiated once by HYB — against [`crate::subvolume::SubVolumeField`], which scales
 /// each part's visibility and multiplies them near to far.
 pub struct SubVolumeLog<'a> {
-    parts: Vec<crate::extrapolate::Extrapolator<'a>>,
+    parts: &'a [crate::extrapolate::Extrapolator<'a>],
     gaunt: &'a GauntTensor<f64>,
     table: &'a ZonalLogTable,
 }
@@ -446,7 +446,7 @@ impl<'a> SubVolumeLog<'a> {
     /// Extrapolators over log-BSVs ([`log_bsv`]; at least one, of the table's order, without
     /// the plausibility clamp, which bounds visibilities, not logs).
     pub fn new(
-        parts: Vec<crate::extrapolate::Extrapolator<'a>>,
+        parts: &'a [crate::extrapolate::Extrapolator<'a>],
         gaunt: &'a GauntTensor<f64>,
         table: &'a ZonalLogTable,
     ) -> Self {
@@ -463,7 +463,7 @@ impl VisibilityField for SubVolumeLog<'_> {
     fn eval(&self, p: DVec3, out: &mut [f64]) {
         let nn = self.table.order() * self.table.order();
         let (mut sum, mut part) = (vec![0.0; nn], vec![0.0; nn]);
-        for e in &self.parts {
+        for e in self.parts {
             VisibilityField::eval(e, p, &mut part);
             sum.iter_mut().zip(&part).for_each(|(a, b)| *a += b);
         }

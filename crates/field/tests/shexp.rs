@@ -286,7 +286,8 @@ fn scaling_in_log_space_on_the_analytic_sphere() {
     .unwrap();
     let shexp = ZonalLogTable::new(&gaunt, SHEXP_EPS);
     let plain = Extrapolator::new(&bsv, &table);
-    let log_field = SubVolumeLog::new(vec![Extrapolator::new(&logs, &table)], &gaunt, &shexp);
+    let log_parts = [Extrapolator::new(&logs, &table)];
+    let log_field = SubVolumeLog::new(&log_parts, &gaunt, &shexp);
     // The pointwise reading: each sample's ln max(ε, v) by quadrature, scaled, exp by quadrature.
     let grid = shscale_field::sphereset::QuadratureGrid::new(&basis, 64);
     let mut pointwise = bsv.clone();

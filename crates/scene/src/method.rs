@@ -624,9 +624,14 @@ impl Spec {
         };
         match self {
             Spec::Extrapolated(e) => ex(scene, e),
-            Spec::SubVolumes { parts, ex: e, .. } => {
+            Spec::SubVolumes {
+                parts,
+                ex: e,
+                combine,
+            } => {
                 ex(scene, e);
                 scene.parts = *parts;
+                scene.part_combine = *combine;
             }
             Spec::FullField(f) => {
                 scene.layout = f.layout;

@@ -19,7 +19,9 @@ use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
-use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, MAX_SHEXP_ORDER, SHEXP_EPS};
+use shscale_field::shexp_ol::{
+    log_bsv, Exp, SphereSetShexp, SubVolumeLog, ZonalLogTable, MAX_SHEXP_ORDER, SHEXP_EPS,
+};
 use shscale_field::sphereset::{SphereSetField, SphereVisibility};
 use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
@@ -103,7 +105,11 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
+    let basis = shscale_sh::ShBasis::<f64>::new(scene.order)
+        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
+    let set_tables = SetTables::new(scene, method, &basis)?;
     let built = build_fields(scene, method, &occs, &sampler, &recv, &mut stages)?;
+    let built = set_tables.to_logs(built, &mut stages);
     let exs = extrapolators(&built, scene.plausibility);
     let truth = shscale_field::truth::TruthSampler::new(
         scene.order,
@@ -111,15 +117,13 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
         shscale_field::truth::DEFAULT_TRUTH_SEED,
     )?;
     let rts = converged_truths(method, &occs, &truth);
-    let basis = shscale_sh::ShBasis::<f64>::new(scene.order)
-        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
     let spheres: Vec<SphereVisibility> = (built.spheres.iter())
         .map(|s| SphereVisibility::new(*s, &basis))
         .collect();
     // A sphere set combined at a higher internal order, as its caps' union or by SH
-    // exponentiation is one field (the shader then multiplies nothing more).
-    let set_tables = SetTables::new(scene, method, &basis, !built.spheres.is_empty())?;
-    let one_set = set_tables.field(&built.spheres, &basis);
+    // exponentiation, and extrapolated fields combined in log space, are one field (the shader
+    // then multiplies nothing more).
+    let one_set = set_tables.field(&built.spheres, &basis, &exs);
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
     if let Some(set) = &one_set {
         fields = vec![set.as_ref()];
@@ -199,45 +203,59 @@ fn converged_truths<'a>(
     }
 }
 
-/// The tables of a sphere set combined as one field: the basis and Gaunt tensor of its internal
-/// order ([`Scene::sphere_order`], when above the scene's order), the rings of its caps' union,
-/// or SH exponentiation's Gaunt tensor and log table (at most `MAX_SHEXP_ORDER`, refused by
-/// name above it); all `None` for the plain chain and every other method.
+/// The tables of several fields combined as one: the basis and Gaunt tensor of a sphere set's
+/// internal order ([`Scene::sphere_order`], when above the scene's order), the rings of its
+/// caps' union, or SH exponentiation's Gaunt tensor and log table (at most `MAX_SHEXP_ORDER`,
+/// refused by name above it) — for a sphere set by SHEXP, or for extrapolated fields (a
+/// sub-volume's parts, a scene's occluders) combined in log space ([`Scene::part_combine`]).
+/// All `None` for the plain chains.
 struct SetTables {
     internal: Option<(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>)>,
     rings: Option<RingGrid>,
     shexp: Option<(shscale_sh::GauntTensor<f64>, ZonalLogTable)>,
+    /// SHEXP's tables serve extrapolated fields' logs (not a sphere set).
+    logs: bool,
 }
 
 impl SetTables {
-    fn new(
-        scene: &Scene,
-        method: Method,
-        basis: &shscale_sh::ShBasis<f64>,
-        has_spheres: bool,
-    ) -> Result<Self, Error> {
+    fn new(scene: &Scene, method: Method, basis: &shscale_sh::ShBasis<f64>) -> Result<Self, Error> {
         let mut t = Self {
             internal: None,
             rings: None,
             shexp: None,
+            logs: false,
         };
-        if method != Method::SphereSet || !has_spheres {
+        let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+        let shexp = |key: &str| -> Result<_, Error> {
+            if scene.order > MAX_SHEXP_ORDER {
+                return Err(Error::config(format!(
+                    "{}: {key} \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
+                    scene.file, scene.order
+                )));
+            }
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+            Ok(Some((gaunt, table)))
+        };
+        if matches!(method, Method::Extrapolated | Method::SubVolumes)
+            && scene.part_combine == Combine::Shexp
+        {
+            if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
+                return Err(Error::config(format!(
+                    "{}: plausibility: the clamp bounds visibilities, not the logs part_combine \"shexp\" extrapolates",
+                    scene.file
+                )));
+            }
+            t.shexp = shexp("part_combine")?;
+            t.logs = true;
             return Ok(t);
         }
-        let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+        if method != Method::SphereSet {
+            return Ok(t);
+        }
         match scene.sphere_combine {
             Combine::Union => t.rings = Some(RingGrid::new(basis, crate::method::UNION_RINGS)),
-            Combine::Shexp => {
-                if scene.order > MAX_SHEXP_ORDER {
-                    return Err(Error::config(format!(
-                        "{}: sphere_combine \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
-                        scene.file, scene.order
-                    )));
-                }
-                let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
-                let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-                t.shexp = Some((gaunt, table));
-            }
+            Combine::Shexp => t.shexp = shexp("sphere_combine")?,
             _ if scene.sphere_order > scene.order => {
                 t.internal = Some((
                     shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
@@ -249,12 +267,35 @@ impl SetTables {
         Ok(t)
     }
 
-    /// The set's one field, or `None` for the plain chain (one field per sphere).
+    /// Every BSV replaced by its samples' logs when extrapolated fields combine in log space
+    /// (timed as its own stage); `built` as it is otherwise.
+    fn to_logs(&self, mut built: Built, stages: &mut Stages) -> Built {
+        if let (true, Some((gaunt, _))) = (self.logs, &self.shexp) {
+            let t = Instant::now();
+            built.bsvs = (built.bsvs.iter())
+                .map(|b| log_bsv(b, gaunt, SHEXP_EPS))
+                .collect();
+            stages.push("log_samples", t);
+        }
+        built
+    }
+
+    /// The fields' one field, or `None` for the plain chains (one field per sphere, part or
+    /// occluder).
     fn field<'a>(
         &'a self,
         spheres: &'a [shscale_geometry::Sphere],
         basis: &'a shscale_sh::ShBasis<f64>,
+        exs: &'a [Extrapolator<'a>],
     ) -> Option<Box<dyn VisibilityField + 'a>> {
+        if self.logs {
+            let (g, t) = self.shexp.as_ref()?;
+            return (!exs.is_empty())
+                .then(|| Box::new(SubVolumeLog::new(exs, g, t)) as Box<dyn VisibilityField + 'a>);
+        }
+        if spheres.is_empty() {
+            return None;
+        }
         if let Some((b, g)) = &self.internal {
             return Some(Box::new(SphereSetField::new(spheres, b, g)));
         }

@@ -203,6 +203,12 @@ pub struct Scene {
     /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
     /// --sphere-combine` (no scene-file key); products otherwise. The quadrature is not rendered.
     pub sphere_combine: crate::combine::Combine,
+    /// How extrapolated fields combine — a sub-volume's parts, or a scene's several occluders
+    /// under [`crate::render::Method::Extrapolated`]: products near to far, or
+    /// `Combine::Shexp` (each field's base-sphere log-visibility scaled, summed, exponentiated
+    /// once: `shscale_field::shexp_ol::SubVolumeLog`), set by experiments and `render
+    /// --part-combine` (no scene-file key); products otherwise.
+    pub part_combine: crate::combine::Combine,
     /// Where the extrapolation's base-sphere samples lie along their directions, set by
     /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
     pub radial: shscale_field::bsv::RadialRule,
@@ -365,6 +371,7 @@ impl Scene {
             parts: 1,
             sphere_order: 0,
             sphere_combine: crate::combine::Combine::Product,
+            part_combine: crate::combine::Combine::Product,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })
     }

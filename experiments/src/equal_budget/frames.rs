@@ -141,7 +141,7 @@ pub(crate) fn extrapolation<'a>(
             .collect();
         let t1 = Instant::now();
         let v = match (&gaunt, &table) {
-            (Some(g), Some(t)) => eval_all(&SubVolumeLog::new(exs, g, t), points, nn),
+            (Some(g), Some(t)) => eval_all(&SubVolumeLog::new(&exs, g, t), points, nn),
             (Some(g), None) => eval_all(&SubVolumeField::new(exs, g), points, nn),
             _ => eval_all(&exs.remove(0), points, nn),
         };

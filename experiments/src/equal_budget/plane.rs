@@ -77,6 +77,9 @@ pub struct Params {
     /// `union` (the exact union of the caps, `shscale_field::union`) or `shexp` (SH
     /// exponentiation, `shscale_field::shexp_ol`).
     pub sphere_combine: String,
+    /// How `sub_volumes` combines its parts: `product` or `shexp` (scaling in log space), as in
+    /// `budget`.
+    pub part_combine: String,
     /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
     /// (`shscale figs`); one frame only.
     pub save_image: bool,
@@ -104,6 +107,7 @@ impl Default for Params {
             radial_delta: 0.1,
             sphere_order: 0,
             sphere_combine: "product".into(),
+            part_combine: "product".into(),
             save_image: false,
         }
     }
@@ -132,7 +136,7 @@ impl Params {
             radial_tau: None,
             radial_max: None,
             sphere_combine: Some(&self.sphere_combine),
-            part_combine: None,
+            part_combine: Some(&self.part_combine),
             sphere_order: Some(self.sphere_order),
             k_count: None,
         }
@@ -296,6 +300,7 @@ impl Kind for BudgetPlane {
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("sphere_order", "the internal order M of `sphere_set`: each cap projected to M, every product at M, the result truncated to the scene's order once (docs/math.md, \"Combining many spheres\"); 0 (default) for the scene's order, else that order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("sphere_combine", "how `sphere_set` combines its spheres: `product` (default; truncated SH products near to far, at `sphere_order`) `union` (the exact union of the caps: φ in closed form, 32 Gauss–Legendre rings in z, no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation by HYB, orders up to 8; docs/math.md, \"SH exponentiation\")"),
+            ("part_combine", "how `sub_volumes` combines its parts: `product` (default; each part's scaled visibility multiplied near to far) or `shexp` (scaling in log space: the parts' base-sphere product-algebra logs scaled, summed and exponentiated once by HYB; orders up to 8, without the plausibility clamp; docs/math.md, \"Scaling in log space\")"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),
             ("hemisphere_res", "H: H² rays per BSV or shell sample, 1..=256"),
             ("shells", "shells of the full field over [s, shell_max·s]·r, 2..=64"),
@@ -351,6 +356,27 @@ impl Kind for BudgetPlane {
                 "sphere_combine",
                 "\"quadrature\" is the spherical receivers' diagnostic (kind `budget`); the plane renders `product` or `union`".to_string(),
             ));
+        }
+        if let Spec::SubVolumes {
+            combine: Combine::Shexp,
+            ex,
+            ..
+        } = spec.typed.method
+        {
+            let order = p.order.unwrap_or(scene.order);
+            let max = shscale_field::shexp_ol::MAX_SHEXP_ORDER;
+            if order > max {
+                return Err(KeyError::new(
+                    "part_combine",
+                    format!("\"shexp\" takes orders up to {max}, not {order}"),
+                ));
+            }
+            if ex.plausibility != shscale_field::extrapolate::Plausibility::None {
+                return Err(KeyError::new(
+                    "plausibility",
+                    "the clamp bounds visibilities, not the logs `part_combine = \"shexp\"` extrapolates: leave it at \"none\"".to_string(),
+                ));
+            }
         }
         if let Spec::SphereSet { internal_order, .. } = spec.typed.method {
             let order = p.order.unwrap_or(scene.order);
