@@ -26,9 +26,9 @@ use shscale_sh::cap::cap_zonal;
 use shscale_sh::rotation::rotate_zonal;
 use shscale_sh::ShBasis;
 
-/// `f` (SH coefficients at the grid's order or below) exponentiated exactly: `exp(f(ω))` at every
-/// node of `grid`, projected to `out.len()` coefficients (at most the grid's).
-pub fn exp_by_quadrature(grid: &QuadratureGrid, f: &[f64], out: &mut [f64]) {
+/// `P(F ∘ f)`: `f` (SH coefficients at the grid's order or below) evaluated at every node of
+/// `grid`, mapped pointwise by `F`, projected to `out.len()` coefficients (at most the grid's).
+fn map_by_quadrature(grid: &QuadratureGrid, f: &[f64], map: impl Fn(f64) -> f64, out: &mut [f64]) {
     assert!(
         f.len() <= grid.nn && out.len() <= grid.nn,
         "coefficients beyond the grid's order"
@@ -37,9 +37,15 @@ pub fn exp_by_quadrature(grid: &QuadratureGrid, f: &[f64], out: &mut [f64]) {
     for (i, w) in grid.w.iter().enumerate() {
         let row = &grid.y[i * grid.nn..(i + 1) * grid.nn];
         let v: f64 = f.iter().zip(row).map(|(a, y)| a * y).sum();
-        let e = w * v.exp();
+        let e = w * map(v);
         out.iter_mut().zip(row).for_each(|(o, y)| *o += e * y);
     }
+}
+
+/// `f` exponentiated exactly: `exp(f(ω))` at every node of `grid`, projected to `out.len()`
+/// coefficients (at most the grid's).
+pub fn exp_by_quadrature(grid: &QuadratureGrid, f: &[f64], out: &mut [f64]) {
+    map_by_quadrature(grid, f, f64::exp, out);
 }
 
 /// `ln max(ε, v(ω))` projected: `v` (SH coefficients, at most the grid's order) evaluated at
@@ -47,17 +53,7 @@ pub fn exp_by_quadrature(grid: &QuadratureGrid, f: &[f64], out: &mut [f64]) {
 /// — the pointwise log of a sampled visibility, the inverse of [`exp_by_quadrature`] where
 /// `v ≥ ε`.
 pub fn log_by_quadrature(grid: &QuadratureGrid, v: &[f64], eps: f64, out: &mut [f64]) {
-    assert!(
-        v.len() <= grid.nn && out.len() <= grid.nn,
-        "coefficients beyond the grid's order"
-    );
-    out.iter_mut().for_each(|o| *o = 0.0);
-    for (i, w) in grid.w.iter().enumerate() {
-        let row = &grid.y[i * grid.nn..(i + 1) * grid.nn];
-        let x: f64 = v.iter().zip(row).map(|(a, y)| a * y).sum();
-        let l = w * x.max(eps).ln();
-        out.iter_mut().zip(row).for_each(|(o, y)| *o += l * y);
-    }
+    map_by_quadrature(grid, v, |x| x.max(eps).ln(), out);
 }
 
 /// The SH projection (order of `basis`) of the clamped log-visibility of one sphere seen from
@@ -215,6 +211,27 @@ mod tests {
         }
         println!("exp(a cos θ), |a| ≤ 8: worst relative error {worst:.1e}");
         assert!(worst < 1e-10, "{worst}");
+    }
+
+    /// The pointwise log at its edges: a constant c > ε gives `ln c` exactly (DC `√(4π) ln c`),
+    /// a constant at or below ε (a dark sample, 0 or negative from ringing) gives `ln ε`.
+    #[test]
+    fn pointwise_log_of_constants_and_the_clamp() {
+        let basis = ShBasis::<f64>::new(4).unwrap();
+        let grid = QuadratureGrid::new(&basis, 16);
+        let root = (4.0 * PI).sqrt();
+        let mut out = vec![0.0; 16];
+        for (c, want) in [
+            (0.7f64, 0.7f64.ln()),
+            (0.0, 0.02f64.ln()),
+            (-0.3, 0.02f64.ln()),
+        ] {
+            let mut v = vec![0.0; 16];
+            v[0] = root * c;
+            log_by_quadrature(&grid, &v, 0.02, &mut out);
+            assert!((out[0] - root * want).abs() < 1e-12, "{c}: {}", out[0]);
+            assert!(out[1..].iter().all(|x| x.abs() < 1e-12), "{c}");
+        }
     }
 
     /// One sphere's clamped log against a direct quadrature of `ln max(ε, V)` (the indicator of

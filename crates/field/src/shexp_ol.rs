@@ -48,7 +48,7 @@ pub const HYB_MAGNITUDE: f64 = 0.0625;
 /// The highest order SH exponentiation takes here.
 pub const MAX_SHEXP_ORDER: usize = 8;
 
-/// Intervals of the log table in the cap's half-angle over [0, π/2].
+/// Intervals of the log table in `t = 1 − cos A` over [0, 1] (A ∈ [0, π/2]).
 const TABLE_INTERVALS: usize = 1024;
 
 /// `M_g` (row-major, N² × N²): `M_g x = P_N(g·x)` for the Gaunt tensor's order N.
@@ -66,8 +66,12 @@ pub fn product_matrix(gaunt: &GauntTensor<f64>, g: &[f64]) -> Vec<f64> {
 }
 
 /// The eigen-decomposition `A = V diag(λ) Vᵀ` of a symmetric `n × n` row-major matrix by cyclic
-/// Jacobi rotations (to an off-diagonal norm of 1e-15 of the matrix's): `(λ, V)`, V row-major
-/// with the eigenvectors as columns.
+/// Jacobi rotations (Golub & Van Loan, *Matrix Computations*, §8.5: each rotation
+/// `t = sgn θ/(|θ| + √(θ² + 1))`, `θ = (a_qq − a_pp)/(2a_pq)`, zeroes `a_pq`; quadratic
+/// convergence): `(λ, V)`, V row-major with the eigenvectors as columns. Domain: any symmetric
+/// matrix (its symmetry is assumed, not checked; `n ≥ 1`); it stops when the off-diagonal norm is
+/// 1e-15 of the matrix's, or after 64 sweeps. Tested: a random 16 × 16 rebuilt to 1e-12 with
+/// orthogonal V, a diagonal one untouched.
 pub fn sym_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
     assert_eq!(a.len(), n * n, "an n × n matrix");
     let mut a = a.to_vec();
@@ -140,23 +144,27 @@ fn zonal_block(gaunt: &GauntTensor<f64>, z: &[f64]) -> Vec<f64> {
     b
 }
 
-/// The product algebra's exponential `exp(M_f)·1` of a zonal f (coefficients `z_l`).
-fn zonal_exp(gaunt: &GauntTensor<f64>, z: &[f64]) -> Vec<f64> {
-    let n = z.len();
-    let (lambda, v) = sym_eigen(&zonal_block(gaunt, z), n);
+/// `F(M)·1` for a symmetric `n × n` matrix M, with `F` acting on its eigenvalues as
+/// `f(λ, λ_max)`: `V diag(f) Vᵀ 1`, `1 = √(4π)e₀` the product algebra's unit — every log and
+/// exponential here.
+fn of_unit(m: &[f64], n: usize, f: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+    let (lambda, v) = sym_eigen(m, n);
+    let max = lambda.iter().cloned().fold(f64::MIN, f64::max);
     let mut one = vec![0.0; n];
     one[0] = (4.0 * PI).sqrt();
-    apply_function(&lambda, &v, f64::exp, &one)
+    apply_function(&lambda, &v, |x| f(x, max), &one)
+}
+
+/// The product algebra's exponential `exp(M_f)·1` of a zonal f (coefficients `z_l`).
+fn zonal_exp(gaunt: &GauntTensor<f64>, z: &[f64]) -> Vec<f64> {
+    of_unit(&zonal_block(gaunt, z), z.len(), |x, _| x.exp())
 }
 
 /// The clamped product-algebra log of a zonal g: `log(max(M_g, ε λ_max))·1`.
 pub fn zonal_log(gaunt: &GauntTensor<f64>, z: &[f64], eps: f64) -> Vec<f64> {
-    let n = z.len();
-    let (lambda, v) = sym_eigen(&zonal_block(gaunt, z), n);
-    let floor = eps * lambda.iter().cloned().fold(f64::MIN, f64::max);
-    let mut one = vec![0.0; n];
-    one[0] = (4.0 * PI).sqrt();
-    apply_function(&lambda, &v, |x| x.max(floor).ln(), &one)
+    of_unit(&zonal_block(gaunt, z), z.len(), |x, max| {
+        x.max(eps * max).ln()
+    })
 }
 
 /// One blocker's band-limited visibility as zonal coefficients: `√(4π)δ_l0 − cap(A)`.
@@ -283,11 +291,7 @@ pub enum Exp<'a> {
 
 /// `exp(M_f)·1` for any order-N f.
 pub fn exp_exact(gaunt: &GauntTensor<f64>, f: &[f64]) -> Vec<f64> {
-    let nn = f.len();
-    let (lambda, v) = sym_eigen(&product_matrix(gaunt, f), nn);
-    let mut one = vec![0.0; nn];
-    one[0] = (4.0 * PI).sqrt();
-    apply_function(&lambda, &v, f64::exp, &one)
+    of_unit(&product_matrix(gaunt, f), f.len(), |x, _| x.exp())
 }
 
 /// The OL exponential of `f` with `table`'s coefficients.
@@ -413,11 +417,7 @@ impl VisibilityField for SphereSetShexp<'_> {
 /// where `M_v`'s largest eigenvalue is itself near 0 and a relative floor would not bound the
 /// log; for a sphere blocker's cap, whose largest eigenvalue is about 1, the two agree).
 pub fn log_visibility(gaunt: &GauntTensor<f64>, v: &[f64], eps: f64) -> Vec<f64> {
-    let nn = v.len();
-    let (lambda, vecs) = sym_eigen(&product_matrix(gaunt, v), nn);
-    let mut one = vec![0.0; nn];
-    one[0] = (4.0 * PI).sqrt();
-    apply_function(&lambda, &vecs, |x| x.max(eps).ln(), &one)
+    of_unit(&product_matrix(gaunt, v), v.len(), |x, _| x.max(eps).ln())
 }
 
 /// `bsv` with every sample's visibility replaced by its clamped product-algebra log

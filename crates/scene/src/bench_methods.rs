@@ -327,17 +327,14 @@ fn gpu_extrapolated_stages(
     Ok((run.frames.iter().skip(warmup))
         .map(|f| {
             let g = &f.gpu;
-            [
+            crate::sequence::named_stages(&[
                 ("deform", f.deform_seconds),
                 ("bvh_update", g.bvh_seconds),
                 ("upload", g.upload_seconds),
                 ("bsv_sampling", g.sampling_seconds),
                 ("sh_conversion", g.projection_seconds),
                 ("shading", g.shading_seconds),
-            ]
-            .iter()
-            .map(|(n, v)| (n.to_string(), *v))
-            .collect()
+            ])
         })
         .collect())
 }

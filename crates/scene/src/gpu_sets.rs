@@ -37,15 +37,12 @@ impl GpuSetFrame {
     /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `shading`,
     /// `readback`), the form every sequence's frames are printed and benchmarked in.
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        let stages: Vec<(String, f64)> = [
+        let stages = crate::sequence::named_stages(&[
             ("deform", self.deform_seconds),
             ("sphere_fit", self.sphere_fit_seconds),
             ("shading", self.shading_seconds),
             ("readback", self.readback_seconds),
-        ]
-        .iter()
-        .map(|(n, v)| (n.to_string(), *v))
-        .collect();
+        ]);
         crate::sequence::SequenceFrame {
             frame: self.frame,
             t: self.t,

@@ -32,6 +32,7 @@ pub mod gpu_path;
 pub mod gpu_sets;
 pub mod kernels;
 pub mod method;
+pub mod method_cost;
 pub mod render;
 pub mod scene;
 pub mod sequence;

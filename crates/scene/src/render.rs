@@ -203,28 +203,23 @@ fn converged_truths<'a>(
     }
 }
 
-/// The tables of several fields combined as one: the basis and Gaunt tensor of a sphere set's
-/// internal order ([`Scene::sphere_order`], when above the scene's order), the rings of its
-/// caps' union, or SH exponentiation's Gaunt tensor and log table (at most `MAX_SHEXP_ORDER`,
-/// refused by name above it) — for a sphere set by SHEXP, or for extrapolated fields (a
-/// sub-volume's parts, a scene's occluders) combined in log space ([`Scene::part_combine`]).
-/// All `None` for the plain chains.
-struct SetTables {
-    internal: Option<(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>)>,
-    rings: Option<RingGrid>,
-    shexp: Option<(shscale_sh::GauntTensor<f64>, ZonalLogTable)>,
-    /// SHEXP's tables serve extrapolated fields' logs (not a sphere set).
-    logs: bool,
+/// Several fields combined as one field, with the tables each way needs (all at the scene's
+/// order N unless said): none (the plain chains, one field per sphere, part or occluder), a
+/// sphere set multiplied at its internal order ([`Scene::sphere_order`] above N: that order's
+/// basis and Gaunt tensor), as its caps' union (the rings), by SH exponentiation, or extrapolated
+/// fields — a sub-volume's parts, a scene's occluders — in log space ([`Scene::part_combine`];
+/// SHEXP's Gaunt tensor and log table for both, at most `MAX_SHEXP_ORDER`, refused by name
+/// above it).
+enum SetTables {
+    Plain,
+    Internal(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>),
+    Union(RingGrid),
+    Shexp(shscale_sh::GauntTensor<f64>, ZonalLogTable),
+    LogSpace(shscale_sh::GauntTensor<f64>, ZonalLogTable),
 }
 
 impl SetTables {
     fn new(scene: &Scene, method: Method, basis: &shscale_sh::ShBasis<f64>) -> Result<Self, Error> {
-        let mut t = Self {
-            internal: None,
-            rings: None,
-            shexp: None,
-            logs: false,
-        };
         let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
         let shexp = |key: &str| -> Result<_, Error> {
             if scene.order > MAX_SHEXP_ORDER {
@@ -235,42 +230,39 @@ impl SetTables {
             }
             let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
             let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-            Ok(Some((gaunt, table)))
+            Ok((gaunt, table))
         };
-        if matches!(method, Method::Extrapolated | Method::SubVolumes)
-            && scene.part_combine == Combine::Shexp
-        {
-            if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
-                return Err(Error::config(format!(
-                    "{}: plausibility: the clamp bounds visibilities, not the logs part_combine \"shexp\" extrapolates",
-                    scene.file
-                )));
+        let extrapolated = matches!(method, Method::Extrapolated | Method::SubVolumes);
+        Ok(match (method, scene.sphere_combine) {
+            _ if extrapolated && scene.part_combine == Combine::Shexp => {
+                if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
+                    return Err(Error::config(format!(
+                        "{}: plausibility: the clamp bounds visibilities, not the logs part_combine \"shexp\" extrapolates",
+                        scene.file
+                    )));
+                }
+                let (g, t) = shexp("part_combine")?;
+                SetTables::LogSpace(g, t)
             }
-            t.shexp = shexp("part_combine")?;
-            t.logs = true;
-            return Ok(t);
-        }
-        if method != Method::SphereSet {
-            return Ok(t);
-        }
-        match scene.sphere_combine {
-            Combine::Union => t.rings = Some(RingGrid::new(basis, crate::method::UNION_RINGS)),
-            Combine::Shexp => t.shexp = shexp("sphere_combine")?,
-            _ if scene.sphere_order > scene.order => {
-                t.internal = Some((
-                    shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
-                    shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
-                ));
+            (Method::SphereSet, Combine::Union) => {
+                SetTables::Union(RingGrid::new(basis, crate::method::UNION_RINGS))
             }
-            _ => {}
-        }
-        Ok(t)
+            (Method::SphereSet, Combine::Shexp) => {
+                let (g, t) = shexp("sphere_combine")?;
+                SetTables::Shexp(g, t)
+            }
+            (Method::SphereSet, _) if scene.sphere_order > scene.order => SetTables::Internal(
+                shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
+                shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
+            ),
+            _ => SetTables::Plain,
+        })
     }
 
     /// Every BSV replaced by its samples' logs when extrapolated fields combine in log space
     /// (timed as its own stage); `built` as it is otherwise.
     fn to_logs(&self, mut built: Built, stages: &mut Stages) -> Built {
-        if let (true, Some((gaunt, _))) = (self.logs, &self.shexp) {
+        if let SetTables::LogSpace(gaunt, _) = self {
             let t = Instant::now();
             built.bsvs = (built.bsvs.iter())
                 .map(|b| log_bsv(b, gaunt, SHEXP_EPS))
@@ -280,35 +272,25 @@ impl SetTables {
         built
     }
 
-    /// The fields' one field, or `None` for the plain chains (one field per sphere, part or
-    /// occluder).
+    /// The fields' one field, or `None` for the plain chains (and for no sphere or part).
     fn field<'a>(
         &'a self,
         spheres: &'a [shscale_geometry::Sphere],
         basis: &'a shscale_sh::ShBasis<f64>,
         exs: &'a [Extrapolator<'a>],
     ) -> Option<Box<dyn VisibilityField + 'a>> {
-        if self.logs {
-            let (g, t) = self.shexp.as_ref()?;
-            return (!exs.is_empty())
-                .then(|| Box::new(SubVolumeLog::new(exs, g, t)) as Box<dyn VisibilityField + 'a>);
-        }
-        if spheres.is_empty() {
-            return None;
-        }
-        if let Some((b, g)) = &self.internal {
-            return Some(Box::new(SphereSetField::new(spheres, b, g)));
-        }
-        if let Some(r) = &self.rings {
-            return Some(Box::new(SphereSetUnion::new(spheres, r)));
-        }
-        let (g, t) = self.shexp.as_ref()?;
-        Some(Box::new(SphereSetShexp::new(
-            spheres,
-            (basis, g),
-            t,
-            Exp::Hyb,
-        )))
+        let one: Box<dyn VisibilityField + 'a> = match self {
+            SetTables::Plain => return None,
+            SetTables::LogSpace(g, t) if !exs.is_empty() => Box::new(SubVolumeLog::new(exs, g, t)),
+            SetTables::LogSpace(..) => return None,
+            _ if spheres.is_empty() => return None,
+            SetTables::Internal(b, g) => Box::new(SphereSetField::new(spheres, b, g)),
+            SetTables::Union(r) => Box::new(SphereSetUnion::new(spheres, r)),
+            SetTables::Shexp(g, t) => {
+                Box::new(SphereSetShexp::new(spheres, (basis, g), t, Exp::Hyb))
+            }
+        };
+        Some(one)
     }
 }
 

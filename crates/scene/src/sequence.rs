@@ -148,15 +148,12 @@ fn cached(
             Some(s) => Some(s.error_at(scene, st.t, pixels)?),
             None => None,
         };
-        let stages: Vec<(String, f64)> = [
+        let stages = named_stages(&[
             ("deform", st.deform_seconds),
             ("bvh_update", st.bvh_update_seconds),
             ("bsv_sampling", st.bsv_sampling_seconds),
             ("shading", st.shading_seconds),
-        ]
-        .iter()
-        .map(|(n, s)| (n.to_string(), *s))
-        .collect();
+        ]);
         let fr = SequenceFrame {
             frame: st.frame,
             t: st.t,
@@ -169,4 +166,9 @@ fn cached(
         Ok(())
     })?;
     Ok((img, out))
+}
+
+/// A frame's stage times as [`SequenceFrame::stages`] holds them (names owned).
+pub(crate) fn named_stages(stages: &[(&str, f64)]) -> Vec<(String, f64)> {
+    (stages.iter()).map(|(n, v)| (n.to_string(), *v)).collect()
 }

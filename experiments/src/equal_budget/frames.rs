@@ -173,18 +173,29 @@ pub(crate) fn sphere_set<'a>(
             shscale_sh::GauntTensor::<f64>::new(m).map_err(|e| Error::config(e.to_string()))?;
         Ok((basis, gaunt))
     };
-    let (basis, _) = sh(order)?;
-    let (basis_m, gaunt_m) = sh(internal.max(order))?;
-    let grid = (combine == Combine::Quadrature)
-        .then(|| QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES));
-    let rings = (combine == Combine::Union).then(|| RingGrid::new(&basis, UNION_RINGS));
-    let shexp = (combine == Combine::Shexp)
-        .then(|| -> Result<_, Error> {
-            let (_, gaunt) = sh(order)?;
+    let (basis, gaunt) = sh(order)?;
+    // What each combination needs, built once before the frames.
+    enum Tables {
+        Product(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>),
+        Quadrature(QuadratureGrid),
+        Union(RingGrid),
+        Shexp(shscale_sh::GauntTensor<f64>, ZonalLogTable),
+    }
+    let tables = match combine {
+        Combine::Product if internal > order => {
+            let (b, g) = sh(internal)?;
+            Tables::Product(b, g)
+        }
+        Combine::Product => Tables::Product(basis.clone(), gaunt),
+        Combine::Quadrature => {
+            Tables::Quadrature(QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES))
+        }
+        Combine::Union => Tables::Union(RingGrid::new(&basis, UNION_RINGS)),
+        Combine::Shexp => {
             let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-            Ok((gaunt, table))
-        })
-        .transpose()?;
+            Tables::Shexp(gaunt, table)
+        }
+    };
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let spheres = match &mesh {
@@ -193,12 +204,12 @@ pub(crate) fn sphere_set<'a>(
         };
         let build = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let (v, rays, bytes) = match (&grid, &rings, &shexp) {
-            (_, _, Some((gaunt, table))) => {
-                let set = SphereSetShexp::new(&spheres, (&basis, gaunt), table, Exp::Hyb);
+        let (v, rays, bytes) = match &tables {
+            Tables::Product(b, g) => {
+                let set = SphereSetField::new(&spheres, b, g);
                 (eval_all(&set, points, nn), 0, set.size_bytes())
             }
-            (Some(g), _, _) => {
+            Tables::Quadrature(g) => {
                 let set = SphereSetQuadrature::new(&spheres, g);
                 (
                     eval_all(&set, points, nn),
@@ -206,7 +217,7 @@ pub(crate) fn sphere_set<'a>(
                     spheres.len() * 32 + g.size_bytes(),
                 )
             }
-            (None, Some(r), None) => {
+            Tables::Union(r) => {
                 let set = SphereSetUnion::new(&spheres, r);
                 (
                     eval_all(&set, points, nn),
@@ -214,8 +225,8 @@ pub(crate) fn sphere_set<'a>(
                     set.size_bytes() + r.size_bytes(),
                 )
             }
-            (None, None, None) => {
-                let set = SphereSetField::new(&spheres, &basis_m, &gaunt_m);
+            Tables::Shexp(g, t) => {
+                let set = SphereSetShexp::new(&spheres, (&basis, g), t, Exp::Hyb);
                 (eval_all(&set, points, nn), 0, set.size_bytes())
             }
         };

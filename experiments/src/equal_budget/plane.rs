@@ -357,38 +357,7 @@ impl Kind for BudgetPlane {
                 "\"quadrature\" is the spherical receivers' diagnostic (kind `budget`); the plane renders `product` or `union`".to_string(),
             ));
         }
-        if let Spec::SubVolumes {
-            combine: Combine::Shexp,
-            ex,
-            ..
-        } = spec.typed.method
-        {
-            let order = p.order.unwrap_or(scene.order);
-            let max = shscale_field::shexp_ol::MAX_SHEXP_ORDER;
-            if order > max {
-                return Err(KeyError::new(
-                    "part_combine",
-                    format!("\"shexp\" takes orders up to {max}, not {order}"),
-                ));
-            }
-            if ex.plausibility != shscale_field::extrapolate::Plausibility::None {
-                return Err(KeyError::new(
-                    "plausibility",
-                    "the clamp bounds visibilities, not the logs `part_combine = \"shexp\"` extrapolates: leave it at \"none\"".to_string(),
-                ));
-            }
-        }
-        if let Spec::SphereSet { internal_order, .. } = spec.typed.method {
-            let order = p.order.unwrap_or(scene.order);
-            if internal_order != 0 && internal_order < order {
-                return Err(KeyError::new(
-                    "sphere_order",
-                    format!(
-                        "{internal_order} is below the order {order}: give 0 (that order) or an order from {order} to 16"
-                    ),
-                ));
-            }
-        }
+        (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
         spec.typed.scene = Some(scene);
         Ok(spec)
     }

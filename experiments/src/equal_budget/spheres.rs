@@ -377,7 +377,7 @@ impl Kind for Budget {
             p.hemisphere_res,
         )?;
         let spec = p.spec()?;
-        check_combination(&spec, p.order)?;
+        spec.check_order(p.order)?;
         if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
             return Err(KeyError::new(
                 "mesh",
@@ -732,58 +732,4 @@ fn part_ranges<'a>(
 /// Every row's method, parsed once from its cells.
 fn specs(t: &Results) -> Vec<Option<Spec>> {
     specs_of::<Params>(t, |p| p.spec().ok())
-}
-
-/// The combinations' own domains: a sphere set's internal order at or above the run's, SH
-/// exponentiation (of sphere sets or sub-volumes) at orders up to `MAX_SHEXP_ORDER`, and
-/// sub-volumes in log space without the plausibility clamp (it bounds visibilities, not logs).
-fn check_combination(spec: &Spec, order: usize) -> Result<(), KeyError> {
-    if let Spec::SphereSet { internal_order, .. } = *spec {
-        if internal_order != 0 && internal_order < order {
-            return Err(KeyError::new(
-                "sphere_order",
-                format!(
-                    "{internal_order} is below the run's order {}: give 0 (the run's order) or an order from {} to 16",
-                    order, order
-                ),
-            ));
-        }
-    }
-    let max = shscale_field::shexp_ol::MAX_SHEXP_ORDER;
-    if matches!(
-        *spec,
-        Spec::SphereSet {
-            combine: Combine::Shexp,
-            ..
-        }
-    ) && order > max
-    {
-        return Err(KeyError::new(
-            "sphere_combine",
-            format!(
-                "\"shexp\" takes orders up to {max} (its exact exponential's eigenproblem is N² × N²), not {}",
-                order
-            ),
-        ));
-    }
-    if let Spec::SubVolumes {
-        combine: Combine::Shexp,
-        ex,
-        ..
-    } = *spec
-    {
-        if order > max {
-            return Err(KeyError::new(
-                "part_combine",
-                format!("\"shexp\" takes orders up to {max}, not {}", order),
-            ));
-        }
-        if ex.plausibility != shscale_field::extrapolate::Plausibility::None {
-            return Err(KeyError::new(
-                "plausibility",
-                "the clamp bounds visibilities, not the logs `part_combine = \"shexp\"` extrapolates: leave it at \"none\"".to_string(),
-            ));
-        }
-    }
-    Ok(())
 }
