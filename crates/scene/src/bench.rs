@@ -15,7 +15,6 @@ use crate::error::Error;
 use crate::gpu_path::render_sequence_gpu;
 use crate::render::render_sequence;
 use crate::scene::Scene;
-use crate::vocab::placed_mesh;
 use serde::{Deserialize, Serialize};
 use shscale_gpu::timing::median;
 use shscale_gpu::GpuContext;
@@ -117,7 +116,7 @@ pub fn bench_scene(
     let frames = frames.max(1);
     let total = frames + warmup;
     let o = &sc.occluders[0];
-    let mesh = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let mesh = o.placed()?;
     let threads = rayon::current_num_threads();
     let base = FrameTimes {
         vertices: mesh.positions.len(),

@@ -8,7 +8,6 @@
 use crate::error::Error;
 use crate::render::RenderOutput;
 use crate::scene::{Camera, LightSpec, Scene};
-use crate::vocab::placed_mesh;
 use glam::DVec3;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{MeshBvh, Sphere};
@@ -35,7 +34,7 @@ pub fn render_camera(
                 })
             } else {
                 Shape::Mesh(Box::new(MeshBvh::build(
-                    &placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?,
+                    &o.placed()?,
                     UpdateStrategy::Rebuild,
                 )))
             })

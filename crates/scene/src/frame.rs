@@ -5,31 +5,12 @@
 
 use crate::error::Error;
 use crate::scene::{LightSpec, Scene};
-use crate::vocab::placed_mesh;
 use glam::DVec3;
 use shscale_field::shading::EnvLight;
 use shscale_field::Emitter;
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{deform, shapes, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
+use shscale_geometry::{deform, shapes, Mesh, MeshBvh, Occluder, Sphere};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
-
-/// Build an occluder: the analytic sphere, or a mesh (bundled or path) rotated to z-up, scaled and
-/// moved so its minimal bounding sphere is `(center, radius)`.
-pub fn build_occluder(
-    mesh: &str,
-    center: DVec3,
-    radius: f64,
-    up_is_y: bool,
-) -> Result<Box<dyn Occluder>, Error> {
-    let target = Sphere { center, radius };
-    if mesh == "sphere" {
-        return Ok(Box::new(AnalyticSphere { sphere: target }));
-    }
-    Ok(Box::new(MeshBvh::build(
-        &placed_mesh(mesh, center, radius, up_is_y)?,
-        UpdateStrategy::Rebuild,
-    )))
-}
 
 /// The mesh of an occluder at the deformers' time `pose_t` ([`Scene::pose_t`]): placed, and
 /// posed by its deformer ([`pose_mesh`]) when a time is given; `None` for the analytic sphere.
@@ -40,7 +21,7 @@ pub fn occluder_mesh_at(
     if o.mesh == "sphere" {
         return Ok(None);
     }
-    let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let rest = o.placed()?;
     Ok(Some(match (pose_t, o.deformer) {
         (Some(_), Some(_)) => posed(&rest, o, pose_t),
         _ => rest,
@@ -65,7 +46,7 @@ pub fn build_occluder_at(
 ) -> Result<Box<dyn Occluder>, Error> {
     match occluder_mesh_at(o, pose_t)? {
         Some(m) => Ok(Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild))),
-        None => build_occluder(&o.mesh, o.center, o.radius, o.up_is_y),
+        None => o.build(),
     }
 }
 

@@ -7,7 +7,6 @@ use crate::error::Error;
 use crate::frame::{light_of, receiver_grid, sequence_sphere, table_for};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
-use crate::vocab::placed_mesh;
 use glam::DVec3;
 use shscale_field::shading::Shader;
 use shscale_field::{Bsv, BsvSample, Layout};
@@ -132,7 +131,7 @@ pub fn render_sequence_gpu(
     let t_setup = Instant::now();
     let frames = frames.max(1);
     let o = single_mesh(scene)?;
-    let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+    let rest = o.placed()?;
     let s = sequence_sphere(&rest, o.deformer, frames);
     let sampling = Sphere {
         center: s.center,

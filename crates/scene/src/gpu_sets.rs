@@ -12,7 +12,6 @@ use crate::error::Error;
 use crate::frame::{light_of, receiver_grid, Poser};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
-use crate::vocab::placed_mesh;
 use shscale_field::shading::Shader;
 use shscale_geometry::{Mesh, Sphere};
 use shscale_gpu::sphereset::{GpuSphereSet, MAX_GPU_SPHERES};
@@ -106,11 +105,11 @@ fn set_occluders(scene: &Scene) -> Result<Vec<SetOccluder>, Error> {
     let mut occs = Vec::new();
     for o in &scene.occluders {
         if o.mesh == "sphere" {
-            let b = crate::frame::build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?;
+            let b = o.build()?;
             occs.push(SetOccluder::Sphere(b.bounding_sphere()));
             continue;
         }
-        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+        let rest = o.placed()?;
         let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
             .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
         occs.push(SetOccluder::Mesh(Box::new(PosedParts {

@@ -8,12 +8,11 @@
 
 use crate::error::Error;
 use crate::frame::{
-    build_emitters, build_occluder, build_occluder_at, light_of, receiver_grid, sequence_sphere,
-    table_for, LightSource,
+    build_emitters, build_occluder_at, light_of, receiver_grid, sequence_sphere, table_for,
+    LightSource,
 };
 use crate::method::Combine;
 use crate::scene::Scene;
-use crate::vocab::placed_mesh;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
@@ -469,7 +468,7 @@ fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
                     parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
                 }
             }
-            None => parts.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?),
+            None => parts.push(o.build()?),
         }
     }
     Ok(parts)
@@ -487,9 +486,7 @@ fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
                 &labels,
                 scene.parts,
             )),
-            None => {
-                out.push(build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?.bounding_sphere())
-            }
+            None => out.push(o.build()?.bounding_sphere()),
         }
     }
     Ok(out)
@@ -824,7 +821,7 @@ impl Entity {
             return Ok(Entity {
                 rest: None,
                 posed: None,
-                occ: build_occluder(&o.mesh, o.center, o.radius, o.up_is_y)?,
+                occ: o.build()?,
                 bvh: None,
                 deformer: None,
                 poser: None,
@@ -835,7 +832,7 @@ impl Entity {
                 bsv: None,
             });
         }
-        let rest = placed_mesh(&o.mesh, o.center, o.radius, o.up_is_y)?;
+        let rest = o.placed()?;
         let s = sequence_sphere(&rest, o.deformer, frames);
         let strategy = (o.deformer).map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
         let bvh = MeshBvh::build(&rest, strategy);

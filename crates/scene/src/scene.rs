@@ -144,6 +144,40 @@ pub struct OccluderSpec {
     pub radius: f64,
     pub up_is_y: bool,
     pub deformer: Option<(shscale_geometry::deform::DeformerKind, f64)>,
+    /// A turn of the placed mesh about its bounding sphere's centre (`None`: as placed), set by
+    /// studies that vary the occluder's orientation (the `budget_plane` kind's
+    /// `placement_seed`); scene files do not set it.
+    pub turn: Option<glam::DQuat>,
+}
+
+impl OccluderSpec {
+    /// The occluder's mesh at rest: [`crate::vocab::placed_mesh`], then its turn about the
+    /// centre. The analytic sphere has none (an error from `placed_mesh`).
+    pub fn placed(&self) -> Result<shscale_geometry::Mesh, Error> {
+        let mut m = crate::vocab::placed_mesh(&self.mesh, self.center, self.radius, self.up_is_y)?;
+        if let Some(q) = self.turn {
+            let c = m.bounding_sphere().center;
+            for p in &mut m.positions {
+                *p = c + q * (*p - c);
+            }
+        }
+        Ok(m)
+    }
+
+    /// The occluder at rest: the analytic sphere, or the BVH of [`OccluderSpec::placed`].
+    pub fn build(&self) -> Result<Box<dyn shscale_geometry::Occluder>, Error> {
+        if self.mesh == "sphere" {
+            let sphere = shscale_geometry::Sphere {
+                center: self.center,
+                radius: self.radius,
+            };
+            return Ok(Box::new(shscale_geometry::AnalyticSphere { sphere }));
+        }
+        Ok(Box::new(shscale_geometry::MeshBvh::build(
+            &self.placed()?,
+            shscale_geometry::ray::UpdateStrategy::Rebuild,
+        )))
+    }
 }
 
 /// The light as resolved.
@@ -537,6 +571,7 @@ impl Checker {
             radius: o.radius,
             up_is_y,
             deformer,
+            turn: None,
         })
     }
 

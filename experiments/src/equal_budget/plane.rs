@@ -83,6 +83,10 @@ pub struct Params {
     /// Keep the run's image (and the group's full-frequency truth) as EXR for the figure
     /// (`shscale figs`); one frame only.
     pub save_image: bool,
+    /// The occluders' placement: 0 as the scene file has them; any other seed turns every mesh
+    /// occluder by its own uniformly random rotation about its bounding sphere's centre (the
+    /// sphere, and so the scene's clearance from the plane, unchanged).
+    pub placement_seed: u64,
 }
 
 impl Default for Params {
@@ -109,6 +113,7 @@ impl Default for Params {
             sphere_combine: "product".into(),
             part_combine: "product".into(),
             save_image: false,
+            placement_seed: 0,
         }
     }
 }
@@ -147,6 +152,10 @@ impl Params {
         Spec::parse(&self.keys(), &Params::default().keys(), MAX_RT_RES)
     }
 }
+
+/// The columns a plane configuration repeats over (or is split by): the scene, its frames, the
+/// placement seed.
+const PLANE_GROUPING: [&str; 3] = ["scene", "frames", "placement_seed"];
 
 /// The largest `rt_res` of a plane (and below the scene's `truth_res`, checked at plan time).
 const MAX_RT_RES: usize = 255;
@@ -222,6 +231,12 @@ fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
     if let Some(n) = p.order {
         s.order = n;
     }
+    if p.placement_seed != 0 {
+        let mut rng = shscale_field::truth::SplitMix(p.placement_seed);
+        for o in s.occluders.iter_mut().filter(|o| o.mesh != "sphere") {
+            o.turn = Some(rng.rotation());
+        }
+    }
     Ok(s)
 }
 
@@ -229,14 +244,14 @@ fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
 /// once, however many runs name it.
 fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Scene>, Error> {
     type Cache = Vec<(
-        (PathBuf, Option<std::time::SystemTime>, Option<usize>),
+        (PathBuf, Option<std::time::SystemTime>, Option<usize>, u64),
         Arc<Scene>,
     )>;
     static CACHE: Mutex<Cache> = Mutex::new(Vec::new());
     const KEEP: usize = 16;
     let path = config_dir.join(&p.scene);
     let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
-    let key = (path, modified, p.order);
+    let key = (path, modified, p.order, p.placement_seed);
     if let Some(s) =
         (CACHE.lock().ok()).and_then(|c| c.iter().find(|(k, _)| *k == key).map(|(_, s)| s.clone()))
     {
@@ -314,6 +329,7 @@ impl Kind for BudgetPlane {
             ("radial", "`uniform` (the papers') or `clearance`: each base-sphere sample of `extrapolated` and `sub_volumes` moved outward until at least `radial_delta`·r from the surface (distance queries, no extra rays), k = d / r(q); `budget`'s `occlusion` rule is not offered here, where rays are counted from the layout"),
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
             ("save_image", "keep the run's irradiance image and the group's full-frequency truth as EXR (`plane_<run>.exr`, `plane_truth_<run>.exr`) for the figure: truth, the papers' full field, the papers' extrapolation and the most accurate other saved method at no more rays, with their differences from the truth; one frame only"),
+            ("placement_seed", "0 (default): the occluders as the scene file places them; any other seed turns every mesh occluder by its own uniformly random rotation about its bounding sphere's centre (a placement; its bounding sphere and clearance unchanged). Configurations repeat over placement seeds: several give the verdict its intervals"),
         ]
     }
 
@@ -363,7 +379,10 @@ impl Kind for BudgetPlane {
     }
 
     fn group_key(p: &Params) -> String {
-        format!("{};{:?};{}", p.scene, p.order, p.frames)
+        format!(
+            "{};{:?};{};{}",
+            p.scene, p.order, p.frames, p.placement_seed
+        )
     }
 
     /// From the scene read at plan time: the truths once (band-limited, full-frequency,
@@ -617,7 +636,7 @@ impl Kind for BudgetPlane {
 
     fn verdict(t: &Results) -> Result<String, Error> {
         let specs = specs(t);
-        let keys = config_keys::<Params>(&["scene", "frames"]);
+        let keys = config_keys::<Params>(&PLANE_GROUPING);
         let mut splits: Vec<Split> = Vec::new();
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
@@ -634,6 +653,23 @@ impl Kind for BudgetPlane {
         if splits.is_empty() {
             return Ok(String::new());
         }
+        let placements = t.distinct_in(0..t.rows.len(), "placement_seed").len();
+        if placements > 1 {
+            let regimes: Vec<(String, String)> = [
+                ("rmse_vs_full_frequency", "all, full-frequency truth"),
+                ("rmse_near_vs_full_frequency", "near"),
+                ("rmse_far_vs_full_frequency", "far"),
+                ("rmse_vs_band_limited", "all, band-limited truth"),
+            ]
+            .map(|(c, w)| (c.to_string(), w.to_string()))
+            .to_vec();
+            let grid = format!(
+                "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder; shade_rmse_rel, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
+                t.cell(0, "receivers"),
+            );
+            return Ok(super::surface::verdict(t, &splits, &regimes, &grid));
+        }
+        // One placement: no interval; the single-run table.
         let grid = format!(
             "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder ({} of them in the first scene); shade_rmse_rel against full-frequency truth unless said, sequences meaned over their frames",
             t.cell(0, "receivers"),
@@ -655,7 +691,7 @@ impl Kind for BudgetPlane {
 
     fn discussion(t: &Results) -> Result<String, Error> {
         let specs = specs(t);
-        let keys = config_keys::<Params>(&["scene", "frames"]);
+        let keys = config_keys::<Params>(&PLANE_GROUPING);
         let mut s = String::new();
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())

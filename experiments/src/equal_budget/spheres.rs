@@ -26,6 +26,7 @@
 //! `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, which faint receivers do not dominate.
 
 use super::frames::{self, FrameFn};
+use super::surface::surface_bin;
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of,
     plot_name, specs_of, speed_claim, verdict_table, write_front, Front, Split,
@@ -101,11 +102,22 @@ pub struct Params {
     /// run's order, the plain chain; else order ≤ M ≤ 16).
     pub sphere_order: usize,
     pub k_count: usize,
-    /// Receivers: as many seeded directions as `receivers` at each radius.
+    /// `grid` (as many seeded directions as `receivers` at each of `radii`) or `continuous`
+    /// (`receivers` points, each with its own seeded direction and its own radius, ρ − 1
+    /// log-uniform over [`rho_min` − 1, `rho_max` − 1], stratified).
+    pub receiver_layout: String,
+    /// Receivers: directions per radius (`grid`) or points (`continuous`).
     pub receivers: usize,
+    /// The continuous layout's radius range, bounding radii.
+    pub rho_min: f64,
+    pub rho_max: f64,
     pub probe_seed: u64,
     pub truth_res: usize,
     pub truth_seed: u64,
+    /// The occluder's orientation against the world-fixed sampling grids: 0 keeps the mesh as
+    /// loaded; any other seed turns it by a uniformly random rotation about its bounding
+    /// sphere's centre (Shoemake's, from the seed).
+    pub orientation_seed: u64,
     #[serde(with = "list")]
     pub radii: Vec<f64>,
 }
@@ -136,10 +148,14 @@ impl Default for Params {
             part_combine: "product".into(),
             sphere_order: 0,
             k_count: 40,
+            receiver_layout: "grid".into(),
             receivers: 240,
+            rho_min: 1.02,
+            rho_max: 3.0,
             probe_seed: 1,
             truth_res: shscale_field::truth::DEFAULT_TRUTH_RES,
             truth_seed: shscale_field::truth::DEFAULT_TRUTH_SEED,
+            orientation_seed: 0,
             radii: vec![1.1, 1.3, 1.6, 2.0, 3.0],
         }
     }
@@ -171,6 +187,68 @@ impl Params {
             sphere_order: Some(self.sphere_order),
             k_count: Some(self.k_count),
         }
+    }
+
+    /// Receiver points: `receivers` per radius on the grid, `receivers` in all when continuous.
+    fn receiver_count(&self) -> usize {
+        if self.receiver_layout == CONTINUOUS {
+            self.receivers
+        } else {
+            self.receivers * self.radii.len()
+        }
+    }
+
+    /// The receiver radii's extremes (the k-table's range): `radii`, or [`rho_min`, `rho_max`].
+    fn radius_span(&self) -> Vec<f64> {
+        if self.receiver_layout == CONTINUOUS {
+            vec![self.rho_min, self.rho_max]
+        } else {
+            self.radii.clone()
+        }
+    }
+
+    /// The receiver layout's keys checked: the layout named, the keys it does not read at their
+    /// defaults (the unread-key rule), the continuous range inside (1, 1e3] and increasing.
+    fn check_receivers(&self) -> Result<(), KeyError> {
+        let d = Params::default();
+        match self.receiver_layout.as_str() {
+            CONTINUOUS => {
+                if self.radii != d.radii {
+                    return Err(KeyError::new(
+                        "radii",
+                        "`receiver_layout = \"continuous\"` draws each receiver's radius from [rho_min, rho_max]; `radii` must keep its default",
+                    ));
+                }
+                KeyError::real("rho_min", self.rho_min, 1.0, 1e3, Ends::OpenClosed)?;
+                KeyError::real("rho_max", self.rho_max, 1.0, 1e3, Ends::OpenClosed)?;
+                if self.rho_max <= self.rho_min {
+                    return Err(KeyError::new(
+                        "rho_max",
+                        format!("{} is not above rho_min = {}", self.rho_max, self.rho_min),
+                    ));
+                }
+            }
+            "grid" => {
+                for (key, v, dv) in [
+                    ("rho_min", self.rho_min, d.rho_min),
+                    ("rho_max", self.rho_max, d.rho_max),
+                ] {
+                    if v != dv {
+                        return Err(KeyError::new(
+                            key,
+                            "read with `receiver_layout = \"continuous\"` only; the grid's radii are `radii`",
+                        ));
+                    }
+                }
+            }
+            other => {
+                return Err(KeyError::new(
+                    "receiver_layout",
+                    format!("{other:?} is not grid or continuous"),
+                ))
+            }
+        }
+        Ok(())
     }
 
     /// The method, parsed (the unread-key rule against the defaults).
@@ -220,6 +298,22 @@ pub struct Row {
     pub occ_rel_l2_contact_mean: Option<f64>,
     pub occ_rel_l2_contact_ci95: Option<f64>,
     pub truth_rel_err_mean: Option<f64>,
+    /// Mean `occ_rel_l2` by distance to the surface d (bounding radii), with its interval, in
+    /// the bins of [`SURFACE_EDGES`]: s0 d < 0.04, s1 [0.04, 0.08), … s6 d ≥ 1.28.
+    pub occ_rel_l2_s0_mean: Option<f64>,
+    pub occ_rel_l2_s0_ci95: Option<f64>,
+    pub occ_rel_l2_s1_mean: Option<f64>,
+    pub occ_rel_l2_s1_ci95: Option<f64>,
+    pub occ_rel_l2_s2_mean: Option<f64>,
+    pub occ_rel_l2_s2_ci95: Option<f64>,
+    pub occ_rel_l2_s3_mean: Option<f64>,
+    pub occ_rel_l2_s3_ci95: Option<f64>,
+    pub occ_rel_l2_s4_mean: Option<f64>,
+    pub occ_rel_l2_s4_ci95: Option<f64>,
+    pub occ_rel_l2_s5_mean: Option<f64>,
+    pub occ_rel_l2_s5_ci95: Option<f64>,
+    pub occ_rel_l2_s6_mean: Option<f64>,
+    pub occ_rel_l2_s6_ci95: Option<f64>,
 }
 
 /// The kind.
@@ -230,9 +324,13 @@ pub struct Shared {
     occ: Box<dyn shscale_geometry::Occluder>,
     /// The mesh (none for the analytic sphere), for the sub-volumes' partition.
     mesh: Option<shscale_geometry::Mesh>,
-    /// Radius by radius, the same `directions` directions at each.
+    /// The receivers (ρ, point): on the grid radius by radius over the same directions, else
+    /// each with its own.
     points: Vec<(f64, DVec3)>,
-    directions: usize,
+    /// Each receiver's direction (its cluster: a grid's radii share one).
+    dir_of: Vec<usize>,
+    /// Each receiver's distance to the occluder's surface, in bounding radii.
+    surface: Vec<f64>,
     truth: Vec<Option<Truth>>,
     /// Per receiver: its direction is a contact direction — the bounding sphere's point in that
     /// direction has its facing hemisphere occluded at least
@@ -249,6 +347,8 @@ pub const MAX_RECEIVERS: usize = 100_000;
 /// One receiver's error: its radius, `‖S − S_true‖²`, `‖S_occ,true‖²` and the truth's own error.
 struct Err2 {
     rho: f64,
+    /// Distance to the surface, bounding radii.
+    surface: f64,
     /// The receiver's direction (its radii share it: the intervals' cluster).
     dir: usize,
     /// The receiver's direction is a contact direction ([`Shared::contact`]).
@@ -278,7 +378,6 @@ fn row_of(
     t: [shscale_runner::timing::Timing; 3],
 ) -> Row {
     let [build, eval, total] = t;
-    let dirs = sh.directions.max(1);
     let errs: Vec<Err2> = (values.iter().zip(&sh.truth).zip(&sh.points))
         .zip(&sh.contact)
         .enumerate()
@@ -286,8 +385,8 @@ fn row_of(
             let t = t.as_ref()?;
             Some(Err2 {
                 rho: *rho,
-                // Points run radius by radius over the same directions.
-                dir: i % dirs,
+                surface: sh.surface[i],
+                dir: sh.dir_of[i],
                 contact: *contact,
                 diff2: l2_diff(v, &t.coeffs).powi(2),
                 occ2: l2(&occlusion(&t.coeffs)).powi(2),
@@ -299,6 +398,11 @@ fn row_of(
     let (mn, cin, wn) = scores(&errs, |e| e.rho <= NEAR_RHO);
     let (mf, cif, wf) = scores(&errs, |e| e.rho > NEAR_RHO);
     let (mc, cic, _) = scores(&errs, |e| e.contact);
+    let bin = |k: usize| scores(&errs, |e| surface_bin(e.surface) == k);
+    let [b0, b1, b2, b3, b4, b5, b6] = std::array::from_fn(|k| {
+        let (m, ci, _) = bin(k);
+        (m, ci)
+    });
     Row {
         receiver_points: sh.points.len(),
         rays,
@@ -323,6 +427,20 @@ fn row_of(
         occ_rel_l2_contact_mean: mc,
         occ_rel_l2_contact_ci95: cic,
         truth_rel_err_mean: mean_max(errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel)).0,
+        occ_rel_l2_s0_mean: b0.0,
+        occ_rel_l2_s0_ci95: b0.1,
+        occ_rel_l2_s1_mean: b1.0,
+        occ_rel_l2_s1_ci95: b1.1,
+        occ_rel_l2_s2_mean: b2.0,
+        occ_rel_l2_s2_ci95: b2.1,
+        occ_rel_l2_s3_mean: b3.0,
+        occ_rel_l2_s3_ci95: b3.1,
+        occ_rel_l2_s4_mean: b4.0,
+        occ_rel_l2_s4_ci95: b4.1,
+        occ_rel_l2_s5_mean: b5.0,
+        occ_rel_l2_s5_ci95: b5.1,
+        occ_rel_l2_s6_mean: b6.0,
+        occ_rel_l2_s6_ci95: b6.1,
     }
 }
 
@@ -360,11 +478,15 @@ impl Kind for Budget {
             ("sphere_order", "the internal order M of `sphere_set` with `sphere_combine = \"product\"`: each cap projected to M, every product at M, the result truncated to `order` once (docs/math.md, \"Combining many spheres\"); 0 (default) for the run's order, else order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("part_combine", "how `sub_volumes` combines its parts: `product` (default; each part's scaled visibility multiplied near to far) or `shexp` (scaling in log space: each part's base-sphere samples replaced by their product-algebra logs, clamped at ε = 0.02, extrapolated with the part's own k, summed, and exponentiated once by HYB; orders up to 8, without the plausibility clamp; docs/math.md, \"SH exponentiation\")"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
-            ("receivers", "receiver directions per radius (seeded), 1..=100000"),
-            ("probe_seed", "seed of the receiver directions"),
+            ("receiver_layout", "`grid` (default: `receivers` seeded directions at each of `radii`) or `continuous` (`receivers` points, each its own seeded direction and radius, ρ − 1 log-uniform over [rho_min − 1, rho_max − 1], stratified: every receiver its own distance and its own contact label)"),
+            ("receivers", "receiver directions per radius (`grid`) or receiver points (`continuous`), seeded, 1..=100000"),
+            ("rho_min", "the continuous layout's smallest receiver radius, bounding radii, (1, 1e3]"),
+            ("rho_max", "the continuous layout's largest receiver radius, bounding radii, above rho_min"),
+            ("probe_seed", "seed of the receiver directions (and the continuous layout's radii)"),
             ("truth_res", "T of the converged truth at the receivers, 1..=1024"),
             ("truth_seed", "seed of the truth"),
-            ("radii", "receiver radii in bounding radii, each in (1, 1e3], distinct, 1 to 64"),
+            ("orientation_seed", "the occluder's orientation against the world-fixed sampling grids: 0 (default) as loaded, any other seed a uniformly random rotation about its bounding sphere's centre"),
+            ("radii", "receiver radii of the grid layout in bounding radii, each in (1, 1e3], distinct, 1 to 64"),
         ]
     }
 
@@ -387,6 +509,7 @@ impl Kind for Budget {
         let max_truth = shscale_field::truth::MAX_TRUTH_RES;
         KeyError::int("truth_res", p.truth_res, 1, max_truth)?;
         KeyError::int("receivers", p.receivers, 1, MAX_RECEIVERS)?;
+        p.check_receivers()?;
         if p.radii.is_empty() || p.radii.len() > 64 {
             return Err(KeyError::new(
                 "radii",
@@ -407,13 +530,23 @@ impl Kind for Budget {
 
     fn group_key(p: &Params) -> String {
         format!(
-            "{};{};{};{};{};{};{:?}",
-            p.mesh, p.order, p.receivers, p.probe_seed, p.truth_res, p.truth_seed, p.radii
+            "{};{};{};{};{};{};{:?};{};{};{};{}",
+            p.mesh,
+            p.order,
+            p.receivers,
+            p.probe_seed,
+            p.truth_res,
+            p.truth_seed,
+            p.radii,
+            p.receiver_layout,
+            p.rho_min,
+            p.rho_max,
+            p.orientation_seed
         )
     }
 
     fn cost(p: &Self::Spec) -> (Cost, Cost) {
-        let n = (p.receivers * p.radii.len()) as f64;
+        let n = p.receiver_count() as f64;
         let t4 = 4.0 * (p.truth_res * p.truth_res) as f64;
         let nn = (p.order * p.order) as f64;
         // The truths, and the contact classification of the directions.
@@ -460,16 +593,22 @@ impl Kind for Budget {
     }
 
     fn shared(p: &Self::Spec, _: &Ctx) -> Result<Shared, Error> {
-        let u = shscale_scene::vocab::unit_occluder(&p.mesh)?;
+        let u = oriented_occluder(&p.mesh, p.orientation_seed)?;
         let (occ, mesh) = (u.occ, u.mesh);
         let s = occ.bounding_sphere();
-        // The receiver directions: the probe kind's seeded directions.
+        // The receivers: the probe kind's seeded directions, at every radius of the grid or
+        // each at its own radius.
         let dirs = random_directions(p.probe_seed, p.receivers);
-        let points: Vec<(f64, DVec3)> = p
-            .radii
-            .iter()
-            .flat_map(|&rho| dirs.iter().map(move |d| (rho, *d)))
-            .map(|(rho, d)| (rho, s.center + rho * s.radius * d))
+        let (rhos, dir_of): (Vec<f64>, Vec<usize>) = if p.receiver_layout == CONTINUOUS {
+            let rho = continuous_radii(p.probe_seed, p.receivers, p.rho_min, p.rho_max);
+            (rho, (0..p.receivers).collect())
+        } else {
+            (p.radii.iter())
+                .flat_map(|&rho| (0..dirs.len()).map(move |i| (rho, i)))
+                .unzip()
+        };
+        let points: Vec<(f64, DVec3)> = (rhos.iter().zip(&dir_of))
+            .map(|(&rho, &i)| (rho, s.center + rho * s.radius * dirs[i]))
             .collect();
         let ts = TruthSampler::new(p.order, p.truth_res, p.truth_seed)?;
         let basis =
@@ -483,6 +622,11 @@ impl Kind for Budget {
                     Some(ts.sample_stream(occ.as_ref(), *q, i as u64)).filter(|t| t.escaped > 0)
                 }
             })
+            .collect();
+        // Each receiver's distance to the surface, in bounding radii (the exact point-to-
+        // triangle distance through the BVH; the analytic sphere's is ρ − 1).
+        let surface: Vec<f64> = (points.par_iter())
+            .map(|(_, q)| occ.distance_to_surface(*q) / s.radius)
             .collect();
         let facing = VisibilitySampler::new(p.order, CONTACT_RES)?;
         let contact_dir: Vec<bool> = (dirs.par_iter())
@@ -498,14 +642,13 @@ impl Kind for Budget {
                     >= shscale_field::probe::DEFAULT_CONTACT_OCCLUSION
             })
             .collect();
-        let contact = (p.radii.iter())
-            .flat_map(|_| contact_dir.iter().copied())
-            .collect();
+        let contact = dir_of.iter().map(|&i| contact_dir[i]).collect();
         Ok(Shared {
             occ,
             mesh,
             points,
-            directions: p.receivers,
+            dir_of,
+            surface,
             truth,
             contact,
         })
@@ -535,7 +678,7 @@ impl Kind for Budget {
         let mut partition_seconds = None;
         let mut frame: FrameFn<'_> = match &p.typed {
             Spec::Extrapolated(ex) => {
-                let range = shscale_field::probe::k_range(&p.radii, ex.sampling_radius);
+                let range = shscale_field::probe::k_range(&p.radius_span(), ex.sampling_radius);
                 let k = (order, p.k_count);
                 let parts = vec![(occ, range)];
                 frames::extrapolation(ex, k, (parts, Combine::Product), &sampler, &sh.points)?
@@ -599,6 +742,11 @@ impl Kind for Budget {
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
         let specs = specs(t);
         let mut files = Vec::new();
+        let continuous = (0..t.rows.len()).any(|r| t.cell(r, "receiver_layout") == CONTINUOUS);
+        if continuous {
+            let tag = |label: &str| label.replace("N = ", "n");
+            files.extend(super::surface::figures(dir, t, &splits(t), &tag)?);
+        }
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
@@ -630,20 +778,15 @@ impl Kind for Budget {
     }
 
     fn verdict(t: &Results) -> Result<String, Error> {
-        let specs = specs(t);
-        let keys = config_keys::<Params>(&CONFIG_GROUPING);
-        let mut splits: Vec<Split> = Vec::new();
-        for (mesh, order) in distinct_pairs(t, "mesh", "order") {
-            let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
-                .collect();
-            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
-            Split::add(&mut splits, format!("N = {order}"), mesh, configs);
-        }
+        let splits = splits(t);
         if splits.is_empty() {
             return Ok(String::new());
         }
         let p0: Params = params_of(t, 0).unwrap_or_default();
+        if let Some(grid) = continuous_grid(t, &p0) {
+            let regimes = super::surface::sphere_regimes();
+            return Ok(super::surface::verdict(t, &splits, &regimes, &grid));
+        }
         let radii: Vec<String> = p0.radii.iter().map(|r| format!("{r}")).collect();
         let seeds = t.distinct_in(0..t.rows.len(), "probe_seed").len();
         let grid = format!(
@@ -668,6 +811,12 @@ impl Kind for Budget {
     fn discussion(t: &Results) -> Result<String, Error> {
         let specs = specs(t);
         let mut s = String::new();
+        let p0: Params = params_of(t, 0).unwrap_or_default();
+        if let Some(grid) = continuous_grid(t, &p0) {
+            let regimes = super::surface::sphere_regimes();
+            s.push_str(&super::surface::tables(t, &splits(t), &regimes, &grid));
+            s.push('\n');
+        }
         for (mesh, order) in distinct_pairs(t, "mesh", "order") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
@@ -699,14 +848,62 @@ impl Kind for Budget {
 }
 
 /// The columns a configuration repeats over (or is split by): what is not the method.
-const CONFIG_GROUPING: [&str; 6] = [
+const CONFIG_GROUPING: [&str; 10] = [
     "mesh",
     "probe_seed",
     "receivers",
     "truth_res",
     "truth_seed",
     "radii",
+    "receiver_layout",
+    "rho_min",
+    "rho_max",
+    "orientation_seed",
 ];
+
+/// The receiver layout of independent radii.
+const CONTINUOUS: &str = "continuous";
+
+/// The continuous layout's radii: n values with ρ − 1 log-uniform over [lo − 1, hi − 1],
+/// stratified (one in each of n equal strata of the log, jittered by the seed), so every octave
+/// of clearance from the bounding sphere holds its share of receivers. Paired with the seeded
+/// directions in order: the directions are independent of the index, so the pairing is random.
+pub fn continuous_radii(seed: u64, n: usize, lo: f64, hi: f64) -> Vec<f64> {
+    let mut rng = shscale_field::truth::SplitMix(seed ^ 0x7261_6469_7573_0001);
+    let (a, b) = ((lo - 1.0).ln(), (hi - 1.0).ln());
+    (0..n)
+        .map(|i| {
+            let u = (i as f64 + rng.unit()) / n as f64;
+            1.0 + (a + u * (b - a)).exp()
+        })
+        .collect()
+}
+
+/// The unit occluder of `mesh` (bounding sphere as loaded), turned by the seeded rotation of
+/// `orientation_seed` about its bounding sphere's centre (0: as loaded). The analytic sphere is
+/// the same in every orientation.
+fn oriented_occluder(
+    mesh: &str,
+    orientation_seed: u64,
+) -> Result<shscale_scene::vocab::UnitOccluder, Error> {
+    let u = shscale_scene::vocab::unit_occluder(mesh)?;
+    if orientation_seed == 0 {
+        return Ok(u);
+    }
+    let Some(mut m) = u.mesh else {
+        return Ok(u);
+    };
+    let c = m.bounding_sphere().center;
+    let q = shscale_field::truth::SplitMix(orientation_seed).rotation();
+    for p in &mut m.positions {
+        *p = c + q * (*p - c);
+    }
+    Ok(shscale_scene::vocab::UnitOccluder {
+        occ: Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
+        analytic: None,
+        mesh: Some(m),
+    })
+}
 
 /// Each sub-volume part with its k range: its receivers' distances over its sampling radius
 /// (`sampling_radius` times its bounding radius), with 5 % margins.
@@ -727,6 +924,49 @@ fn part_ranges<'a>(
             (b as &dyn Occluder, range)
         })
         .collect()
+}
+
+/// The rows as splits (one per order) of groups (one per mesh) of configurations.
+fn splits(t: &Results) -> Vec<Split> {
+    let specs = specs(t);
+    let keys = config_keys::<Params>(&CONFIG_GROUPING);
+    let mut splits: Vec<Split> = Vec::new();
+    for (mesh, order) in distinct_pairs(t, "mesh", "order") {
+        let rows: Vec<usize> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
+            .collect();
+        let configs = by_config(t, &rows, &keys, &|r| specs[r]);
+        Split::add(&mut splits, format!("N = {order}"), mesh, configs);
+    }
+    splits
+}
+
+/// The receivers in words when the rows' first run has receivers at every distance (`None` on
+/// the grid).
+fn continuous_grid(t: &Results, p0: &Params) -> Option<String> {
+    (p0.receiver_layout == CONTINUOUS).then(|| format!(
+        "Spherical receivers at every distance: {} per seed, each its own seeded direction and radius (ρ − 1 log-uniform over [{}, {}]), binned by distance to the surface d; contact: the receiver's direction's point on the bounding sphere is ≥ 40 % occluded; {} seed(s), each its own receivers, truth seed and occluder orientation",
+        p0.receivers,
+        cell_text(p0.rho_min - 1.0),
+        cell_text(p0.rho_max - 1.0),
+        distinct_seeds(t),
+    ))
+}
+
+/// The distinct seeds (the seed columns' tuples) of a table.
+fn distinct_seeds(t: &Results) -> usize {
+    let mut v: Vec<String> = (0..t.rows.len())
+        .map(|r| super::surface::SEED_COLUMNS.map(|c| t.cell(r, c)).join(";"))
+        .collect();
+    v.sort();
+    v.dedup();
+    v.len()
+}
+
+/// A number in words, shortest form (0.02, 2).
+fn cell_text(x: f64) -> String {
+    let r = (x * 1e9).round() / 1e9;
+    format!("{r}")
 }
 
 /// Every row's method, parsed once from its cells.

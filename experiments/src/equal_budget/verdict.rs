@@ -33,6 +33,28 @@ pub fn mean_ci95(v: &[f64]) -> (Option<f64>, Option<f64>) {
     (m, ci)
 }
 
+/// Student's t quantile t_{0.975, df} for df = 1..=30 (beyond: 1.96 is within 4 %).
+const T975: [f64; 30] = [
+    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+    2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+    2.052, 2.048, 2.045, 2.042,
+];
+
+/// Mean of `v` and the half-width of its 95 % Student-t interval (`None` below 2 values).
+pub fn mean_t95(v: &[f64]) -> (Option<f64>, Option<f64>) {
+    if v.is_empty() {
+        return (None, None);
+    }
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let ci = (v.len() >= 2).then(|| {
+        let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+        let t = T975.get(v.len() - 2).copied().unwrap_or(1.96);
+        t * (var / n).sqrt()
+    });
+    (Some(m), ci)
+}
+
 /// Mean of `(cluster, value)` pairs and the half-width of its 95 % interval clustered by
 /// `cluster` (receivers that share a direction are not independent): the cluster-robust
 /// variance of the mean, `G/(G−1) · Σ_g (S_g − n_g·m)² / n²` over the G clusters (`S_g` the sum
@@ -136,7 +158,7 @@ pub(crate) fn params_of<P: Default + Serialize + DeserializeOwned>(
 
 /// A configuration: its rows (one per seed) and its method, parsed once.
 pub(crate) struct Config {
-    rows: Vec<usize>,
+    pub rows: Vec<usize>,
     pub spec: Spec,
 }
 
@@ -206,7 +228,7 @@ fn is_papers_field(s: &Spec) -> bool {
 }
 
 /// The papers' extrapolation: one sphere, fixed α, no mitigation, on the bounding sphere.
-fn is_papers_extrapolation(s: &Spec) -> bool {
+pub(crate) fn is_papers_extrapolation(s: &Spec) -> bool {
     matches!(s, Spec::Extrapolated(e) if matches!(e.alpha, Alpha::Fixed(_))
         && e.plausibility == Plausibility::None
         && e.sampling_radius == 1.0
@@ -326,7 +348,7 @@ pub(crate) struct Split {
 /// The sampling at which the verdict table compares methods at equal rays: the papers' method
 /// (one sphere, fixed α, no mitigation) on a 12 × 20 layout at H = 16, the equal-ray budget the
 /// study was designed around (fixed before its runs; 61,440 rays).
-const EQUAL_RAYS_SAMPLING: (&str, usize) = ("latlong:12x20", 16);
+pub(crate) const EQUAL_RAYS_SAMPLING: (&str, usize) = ("latlong:12x20", 16);
 
 impl Split {
     /// Add `group` with its configurations to the split labelled `label` in `splits` (a new
@@ -488,7 +510,7 @@ pub fn pareto(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
 }
 
 /// The sampling (layout, H) of a spec that samples hemispheres.
-fn sampling(s: &Spec) -> Option<(String, usize)> {
+pub(crate) fn sampling(s: &Spec) -> Option<(String, usize)> {
     match s {
         Spec::FullField(f) => Some((f.layout.name(), f.hemisphere_res)),
         _ => s
@@ -524,7 +546,11 @@ fn family(s: &Spec) -> &'static str {
 /// Points at x = 0 (a method that casts no rays) cannot sit on a log axis: they are drawn at
 /// `x0` (a quarter of the smallest positive x of the figure), and (with `rename`) their series
 /// says so. Returns whether any point moved.
-fn place_zeros(series: &mut BTreeMap<String, Vec<(f64, f64)>>, x0: f64, rename: bool) -> bool {
+pub(crate) fn place_zeros(
+    series: &mut BTreeMap<String, Vec<(f64, f64)>>,
+    x0: f64,
+    rename: bool,
+) -> bool {
     let zero_keys: Vec<String> = (series.iter())
         .filter(|(_, v)| v.iter().any(|p| p.0 == 0.0))
         .map(|(k, _)| k.clone())
