@@ -982,6 +982,85 @@ fn budget_rows_count_what_each_method_costs() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `budget` with receivers at every distance on the analytic sphere, whose distance to the
+/// surface is ρ − 1 exactly: the octave bins hold the stratified counts (within one of n·f, f
+/// the bin's share of the log range); the answer has a row per distance bin and the figures
+/// exist; the layout's keys are refused by name where they are not read.
+#[test]
+fn budget_at_every_distance_bins_receivers_by_their_distance_to_the_surface() {
+    let (dir, head, rows) = run_csv(
+        "bs",
+        "budget",
+        "experiment = \"budget\"\nmesh = \"sphere\"\norder = 3\nreceiver_layout = \"continuous\"\nreceivers = 200\ntruth_res = 8\ngpu = \"off\"\ntiming_repeats = 3\n[[sweep]]\nmethod = [\"extrapolated\"]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [16]\n[sweep.zip]\nprobe_seed = [1, 2]\norientation_seed = [1, 2]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\n[sweep.zip]\nprobe_seed = [1, 2]\norientation_seed = [1, 2]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    assert_eq!(rows.len(), 4);
+    let share = |x0: f64, x1: f64| (x1 / x0).ln() / 100f64.ln();
+    let edges = [0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.28, 2.0];
+    for r in &rows {
+        assert_eq!(r[col("receiver_points")], "200");
+        for k in 0..7 {
+            let got: f64 = r[col(&format!("points_s{k}"))].parse().unwrap();
+            let want = 200.0 * share(edges[k], edges[k + 1]);
+            println!("bin {k}: {got} receivers, n·f = {want:.2}");
+            // One receiver per stratum of the log: within ⌊nf⌋ − 1 … ⌈nf⌉ + 1.
+            let ok = got >= want.floor() - 1.0 && got <= want.ceil() + 1.0;
+            assert!(ok, "bin {k}: {got} vs {want}");
+            let e: f64 = r[col(&format!("occ_rel_l2_s{k}_mean"))].parse().unwrap();
+            assert!(e.is_finite() && e >= 0.0);
+        }
+    }
+    let summary = std::fs::read_to_string(dir.join("r/budget/bs/summary.md")).unwrap();
+    for label in [
+        "| N = 3 | d < 0.04r |",
+        "| N = 3 | d ≥ 1.28r |",
+        "2 seed(s)",
+    ] {
+        assert!(summary.contains(label), "{label}: {summary}");
+    }
+    for stem in [
+        "surface_rays_n3",
+        "fronts_rays_n3",
+        "fronts_frame_n3",
+        "fronts_memory_n3",
+    ] {
+        assert!(
+            dir.join(format!("r/budget/bs/{stem}.png")).exists(),
+            "{stem}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    // The layout's keys where they are not read, and out of range: exit 2 naming the key.
+    let d = std::env::temp_dir().join(format!("shscale-bs-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    for (i, (keys, key)) in [
+        ("receiver_layout = \"continuous\"\nradii = [1.5]\n", "radii"),
+        (
+            "receiver_layout = \"continuous\"\nrho_min = 2.0\nrho_max = 1.5\n",
+            "rho_max",
+        ),
+        (
+            "receiver_layout = \"continuous\"\nrho_min = 1.0\n",
+            "rho_min",
+        ),
+        ("rho_max = 4.0\n", "rho_max"),
+        ("receiver_layout = \"random\"\n", "receiver_layout"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let cfg = d.join(format!("c{i}.toml"));
+        let text = format!("experiment = \"budget\"\ngpu = \"off\"\nmesh = \"sphere\"\n{keys}");
+        std::fs::write(&cfg, text).unwrap();
+        let o = shscale(&["run", cfg.to_str().unwrap(), "--dry-run"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        println!("{key}: {}", err.trim());
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(&format!("{key}:")), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A method key that the chosen method does not read is refused with exit 2, naming the key and
 /// the method, before anything runs (on both budget kinds); at its default it is accepted.
 #[test]
@@ -1229,6 +1308,19 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
             num("frame_seconds_hi"),
         );
         assert!(lo <= f && f <= hi, "{lo} {f} {hi}");
+        // The cached frame (the sampled methods of a still one-occluder scene): timed, and its
+        // image the direct render's.
+        if r[col("method")] == "ray_traced" {
+            assert_eq!(r[col("cached_frame_seconds")], "");
+        } else {
+            let (c, d) = (num("cached_frame_seconds"), num("cached_max_diff"));
+            println!(
+                "{}: cached frame {c:.2e} s, image {d:.1e} from the direct one",
+                r[col("method")]
+            );
+            assert!(c > 0.0 && num("cache_seconds") > 0.0);
+            assert!(d < 1e-5, "cached vs direct: {d:e}");
+        }
     }
     let summary = std::fs::read_to_string(dir.join("r/budget_plane/bp/summary.md")).unwrap();
     assert!(summary.contains("The claim as stated") && summary.contains("Pareto front"));
@@ -1261,6 +1353,48 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
         );
         assert!(!out.join("budget_plane/bad/runs.csv").exists());
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `budget_plane` over placements: every mesh occluder turned by the seed's rotation, the truths
+/// rendered per placement (the scores move with it, the rays do not), and the answer drawn with
+/// intervals over the placements.
+#[test]
+fn budget_plane_placements_turn_the_occluder_and_give_intervals() {
+    let dir = std::env::temp_dir().join(format!("shscale-bpp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("d.toml"),
+        "order = 3\ntruth_res = 4\n[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.1]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [3, 3]\nresolution = [12, 12]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let (dir, head, rows) = run_csv(
+        "bpp",
+        "budget_plane",
+        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\n[[sweep]]\nplacement_seed = [0, 1, 2]\nmethod = [\"extrapolated\"]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [16]\n[[sweep]]\nplacement_seed = [0, 1, 2]\nmethod = [\"ray_traced\"]\nrt_res = [2]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    assert_eq!(rows.len(), 6);
+    let of = |seed: &str, m: &str| {
+        let r = (rows.iter())
+            .find(|r| r[col("placement_seed")] == seed && r[col("method")] == m)
+            .unwrap();
+        (
+            r[col("rays")].clone(),
+            r[col("rmse_vs_full_frequency")].parse::<f64>().unwrap(),
+        )
+    };
+    let (r0, e0) = of("0", "extrapolated");
+    let (r1, e1) = of("1", "extrapolated");
+    println!("placement 0: {e0:.4}, placement 1: {e1:.4}");
+    assert_eq!(r0, r1);
+    assert!(
+        (e0 - e1).abs() > 1e-6,
+        "the placement changed nothing: {e0} {e1}"
+    );
+    let summary = std::fs::read_to_string(dir.join("r/budget_plane/bpp/summary.md")).unwrap();
+    assert!(summary.contains("3 placements"), "{summary}");
+    assert!(summary.contains(" ± "), "no interval: {summary}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

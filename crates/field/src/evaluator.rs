@@ -362,22 +362,27 @@ impl FullField {
     }
 }
 
-impl VisibilityField for FullField {
-    fn eval(&self, p: DVec3, out: &mut [f64]) {
+/// Up to eight `(flat sample index, weight)` pairs and how many are used
+/// ([`FullField::weights`]).
+pub type FieldWeights = ([(u32, f64); 8], usize);
+
+impl FullField {
+    /// The interpolation weights at `p`: up to eight `(flat sample index, weight)` pairs (flat
+    /// index `shell × samples + sample`, [`FullField::sample`]) whose weighted sum is the field
+    /// there, with how many are used; `None` beyond the outermost shell (with a relative tolerance
+    /// of 1e-9, so that a point on it is not pushed out by rounding), where the entity does not
+    /// occlude. Inside the innermost shell the innermost shell's values (clamped).
+    pub fn weights(&self, p: DVec3) -> Option<FieldWeights> {
         let d = p - self.sphere.center;
         let rho = d.length() / self.sphere.radius;
+        if rho > self.rho_max * (1.0 + 1e-9) {
+            return None;
+        }
         let x = match self.spacing {
             ShellSpacing::Uniform => rho,
             ShellSpacing::Exp => rho.ln(),
         };
         let last = self.coords.len() - 1;
-        out.iter_mut().for_each(|o| *o = 0.0);
-        // Beyond the outermost shell (with a relative tolerance of 1e-9, so that a point on it
-        // is not pushed out by rounding): unoccluded.
-        if rho > self.rho_max * (1.0 + 1e-9) {
-            out[0] = (4.0 * std::f64::consts::PI).sqrt();
-            return;
-        }
         let (i, t) = if x <= self.coords[0] {
             (0, 0.0)
         } else if x >= self.coords[last] {
@@ -390,6 +395,9 @@ impl VisibilityField for FullField {
             )
         };
         let (w, m) = self.angular.weights(d.normalize());
+        let per_shell = self.coeffs[0].len();
+        let mut out = [(0u32, 0.0f64); 8];
+        let mut n = 0;
         for (shell, ws) in [(i, 1.0 - t), ((i + 1).min(last), t)] {
             if ws == 0.0 {
                 continue;
@@ -398,9 +406,40 @@ impl VisibilityField for FullField {
                 if wa == 0.0 {
                     continue;
                 }
-                for (o, c) in out.iter_mut().zip(&self.coeffs[shell][v]) {
-                    *o += ws * wa * c;
-                }
+                out[n] = ((shell * per_shell + v) as u32, ws * wa);
+                n += 1;
+            }
+        }
+        Some((out, n))
+    }
+
+    /// The coefficients of flat sample `i` (`shell × samples + sample`).
+    pub fn sample(&self, i: usize) -> &[f64] {
+        let per_shell = self.coeffs[0].len();
+        &self.coeffs[i / per_shell][i % per_shell]
+    }
+
+    /// The SH order of its samples.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Samples in all shells.
+    pub fn sample_count(&self) -> usize {
+        self.coeffs.len() * self.coeffs[0].len()
+    }
+}
+
+impl VisibilityField for FullField {
+    fn eval(&self, p: DVec3, out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        let Some((w, n)) = self.weights(p) else {
+            out[0] = (4.0 * std::f64::consts::PI).sqrt();
+            return;
+        };
+        for &(i, wi) in &w[..n] {
+            for (o, c) in out.iter_mut().zip(self.sample(i as usize)) {
+                *o += wi * c;
             }
         }
         debug_assert_eq!(out.len(), self.order * self.order);

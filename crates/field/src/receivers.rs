@@ -17,6 +17,7 @@
 //! Beyond `k_max` the receiver is unshadowed (`E = ⟨T, √(4π)e₀⟩`).
 
 use crate::bsv::Bsv;
+use crate::evaluator::FullField;
 use crate::frame::LocalFrame;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -198,6 +199,117 @@ impl ReceiverCache {
                 if self.channels == 1 {
                     e[1] = e[0];
                     e[2] = e[0];
+                }
+                *o = e;
+            });
+    }
+}
+
+/// Cached per-receiver shading data of a fully sampled shadow field ([`FullField`], Zhou et al.
+/// 2005) under a fixed light and shared normal: the same fast path for the baseline. The field
+/// is a fixed linear interpolation of its samples, `V(p) = Σᵢ wᵢ(p) Vᵢ` (up to eight samples:
+/// two shells × the layout's cell), all in the entity frame, so
+///
+/// ```text
+/// E(p) = ⟨T, V(p)⟩ = Σᵢ wᵢ(p) ⟨T, Vᵢ⟩
+/// ```
+///
+/// The weights depend only on where the receiver sits against the shells and the layout; a
+/// frame re-samples the shells, takes one N²-dot product per sample and channel, and then an
+/// at most eight-term sum per receiver. Receivers beyond the outermost shell are unshadowed
+/// (`E = ⟨T, √(4π)e₀⟩`).
+pub struct FieldShadingCache {
+    samples: usize,
+    order: usize,
+    /// Receiver r's pairs are `pairs[start[r]..start[r + 1]]`; none for an unshadowed one.
+    start: Vec<u32>,
+    pairs: Vec<(u32, f64)>,
+    unshadowed: Vec<bool>,
+}
+
+impl FieldShadingCache {
+    /// The interpolation of every receiver in `field` ([`FullField::weights`]).
+    pub fn build(field: &FullField, receivers: &[DVec3]) -> Self {
+        let rows: Vec<Option<crate::evaluator::FieldWeights>> =
+            receivers.par_iter().map(|p| field.weights(*p)).collect();
+        let mut start = Vec::with_capacity(rows.len() + 1);
+        let mut pairs = Vec::new();
+        let mut unshadowed = Vec::with_capacity(rows.len());
+        start.push(0u32);
+        for r in rows {
+            if let Some((w, n)) = r {
+                pairs.extend_from_slice(&w[..n]);
+            }
+            unshadowed.push(r.is_none());
+            start.push(pairs.len() as u32);
+        }
+        Self {
+            samples: field.sample_count(),
+            order: field.order(),
+            start,
+            pairs,
+            unshadowed,
+        }
+    }
+
+    /// Number of receivers.
+    pub fn len(&self) -> usize {
+        self.unshadowed.len()
+    }
+
+    /// True without receivers.
+    pub fn is_empty(&self) -> bool {
+        self.unshadowed.is_empty()
+    }
+
+    /// Whether `field` has the sample count and order this cache was built for (its shells and
+    /// layout must also be the same: the weights index its samples).
+    pub fn matches(&self, field: &FullField) -> bool {
+        field.sample_count() == self.samples && field.order() == self.order
+    }
+
+    /// Irradiance of every receiver for this frame's field under `transfer` (per channel `T`
+    /// of the shared normal; a grey light's channels are dotted once).
+    pub fn shade(&self, field: &FullField, transfer: &[Vec<f64>; 3], out: &mut [[f64; 3]]) {
+        assert!(
+            self.matches(field),
+            "full-field cache built for another field"
+        );
+        let nn = self.order * self.order;
+        let grey = transfer[0] == transfer[1] && transfer[1] == transfer[2];
+        let channels = if grey { 1 } else { 3 };
+        let dots: Vec<[f64; 3]> = (0..self.samples)
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|i| {
+                let c = &field.sample(i)[..nn];
+                let mut d = [0.0; 3];
+                for ch in 0..channels {
+                    d[ch] = c.iter().zip(&transfer[ch][..nn]).map(|(a, b)| a * b).sum();
+                }
+                if grey {
+                    d = [d[0]; 3];
+                }
+                d
+            })
+            .collect();
+        let one = (4.0 * std::f64::consts::PI).sqrt();
+        let open = [0, 1, 2].map(|ch| one * transfer[ch][0]);
+        out.par_iter_mut()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(r, o)| {
+                if self.unshadowed[r] {
+                    *o = open;
+                    return;
+                }
+                let mut e = [0.0; 3];
+                let (a, b) = (self.start[r] as usize, self.start[r + 1] as usize);
+                for &(i, w) in &self.pairs[a..b] {
+                    let d = dots[i as usize];
+                    for ch in 0..3 {
+                        e[ch] += w * d[ch];
+                    }
                 }
                 *o = e;
             });

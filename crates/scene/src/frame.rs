@@ -28,12 +28,28 @@ pub fn occluder_mesh_at(
     }))
 }
 
-/// `rest` (an occluder's placed mesh) posed by the occluder's deformer at `pose_t`; a copy of
-/// `rest` without a deformer or time.
+/// `rest` (an occluder's placed mesh, [`crate::scene::OccluderSpec::placed`]) posed by the
+/// occluder's deformer at `pose_t`; a copy of `rest` without a deformer or time. A turned
+/// occluder deforms in its own frame and is turned after: the turn is undone about the rest's
+/// bounding sphere's centre, the deformer applied, the turn redone (the deformers act in world
+/// axes, so a bird turned on its side still flaps its wings).
 pub fn posed(rest: &Mesh, o: &crate::scene::OccluderSpec, pose_t: Option<f64>) -> Mesh {
     let mut out = rest.clone();
-    if let (Some(t), Some((kind, amount))) = (pose_t, o.deformer) {
+    let (Some(t), Some((kind, amount))) = (pose_t, o.deformer) else {
+        return out;
+    };
+    let Some(q) = o.turn else {
         pose_mesh(rest, kind, amount, t, &mut out);
+        return out;
+    };
+    let c = rest.bounding_sphere().center;
+    let mut own = rest.clone();
+    for p in &mut own.positions {
+        *p = c + q.inverse() * (*p - c);
+    }
+    pose_mesh(&own, kind, amount, t, &mut out);
+    for p in &mut out.positions {
+        *p = c + q * (*p - c);
     }
     out
 }

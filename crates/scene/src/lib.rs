@@ -23,6 +23,7 @@
 
 pub mod bench;
 pub mod bench_methods;
+pub mod cached;
 pub mod calibrate;
 pub mod camera;
 pub mod combine;

@@ -146,7 +146,10 @@ pub struct OccluderSpec {
     pub deformer: Option<(shscale_geometry::deform::DeformerKind, f64)>,
     /// A turn of the placed mesh about its bounding sphere's centre (`None`: as placed), set by
     /// studies that vary the occluder's orientation (the `budget_plane` kind's
-    /// `placement_seed`); scene files do not set it.
+    /// `placement_seed`); scene files do not set it. Frames rendered one at a time
+    /// ([`crate::render::render`] at a `pose_t`) deform the occluder in its own frame and turn
+    /// it after ([`crate::frame::posed`]); the sequence engines (`render_sequence`, the GPU
+    /// path) read scene files only, which set no turn.
     pub turn: Option<glam::DQuat>,
 }
 

@@ -352,3 +352,39 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
         .expect("refused");
     assert!(e.to_string().contains("at most 64 spheres"), "{e}");
 }
+
+/// A turned deforming occluder deforms in its own frame and is turned after: its posed mesh is
+/// the turn of the unturned occluder's posed mesh (to rounding), and its rest pose the turn of
+/// the rest; the turn keeps the bounding sphere.
+#[test]
+fn a_turned_occluder_deforms_in_its_own_frame() {
+    let s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    let plain = s.occluders[0].clone();
+    let q = glam::DQuat::from_axis_angle(glam::DVec3::new(1.0, 2.0, 0.5).normalize(), 1.1);
+    let mut turned = plain.clone();
+    turned.turn = Some(q);
+    let c = plain.placed().unwrap().bounding_sphere().center;
+    let turn = |m: &shscale_geometry::Mesh| -> Vec<glam::DVec3> {
+        m.positions.iter().map(|p| c + q * (*p - c)).collect()
+    };
+    for t in [None, Some(0.0), Some(0.3), Some(0.7)] {
+        let a = shscale_scene::frame::occluder_mesh_at(&plain, t)
+            .unwrap()
+            .unwrap();
+        let b = shscale_scene::frame::occluder_mesh_at(&turned, t)
+            .unwrap()
+            .unwrap();
+        let worst = (turn(&a).iter().zip(&b.positions))
+            .map(|(x, y)| (*x - *y).length())
+            .fold(0.0f64, f64::max);
+        println!("t = {t:?}: turned pose vs turn of the pose, worst {worst:.1e}");
+        assert!(worst < 1e-12, "t = {t:?}: {worst:e}");
+    }
+    let (s0, s1) = (
+        plain.placed().unwrap().bounding_sphere(),
+        turned.placed().unwrap().bounding_sphere(),
+    );
+    assert!((s0.center - s1.center).length() < 1e-9 && (s0.radius - s1.radius).abs() < 1e-9);
+}

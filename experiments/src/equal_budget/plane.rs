@@ -153,6 +153,48 @@ impl Params {
     }
 }
 
+/// The rows as splits (still, or a sequence's frame count) of groups (one per scene) of
+/// configurations.
+fn plane_splits(t: &Results) -> Vec<Split> {
+    let specs = specs(t);
+    let keys = config_keys::<Params>(&PLANE_GROUPING);
+    let mut splits: Vec<Split> = Vec::new();
+    for (scene, frames) in distinct_pairs(t, "scene", "frames") {
+        let rows: Vec<usize> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
+            .collect();
+        let configs = by_config(t, &rows, &keys, &|r| specs[r]);
+        let label = if frames == "1" {
+            "still".to_string()
+        } else {
+            format!("{frames} frames")
+        };
+        Split::add(&mut splits, label, plot_name(&scene), configs);
+    }
+    splits
+}
+
+/// The plane's regimes with intervals: (column, words).
+fn plane_regimes() -> Vec<(String, String)> {
+    [
+        ("rmse_vs_full_frequency", "all, full-frequency truth"),
+        ("rmse_near_vs_full_frequency", "near"),
+        ("rmse_far_vs_full_frequency", "far"),
+        ("rmse_vs_band_limited", "all, band-limited truth"),
+    ]
+    .map(|(c, w)| (c.to_string(), w.to_string()))
+    .to_vec()
+}
+
+/// The receivers in words when the rows hold several placements (`None` with one: no interval).
+fn placements_grid(t: &Results) -> Option<String> {
+    let placements = t.distinct_in(0..t.rows.len(), "placement_seed").len();
+    (placements > 1).then(|| format!(
+        "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder; shade_rmse_rel, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
+        t.cell(0, "receivers"),
+    ))
+}
+
 /// The columns a plane configuration repeats over (or is split by): the scene, its frames, the
 /// placement seed.
 const PLANE_GROUPING: [&str; 3] = ["scene", "frames", "placement_seed"];
@@ -192,6 +234,16 @@ pub struct Row {
     /// The truths' own errors in the unit of `rmse_vs_*` (as in `shadows`; the worst frame's).
     pub full_frequency_truth_err: f64,
     pub band_limited_truth_err: f64,
+    /// The frame through a per-receiver cache (`shscale_scene::cached`: the field re-sampled,
+    /// every receiver shaded from the cache), for the extrapolation and the full field on a
+    /// still scene of one occluder (none elsewhere): the median of the timing procedure's repeats
+    /// and its interval, the cache's one-off build time, and the largest difference of its image
+    /// from the direct render's in the unit of the mean unshadowed irradiance.
+    pub cached_frame_seconds: Option<f64>,
+    pub cached_frame_seconds_lo: Option<f64>,
+    pub cached_frame_seconds_hi: Option<f64>,
+    pub cache_seconds: Option<f64>,
+    pub cached_max_diff: Option<f64>,
 }
 
 /// The kind.
@@ -217,6 +269,31 @@ const SHADE_SECONDS_PER_RECEIVER: f64 = 1.0e-6;
 
 /// The most frames of a run.
 pub const MAX_FRAMES: usize = 64;
+
+/// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
+/// applies: its timing, the cache's build seconds and the largest difference of its image from
+/// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
+fn cached_frame(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    direct: &[f64],
+    open: &[f64],
+    ctx: &Ctx,
+) -> Result<Option<(shscale_runner::timing::Timing, f64, f64)>, Error> {
+    if frames != 1 {
+        return Ok(None);
+    }
+    let Some(plane) = shscale_scene::cached::CachedPlane::new(scene, method)? else {
+        return Ok(None);
+    };
+    let (img, t) = ctx.timing.measure(|| plane.frame())?;
+    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    let diff = (img.iter().flatten().zip(direct))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    Ok(Some((t, plane.build_seconds, diff / unit.max(1e-300))))
+}
 
 /// The scene at frame `f` of `frames` (the rest pose for one frame).
 fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
@@ -519,6 +596,7 @@ impl Kind for BudgetPlane {
             shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
         }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
+        let cached = cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };
@@ -550,11 +628,24 @@ impl Kind for BudgetPlane {
             one_minus_ssim: mean(&ssims),
             full_frequency_truth_err: sh.full_err,
             band_limited_truth_err: sh.band_err,
+            cached_frame_seconds: cached.map(|c| c.0.median),
+            cached_frame_seconds_lo: cached.map(|c| c.0.lo),
+            cached_frame_seconds_hi: cached.map(|c| c.0.hi),
+            cache_seconds: cached.map(|c| c.1),
+            cached_max_diff: cached.map(|c| c.2),
         }])
     }
 
     fn time_columns() -> &'static [&'static str] {
-        &["frame_seconds", "frame_seconds_lo", "frame_seconds_hi"]
+        &[
+            "frame_seconds",
+            "frame_seconds_lo",
+            "frame_seconds_hi",
+            "cached_frame_seconds",
+            "cached_frame_seconds_lo",
+            "cached_frame_seconds_hi",
+            "cache_seconds",
+        ]
     }
 
     fn summary_columns() -> &'static [&'static str] {
@@ -635,39 +726,12 @@ impl Kind for BudgetPlane {
     }
 
     fn verdict(t: &Results) -> Result<String, Error> {
-        let specs = specs(t);
-        let keys = config_keys::<Params>(&PLANE_GROUPING);
-        let mut splits: Vec<Split> = Vec::new();
-        for (scene, frames) in distinct_pairs(t, "scene", "frames") {
-            let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
-                .collect();
-            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
-            let label = if frames == "1" {
-                "still".to_string()
-            } else {
-                format!("{frames} frames")
-            };
-            Split::add(&mut splits, label, plot_name(&scene), configs);
-        }
+        let splits = plane_splits(t);
         if splits.is_empty() {
             return Ok(String::new());
         }
-        let placements = t.distinct_in(0..t.rows.len(), "placement_seed").len();
-        if placements > 1 {
-            let regimes: Vec<(String, String)> = [
-                ("rmse_vs_full_frequency", "all, full-frequency truth"),
-                ("rmse_near_vs_full_frequency", "near"),
-                ("rmse_far_vs_full_frequency", "far"),
-                ("rmse_vs_band_limited", "all, band-limited truth"),
-            ]
-            .map(|(c, w)| (c.to_string(), w.to_string()))
-            .to_vec();
-            let grid = format!(
-                "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder; shade_rmse_rel, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
-                t.cell(0, "receivers"),
-            );
-            return Ok(super::surface::verdict(t, &splits, &regimes, &grid));
+        if let Some(grid) = placements_grid(t) {
+            return Ok(super::surface::verdict(t, &splits, &plane_regimes(), &grid));
         }
         // One placement: no interval; the single-run table.
         let grid = format!(
@@ -693,6 +757,11 @@ impl Kind for BudgetPlane {
         let specs = specs(t);
         let keys = config_keys::<Params>(&PLANE_GROUPING);
         let mut s = String::new();
+        if let Some(grid) = placements_grid(t) {
+            let tables = super::surface::tables(t, &plane_splits(t), &plane_regimes(), &grid);
+            s.push_str(&tables);
+            s.push('\n');
+        }
         for (scene, frames) in distinct_pairs(t, "scene", "frames") {
             let rows: Vec<usize> = (0..t.rows.len())
                 .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)

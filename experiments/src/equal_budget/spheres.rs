@@ -26,7 +26,7 @@
 //! `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, which faint receivers do not dominate.
 
 use super::frames::{self, FrameFn};
-use super::surface::surface_bin;
+use super::surface::{surface_bin, SURFACE_EDGES};
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of,
     plot_name, specs_of, speed_claim, verdict_table, write_front, Front, Split,
@@ -300,6 +300,14 @@ pub struct Row {
     pub truth_rel_err_mean: Option<f64>,
     /// Mean `occ_rel_l2` by distance to the surface d (bounding radii), with its interval, in
     /// the bins of [`SURFACE_EDGES`]: s0 d < 0.04, s1 [0.04, 0.08), … s6 d ≥ 1.28.
+    /// Receivers in each distance bin (those with something occluded score in its mean).
+    pub points_s0: usize,
+    pub points_s1: usize,
+    pub points_s2: usize,
+    pub points_s3: usize,
+    pub points_s4: usize,
+    pub points_s5: usize,
+    pub points_s6: usize,
     pub occ_rel_l2_s0_mean: Option<f64>,
     pub occ_rel_l2_s0_ci95: Option<f64>,
     pub occ_rel_l2_s1_mean: Option<f64>,
@@ -399,6 +407,10 @@ fn row_of(
     let (mf, cif, wf) = scores(&errs, |e| e.rho > NEAR_RHO);
     let (mc, cic, _) = scores(&errs, |e| e.contact);
     let bin = |k: usize| scores(&errs, |e| surface_bin(e.surface) == k);
+    let mut points = [0usize; SURFACE_EDGES.len() + 1];
+    for d in &sh.surface {
+        points[surface_bin(*d)] += 1;
+    }
     let [b0, b1, b2, b3, b4, b5, b6] = std::array::from_fn(|k| {
         let (m, ci, _) = bin(k);
         (m, ci)
@@ -427,6 +439,13 @@ fn row_of(
         occ_rel_l2_contact_mean: mc,
         occ_rel_l2_contact_ci95: cic,
         truth_rel_err_mean: mean_max(errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel)).0,
+        points_s0: points[0],
+        points_s1: points[1],
+        points_s2: points[2],
+        points_s3: points[3],
+        points_s4: points[4],
+        points_s5: points[5],
+        points_s6: points[6],
         occ_rel_l2_s0_mean: b0.0,
         occ_rel_l2_s0_ci95: b0.1,
         occ_rel_l2_s1_mean: b1.0,
@@ -972,4 +991,200 @@ fn cell_text(x: f64) -> String {
 /// Every row's method, parsed once from its cells.
 fn specs(t: &Results) -> Vec<Option<Spec>> {
     specs_of::<Params>(t, |p| p.spec().ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The continuous radii: inside [lo, hi], one in each of the n equal strata of ln(ρ − 1) in
+    /// order, so a band of the log range of fraction f holds within one of n·f of them;
+    /// reproducible from the seed, different across seeds.
+    #[test]
+    fn continuous_radii_are_stratified_in_the_log_of_the_clearance() {
+        let (n, lo, hi) = (200, 1.02, 3.0);
+        let rho = continuous_radii(7, n, lo, hi);
+        assert_eq!(rho.len(), n);
+        let (a, b) = ((lo - 1.0f64).ln(), (hi - 1.0f64).ln());
+        for (i, r) in rho.iter().enumerate() {
+            assert!(*r >= lo && *r <= hi, "{r}");
+            let u = ((r - 1.0).ln() - a) / (b - a);
+            // Stratum i is [i/n, (i+1)/n); rounding at its ends within 1e-12.
+            assert!(u >= i as f64 / n as f64 - 1e-12 && u <= (i + 1) as f64 / n as f64 + 1e-12);
+        }
+        // Octave bins of the clearance ρ − 1 from 0.02: each is ln 2 / ln 100 of the range.
+        let f = 2f64.ln() / 100f64.ln();
+        for k in 0..6 {
+            let (x0, x1) = (0.02 * 2f64.powi(k), 0.02 * 2f64.powi(k + 1));
+            let c = rho
+                .iter()
+                .filter(|r| **r - 1.0 >= x0 && **r - 1.0 < x1)
+                .count();
+            let want = n as f64 * f;
+            println!("octave {k}: {c} receivers, n·f = {want:.2}");
+            // One receiver per stratum: the band covers ⌊nf⌋ − 1 strata whole at least and
+            // touches ⌈nf⌉ + 1 at most.
+            let c = c as f64;
+            assert!(
+                c >= want.floor() - 1.0 && c <= want.ceil() + 1.0,
+                "{c} vs {want}"
+            );
+        }
+        assert_eq!(rho, continuous_radii(7, n, lo, hi));
+        assert_ne!(rho, continuous_radii(8, n, lo, hi));
+        // The edges: one receiver lies in [lo, hi]; a degenerate-free narrow range stays in it.
+        let one = continuous_radii(1, 1, lo, hi);
+        assert!(one[0] >= lo && one[0] <= hi);
+        let narrow = continuous_radii(1, 10, 1.5, 1.5 + 1e-9);
+        assert!(narrow.iter().all(|r| (1.5..=1.5 + 1e-9).contains(r)));
+    }
+
+    /// An orientation seed turns the mesh about its bounding sphere's centre: the sphere and
+    /// every edge length are kept, the vertices move; seed 0 is the mesh as loaded; the sphere
+    /// is the same in every orientation.
+    #[test]
+    fn an_orientation_turns_the_mesh_about_its_bounding_sphere() {
+        let base = oriented_occluder("duck", 0).unwrap();
+        let m0 = base.mesh.as_ref().unwrap();
+        let plain = shscale_scene::vocab::unit_occluder("duck").unwrap();
+        assert_eq!(m0.positions, plain.mesh.unwrap().positions);
+        let turned = oriented_occluder("duck", 31).unwrap();
+        let m1 = turned.mesh.as_ref().unwrap();
+        let (s0, s1) = (m0.bounding_sphere(), m1.bounding_sphere());
+        let dc = (s0.center - s1.center).length();
+        let dr = (s0.radius - s1.radius).abs();
+        println!("bounding sphere moved {dc:.1e}, radius changed {dr:.1e}");
+        assert!(dc < 1e-9 && dr < 1e-9);
+        let moved = (m0.positions.iter().zip(&m1.positions))
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0f64, f64::max);
+        assert!(
+            moved > 0.1 * s0.radius,
+            "the vertices did not move: {moved}"
+        );
+        let worst_edge = (m0.triangles.iter())
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2])])
+            .map(|(i, j)| {
+                let (i, j) = (i as usize, j as usize);
+                let a = (m0.positions[i] - m0.positions[j]).length();
+                let b = (m1.positions[i] - m1.positions[j]).length();
+                (a - b).abs()
+            })
+            .fold(0.0f64, f64::max);
+        assert!(worst_edge < 1e-12, "an edge changed by {worst_edge:.1e}");
+        // The BVH answers for the turned mesh: the turned image of a surface point is on it.
+        let c = s0.center;
+        let q = shscale_field::truth::SplitMix(31).rotation();
+        let p = m0.positions[0];
+        let d = turned.occ.distance_to_surface(c + q * (p - c));
+        assert!(
+            d < 1e-9,
+            "a turned vertex is {d:.1e} from the turned surface"
+        );
+        let sphere = oriented_occluder("sphere", 31).unwrap();
+        assert!(sphere.mesh.is_none() && sphere.analytic.is_some());
+    }
+
+    /// The bins: octaves from 0.04r, the edges in the upper bin; middles inside their bins.
+    #[test]
+    fn the_surface_bins_are_octaves_from_a_twenty_fifth_of_the_radius() {
+        assert_eq!(surface_bin(0.0), 0);
+        assert_eq!(surface_bin(0.0399), 0);
+        assert_eq!(surface_bin(0.04), 1);
+        assert_eq!(surface_bin(1.279), 5);
+        assert_eq!(surface_bin(1.28), 6);
+        assert_eq!(surface_bin(1e6), 6);
+        for k in 0..=SURFACE_EDGES.len() {
+            assert_eq!(surface_bin(super::super::surface::surface_bin_mid(k)), k);
+        }
+    }
+
+    /// The continuous verdict on a table whose answer is known: a cheap ray tracer beats the
+    /// papers' extrapolation under its rays by a gap far outside the seeds' spread, a full field
+    /// ties the winner (paired gaps averaging 0.01 with a spread of 0.03), a fine ray tracer
+    /// beyond the cap wins at any budget; the intervals are the t ones computed by hand.
+    #[test]
+    fn the_continuous_verdict_finds_the_winner_its_interval_and_the_tie() {
+        use super::super::verdict::{Config, Split};
+        let spec = |f: &dyn Fn(&mut Params)| {
+            let mut p = Params::default();
+            f(&mut p);
+            p.spec().unwrap()
+        };
+        let papers = spec(&|p| p.hemisphere_res = 16);
+        let rt2 = spec(&|p| {
+            p.method = "ray_traced".into();
+            p.rt_res = 2;
+            p.layout = "latlong:12x20".into();
+            p.hemisphere_res = 32;
+        });
+        let rt16 = spec(&|p| {
+            p.method = "ray_traced".into();
+            p.rt_res = 16;
+        });
+        let ff = spec(&|p| p.method = "full_field".into());
+        let columns: Vec<String> = [
+            "probe_seed",
+            "truth_seed",
+            "orientation_seed",
+            "rays",
+            "frame_seconds",
+            "memory_bytes",
+            "occ_rel_l2_mean",
+        ]
+        .map(String::from)
+        .to_vec();
+        let mut rows = Vec::new();
+        let mut configs = Vec::new();
+        let table: [(Spec, [f64; 3], [f64; 5]); 4] = [
+            (papers, [61440.0, 1.0, 1e3], [0.30, 0.31, 0.29, 0.30, 0.30]),
+            (rt2, [1e3, 0.5, 0.0], [0.20, 0.21, 0.19, 0.20, 0.20]),
+            (rt16, [1e6, 9.0, 0.0], [0.05, 0.05, 0.05, 0.05, 0.05]),
+            (ff, [5e4, 0.9, 5e2], [0.21, 0.26, 0.16, 0.23, 0.19]),
+        ];
+        for (spec, [rays, secs, bytes], errs) in table {
+            let mut mine = Vec::new();
+            for (s, e) in errs.iter().enumerate() {
+                mine.push(rows.len());
+                let cells = [
+                    s as f64,
+                    10.0 + s as f64,
+                    20.0 + s as f64,
+                    rays,
+                    secs,
+                    bytes,
+                    *e,
+                ];
+                rows.push(cells.map(|x| x.to_string()).to_vec());
+            }
+            configs.push(Config { rows: mine, spec });
+        }
+        let t = Results { columns, rows };
+        let splits = vec![Split {
+            label: "N = 4".into(),
+            groups: vec![("duck".into(), configs)],
+        }];
+        let regimes = vec![("occ_rel_l2_mean".to_string(), "all receivers".to_string())];
+        let v = super::super::surface::verdict(&t, &splits, &regimes, "test");
+        println!("{v}");
+        let line = v.lines().find(|l| l.contains("all receivers")).unwrap();
+        let cells: Vec<&str> = line.split(" | ").collect();
+        // Rays, time, bytes (the ray tracer holds no bytes: T = 16 fits), any.
+        assert_eq!(cells[2], "ray_traced: duck~ — 0.200", "{line}");
+        assert_eq!(cells[3], "ray_traced: duck~ — 0.200", "{line}");
+        assert_eq!(
+            cells[4].trim_end_matches(" |"),
+            "ray_traced: duck — 0.050",
+            "{line}"
+        );
+        assert!(cells[5].starts_with("ray_traced: duck — 0.050"), "{line}");
+        let full = super::super::surface::tables(&t, &splits, &regimes, "test");
+        println!("{full}");
+        // s = √(5e-5), t_{0.975,4} = 2.776: ± 2.776·s/√5 = 0.009; the gap 0.010 ± 0.039.
+        let h = 2.776 * 5e-5f64.sqrt() / 5f64.sqrt();
+        let want = format!("ray tracing, T = 2 0.200 ± {h:.3}; full_field +0.010 ± 0.039 **tie**");
+        let fine = "ray tracing, T = 16 0.050 ± 0.000; full_field +0.160 ± 0.047";
+        assert!(full.contains(&want), "{full}\nwant {want}");
+        assert!(full.contains(fine), "{full}\nwant {fine}");
+    }
 }

@@ -17,7 +17,7 @@
 //! which every method's searched configurations compete, and no cap.
 
 use super::verdict::{
-    is_papers_extrapolation, mean_t95, place_zeros, sampling, variant, Config, Split,
+    is_papers_extrapolation, mean_t95, name, place_zeros, sampling, variant, Config, Split,
 };
 use shscale_runner::plots::{write_panels, Bands, Panel, MAX_PANELS};
 use shscale_runner::records::Results;
@@ -128,7 +128,7 @@ fn cell(t: &Results, configs: &[Config], col: &str, cap: Option<(&str, f64)>) ->
         return "—".into();
     };
     let (m, ci) = seed_mean(t, w, col);
-    let mut s = format!("{} {}", variant(&w.spec), pm(m.unwrap_or(f64::NAN), ci));
+    let mut s = format!("{} {}", name(w), pm(m.unwrap_or(f64::NAN), ci));
     let other = |c: &Config| c.spec.method() != w.spec.method();
     if let Some((r, _)) = best(t, configs, col, cap, &other) {
         let (d, dci) = paired(t, w, r, col);

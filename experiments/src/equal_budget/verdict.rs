@@ -307,7 +307,7 @@ fn extrapolation_variant(base: &str, parts: Option<usize>, e: &Extrapolation) ->
 }
 
 /// A configuration in words.
-fn name(c: &Config) -> String {
+pub(crate) fn name(c: &Config) -> String {
     let s = &c.spec;
     match s {
         Spec::FullField(f) => format!(
@@ -718,8 +718,30 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
             let (ee, _, _) = ex.mean(t, err);
             let (ef, _, _) = ff.mean(t, err);
             let (layout, h) = sampling(&ex.spec).unwrap_or_default();
+            // Both through their per-receiver caches, where the rows have them (the plane).
+            let cached = {
+                let c = |r: &[usize], col: &str| -> f64 {
+                    r.iter().map(|&i| t.num(i, col)).sum::<f64>() / r.len() as f64
+                };
+                let (cf, ce) = (
+                    c(&ff.rows, "cached_frame_seconds"),
+                    c(&ex.rows, "cached_frame_seconds"),
+                );
+                if cf.is_finite() && ce.is_finite() && ce > 0.0 {
+                    format!(
+                        "; through per-receiver caches of both (built once: {:.1} / {:.1} ms) {:.1}× ({:.2} / {:.2} ms a frame)",
+                        1e3 * c(&ff.rows, "cache_seconds"),
+                        1e3 * c(&ex.rows, "cache_seconds"),
+                        cf / ce,
+                        1e3 * cf,
+                        1e3 * ce
+                    )
+                } else {
+                    String::new()
+                }
+            };
             parts.push(format!(
-                "`{layout}`, H = {h}: the full field casts {rays:.0}× the rays and takes {ratio:.1}× the time per frame (interval {lo:.1}–{hi:.1}×); error ({err}) {ee:.3} extrapolated, {ef:.3} full field",
+                "`{layout}`, H = {h}: the full field casts {rays:.0}× the rays and takes {ratio:.1}× the time per frame (interval {lo:.1}–{hi:.1}×){cached}; error ({err}) {ee:.3} extrapolated, {ef:.3} full field",
             ));
         }
     }

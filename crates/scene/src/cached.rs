@@ -1,0 +1,129 @@
+//! A still frame of a scene's plane through a per-receiver cache: what a frame costs when the
+//! receivers, the light and the sampling sphere stay fixed and only the occluder's samples change
+//! (a deforming object on a fixed sphere), for the two sampled methods alike — the extrapolated
+//! field through [`ReceiverCache`] and the fully sampled field through [`FieldShadingCache`].
+//! The cache is built once (its time is reported apart); a frame re-samples the field (the BSV,
+//! or every shell) and shades every receiver from the cache. The image equals the direct
+//! render's ([`crate::render::render`]) up to the caches' f32 storage of U (extrapolation,
+//! relative ~1e-7) and summation order.
+//!
+//! Applies to one occluder, no local lights, the extrapolation without the plausibility clamp
+//! (the cache is linear in the visibility) and with base samples on the sampling sphere
+//! (`radial = uniform`); [`CachedPlane::new`] returns `None` otherwise.
+
+use crate::error::Error;
+use crate::frame::{build_occluder_at, light_of, receiver_grid, table_for};
+use crate::render::{full_field_shells, Method};
+use crate::scene::Scene;
+use glam::DVec3;
+use shscale_field::bsv::RadialRule;
+use shscale_field::evaluator::{FullField, Shells};
+use shscale_field::extrapolate::Plausibility;
+use shscale_field::receivers::{FieldShadingCache, ReceiverCache};
+use shscale_field::shading::Shader;
+use shscale_field::{Bsv, VisibilitySampler};
+use shscale_geometry::{Occluder, Sphere};
+use shscale_scaling::Eta;
+use std::time::Instant;
+
+/// The method's cached state.
+enum Cache {
+    Extrapolated(ReceiverCache),
+    Full {
+        shells: Shells,
+        cache: FieldShadingCache,
+    },
+}
+
+/// A scene's plane set up for cached frames ([`CachedPlane::frame`]).
+pub struct CachedPlane {
+    scene: Scene,
+    occ: Box<dyn Occluder>,
+    sampler: VisibilitySampler,
+    transfer: [Vec<f64>; 3],
+    receivers: usize,
+    cache: Cache,
+    /// Seconds to build the cache (with its first sampling and, for extrapolation, its table).
+    pub build_seconds: f64,
+}
+
+impl CachedPlane {
+    /// Set up `method` on `scene` (posed at its `pose_t`) with its cache; `None` where no cached
+    /// path applies (module docs).
+    pub fn new(scene: &Scene, method: Method) -> Result<Option<Self>, Error> {
+        let applies = scene.occluders.len() == 1
+            && scene.light_sources.is_empty()
+            && match method {
+                Method::Extrapolated => {
+                    scene.plausibility == Plausibility::None && scene.radial == RadialRule::Uniform
+                }
+                Method::FullField => true,
+                _ => false,
+            };
+        if !applies {
+            return Ok(None);
+        }
+        let t0 = Instant::now();
+        let occ = build_occluder_at(&scene.occluders[0], scene.pose_t)?;
+        let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
+        let light = light_of(scene)?;
+        let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+        let recv = receiver_grid(scene);
+        let cache = if method == Method::Extrapolated {
+            let bsv = sample_bsv(scene, occ.as_ref(), &sampler)?;
+            let s = Sphere {
+                center: bsv.sphere.center,
+                radius: bsv.sampling_radius,
+            };
+            let table = table_for(scene, s, &recv, Eta::Plain)?;
+            Cache::Extrapolated(ReceiverCache::build(&bsv, &table, &transfer, &recv))
+        } else {
+            let shells = scene.full_field.unwrap_or_else(|| full_field_shells(scene));
+            let field = FullField::build(occ.as_ref(), scene.layout, &sampler, &shells)?;
+            let cache = FieldShadingCache::build(&field, &recv);
+            Cache::Full { shells, cache }
+        };
+        Ok(Some(Self {
+            scene: scene.clone(),
+            occ,
+            sampler,
+            transfer,
+            receivers: recv.len(),
+            cache,
+            build_seconds: t0.elapsed().as_secs_f64(),
+        }))
+    }
+
+    /// One frame: the field re-sampled, every receiver shaded from the cache (row-major
+    /// irradiance, as [`crate::render::RenderOutput::pixels`]).
+    pub fn frame(&self) -> Result<Vec<[f64; 3]>, Error> {
+        let mut out = vec![[0.0; 3]; self.receivers];
+        match &self.cache {
+            Cache::Extrapolated(cache) => {
+                let bsv = sample_bsv(&self.scene, self.occ.as_ref(), &self.sampler)?;
+                cache.shade(&bsv, &mut out);
+            }
+            Cache::Full { shells, cache } => {
+                let field =
+                    FullField::build(self.occ.as_ref(), self.scene.layout, &self.sampler, shells)?;
+                cache.shade(&field, &self.transfer, &mut out);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The scene's BSV of its occluder on its sampling sphere.
+fn sample_bsv(
+    scene: &Scene,
+    occ: &dyn Occluder,
+    sampler: &VisibilitySampler,
+) -> Result<Bsv, Error> {
+    Ok(Bsv::sample_radial(
+        occ,
+        scene.layout,
+        sampler,
+        scene.sampling_radius,
+        RadialRule::Uniform,
+    )?)
+}
