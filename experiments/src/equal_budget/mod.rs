@@ -10,7 +10,8 @@
 //! |---|---|---|
 //! | `verdict` | configurations, fronts, the claim, equal accuracy, names in words | — |
 //! | `frames` | one frame of each method on spherical receivers | — |
-//! | `spheres` | the kind `budget` | `frames`, `surface`, `verdict` |
+//! | `spheres` | the kind `budget` | `frames`, `receivers`, `surface`, `verdict` |
+//! | `receivers` | the continuous layout's radii, the occluder's orientation seeds | — |
 //! | `surface` | the verdict and figures of receivers at every distance: distance bins, seed intervals, per-method fronts | `verdict` |
 //! | `plane` | the kind `budget_plane` | `plane_images`, `verdict` |
 //! | `plane_images` | the plane's image measures (flicker, RMSE over a subset) and its figure | `verdict` |
@@ -18,6 +19,7 @@
 mod frames;
 pub mod plane;
 mod plane_images;
+mod receivers;
 pub mod spheres;
 mod surface;
 mod verdict;

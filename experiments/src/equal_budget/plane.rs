@@ -270,6 +270,18 @@ const SHADE_SECONDS_PER_RECEIVER: f64 = 1.0e-6;
 /// The most frames of a run.
 pub const MAX_FRAMES: usize = 64;
 
+/// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
+/// re-sampling's rays at the rate (its shading is a few dot products per receiver).
+fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate: f64) -> f64 {
+    let sampled = matches!(method, Method::Extrapolated | Method::FullField);
+    let one = scene.occluders.len() == 1 && scene.light_sources.is_empty();
+    if frames == 1 && sampled && one {
+        rays / rate
+    } else {
+        0.0
+    }
+}
+
 /// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
 /// applies: its timing, the cache's build seconds and the largest difference of its image from
 /// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
@@ -507,7 +519,8 @@ impl Kind for BudgetPlane {
                 bytes,
                 seconds: (p.typed.method)
                     .seconds(p.order.unwrap_or(base.order), rays, frames * receivers, rate)
-                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER,
+                    + frames * receivers * SHADE_SECONDS_PER_RECEIVER
+                    + cached_seconds(&scene, p.typed.method.method(), p.frames, rays, rate),
                 once_seconds: 0.0,
                 drivers: format!(
                     "method {} → {rays:.3e} rays and {receivers} receivers shaded, over {} frame(s)",

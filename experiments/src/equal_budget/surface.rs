@@ -311,9 +311,59 @@ pub fn tables(t: &Results, splits: &[Split], regimes: &[(String, String)], grid:
     if s.is_empty() {
         return s;
     }
+    s.push_str(&method_tables(t, splits, regimes));
     s.push_str(&format!(
-        "{grid}. Each cell: the most accurate configuration in the search under the budget (mean over seeds ± the 95 % Student-t half-width over the seed means), then the best configuration of any other method under the same budget and its paired gap over the seeds (+: worse than the winner), **tie** where the gap's interval holds zero. Winners are selected on the same seeds they are scored on.\n"
+        "{grid}. Each cell of the per-group tables: the most accurate configuration in the search under the budget (mean over seeds ± the 95 % Student-t half-width over the seed means), then the best configuration of any other method under the same budget and its paired gap over the seeds (+: worse than the winner), **tie** where the gap's interval holds zero. Winners are selected on the same seeds they are scored on.\n"
     ));
+    s
+}
+
+/// Per split and budget, every method side by side: rows the regimes, a column per method,
+/// each cell the range over the groups of that method's best searched configuration there
+/// (seed means; `—` where the method is not in the search or over the budget).
+fn method_tables(t: &Results, splits: &[Split], regimes: &[(String, String)]) -> String {
+    let mut s = String::new();
+    for split in splits {
+        let methods: Vec<Method> = (METHODS.iter().copied())
+            .filter(|m| {
+                (split.groups.iter()).any(|(_, cs)| cs.iter().any(|c| c.spec.method() == *m))
+            })
+            .collect();
+        let names: Vec<&str> = methods.iter().map(|m| m.name()).collect();
+        for (axis, words) in caps() {
+            s.push_str(&format!(
+                "**{}, {words}: each method at its best (range over the groups)**\n\n| regime | {} |\n|---|{}\n",
+                split.label,
+                names.join(" | "),
+                "---|".repeat(names.len())
+            ));
+            for (col, label) in regimes {
+                let cells: Vec<String> = (methods.iter())
+                    .map(|m| {
+                        let keep = |c: &Config| c.spec.method() == *m;
+                        let v: Vec<f64> = (split.groups.iter())
+                            .filter_map(|(_, configs)| {
+                                let cap = group_cap(t, configs, axis).ok()?;
+                                best(t, configs, col, cap, &keep).map(|b| b.1)
+                            })
+                            .collect();
+                        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+                        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                        match v.len() {
+                            0 => "—".to_string(),
+                            _ if lo == hi => format!("{lo:.3}"),
+                            _ => format!("{lo:.3}–{hi:.3}"),
+                        }
+                    })
+                    .collect();
+                if cells.iter().all(|c| c == "—") {
+                    continue;
+                }
+                s.push_str(&format!("| {label} | {} |\n", cells.join(" | ")));
+            }
+            s.push('\n');
+        }
+    }
     s
 }
 
@@ -490,5 +540,19 @@ mod tests {
         assert_eq!(bin_words(0), "d < 0.04r");
         assert_eq!(bin_words(1), "0.04r ≤ d < 0.08r");
         assert_eq!(bin_words(6), "d ≥ 1.28r");
+    }
+
+    /// The bins: octaves from 0.04r, the edges in the upper bin; middles inside their bins.
+    #[test]
+    fn the_surface_bins_are_octaves_from_a_twenty_fifth_of_the_radius() {
+        assert_eq!(surface_bin(0.0), 0);
+        assert_eq!(surface_bin(0.0399), 0);
+        assert_eq!(surface_bin(0.04), 1);
+        assert_eq!(surface_bin(1.279), 5);
+        assert_eq!(surface_bin(1.28), 6);
+        assert_eq!(surface_bin(1e6), 6);
+        for k in 0..=SURFACE_EDGES.len() {
+            assert_eq!(surface_bin(surface_bin_mid(k)), k);
+        }
     }
 }
