@@ -1993,7 +1993,10 @@ fn every_shipped_config_resolves() {
         // A config beyond the work limits says so in its comments, with the flag it needs.
         let text = std::fs::read_to_string(c).unwrap();
         let mut args = vec!["run", c.to_str().unwrap(), "--dry-run"];
-        if text.lines().any(|l| l.starts_with('#') && l.contains("--allow-large")) {
+        if text
+            .lines()
+            .any(|l| l.starts_with('#') && l.contains("--allow-large"))
+        {
             args.push("--allow-large");
         }
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))

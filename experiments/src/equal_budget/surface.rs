@@ -213,22 +213,35 @@ pub fn verdict(t: &Results, splits: &[Split], regimes: &[(String, String)], grid
             .join(" | "),
         "---|".repeat(caps.len())
     );
+    // One row per regime whatever the splits (a summary opens with at most 20 lines): with
+    // several splits (orders) each cell holds every split's answer, labelled.
     let mut rows = 0;
-    for split in splits {
-        for (col, label) in regimes {
-            let cells: Vec<String> = (caps.iter())
-                .map(|(axis, _)| compact_cell(t, split, col, *axis))
-                .collect();
-            if cells.iter().all(|c| c == "—") {
-                continue;
-            }
-            s.push_str(&format!(
-                "| {} | {label} | {} |\n",
-                split.label,
-                cells.join(" | ")
-            ));
-            rows += 1;
+    let label0 = (splits.iter().map(|s| s.label.as_str()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    for (col, label) in regimes {
+        let cells: Vec<String> = (caps.iter())
+            .map(|(axis, _)| {
+                let per: Vec<(String, String)> = (splits.iter())
+                    .map(|sp| (sp.label.clone(), compact_cell(t, sp, col, *axis)))
+                    .collect();
+                if per.len() == 1 {
+                    return per[0].1.clone();
+                }
+                if per.iter().all(|(_, c)| c == "—") {
+                    return "—".into();
+                }
+                (per.iter())
+                    .map(|(l, c)| format!("**{l}** {c}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect();
+        if cells.iter().all(|c| c == "—") {
+            continue;
         }
+        s.push_str(&format!("| {label0} | {label} | {} |\n", cells.join(" | ")));
+        rows += 1;
     }
     if rows == 0 {
         return String::new();
@@ -270,11 +283,8 @@ fn compact_cell(t: &Results, split: &Split, col: &str, axis: Option<&str>) -> St
         .iter()
         .map(|(n, gs)| format!("{n}: {}", gs.join(", ")))
         .collect();
-    let range = if lo == hi {
-        format!("{lo:.3}")
-    } else {
-        format!("{lo:.3}–{hi:.3}")
-    };
+    let (a, b) = (format!("{lo:.3}"), format!("{hi:.3}"));
+    let range = if a == b { a } else { format!("{a}–{b}") };
     format!("{} — {range}", names.join("; "))
 }
 
