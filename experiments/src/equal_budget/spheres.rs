@@ -407,15 +407,6 @@ fn row_of(
     let (mn, cin, wn) = scores(&errs, |e| e.rho <= NEAR_RHO);
     let (mf, cif, wf) = scores(&errs, |e| e.rho > NEAR_RHO);
     let (mc, cic, _) = scores(&errs, |e| e.contact);
-    let bin = |k: usize| scores(&errs, |e| surface_bin(e.surface) == k);
-    let mut points = [0usize; SURFACE_EDGES.len() + 1];
-    for d in &sh.surface {
-        points[surface_bin(*d)] += 1;
-    }
-    let [b0, b1, b2, b3, b4, b5, b6] = std::array::from_fn(|k| {
-        let (m, ci, _) = bin(k);
-        (m, ci)
-    });
     Row {
         receiver_points: sh.points.len(),
         rays,
@@ -440,6 +431,24 @@ fn row_of(
         occ_rel_l2_contact_mean: mc,
         occ_rel_l2_contact_ci95: cic,
         truth_rel_err_mean: mean_max(errs.iter().filter(|e| e.occ2 > 1e-24).map(|e| e.truth_rel)).0,
+        ..surface_bins(&errs, &sh.surface)
+    }
+}
+
+/// The distance-to-surface columns of a row ([`SURFACE_EDGES`]): each bin's receivers (all of
+/// `surface`) and its mean `occ_rel_l2` with its interval (receivers with a truth and something
+/// occluded); every other column at its default.
+fn surface_bins(errs: &[Err2], surface: &[f64]) -> Row {
+    let bin = |k: usize| scores(errs, |e| surface_bin(e.surface) == k);
+    let mut points = [0usize; SURFACE_EDGES.len() + 1];
+    for d in surface {
+        points[surface_bin(*d)] += 1;
+    }
+    let [b0, b1, b2, b3, b4, b5, b6] = std::array::from_fn(|k| {
+        let (m, ci, _) = bin(k);
+        (m, ci)
+    });
+    Row {
         points_s0: points[0],
         points_s1: points[1],
         points_s2: points[2],
@@ -461,6 +470,7 @@ fn row_of(
         occ_rel_l2_s5_ci95: b5.1,
         occ_rel_l2_s6_mean: b6.0,
         occ_rel_l2_s6_ci95: b6.1,
+        ..Row::default()
     }
 }
 
