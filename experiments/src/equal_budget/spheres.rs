@@ -1043,6 +1043,18 @@ mod tests {
             "{line}"
         );
         assert!(cells[5].starts_with("ray_traced: duck — 0.050"), "{line}");
+        // Two orders: one row per regime, each cell both orders' answers, labelled.
+        let two: Vec<Split> = ["N = 4", "N = 6"]
+            .map(|label| Split {
+                label: label.into(),
+                groups: splits[0].groups.clone(),
+            })
+            .into();
+        let v2 = super::super::surface::verdict(&t, &two, &regimes, "test");
+        let rows2: Vec<&str> = v2.lines().filter(|l| l.contains("all receivers")).collect();
+        assert_eq!(rows2.len(), 1, "{v2}");
+        let want2 = "| N = 4, N = 6 | all receivers | **N = 4** ray_traced: duck~ — 0.200 **N = 6** ray_traced: duck~ — 0.200 |";
+        assert!(rows2[0].starts_with(want2), "{v2}");
         let full = super::super::surface::tables(&t, &splits, &regimes, "test");
         println!("{full}");
         // s = √(5e-5), t_{0.975,4} = 2.776: ± 2.776·s/√5 = 0.009; the gap 0.010 ± 0.039.

@@ -157,6 +157,7 @@ pub(crate) fn params_of<P: Default + Serialize + DeserializeOwned>(
 }
 
 /// A configuration: its rows (one per seed) and its method, parsed once.
+#[derive(Clone)]
 pub(crate) struct Config {
     pub rows: Vec<usize>,
     pub spec: Spec,
