@@ -22,9 +22,10 @@
 //!
 //! This is the same quantity the quadrature combination ([`crate::sphereset::
 //! SphereSetQuadrature`]) estimates with `2n²` directions × S ray–sphere tests, with φ integrated
-//! exactly instead of by `2n` uniform nodes. Cost per point: S caps' set-up, one `acos` per
-//! (cap, ring it meets), a sort of each ring's few intervals, `N²` multiply-adds per ring met,
-//! and one SH rotation.
+//! exactly instead of by `2n` uniform nodes. Cost per point: S caps' set-up, a square root per
+//! (cap, ring it meets) — the intervals' ends are ordered by a pseudo-angle, no inverse
+//! trigonometric call — a sort of each ring's few intervals, two `atan2` per merged interval
+//! (its length), `N²` multiply-adds per ring met, and one SH rotation.
 //!
 //! Domain: any point and any spheres; radius ≤ 0 occludes nothing; a point inside a sphere of
 //! positive radius sees nothing (0, as the product chain and the quadrature), one on its surface
@@ -102,15 +103,16 @@ impl RingGrid {
     }
 }
 
-/// One cap seen from a point: its axis (height `z_u`, `s_u = √(1 − z_u²)`, azimuth `φ_u`) and
-/// `cos A`.
+/// One cap seen from a point: its axis (height `z_u`, `s_u = √(1 − z_u²)`, azimuth `φ_u` as
+/// its sine and cosine and their pseudo-angle, [`pseudo_angle`]) and `cos A`.
 #[derive(Clone, Copy)]
 struct Cap {
     zu: f64,
     su: f64,
-    phi_u: f64,
     /// `(sin φ_u, cos φ_u)`.
     sc_u: (f64, f64),
+    /// The pseudo-angle of φ_u: the caps' order around the rings.
+    key_u: f64,
     cos_a: f64,
     /// The cap's z-range, `[cos min(π, θ_u + A), cos max(0, θ_u − A)]`.
     z_lo: f64,
@@ -144,88 +146,116 @@ impl Cap {
         } else {
             u.z * cos_a - su * sin_a
         };
+        let sc_u = if su > 0.0 {
+            (u.y / su, u.x / su)
+        } else {
+            (0.0, 1.0)
+        };
         Ok(Some(Self {
             zu: u.z,
             su,
-            phi_u: u.y.atan2(u.x),
-            sc_u: if su > 0.0 {
-                (u.y / su, u.x / su)
-            } else {
-                (0.0, 1.0)
-            },
+            sc_u,
+            key_u: pseudo_angle(sc_u.1, sc_u.0),
             cos_a,
             z_lo,
             z_hi,
         }))
     }
 
-    /// The cap's φ-interval on the ring at height `z` (`s = √(1 − z²)`): `Some((lo, hi))` with
-    /// `hi − lo ≤ 2π`, or `None` where the ring misses it. The ends' sines and cosines come
-    /// from `cos h` and `sin h = √(1 − cos²h)` by the angle-sum formulas (no trigonometric call
-    /// but the `acos` of the angle itself).
-    fn on_ring(&self, z: f64, s: f64) -> Option<(End, End)> {
+    /// The cap's φ-interval on the ring at height `z` (`s = √(1 − z²)`), pushed onto `bucket`
+    /// as one or two pieces inside [0, 2π] ([`push_arc`]); nothing where the ring misses it. The
+    /// ends' sines and cosines come from `cos h` and `sin h = √(1 − cos²h)` by the angle-sum
+    /// formulas: no trigonometric call at all.
+    fn on_ring(&self, z: f64, s: f64, bucket: &mut Vec<(End, End)>) {
         let ss = s * self.su;
         let num = self.cos_a - z * self.zu;
         if ss <= 1e-300 {
-            return (num <= 0.0).then_some(FULL_RING);
+            if num <= 0.0 {
+                bucket.push(FULL_RING);
+            }
+            return;
         }
         let c = num / ss;
         if c <= -1.0 {
-            Some(FULL_RING)
-        } else if c >= 1.0 {
-            None
-        } else {
-            let h = c.acos();
+            bucket.push(FULL_RING);
+        } else if c < 1.0 {
             let sh = ((1.0 - c) * (1.0 + c)).sqrt();
             let (sp, cp) = self.sc_u;
-            Some((
-                End {
-                    angle: self.phi_u - h,
-                    sin: sp * c - cp * sh,
-                    cos: cp * c + sp * sh,
-                },
-                End {
-                    angle: self.phi_u + h,
-                    sin: sp * c + cp * sh,
-                    cos: cp * c - sp * sh,
-                },
-            ))
+            let lo = End::of(cp * c + sp * sh, sp * c - cp * sh);
+            let hi = End::of(cp * c - sp * sh, sp * c + cp * sh);
+            push_arc(bucket, lo, hi, c);
         }
     }
 }
 
-/// An end of a φ-interval: its angle and that angle's sine and cosine.
+/// A monotone stand-in for the angle of the unit vector `(x, y)` = `(cos φ, sin φ)`, φ in
+/// [0, 2π) → [0, 4) (the "diamond angle": one unit per quadrant, `y/(x + y)` in the first, so
+/// opposite directions are exactly 2 apart): it orders directions as their angles do, its slope
+/// between 1/2 and 1 per radian — bounded away from zero, so directions a rounding apart stay a
+/// rounding apart — with no inverse trigonometric call.
+fn pseudo_angle(x: f64, y: f64) -> f64 {
+    if y >= 0.0 {
+        if x >= 0.0 {
+            y / (x + y)
+        } else {
+            1.0 - x / (y - x)
+        }
+    } else if x < 0.0 {
+        2.0 - y / (-x - y)
+    } else {
+        3.0 + x / (x - y)
+    }
+}
+
+/// An end of a φ-interval: its direction's sine and cosine and their pseudo-angle (the sort
+/// key; 4 for the end of the turn, 2π).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct End {
-    angle: f64,
+    key: f64,
     sin: f64,
     cos: f64,
 }
 
 impl End {
+    /// The end at direction `(cos, sin)`.
+    fn of(cos: f64, sin: f64) -> Self {
+        Self {
+            key: pseudo_angle(cos, sin),
+            sin,
+            cos,
+        }
+    }
+
     #[cfg(test)]
     fn at(angle: f64) -> Self {
         let (sin, cos) = angle.sin_cos();
-        Self { angle, sin, cos }
+        Self::of(cos, sin)
     }
 
-    /// The same direction `shift` radians on (a whole number of turns).
-    fn shifted(self, shift: f64) -> Self {
-        Self {
-            angle: self.angle + shift,
-            ..self
+    /// Its angle in [0, 2π] (one `atan2`; the turn's end is 2π).
+    #[cfg(test)]
+    fn angle(self) -> f64 {
+        if self.key >= 4.0 {
+            return TAU;
+        }
+        let a = self.sin.atan2(self.cos);
+        if a < 0.0 {
+            a + TAU
+        } else {
+            a
         }
     }
 }
 
+/// The whole ring: from φ = 0 to the turn's end.
 const FULL_RING: (End, End) = (
     End {
-        angle: 0.0,
+        key: 0.0,
         sin: 0.0,
         cos: 1.0,
     },
     End {
-        angle: TAU,
+        key: 4.0,
         sin: 0.0,
         cos: 1.0,
     },
@@ -252,25 +282,62 @@ impl<'a> SphereSetUnion<'a> {
     }
 }
 
-/// `[lo, hi]` (`hi − lo ≤ 2π`) moved into `[0, 2π)` and split where it wraps.
-fn push_wrapped(bucket: &mut Vec<(End, End)>, lo: End, hi: End) {
-    if hi.angle - lo.angle >= TAU {
-        bucket.push(FULL_RING);
-        return;
-    }
-    let shift = -(lo.angle / TAU).floor() * TAU;
-    let (lo, hi) = (lo.shifted(shift), hi.shifted(shift));
-    if hi.angle > TAU {
-        bucket.push((lo, FULL_RING.1));
-        bucket.push((FULL_RING.0, hi.shifted(-TAU)));
+/// The arc from `lo` counter-clockwise to `hi` (half-width h, `c = cos h` in (−1, 1)) onto
+/// `bucket`, split at φ = 0 where it crosses it, by the ends' pseudo-angles ([`pseudo_angle`]:
+/// an arc of exactly π spans 2). An arc narrower than π (c > 0) crosses when `lo` sorts more
+/// than 2 after `hi` (its ends in the fourth and first quadrants) and is whole when `hi` sorts
+/// less than 2 after `lo`; any other order is a rounding reversal of a near-empty arc (at the
+/// seam φ = 0 it would read as a near-full one) and is dropped. An arc of π or more crosses when
+/// `lo` sorts after `hi` at all.
+fn push_arc(bucket: &mut Vec<(End, End)>, lo: End, hi: End, c: f64) {
+    let d = hi.key - lo.key;
+    let (crosses, whole) = if c > 0.0 {
+        (d < -2.0, (0.0..2.0).contains(&d))
     } else {
+        (d < 0.0, d >= 0.0)
+    };
+    if crosses {
+        bucket.push((lo, FULL_RING.1));
+        bucket.push((FULL_RING.0, hi));
+    } else if whole {
         bucket.push((lo, hi));
+    }
+}
+
+/// The length of the arc from `a` counter-clockwise to `b` (`b` at or after `a`, no crossing of
+/// φ = 0 — the turn's end may be `b`): one `atan2` of the ends' cross and dot products, in
+/// (−π, π], lifted by 2π when the keys say the arc is π or longer ([`pseudo_angle`]: an arc of π
+/// spans 2) and clamped at 0 when a rounding made a near-empty one negative.
+fn arc_length(a: End, b: End) -> f64 {
+    let len = (a.cos * b.sin - a.sin * b.cos).atan2(a.cos * b.cos + a.sin * b.sin);
+    if b.key - a.key >= 2.0 {
+        if len <= 0.0 {
+            len + TAU
+        } else {
+            len
+        }
+    } else {
+        len.max(0.0)
+    }
+}
+
+/// Sorts a ring's intervals by their starts' keys: an insertion sort, since they arrive nearly
+/// sorted (the caps in azimuth order) and few.
+fn sort_by_start(bucket: &mut [(End, End)]) {
+    for i in 1..bucket.len() {
+        let x = bucket[i];
+        let mut j = i;
+        while j > 0 && bucket[j - 1].0.key > x.0.key {
+            bucket[j] = bucket[j - 1];
+            j -= 1;
+        }
+        bucket[j] = x;
     }
 }
 
 /// Adds `∫ T_m` over `[a, b]` for m = 0..n to `c` (cos mφ, `c[0]` the length) and `s` (sin mφ).
 fn add_trig_integrals(a: End, b: End, c: &mut [f64], s: &mut [f64]) {
-    c[0] += b.angle - a.angle;
+    c[0] += arc_length(a, b);
     let n = c.len();
     if n < 2 {
         return;
@@ -322,6 +389,9 @@ impl VisibilityField for SphereSetUnion<'_> {
                     Ok(None) => {}
                 }
             }
+            // Caps in azimuth order: each ring's intervals then arrive nearly sorted by their
+            // starts (they differ by the half-widths only), which the sort below finishes fast.
+            scratch.caps.sort_unstable_by(|a, b| a.key_u.total_cmp(&b.key_u));
             let mut local = std::mem::take(&mut scratch.local);
             local.clear();
             local.resize(nn, 0.0);
@@ -331,10 +401,13 @@ impl VisibilityField for SphereSetUnion<'_> {
             }
             // f(ω) = f_local(Bω): the active rotation by Bᵀ.
             let bt = [0, 1, 2].map(|i| [b[0][i], b[1][i], b[2][i]]);
-            let mut world = vec![0.0; nn];
+            let mut world = std::mem::take(&mut scratch.world);
+            world.clear();
+            world.resize(nn, 0.0);
             (g.rotator.apply(&bt, &local, &mut world)).expect("the grid's order");
             out.copy_from_slice(&world[..out.len()]);
             scratch.local = local;
+            scratch.world = world;
         });
     }
 }
@@ -345,6 +418,7 @@ impl VisibilityField for SphereSetUnion<'_> {
 struct Scratch {
     caps: Vec<Cap>,
     local: Vec<f64>,
+    world: Vec<f64>,
     z: Vec<f64>,
     w: Vec<f64>,
     s: Vec<f64>,
@@ -373,17 +447,25 @@ fn rings_of(g: &RingGrid, caps: &[Cap], z: &mut Vec<f64>, w: &mut Vec<f64>) {
         .map(|c| c.z_hi)
         .fold(f64::NEG_INFINITY, f64::max);
     let panels_max = (g.rings / PANEL_RINGS).max(1);
-    let mut cuts: Vec<f64> = (caps.iter())
+    // The distinct edges (within 1e-12) inside the range, gathered until they no longer fit:
+    // with many caps the search stops at the ninth, not after sorting all 2S of them.
+    let mut cuts: Vec<f64> = Vec::with_capacity(panels_max);
+    let inside = (caps.iter())
         .flat_map(|c| [c.z_lo, c.z_hi])
-        .filter(|e| *e > z0 && *e < z1)
-        .collect();
-    cuts.sort_unstable_by(f64::total_cmp);
-    cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12);
-    if cuts.len() + 1 > panels_max {
-        // Too many edges to cut at them all: one panel (cutting at some of them measured
-        // worse than none, 2–3× at S = 32–64 and 32 rings).
-        cuts.clear();
+        .filter(|e| *e > z0 && *e < z1);
+    for e in inside {
+        if cuts.iter().any(|x| (x - e).abs() <= 1e-12) {
+            continue;
+        }
+        if cuts.len() + 2 > panels_max {
+            // Too many edges to cut at them all: one panel (cutting at some of them measured
+            // worse than none, 2–3× at S = 32–64 and 32 rings).
+            cuts.clear();
+            break;
+        }
+        cuts.push(e);
     }
+    cuts.sort_unstable_by(f64::total_cmp);
     let edges: Vec<f64> = std::iter::once(z0)
         .chain(cuts)
         .chain(std::iter::once(z1))
@@ -410,6 +492,7 @@ fn subtract_union(g: &RingGrid, scratch: &mut Scratch, out: &mut [f64]) {
     let Scratch {
         caps,
         local: _,
+        world: _,
         z,
         w,
         s,
@@ -427,9 +510,7 @@ fn subtract_union(g: &RingGrid, scratch: &mut Scratch, out: &mut [f64]) {
         let first = z.partition_point(|x| *x < cap.z_lo);
         let last = z.partition_point(|x| *x <= cap.z_hi);
         for j in first..last {
-            if let Some((lo, hi)) = cap.on_ring(z[j], s[j]) {
-                push_wrapped(&mut buckets[j], lo, hi);
-            }
+            cap.on_ring(z[j], s[j], &mut buckets[j]);
         }
     }
     cm.resize(n, 0.0);
@@ -439,13 +520,13 @@ fn subtract_union(g: &RingGrid, scratch: &mut Scratch, out: &mut [f64]) {
         if bucket.is_empty() {
             continue;
         }
-        bucket.sort_unstable_by(|a, b| a.0.angle.total_cmp(&b.0.angle));
+        sort_by_start(bucket);
         cm.iter_mut().for_each(|x| *x = 0.0);
         sm.iter_mut().for_each(|x| *x = 0.0);
         let (mut a, mut b) = bucket[0];
         for &(lo, hi) in &bucket[1..] {
-            if lo.angle <= b.angle {
-                if hi.angle > b.angle {
+            if lo.key <= b.key {
+                if hi.key > b.key {
                     b = hi;
                 }
             } else {
@@ -490,7 +571,8 @@ mod tests {
         }
     }
 
-    /// The ends' sines and cosines by the angle-sum formulas agree with the angles' own.
+    /// The ends' sines and cosines by the angle-sum formulas agree with the angles' own, and
+    /// their angles are φ_u ∓ h.
     #[test]
     fn interval_ends_carry_their_sines_and_cosines() {
         let p = DVec3::new(0.1, -0.2, 0.3);
@@ -500,29 +582,72 @@ mod tests {
         };
         let cap = Cap::seen(&s, p).unwrap().unwrap();
         let z = (cap.z_lo + cap.z_hi) / 2.0;
-        let (lo, hi) = cap.on_ring(z, (1.0 - z * z).sqrt()).unwrap();
-        for e in [lo, hi] {
-            let want = End::at(e.angle);
-            assert!((e.sin - want.sin).abs() < 1e-14 && (e.cos - want.cos).abs() < 1e-14);
+        let sz = (1.0 - z * z).sqrt();
+        let mut b = Vec::new();
+        cap.on_ring(z, sz, &mut b);
+        assert_eq!(b.len(), 1);
+        let phi_u = cap.sc_u.0.atan2(cap.sc_u.1).rem_euclid(TAU);
+        let h = ((cap.cos_a - z * cap.zu) / (sz * cap.su)).acos();
+        for (e, want) in [(b[0].0, phi_u - h), (b[0].1, phi_u + h)] {
+            let w = End::at(want);
+            assert!((e.sin - w.sin).abs() < 1e-14 && (e.cos - w.cos).abs() < 1e-14);
+            assert!((e.angle() - want.rem_euclid(TAU)).abs() < 1e-14);
         }
     }
 
+    /// The pseudo-angle orders directions as their angles, opposite ones exactly 2 apart.
     #[test]
-    fn wrapped_intervals_split_at_two_pi() {
+    fn the_pseudo_angle_is_monotone_in_the_angle() {
+        let mut last = -1.0;
+        for i in 0..4096 {
+            let a = TAU * i as f64 / 4096.0;
+            let k = End::at(a).key;
+            assert!(k > last && (0.0..4.0).contains(&k), "{a}: {k} after {last}");
+            last = k;
+            let opposite = End::at(a + PI).key;
+            assert!(((opposite - k).rem_euclid(4.0) - 2.0).abs() < 1e-12);
+        }
+        assert_eq!(End::at(0.0).key, 0.0);
+        assert_eq!(End::at(0.0).angle(), 0.0);
+        assert_eq!(FULL_RING.1.angle(), TAU);
+    }
+
+    /// An arc across φ = 0 splits there; one just off it does not; an arc reversed by rounding
+    /// alone is dropped, not taken for a near-full ring; a wide arc across 0 splits however
+    /// close its ends.
+    #[test]
+    fn arcs_split_where_they_cross_zero() {
         let mut b = Vec::new();
-        push_wrapped(&mut b, End::at(-0.5), End::at(0.5));
+        push_arc(&mut b, End::at(-0.5), End::at(0.5), 0.5f64.cos());
         assert_eq!(b.len(), 2);
-        assert!((b[0].0.angle - (TAU - 0.5)).abs() < 1e-15 && b[0].1.angle == TAU);
-        assert!(b[1].0.angle == 0.0 && (b[1].1.angle - 0.5).abs() < 1e-15);
-        assert_eq!(
-            (b[0].0.sin, b[0].0.cos),
-            (End::at(-0.5).sin, End::at(-0.5).cos)
-        );
+        assert!((b[0].0.angle() - (TAU - 0.5)).abs() < 1e-15 && b[0].1.angle() == TAU);
+        assert!(b[1].0.angle() == 0.0 && (b[1].1.angle() - 0.5).abs() < 1e-15);
+        let (mut c, mut s) = (vec![0.0; 3], vec![0.0; 3]);
+        for &(lo, hi) in &b {
+            add_trig_integrals(lo, hi, &mut c, &mut s);
+        }
+        assert!((c[0] - 1.0).abs() < 1e-15, "length {}", c[0]);
         b.clear();
-        push_wrapped(&mut b, End::at(7.0), End::at(8.0));
-        assert!((b[0].0.angle - (7.0 - TAU)).abs() < 1e-15);
+        push_arc(&mut b, End::at(0.1), End::at(0.3), 0.1f64.cos());
+        assert_eq!(b, vec![(End::at(0.1), End::at(0.3))]);
         b.clear();
-        push_wrapped(&mut b, End::at(1.0), End::at(1.0 + TAU));
-        assert_eq!(b, vec![FULL_RING]);
+        // Near-empty arcs whose ends came out in reverse order: at the seam φ = 0 (where the
+        // reversal reads as a near-full arc) and elsewhere.
+        push_arc(&mut b, End::of(1.0, 1e-17), End::of(1.0, -1e-17), 1.0 - 1e-34);
+        push_arc(&mut b, End::at(1.0 + 1e-15), End::at(1.0), 1.0 - 1e-30);
+        let (mut c, mut s) = (vec![0.0; 1], vec![0.0; 1]);
+        for &(lo, hi) in &b {
+            add_trig_integrals(lo, hi, &mut c, &mut s);
+        }
+        assert!(c[0] < 1e-12, "a near-empty arc became {}", c[0]);
+        b.clear();
+        // A near-full arc across 0 (h just under π): its ends nearly meet at π.
+        let h = PI - 1e-9;
+        push_arc(&mut b, End::at(-h), End::at(h), h.cos());
+        let (mut c, mut s) = (vec![0.0; 1], vec![0.0; 1]);
+        for &(lo, hi) in &b {
+            add_trig_integrals(lo, hi, &mut c, &mut s);
+        }
+        assert!((c[0] - 2.0 * h).abs() < 1e-12, "{}", c[0]);
     }
 }
