@@ -166,7 +166,7 @@ impl Cap {
     /// as one or two pieces inside [0, 2π] ([`push_arc`]); nothing where the ring misses it. The
     /// ends' sines and cosines come from `cos h` and `sin h = √(1 − cos²h)` by the angle-sum
     /// formulas: no trigonometric call at all.
-    fn on_ring(&self, z: f64, s: f64, bucket: &mut Vec<(End, End)>) {
+    fn on_ring(&self, z: f64, s: f64, bucket: &mut Vec<Arc>) {
         let ss = s * self.su;
         let num = self.cos_a - z * self.zu;
         if ss <= 1e-300 {
@@ -247,8 +247,12 @@ impl End {
     }
 }
 
-/// The whole ring: from φ = 0 to the turn's end.
-const FULL_RING: (End, End) = (
+/// A piece of a ring: its ends, and the cosine of its half-width when it is one cap's whole
+/// interval (its length is then `2·acos`), NaN for a piece cut at φ = 0.
+type Arc = (End, End, f64);
+
+/// The whole ring: from φ = 0 to the turn's end (half-width π).
+const FULL_RING: Arc = (
     End {
         key: 0.0,
         sin: 0.0,
@@ -259,6 +263,7 @@ const FULL_RING: (End, End) = (
         sin: 0.0,
         cos: 1.0,
     },
+    -1.0,
 );
 
 /// A sphere set combined as the exact union of its caps (see the module's documentation).
@@ -289,7 +294,7 @@ impl<'a> SphereSetUnion<'a> {
 /// less than 2 after `lo`; any other order is a rounding reversal of a near-empty arc (at the
 /// seam φ = 0 it would read as a near-full one) and is dropped. An arc of π or more crosses when
 /// `lo` sorts after `hi` at all.
-fn push_arc(bucket: &mut Vec<(End, End)>, lo: End, hi: End, c: f64) {
+fn push_arc(bucket: &mut Vec<Arc>, lo: End, hi: End, c: f64) {
     let d = hi.key - lo.key;
     let (crosses, whole) = if c > 0.0 {
         (d < -2.0, (0.0..2.0).contains(&d))
@@ -297,10 +302,10 @@ fn push_arc(bucket: &mut Vec<(End, End)>, lo: End, hi: End, c: f64) {
         (d < 0.0, d >= 0.0)
     };
     if crosses {
-        bucket.push((lo, FULL_RING.1));
-        bucket.push((FULL_RING.0, hi));
+        bucket.push((lo, FULL_RING.1, f64::NAN));
+        bucket.push((FULL_RING.0, hi, f64::NAN));
     } else if whole {
-        bucket.push((lo, hi));
+        bucket.push((lo, hi, c));
     }
 }
 
@@ -321,9 +326,19 @@ fn arc_length(a: End, b: End) -> f64 {
     }
 }
 
+/// A run's length: `2·acos(c)` for one cap's whole interval (c its half-width's cosine), else
+/// [`arc_length`] of its ends.
+fn run_length(a: End, b: End, c: f64) -> f64 {
+    if c.is_nan() {
+        arc_length(a, b)
+    } else {
+        2.0 * c.acos()
+    }
+}
+
 /// Sorts a ring's intervals by their starts' keys: an insertion sort, since they arrive nearly
 /// sorted (the caps in azimuth order) and few.
-fn sort_by_start(bucket: &mut [(End, End)]) {
+fn sort_by_start(bucket: &mut [Arc]) {
     for i in 1..bucket.len() {
         let x = bucket[i];
         let mut j = i;
@@ -335,9 +350,10 @@ fn sort_by_start(bucket: &mut [(End, End)]) {
     }
 }
 
-/// Adds `∫ T_m` over `[a, b]` for m = 0..n to `c` (cos mφ, `c[0]` the length) and `s` (sin mφ).
-fn add_trig_integrals(a: End, b: End, c: &mut [f64], s: &mut [f64]) {
-    c[0] += arc_length(a, b);
+/// Adds `∫ T_m` over `[a, b]` (of length `len`) for m = 0..n to `c` (cos mφ, `c[0]` the
+/// length) and `s` (sin mφ).
+fn add_trig_integrals(a: End, b: End, len: f64, c: &mut [f64], s: &mut [f64]) {
+    c[0] += len;
     let n = c.len();
     if n < 2 {
         return;
@@ -364,16 +380,18 @@ impl VisibilityField for SphereSetUnion<'_> {
         let nn = g.order * g.order;
         assert!(out.len() <= nn, "coefficients beyond the grid's order");
         out.iter_mut().for_each(|o| *o = 0.0);
-        // The local frame: its x-axis the caps' mean direction, so the union sits about the
-        // equator, away from the poles, and its rings are short.
+        // The local frame: its x-axis along the caps' mean direction, so the union sits about
+        // the equator, away from the poles, and its rings are short.
         let axis = (self.spheres.iter())
             .filter(|s| s.radius > 0.0)
             .map(|s| (s.center - p).normalize_or_zero() * s.radius)
             .sum::<DVec3>()
             .try_normalize()
             .unwrap_or(DVec3::X);
+        // The x-axis opposite the mean direction: the union sits about φ = π, away from the
+        // seam φ = 0 where a cap's interval would be cut in two (and lose its 2·acos length).
         let e2 = axis.any_orthonormal_vector();
-        let b = [axis, e2, axis.cross(e2)];
+        let b = [-axis, -e2, axis.cross(e2)];
         SCRATCH.with(|cell| {
             let scratch = &mut *cell.borrow_mut();
             scratch.caps.clear();
@@ -391,7 +409,9 @@ impl VisibilityField for SphereSetUnion<'_> {
             }
             // Caps in azimuth order: each ring's intervals then arrive nearly sorted by their
             // starts (they differ by the half-widths only), which the sort below finishes fast.
-            scratch.caps.sort_unstable_by(|a, b| a.key_u.total_cmp(&b.key_u));
+            scratch
+                .caps
+                .sort_unstable_by(|a, b| a.key_u.total_cmp(&b.key_u));
             let mut local = std::mem::take(&mut scratch.local);
             local.clear();
             local.resize(nn, 0.0);
@@ -422,7 +442,7 @@ struct Scratch {
     z: Vec<f64>,
     w: Vec<f64>,
     s: Vec<f64>,
-    buckets: Vec<Vec<(End, End)>>,
+    buckets: Vec<Vec<Arc>>,
     cm: Vec<f64>,
     sm: Vec<f64>,
     leg: Vec<f64>,
@@ -523,18 +543,21 @@ fn subtract_union(g: &RingGrid, scratch: &mut Scratch, out: &mut [f64]) {
         sort_by_start(bucket);
         cm.iter_mut().for_each(|x| *x = 0.0);
         sm.iter_mut().for_each(|x| *x = 0.0);
-        let (mut a, mut b) = bucket[0];
-        for &(lo, hi) in &bucket[1..] {
+        // Runs of overlapping pieces; a run that stayed one cap's whole interval (others at most
+        // inside it) has the length 2·acos(cos h), any other one its ends' arc_length.
+        let (mut a, mut b, mut c1) = bucket[0];
+        for &(lo, hi, c) in &bucket[1..] {
             if lo.key <= b.key {
                 if hi.key > b.key {
                     b = hi;
+                    c1 = f64::NAN;
                 }
             } else {
-                add_trig_integrals(a, b, cm, sm);
-                (a, b) = (lo, hi);
+                add_trig_integrals(a, b, run_length(a, b, c1), cm, sm);
+                (a, b, c1) = (lo, hi, c);
             }
         }
-        add_trig_integrals(a, b, cm, sm);
+        add_trig_integrals(a, b, run_length(a, b, c1), cm, sm);
         g.legendre.eval(z[j], s[j], leg);
         let w = w[j];
         let w2 = w * std::f64::consts::SQRT_2;
@@ -558,7 +581,7 @@ mod tests {
     fn trig_integrals_match_their_closed_forms() {
         let (a, b) = (0.3, 2.9);
         let (mut c, mut s) = (vec![0.0; 6], vec![0.0; 6]);
-        add_trig_integrals(End::at(a), End::at(b), &mut c, &mut s);
+        add_trig_integrals(End::at(a), End::at(b), b - a, &mut c, &mut s);
         assert!((c[0] - (b - a)).abs() < 1e-15);
         for m in 1..6 {
             let mf = m as f64;
@@ -623,21 +646,27 @@ mod tests {
         assert!((b[0].0.angle() - (TAU - 0.5)).abs() < 1e-15 && b[0].1.angle() == TAU);
         assert!(b[1].0.angle() == 0.0 && (b[1].1.angle() - 0.5).abs() < 1e-15);
         let (mut c, mut s) = (vec![0.0; 3], vec![0.0; 3]);
-        for &(lo, hi) in &b {
-            add_trig_integrals(lo, hi, &mut c, &mut s);
+        for &(lo, hi, h) in &b {
+            add_trig_integrals(lo, hi, run_length(lo, hi, h), &mut c, &mut s);
         }
         assert!((c[0] - 1.0).abs() < 1e-15, "length {}", c[0]);
         b.clear();
         push_arc(&mut b, End::at(0.1), End::at(0.3), 0.1f64.cos());
-        assert_eq!(b, vec![(End::at(0.1), End::at(0.3))]);
+        assert_eq!((b.len(), b[0].0, b[0].1), (1, End::at(0.1), End::at(0.3)));
+        assert!((run_length(b[0].0, b[0].1, b[0].2) - 0.2).abs() < 1e-14);
         b.clear();
         // Near-empty arcs whose ends came out in reverse order: at the seam φ = 0 (where the
         // reversal reads as a near-full arc) and elsewhere.
-        push_arc(&mut b, End::of(1.0, 1e-17), End::of(1.0, -1e-17), 1.0 - 1e-34);
+        push_arc(
+            &mut b,
+            End::of(1.0, 1e-17),
+            End::of(1.0, -1e-17),
+            1.0 - 1e-34,
+        );
         push_arc(&mut b, End::at(1.0 + 1e-15), End::at(1.0), 1.0 - 1e-30);
         let (mut c, mut s) = (vec![0.0; 1], vec![0.0; 1]);
-        for &(lo, hi) in &b {
-            add_trig_integrals(lo, hi, &mut c, &mut s);
+        for &(lo, hi, h) in &b {
+            add_trig_integrals(lo, hi, run_length(lo, hi, h), &mut c, &mut s);
         }
         assert!(c[0] < 1e-12, "a near-empty arc became {}", c[0]);
         b.clear();
@@ -645,8 +674,8 @@ mod tests {
         let h = PI - 1e-9;
         push_arc(&mut b, End::at(-h), End::at(h), h.cos());
         let (mut c, mut s) = (vec![0.0; 1], vec![0.0; 1]);
-        for &(lo, hi) in &b {
-            add_trig_integrals(lo, hi, &mut c, &mut s);
+        for &(lo, hi, h) in &b {
+            add_trig_integrals(lo, hi, run_length(lo, hi, h), &mut c, &mut s);
         }
         assert!((c[0] - 2.0 * h).abs() < 1e-12, "{}", c[0]);
     }
