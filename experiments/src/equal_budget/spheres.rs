@@ -996,6 +996,7 @@ mod tests {
             "frame_seconds",
             "memory_bytes",
             "occ_rel_l2_mean",
+            "frame_seconds_hi",
         ]
         .map(String::from)
         .to_vec();
@@ -1019,6 +1020,7 @@ mod tests {
                     secs,
                     bytes,
                     *e,
+                    secs * 1.01,
                 ];
                 rows.push(cells.map(|x| x.to_string()).to_vec());
             }
