@@ -24,7 +24,7 @@
 use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, plot_name, specs_of, speed_claim,
-    variant, verdict_table, write_front, Front, Split,
+    splits_by, variant, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
 use crate::figures::flat;
@@ -156,22 +156,16 @@ impl Params {
 /// The rows as splits (still, or a sequence's frame count) of groups (one per scene) of
 /// configurations.
 fn plane_splits(t: &Results) -> Vec<Split> {
-    let specs = specs(t);
     let keys = config_keys::<Params>(&PLANE_GROUPING);
-    let mut splits: Vec<Split> = Vec::new();
-    for (scene, frames) in distinct_pairs(t, "scene", "frames") {
-        let rows: Vec<usize> = (0..t.rows.len())
-            .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
-            .collect();
-        let configs = by_config(t, &rows, &keys, &|r| specs[r]);
+    let place = |scene: &str, frames: &str| {
         let label = if frames == "1" {
             "still".to_string()
         } else {
             format!("{frames} frames")
         };
-        Split::add(&mut splits, label, plot_name(&scene), configs);
-    }
-    splits
+        (label, plot_name(scene))
+    };
+    splits_by(t, ("scene", "frames"), &keys, &specs(t), &place)
 }
 
 /// The plane's regimes with intervals: (column, words).

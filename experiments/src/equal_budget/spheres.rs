@@ -30,7 +30,7 @@ use super::receivers::{continuous_radii, oriented_occluder, CONTINUOUS};
 use super::surface::{surface_bin, SURFACE_EDGES};
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of,
-    plot_name, specs_of, speed_claim, verdict_table, write_front, Front, Split,
+    plot_name, specs_of, speed_claim, splits_by, verdict_table, write_front, Front, Split,
 };
 use super::NEAR_RHO;
 use glam::DVec3;
@@ -914,17 +914,9 @@ fn part_ranges<'a>(
 
 /// The rows as splits (one per order) of groups (one per mesh) of configurations.
 fn splits(t: &Results) -> Vec<Split> {
-    let specs = specs(t);
     let keys = config_keys::<Params>(&CONFIG_GROUPING);
-    let mut splits: Vec<Split> = Vec::new();
-    for (mesh, order) in distinct_pairs(t, "mesh", "order") {
-        let rows: Vec<usize> = (0..t.rows.len())
-            .filter(|&r| t.cell(r, "mesh") == mesh && t.cell(r, "order") == order)
-            .collect();
-        let configs = by_config(t, &rows, &keys, &|r| specs[r]);
-        Split::add(&mut splits, format!("N = {order}"), mesh, configs);
-    }
-    splits
+    let place = |mesh: &str, order: &str| (format!("N = {order}"), mesh.to_string());
+    splits_by(t, ("mesh", "order"), &keys, &specs(t), &place)
 }
 
 /// The receivers in words when the rows' first run has receivers at every distance (`None` on

@@ -114,6 +114,28 @@ pub(crate) fn distinct_pairs(t: &Results, a: &str, b: &str) -> Vec<(String, Stri
     v
 }
 
+/// The rows as splits of groups of configurations: one group per distinct pair of cells of the
+/// columns `(a, b)` (a mesh and its order, a scene and its frames), its configurations those of
+/// [`by_config`] over `keys`; `place(a, b)` names the group's split and the group.
+pub(crate) fn splits_by(
+    t: &Results,
+    (a, b): (&str, &str),
+    keys: &[String],
+    specs: &[Option<Spec>],
+    place: &dyn Fn(&str, &str) -> (String, String),
+) -> Vec<Split> {
+    let mut splits: Vec<Split> = Vec::new();
+    for (x, y) in distinct_pairs(t, a, b) {
+        let rows: Vec<usize> = (0..t.rows.len())
+            .filter(|&r| t.cell(r, a) == x && t.cell(r, b) == y)
+            .collect();
+        let configs = by_config(t, &rows, keys, &|r| specs[r]);
+        let (label, group) = place(&x, &y);
+        Split::add(&mut splits, label, group, configs);
+    }
+    splits
+}
+
 /// The parameter columns of kind parameters `P`.
 fn param_columns<P: Default + Serialize>() -> Vec<String> {
     shscale_runner::records::to_cells(&P::default())
