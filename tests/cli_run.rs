@@ -1271,10 +1271,27 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
         })
         .count() as f64;
     assert!(near > 0.0);
+    // Distance to the sphere's surface: |q − c| − 1, binned in octaves from 0.04 (the edges of
+    // the spherical receivers' bins).
+    let edges = [0.04, 0.08, 0.16, 0.32, 0.64, 1.28];
+    let mut by_bin = [0.0; 7];
+    for k in 0..24 * 24 {
+        let (x, y) = (
+            3.0 * ((k % 24) as f64 / 23.0 - 0.5),
+            3.0 * (0.5 - (k / 24) as f64 / 23.0),
+        );
+        let d = (x * x + y * y + 1.44f64).sqrt() - 1.0;
+        by_bin[edges.iter().filter(|e| d >= **e).count()] += 1.0;
+    }
     for r in &rows {
         let num = |k: &str| r[col(k)].parse::<f64>().unwrap();
         assert_eq!(num("receivers"), 576.0);
         assert_eq!(num("near_receivers"), near);
+        for (k, want) in by_bin.iter().enumerate() {
+            assert_eq!(num(&format!("receivers_s{k}")), *want, "bin {k}");
+            let e = r[col(&format!("rmse_s{k}_vs_full_frequency"))].parse::<f64>();
+            assert_eq!(e.is_ok(), *want > 0.0, "bin {k}: {e:?}");
+        }
         let (rays, mem) = (num("rays"), num("memory_bytes"));
         match r[col("method")].as_str() {
             "full_field" => {

@@ -170,21 +170,32 @@ fn plane_splits(t: &Results) -> Vec<Split> {
 
 /// The plane's regimes with intervals: (column, words).
 fn plane_regimes() -> Vec<(String, String)> {
+    let bins = (0..=super::surface::SURFACE_EDGES.len()).map(|k| {
+        (
+            format!("rmse_s{k}_vs_full_frequency"),
+            super::surface::bin_words(k),
+        )
+    });
     [
         ("rmse_vs_full_frequency", "all, full-frequency truth"),
-        ("rmse_near_vs_full_frequency", "near"),
+        ("rmse_near_vs_full_frequency", "near (ρ ≤ 1.3)"),
         ("rmse_far_vs_full_frequency", "far"),
-        ("rmse_vs_band_limited", "all, band-limited truth"),
     ]
     .map(|(c, w)| (c.to_string(), w.to_string()))
-    .to_vec()
+    .into_iter()
+    .chain(bins)
+    .chain(std::iter::once((
+        "rmse_vs_band_limited".to_string(),
+        "all, band-limited truth".to_string(),
+    )))
+    .collect()
 }
 
 /// The receivers in words when the rows hold several placements (`None` with one: no interval).
 fn placements_grid(t: &Results) -> Option<String> {
     let placements = t.distinct_in(0..t.rows.len(), "placement_seed").len();
     (placements > 1).then(|| format!(
-        "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder; shade_rmse_rel, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
+        "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder's centre, d = distance to the nearest occluder's surface in its radii (each frame's pose); shade_rmse_rel against full-frequency truth unless said, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
         t.cell(0, "receivers"),
     ))
 }
@@ -233,6 +244,24 @@ pub struct Row {
     /// still scene of one occluder (none elsewhere): the median of the timing procedure's repeats
     /// and its interval, the cache's one-off build time, and the largest difference of its image
     /// from the direct render's in the unit of the mean unshadowed irradiance.
+    /// Receivers by distance to the nearest occluder's surface (in that occluder's radii; the
+    /// first frame's), in the bins of `surface::SURFACE_EDGES`, and the error against
+    /// full-frequency truth over each bin's receivers (mean over the frames; each frame bins its
+    /// own pose).
+    pub receivers_s0: usize,
+    pub receivers_s1: usize,
+    pub receivers_s2: usize,
+    pub receivers_s3: usize,
+    pub receivers_s4: usize,
+    pub receivers_s5: usize,
+    pub receivers_s6: usize,
+    pub rmse_s0_vs_full_frequency: Option<f64>,
+    pub rmse_s1_vs_full_frequency: Option<f64>,
+    pub rmse_s2_vs_full_frequency: Option<f64>,
+    pub rmse_s3_vs_full_frequency: Option<f64>,
+    pub rmse_s4_vs_full_frequency: Option<f64>,
+    pub rmse_s5_vs_full_frequency: Option<f64>,
+    pub rmse_s6_vs_full_frequency: Option<f64>,
     pub cached_frame_seconds: Option<f64>,
     pub cached_frame_seconds_lo: Option<f64>,
     pub cached_frame_seconds_hi: Option<f64>,
@@ -251,6 +280,8 @@ pub struct Shared {
     full: Vec<Vec<f64>>,
     open: Vec<f64>,
     near: Vec<bool>,
+    /// Per frame, each receiver's distance-to-surface bin (`surface::surface_bin`).
+    bins: Vec<Vec<usize>>,
     full_err: f64,
     band_err: f64,
 }
@@ -274,6 +305,30 @@ fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate:
     } else {
         0.0
     }
+}
+
+/// Each receiver's distance-to-surface bin on `scene` (posed at its `pose_t`): the distance to
+/// the nearest occluder's surface, in that occluder's radii (exact point-to-triangle through its
+/// BVH; the analytic sphere's in closed form), binned as on spherical receivers.
+fn surface_bins(scene: &Scene) -> Result<Vec<usize>, Error> {
+    use rayon::prelude::*;
+    let occs = (scene.occluders.iter())
+        .map(|o| {
+            Ok((
+                shscale_scene::frame::build_occluder_at(o, scene.pose_t)?,
+                o.radius,
+            ))
+        })
+        .collect::<Result<Vec<_>, Error>>()?;
+    let grid = shscale_scene::frame::receiver_grid(scene);
+    Ok((grid.par_iter())
+        .map(|q| {
+            let d = (occs.iter())
+                .map(|(o, r)| o.distance_to_surface(*q) / r)
+                .fold(f64::INFINITY, f64::min);
+            super::surface::surface_bin(d)
+        })
+        .collect())
 }
 
 /// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
@@ -554,8 +609,12 @@ impl Kind for BudgetPlane {
                 (scene.occluders.iter()).any(|o| (*q - o.center).length() <= NEAR_RHO * o.radius)
             })
             .collect();
+        let bins = (0..frames)
+            .map(|f| surface_bins(&at_frame(&scene, f, frames)))
+            .collect::<Result<Vec<_>, Error>>()?;
         let worst = |v: Vec<f64>| v.into_iter().fold(f64::NAN, f64::max);
         Ok(Shared {
+            bins,
             full_err: worst(full_err),
             band_err: worst(band_err),
             band,
@@ -611,6 +670,14 @@ impl Kind for BudgetPlane {
         let band = per(&|f| shade_rmse_rel(&es[f], &sh.band[f], &sh.open));
         let near = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, true));
         let far = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, false));
+        let by_bin: [Option<f64>; 7] = std::array::from_fn(|k| {
+            mean(&per(&|f| {
+                let keep: Vec<bool> = sh.bins[f].iter().map(|b| *b == k).collect();
+                rmse_where(&es[f], &sh.full[f], &sh.open, &keep, true)
+            }))
+        });
+        let counts: [usize; 7] =
+            std::array::from_fn(|k| sh.bins[0].iter().filter(|b| **b == k).count());
         let ssims = per(&|f| {
             let (lt, le) = (lum(&sh.full[f]), lum(&es[f]));
             let range = lt.iter().copied().fold(0.0, f64::max);
@@ -635,6 +702,20 @@ impl Kind for BudgetPlane {
             one_minus_ssim: mean(&ssims),
             full_frequency_truth_err: sh.full_err,
             band_limited_truth_err: sh.band_err,
+            receivers_s0: counts[0],
+            receivers_s1: counts[1],
+            receivers_s2: counts[2],
+            receivers_s3: counts[3],
+            receivers_s4: counts[4],
+            receivers_s5: counts[5],
+            receivers_s6: counts[6],
+            rmse_s0_vs_full_frequency: by_bin[0],
+            rmse_s1_vs_full_frequency: by_bin[1],
+            rmse_s2_vs_full_frequency: by_bin[2],
+            rmse_s3_vs_full_frequency: by_bin[3],
+            rmse_s4_vs_full_frequency: by_bin[4],
+            rmse_s5_vs_full_frequency: by_bin[5],
+            rmse_s6_vs_full_frequency: by_bin[6],
             cached_frame_seconds: cached.map(|c| c.0.median),
             cached_frame_seconds_lo: cached.map(|c| c.0.lo),
             cached_frame_seconds_hi: cached.map(|c| c.0.hi),
