@@ -369,10 +369,11 @@ fn method_tables(t: &Results, splits: &[Split], regimes: &[(String, String)]) ->
                             .collect();
                         let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
                         let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                        let (a, b) = (format!("{lo:.3}"), format!("{hi:.3}"));
                         match v.len() {
                             0 => "—".to_string(),
-                            _ if lo == hi => format!("{lo:.3}"),
-                            _ => format!("{lo:.3}–{hi:.3}"),
+                            _ if a == b => a,
+                            _ => format!("{a}–{b}"),
                         }
                     })
                     .collect();
