@@ -255,6 +255,14 @@ impl Mesh {
         }
     }
 
+    /// Turn every vertex by the rotation `q` about `center` (`p ↦ center + q·(p − center)`):
+    /// lengths and, about the bounding sphere's centre, the minimal bounding sphere are kept.
+    pub fn rotate_about(&mut self, center: DVec3, q: glam::DQuat) {
+        for p in &mut self.positions {
+            *p = center + q * (*p - center);
+        }
+    }
+
     /// Uniformly scale and translate so the minimal bounding sphere becomes `target`.
     pub fn fit_to(&mut self, target: &Sphere) {
         let s = self.bounding_sphere();

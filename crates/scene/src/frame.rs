@@ -44,13 +44,9 @@ pub fn posed(rest: &Mesh, o: &crate::scene::OccluderSpec, pose_t: Option<f64>) -
     };
     let c = rest.bounding_sphere().center;
     let mut own = rest.clone();
-    for p in &mut own.positions {
-        *p = c + q.inverse() * (*p - c);
-    }
+    own.rotate_about(c, q.inverse());
     pose_mesh(&own, kind, amount, t, &mut out);
-    for p in &mut out.positions {
-        *p = c + q * (*p - c);
-    }
+    out.rotate_about(c, q);
     out
 }
 

@@ -159,10 +159,7 @@ impl OccluderSpec {
     pub fn placed(&self) -> Result<shscale_geometry::Mesh, Error> {
         let mut m = crate::vocab::placed_mesh(&self.mesh, self.center, self.radius, self.up_is_y)?;
         if let Some(q) = self.turn {
-            let c = m.bounding_sphere().center;
-            for p in &mut m.positions {
-                *p = c + q * (*p - c);
-            }
+            m.rotate_about(m.bounding_sphere().center, q);
         }
         Ok(m)
     }

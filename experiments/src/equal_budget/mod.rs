@@ -11,9 +11,10 @@
 //! | `verdict` | configurations, fronts, the claim, equal accuracy, names in words | — |
 //! | `frames` | one frame of each method on spherical receivers | — |
 //! | `spheres` | the kind `budget` | `frames`, `receivers`, `surface`, `verdict` |
-//! | `receivers` | the continuous layout's radii, the occluder's orientation seeds | — |
+//! | `receivers` | the continuous layout's radii and keys, the occluder's orientation seeds, the plane's receivers by distance to the surface | `surface` (the bins) |
+//! | `surface_tests` | the continuous verdict on tables whose answers are known (tests only) | `spheres`, `surface`, `verdict` |
 //! | `surface` | the verdict and figures of receivers at every distance: distance bins, seed intervals, per-method fronts | `verdict` |
-//! | `plane` | the kind `budget_plane` | `plane_images`, `verdict` |
+//! | `plane` | the kind `budget_plane` | `plane_images`, `receivers`, `surface`, `verdict` |
 //! | `plane_images` | the plane's image measures (flicker, RMSE over a subset) and its figure | `verdict` |
 
 mod frames;
@@ -22,6 +23,8 @@ mod plane_images;
 mod receivers;
 pub mod spheres;
 mod surface;
+#[cfg(test)]
+mod surface_tests;
 mod verdict;
 
 pub use verdict::{mean_ci95, pareto};

@@ -307,30 +307,6 @@ fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate:
     }
 }
 
-/// Each receiver's distance-to-surface bin on `scene` (posed at its `pose_t`): the distance to
-/// the nearest occluder's surface, in that occluder's radii (exact point-to-triangle through its
-/// BVH; the analytic sphere's in closed form), binned as on spherical receivers.
-fn surface_bins(scene: &Scene) -> Result<Vec<usize>, Error> {
-    use rayon::prelude::*;
-    let occs = (scene.occluders.iter())
-        .map(|o| {
-            Ok((
-                shscale_scene::frame::build_occluder_at(o, scene.pose_t)?,
-                o.radius,
-            ))
-        })
-        .collect::<Result<Vec<_>, Error>>()?;
-    let grid = shscale_scene::frame::receiver_grid(scene);
-    Ok((grid.par_iter())
-        .map(|q| {
-            let d = (occs.iter())
-                .map(|(o, r)| o.distance_to_surface(*q) / r)
-                .fold(f64::INFINITY, f64::min);
-            super::surface::surface_bin(d)
-        })
-        .collect())
-}
-
 /// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
 /// applies: its timing, the cache's build seconds and the largest difference of its image from
 /// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
@@ -610,7 +586,7 @@ impl Kind for BudgetPlane {
             })
             .collect();
         let bins = (0..frames)
-            .map(|f| surface_bins(&at_frame(&scene, f, frames)))
+            .map(|f| super::receivers::plane_bins(&at_frame(&scene, f, frames)))
             .collect::<Result<Vec<_>, Error>>()?;
         let worst = |v: Vec<f64>| v.into_iter().fold(f64::NAN, f64::max);
         Ok(Shared {

@@ -1,9 +1,13 @@
-//! Where the `budget` kind's spherical receivers sit and what they look at: the continuous layout's
-//! radii (each receiver its own distance) and the occluder turned against the world-fixed sampling
-//! grids (each seed its own orientation).
+//! Where the equal-budget receivers sit and what they look at: the continuous layout's radii
+//! (each spherical receiver its own distance) and its keys, the occluder turned against the
+//! world-fixed sampling grids (each seed its own orientation), and the plane's receivers binned
+//! by their distance to the surface.
 
+use super::surface::surface_bin;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::MeshBvh;
+use shscale_runner::check::Ends;
+use shscale_runner::KeyError;
 use shscale_scene::Error;
 
 /// The receiver layout of independent radii.
@@ -26,28 +30,106 @@ pub fn continuous_radii(seed: u64, n: usize, lo: f64, hi: f64) -> Vec<f64> {
 
 /// The unit occluder of `mesh` (bounding sphere as loaded), turned by the seeded rotation of
 /// `orientation_seed` about its bounding sphere's centre (0: as loaded). The analytic sphere is
-/// the same in every orientation.
+/// the same in every orientation. One BVH build, of the turned mesh.
 pub fn oriented_occluder(
     mesh: &str,
     orientation_seed: u64,
 ) -> Result<shscale_scene::vocab::UnitOccluder, Error> {
-    let u = shscale_scene::vocab::unit_occluder(mesh)?;
-    if orientation_seed == 0 {
-        return Ok(u);
+    if orientation_seed == 0 || mesh == "sphere" {
+        return shscale_scene::vocab::unit_occluder(mesh);
     }
-    let Some(mut m) = u.mesh else {
-        return Ok(u);
-    };
-    let c = m.bounding_sphere().center;
+    let mut m = shscale_scene::vocab::placed_mesh(mesh, glam::DVec3::ZERO, 1.0, false)?;
     let q = shscale_field::truth::SplitMix(orientation_seed).rotation();
-    for p in &mut m.positions {
-        *p = c + q * (*p - c);
-    }
+    m.rotate_about(m.bounding_sphere().center, q);
     Ok(shscale_scene::vocab::UnitOccluder {
         occ: Box::new(MeshBvh::build(&m, UpdateStrategy::Rebuild)),
         analytic: None,
         mesh: Some(m),
     })
+}
+
+/// The receiver layout's keys checked: the layout named (`grid` or [`CONTINUOUS`]), the keys it
+/// does not read at their defaults (the unread-key rule: `radii` under the continuous layout,
+/// `rho_min`/`rho_max` on the grid), the continuous range inside (1, 1e3] and increasing.
+pub fn check_layout(
+    layout: &str,
+    radii_default: bool,
+    (rho_min, rho_max): (f64, f64),
+    defaults: (f64, f64),
+) -> Result<(), KeyError> {
+    match layout {
+        CONTINUOUS => {
+            if !radii_default {
+                return Err(KeyError::new(
+                    "radii",
+                    "`receiver_layout = \"continuous\"` draws each receiver's radius from [rho_min, rho_max]; `radii` must keep its default",
+                ));
+            }
+            KeyError::real("rho_min", rho_min, 1.0, 1e3, Ends::OpenClosed)?;
+            KeyError::real("rho_max", rho_max, 1.0, 1e3, Ends::OpenClosed)?;
+            if rho_max <= rho_min {
+                return Err(KeyError::new(
+                    "rho_max",
+                    format!("{rho_max} is not above rho_min = {rho_min}"),
+                ));
+            }
+            Ok(())
+        }
+        "grid" => {
+            for (key, v, dv) in [
+                ("rho_min", rho_min, defaults.0),
+                ("rho_max", rho_max, defaults.1),
+            ] {
+                if v != dv {
+                    return Err(KeyError::new(
+                        key,
+                        "read with `receiver_layout = \"continuous\"` only; the grid's radii are `radii`",
+                    ));
+                }
+            }
+            Ok(())
+        }
+        other => Err(KeyError::new(
+            "receiver_layout",
+            format!("{other:?} is not grid or continuous"),
+        )),
+    }
+}
+
+/// The continuous layout in words, for a verdict's caption: `receivers` per seed, the range of
+/// ρ − 1, the seeds.
+pub fn continuous_words(receivers: usize, (rho_min, rho_max): (f64, f64), seeds: usize) -> String {
+    // ρ − 1 to nine decimals: 1.02 − 1 prints 0.02, not 0.020000000000000018.
+    let clearance = |rho: f64| ((rho - 1.0) * 1e9).round() / 1e9;
+    format!(
+        "Spherical receivers at every distance: {receivers} per seed, each its own seeded direction and radius (ρ − 1 log-uniform over [{}, {}]), binned by distance to the surface d; contact: the receiver's direction's point on the bounding sphere is ≥ 40 % occluded; {seeds} seed(s), each its own receivers, truth seed and occluder orientation",
+        clearance(rho_min),
+        clearance(rho_max),
+    )
+}
+
+/// Each receiver of a scene's plane by its distance-to-surface bin ([`surface_bin`]), the scene
+/// posed at its `pose_t`: the distance to the nearest occluder's surface, in that occluder's
+/// radii (exact point-to-triangle through its BVH; the analytic sphere's in closed form).
+pub fn plane_bins(scene: &shscale_scene::scene::Scene) -> Result<Vec<usize>, Error> {
+    use rayon::prelude::*;
+    let occs = (scene.occluders.iter())
+        .map(|o| {
+            Ok((
+                shscale_scene::frame::build_occluder_at(o, scene.pose_t)?,
+                o.radius,
+            ))
+        })
+        .collect::<Result<Vec<_>, Error>>()?;
+    let grid = shscale_scene::frame::receiver_grid(scene);
+    Ok((grid.par_iter())
+        .map(|q| {
+            let d = (occs.iter())
+                .map(|(o, r)| o.distance_to_surface(*q) / r)
+                .fold(f64::INFINITY, f64::min);
+            surface_bin(d)
+        })
+        .collect())
 }
 
 #[cfg(test)]

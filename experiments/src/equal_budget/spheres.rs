@@ -26,7 +26,9 @@
 //! `sqrt(Σ‖S − S_true‖² / Σ‖S_occ,true‖²)`, which faint receivers do not dominate.
 
 use super::frames::{self, FrameFn};
-use super::receivers::{continuous_radii, oriented_occluder, CONTINUOUS};
+use super::receivers::{
+    check_layout, continuous_radii, continuous_words, oriented_occluder, CONTINUOUS,
+};
 use super::surface::{surface_bin, SURFACE_EDGES};
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, mean_ci95_clustered, params_of,
@@ -208,52 +210,19 @@ impl Params {
         }
     }
 
-    /// The receiver layout's keys checked: the layout named, the keys it does not read at their
-    /// defaults (the unread-key rule), the continuous range inside (1, 1e3] and increasing.
+    /// The receiver layout's keys checked ([`check_layout`]).
     fn check_receivers(&self) -> Result<(), KeyError> {
         let d = Params::default();
-        match self.receiver_layout.as_str() {
-            CONTINUOUS => {
-                if self.radii != d.radii {
-                    return Err(KeyError::new(
-                        "radii",
-                        "`receiver_layout = \"continuous\"` draws each receiver's radius from [rho_min, rho_max]; `radii` must keep its default",
-                    ));
-                }
-                KeyError::real("rho_min", self.rho_min, 1.0, 1e3, Ends::OpenClosed)?;
-                KeyError::real("rho_max", self.rho_max, 1.0, 1e3, Ends::OpenClosed)?;
-                if self.rho_max <= self.rho_min {
-                    return Err(KeyError::new(
-                        "rho_max",
-                        format!("{} is not above rho_min = {}", self.rho_max, self.rho_min),
-                    ));
-                }
-            }
-            "grid" => {
-                for (key, v, dv) in [
-                    ("rho_min", self.rho_min, d.rho_min),
-                    ("rho_max", self.rho_max, d.rho_max),
-                ] {
-                    if v != dv {
-                        return Err(KeyError::new(
-                            key,
-                            "read with `receiver_layout = \"continuous\"` only; the grid's radii are `radii`",
-                        ));
-                    }
-                }
-            }
-            other => {
-                return Err(KeyError::new(
-                    "receiver_layout",
-                    format!("{other:?} is not grid or continuous"),
-                ))
-            }
-        }
-        Ok(())
+        check_layout(
+            &self.receiver_layout,
+            self.radii == d.radii,
+            (self.rho_min, self.rho_max),
+            (d.rho_min, d.rho_max),
+        )
     }
 
     /// The method, parsed (the unread-key rule against the defaults).
-    fn spec(&self) -> Result<Spec, KeyError> {
+    pub(crate) fn spec(&self) -> Result<Spec, KeyError> {
         let rt_max = shscale_field::truth::MAX_TRUTH_RES;
         Spec::parse(&self.keys(), &Params::default().keys(), rt_max)
     }
@@ -922,140 +891,13 @@ fn splits(t: &Results) -> Vec<Split> {
 /// The receivers in words when the rows' first run has receivers at every distance (`None` on
 /// the grid).
 fn continuous_grid(t: &Results, p0: &Params) -> Option<String> {
-    (p0.receiver_layout == CONTINUOUS).then(|| format!(
-        "Spherical receivers at every distance: {} per seed, each its own seeded direction and radius (ρ − 1 log-uniform over [{}, {}]), binned by distance to the surface d; contact: the receiver's direction's point on the bounding sphere is ≥ 40 % occluded; {} seed(s), each its own receivers, truth seed and occluder orientation",
-        p0.receivers,
-        cell_text(p0.rho_min - 1.0),
-        cell_text(p0.rho_max - 1.0),
-        distinct_seeds(t),
-    ))
-}
-
-/// The distinct seeds (the seed columns' tuples) of a table.
-fn distinct_seeds(t: &Results) -> usize {
-    let mut v: Vec<String> = (0..t.rows.len())
-        .map(|r| super::surface::SEED_COLUMNS.map(|c| t.cell(r, c)).join(";"))
-        .collect();
-    v.sort();
-    v.dedup();
-    v.len()
-}
-
-/// A number in words, shortest form (0.02, 2).
-fn cell_text(x: f64) -> String {
-    let r = (x * 1e9).round() / 1e9;
-    format!("{r}")
+    (p0.receiver_layout == CONTINUOUS).then(|| {
+        let seeds = super::surface::distinct_seeds(t);
+        continuous_words(p0.receivers, (p0.rho_min, p0.rho_max), seeds)
+    })
 }
 
 /// Every row's method, parsed once from its cells.
 fn specs(t: &Results) -> Vec<Option<Spec>> {
     specs_of::<Params>(t, |p| p.spec().ok())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The continuous verdict on a table whose answer is known: a cheap ray tracer beats the
-    /// papers' extrapolation under its rays by a gap far outside the seeds' spread, a full field
-    /// ties the winner (paired gaps averaging 0.01 with a spread of 0.03), a fine ray tracer
-    /// beyond the cap wins at any budget; the intervals are the t ones computed by hand.
-    #[test]
-    fn the_continuous_verdict_finds_the_winner_its_interval_and_the_tie() {
-        use super::super::verdict::{Config, Split};
-        let spec = |f: &dyn Fn(&mut Params)| {
-            let mut p = Params::default();
-            f(&mut p);
-            p.spec().unwrap()
-        };
-        let papers = spec(&|p| p.hemisphere_res = 16);
-        let rt2 = spec(&|p| {
-            p.method = "ray_traced".into();
-            p.rt_res = 2;
-            p.layout = "latlong:12x20".into();
-            p.hemisphere_res = 32;
-        });
-        let rt16 = spec(&|p| {
-            p.method = "ray_traced".into();
-            p.rt_res = 16;
-        });
-        let ff = spec(&|p| p.method = "full_field".into());
-        let columns: Vec<String> = [
-            "probe_seed",
-            "truth_seed",
-            "orientation_seed",
-            "rays",
-            "frame_seconds",
-            "memory_bytes",
-            "occ_rel_l2_mean",
-            "frame_seconds_hi",
-        ]
-        .map(String::from)
-        .to_vec();
-        let mut rows = Vec::new();
-        let mut configs = Vec::new();
-        let table: [(Spec, [f64; 3], [f64; 5]); 4] = [
-            (papers, [61440.0, 1.0, 1e3], [0.30, 0.31, 0.29, 0.30, 0.30]),
-            (rt2, [1e3, 0.5, 0.0], [0.20, 0.21, 0.19, 0.20, 0.20]),
-            (rt16, [1e6, 9.0, 0.0], [0.05, 0.05, 0.05, 0.05, 0.05]),
-            (ff, [5e4, 0.9, 5e2], [0.21, 0.26, 0.16, 0.23, 0.19]),
-        ];
-        for (spec, [rays, secs, bytes], errs) in table {
-            let mut mine = Vec::new();
-            for (s, e) in errs.iter().enumerate() {
-                mine.push(rows.len());
-                let cells = [
-                    s as f64,
-                    10.0 + s as f64,
-                    20.0 + s as f64,
-                    rays,
-                    secs,
-                    bytes,
-                    *e,
-                    secs * 1.01,
-                ];
-                rows.push(cells.map(|x| x.to_string()).to_vec());
-            }
-            configs.push(Config { rows: mine, spec });
-        }
-        let t = Results { columns, rows };
-        let splits = vec![Split {
-            label: "N = 4".into(),
-            groups: vec![("duck".into(), configs)],
-        }];
-        let regimes = vec![("occ_rel_l2_mean".to_string(), "all receivers".to_string())];
-        let v = super::super::surface::verdict(&t, &splits, &regimes, "test");
-        println!("{v}");
-        let line = v.lines().find(|l| l.contains("all receivers")).unwrap();
-        let cells: Vec<&str> = line.split(" | ").collect();
-        // Rays, time, bytes (the ray tracer holds no bytes: T = 16 fits), any.
-        assert_eq!(cells[2], "ray_traced: duck~ — 0.200", "{line}");
-        assert_eq!(cells[3], "ray_traced: duck~ — 0.200", "{line}");
-        assert_eq!(
-            cells[4].trim_end_matches(" |"),
-            "ray_traced: duck — 0.050",
-            "{line}"
-        );
-        assert!(cells[5].starts_with("ray_traced: duck — 0.050"), "{line}");
-        // Two orders: one row per regime, each cell both orders' answers, labelled.
-        let two: Vec<Split> = ["N = 4", "N = 6"]
-            .map(|label| Split {
-                label: label.into(),
-                groups: splits[0].groups.clone(),
-            })
-            .into();
-        let v2 = super::super::surface::verdict(&t, &two, &regimes, "test");
-        let rows2: Vec<&str> = v2.lines().filter(|l| l.contains("all receivers")).collect();
-        assert_eq!(rows2.len(), 1, "{v2}");
-        let want2 = "| N = 4, N = 6 | all receivers | **N = 4** ray_traced: duck~ — 0.200 **N = 6** ray_traced: duck~ — 0.200 |";
-        assert!(rows2[0].starts_with(want2), "{v2}");
-        let full = super::super::surface::tables(&t, &splits, &regimes, "test");
-        println!("{full}");
-        // s = √(5e-5), t_{0.975,4} = 2.776: ± 2.776·s/√5 = 0.009; the gap 0.010 ± 0.039.
-        let h = 2.776 * 5e-5f64.sqrt() / 5f64.sqrt();
-        let want = format!("ray tracing, T = 2 0.200 ± {h:.3}; full_field +0.010 ± 0.039 **tie**");
-        let fine = "ray tracing, T = 16 0.050 ± 0.000; full_field +0.160 ± 0.047";
-        assert!(full.contains(&want), "{full}\nwant {want}");
-        assert!(full.contains(fine), "{full}\nwant {fine}");
-    }
 }

@@ -62,6 +62,14 @@ fn seed_of(t: &Results, r: usize) -> String {
     SEED_COLUMNS.map(|c| t.cell(r, c)).join(";")
 }
 
+/// The distinct seeds of a table.
+pub fn distinct_seeds(t: &Results) -> usize {
+    let mut v: Vec<String> = (0..t.rows.len()).map(|r| seed_of(t, r)).collect();
+    v.sort();
+    v.dedup();
+    v.len()
+}
+
 /// A configuration's per-seed values of `col` (finite only), by seed.
 fn per_seed(t: &Results, c: &Config, col: &str) -> BTreeMap<String, f64> {
     (c.rows.iter())
