@@ -41,7 +41,6 @@ pub struct CachedPlane {
     occ: Box<dyn Occluder>,
     sampler: VisibilitySampler,
     transfer: [Vec<f64>; 3],
-    receivers: usize,
     cache: Cache,
     /// Seconds to build the cache (with its first sampling and, for extrapolation, its table).
     pub build_seconds: f64,
@@ -51,16 +50,7 @@ impl CachedPlane {
     /// Set up `method` on `scene` (posed at its `pose_t`) with its cache; `None` where no cached
     /// path applies (module docs).
     pub fn new(scene: &Scene, method: Method) -> Result<Option<Self>, Error> {
-        let applies = scene.occluders.len() == 1
-            && scene.light_sources.is_empty()
-            && match method {
-                Method::Extrapolated => {
-                    scene.plausibility == Plausibility::None && scene.radial == RadialRule::Uniform
-                }
-                Method::FullField => true,
-                _ => false,
-            };
-        if !applies {
+        if !Self::applies(scene, method) {
             return Ok(None);
         }
         let t0 = Instant::now();
@@ -88,28 +78,43 @@ impl CachedPlane {
             occ,
             sampler,
             transfer,
-            receivers: recv.len(),
             cache,
             build_seconds: t0.elapsed().as_secs_f64(),
         }))
     }
 
+    /// Whether `method` on `scene` has a cached path (module docs): one occluder, no local
+    /// lights, the full field, or the extrapolation without the clamp on its sampling sphere.
+    pub fn applies(scene: &Scene, method: Method) -> bool {
+        scene.occluders.len() == 1
+            && scene.light_sources.is_empty()
+            && match method {
+                Method::Extrapolated => {
+                    scene.plausibility == Plausibility::None && scene.radial == RadialRule::Uniform
+                }
+                Method::FullField => true,
+                _ => false,
+            }
+    }
+
     /// One frame: the field re-sampled, every receiver shaded from the cache (row-major
     /// irradiance, as [`crate::render::RenderOutput::pixels`]).
     pub fn frame(&self) -> Result<Vec<[f64; 3]>, Error> {
-        let mut out = vec![[0.0; 3]; self.receivers];
-        match &self.cache {
+        Ok(match &self.cache {
             Cache::Extrapolated(cache) => {
                 let bsv = sample_bsv(&self.scene, self.occ.as_ref(), &self.sampler)?;
+                let mut out = vec![[0.0; 3]; cache.len()];
                 cache.shade(&bsv, &mut out);
+                out
             }
             Cache::Full { shells, cache } => {
                 let field =
                     FullField::build(self.occ.as_ref(), self.scene.layout, &self.sampler, shells)?;
+                let mut out = vec![[0.0; 3]; cache.len()];
                 cache.shade(&field, &self.transfer, &mut out);
+                out
             }
-        }
-        Ok(out)
+        })
     }
 }
 

@@ -298,9 +298,7 @@ pub const MAX_FRAMES: usize = 64;
 /// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
 /// re-sampling's rays at the rate (its shading is a few dot products per receiver).
 fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate: f64) -> f64 {
-    let sampled = matches!(method, Method::Extrapolated | Method::FullField);
-    let one = scene.occluders.len() == 1 && scene.light_sources.is_empty();
-    if frames == 1 && sampled && one {
+    if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, method) {
         rays / rate
     } else {
         0.0
