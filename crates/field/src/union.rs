@@ -289,16 +289,18 @@ impl<'a> SphereSetUnion<'a> {
 }
 
 /// The arc from `lo` counter-clockwise to `hi` (half-width h, `c = cos h` in (−1, 1)) onto
-/// `bucket`, split at φ = 0 where it crosses it, by the ends' pseudo-angles ([`pseudo_angle`]:
-/// an arc of exactly π spans 2). An arc narrower than π (c > 0) crosses when `lo` sorts more
-/// than 2 after `hi` (its ends in the fourth and first quadrants) and is whole when `hi` sorts
-/// less than 2 after `lo`; any other order is a rounding reversal of a near-empty arc (at the
-/// seam φ = 0 it would read as a near-full one) and is dropped. An arc of π or more crosses when
-/// `lo` sorts after `hi` at all.
+/// `bucket`, split at φ = 0 where it crosses it, by the ends' key difference `d` ([`pseudo_angle`]:
+/// an arc of exactly π spans 2, the turn 4). An arc narrower than π (c > 0) spans d in (0, 2)
+/// when whole and d − 4 in (−4, −2) when it crosses; rounding moves d by a few ulps, so the
+/// split is read with slack: it crosses when d < −1, is whole when 0 ≤ d < 3 (an arc a hair
+/// under π whose keys rounded to d ≥ 2 is kept), and any other d is a rounding reversal of a
+/// near-empty arc — d just under 0, or just under 4 at the seam φ = 0, where it would read as a
+/// near-full one — and is dropped. An arc of π or more crosses when `lo` sorts after `hi` at
+/// all (its ends are at least ~1e-8 apart: `c` within an ulp of −1 is √(2·2⁻⁵³) from it).
 fn push_arc(bucket: &mut Vec<Arc>, lo: End, hi: End, c: f64) {
     let d = hi.key - lo.key;
     let (crosses, whole) = if c > 0.0 {
-        (d < -2.0, (0.0..2.0).contains(&d))
+        (d < -1.0, (0.0..3.0).contains(&d))
     } else {
         (d < 0.0, d >= 0.0)
     };
@@ -664,9 +666,6 @@ mod tests {
         assert_eq!(FULL_RING.1.angle(), TAU);
     }
 
-    /// An arc across φ = 0 splits there; one just off it does not; an arc reversed by rounding
-    /// alone is dropped, not taken for a near-full ring; a wide arc across 0 splits however
-    /// close its ends.
     #[test]
     fn caps_sort_by_azimuth_through_packed_keys_as_by_their_keys() {
         // Caps of spheres all round the origin (keys over [0, 4)), some sharing an azimuth
@@ -707,6 +706,9 @@ mod tests {
         assert!(many.windows(2).all(|w| w[0].key_u <= w[1].key_u));
     }
 
+    /// An arc across φ = 0 splits there; one just off it does not; an arc reversed by rounding
+    /// alone is dropped, not taken for a near-full ring; a wide arc across 0 splits however
+    /// close its ends.
     #[test]
     fn arcs_split_where_they_cross_zero() {
         let mut b = Vec::new();
@@ -747,5 +749,23 @@ mod tests {
             add_trig_integrals(lo, hi, run_length(lo, hi, h), &mut c, &mut s);
         }
         assert!((c[0] - 2.0 * h).abs() < 1e-12, "{}", c[0]);
+        // Arcs a hair under π (c a rounding above 0) whose keys span 2 or a few ulps over: kept
+        // whole (away from the seam) or split (across it), never dropped.
+        for (lo, hi) in [
+            (End::of(0.0, 1.0), End::of(-1e-17, -1.0)),
+            (End::of(0.0, 1.0), End::of(1e-17, -1.0)),
+            (End::of(-1.0, 1e-17), End::of(1.0, -1e-17)),
+            (End::of(0.0, -1.0), End::of(1e-17, 1.0)),
+        ] {
+            b.clear();
+            let c_h = 1e-17;
+            push_arc(&mut b, lo, hi, c_h);
+            let (mut c, mut s) = (vec![0.0; 1], vec![0.0; 1]);
+            for &(lo, hi, h) in &b {
+                add_trig_integrals(lo, hi, run_length(lo, hi, h), &mut c, &mut s);
+            }
+            println!("key span {}: length {}", hi.key - lo.key, c[0]);
+            assert!((c[0] - PI).abs() < 1e-12, "a half ring became {}", c[0]);
+        }
     }
 }
