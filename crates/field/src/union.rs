@@ -97,6 +97,14 @@ impl RingGrid {
         self.order
     }
 
+    /// The Gauss–Legendre rule of `k` ≤ [`Self::rings`] nodes on u ∈ [0, π], ascending in u, as
+    /// `(cos u, w·sin u)` — what a panel of `k` rings maps by `z = mid − half·cos u` (the GPU's
+    /// union reads its rules from here).
+    pub fn rule(&self, k: usize) -> (&[f64], &[f64]) {
+        let (c, w) = &self.rules[k];
+        (c, w)
+    }
+
     /// Bytes the grid holds.
     pub fn size_bytes(&self) -> usize {
         self.rings * (self.rings + 1) * 8
@@ -482,7 +490,7 @@ fn sort_by_azimuth(caps: &mut Vec<Cap>, sorted: &mut Vec<Cap>, order: &mut Vec<u
 }
 
 /// The fewest rings per panel.
-const PANEL_RINGS: usize = 4;
+pub const PANEL_RINGS: usize = 4;
 
 /// The rings (heights `z`, ascending, and weights `w` in z) for `caps`: their z-range
 /// `[z₀, z₁]`, cut into panels at every cap's z-extremes (each a square-root edge of the

@@ -120,8 +120,10 @@ gpu_struct! {
         entries: u32 => "u32",
         /// Shaded channels (1 grey, 3 RGB).
         channels: u32 => "u32",
-        pad0: u32 => "u32",
-        pad1: u32 => "u32",
+        /// The union's z-rings (≤ 32; 0 for the product chain) and the fewest rings a panel
+        /// takes.
+        rings: u32 => "u32",
+        panel_rings: u32 => "u32",
     }
 }
 

@@ -2,18 +2,26 @@
 //! spheres multiplied near to far with the order-N Gaunt product, shaded with the light's
 //! transfer — the twin of the CPU's `SphereVisibility` fields through `near_to_far` and
 //! `Shader::shade` (sphereset.wgsl). Built once per receiver set and light ([`GpuSphereSet`]);
-//! per frame only the spheres (refitted to the posed mesh on the host) are uploaded. The plain
-//! chain only (internal order = N); at most [`MAX_GPU_SPHERES`] spheres; `N ≤ 8`.
+//! per frame only the spheres (refitted to the posed mesh on the host) are uploaded. Two
+//! combinations: the plain chain (internal order = N, [`GpuSphereSet::new`]) and the exact union
+//! of the caps ([`GpuSphereSet::union`], union.wgsl: the CPU's `SphereSetUnion` ring by ring in
+//! f32, shaded against the light's transfer taken into the union's local frame by an exact
+//! quadrature); at most [`MAX_GPU_SPHERES`] spheres; `N ≤ 8`.
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::layout::{shader, GpuSetParams, SH_WGSL};
 use crate::timing::{grid_64, StageTimer};
 use glam::DVec3;
+use shscale_field::union::RingGrid;
 use shscale_geometry::Sphere;
 use shscale_sh::GauntTensor;
 
 const SPHERESET_WGSL: &str = include_str!("sphereset.wgsl");
+const UNION_WGSL: &str = include_str!("union.wgsl");
+
+/// The most z-rings the GPU union takes (its private arrays' size).
+pub const MAX_GPU_RINGS: usize = 32;
 
 /// The most spheres the kernel sorts and multiplies per receiver.
 pub const MAX_GPU_SPHERES: usize = 64;
@@ -23,12 +31,19 @@ pub fn source() -> String {
     shader(&[SH_WGSL, SPHERESET_WGSL])
 }
 
+/// The union kernel's source.
+pub fn union_source() -> String {
+    shader(&[SH_WGSL, UNION_WGSL])
+}
+
 /// A receiver set and light on the GPU, shaded from a sphere set per frame.
 pub struct GpuSphereSet {
     receivers: usize,
     order: usize,
     channels: usize,
     entries: usize,
+    /// The union's rings (0: the product chain).
+    rings: usize,
     params_buf: wgpu::Buffer,
     spheres_buf: wgpu::Buffer,
     image_buf: wgpu::Buffer,
@@ -38,14 +53,68 @@ pub struct GpuSphereSet {
 
 impl GpuSphereSet {
     /// Receivers at `points`, light transfer `transfer` (per channel, N² each; grey when the
-    /// three are equal), order N of `gaunt`.
+    /// three are equal), the caps multiplied near to far at the order N of `gaunt`.
     pub fn new(
         ctx: &GpuContext,
         points: &[DVec3],
         transfer: &[Vec<f64>; 3],
         gaunt: &GauntTensor<f64>,
     ) -> Result<Self, GpuError> {
-        let order = gaunt.order();
+        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
+            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
+            .collect();
+        let table = ctx.storage_init("set gaunt", bytemuck::cast_slice(&g));
+        let pipe = ctx.pipeline("sphere set", &source(), "shade_set");
+        Self::build(
+            ctx,
+            points,
+            transfer,
+            gaunt.order(),
+            (g.len(), 0),
+            (pipe, table),
+        )
+    }
+
+    /// Receivers at `points`, light transfer `transfer` (as [`Self::new`]), the caps combined as
+    /// their exact union with the rings of `grid` (at most [`MAX_GPU_RINGS`]) at its order.
+    pub fn union(
+        ctx: &GpuContext,
+        points: &[DVec3],
+        transfer: &[Vec<f64>; 3],
+        grid: &RingGrid,
+    ) -> Result<Self, GpuError> {
+        let (order, rings) = (grid.order(), grid.rings());
+        if rings > MAX_GPU_RINGS {
+            return Err(GpuError::Input(format!(
+                "{rings} rings: the GPU union takes at most {MAX_GPU_RINGS}"
+            )));
+        }
+        // The ring rules of 1..=rings nodes, then the order-N Gauss–Legendre rule in z.
+        let mut rules: Vec<[f32; 2]> = Vec::new();
+        for k in 1..=rings {
+            let (c, w) = grid.rule(k);
+            rules.extend(c.iter().zip(w).map(|(c, w)| [*c as f32, *w as f32]));
+        }
+        rules.extend(
+            shscale_sh::GaussLegendre::new(order)
+                .on(-1.0, 1.0)
+                .map(|(z, w)| [z as f32, w as f32]),
+        );
+        let table = ctx.storage_init("union rules", bytemuck::cast_slice(&rules));
+        let pipe = ctx.pipeline("sphere set union", &union_source(), "shade_union");
+        Self::build(ctx, points, transfer, order, (0, rings), (pipe, table))
+    }
+
+    /// The buffers and bind group of either kernel: `(entries, rings)` of the kernel's table
+    /// (the Gaunt tensor's entries, or the union's rings), its pipeline and table.
+    fn build(
+        ctx: &GpuContext,
+        points: &[DVec3],
+        transfer: &[Vec<f64>; 3],
+        order: usize,
+        (entries, rings): (usize, usize),
+        (pipe, table): (wgpu::ComputePipeline, wgpu::Buffer),
+    ) -> Result<Self, GpuError> {
         crate::sampling::check_gpu_order(order)?;
         let nn = order * order;
         if points.is_empty() || transfer.iter().any(|t| t.len() != nn) {
@@ -63,9 +132,6 @@ impl GpuSphereSet {
         let pts: Vec<[f32; 4]> = (points.iter())
             .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
             .collect();
-        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
-            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
-            .collect();
         let t: Vec<f32> = (transfer[..channels].iter())
             .flat_map(|c| c.iter().map(|&v| v as f32))
             .collect();
@@ -73,8 +139,10 @@ impl GpuSphereSet {
             receivers: points.len() as u32,
             order: order as u32,
             nn: nn as u32,
-            entries: g.len() as u32,
+            entries: entries as u32,
             channels: channels as u32,
+            rings: rings as u32,
+            panel_rings: shscale_field::union::PANEL_RINGS as u32,
             ..Default::default()
         };
         use wgpu::util::DeviceExt;
@@ -87,21 +155,19 @@ impl GpuSphereSet {
             });
         let points_buf = ctx.storage_init("set points", bytemuck::cast_slice(&pts));
         let spheres_buf = ctx.storage("set spheres", (16 * MAX_GPU_SPHERES) as u64);
-        let gaunt_buf = ctx.storage_init("set gaunt", bytemuck::cast_slice(&g));
         let transfer_buf = ctx.storage_init("set transfer", bytemuck::cast_slice(&t));
         let knorm_buf = ctx.storage_init(
             "knorm",
             bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
         );
         let image_buf = ctx.storage("set image", (16 * points.len()) as u64);
-        let pipe = ctx.pipeline("sphere set", &source(), "shade_set");
         let bind = ctx.bind(
             &pipe,
             &[
                 &params_buf,
                 &points_buf,
                 &spheres_buf,
-                &gaunt_buf,
+                &table,
                 &transfer_buf,
                 &knorm_buf,
                 &image_buf,
@@ -111,7 +177,8 @@ impl GpuSphereSet {
             receivers: points.len(),
             order,
             channels,
-            entries: g.len(),
+            entries,
+            rings,
             params_buf,
             spheres_buf,
             image_buf,
@@ -147,7 +214,8 @@ impl GpuSphereSet {
             spheres: s.len() as u32,
             entries: self.entries as u32,
             channels: self.channels as u32,
-            ..Default::default()
+            rings: self.rings as u32,
+            panel_rings: shscale_field::union::PANEL_RINGS as u32,
         };
         let t0 = std::time::Instant::now();
         ctx.queue

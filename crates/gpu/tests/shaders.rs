@@ -10,6 +10,8 @@ fn every_shader_parses_with_naga() {
         ("sh_eval", shscale_gpu::sampling::sh_test_source()),
         ("shading", shscale_gpu::shading::source()),
         ("cache", shscale_gpu::shading::cache_source()),
+        ("sphere set", shscale_gpu::sphereset::source()),
+        ("sphere set union", shscale_gpu::sphereset::union_source()),
     ] {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));

@@ -5,8 +5,10 @@
 //! by the methods, outside the times).
 //!
 //! A method is given as a *variant*: `name[:key=value,…]` with `parts=P` (sub-volumes, sphere
-//! sets), `s=S` (the sampling radius, in bounding radii) or `clearance=D` (per-direction radii,
-//! `radial = "clearance"` with δ = D) — e.g. `sphere_set:parts=16`, `extrapolated:s=1.2`.
+//! sets), `s=S` (the sampling radius, in bounding radii), `clearance=D` (per-direction radii,
+//! `radial = "clearance"` with δ = D) or `combine=C` (how a sphere set combines its spheres,
+//! `sphere_combine`) — e.g. `sphere_set:parts=16`, `extrapolated:s=1.2`,
+//! `sphere_set:parts=16,combine=union`.
 
 use crate::error::Error;
 use crate::method::Method;
@@ -17,8 +19,9 @@ use shscale_field::bsv::RadialRule;
 use shscale_gpu::timing::median;
 
 /// The variants `--methods` runs when given `default`: the papers' method and full field, the
-/// extrapolation's inflation and clearance radii, sub-volumes, sphere sets at two sizes.
-pub const DEFAULT_VARIANTS: &str = "extrapolated,full_field,extrapolated:s=1.2,extrapolated:clearance=0.1,sub_volumes:parts=2,sphere_set:parts=4,sphere_set:parts=16";
+/// extrapolation's inflation and clearance radii, sub-volumes, sphere sets at two sizes by the chain
+/// and at the larger by the exact union of their caps.
+pub const DEFAULT_VARIANTS: &str = "extrapolated,full_field,extrapolated:s=1.2,extrapolated:clearance=0.1,sub_volumes:parts=2,sphere_set:parts=4,sphere_set:parts=16,sphere_set:parts=16,combine=union";
 
 /// The most variants one bench takes.
 pub const MAX_VARIANTS: usize = 16;
@@ -32,6 +35,8 @@ pub struct Variant {
     pub parts: Option<usize>,
     pub sampling_radius: Option<f64>,
     pub clearance: Option<f64>,
+    /// `combine=`: the sphere set's combination.
+    pub sphere_combine: Option<crate::combine::Combine>,
 }
 
 impl Variant {
@@ -51,11 +56,25 @@ impl Variant {
             parts: None,
             sampling_radius: None,
             clearance: None,
+            sphere_combine: None,
         };
         for kv in keys.split(',').filter(|k| !k.trim().is_empty()) {
             let (k, val) = kv
                 .split_once('=')
                 .ok_or_else(|| format!("{text:?}: {kv:?} is not key=value"))?;
+            if k.trim() == "combine" {
+                if method != Method::SphereSet {
+                    return Err(format!("{text:?}: {name} does not read combine"));
+                }
+                let c = crate::combine::Combine::parse(val.trim()).ok_or_else(|| {
+                    format!(
+                        "{text:?}: combine={val:?} is not one of {}",
+                        crate::combine::Combine::NAMES.join(", ")
+                    )
+                })?;
+                v.sphere_combine = Some(c);
+                continue;
+            }
             let num: f64 = val
                 .trim()
                 .parse()
@@ -69,7 +88,7 @@ impl Variant {
                 "clearance" => method == Method::Extrapolated,
                 other => {
                     return Err(format!(
-                        "{text:?}: unknown key {other:?} (parts, s, clearance)"
+                        "{text:?}: unknown key {other:?} (parts, s, clearance, combine)"
                     ))
                 }
             };
@@ -148,6 +167,9 @@ impl Variant {
         }
         if let Some(d) = self.clearance {
             s.radial = RadialRule::Clearance { delta: d };
+        }
+        if let Some(c) = self.sphere_combine {
+            s.sphere_combine = c;
         }
         s
     }
@@ -445,8 +467,10 @@ mod tests {
     #[test]
     fn variants_parse_and_refuse_what_a_method_does_not_read() {
         let v = Variant::parse_list("default").unwrap();
-        assert_eq!(v.len(), 7);
+        assert_eq!(v.len(), 8);
         assert_eq!(v[6].parts, Some(16));
+        let union = Some(crate::combine::Combine::Union);
+        assert_eq!((v[7].parts, v[7].sphere_combine), (Some(16), union));
         assert_eq!(v[2].sampling_radius, Some(1.2));
         assert_eq!(v[3].clearance, Some(0.1));
         let two = Variant::parse_list("sphere_set:parts=8,s=1.1 , extrapolated").unwrap_err();
@@ -454,6 +478,9 @@ mod tests {
         let ok = Variant::parse_list("sub_volumes:parts=3,s=1.1,ray_traced").unwrap();
         assert_eq!((ok[0].parts, ok[0].sampling_radius), (Some(3), Some(1.1)));
         assert_eq!(ok[1].method, Method::RayTraced);
+        let u = Variant::parse_list("sphere_set:parts=16,combine=union").unwrap();
+        let union = Some(crate::combine::Combine::Union);
+        assert_eq!((u[0].parts, u[0].sphere_combine), (Some(16), union));
         for (bad, needle) in [
             ("sphere_set:parts=0", "parts=0"),
             ("sphere_set:parts=2.5", "parts=2.5"),
@@ -463,6 +490,8 @@ mod tests {
             ("full_frequency", "reference"),
             ("nope", "nope"),
             ("extrapolated:s", "key=value"),
+            ("sphere_set:combine=sum", "combine=\"sum\""),
+            ("extrapolated:combine=union", "does not read combine"),
             ("", "0 variants"),
         ] {
             let e = Variant::parse_list(bad).unwrap_err();

@@ -1,18 +1,20 @@
 //! Sphere sets on the GPU path (`render --frames --method sphere_set --gpu`): per frame the
 //! mesh is posed and one sphere fitted per part on the host (the partition made once, on the
 //! rest pose, as the CPU render makes it), then every receiver is shaded on the GPU from the
-//! spheres' closed-form caps multiplied near to far (`shscale_gpu::sphereset`). The image of a
-//! frame is the CPU render's of the same pose within f32 rounding (tested on lavapipe).
+//! spheres' closed-form caps multiplied near to far, or combined as their exact union
+//! (`sphere_combine = "union"`; `shscale_gpu::sphereset`). The image of a frame is the CPU
+//! render's of the same pose within f32 rounding (tested on lavapipe).
 //!
-//! Scope: the plain chain (`sphere_order` at most the scene's order), `N ≤ 8`, at most
-//! [`MAX_GPU_SPHERES`] spheres over all occluders, no local lights; anything else is refused by
-//! name.
+//! Scope: the plain chain (`sphere_order` at most the scene's order) and the union
+//! ([`crate::method::UNION_RINGS`] rings), `N ≤ 8`, at most [`MAX_GPU_SPHERES`] spheres over
+//! all occluders, no local lights; anything else is refused by name.
 
 use crate::error::Error;
 use crate::frame::{light_of, receiver_grid, Poser};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use shscale_field::shading::Shader;
+use shscale_field::union::RingGrid;
 use shscale_geometry::{Mesh, Sphere};
 use shscale_gpu::sphereset::{GpuSphereSet, MAX_GPU_SPHERES};
 use shscale_gpu::GpuContext;
@@ -69,12 +71,13 @@ struct PosedParts {
 
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
-    let why = if scene.sphere_combine != crate::combine::Combine::Product {
+    use crate::combine::Combine;
+    let why = if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
         Some(format!(
-            "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain",
+            "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain or the union",
             scene.sphere_combine.name()
         ))
-    } else if scene.sphere_order > scene.order {
+    } else if scene.sphere_combine == Combine::Product && scene.sphere_order > scene.order {
         Some(format!(
             "sphere_order {} multiplies above the scene's order; the GPU sphere set is the plain chain",
             scene.sphere_order
@@ -136,10 +139,16 @@ pub fn render_sequence_sphere_set_gpu(
     let light = light_of(scene)?;
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, glam::DVec3::Z);
-    let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
-        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
     let recv = receiver_grid(scene);
-    let gpu = GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?;
+    let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+    let gpu = if scene.sphere_combine == crate::combine::Combine::Union {
+        let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
+        let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
+        GpuSphereSet::union(ctx, &recv, &transfer, &grid)?
+    } else {
+        let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+        GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?
+    };
     let mut stats = Vec::with_capacity(frames);
     let mut pixels = Vec::new();
     for f in 0..frames {

@@ -283,31 +283,15 @@ fn every_method_renders_sequences_frame_by_frame() {
     );
 }
 
-/// Sphere sets on the GPU path against the CPU render of the same pose, frame by frame: a
-/// flapping bird of 4 spheres and three static analytic spheres, one cutting the receiver plane
-/// (receivers inside it see nothing) and one 10⁴ radii away (a cap of 1e-4 rad; 7 spheres
-/// multiplied near to far),
-/// 3 frames; the worst difference over every pixel and channel, relative to the brightest CPU
-/// pixel, printed and bounded by f32 rounding. Skips with a notice without an adapter unless
-/// `SHSCALE_REQUIRE_GPU=1`.
-#[test]
-fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
+/// The GPU sphere-set sequence of `s` (3 frames) against the CPU render of each pose: the worst
+/// difference over every pixel and channel, relative to the brightest CPU pixel. Checks on the
+/// way that receivers inside the plane-cutting sphere see nothing on both paths and that the
+/// frames move with the wings.
+fn gpu_sets_vs_cpu(s: &Scene, ctx: &shscale_gpu::GpuContext) -> f32 {
     use shscale_scene::gpu_sets::render_sequence_sphere_set_gpu;
-    let ctx = match shscale_gpu::GpuContext::new() {
-        Ok(c) => c,
-        Err(e) => {
-            assert!(!shscale_gpu::require_gpu_from_env(), "{e}");
-            eprintln!("notice: {e}; the GPU sphere-set parity test is skipped");
-            return;
-        }
-    };
-    let mut s = scene(
-        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 3000]\nradius = 0.3\n",
-    );
-    s.parts = 4;
     let mut frames = Vec::new();
     let (last, stats) =
-        render_sequence_sphere_set_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
+        render_sequence_sphere_set_gpu(s, 3, ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
             .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
@@ -333,12 +317,51 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
         assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
     }
     println!(
-        "GPU sphere sets vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
+        "GPU sphere sets ({}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
+        s.sphere_combine.name(),
         frames[0].1.len(),
         ctx.describe()
     );
+    worst
+}
+
+/// The scene of the GPU sphere-set parity tests: a flapping bird of 4 spheres and three static
+/// analytic spheres, one cutting the receiver plane (receivers inside it see nothing) and one
+/// 10⁴ radii away (a cap of 1e-4 rad).
+fn sphere_set_scene() -> Scene {
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 3000]\nradius = 0.3\n",
+    );
+    s.parts = 4;
+    s
+}
+
+/// The adapter, or `None` with a notice (a failure under `SHSCALE_REQUIRE_GPU=1`).
+fn gpu_or_skip(what: &str) -> Option<shscale_gpu::GpuContext> {
+    match shscale_gpu::GpuContext::new() {
+        Ok(c) => Some(c),
+        Err(e) => {
+            assert!(!shscale_gpu::require_gpu_from_env(), "{e}");
+            eprintln!("notice: {e}; the {what} test is skipped");
+            None
+        }
+    }
+}
+
+/// Sphere sets on the GPU path against the CPU render of the same pose, frame by frame (7
+/// spheres multiplied near to far, 3 frames of [`sphere_set_scene`]); bounded by f32 rounding.
+/// Skips with a notice without an adapter unless `SHSCALE_REQUIRE_GPU=1`.
+#[test]
+fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
+    use shscale_scene::gpu_sets::render_sequence_sphere_set_gpu;
+    let Some(ctx) = gpu_or_skip("GPU sphere-set parity") else {
+        return;
+    };
+    let s = sphere_set_scene();
+    let worst = gpu_sets_vs_cpu(&s, &ctx);
     assert!(worst < 1e-4, "{worst}");
-    // Refused by name: a higher internal order, too many spheres.
+    // Refused by name: a higher internal order, too many spheres, a combination without a GPU
+    // form.
     let mut high = s.clone();
     high.sphere_order = 8;
     let e = render_sequence_sphere_set_gpu(&high, 1, &ctx, &mut |_, _| ())
@@ -351,7 +374,36 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
         .err()
         .expect("refused");
     assert!(e.to_string().contains("at most 64 spheres"), "{e}");
+    let mut shexp = s.clone();
+    shexp.sphere_combine = shscale_scene::combine::Combine::Shexp;
+    let e = render_sequence_sphere_set_gpu(&shexp, 1, &ctx, &mut |_, _| ())
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("sphere_combine \"shexp\""), "{e}");
 }
+
+/// The union of the caps on the GPU (f32, the light's transfer taken into the union's frame by
+/// quadrature) against the CPU's union (f64, the SH rotation), frame by frame, on
+/// [`sphere_set_scene`] and at N = 8 with 16 spheres a part; bounded by f32 rounding. Skips as
+/// the test above.
+#[test]
+fn gpu_sphere_set_unions_match_the_cpu_render_frame_by_frame() {
+    let Some(ctx) = gpu_or_skip("GPU sphere-set union parity") else {
+        return;
+    };
+    let mut s = sphere_set_scene();
+    s.sphere_combine = shscale_scene::combine::Combine::Union;
+    let worst = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(worst < UNION_GPU_TOL, "{worst}");
+    s.order = 8;
+    s.parts = 16;
+    let worst = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(worst < UNION_GPU_TOL, "{worst}");
+}
+
+/// The GPU union's tolerance, relative to the brightest pixel: f32 rounding of the caps'
+/// half-widths (`cos h` from a difference of products, then `acos`) and of the rings' sums.
+const UNION_GPU_TOL: f32 = 1e-4;
 
 /// A turned deforming occluder deforms in its own frame and is turned after: its posed mesh is
 /// the turn of the unturned occluder's posed mesh (to rounding), and its rest pose the turn of
