@@ -623,8 +623,8 @@ fn bsv_rays_are_written_for_a_peer() {
 
 /// `bench --methods --gpu`: a GPU row beside the CPU row for a method with a GPU form; the GPU
 /// sphere set's per-frame error equals the CPU's within f32 rounding (the same spheres, the same
-/// caps and products). Without an adapter the CPU rows alone (a notice), unless
-/// `SHSCALE_REQUIRE_GPU=1`.
+/// caps and products — or the same union of the caps). Without an adapter the CPU rows alone (a
+/// notice), unless `SHSCALE_REQUIRE_GPU=1`.
 #[test]
 fn table1_per_method_gpu_rows() {
     let v = common::json(&[
@@ -632,7 +632,7 @@ fn table1_per_method_gpu_rows() {
         "--scene",
         "egg",
         "--methods",
-        "sphere_set:parts=2",
+        "sphere_set:parts=2,sphere_set:parts=2,combine=union",
         "--errors",
         "--gpu",
         "--frames",
@@ -643,17 +643,29 @@ fn table1_per_method_gpu_rows() {
         "json",
     ]);
     let rows = v.as_array().unwrap();
-    if rows.len() == 1 {
+    if rows.len() == 2 {
         assert!(!require_gpu(), "no GPU row: {v}");
         eprintln!("notice: no adapter; the GPU rows were not measured");
         return;
     }
-    assert_eq!(rows.len(), 2, "{v}");
-    assert_eq!(rows[1]["path"], "gpu", "{v}");
-    let (c, g) = (
-        rows[0]["error_mean"].as_f64().unwrap(),
-        rows[1]["error_mean"].as_f64().unwrap(),
+    assert_eq!(rows.len(), 4, "{v}");
+    for pair in rows.chunks(2) {
+        assert_eq!(pair[1]["path"], "gpu", "{v}");
+        assert_eq!(pair[0]["method"], pair[1]["method"], "{v}");
+        let (c, g) = (
+            pair[0]["error_mean"].as_f64().unwrap(),
+            pair[1]["error_mean"].as_f64().unwrap(),
+        );
+        println!(
+            "egg, {}: CPU error {c:.6}, GPU error {g:.6}",
+            pair[0]["method"]
+        );
+        assert!((c - g).abs() < 1e-4 * c.max(1e-3), "{c} vs {g}");
+    }
+    // The union is not the chain: the two variants' errors differ.
+    let (chain, union) = (
+        rows[0]["error_mean"].as_f64(),
+        rows[2]["error_mean"].as_f64(),
     );
-    println!("egg, 2 spheres: CPU error {c:.6}, GPU error {g:.6}");
-    assert!((c - g).abs() < 1e-4 * c.max(1e-3), "{c} vs {g}");
+    assert_ne!(chain, union, "{v}");
 }
