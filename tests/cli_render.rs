@@ -383,39 +383,39 @@ fn sequences_take_every_method() {
             "--out",
             out,
             "--method",
-            "full_field",
+            "sub_volumes",
             "--frames",
             "2",
             "--gpu",
         ],
         "--gpu",
     );
-    // Sphere sets have a GPU sequence (where an adapter exists).
-    let g = shscale(&[
-        "render",
-        "--scene",
-        scene,
-        "--out",
-        out,
-        "--method",
-        "sphere_set",
-        "--frames",
-        "2",
-        "--parts",
-        "2",
-        "--gpu",
-    ]);
-    let text = String::from_utf8_lossy(&g.stdout);
-    if g.status.success() {
-        assert!(
-            text.contains("GPU sphere-set sequence") && text.contains("shading_ms"),
-            "{text}"
-        );
-    } else {
-        let err = String::from_utf8_lossy(&g.stderr);
-        let required = std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1");
-        assert!(!required && err.contains("--gpu"), "{err}");
-        eprintln!("notice: no adapter; the GPU sphere-set sequence was not run ({err})");
+    // Sphere sets and the full field have a GPU sequence (where an adapter exists).
+    for (method, title, parts) in [
+        (
+            "sphere_set",
+            "GPU sphere-set sequence",
+            &["--parts", "2"][..],
+        ),
+        ("full_field", "GPU full-field sequence", &[][..]),
+    ] {
+        let mut args = vec![
+            "render", "--scene", scene, "--out", out, "--method", method, "--frames", "2", "--gpu",
+        ];
+        args.extend_from_slice(parts);
+        let g = shscale(&args);
+        let text = String::from_utf8_lossy(&g.stdout);
+        if g.status.success() {
+            assert!(
+                text.contains(title) && text.contains("shading_ms"),
+                "{text}"
+            );
+        } else {
+            let err = String::from_utf8_lossy(&g.stderr);
+            let required = std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1");
+            assert!(!required && err.contains("--gpu"), "{err}");
+            eprintln!("notice: no adapter; the GPU {method} sequence was not run ({err})");
+        }
     }
     std::fs::remove_dir_all(&d).ok();
 }

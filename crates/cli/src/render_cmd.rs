@@ -402,9 +402,12 @@ fn sequence(
         if method == Method::SphereSet {
             return gpu_sphere_sequence(a, scene, frames);
         }
+        if method == Method::FullField {
+            return gpu_field_sequence(a, scene, frames);
+        }
         if !cached_path(scene, method) {
             bail!(
-                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\") and sphere sets only; --method {method} runs on the CPU path (without --gpu)"
+                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\"), the full field and sphere sets only; --method {method} runs on the CPU path (without --gpu)"
             );
         }
         return gpu_sequence(a, scene, frames);
@@ -513,6 +516,32 @@ fn gpu_sphere_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::
         img.height,
         scene.occluders.len(),
         scene.parts,
+        ctx.describe()
+    );
+    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
+    print_sequence_table(&seq, None);
+    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
+    println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
+    println!("wrote {} and {}", a.out.display(), png.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `render --frames --method full_field --gpu`: the shells sampled, projected and shaded on the
+/// GPU about each frame's bounding sphere.
+fn gpu_field_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+    use shscale_runner::GpuMode;
+    use shscale_scene::gpu_field::{check, render_sequence_full_field_gpu};
+    use shscale_scene::gpu_path::open_gpu;
+    check(scene)?;
+    let ctx = (open_gpu(GpuMode::Required).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?)
+        .context("--gpu")?;
+    let (img, stats) = render_sequence_full_field_gpu(scene, frames, &ctx, &mut |_, _| {})?;
+    let png = write_image(&a.out, &img).context("--out")?;
+    println!(
+        "GPU full-field sequence {} ({}×{} receivers, {frames} frames, adapter {})",
+        a.scene.display(),
+        img.width,
+        img.height,
         ctx.describe()
     );
     let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();

@@ -351,6 +351,19 @@ impl FullField {
         })
     }
 
+    /// The same layout and shells about another bounding `sphere`: the interpolation
+    /// ([`Self::weights`]) of a field sampled about it. The coefficients are kept; the GPU path
+    /// holds a template whose coefficients live on the device and moves it with each frame's
+    /// bounding sphere (no re-triangulation of the layout).
+    pub fn recentre(&mut self, sphere: Sphere) {
+        self.sphere = sphere;
+    }
+
+    /// The sphere the shells are about.
+    pub fn sphere(&self) -> Sphere {
+        self.sphere
+    }
+
     /// Number of shells.
     pub fn shells(&self) -> usize {
         self.coords.len()

@@ -11,7 +11,11 @@
 //! - [`shading`] ↔ `shscale_field::receivers::ReceiverCache::shade`, and its setup
 //!   (`U = R M_kᵀ Rᵀ T` per receiver: k-table scaling and both rotations) ↔
 //!   `ReceiverCache::build` — only the point location in the spherical triangulation stays on the
-//!   host.
+//!   host;
+//! - [`sphereset`] ↔ `shscale_field::sphereset` (the chain) and `shscale_field::union` (the
+//!   exact union of the caps) over a sphere set fitted on the host;
+//! - [`field`] ↔ `shscale_field::evaluator::FullField` (its shells sampled by the two stages
+//!   above, each receiver shaded from its interpolation weights).
 //!
 //! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
 //! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
@@ -24,6 +28,7 @@
 pub mod bvh;
 pub mod context;
 pub mod error;
+pub mod field;
 pub mod layout;
 pub mod sampling;
 pub mod sequence;

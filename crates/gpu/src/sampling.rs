@@ -83,6 +83,8 @@ pub struct GpuSampler {
     tris_buf: wgpu::Buffer,
     pub(crate) vis_buf: wgpu::Buffer,
     pub(crate) coeffs_buf: wgpu::Buffer,
+    samples_buf: wgpu::Buffer,
+    back_buf: wgpu::Buffer,
     cast: wgpu::ComputePipeline,
     project: wgpu::ComputePipeline,
     cast_bind: wgpu::BindGroup,
@@ -117,24 +119,22 @@ fn hemisphere_rays(
         .collect())
 }
 
-/// Per sample at `center + radius · dir`: its position and local frame (z toward the centre),
-/// and the back hemisphere's closed-form visibility (the zonal half-sphere cap rotated to −z of
-/// the frame) in f32.
+/// Per sample at `points[i]`: its position and local frame (z toward `center`), and the back
+/// hemisphere's closed-form visibility (the zonal half-sphere cap rotated to −z of the frame) in
+/// f32.
 fn sample_frames(
     order: usize,
     center: DVec3,
-    radius: f64,
-    dirs: &[DVec3],
+    points: &[DVec3],
 ) -> Result<(Vec<GpuSample>, Vec<f32>), GpuError> {
     let nn = order * order;
     let basis = ShBasis::<f64>::new(order).map_err(|e| GpuError::Input(e.to_string()))?;
     let cap = cap_zonal(order, std::f64::consts::FRAC_PI_2)
         .map_err(|e| GpuError::Input(e.to_string()))?;
-    let mut samples = Vec::with_capacity(dirs.len());
-    let mut back = Vec::with_capacity(dirs.len() * nn);
+    let mut samples = Vec::with_capacity(points.len());
+    let mut back = Vec::with_capacity(points.len() * nn);
     let mut b = vec![0.0; nn];
-    for &d in dirs {
-        let pos = center + radius * d;
+    for &pos in points {
         let f = LocalFrame::toward(pos, center);
         samples.push(GpuSample {
             pos: v4(pos, 1.0),
@@ -161,15 +161,30 @@ impl GpuSampler {
         dirs: &[DVec3],
         capacity: (usize, usize),
     ) -> Result<Self, GpuError> {
+        let points: Vec<DVec3> = dirs.iter().map(|d| center + radius * *d).collect();
+        Self::at_points(ctx, order, h, center, &points, capacity)
+    }
+
+    /// Set up for samples at any `points` (none at `center`), each casting its hemisphere toward
+    /// `center` (the fully sampled field's shells: [`Self::move_samples`] moves them per frame);
+    /// the rest as [`Self::new`].
+    pub fn at_points(
+        ctx: &GpuContext,
+        order: usize,
+        h: usize,
+        center: DVec3,
+        points: &[DVec3],
+        capacity: (usize, usize),
+    ) -> Result<Self, GpuError> {
         let nn = order * order;
-        let hemi4 = hemisphere_rays(ctx, order, h, dirs.len())?;
-        let (samples, back) = sample_frames(order, center, radius, dirs)?;
+        let hemi4 = hemisphere_rays(ctx, order, h, points.len())?;
+        let (samples, back) = sample_frames(order, center, points)?;
         let rays = hemi4.len();
-        let total = dirs.len() as u64 * rays as u64;
+        let total = points.len() as u64 * rays as u64;
         let params = GpuParams {
             order: order as u32,
             nn: nn as u32,
-            samples: dirs.len() as u32,
+            samples: points.len() as u32,
             rays: rays as u32,
             ..Default::default()
         };
@@ -188,7 +203,7 @@ impl GpuSampler {
         let nodes_buf = ctx.storage("nodes", 32 * capacity.0 as u64);
         let tris_buf = ctx.storage("tris", 48 * capacity.1 as u64);
         let vis_buf = ctx.storage("vis", 4 * total);
-        let coeffs_buf = ctx.storage("coeffs", 4 * (dirs.len() * nn) as u64);
+        let coeffs_buf = ctx.storage("coeffs", 4 * (points.len() * nn) as u64);
         let cast = ctx.pipeline("cast", &cast_source(), "cast_rays");
         let project = ctx.pipeline("project", &project_source(), "project");
         let (cast_bind, project_bind) = (
@@ -218,7 +233,7 @@ impl GpuSampler {
         );
         Ok(Self {
             order,
-            samples: dirs.len(),
+            samples: points.len(),
             rays,
             params,
             params_buf,
@@ -226,11 +241,42 @@ impl GpuSampler {
             tris_buf,
             vis_buf,
             coeffs_buf,
+            samples_buf,
+            back_buf,
             cast,
             project,
             cast_bind,
             project_bind,
         })
+    }
+
+    /// Move the samples to `points` (as many as set up), casting toward `center`: their
+    /// positions, frames and back hemispheres rewritten (the caller submits afterwards).
+    pub fn move_samples(
+        &self,
+        ctx: &GpuContext,
+        center: DVec3,
+        points: &[DVec3],
+    ) -> Result<(), GpuError> {
+        if points.len() != self.samples {
+            return Err(GpuError::Input(format!(
+                "{} sample points for a sampler of {}",
+                points.len(),
+                self.samples
+            )));
+        }
+        let (samples, back) = sample_frames(self.order, center, points)?;
+        ctx.queue
+            .write_buffer(&self.samples_buf, 0, bytemuck::cast_slice(&samples));
+        ctx.queue
+            .write_buffer(&self.back_buf, 0, bytemuck::cast_slice(&back));
+        Ok(())
+    }
+
+    /// The coefficients' buffer (`samples × N²` f32, entity frame), for kernels that read the
+    /// samples where they lie.
+    pub fn coeffs_buffer(&self) -> &wgpu::Buffer {
+        &self.coeffs_buf
     }
 
     /// Upload this frame's BVH and ray offset (the caller submits afterwards).

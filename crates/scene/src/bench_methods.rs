@@ -363,8 +363,9 @@ fn gpu_extrapolated_stages(
 
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
 /// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
-/// sequence; no per-frame image, so no error) and sphere sets (`gpu_sets`, scored against
-/// `truths` like the CPU rows); `None` for the others.
+/// sequence; no per-frame image, so no error), sphere sets (`gpu_sets`) and the full field
+/// (`gpu_field`), the last two scored against `truths` like the CPU rows; `None` for the
+/// others.
 pub fn bench_method_gpu(
     name: &str,
     scene: &Scene,
@@ -383,6 +384,16 @@ pub fn bench_method_gpu(
         Method::SphereSet => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
             crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
+                if f.frame >= warmup {
+                    stages.push(f.as_sequence_frame().stages);
+                }
+                scores.add(f.frame, px);
+            })?;
+            (stages, scores.finish(name)?)
+        }
+        Method::FullField => {
+            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
+            crate::gpu_field::render_sequence_full_field_gpu(&s, total, ctx, &mut |f, px| {
                 if f.frame >= warmup {
                     stages.push(f.as_sequence_frame().stages);
                 }

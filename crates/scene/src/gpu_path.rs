@@ -58,7 +58,7 @@ pub struct GpuFrameStats {
 }
 
 /// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
-fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
+pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
     match scene.occluders.as_slice() {
         [o] if o.mesh != "sphere" => {
             if scene.order > shscale_gpu::MAX_GPU_ORDER {

@@ -29,6 +29,7 @@ pub mod camera;
 pub mod combine;
 pub mod error;
 pub mod frame;
+pub mod gpu_field;
 pub mod gpu_path;
 pub mod gpu_sets;
 pub mod kernels;

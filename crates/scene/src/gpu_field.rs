@@ -1,0 +1,186 @@
+//! The papers' full field on the GPU path (`render --frames --method full_field --gpu`): per
+//! frame the mesh is posed on the host, its bounding sphere found, and the field's shells about
+//! it — the CPU render's own construction ([`crate::render::full_field_shells`] or the scene's
+//! `full_field`) — sampled, projected and shaded on the GPU (`shscale_gpu::field`); each
+//! receiver's interpolation weights are computed on the host from a template field moved to the
+//! frame's sphere (`FullField::recentre`, the CPU's `FullField::weights`). Every frame is the CPU
+//! render of its pose within f32 rounding and the rays that graze an edge (tested on lavapipe).
+//!
+//! Scope: one mesh occluder (the analytic sphere has no triangles), `N ≤ 8`, no local lights;
+//! anything else is refused by name.
+
+use crate::error::Error;
+use crate::frame::{light_of, receiver_grid, Poser};
+use crate::render::{full_field_shells, RenderOutput};
+use crate::scene::Scene;
+use glam::DVec3;
+use shscale_field::evaluator::FullField;
+use shscale_field::shading::Shader;
+use shscale_geometry::ray::UpdateStrategy;
+use shscale_gpu::field::{GpuFullField, WeightSlots, BEYOND};
+use shscale_gpu::GpuContext;
+use std::time::Instant;
+
+/// Per-frame times of the GPU full-field sequence, in seconds.
+#[derive(Clone, Debug, Default)]
+pub struct GpuFieldFrame {
+    pub frame: usize,
+    pub t: f64,
+    /// Host: posing the mesh and finding its bounding sphere.
+    pub deform_seconds: f64,
+    /// Host: every receiver's interpolation weights about this frame's sphere.
+    pub weights_seconds: f64,
+    /// Host: BVH update; the BVH, sample positions and weights uploaded.
+    pub bvh_seconds: f64,
+    pub upload_seconds: f64,
+    /// Device: the shells' rays, their projection, the shading.
+    pub sampling_seconds: f64,
+    pub projection_seconds: f64,
+    pub shading_seconds: f64,
+}
+
+impl GpuFieldFrame {
+    /// As a [`crate::sequence::SequenceFrame`] (the stages above by name), the form every
+    /// sequence's frames are printed and benchmarked in.
+    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+        let stages = crate::sequence::named_stages(&[
+            ("deform", self.deform_seconds),
+            ("field_weights", self.weights_seconds),
+            ("bvh_update", self.bvh_seconds),
+            ("upload", self.upload_seconds),
+            ("bsv_sampling", self.sampling_seconds),
+            ("sh_conversion", self.projection_seconds),
+            ("shading", self.shading_seconds),
+        ]);
+        crate::sequence::SequenceFrame {
+            frame: self.frame,
+            t: self.t,
+            seconds: stages.iter().map(|s| s.1).sum(),
+            stages,
+            error: None,
+        }
+    }
+}
+
+/// Whether the GPU full-field path takes `scene`, or why not.
+pub fn check(scene: &Scene) -> Result<(), Error> {
+    crate::gpu_path::single_mesh(scene)?;
+    if !scene.light_sources.is_empty() {
+        return Err(Error::config(format!(
+            "{}: --gpu with full_field: local lights are shaded on the CPU only",
+            scene.file
+        )));
+    }
+    Ok(())
+}
+
+/// The receivers' weight slots about the field's current sphere.
+fn weight_slots(field: &FullField, recv: &[DVec3], out: &mut Vec<WeightSlots>) {
+    out.clear();
+    out.extend(recv.iter().map(|p| {
+        let mut slots = [[0u32; 2]; 8];
+        match field.weights(*p) {
+            None => slots[0] = BEYOND,
+            Some((w, n)) => {
+                for (slot, (i, wi)) in slots.iter_mut().zip(&w[..n]) {
+                    *slot = [*i, (*wi as f32).to_bits()];
+                }
+            }
+        }
+        slots
+    }));
+}
+
+/// `frames` poses of `scene` rendered with the full field on the GPU; the last frame's image
+/// and every frame's times. `each` sees every frame and its pixels after it is done.
+pub fn render_sequence_full_field_gpu(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    each: &mut dyn FnMut(&GpuFieldFrame, &[[f32; 3]]),
+) -> Result<(RenderOutput, Vec<GpuFieldFrame>), Error> {
+    check(scene)?;
+    let frames = frames.max(1);
+    let o = crate::gpu_path::single_mesh(scene)?;
+    let rest = o.placed()?;
+    let poser = (o.deformer).map(|(k, a)| Poser::new(&rest, k, a));
+    let shells = scene.full_field.unwrap_or_else(|| full_field_shells(scene));
+    let err = |e: shscale_field::FieldError| Error::config(format!("{}: {e}", scene.file));
+    let dirs = scene.layout.directions();
+    let radii = shells.radii();
+    let nn = scene.order * scene.order;
+    let zeros = vec![vec![vec![0.0; nn]; dirs.len()]; radii.len()];
+    let mut template = FullField::from_samples(
+        rest.bounding_sphere(),
+        scene.layout,
+        &shells,
+        zeros,
+        scene.order,
+        0,
+    )
+    .map_err(err)?;
+    let light = light_of(scene)?;
+    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+    let recv = receiver_grid(scene);
+    let strategy = o
+        .deformer
+        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let mut gpu = GpuFullField::new(
+        ctx,
+        &rest,
+        strategy,
+        (scene.order, scene.hemisphere_res),
+        radii.len() * dirs.len(),
+        recv.len(),
+        &transfer,
+    )?;
+    let mut posed = rest.clone();
+    let (mut points, mut slots) = (Vec::new(), Vec::new());
+    let mut stats = Vec::with_capacity(frames);
+    let mut pixels = Vec::new();
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let mut st = GpuFieldFrame {
+            frame: f,
+            t,
+            ..Default::default()
+        };
+        let t0 = Instant::now();
+        if let Some(p) = &poser {
+            p.pose(&rest, t, &mut posed);
+        }
+        let sphere = posed.bounding_sphere();
+        st.deform_seconds = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        // The CPU's FullField::build: shell-major, `centre + ρ·R·u`.
+        points.clear();
+        for rho in &radii {
+            let rs = rho * sphere.radius;
+            points.extend(dirs.iter().map(|&u| sphere.center + rs * u));
+        }
+        template.recentre(sphere);
+        weight_slots(&template, &recv, &mut slots);
+        st.weights_seconds = t0.elapsed().as_secs_f64();
+        let (img, times) = gpu.frame(ctx, &posed, (sphere.center, &points), &slots)?;
+        st.bvh_seconds = times.bvh_seconds;
+        st.upload_seconds = times.upload_seconds;
+        st.sampling_seconds = times.sampling_seconds;
+        st.projection_seconds = times.projection_seconds;
+        st.shading_seconds = times.shading_seconds;
+        each(&st, &img);
+        pixels = img;
+        stats.push(st);
+    }
+    Ok((
+        RenderOutput {
+            width: scene.resolution[0],
+            height: scene.resolution[1],
+            pixels,
+            stages: Vec::new(),
+            products: 0,
+            skipped: 0,
+            error: Vec::new(),
+        },
+        stats,
+    ))
+}
