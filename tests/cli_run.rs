@@ -1373,6 +1373,95 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `budget_plane`'s device axis: with `device = "auto"` every method with a GPU form on the
+/// scene (the extrapolation from one sphere, the full field, sphere sets by the chain and the
+/// union) is timed on the GPU path beside the CPU, its images within f32 rounding of the CPU
+/// render it is scored by (`gpu_max_diff`, printed), the rows naming the adapter and the report
+/// drawing the front against GPU time; a method without a form says so. `device = "gpu"` is
+/// refused by name, exit 2, for a method without a form at plan time and without an adapter
+/// (`gpu = "off"`) at run time. Without an adapter (no `SHSCALE_REQUIRE_GPU=1`) the rows say
+/// "none: no adapter" and the GPU checks are skipped with a notice.
+#[test]
+fn budget_plane_times_the_gpu_path_beside_the_cpu() {
+    let dir = std::env::temp_dir().join(format!("shscale-bpg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("d.toml"),
+        "order = 3\ntruth_res = 4\n[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.1]\nradius = 1.0\n[receiver]\ncenter = [0, 0, 0]\nsize = [3, 3]\nresolution = [12, 12]\n[light]\nkind = \"sky\"\n",
+    )
+    .unwrap();
+    let cfg = dir.join("bpg.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ntiming_repeats = 1\ntiming_warmup = 0\nparallel_runs = false\ndevice = \"auto\"\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [4]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [4]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\nsphere_combine = [\"product\", \"union\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [2]\n",
+    )
+    .unwrap();
+    let out = dir.join("r");
+    let o = shscale(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run_dir = out.join("budget_plane/bpg");
+    let mut rd = csv::Reader::from_path(run_dir.join("runs.csv")).unwrap();
+    let head = rd.headers().unwrap().clone();
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let rows: Vec<csv::StringRecord> = rd.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 5);
+    let required = std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1");
+    let adapter = rows[0][col("gpu_adapter")].to_string();
+    if adapter == "none: no adapter" {
+        assert!(!required, "no adapter under SHSCALE_REQUIRE_GPU=1");
+        eprintln!("notice: no adapter; the GPU frames were not timed");
+    } else {
+        for r in &rows {
+            let method = &r[col("method")];
+            if method == "sub_volumes" {
+                assert_eq!(&r[col("gpu_adapter")], "none: sub_volumes has no GPU form");
+                assert!(r[col("gpu_frame_seconds")].is_empty());
+                continue;
+            }
+            let t: f64 = r[col("gpu_frame_seconds")].parse().unwrap();
+            let diff: f64 = r[col("gpu_max_diff")].parse().unwrap();
+            println!(
+                "{method} {}: GPU frame {t:.4} s, images {diff:.2e} of the mean unshadowed irradiance from the CPU's ({})",
+                &r[col("sphere_combine")],
+                &r[col("gpu_adapter")]
+            );
+            assert!(t > 0.0 && diff < 1e-4, "{method}: {t} {diff}");
+            assert_eq!(r[col("gpu_adapter")], adapter);
+        }
+        assert!(run_dir.join("plane_gpu_time_0.svg").exists());
+    }
+    // `device = "gpu"`: a method without a GPU form refused at plan time, naming the key and
+    // why; no adapter opened (`gpu = "off"`) refused at run time.
+    for (text, needle) in [
+        (
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"ray_traced\"\nrt_res = 2\n",
+            "ray_traced has no GPU form",
+        ),
+        (
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"full_field\"\nshells = 4\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n",
+            "no adapter was opened",
+        ),
+        (
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"tpu\"\n",
+            "device",
+        ),
+    ] {
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, text).unwrap();
+        let o = shscale(&["run", bad.to_str().unwrap(), "--out-dir", dir.join("r3").to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        println!("{needle}: {err}");
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle) && err.contains("device"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `budget_plane` over placements: every mesh occluder turned by the seed's rotation, the truths
 /// rendered per placement (the scores move with it, the rays do not), and the answer drawn with
 /// intervals over the placements.

@@ -58,6 +58,20 @@ pub struct GpuFrameStats {
 }
 
 /// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
+/// Whether the GPU sequence of the papers' extrapolation ([`render_sequence_gpu`]) takes
+/// `scene`: one mesh occluder, `N ≤ 8`, no local lights (the GPU shades the environment's
+/// transfer only); or why not.
+pub fn check(scene: &Scene) -> Result<(), Error> {
+    single_mesh(scene)?;
+    if !scene.light_sources.is_empty() {
+        return Err(Error::config(format!(
+            "{}: the GPU sequence shades the environment only; local lights are shaded on the CPU",
+            scene.file
+        )));
+    }
+    Ok(())
+}
+
 pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
     match scene.occluders.as_slice() {
         [o] if o.mesh != "sphere" => {

@@ -19,6 +19,7 @@
 
 mod frames;
 pub mod plane;
+mod plane_gpu;
 mod plane_images;
 mod receivers;
 pub mod spheres;

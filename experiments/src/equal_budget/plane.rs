@@ -87,6 +87,9 @@ pub struct Params {
     /// occluder by its own uniformly random rotation about its bounding sphere's centre (the
     /// sphere, and so the scene's clearance from the plane, unchanged).
     pub placement_seed: u64,
+    /// Where the frame is timed besides the CPU: `cpu` (default), `gpu` (the GPU path too;
+    /// refused without an adapter or a GPU form) or `auto` (the GPU path where both exist).
+    pub device: String,
 }
 
 impl Default for Params {
@@ -114,6 +117,7 @@ impl Default for Params {
             part_combine: "product".into(),
             save_image: false,
             placement_seed: 0,
+            device: "cpu".into(),
         }
     }
 }
@@ -267,6 +271,15 @@ pub struct Row {
     pub cached_frame_seconds_hi: Option<f64>,
     pub cache_seconds: Option<f64>,
     pub cached_max_diff: Option<f64>,
+    /// The frame on the GPU path (`device` = `gpu` or `auto`; `plane_gpu`): the mean frame of
+    /// the sequence, host stages included, its interval, the adapter (or why none timed it), and
+    /// the largest difference of its images from the CPU's in the unit of the mean unshadowed
+    /// irradiance.
+    pub gpu_frame_seconds: Option<f64>,
+    pub gpu_frame_seconds_lo: Option<f64>,
+    pub gpu_frame_seconds_hi: Option<f64>,
+    pub gpu_adapter: String,
+    pub gpu_max_diff: Option<f64>,
 }
 
 /// The kind.
@@ -328,6 +341,36 @@ fn cached_frame(
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f64, f64::max);
     Ok(Some((t, plane.build_seconds, diff / unit.max(1e-300))))
+}
+
+/// The run's frame on the GPU path as its `device` asks ([`super::plane_gpu`]): the timing, or
+/// none; and the adapter that timed it, or why none did.
+fn gpu_frame(
+    p: &Typed<Params, PlaneSpec>,
+    scene: &Scene,
+    cpu: (&[Vec<f64>], &[f64]),
+    ctx: &Ctx,
+) -> Result<(Option<super::plane_gpu::GpuTimed>, String), Error> {
+    use super::plane_gpu::{gpu_form, time_on_gpu, DeviceChoice};
+    let method = p.typed.method.method();
+    if p.typed.device == DeviceChoice::Cpu {
+        return Ok((None, "none: device = cpu".into()));
+    }
+    let Some(gpu) = shscale_scene::gpu_path::gpu_of(ctx) else {
+        if p.typed.device == DeviceChoice::Gpu {
+            return Err(Error::config(format!(
+                "device = \"gpu\": no adapter was opened (the config's gpu setting: \"auto\" or \"required\"); device = \"auto\" records the CPU only ({})",
+                p.scene
+            )));
+        }
+        return Ok((None, "none: no adapter".into()));
+    };
+    if let Err(why) = gpu_form(scene, method, p.frames) {
+        // `gpu` was checked at plan time; `auto` says why.
+        return Ok((None, format!("none: {why}")));
+    }
+    let timed = time_on_gpu(scene, method, p.frames, gpu, ctx, cpu)?;
+    Ok((Some(timed), gpu.describe()))
 }
 
 /// The scene at frame `f` of `frames` (the rest pose for one frame).
@@ -397,6 +440,7 @@ fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> 
 /// A run's resolved form: its method, and the group's scene where it was read at plan time.
 pub struct PlaneSpec {
     method: Spec,
+    device: super::plane_gpu::DeviceChoice,
     scene: Option<Arc<Scene>>,
 }
 
@@ -441,6 +485,7 @@ impl Kind for BudgetPlane {
             ("radial", "`uniform` (the papers') or `clearance`: each base-sphere sample of `extrapolated` and `sub_volumes` moved outward until at least `radial_delta`·r from the surface (distance queries, no extra rays), k = d / r(q); `budget`'s `occlusion` rule is not offered here, where rays are counted from the layout"),
             ("radial_delta", "δ of `radial = \"clearance\"`, [0, 10] bounding radii"),
             ("save_image", "keep the run's irradiance image and the group's full-frequency truth as EXR (`plane_<run>.exr`, `plane_truth_<run>.exr`) for the figure: truth, the papers' full field, the papers' extrapolation and the most accurate other saved method at no more rays, with their differences from the truth; one frame only"),
+            ("device", "where the frame is timed besides the CPU: `cpu` (default), `gpu` (the GPU path too — the papers' extrapolation from one sphere, the full field, sphere sets by `product` or `union` — the errors still the CPU render's, `gpu_max_diff` its images' distance from it; refused without an adapter, which the config's `gpu` setting opens, or without a GPU form of the method on the scene) or `auto` (the GPU path where an adapter and a form exist, else none, `gpu_adapter` saying why)"),
             ("placement_seed", "0 (default): the occluders as the scene file places them; any other seed turns every mesh occluder by its own uniformly random rotation about its bounding sphere's centre (a placement; its bounding sphere and clearance unchanged). Configurations repeat over placement seeds: several give the verdict its intervals"),
         ]
     }
@@ -454,6 +499,7 @@ impl Kind for BudgetPlane {
         }
         KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
         let method = p.spec()?;
+        let device = super::plane_gpu::DeviceChoice::parse(&p.device)?;
         if p.save_image && p.frames != 1 {
             return Err(KeyError::new(
                 "save_image",
@@ -464,6 +510,7 @@ impl Kind for BudgetPlane {
             params: p.clone(),
             typed: PlaneSpec {
                 method,
+                device,
                 scene: None,
             },
         })
@@ -486,8 +533,18 @@ impl Kind for BudgetPlane {
             ));
         }
         (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
+        if spec.typed.device == super::plane_gpu::DeviceChoice::Gpu {
+            let mut s = Scene::clone(&scene);
+            spec.typed.method.apply(&mut s);
+            super::plane_gpu::gpu_form(&s, spec.typed.method.method(), p.frames)
+                .map_err(|why| KeyError::new("device", format!("\"gpu\": {why}")))?;
+        }
         spec.typed.scene = Some(scene);
         Ok(spec)
+    }
+
+    fn open_device(mode: shscale_runner::GpuMode) -> Result<Option<shscale_runner::Device>, Error> {
+        shscale_scene::gpu_path::open_device(mode)
     }
 
     fn group_key(p: &Params) -> String {
@@ -637,6 +694,7 @@ impl Kind for BudgetPlane {
         }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
         let cached = cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
+        let (gpu, gpu_adapter) = gpu_frame(p, &scene, (&es, &sh.open), ctx)?;
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };
@@ -695,6 +753,11 @@ impl Kind for BudgetPlane {
             cached_frame_seconds_hi: cached.map(|c| c.0.hi),
             cache_seconds: cached.map(|c| c.1),
             cached_max_diff: cached.map(|c| c.2),
+            gpu_frame_seconds: gpu.as_ref().map(|g| g.frame.median),
+            gpu_frame_seconds_lo: gpu.as_ref().map(|g| g.frame.lo),
+            gpu_frame_seconds_hi: gpu.as_ref().map(|g| g.frame.hi),
+            gpu_adapter,
+            gpu_max_diff: gpu.as_ref().map(|g| g.max_diff),
         }])
     }
 
@@ -707,6 +770,9 @@ impl Kind for BudgetPlane {
             "cached_frame_seconds_lo",
             "cached_frame_seconds_hi",
             "cache_seconds",
+            "gpu_frame_seconds",
+            "gpu_frame_seconds_lo",
+            "gpu_frame_seconds_hi",
         ]
     }
 
@@ -749,6 +815,22 @@ impl Kind for BudgetPlane {
                     title: format!("{title}: error against {short}"),
                     x,
                     x_label,
+                    y: "rmse_vs_full_frequency",
+                    y_label: "shade_rmse_rel vs full-frequency truth",
+                };
+                files.extend(write_front(dir, t, &rows, &front, &|r| specs[r])?);
+            }
+            // Against the GPU path's frame where rows were timed there (`device`).
+            let timed = (rows.iter()).find(|&&r| t.num(r, "gpu_frame_seconds").is_finite());
+            if let Some(&r) = timed {
+                let front = Front {
+                    stem: format!("plane_gpu_time_{si}"),
+                    title: format!(
+                        "{title}: error against GPU time ({})",
+                        t.cell(r, "gpu_adapter")
+                    ),
+                    x: "gpu_frame_seconds",
+                    x_label: "GPU path's time per frame (s; the methods with a GPU form)",
                     y: "rmse_vs_full_frequency",
                     y_label: "shade_rmse_rel vs full-frequency truth",
                 };

@@ -1,0 +1,158 @@
+//! `budget_plane`'s device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
+//! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
+//! sampling sphere (`gpu_path`: the real-time sequence, whose sampling sphere encloses every
+//! pose), the full field (`gpu_field`) and sphere sets by the chain or the union (`gpu_sets`).
+//! The run's errors stay the CPU render's; the GPU images are compared with it
+//! (`gpu_max_diff`, in the unit of the mean unshadowed irradiance) so a row says how far its GPU
+//! frame is from the frame it scores. `gpu` needs an adapter (the config's `gpu` setting opens
+//! it) and a GPU form of the run's method on its scene, and refuses otherwise, naming why;
+//! `auto` times on the GPU where both exist and otherwise records none, saying why in
+//! `gpu_adapter`.
+
+use shscale_gpu::GpuContext;
+use shscale_runner::timing::Timing;
+use shscale_runner::{Ctx, KeyError};
+use shscale_scene::method::Method;
+use shscale_scene::scene::Scene;
+use shscale_scene::Error;
+
+/// Where a run's frame is timed besides the CPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The CPU only.
+    Cpu,
+    /// The GPU path too; refused without an adapter or a GPU form.
+    Gpu,
+    /// The GPU path too where an adapter and a GPU form exist; otherwise the CPU only, and the
+    /// row says why.
+    Auto,
+}
+
+impl DeviceChoice {
+    /// The names `device` takes.
+    pub const NAMES: [&'static str; 3] = ["cpu", "gpu", "auto"];
+
+    pub fn parse(s: &str) -> Result<Self, KeyError> {
+        match s {
+            "cpu" => Ok(Self::Cpu),
+            "gpu" => Ok(Self::Gpu),
+            "auto" => Ok(Self::Auto),
+            other => Err(KeyError::new(
+                "device",
+                format!("{other:?}: give one of {}", Self::NAMES.join(", ")),
+            )),
+        }
+    }
+}
+
+/// Whether `method` has a GPU form on `scene` (with `frames` frames), or why not.
+pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), String> {
+    let deforming = scene.occluders.iter().any(|o| o.deformer.is_some());
+    if frames == 1 && deforming {
+        return Err(
+            "a still frame of a deforming scene: the GPU sequences pose t = f/frames, the plane's one frame is the rest pose".into(),
+        );
+    }
+    let why = match method {
+        Method::Extrapolated => {
+            if !shscale_scene::sequence::cached_path(scene, method) {
+                Err(Error::config(
+                    "the GPU extrapolation samples one sphere (radial = \"uniform\")".into(),
+                ))
+            } else {
+                shscale_scene::gpu_path::check(scene)
+            }
+        }
+        Method::FullField => shscale_scene::gpu_field::check(scene),
+        Method::SphereSet => shscale_scene::gpu_sets::check(scene),
+        other => Err(Error::config(format!("{other} has no GPU form"))),
+    };
+    why.map_err(|e| e.to_string())
+}
+
+/// The GPU timing of a run: the frame's timing over the procedure's repeats (each the mean of
+/// the sequence's frames, host stages included) and the largest difference of its images from
+/// the CPU's `cpu` (flat RGB per frame; the extrapolation's GPU sequence keeps its last frame
+/// only), in the unit of the mean of `open`.
+pub struct GpuTimed {
+    pub frame: Timing,
+    pub max_diff: f64,
+}
+
+/// Time `frames` frames of `scene` by `method` on the GPU path (see [`GpuTimed`]).
+pub fn time_on_gpu(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    gpu: &GpuContext,
+    ctx: &Ctx,
+    (cpu, open): (&[Vec<f64>], &[f64]),
+) -> Result<GpuTimed, Error> {
+    let (images, [t]) = ctx.timing.measure_parts(|| {
+        let (images, seconds) = gpu_frames(scene, method, frames, gpu)?;
+        let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
+        Ok::<_, Error>((images, [mean]))
+    })?;
+    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    // The images the GPU path kept are the sequence's last ones.
+    let skip = cpu.len() - images.len();
+    let diff = (images.iter().zip(&cpu[skip..]))
+        .flat_map(|(g, c)| {
+            g.iter()
+                .flatten()
+                .zip(c)
+                .map(|(a, b)| (*a as f64 - b).abs())
+        })
+        .fold(0.0f64, f64::max);
+    Ok(GpuTimed {
+        frame: t,
+        max_diff: diff / unit.max(1e-300),
+    })
+}
+
+/// One frame's pixels, RGB per receiver.
+type Image = Vec<[f32; 3]>;
+
+/// One GPU sequence of `scene`: its images (every frame's, or the last for the extrapolation)
+/// and every frame's seconds (host stages and device).
+fn gpu_frames(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    gpu: &GpuContext,
+) -> Result<(Vec<Image>, Vec<f64>), Error> {
+    let (mut images, mut seconds) = (Vec::new(), Vec::new());
+    match method {
+        Method::Extrapolated => {
+            let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
+            seconds.extend((run.frames.iter()).map(|f| f.deform_seconds + f.gpu.frame_seconds));
+            images.push(run.image.pixels);
+        }
+        Method::FullField => {
+            shscale_scene::gpu_field::render_sequence_full_field_gpu(
+                scene,
+                frames,
+                gpu,
+                &mut |f, px| {
+                    seconds.push(f.as_sequence_frame().seconds);
+                    images.push(px.to_vec());
+                },
+            )?;
+        }
+        Method::SphereSet => {
+            shscale_scene::gpu_sets::render_sequence_sphere_set_gpu(
+                scene,
+                frames,
+                gpu,
+                &mut |f, px| {
+                    seconds.push(f.as_sequence_frame().seconds);
+                    images.push(px.to_vec());
+                },
+            )?;
+        }
+        other => {
+            return Err(Error::config(format!("{other} has no GPU form")));
+        }
+    }
+    Ok((images, seconds))
+}
