@@ -405,9 +405,16 @@ fn sequence(
         if method == Method::FullField {
             return gpu_field_sequence(a, scene, frames);
         }
+        let clearance = matches!(
+            scene.radial,
+            shscale_field::bsv::RadialRule::Clearance { .. }
+        );
+        if method == Method::Extrapolated && clearance {
+            return gpu_radial_sequence(a, scene, frames);
+        }
         if !cached_path(scene, method) {
             bail!(
-                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\"), the full field and sphere sets only; --method {method} runs on the CPU path (without --gpu)"
+                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
             );
         }
         return gpu_sequence(a, scene, frames);
@@ -529,23 +536,50 @@ fn gpu_sphere_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::
 /// `render --frames --method full_field --gpu`: the shells sampled, projected and shaded on the
 /// GPU about each frame's bounding sphere.
 fn gpu_field_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_runner::GpuMode;
     use shscale_scene::gpu_field::{check, render_sequence_full_field_gpu};
-    use shscale_scene::gpu_path::open_gpu;
     check(scene)?;
-    let ctx = (open_gpu(GpuMode::Required).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?)
-        .context("--gpu")?;
+    let ctx = required_gpu()?;
     let (img, stats) = render_sequence_full_field_gpu(scene, frames, &ctx, &mut |_, _| {})?;
-    let png = write_image(&a.out, &img).context("--out")?;
+    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
+    print_gpu_sequence(a, "full-field", &img, &seq, &ctx)
+}
+
+/// `render --frames --method extrapolated --gpu` with `radial = "clearance"`: the radii placed
+/// on the host, sampling, the receivers' setup and shading on the GPU, every frame.
+fn gpu_radial_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+    use shscale_scene::gpu_radial::{check, render_sequence_radial_gpu};
+    check(scene)?;
+    let ctx = required_gpu()?;
+    let (img, stats) = render_sequence_radial_gpu(scene, frames, &ctx, &mut |_, _| {})?;
+    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
+    print_gpu_sequence(a, "per-direction radii", &img, &seq, &ctx)
+}
+
+/// The adapter, required (`--gpu`).
+fn required_gpu() -> anyhow::Result<shscale_scene::gpu_path::GpuContext> {
+    use shscale_runner::GpuMode;
+    use shscale_scene::gpu_path::open_gpu;
+    (open_gpu(GpuMode::Required).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?).context("--gpu")
+}
+
+/// Write the last frame and print a GPU sequence's frames (`what` names it).
+fn print_gpu_sequence(
+    a: &RenderArgs,
+    what: &str,
+    img: &shscale_scene::render::RenderOutput,
+    seq: &[shscale_scene::sequence::SequenceFrame],
+    ctx: &shscale_scene::gpu_path::GpuContext,
+) -> anyhow::Result<ExitCode> {
+    let png = write_image(&a.out, img).context("--out")?;
     println!(
-        "GPU full-field sequence {} ({}×{} receivers, {frames} frames, adapter {})",
+        "GPU {what} sequence {} ({}×{} receivers, {} frames, adapter {})",
         a.scene.display(),
         img.width,
         img.height,
+        seq.len(),
         ctx.describe()
     );
-    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
-    print_sequence_table(&seq, None);
+    print_sequence_table(seq, None);
     let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
     println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
     println!("wrote {} and {}", a.out.display(), png.display());

@@ -230,6 +230,25 @@ pub(crate) fn triangulation(
     Ok(t)
 }
 
+/// The [`RadialRule::Clearance`] radius along the unit `dir` from the entity's bounding sphere
+/// `(c, r)`: the first t in `[s·r, max(s·r, (1 + δ)·r)]` (s = `inflate`) whose point `c + t·dir`
+/// lies at least `δ·r` from the surface, by [`CLEARANCE_STEPS`] halvings of distance queries
+/// (no rays; the upper end always qualifies, as every point of the surface is within r of c).
+/// What [`Bsv::sample_radial`] places its samples by, and the GPU path's radii.
+pub fn clearance_radius(
+    occ: &dyn Occluder,
+    (c, r): (DVec3, f64),
+    dir: DVec3,
+    inflate: f64,
+    delta: f64,
+) -> f64 {
+    let lo = inflate * r;
+    let want = delta * r;
+    let ok = |t: f64| (occ.distance_to_surface(c + t * dir) >= want, ());
+    let hi = lo.max((1.0 + delta) * r);
+    bisect_first(lo, hi, CLEARANCE_STEPS, ok).0
+}
+
 impl Bsv {
     /// Sample the BSV of `occ` (rayon-parallel over samples). `inflate ≥ 1` scales the sampling
     /// sphere (the on-surface mitigation), `eps` is the on-surface threshold relative to r.
@@ -333,10 +352,7 @@ impl Bsv {
                 let (t, coeffs, casts) = match rule {
                     RadialRule::Uniform => unreachable!("handled above"),
                     RadialRule::Clearance { delta } => {
-                        let want = delta * r;
-                        let ok = |t: f64| (occ.distance_to_surface(c + t * dir) >= want, ());
-                        let hi = lo.max((1.0 + delta) * r);
-                        let (t, (), _) = bisect_first(lo, hi, CLEARANCE_STEPS, ok);
+                        let t = clearance_radius(occ, (c, r), dir, inflate, delta);
                         (t, at(t), 1)
                     }
                     RadialRule::Occlusion { tau, t_max } => {

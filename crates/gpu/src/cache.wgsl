@@ -1,4 +1,5 @@
-// Receiver setup on the GPU: for every receiver p, U = R M_kᵀ Rᵀ T (see receivers.rs), i.e. the
+// Receiver setup on the GPU: for every receiver p, U = R M_kᵀ Rᵀ T (see receivers.rs), k = |p − c| /
+// r(q) with r(q) in points[r].w (the sampling sphere's radius, or per-direction radii), i.e. the
 // k-table lookup (linear in ln k, as KTable's Interp::Linear) and both rotations, done by exact
 // re-projection: for band-limited f, the coefficients of ω ↦ f(Rω) are Σ_q w_q Y(ω_q) f(R ω_q)
 // over a Gauss sphere rule exact for products of two order-N functions (N × 2N points).
@@ -30,7 +31,9 @@ fn build_cache(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     if (length(d) < tiny) {
         d = vec3<f32>(0.0, 0.0, tiny);
     }
-    let k = length(d) / cp.center.w;
+    // The receiver's sampling radius r(q) (the sphere's, or a radial rule's radii interpolated
+    // at its direction, in points[r].w): k = d / r(q), as the CPU's ReceiverCache.
+    let k = length(d) / points[r].w;
     let kc = cp.k_count;
     var x = k;
     if (cp.log_k == 1u) {

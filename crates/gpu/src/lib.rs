@@ -15,7 +15,9 @@
 //! - [`sphereset`] ↔ `shscale_field::sphereset` (the chain) and `shscale_field::union` (the
 //!   exact union of the caps) over a sphere set fitted on the host;
 //! - [`field`] ↔ `shscale_field::evaluator::FullField` (its shells sampled by the two stages
-//!   above, each receiver shaded from its interpolation weights).
+//!   above, each receiver shaded from its interpolation weights);
+//! - [`radial`] ↔ `shscale_field::Bsv::sample_radial` with clearance radii and the receiver
+//!   cache with each receiver's `k = d / r(q)`.
 //!
 //! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
 //! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
@@ -30,6 +32,7 @@ pub mod context;
 pub mod error;
 pub mod field;
 pub mod layout;
+pub mod radial;
 pub mod sampling;
 pub mod sequence;
 pub mod shading;

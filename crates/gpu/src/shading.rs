@@ -38,6 +38,9 @@ pub struct ReceiverSetup<'a> {
     pub locations: &'a [[(u32, f64); 3]],
     /// The sampling sphere the BSV is taken on.
     pub sampling: Sphere,
+    /// Per receiver, the sampling surface's radius at its direction when the samples were placed
+    /// by a radial rule (`Bsv::radius_at`); `None`: the sphere's radius for every receiver.
+    pub radii: Option<&'a [f64]>,
 }
 
 /// Receiver rows of a cache in GPU layout.
@@ -86,9 +89,10 @@ fn check_setup(setup: &ReceiverSetup<'_>, params: &GpuParams) -> Result<(usize, 
         )));
     }
     let n = setup.receivers.len();
-    if n == 0 || setup.locations.len() != n {
+    let radii = setup.radii.map_or(n, <[f64]>::len);
+    if n == 0 || setup.locations.len() != n || radii != n {
         return Err(GpuError::Input(format!(
-            "{n} receivers with {} locations",
+            "{n} receivers with {} locations and {radii} radii",
             setup.locations.len()
         )));
     }
@@ -129,8 +133,9 @@ impl CacheInputs {
         let quad: Vec<[f32; 4]> = (q.dirs.iter().zip(&q.weights))
             .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
             .collect();
-        let points: Vec<[f32; 4]> = (setup.receivers.iter())
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+        let radius = |i: usize| setup.radii.map_or(setup.sampling.radius, |r| r[i]) as f32;
+        let points: Vec<[f32; 4]> = (setup.receivers.iter().enumerate())
+            .map(|(i, p)| [p.x as f32, p.y as f32, p.z as f32, radius(i)])
             .collect();
         let rows: Vec<GpuReceiver> = (setup.locations.iter())
             .map(|l| GpuReceiver {
@@ -178,6 +183,176 @@ fn run_setup_pass(
     Ok(timer.read(ctx)?.map_or(wall, |s| s[0]))
 }
 
+/// The receiver-setup pass kept for reuse: its pipeline, bind group and buffers, so a frame
+/// whose receivers' k or sample locations change (per-direction radii resampled every frame)
+/// rewrites the inputs ([`Self::write`]) and runs it again ([`Self::run`]) with no new buffer
+/// or pipeline. The k-table's size is fixed at creation.
+pub struct GpuReceiverBuilder {
+    receivers: usize,
+    channels: usize,
+    k_count: usize,
+    cp_buf: wgpu::Buffer,
+    points_buf: wgpu::Buffer,
+    xs_buf: wgpu::Buffer,
+    mats_buf: wgpu::Buffer,
+    rec_buf: wgpu::Buffer,
+    u_buf: wgpu::Buffer,
+    pipe: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+}
+
+impl GpuReceiverBuilder {
+    /// Buffers, pipeline and bind group for `setup`'s receivers, table size and light, its
+    /// inputs written (run it with [`Self::run`]).
+    pub fn new(
+        ctx: &GpuContext,
+        setup: &ReceiverSetup<'_>,
+        params: &GpuParams,
+    ) -> Result<Self, GpuError> {
+        let (order, n) = check_setup(setup, params)?;
+        let nn = order * order;
+        let t = setup.transfer;
+        let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
+        let inputs = CacheInputs::of(setup, channels);
+        use wgpu::util::DeviceExt;
+        let cp_buf = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cache params"),
+                contents: bytemuck::bytes_of(&cache_params(setup, &inputs, channels)),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
+        let points_buf = ctx.storage_init("points", bytemuck::cast_slice(&inputs.points));
+        let xs_buf = ctx.storage_init("xs", bytemuck::cast_slice(&inputs.xs));
+        let mats_buf = ctx.storage_init("mats", bytemuck::cast_slice(&inputs.mats));
+        let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&inputs.rows));
+        let u_buf = ctx.storage("u", 4 * (n * channels * nn) as u64);
+        let pipe = ctx.pipeline("build_cache", &cache_source(), "build_cache");
+        let bind = ctx.bind(
+            &pipe,
+            &[
+                &cp_buf,
+                &points_buf,
+                &xs_buf,
+                &mats_buf,
+                &ctx.storage_init("transfer", bytemuck::cast_slice(&inputs.transfer)),
+                &ctx.storage_init("quad", bytemuck::cast_slice(&inputs.quad)),
+                &ctx.storage_init(
+                    "knorm",
+                    bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
+                ),
+                &rec_buf,
+                &u_buf,
+            ],
+        );
+        Ok(Self {
+            receivers: n,
+            channels,
+            k_count: inputs.xs.len(),
+            cp_buf,
+            points_buf,
+            xs_buf,
+            mats_buf,
+            rec_buf,
+            u_buf,
+            pipe,
+            bind,
+        })
+    }
+
+    /// Rewrite the inputs for `setup`: the same receivers (count), light and table size; new
+    /// sampling sphere, table values, locations and radii (the caller runs the pass).
+    pub fn write(
+        &self,
+        ctx: &GpuContext,
+        setup: &ReceiverSetup<'_>,
+        params: &GpuParams,
+    ) -> Result<(), GpuError> {
+        let (_, n) = check_setup(setup, params)?;
+        if n != self.receivers || setup.table.ks().len() != self.k_count {
+            return Err(GpuError::Input(format!(
+                "{n} receivers and a table of {} k for a setup of {} and {}",
+                setup.table.ks().len(),
+                self.receivers,
+                self.k_count
+            )));
+        }
+        let inputs = CacheInputs::of(setup, self.channels);
+        let cp = cache_params(setup, &inputs, self.channels);
+        ctx.queue
+            .write_buffer(&self.cp_buf, 0, bytemuck::bytes_of(&cp));
+        ctx.queue
+            .write_buffer(&self.points_buf, 0, bytemuck::cast_slice(&inputs.points));
+        ctx.queue
+            .write_buffer(&self.xs_buf, 0, bytemuck::cast_slice(&inputs.xs));
+        ctx.queue
+            .write_buffer(&self.mats_buf, 0, bytemuck::cast_slice(&inputs.mats));
+        ctx.queue
+            .write_buffer(&self.rec_buf, 0, bytemuck::cast_slice(&inputs.rows));
+        Ok(())
+    }
+
+    /// Record the pass into `pass`.
+    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let (x, y) = grid_64(self.receivers as u32);
+        pass.set_pipeline(&self.pipe);
+        pass.set_bind_group(0, &self.bind, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
+    /// Run the pass now; its device time in seconds (timestamps where available, else the
+    /// synchronised wall clock).
+    pub fn run(&self, ctx: &GpuContext) -> Result<f64, GpuError> {
+        run_setup_pass(ctx, &self.pipe, &self.bind, self.receivers)
+    }
+
+    /// The shading stage over this builder's cache, for coefficients in `coeffs_buf`.
+    pub fn shader(
+        &self,
+        ctx: &GpuContext,
+        params_buf: &wgpu::Buffer,
+        params: &mut GpuParams,
+        coeffs_buf: &wgpu::Buffer,
+    ) -> GpuShader {
+        GpuShader::from_buffers(
+            ctx,
+            self.rec_buf.clone(),
+            self.u_buf.clone(),
+            self.receivers,
+            self.channels,
+            params_buf,
+            params,
+            coeffs_buf,
+        )
+    }
+}
+
+/// The cache pass's uniform for `setup`.
+fn cache_params(
+    setup: &ReceiverSetup<'_>,
+    inputs: &CacheInputs,
+    channels: usize,
+) -> GpuCacheParams {
+    let order = setup.table.order();
+    let c = setup.sampling.center;
+    GpuCacheParams {
+        center: [
+            c.x as f32,
+            c.y as f32,
+            c.z as f32,
+            setup.sampling.radius as f32,
+        ],
+        receivers: setup.receivers.len() as u32,
+        order: order as u32,
+        nn: (order * order) as u32,
+        channels: channels as u32,
+        k_count: inputs.xs.len() as u32,
+        quad: inputs.quad.len() as u32,
+        log_k: u32::from(setup.table.log_k()),
+        pad: 0,
+    }
+}
+
 impl GpuShader {
     /// Build the receiver cache on the GPU (k-table scaling and both rotations per receiver;
     /// see cache.wgsl) and set up shading from it. Returns the shader and the device time of the
@@ -189,67 +364,14 @@ impl GpuShader {
         params: &mut GpuParams,
         coeffs_buf: &wgpu::Buffer,
     ) -> Result<(Self, f64), GpuError> {
-        let (order, n) = check_setup(setup, params)?;
-        let nn = order * order;
-        let table = setup.table;
-        let t = setup.transfer;
-        let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
-        let log_k = table.log_k();
-        let inputs = CacheInputs::of(setup, channels);
-        let c = setup.sampling.center;
-        let cp = GpuCacheParams {
-            center: [
-                c.x as f32,
-                c.y as f32,
-                c.z as f32,
-                setup.sampling.radius as f32,
-            ],
-            receivers: n as u32,
-            order: order as u32,
-            nn: nn as u32,
-            channels: channels as u32,
-            k_count: inputs.xs.len() as u32,
-            quad: inputs.quad.len() as u32,
-            log_k: u32::from(log_k),
-            pad: 0,
-        };
-        use wgpu::util::DeviceExt;
-        let cp_buf = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("cache params"),
-                contents: bytemuck::bytes_of(&cp),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let rec_buf = ctx.storage_init("receivers", bytemuck::cast_slice(&inputs.rows));
-        let u_buf = ctx.storage("u", 4 * (n * channels * nn) as u64);
-        let pipe = ctx.pipeline("build_cache", &cache_source(), "build_cache");
-        let bind = ctx.bind(
-            &pipe,
-            &[
-                &cp_buf,
-                &ctx.storage_init("points", bytemuck::cast_slice(&inputs.points)),
-                &ctx.storage_init("xs", bytemuck::cast_slice(&inputs.xs)),
-                &ctx.storage_init("mats", bytemuck::cast_slice(&inputs.mats)),
-                &ctx.storage_init("transfer", bytemuck::cast_slice(&inputs.transfer)),
-                &ctx.storage_init("quad", bytemuck::cast_slice(&inputs.quad)),
-                &ctx.storage_init(
-                    "knorm",
-                    bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
-                ),
-                &rec_buf,
-                &u_buf,
-            ],
-        );
-        let seconds = run_setup_pass(ctx, &pipe, &bind, n)?;
-        let shader = Self::from_buffers(
-            ctx, rec_buf, u_buf, n, channels, params_buf, params, coeffs_buf,
-        );
+        let builder = GpuReceiverBuilder::new(ctx, setup, params)?;
+        let seconds = builder.run(ctx)?;
+        let shader = builder.shader(ctx, params_buf, params, coeffs_buf);
         Ok((shader, seconds))
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn from_buffers(
+    pub(crate) fn from_buffers(
         ctx: &GpuContext,
         rec_buf: wgpu::Buffer,
         u_buf: wgpu::Buffer,

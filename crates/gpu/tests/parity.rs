@@ -375,6 +375,7 @@ fn receiver_setup_on_the_gpu_matches_the_cpu_cache() {
             receivers: &receivers,
             locations: &locations,
             sampling: sphere,
+            radii: None,
         };
         let seq = GpuSequence::new(
             &ctx,

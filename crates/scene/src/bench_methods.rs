@@ -363,9 +363,9 @@ fn gpu_extrapolated_stages(
 
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
 /// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
-/// sequence; no per-frame image, so no error), sphere sets (`gpu_sets`) and the full field
-/// (`gpu_field`), the last two scored against `truths` like the CPU rows; `None` for the
-/// others.
+/// sequence; no per-frame image, so no error), the extrapolation from per-direction radii
+/// (`gpu_radial`, `clearance=`), sphere sets (`gpu_sets`) and the full field (`gpu_field`), the
+/// last three scored against `truths` like the CPU rows; `None` for the others.
 pub fn bench_method_gpu(
     name: &str,
     scene: &Scene,
@@ -380,6 +380,16 @@ pub fn bench_method_gpu(
     let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match variant.method {
         Method::Extrapolated if cached_path(&s, Method::Extrapolated) => {
             (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new())
+        }
+        Method::Extrapolated if matches!(s.radial, RadialRule::Clearance { .. }) => {
+            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
+            crate::gpu_radial::render_sequence_radial_gpu(&s, total, ctx, &mut |f, px| {
+                if f.frame >= warmup {
+                    stages.push(f.as_sequence_frame().stages);
+                }
+                scores.add(f.frame, px);
+            })?;
+            (stages, scores.finish(name)?)
         }
         Method::SphereSet => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));

@@ -94,7 +94,7 @@ pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, 
 
 /// A BSV carrying only the layout's directions on `sphere` (no coefficients): enough to locate
 /// receivers in its spherical triangulation.
-fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, Error> {
+pub(crate) fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, Error> {
     let samples = layout
         .directions()
         .into_iter()
@@ -176,6 +176,7 @@ pub fn render_sequence_gpu(
             receivers: &recv,
             locations: &locations,
             sampling,
+            radii: None,
         }),
     )?;
     let setup = t_setup.elapsed().as_secs_f64();

@@ -31,6 +31,7 @@ pub mod error;
 pub mod frame;
 pub mod gpu_field;
 pub mod gpu_path;
+pub mod gpu_radial;
 pub mod gpu_sets;
 pub mod kernels;
 pub mod method;

@@ -502,3 +502,81 @@ fn gpu_full_field_matches_the_cpu_render_frame_by_frame() {
 /// differently, would move one sample's coefficients by its quadrature weight (~1/H² of the
 /// hemisphere): should this fail after a change of mesh or layout, count such rays first.
 const FIELD_GPU_TOL: f32 = 2e-5;
+
+/// The extrapolation from per-direction radii (`radial = "clearance"`, δ = 0.5r) on the GPU path
+/// against the CPU render of the same pose, frame by frame: a flapping bird, 3 frames, the
+/// radii, table and receivers' locations rebuilt every frame; bounded by [`RADIAL_GPU_TOL`]
+/// (printed). The occlusion rule (rays on the CPU) is refused by name. Skips as the tests above.
+#[test]
+fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
+    use shscale_field::bsv::RadialRule;
+    use shscale_scene::gpu_radial::render_sequence_radial_gpu;
+    let Some(ctx) = gpu_or_skip("GPU per-direction radii parity") else {
+        return;
+    };
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    s.radial = RadialRule::Clearance { delta: 0.5 };
+    let mut frames = Vec::new();
+    let (last, stats) =
+        render_sequence_radial_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
+            .unwrap();
+    assert_eq!((stats.len(), frames.len()), (3, 3));
+    assert_eq!(last.pixels, frames[2].1);
+    let mut worst = 0.0f32;
+    for (t, gpu) in &frames {
+        let posed = Scene {
+            pose_t: Some(*t),
+            ..s.clone()
+        };
+        let cpu = render(&posed, Method::Extrapolated).unwrap();
+        let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
+        for (g, c) in gpu.iter().zip(&cpu.pixels) {
+            for ch in 0..3 {
+                worst = worst.max((g[ch] - c[ch]).abs() / top);
+            }
+        }
+        assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
+    }
+    println!(
+        "GPU per-direction radii vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
+        frames[0].1.len(),
+        ctx.describe()
+    );
+    assert!(worst < RADIAL_GPU_TOL, "{worst}");
+    // The radii matter: the uniform sphere's render of the last pose is far from the radial one.
+    let posed = Scene {
+        pose_t: Some(frames[2].0),
+        ..s.clone()
+    };
+    let uniform = Scene {
+        radial: RadialRule::Uniform,
+        ..posed.clone()
+    };
+    let (a, b) = (
+        render(&posed, Method::Extrapolated).unwrap(),
+        render(&uniform, Method::Extrapolated).unwrap(),
+    );
+    let apart = (a.pixels.iter().flatten().zip(b.pixels.iter().flatten()))
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        apart > 100.0 * worst,
+        "radial and uniform renders only {apart} apart"
+    );
+    let mut occ = s.clone();
+    occ.radial = RadialRule::Occlusion {
+        tau: 0.05,
+        t_max: 3.0,
+    };
+    let e = render_sequence_radial_gpu(&occ, 1, &ctx, &mut |_, _| ())
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("clearance"), "{e}");
+}
+
+/// The GPU radial path's tolerance, relative to the brightest pixel: f32 rays, projection, k
+/// and rotations as the papers' GPU path (`SHADE_TOL` of the GPU parity tests, 1e-5), and a ray
+/// grazing an edge decided differently in f32 (see [`FIELD_GPU_TOL`]).
+const RADIAL_GPU_TOL: f32 = 2e-5;

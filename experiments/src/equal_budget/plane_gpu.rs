@@ -1,7 +1,8 @@
 //! `budget_plane`'s device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
 //! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
 //! sampling sphere (`gpu_path`: the real-time sequence, whose sampling sphere encloses every
-//! pose), the full field (`gpu_field`) and sphere sets by the chain or the union (`gpu_sets`).
+//! pose) or from clearance radii (`gpu_radial`), the full field (`gpu_field`) and sphere sets by
+//! the chain or the union (`gpu_sets`).
 //! The run's errors stay the CPU render's; the GPU images are compared with it
 //! (`gpu_max_diff`, in the unit of the mean unshadowed irradiance) so a row says how far its GPU
 //! frame is from the frame it scores. `gpu` needs an adapter (the config's `gpu` setting opens
@@ -45,6 +46,14 @@ impl DeviceChoice {
     }
 }
 
+/// Whether the scene's extrapolation places its samples by clearance radii.
+fn clearance(scene: &Scene) -> bool {
+    matches!(
+        scene.radial,
+        shscale_field::bsv::RadialRule::Clearance { .. }
+    )
+}
+
 /// Whether `method` has a GPU form on `scene` (with `frames` frames), or why not.
 pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), String> {
     let deforming = scene.occluders.iter().any(|o| o.deformer.is_some());
@@ -54,10 +63,11 @@ pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), Stri
         );
     }
     let why = match method {
+        Method::Extrapolated if clearance(scene) => shscale_scene::gpu_radial::check(scene),
         Method::Extrapolated => {
             if !shscale_scene::sequence::cached_path(scene, method) {
                 Err(Error::config(
-                    "the GPU extrapolation samples one sphere (radial = \"uniform\")".into(),
+                    "the GPU extrapolation samples one sphere or clearance radii (radial = \"uniform\" or \"clearance\", no plausibility clamp)".into(),
                 ))
             } else {
                 shscale_scene::gpu_path::check(scene)
@@ -123,6 +133,17 @@ fn gpu_frames(
 ) -> Result<(Vec<Image>, Vec<f64>), Error> {
     let (mut images, mut seconds) = (Vec::new(), Vec::new());
     match method {
+        Method::Extrapolated if clearance(scene) => {
+            shscale_scene::gpu_radial::render_sequence_radial_gpu(
+                scene,
+                frames,
+                gpu,
+                &mut |f, px| {
+                    seconds.push(f.as_sequence_frame().seconds);
+                    images.push(px.to_vec());
+                },
+            )?;
+        }
         Method::Extrapolated => {
             let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
             seconds.extend((run.frames.iter()).map(|f| f.deform_seconds + f.gpu.frame_seconds));
