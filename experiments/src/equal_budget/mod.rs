@@ -19,8 +19,8 @@
 
 mod frames;
 pub mod plane;
-mod plane_gpu;
 mod plane_images;
+mod plane_timings;
 mod receivers;
 pub mod spheres;
 mod surface;

@@ -271,7 +271,7 @@ pub struct Row {
     pub cached_frame_seconds_hi: Option<f64>,
     pub cache_seconds: Option<f64>,
     pub cached_max_diff: Option<f64>,
-    /// The frame on the GPU path (`device` = `gpu` or `auto`; `plane_gpu`): the mean frame of
+    /// The frame on the GPU path (`device` = `gpu` or `auto`; `plane_timings`): the mean frame of
     /// the sequence, host stages included, its interval, the adapter (or why none timed it), and
     /// the largest difference of its images from the CPU's in the unit of the mean unshadowed
     /// irradiance.
@@ -305,79 +305,8 @@ pub struct Shared {
 /// (the rays' share ≈ 1 ms) on the development VM.
 const SHADE_SECONDS_PER_RECEIVER: f64 = 1.0e-6;
 
-/// Seconds of one GPU-timed repetition besides its frames (`device` ≠ `cpu`): the sequence's
-/// buffers, pipelines and receiver set-up, made per repetition. `budget_plane_gpu.toml` on
-/// Mesa lavapipe (28 runs × 6 repetitions, 54 s against 17 s estimated for the CPU alone,
-/// 2026-12-05, the development VM) puts it near 0.2 s.
-const GPU_SEQUENCE_SECONDS: f64 = 0.2;
-
 /// The most frames of a run.
 pub const MAX_FRAMES: usize = 64;
-
-/// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
-/// re-sampling's rays at the rate (its shading is a few dot products per receiver).
-fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate: f64) -> f64 {
-    if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, method) {
-        rays / rate
-    } else {
-        0.0
-    }
-}
-
-/// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
-/// applies: its timing, the cache's build seconds and the largest difference of its image from
-/// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
-fn cached_frame(
-    scene: &Scene,
-    method: Method,
-    frames: usize,
-    direct: &[f64],
-    open: &[f64],
-    ctx: &Ctx,
-) -> Result<Option<(shscale_runner::timing::Timing, f64, f64)>, Error> {
-    if frames != 1 {
-        return Ok(None);
-    }
-    let Some(plane) = shscale_scene::cached::CachedPlane::new(scene, method)? else {
-        return Ok(None);
-    };
-    let (img, t) = ctx.timing.measure(|| plane.frame())?;
-    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
-    let diff = (img.iter().flatten().zip(direct))
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f64, f64::max);
-    Ok(Some((t, plane.build_seconds, diff / unit.max(1e-300))))
-}
-
-/// The run's frame on the GPU path as its `device` asks ([`super::plane_gpu`]): the timing, or
-/// none; and the adapter that timed it, or why none did.
-fn gpu_frame(
-    p: &Typed<Params, PlaneSpec>,
-    scene: &Scene,
-    cpu: (&[Vec<f64>], &[f64]),
-    ctx: &Ctx,
-) -> Result<(Option<super::plane_gpu::GpuTimed>, String), Error> {
-    use super::plane_gpu::{gpu_form, time_on_gpu, DeviceChoice};
-    let method = p.typed.method.method();
-    if p.typed.device == DeviceChoice::Cpu {
-        return Ok((None, "none: device = cpu".into()));
-    }
-    let Some(gpu) = shscale_scene::gpu_path::gpu_of(ctx) else {
-        if p.typed.device == DeviceChoice::Gpu {
-            return Err(Error::config(format!(
-                "device = \"gpu\": no adapter was opened (the config's gpu setting: \"auto\" or \"required\"); device = \"auto\" records the CPU only ({})",
-                p.scene
-            )));
-        }
-        return Ok((None, "none: no adapter".into()));
-    };
-    if let Err(why) = gpu_form(scene, method, p.frames) {
-        // `gpu` was checked at plan time; `auto` says why.
-        return Ok((None, format!("none: {why}")));
-    }
-    let timed = time_on_gpu(scene, method, p.frames, gpu, ctx, cpu)?;
-    Ok((Some(timed), gpu.describe()))
-}
 
 /// The scene at frame `f` of `frames` (the rest pose for one frame).
 fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
@@ -446,7 +375,7 @@ fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> 
 /// A run's resolved form: its method, and the group's scene where it was read at plan time.
 pub struct PlaneSpec {
     method: Spec,
-    device: super::plane_gpu::DeviceChoice,
+    device: super::plane_timings::DeviceChoice,
     scene: Option<Arc<Scene>>,
 }
 
@@ -505,7 +434,7 @@ impl Kind for BudgetPlane {
         }
         KeyError::int("frames", p.frames, 1, MAX_FRAMES)?;
         let method = p.spec()?;
-        let device = super::plane_gpu::DeviceChoice::parse(&p.device)?;
+        let device = super::plane_timings::DeviceChoice::parse(&p.device)?;
         if p.save_image && p.frames != 1 {
             return Err(KeyError::new(
                 "save_image",
@@ -539,10 +468,10 @@ impl Kind for BudgetPlane {
             ));
         }
         (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
-        if spec.typed.device == super::plane_gpu::DeviceChoice::Gpu {
+        if spec.typed.device == super::plane_timings::DeviceChoice::Gpu {
             let mut s = Scene::clone(&scene);
             spec.typed.method.apply(&mut s);
-            super::plane_gpu::gpu_form(&s, spec.typed.method.method(), p.frames)
+            super::plane_timings::gpu_form(&s, spec.typed.method.method(), p.frames)
                 .map_err(|why| KeyError::new("device", format!("\"gpu\": {why}")))?;
         }
         spec.typed.scene = Some(scene);
@@ -597,11 +526,7 @@ impl Kind for BudgetPlane {
         ) + frames * receivers * SHADE_SECONDS_PER_RECEIVER;
         // The GPU path's repetition (`device`): a sequence's set-up and its frames, counted at
         // the CPU frame's cost (a software device's; an upper bound on a GPU).
-        let gpu = if p.typed.device == super::plane_gpu::DeviceChoice::Cpu {
-            0.0
-        } else {
-            GPU_SEQUENCE_SECONDS + frame
-        };
+        let gpu = super::plane_timings::gpu_seconds(p.typed.device, frame);
         (
             Cost {
                 rays: once,
@@ -618,7 +543,7 @@ impl Kind for BudgetPlane {
                 bytes,
                 seconds: frame
                     + gpu
-                    + cached_seconds(&scene, p.typed.method.method(), p.frames, rays, rate),
+                    + super::plane_timings::cached_seconds(&scene, p.typed.method.method(), p.frames, rays, rate),
                 once_seconds: 0.0,
                 drivers: format!(
                     "method {} → {rays:.3e} rays and {receivers} receivers shaded, over {} frame(s)",
@@ -711,8 +636,14 @@ impl Kind for BudgetPlane {
             shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
         }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
-        let cached = cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
-        let (gpu, gpu_adapter) = gpu_frame(p, &scene, (&es, &sh.open), ctx)?;
+        let cached =
+            super::plane_timings::cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
+        let (gpu, gpu_adapter) = super::plane_timings::gpu_frame(
+            (p.typed.device, p.typed.method.method(), p.frames),
+            &scene,
+            (&es, &sh.open),
+            ctx,
+        )?;
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };

@@ -1,4 +1,8 @@
-//! `budget_plane`'s device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
+//! A `budget_plane` run's frame timed other ways than the direct CPU render it is scored by:
+//! through the per-receiver caches on still one-occluder planes ([`cached_frame`]), and on the
+//! GPU path.
+//!
+//! The device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
 //! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
 //! sampling sphere (`gpu_path`: the real-time sequence, whose sampling sphere encloses every
 //! pose) or from clearance radii (`gpu_radial`), the full field (`gpu_field`) and sphere sets by
@@ -78,6 +82,35 @@ pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), Stri
         other => Err(Error::config(format!("{other} has no GPU form"))),
     };
     why.map_err(|e| e.to_string())
+}
+
+/// A run's frame on the GPU path as its `device` asks (`(device, method, frames)` of the run on
+/// `scene`, the CPU images and unshadowed image it is compared with): the timing, or none; and
+/// the adapter that timed it, or why none did. `gpu` without an adapter is an error naming the
+/// key (a method without a form was refused at plan time).
+pub fn gpu_frame(
+    (device, method, frames): (DeviceChoice, Method, usize),
+    scene: &Scene,
+    cpu: (&[Vec<f64>], &[f64]),
+    ctx: &Ctx,
+) -> Result<(Option<GpuTimed>, String), Error> {
+    if device == DeviceChoice::Cpu {
+        return Ok((None, "none: device = cpu".into()));
+    }
+    let Some(gpu) = shscale_scene::gpu_path::gpu_of(ctx) else {
+        if device == DeviceChoice::Gpu {
+            return Err(Error::config(format!(
+                "device = \"gpu\": no adapter was opened (the config's gpu setting: \"auto\" or \"required\"); device = \"auto\" records the CPU only ({})",
+                scene.file
+            )));
+        }
+        return Ok((None, "none: no adapter".into()));
+    };
+    if let Err(why) = gpu_form(scene, method, frames) {
+        return Ok((None, format!("none: {why}")));
+    }
+    let timed = time_on_gpu(scene, method, frames, gpu, ctx, cpu)?;
+    Ok((Some(timed), gpu.describe()))
 }
 
 /// The GPU timing of a run: the frame's timing over the procedure's repeats (each the mean of
@@ -176,4 +209,56 @@ fn gpu_frames(
         }
     }
     Ok((images, seconds))
+}
+
+/// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
+/// re-sampling's rays at the rate (its shading is a few dot products per receiver).
+pub fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate: f64) -> f64 {
+    if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, method) {
+        rays / rate
+    } else {
+        0.0
+    }
+}
+
+/// The cached frame of a still scene ([`shscale_scene::cached::CachedPlane`]), where it
+/// applies: its timing, the cache's build seconds and the largest difference of its image from
+/// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
+pub fn cached_frame(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    direct: &[f64],
+    open: &[f64],
+    ctx: &Ctx,
+) -> Result<Option<(shscale_runner::timing::Timing, f64, f64)>, Error> {
+    if frames != 1 {
+        return Ok(None);
+    }
+    let Some(plane) = shscale_scene::cached::CachedPlane::new(scene, method)? else {
+        return Ok(None);
+    };
+    let (img, t) = ctx.timing.measure(|| plane.frame())?;
+    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    let diff = (img.iter().flatten().zip(direct))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    Ok(Some((t, plane.build_seconds, diff / unit.max(1e-300))))
+}
+
+/// Seconds of one GPU-timed repetition besides its frames (`device` ≠ `cpu`): the sequence's
+/// buffers, pipelines and receiver set-up, made per repetition. `budget_plane_gpu.toml` on
+/// Mesa lavapipe (28 runs × 6 repetitions, 54 s against 17 s estimated for the CPU alone,
+/// 2026-12-05, the development VM) puts it near 0.2 s.
+pub const GPU_SEQUENCE_SECONDS: f64 = 0.2;
+
+/// The cost model's seconds of a run's GPU-timed repetition besides the CPU's (`frame`: the CPU
+/// frame's estimate): none for `device = "cpu"`, else a sequence's set-up and its frames at the
+/// CPU frame's cost (a software device's; an upper bound on a GPU).
+pub fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
+    if device == DeviceChoice::Cpu {
+        0.0
+    } else {
+        GPU_SEQUENCE_SECONDS + frame
+    }
 }
