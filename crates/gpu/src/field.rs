@@ -163,42 +163,16 @@ impl GpuFullField {
             .write_buffer(&self.weights_buf, 0, bytemuck::cast_slice(weights));
         times.upload_seconds = t1.elapsed().as_secs_f64();
         let labels = ["bsv sampling", "sh conversion", "shadowing"];
-        let record = |i: usize, enc: &mut wgpu::CommandEncoder| {
-            let mut pass = enc.begin_compute_pass(&self.timer.pass(labels[i], i as u32));
-            match i {
-                0 => self.sampler.record_cast(&mut pass),
-                1 => self.sampler.record_project(&mut pass),
-                _ => {
-                    let (x, y) = grid_64(self.receivers as u32);
-                    pass.set_pipeline(&self.pipe);
-                    pass.set_bind_group(0, &self.bind, &[]);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
+        let device = self.timer.run(ctx, labels, |i, pass| match i {
+            0 => self.sampler.record_cast(pass),
+            1 => self.sampler.record_project(pass),
+            _ => {
+                let (x, y) = grid_64(self.receivers as u32);
+                pass.set_pipeline(&self.pipe);
+                pass.set_bind_group(0, &self.bind, &[]);
+                pass.dispatch_workgroups(x, y, 1);
             }
-        };
-        let mut device = [0.0; 3];
-        if self.timer.uses_timestamps() {
-            let mut enc = ctx
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            (0..3).for_each(|i| record(i, &mut enc));
-            self.timer.resolve(&mut enc);
-            ctx.queue.submit([enc.finish()]);
-            ctx.wait()?;
-            let s = self.timer.read(ctx)?.expect("timestamps enabled");
-            device.copy_from_slice(&s[..3]);
-        } else {
-            for (i, d) in device.iter_mut().enumerate() {
-                let t = Instant::now();
-                let mut enc = ctx
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-                record(i, &mut enc);
-                ctx.queue.submit([enc.finish()]);
-                ctx.wait()?;
-                *d = t.elapsed().as_secs_f64();
-            }
-        }
+        })?;
         [
             times.sampling_seconds,
             times.projection_seconds,

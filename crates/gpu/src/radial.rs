@@ -98,38 +98,12 @@ impl GpuRadial {
             "receiver setup",
             "shadowing",
         ];
-        let record = |i: usize, enc: &mut wgpu::CommandEncoder| {
-            let mut pass = enc.begin_compute_pass(&self.timer.pass(labels[i], i as u32));
-            match i {
-                0 => self.sampler.record_cast(&mut pass),
-                1 => self.sampler.record_project(&mut pass),
-                2 => self.builder.record(&mut pass),
-                _ => self.shader.record(&mut pass),
-            }
-        };
-        let mut device = [0.0; 4];
-        if self.timer.uses_timestamps() {
-            let mut enc = ctx
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            (0..4).for_each(|i| record(i, &mut enc));
-            self.timer.resolve(&mut enc);
-            ctx.queue.submit([enc.finish()]);
-            ctx.wait()?;
-            let s = self.timer.read(ctx)?.expect("timestamps enabled");
-            device.copy_from_slice(&s[..4]);
-        } else {
-            for (i, d) in device.iter_mut().enumerate() {
-                let t = Instant::now();
-                let mut enc = ctx
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-                record(i, &mut enc);
-                ctx.queue.submit([enc.finish()]);
-                ctx.wait()?;
-                *d = t.elapsed().as_secs_f64();
-            }
-        }
+        let device = self.timer.run(ctx, labels, |i, pass| match i {
+            0 => self.sampler.record_cast(pass),
+            1 => self.sampler.record_project(pass),
+            2 => self.builder.record(pass),
+            _ => self.shader.record(pass),
+        })?;
         [
             times.sampling_seconds,
             times.projection_seconds,

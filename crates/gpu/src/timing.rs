@@ -38,6 +38,51 @@ impl StageTimer {
         self.queries.is_some()
     }
 
+    /// Run the `S` stages named `labels` (at most the timer's), each recorded into its own
+    /// compute pass by `record(i, pass)`, and wait: their device seconds — by timestamps in one
+    /// submission where the context has them, else each stage submitted alone and timed by the
+    /// synchronised wall clock.
+    pub fn run<const S: usize>(
+        &self,
+        ctx: &GpuContext,
+        labels: [&str; S],
+        record: impl Fn(usize, &mut wgpu::ComputePass<'_>),
+    ) -> Result<[f64; S], GpuError> {
+        assert!(
+            S as u32 <= self.stages,
+            "more stages than the timer was made for"
+        );
+        let encoder = || {
+            ctx.device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+        };
+        let mut device = [0.0; S];
+        if self.uses_timestamps() {
+            let mut enc = encoder();
+            for (i, label) in labels.iter().enumerate() {
+                record(i, &mut enc.begin_compute_pass(&self.pass(label, i as u32)));
+            }
+            self.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            ctx.wait()?;
+            let s = self.read(ctx)?.expect("timestamps enabled");
+            device.copy_from_slice(&s[..S]);
+        } else {
+            for (i, d) in device.iter_mut().enumerate() {
+                let t = std::time::Instant::now();
+                let mut enc = encoder();
+                record(
+                    i,
+                    &mut enc.begin_compute_pass(&self.pass(labels[i], i as u32)),
+                );
+                ctx.queue.submit([enc.finish()]);
+                ctx.wait()?;
+                *d = t.elapsed().as_secs_f64();
+            }
+        }
+        Ok(device)
+    }
+
     /// The pass descriptor of stage `i`, with its timestamp writes when available.
     pub fn pass<'a>(&'a self, label: &'a str, i: u32) -> wgpu::ComputePassDescriptor<'a> {
         wgpu::ComputePassDescriptor {

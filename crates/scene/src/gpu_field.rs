@@ -43,22 +43,19 @@ impl GpuFieldFrame {
     /// As a [`crate::sequence::SequenceFrame`] (the stages above by name), the form every
     /// sequence's frames are printed and benchmarked in.
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        let stages = crate::sequence::named_stages(&[
-            ("deform", self.deform_seconds),
-            ("field_weights", self.weights_seconds),
-            ("bvh_update", self.bvh_seconds),
-            ("upload", self.upload_seconds),
-            ("bsv_sampling", self.sampling_seconds),
-            ("sh_conversion", self.projection_seconds),
-            ("shading", self.shading_seconds),
-        ]);
-        crate::sequence::SequenceFrame {
-            frame: self.frame,
-            t: self.t,
-            seconds: stages.iter().map(|s| s.1).sum(),
-            stages,
-            error: None,
-        }
+        crate::sequence::SequenceFrame::of_stages(
+            self.frame,
+            self.t,
+            &[
+                ("deform", self.deform_seconds),
+                ("field_weights", self.weights_seconds),
+                ("bvh_update", self.bvh_seconds),
+                ("upload", self.upload_seconds),
+                ("bsv_sampling", self.sampling_seconds),
+                ("sh_conversion", self.projection_seconds),
+                ("shading", self.shading_seconds),
+            ],
+        )
     }
 }
 
@@ -171,16 +168,5 @@ pub fn render_sequence_full_field_gpu(
         pixels = img;
         stats.push(st);
     }
-    Ok((
-        RenderOutput {
-            width: scene.resolution[0],
-            height: scene.resolution[1],
-            pixels,
-            stages: Vec::new(),
-            products: 0,
-            skipped: 0,
-            error: Vec::new(),
-        },
-        stats,
-    ))
+    Ok((RenderOutput::plane(scene, pixels), stats))
 }

@@ -197,16 +197,7 @@ pub fn render_sequence_gpu(
             gpu,
         });
     }
-    let [w, h] = scene.resolution;
-    let out = RenderOutput {
-        width: w,
-        height: h,
-        pixels: seq.read_image(ctx)?,
-        stages: Vec::new(),
-        products: 0,
-        skipped: 0,
-        error: Vec::new(),
-    };
+    let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
         image: out,
         frames: stats,

@@ -49,25 +49,22 @@ pub struct GpuRadialFrame {
 impl GpuRadialFrame {
     /// As a [`crate::sequence::SequenceFrame`] (the stages above by name).
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        let stages = crate::sequence::named_stages(&[
-            ("deform", self.deform_seconds),
-            ("radii", self.radii_seconds),
-            ("table_build", self.table_seconds),
-            ("locate", self.locate_seconds),
-            ("bvh_update", self.bvh_seconds),
-            ("upload", self.upload_seconds),
-            ("bsv_sampling", self.sampling_seconds),
-            ("sh_conversion", self.projection_seconds),
-            ("receiver_setup", self.setup_seconds),
-            ("shading", self.shading_seconds),
-        ]);
-        crate::sequence::SequenceFrame {
-            frame: self.frame,
-            t: self.t,
-            seconds: stages.iter().map(|s| s.1).sum(),
-            stages,
-            error: None,
-        }
+        crate::sequence::SequenceFrame::of_stages(
+            self.frame,
+            self.t,
+            &[
+                ("deform", self.deform_seconds),
+                ("radii", self.radii_seconds),
+                ("table_build", self.table_seconds),
+                ("locate", self.locate_seconds),
+                ("bvh_update", self.bvh_seconds),
+                ("upload", self.upload_seconds),
+                ("bsv_sampling", self.sampling_seconds),
+                ("sh_conversion", self.projection_seconds),
+                ("receiver_setup", self.setup_seconds),
+                ("shading", self.shading_seconds),
+            ],
+        )
     }
 }
 
@@ -216,16 +213,5 @@ pub fn render_sequence_radial_gpu(
         pixels = img;
         stats.push(st);
     }
-    Ok((
-        RenderOutput {
-            width: scene.resolution[0],
-            height: scene.resolution[1],
-            pixels,
-            stages: Vec::new(),
-            products: 0,
-            skipped: 0,
-            error: Vec::new(),
-        },
-        stats,
-    ))
+    Ok((RenderOutput::plane(scene, pixels), stats))
 }

@@ -38,19 +38,16 @@ impl GpuSetFrame {
     /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `shading`,
     /// `readback`), the form every sequence's frames are printed and benchmarked in.
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        let stages = crate::sequence::named_stages(&[
-            ("deform", self.deform_seconds),
-            ("sphere_fit", self.sphere_fit_seconds),
-            ("shading", self.shading_seconds),
-            ("readback", self.readback_seconds),
-        ]);
-        crate::sequence::SequenceFrame {
-            frame: self.frame,
-            t: self.t,
-            seconds: stages.iter().map(|s| s.1).sum(),
-            stages,
-            error: None,
-        }
+        crate::sequence::SequenceFrame::of_stages(
+            self.frame,
+            self.t,
+            &[
+                ("deform", self.deform_seconds),
+                ("sphere_fit", self.sphere_fit_seconds),
+                ("shading", self.shading_seconds),
+                ("readback", self.readback_seconds),
+            ],
+        )
     }
 }
 
@@ -186,16 +183,5 @@ pub fn render_sequence_sphere_set_gpu(
         pixels = img;
         stats.push(st);
     }
-    Ok((
-        RenderOutput {
-            width: scene.resolution[0],
-            height: scene.resolution[1],
-            pixels,
-            stages: Vec::new(),
-            products: 0,
-            skipped: 0,
-            error: Vec::new(),
-        },
-        stats,
-    ))
+    Ok((RenderOutput::plane(scene, pixels), stats))
 }

@@ -50,6 +50,22 @@ pub struct RenderOutput {
     pub error: Vec<[f32; 3]>,
 }
 
+impl RenderOutput {
+    /// The receiver plane of `scene` as `pixels` with nothing else recorded (the GPU sequences'
+    /// last frame).
+    pub fn plane(scene: &Scene, pixels: Vec<[f32; 3]>) -> Self {
+        Self {
+            width: scene.resolution[0],
+            height: scene.resolution[1],
+            pixels,
+            stages: Vec::new(),
+            products: 0,
+            skipped: 0,
+            error: Vec::new(),
+        }
+    }
+}
+
 /// Estimated rays and peak bytes of one [`render`] of `scene` with `method` (for the work limits
 /// of `shscale render`): the BSV of every occluder (one per shell for the full field), 4T² rays per
 /// receiver and occluder for band-limited ray tracing, 4T² plus the sun's cap per receiver for

@@ -168,6 +168,20 @@ fn cached(
     Ok((img, out))
 }
 
+impl SequenceFrame {
+    /// Frame `frame` at `t` with its `(stage, seconds)` (no error): its seconds their sum.
+    pub fn of_stages(frame: usize, t: f64, stages: &[(&str, f64)]) -> Self {
+        let stages = named_stages(stages);
+        Self {
+            frame,
+            t,
+            seconds: stages.iter().map(|s| s.1).sum(),
+            stages,
+            error: None,
+        }
+    }
+}
+
 /// A frame's stage times as [`SequenceFrame::stages`] holds them (names owned).
 pub(crate) fn named_stages(stages: &[(&str, f64)]) -> Vec<(String, f64)> {
     (stages.iter()).map(|(n, v)| (n.to_string(), *v)).collect()

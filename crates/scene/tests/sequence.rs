@@ -441,6 +441,28 @@ fn a_turned_occluder_deforms_in_its_own_frame() {
     assert!((s0.center - s1.center).length() < 1e-9 && (s0.radius - s1.radius).abs() < 1e-9);
 }
 
+/// The worst difference, over every pixel and channel of `frames` (`(t, pixels)` of a GPU
+/// sequence of `s`), from the CPU render by `method` of the same pose, relative to the brightest
+/// CPU pixel; every frame after the first must differ from the first (the shadows move).
+fn worst_against_cpu(s: &Scene, method: Method, frames: &[(f64, Vec<[f32; 3]>)]) -> f32 {
+    let mut worst = 0.0f32;
+    for (t, gpu) in frames {
+        let posed = Scene {
+            pose_t: Some(*t),
+            ..s.clone()
+        };
+        let cpu = render(&posed, method).unwrap();
+        let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
+        for (g, c) in gpu.iter().zip(&cpu.pixels) {
+            for ch in 0..3 {
+                worst = worst.max((g[ch] - c[ch]).abs() / top);
+            }
+        }
+        assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
+    }
+    worst
+}
+
 /// The papers' full field on the GPU path against the CPU render of the same pose, frame by
 /// frame: a flapping bird, 3 frames, on a Fibonacci layout (barycentric between samples) and on
 /// a latitude–longitude one (trilinear), 16 shells over [1, 8]·r. The worst difference over
@@ -464,21 +486,7 @@ fn gpu_full_field_matches_the_cpu_render_frame_by_frame() {
         .unwrap();
         assert_eq!((stats.len(), frames.len()), (3, 3));
         assert_eq!(last.pixels, frames[2].1);
-        let mut worst = 0.0f32;
-        for (t, gpu) in &frames {
-            let posed = Scene {
-                pose_t: Some(*t),
-                ..s.clone()
-            };
-            let cpu = render(&posed, Method::FullField).unwrap();
-            let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
-            for (g, c) in gpu.iter().zip(&cpu.pixels) {
-                for ch in 0..3 {
-                    worst = worst.max((g[ch] - c[ch]).abs() / top);
-                }
-            }
-            assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
-        }
+        let worst = worst_against_cpu(&s, Method::FullField, &frames);
         println!(
             "GPU full field ({layout}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
             frames[0].1.len(),
@@ -524,21 +532,7 @@ fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
             .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
-    let mut worst = 0.0f32;
-    for (t, gpu) in &frames {
-        let posed = Scene {
-            pose_t: Some(*t),
-            ..s.clone()
-        };
-        let cpu = render(&posed, Method::Extrapolated).unwrap();
-        let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
-        for (g, c) in gpu.iter().zip(&cpu.pixels) {
-            for ch in 0..3 {
-                worst = worst.max((g[ch] - c[ch]).abs() / top);
-            }
-        }
-        assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
-    }
+    let worst = worst_against_cpu(&s, Method::Extrapolated, &frames);
     println!(
         "GPU per-direction radii vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
         frames[0].1.len(),
