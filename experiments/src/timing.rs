@@ -69,7 +69,7 @@ impl Kind for Timing {
             ),
             (
                 "path",
-                "`cpu` or `gpu` (a gpu run without an adapter writes no row)",
+                "`cpu`, `gpu` or `gpu-pipelined` (the host's half of frame i + 1 overlapping the device's frame i; timestamp queries needed); a GPU run without an adapter writes no row",
             ),
             (
                 "frames",
@@ -132,7 +132,7 @@ impl Kind for Timing {
     }
 
     fn run(p: &Self::Spec, _: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
-        let gpu = if p.typed == BenchPath::Gpu {
+        let gpu = if p.typed != BenchPath::Cpu {
             match shscale_scene::gpu_path::gpu_of(ctx) {
                 Some(g) => Some(g),
                 None => return Ok(Vec::new()),
@@ -141,7 +141,8 @@ impl Kind for Timing {
             None
         };
         let cpu = p.typed == BenchPath::Cpu;
-        let rows = bench_scene(&p.scene, p.frames, p.warmup, cpu, gpu)?;
+        let pipelined = p.typed == BenchPath::GpuPipelined;
+        let rows = bench_scene(&p.scene, (p.frames, p.warmup), cpu, gpu, pipelined)?;
         Ok((rows.into_iter())
             .filter(|r| r.path == p.typed)
             .map(|r| r.times)

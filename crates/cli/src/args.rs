@@ -183,6 +183,12 @@ pub struct BenchArgs {
     /// With --gpu: fail (exit 2) when no adapter exists instead of going on with the CPU.
     #[arg(long, requires = "gpu")]
     pub require_gpu: bool,
+    /// With --gpu: a third row per scene, the GPU sequence pipelined (the host poses and refits
+    /// frame i + 1 while the device runs frame i; timestamp queries needed): its frame is the
+    /// period between completions, its stages as measured — their sum less the frame is the
+    /// overlap.
+    #[arg(long, requires = "gpu")]
+    pub pipelined: bool,
     /// Skip the CPU path (with --gpu).
     #[arg(long, requires = "gpu")]
     pub no_cpu: bool,
@@ -524,6 +530,10 @@ pub struct RenderArgs {
     /// the GPU stage times; the image is the GPU's last frame. Exit 2 without an adapter.
     #[arg(long, requires = "frames")]
     pub gpu: bool,
+    /// With --gpu (the papers' extrapolation): pipelined frames — the host poses and refits frame
+    /// i + 1 while the device runs frame i; each frame's stages are printed beside its period.
+    #[arg(long, requires = "gpu")]
+    pub pipelined: bool,
     /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
     #[arg(long)]
     pub allow_large: bool,

@@ -41,7 +41,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         return bench_methods(&a, scenes, list, ctx.as_ref());
     }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
-    let paths = usize::from(cpu) + usize::from(ctx.is_some());
+    let paths = usize::from(cpu) + usize::from(ctx.is_some()) * (1 + usize::from(a.pipelined));
     let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
     shscale_runner::limits::check_work(
         "bench",
@@ -59,7 +59,13 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     let bar = crate::output::Progress::new(scenes.len(), "scenes");
     for s in scenes {
         bar.set_message(format!("{s} ({} + {} frames)", a.warmup, a.frames));
-        rows.extend(bench_scene(s, a.frames, a.warmup, cpu, ctx.as_ref())?);
+        rows.extend(bench_scene(
+            s,
+            (a.frames, a.warmup),
+            cpu,
+            ctx.as_ref(),
+            a.pipelined,
+        )?);
         bar.inc();
     }
     bar.finish();

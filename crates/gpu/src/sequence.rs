@@ -50,6 +50,8 @@ pub struct GpuSequence {
     timer: StageTimer,
     /// Device seconds of the GPU receiver setup (0 for an uploaded cache).
     pub receiver_setup_seconds: f64,
+    /// The prepared frame's ray offset ([`Self::prepare`]).
+    tmin: f64,
 }
 
 impl GpuSequence {
@@ -104,6 +106,7 @@ impl GpuSequence {
             shader,
             timer,
             receiver_setup_seconds,
+            tmin: 0.0,
         })
     }
 
@@ -167,6 +170,53 @@ impl GpuSequence {
             ] = wall;
         }
         Ok(times)
+    }
+
+    /// Pipelined frames, host half: update the BVH for the posed `mesh` (host only: the device
+    /// may still be running the previous frame, which reads its own uploaded copy). Returns the
+    /// seconds it took. Then [`Self::finish`] the previous frame, and [`Self::submit`] this one.
+    pub fn prepare(&mut self, mesh: &Mesh) -> Result<f64, GpuError> {
+        let t0 = Instant::now();
+        self.bvh.update(mesh)?;
+        self.tmin = RAY_EPS * mesh.bounding_sphere().radius;
+        Ok(t0.elapsed().as_secs_f64())
+    }
+
+    /// Pipelined frames, device half: upload the prepared BVH and submit the three passes with
+    /// their timestamps, without waiting (timestamps only: without them each stage must be timed
+    /// alone, which cannot overlap). Returns the upload's seconds.
+    pub fn submit(&mut self, ctx: &GpuContext) -> Result<f64, GpuError> {
+        if !self.timer.uses_timestamps() {
+            return Err(GpuError::Input(
+                "pipelined frames need timestamp queries, which this adapter lacks".into(),
+            ));
+        }
+        let t0 = Instant::now();
+        self.sampler.upload(ctx, &self.bvh, self.tmin)?;
+        let upload = t0.elapsed().as_secs_f64();
+        let labels = ["bsv sampling", "sh conversion", "shadowing"];
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        for (i, label) in labels.iter().enumerate() {
+            let mut pass = enc.begin_compute_pass(&self.timer.pass(label, i as u32));
+            match i {
+                0 => self.sampler.record_cast(&mut pass),
+                1 => self.sampler.record_project(&mut pass),
+                _ => self.shader.record(&mut pass),
+            }
+        }
+        self.timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        Ok(upload)
+    }
+
+    /// Pipelined frames: wait for the submitted frame and read its three device stages
+    /// `(sampling, projection, shading)` in seconds.
+    pub fn finish(&mut self, ctx: &GpuContext) -> Result<[f64; 3], GpuError> {
+        ctx.wait()?;
+        let s = self.timer.read(ctx)?.expect("submit requires timestamps");
+        Ok([s[0], s[1], s[2]])
     }
 
     /// This frame's BSV coefficients (`samples × N²`).

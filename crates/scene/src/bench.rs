@@ -12,7 +12,7 @@
 //! conversion is inside its BSV sampling column (reported empty, not zero).
 
 use crate::error::Error;
-use crate::gpu_path::render_sequence_gpu;
+use crate::gpu_path::render_sequence_gpu_with;
 use crate::render::render_sequence;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -43,15 +43,19 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
 pub enum BenchPath {
     Cpu,
     Gpu,
+    /// The GPU sequence with the host's half of frame i + 1 overlapping the device's frame i.
+    #[serde(rename = "gpu-pipelined")]
+    GpuPipelined,
 }
 
 impl BenchPath {
-    /// `cpu` or `gpu`.
+    /// `cpu`, `gpu` or `gpu-pipelined`.
     pub fn parse(s: &str) -> Result<Self, String> {
         match s {
             "cpu" => Ok(Self::Cpu),
             "gpu" => Ok(Self::Gpu),
-            _ => Err(format!("{s:?} is not cpu or gpu")),
+            "gpu-pipelined" => Ok(Self::GpuPipelined),
+            _ => Err(format!("{s:?} is not cpu, gpu or gpu-pipelined")),
         }
     }
 
@@ -59,6 +63,7 @@ impl BenchPath {
         match self {
             Self::Cpu => "cpu",
             Self::Gpu => "gpu",
+            Self::GpuPipelined => "gpu-pipelined",
         }
     }
 }
@@ -104,13 +109,13 @@ pub struct BenchRow {
 }
 
 /// Measure `scene` over `warmup + frames` frames: the CPU path always (unless `cpu` is false),
-/// the GPU path when `gpu` is given.
+/// the GPU path when `gpu` is given — and pipelined as well with `pipelined`.
 pub fn bench_scene(
     name: &str,
-    frames: usize,
-    warmup: usize,
+    (frames, warmup): (usize, usize),
     cpu: bool,
     gpu: Option<&GpuContext>,
+    pipelined: bool,
 ) -> Result<Vec<BenchRow>, Error> {
     let sc = scene(name)?;
     let frames = frames.max(1);
@@ -141,8 +146,14 @@ pub fn bench_scene(
     if let Some(ctx) = gpu {
         rows.push(row(
             BenchPath::Gpu,
-            gpu_times(&sc, total, warmup, ctx, &base)?,
+            gpu_times(&sc, (total, warmup), ctx, &base, false)?,
         ));
+        if pipelined {
+            rows.push(row(
+                BenchPath::GpuPipelined,
+                gpu_times(&sc, (total, warmup), ctx, &base, true)?,
+            ));
+        }
     }
     Ok(rows)
 }
@@ -185,21 +196,19 @@ fn cpu_times(
     })
 }
 
-/// The GPU sequence's row on `ctx`: per-stage device times (timestamps where available).
+/// The GPU sequence's row on `ctx` (pipelined or not): per-stage device times (timestamps where
+/// available), the frame the median of [`crate::gpu_path::GpuFrameStats::seconds`].
 fn gpu_times(
     sc: &Scene,
-    total: usize,
-    warmup: usize,
+    (total, warmup): (usize, usize),
     ctx: &GpuContext,
     base: &FrameTimes,
+    pipelined: bool,
 ) -> Result<FrameTimes, Error> {
-    let run = render_sequence_gpu(sc, total, ctx)?;
+    let run = render_sequence_gpu_with(sc, total, ctx, pipelined)?;
     let (stats, setup) = (&run.frames, run.setup_seconds);
     let st = &stats[warmup.min(stats.len() - 1)..];
-    let frame_ms = ms(st
-        .iter()
-        .map(|s| s.deform_seconds + s.gpu.frame_seconds)
-        .collect());
+    let frame_ms = ms(st.iter().map(|s| s.seconds()).collect());
     Ok(FrameTimes {
         device: ctx.describe(),
         timestamps: st[0].gpu.timestamps,

@@ -54,7 +54,35 @@ pub struct GpuFrameStats {
     pub frame: usize,
     /// Host deformation (as the CPU path).
     pub deform_seconds: f64,
+    /// The frame's stages; in a pipelined sequence its `frame_seconds` is the frame's period
+    /// (from the previous frame's completion to this one's), which its stages overlap.
     pub gpu: GpuStageTimes,
+    /// Pipelined: the host posed and refitted this frame while the device ran the previous one.
+    pub pipelined: bool,
+}
+
+impl GpuFrameStats {
+    /// The frame's wall time: posing and the GPU frame one after the other, or the pipelined
+    /// frame's period.
+    pub fn seconds(&self) -> f64 {
+        if self.pipelined {
+            self.gpu.frame_seconds
+        } else {
+            self.deform_seconds + self.gpu.frame_seconds
+        }
+    }
+
+    /// The sum of the frame's stages (host and device): what a frame would take one stage after
+    /// another; [`Self::seconds`] below it is the overlap a pipelined sequence gained.
+    pub fn stage_sum(&self) -> f64 {
+        let g = &self.gpu;
+        self.deform_seconds
+            + g.bvh_seconds
+            + g.upload_seconds
+            + g.sampling_seconds
+            + g.projection_seconds
+            + g.shading_seconds
+    }
 }
 
 /// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
@@ -142,6 +170,20 @@ pub fn render_sequence_gpu(
     frames: usize,
     ctx: &GpuContext,
 ) -> Result<GpuSequenceRun, Error> {
+    render_sequence_gpu_with(scene, frames, ctx, false)
+}
+
+/// [`render_sequence_gpu`], pipelined when `pipelined` (timestamp queries needed): the host poses
+/// frame i + 1 and refits its BVH while the device runs frame i (the upload waits for frame i to
+/// finish, whose timestamps are read first). Every frame's stages are kept; its `frame_seconds`
+/// is the period between completions, so the overlap is the stages' sum less it
+/// ([`GpuFrameStats::stage_sum`]). The images are the sequential path's.
+pub fn render_sequence_gpu_with(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    pipelined: bool,
+) -> Result<GpuSequenceRun, Error> {
     let t_setup = Instant::now();
     let frames = frames.max(1);
     let o = single_mesh(scene)?;
@@ -182,20 +224,27 @@ pub fn render_sequence_gpu(
     let setup = t_setup.elapsed().as_secs_f64();
     let mut posed: Mesh = rest.clone();
     let poser = (o.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
-    let mut stats = Vec::with_capacity(frames);
-    for f in 0..frames {
-        let t = f as f64 / frames as f64;
+    let pose = |f: usize, posed: &mut Mesh| {
         let t0 = Instant::now();
         if let Some(p) = &poser {
-            p.pose(&rest, t, &mut posed);
+            p.pose(&rest, f as f64 / frames as f64, posed);
         }
-        let deform_seconds = t0.elapsed().as_secs_f64();
-        let gpu = seq.frame(ctx, &posed)?;
-        stats.push(GpuFrameStats {
-            frame: f,
-            deform_seconds,
-            gpu,
-        });
+        t0.elapsed().as_secs_f64()
+    };
+    let mut stats = Vec::with_capacity(frames);
+    if pipelined {
+        pipelined_frames(&mut seq, ctx, (frames, &pose, &mut posed), &mut stats)?;
+    } else {
+        for f in 0..frames {
+            let deform_seconds = pose(f, &mut posed);
+            let gpu = seq.frame(ctx, &posed)?;
+            stats.push(GpuFrameStats {
+                frame: f,
+                deform_seconds,
+                gpu,
+                pipelined: false,
+            });
+        }
     }
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
@@ -204,6 +253,51 @@ pub fn render_sequence_gpu(
         setup_seconds: setup,
         receiver_setup_seconds: seq.receiver_setup_seconds,
     })
+}
+
+/// The pipelined loop of [`render_sequence_gpu_with`]: frame 0 posed, refitted and submitted;
+/// then for every next frame, pose and refit it (the device still running the previous one),
+/// finish the previous one (its period ends there) and submit this one; finish the last.
+fn pipelined_frames(
+    seq: &mut GpuSequence,
+    ctx: &GpuContext,
+    (frames, pose, posed): (usize, &dyn Fn(usize, &mut Mesh) -> f64, &mut Mesh),
+    stats: &mut Vec<GpuFrameStats>,
+) -> Result<(), Error> {
+    let mut period = Instant::now();
+    let mut deform = pose(0, posed);
+    let mut bvh = seq.prepare(posed)?;
+    let mut upload = seq.submit(ctx)?;
+    for f in 1..=frames {
+        // The next frame's host half, overlapping the device's work on frame f − 1.
+        let next = if f < frames {
+            let d = pose(f, posed);
+            Some((d, seq.prepare(posed)?))
+        } else {
+            None
+        };
+        let [sampling, projection, shading] = seq.finish(ctx)?;
+        stats.push(GpuFrameStats {
+            frame: f - 1,
+            deform_seconds: deform,
+            gpu: GpuStageTimes {
+                bvh_seconds: bvh,
+                upload_seconds: upload,
+                sampling_seconds: sampling,
+                projection_seconds: projection,
+                shading_seconds: shading,
+                frame_seconds: period.elapsed().as_secs_f64(),
+                timestamps: true,
+            },
+            pipelined: true,
+        });
+        period = Instant::now();
+        if let Some((d, b)) = next {
+            (deform, bvh) = (d, b);
+            upload = seq.submit(ctx)?;
+        }
+    }
+    Ok(())
 }
 
 /// What [`render_sequence_gpu`] returns.

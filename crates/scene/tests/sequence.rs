@@ -574,3 +574,36 @@ fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
 /// and rotations as the papers' GPU path (`SHADE_TOL` of the GPU parity tests, 1e-5), and a ray
 /// grazing an edge decided differently in f32 (see [`FIELD_GPU_TOL`]).
 const RADIAL_GPU_TOL: f32 = 2e-5;
+
+/// The papers' GPU sequence pipelined (the host posing and refitting frame i + 1 while the
+/// device runs frame i) renders the sequential sequence's images bit for bit — the same uploads
+/// in the same order —, keeps every frame's stages and reports each frame's period beside their
+/// sum. No speed is asserted (a timed test would measure the machine). Skips as the tests above.
+#[test]
+fn pipelined_gpu_frames_render_the_sequential_images() {
+    use shscale_scene::gpu_path::render_sequence_gpu_with;
+    let Some(ctx) = gpu_or_skip("pipelined GPU sequence") else {
+        return;
+    };
+    let s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    for frames in [1, 4] {
+        let seq = render_sequence_gpu_with(&s, frames, &ctx, false).unwrap();
+        let pip = render_sequence_gpu_with(&s, frames, &ctx, true).unwrap();
+        assert_eq!(seq.image.pixels, pip.image.pixels, "{frames} frames");
+        assert_eq!(pip.frames.len(), frames);
+        for (i, f) in pip.frames.iter().enumerate() {
+            assert!(f.pipelined && f.frame == i);
+            let g = &f.gpu;
+            assert!(g.sampling_seconds > 0.0 && g.shading_seconds > 0.0 && g.bvh_seconds > 0.0);
+            assert!(f.seconds() > 0.0 && f.stage_sum() > 0.0);
+            println!(
+                "frame {i}: stages {:.3} ms, period {:.3} ms",
+                1e3 * f.stage_sum(),
+                1e3 * f.seconds()
+            );
+        }
+        assert!(seq.frames.iter().all(|f| !f.pipelined));
+    }
+}

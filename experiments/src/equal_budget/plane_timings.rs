@@ -179,7 +179,7 @@ fn gpu_frames(
         }
         Method::Extrapolated => {
             let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
-            seconds.extend((run.frames.iter()).map(|f| f.deform_seconds + f.gpu.frame_seconds));
+            seconds.extend((run.frames.iter()).map(|f| f.seconds()));
             images.push(run.image.pixels);
         }
         Method::FullField => {
