@@ -255,13 +255,16 @@ pub fn render_sequence_gpu_with(
     })
 }
 
+/// Poses frame `f` into the mesh given; its seconds.
+type PoseFn<'a> = dyn Fn(usize, &mut Mesh) -> f64 + 'a;
+
 /// The pipelined loop of [`render_sequence_gpu_with`]: frame 0 posed, refitted and submitted;
 /// then for every next frame, pose and refit it (the device still running the previous one),
 /// finish the previous one (its period ends there) and submit this one; finish the last.
 fn pipelined_frames(
     seq: &mut GpuSequence,
     ctx: &GpuContext,
-    (frames, pose, posed): (usize, &dyn Fn(usize, &mut Mesh) -> f64, &mut Mesh),
+    (frames, pose, posed): (usize, &PoseFn, &mut Mesh),
     stats: &mut Vec<GpuFrameStats>,
 ) -> Result<(), Error> {
     let mut period = Instant::now();
