@@ -390,6 +390,36 @@ fn sequences_take_every_method() {
         ],
         "--gpu",
     );
+    // Pipelined frames are the papers' sequence's only: refused by name for another method,
+    // and by the bench with --methods, before any adapter is needed.
+    fails(
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            out,
+            "--method",
+            "full_field",
+            "--frames",
+            "2",
+            "--gpu",
+            "--pipelined",
+        ],
+        "--pipelined",
+    );
+    fails(
+        &[
+            "bench",
+            "--gpu",
+            "--pipelined",
+            "--methods",
+            "full_field",
+            "--scene",
+            "bird",
+        ],
+        "--pipelined",
+    );
     // Sphere sets and the full field have a GPU sequence (where an adapter exists).
     for (method, title, parts) in [
         (

@@ -38,6 +38,11 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
     }
     if let Some(list) = &a.methods {
+        if a.pipelined {
+            anyhow::bail!(
+                "--pipelined: Table 1's papers' sequence only; drop it with --methods (each method's GPU frames run one after another)"
+            );
+        }
         return bench_methods(&a, scenes, list, ctx.as_ref());
     }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).

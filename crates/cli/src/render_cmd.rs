@@ -399,6 +399,11 @@ fn sequence(
         if a.reference.is_some() {
             bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
         }
+        if a.pipelined && !cached_path(scene, method) {
+            bail!(
+                "--pipelined: the pipelined GPU sequence is the papers' extrapolation's (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
+            );
+        }
         if method == Method::SphereSet {
             return gpu_sphere_sequence(a, scene, frames);
         }
