@@ -383,7 +383,7 @@ fn sequences_take_every_method() {
             "--out",
             out,
             "--method",
-            "sub_volumes",
+            "ray_traced",
             "--frames",
             "2",
             "--gpu",

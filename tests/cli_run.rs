@@ -1374,8 +1374,8 @@ fn budget_plane_rows_count_rays_bytes_and_near_receivers() {
 }
 
 /// `budget_plane`'s device axis: with `device = "auto"` every method with a GPU form on the
-/// scene (the extrapolation from one sphere and from clearance radii, the full field, sphere sets
-/// by the chain and the union) is timed on the GPU path beside the CPU, its images within f32 rounding of the CPU
+/// scene (the extrapolation from one sphere and from clearance radii, sub-volumes, the full
+/// field, sphere sets by the chain and the union) is timed on the GPU path beside the CPU, its images within f32 rounding of the CPU
 /// render it is scored by (`gpu_max_diff`, printed), the rows naming the adapter and the report
 /// drawing the front against GPU time; a method without a form says so. `device = "gpu"` is
 /// refused by name, exit 2, for a method without a form at plan time and without an adapter
@@ -1393,7 +1393,7 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     let cfg = dir.join("bpg.toml");
     std::fs::write(
         &cfg,
-        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ntiming_repeats = 1\ntiming_warmup = 0\nparallel_runs = false\ndevice = \"auto\"\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [4]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [4]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\nsphere_combine = [\"product\", \"union\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [2]\n[[sweep]]\nmethod = [\"extrapolated\"]\nradial = [\"clearance\"]\nradial_delta = [0.3]\n",
+        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ntiming_repeats = 1\ntiming_warmup = 0\nparallel_runs = false\ndevice = \"auto\"\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [4]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [4]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\nsphere_combine = [\"product\", \"union\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [2]\n[[sweep]]\nmethod = [\"extrapolated\"]\nradial = [\"clearance\"]\nradial_delta = [0.3]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\n",
     )
     .unwrap();
     let out = dir.join("r");
@@ -1409,7 +1409,7 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     let head = rd.headers().unwrap().clone();
     let col = |n: &str| head.iter().position(|h| h == n).unwrap();
     let rows: Vec<csv::StringRecord> = rd.records().map(|r| r.unwrap()).collect();
-    assert_eq!(rows.len(), 6);
+    assert_eq!(rows.len(), 7);
     let required = std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1");
     let adapter = rows[0][col("gpu_adapter")].to_string();
     if adapter == "none: no adapter" {
@@ -1418,8 +1418,8 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     } else {
         for r in &rows {
             let method = &r[col("method")];
-            if method == "sub_volumes" {
-                assert_eq!(&r[col("gpu_adapter")], "none: sub_volumes has no GPU form");
+            if method == "ray_traced" {
+                assert_eq!(&r[col("gpu_adapter")], "none: ray_traced has no GPU form");
                 assert!(r[col("gpu_frame_seconds")].is_empty());
                 continue;
             }

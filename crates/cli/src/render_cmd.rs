@@ -410,6 +410,9 @@ fn sequence(
         if method == Method::FullField {
             return gpu_field_sequence(a, scene, frames);
         }
+        if method == Method::SubVolumes {
+            return gpu_parts_sequence(a, scene, frames);
+        }
         let clearance = matches!(
             scene.radial,
             shscale_field::bsv::RadialRule::Clearance { .. }
@@ -419,7 +422,7 @@ fn sequence(
         }
         if !cached_path(scene, method) {
             bail!(
-                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
+                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
             );
         }
         return gpu_sequence(a, scene, frames);
@@ -558,6 +561,17 @@ fn gpu_radial_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::
     let (img, stats) = render_sequence_radial_gpu(scene, frames, &ctx, &mut |_, _| {})?;
     let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
     print_gpu_sequence(a, "per-direction radii", &img, &seq, &ctx)
+}
+
+/// `render --frames --method sub_volumes --gpu`: the parts split and their tables made on the
+/// host, every part's rays, extrapolation and their product on the GPU, every frame.
+fn gpu_parts_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+    use shscale_scene::gpu_parts::{check, render_sequence_sub_volumes_gpu};
+    check(scene)?;
+    let ctx = required_gpu()?;
+    let (img, stats) = render_sequence_sub_volumes_gpu(scene, frames, &ctx, &mut |_, _| {})?;
+    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
+    print_gpu_sequence(a, "sub-volumes", &img, &seq, &ctx)
 }
 
 /// The adapter, required (`--gpu`).

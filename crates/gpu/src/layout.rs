@@ -127,6 +127,28 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of the sub-volumes kernel (a uniform).
+    GpuPartsParams [48] {
+        receivers: u32 => "u32",
+        /// SH order N (≤ 8) and N².
+        order: u32 => "u32",
+        nn: u32 => "u32",
+        /// Parts (≤ 16), base-sphere samples per part, Gaunt entries, quadrature points.
+        parts: u32 => "u32",
+        samples: u32 => "u32",
+        entries: u32 => "u32",
+        quad: u32 => "u32",
+        /// Tabulated k values per part; 1: the tables interpolate in ln k.
+        k_count: u32 => "u32",
+        log_k: u32 => "u32",
+        /// Shaded channels (1 grey, 3 RGB).
+        channels: u32 => "u32",
+        pad0: u32 => "u32",
+        pad1: u32 => "u32",
+    }
+}
+
 /// Every struct's WGSL declaration, prepended to each shader.
 pub fn wgsl_structs() -> String {
     [
@@ -137,6 +159,7 @@ pub fn wgsl_structs() -> String {
         GpuReceiver::WGSL,
         GpuCacheParams::WGSL,
         GpuSetParams::WGSL,
+        GpuPartsParams::WGSL,
     ]
     .concat()
 }

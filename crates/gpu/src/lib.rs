@@ -17,7 +17,9 @@
 //! - [`field`] ↔ `shscale_field::evaluator::FullField` (its shells sampled by the two stages
 //!   above, each receiver shaded from its interpolation weights);
 //! - [`radial`] ↔ `shscale_field::Bsv::sample_radial` with clearance radii and the receiver
-//!   cache with each receiver's `k = d / r(q)`.
+//!   cache with each receiver's `k = d / r(q)`;
+//! - [`parts`] ↔ `shscale_field::subvolume::SubVolumeField` (every part sampled alone,
+//!   extrapolated per receiver, the parts multiplied near to far).
 //!
 //! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
 //! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
@@ -32,6 +34,7 @@ pub mod context;
 pub mod error;
 pub mod field;
 pub mod layout;
+pub mod parts;
 pub mod radial;
 pub mod sampling;
 pub mod sequence;

@@ -364,8 +364,9 @@ fn gpu_extrapolated_stages(
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
 /// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
 /// sequence; no per-frame image, so no error), the extrapolation from per-direction radii
-/// (`gpu_radial`, `clearance=`), sphere sets (`gpu_sets`) and the full field (`gpu_field`), the
-/// last three scored against `truths` like the CPU rows; `None` for the others.
+/// (`gpu_radial`, `clearance=`), sub-volumes (`gpu_parts`), sphere sets (`gpu_sets`) and the
+/// full field (`gpu_field`), the last four scored against `truths` like the CPU rows; `None` for
+/// the others.
 pub fn bench_method_gpu(
     name: &str,
     scene: &Scene,
@@ -394,6 +395,16 @@ pub fn bench_method_gpu(
         Method::SphereSet => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
             crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
+                if f.frame >= warmup {
+                    stages.push(f.as_sequence_frame().stages);
+                }
+                scores.add(f.frame, px);
+            })?;
+            (stages, scores.finish(name)?)
+        }
+        Method::SubVolumes => {
+            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
+            crate::gpu_parts::render_sequence_sub_volumes_gpu(&s, total, ctx, &mut |f, px| {
                 if f.frame >= warmup {
                     stages.push(f.as_sequence_frame().stages);
                 }

@@ -607,3 +607,80 @@ fn pipelined_gpu_frames_render_the_sequential_images() {
         assert!(seq.frames.iter().all(|f| !f.pipelined));
     }
 }
+
+/// Sub-volumes on the GPU path against the CPU render of the same pose, frame by frame: a
+/// flapping bird in 3 parts (each part's own sphere, table and extrapolation, the parts
+/// multiplied near to far), 3 frames; bounded by [`PARTS_GPU_TOL`] (printed). Too many parts and
+/// the clearance rule are refused by name. Skips as the tests above.
+#[test]
+fn gpu_sub_volumes_match_the_cpu_render_frame_by_frame() {
+    use shscale_field::bsv::RadialRule;
+    use shscale_scene::gpu_parts::render_sequence_sub_volumes_gpu;
+    let Some(ctx) = gpu_or_skip("GPU sub-volumes parity") else {
+        return;
+    };
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    s.parts = 3;
+    let mut frames = Vec::new();
+    let (last, stats) =
+        render_sequence_sub_volumes_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
+            .unwrap();
+    assert_eq!((stats.len(), frames.len()), (3, 3));
+    assert_eq!(last.pixels, frames[2].1);
+    let worst = worst_against_cpu(&s, Method::SubVolumes, &frames);
+    println!(
+        "GPU sub-volumes (3 parts) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
+        frames[0].1.len(),
+        ctx.describe()
+    );
+    assert!(worst < PARTS_GPU_TOL, "{worst}");
+    // The parts matter: one part (the plain extrapolation) renders the last pose differently.
+    let posed = Scene {
+        pose_t: Some(frames[2].0),
+        ..s.clone()
+    };
+    let one = render(
+        &Scene {
+            parts: 1,
+            ..posed.clone()
+        },
+        Method::SubVolumes,
+    )
+    .unwrap();
+    let apart = (one
+        .pixels
+        .iter()
+        .flatten()
+        .zip(frames[2].1.iter().flatten()))
+    .map(|(x, y)| (x - y).abs())
+    .fold(0.0f32, f32::max);
+    assert!(apart > 100.0 * worst, "1 and 3 parts only {apart} apart");
+    for (bad, needle) in [
+        (
+            Scene {
+                parts: 17,
+                ..s.clone()
+            },
+            "at most 16",
+        ),
+        (
+            Scene {
+                radial: RadialRule::Clearance { delta: 0.1 },
+                ..s.clone()
+            },
+            "per-direction radii",
+        ),
+    ] {
+        let e = render_sequence_sub_volumes_gpu(&bad, 1, &ctx, &mut |_, _| ())
+            .err()
+            .expect("refused");
+        assert!(e.to_string().contains(needle), "{e}");
+    }
+}
+
+/// The GPU sub-volumes' tolerance, relative to the brightest pixel: f32 rays, projections, k
+/// and rotations per part (as [`RADIAL_GPU_TOL`]) and the f32 Gaunt products between them
+/// (measured 2.2e-6 on lavapipe).
+const PARTS_GPU_TOL: f32 = 2e-5;

@@ -5,8 +5,8 @@
 //! The device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
 //! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
 //! sampling sphere (`gpu_path`: the real-time sequence, whose sampling sphere encloses every
-//! pose) or from clearance radii (`gpu_radial`), the full field (`gpu_field`) and sphere sets by
-//! the chain or the union (`gpu_sets`).
+//! pose) or from clearance radii (`gpu_radial`), sub-volumes (`gpu_parts`), the full field
+//! (`gpu_field`) and sphere sets by the chain or the union (`gpu_sets`).
 //! The run's errors stay the CPU render's; the GPU images are compared with it
 //! (`gpu_max_diff`, in the unit of the mean unshadowed irradiance) so a row says how far its GPU
 //! frame is from the frame it scores. `gpu` needs an adapter (the config's `gpu` setting opens
@@ -78,6 +78,7 @@ pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), Stri
             }
         }
         Method::FullField => shscale_scene::gpu_field::check(scene),
+        Method::SubVolumes => shscale_scene::gpu_parts::check(scene),
         Method::SphereSet => shscale_scene::gpu_sets::check(scene),
         other => Err(Error::config(format!("{other} has no GPU form"))),
     };
@@ -114,9 +115,9 @@ pub fn gpu_frame(
 }
 
 /// The GPU timing of a run: the frame's timing over the procedure's repeats (each the mean of
-/// the sequence's frames, host stages included) and the largest difference of its images from
-/// the CPU's `cpu` (flat RGB per frame; the extrapolation's GPU sequence keeps its last frame
-/// only), in the unit of the mean of `open`.
+/// the sequence's frames after its first, host stages included) and the largest difference of
+/// its images from the CPU's `cpu` (flat RGB per frame; the extrapolation's GPU sequence keeps its
+/// last frame only), in the unit of the mean of `open`.
 pub struct GpuTimed {
     pub frame: Timing,
     pub max_diff: f64,
@@ -131,11 +132,20 @@ pub fn time_on_gpu(
     ctx: &Ctx,
     (cpu, open): (&[Vec<f64>], &[f64]),
 ) -> Result<GpuTimed, Error> {
-    let (images, [t]) = ctx.timing.measure_parts(|| {
-        let (images, seconds) = gpu_frames(scene, method, frames, gpu)?;
-        let mean = seconds.iter().sum::<f64>() / seconds.len().max(1) as f64;
+    // A GPU sequence's first frame carries the device's one-off costs (a driver may compile a
+    // pipeline at its first dispatch): a still plane (the only single frame with a GPU form) is
+    // rendered twice and timed by its second frame; a sequence is timed by its frames after the
+    // first.
+    let run = frames.max(2);
+    let (mut images, [t]) = ctx.timing.measure_parts(|| {
+        let (images, seconds) = gpu_frames(scene, method, run, gpu)?;
+        let later = &seconds[1.min(seconds.len() - 1)..];
+        let mean = later.iter().sum::<f64>() / later.len() as f64;
         Ok::<_, Error>((images, [mean]))
     })?;
+    if frames == 1 {
+        images.drain(..images.len().saturating_sub(1));
+    }
     let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
     // The images the GPU path kept are the sequence's last ones.
     let skip = cpu.len() - images.len();
@@ -181,6 +191,17 @@ fn gpu_frames(
             let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
             seconds.extend((run.frames.iter()).map(|f| f.seconds()));
             images.push(run.image.pixels);
+        }
+        Method::SubVolumes => {
+            shscale_scene::gpu_parts::render_sequence_sub_volumes_gpu(
+                scene,
+                frames,
+                gpu,
+                &mut |f, px| {
+                    seconds.push(f.as_sequence_frame().seconds);
+                    images.push(px.to_vec());
+                },
+            )?;
         }
         Method::FullField => {
             shscale_scene::gpu_field::render_sequence_full_field_gpu(
@@ -247,18 +268,19 @@ pub fn cached_frame(
 }
 
 /// Seconds of one GPU-timed repetition besides its frames (`device` ≠ `cpu`): the sequence's
-/// buffers, pipelines and receiver set-up, made per repetition. `budget_plane_gpu.toml` on
-/// Mesa lavapipe (28 runs × 6 repetitions, 54 s against 17 s estimated for the CPU alone,
-/// 2026-12-05, the development VM) puts it near 0.2 s.
-pub const GPU_SEQUENCE_SECONDS: f64 = 0.2;
+/// buffers, pipelines (a software device compiles them at the first dispatch) and receiver
+/// set-up, made per repetition. `budget_plane_gpu.toml` on Mesa lavapipe (32 runs × 6
+/// repetitions, 90.2 s, 2026-12-05, the development VM) puts it near 0.5 s.
+pub const GPU_SEQUENCE_SECONDS: f64 = 0.5;
 
 /// The cost model's seconds of a run's GPU-timed repetition besides the CPU's (`frame`: the CPU
-/// frame's estimate): none for `device = "cpu"`, else a sequence's set-up and its frames at the
-/// CPU frame's cost (a software device's; an upper bound on a GPU).
+/// frame's estimate, all its frames): none for `device = "cpu"`, else a sequence's set-up and up
+/// to twice its frames (a still plane is rendered twice, [`time_on_gpu`]) at the CPU frame's
+/// cost (a software device's; an upper bound on a GPU).
 pub fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
     if device == DeviceChoice::Cpu {
         0.0
     } else {
-        GPU_SEQUENCE_SECONDS + frame
+        GPU_SEQUENCE_SECONDS + 2.0 * frame
     }
 }
