@@ -623,8 +623,8 @@ fn bsv_rays_are_written_for_a_peer() {
 
 /// `bench --methods --gpu`: a GPU row beside the CPU row for a method with a GPU form; the GPU
 /// sphere set's per-frame error equals the CPU's within f32 rounding (the same spheres, the same
-/// caps and products — or the same union of the caps), and the GPU full field's and clearance
-/// radii's the CPU's (the same shells' or samples' rays). Without an adapter the CPU rows alone (a notice), unless
+/// caps and products — or the same union of the caps), and the GPU full field's, clearance
+/// radii's and sub-volumes' the CPU's (the same shells', samples' or parts' rays). Without an adapter the CPU rows alone (a notice), unless
 /// `SHSCALE_REQUIRE_GPU=1`.
 #[test]
 fn table1_per_method_gpu_rows() {
@@ -633,7 +633,7 @@ fn table1_per_method_gpu_rows() {
         "--scene",
         "egg",
         "--methods",
-        "sphere_set:parts=2,sphere_set:parts=2,combine=union,full_field,extrapolated:clearance=0.1",
+        "sphere_set:parts=2,sphere_set:parts=2,combine=union,full_field,extrapolated:clearance=0.1,sub_volumes:parts=2",
         "--errors",
         "--gpu",
         "--frames",
@@ -644,12 +644,12 @@ fn table1_per_method_gpu_rows() {
         "json",
     ]);
     let rows = v.as_array().unwrap();
-    if rows.len() == 4 {
+    if rows.len() == 5 {
         assert!(!require_gpu(), "no GPU row: {v}");
         eprintln!("notice: no adapter; the GPU rows were not measured");
         return;
     }
-    assert_eq!(rows.len(), 8, "{v}");
+    assert_eq!(rows.len(), 10, "{v}");
     for pair in rows.chunks(2) {
         assert_eq!(pair[1]["path"], "gpu", "{v}");
         assert_eq!(pair[0]["method"], pair[1]["method"], "{v}");
