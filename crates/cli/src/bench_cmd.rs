@@ -14,6 +14,22 @@ use shscale_scene::gpu_path::open_gpu;
 use shscale_scene::kernels::{self, Protocol, RaySet};
 use std::process::ExitCode;
 
+/// `--frames` and `--warmup` within the timing kind's bounds; `--pipelined` only without
+/// `--methods`.
+fn check_frames(a: &BenchArgs) -> anyhow::Result<()> {
+    let max = shscale_experiments::timing::MAX_FRAMES;
+    flags::int("--frames", a.frames, 1, max)?;
+    if a.warmup > max {
+        anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
+    }
+    if a.methods.is_some() && a.pipelined {
+        anyhow::bail!(
+            "--pipelined: Table 1's papers' sequence only; drop it with --methods (each method's GPU frames run one after another)"
+        );
+    }
+    Ok(())
+}
+
 pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     if let Some(k) = a.kernel {
         return kernel(k);
@@ -31,18 +47,8 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchScene::Sponge => &["sponge"],
         BenchScene::All => &["bird", "egg", "sponge"],
     };
-    // The same bounds as the timing kind's `frames` and `warmup`.
-    let max = shscale_experiments::timing::MAX_FRAMES;
-    flags::int("--frames", a.frames, 1, max)?;
-    if a.warmup > max {
-        anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
-    }
+    check_frames(&a)?;
     if let Some(list) = &a.methods {
-        if a.pipelined {
-            anyhow::bail!(
-                "--pipelined: Table 1's papers' sequence only; drop it with --methods (each method's GPU frames run one after another)"
-            );
-        }
         return bench_methods(&a, scenes, list, ctx.as_ref());
     }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).

@@ -387,6 +387,46 @@ impl Rendered<'_> {
     }
 }
 
+/// `render --frames --gpu`: the method's GPU sequence, or a refusal naming why it has none.
+fn gpu_sequence_of(
+    a: &RenderArgs,
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+) -> anyhow::Result<ExitCode> {
+    use shscale_scene::sequence::cached_path;
+    if a.reference.is_some() {
+        bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
+    }
+    if a.pipelined && !cached_path(scene, method) {
+        bail!(
+            "--pipelined: the pipelined GPU sequence is the papers' extrapolation's (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
+        );
+    }
+    if method == Method::SphereSet {
+        return gpu_sphere_sequence(a, scene, frames);
+    }
+    if method == Method::FullField {
+        return gpu_field_sequence(a, scene, frames);
+    }
+    if method == Method::SubVolumes {
+        return gpu_parts_sequence(a, scene, frames);
+    }
+    let clearance = matches!(
+        scene.radial,
+        shscale_field::bsv::RadialRule::Clearance { .. }
+    );
+    if method == Method::Extrapolated && clearance {
+        return gpu_radial_sequence(a, scene, frames);
+    }
+    if !cached_path(scene, method) {
+        bail!(
+            "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
+        );
+    }
+    gpu_sequence(a, scene, frames)
+}
+
 fn sequence(
     a: &RenderArgs,
     scene: &Scene,
@@ -396,36 +436,7 @@ fn sequence(
     use shscale_scene::sequence::{cached_path, render_sequence_with};
     flags::int("--frames", frames, 1, MAX_FRAMES)?;
     if a.gpu {
-        if a.reference.is_some() {
-            bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
-        }
-        if a.pipelined && !cached_path(scene, method) {
-            bail!(
-                "--pipelined: the pipelined GPU sequence is the papers' extrapolation's (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
-            );
-        }
-        if method == Method::SphereSet {
-            return gpu_sphere_sequence(a, scene, frames);
-        }
-        if method == Method::FullField {
-            return gpu_field_sequence(a, scene, frames);
-        }
-        if method == Method::SubVolumes {
-            return gpu_parts_sequence(a, scene, frames);
-        }
-        let clearance = matches!(
-            scene.radial,
-            shscale_field::bsv::RadialRule::Clearance { .. }
-        );
-        if method == Method::Extrapolated && clearance {
-            return gpu_radial_sequence(a, scene, frames);
-        }
-        if !cached_path(scene, method) {
-            bail!(
-                "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
-            );
-        }
-        return gpu_sequence(a, scene, frames);
+        return gpu_sequence_of(a, scene, method, frames);
     }
     let bar = crate::output::Progress::new(frames, "frames");
     let (img, seq) =

@@ -109,6 +109,17 @@ impl GpuContext {
             })
     }
 
+    /// A uniform buffer holding `data`, rewritable (`COPY_DST`).
+    pub fn uniform(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
     /// An uninitialised storage buffer of `size` bytes (at least 16).
     pub fn storage(&self, label: &str, size: u64) -> wgpu::Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor {

@@ -99,14 +99,7 @@ impl GpuFullField {
             channels: channels as u32,
             ..Default::default()
         };
-        use wgpu::util::DeviceExt;
-        let params_buf = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("field params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let params_buf = ctx.uniform("field params", bytemuck::bytes_of(&params));
         let weights_buf = ctx.storage("field weights", (64 * receivers) as u64);
         let transfer_buf = ctx.storage_init("field transfer", bytemuck::cast_slice(&t));
         let image_buf = ctx.storage("field image", (16 * receivers) as u64);

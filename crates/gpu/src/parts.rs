@@ -50,6 +50,69 @@ pub struct GpuPartsTimes {
     pub device_seconds: f64,
 }
 
+/// The kernel's constant tables.
+struct Constants {
+    /// The transfer (grey once, else RGB), `channels × N²`.
+    transfer: Vec<f32>,
+    /// The Gaunt entries `(i, j, k, bits of the value)`.
+    gaunt: Vec<[u32; 4]>,
+    /// The Gauss sphere rule of the order (direction, weight).
+    quad: Vec<[f32; 4]>,
+    channels: usize,
+}
+
+/// The [`Constants`] of a light's `transfer` at the order of `gaunt`.
+fn constants(transfer: &[Vec<f64>; 3], gaunt: &GauntTensor<f64>) -> Constants {
+    let channels = if transfer[0] == transfer[1] && transfer[1] == transfer[2] {
+        1
+    } else {
+        3
+    };
+    let t: Vec<f32> = (transfer[..channels].iter())
+        .flat_map(|c| c.iter().map(|&v| v as f32))
+        .collect();
+    let g: Vec<[u32; 4]> = (gaunt.entries().iter())
+        .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
+        .collect();
+    let q = DirectionSet::gauss_sphere_for_order(gaunt.order());
+    let quad: Vec<[f32; 4]> = (q.dirs.iter().zip(&q.weights))
+        .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
+        .collect();
+    Constants {
+        transfer: t,
+        gaunt: g,
+        quad,
+        channels,
+    }
+}
+
+/// 1 to [`MAX_GPU_PARTS`] parts, some receivers, two or more k values.
+fn check_sizes(parts: usize, receivers: usize, k_count: usize) -> Result<(), GpuError> {
+    if parts == 0 || parts > MAX_GPU_PARTS || receivers == 0 || k_count < 2 {
+        return Err(GpuError::Input(format!(
+            "{parts} parts (1 to {MAX_GPU_PARTS}), {receivers} receivers and {k_count} k values (≥ 2)"
+        )));
+    }
+    Ok(())
+}
+
+/// The flattened BVH and sampler of every part (`samples` placeholder points, moved per frame).
+fn part_samplers(
+    ctx: &GpuContext,
+    meshes: &[Mesh],
+    (order, h, samples): (usize, usize, usize),
+) -> Result<Vec<(FlatBvh, GpuSampler)>, GpuError> {
+    let placeholder = vec![DVec3::Z; samples];
+    (meshes.iter())
+        .map(|m| {
+            let bvh = FlatBvh::build(m, UpdateStrategy::Refit)?;
+            let n = m.triangles.len();
+            let s = GpuSampler::at_points(ctx, order, h, DVec3::ZERO, &placeholder, (2 * n, n))?;
+            Ok((bvh, s))
+        })
+        .collect()
+}
+
 /// Sub-volumes of a deforming entity on the GPU, shading a fixed receiver set.
 pub struct GpuSubVolumes {
     /// The uniform (its `log_k` written with each frame's tables).
@@ -85,37 +148,14 @@ impl GpuSubVolumes {
         crate::sampling::check_gpu_order(order)?;
         let nn = order * order;
         let p = meshes.len();
-        if p == 0 || p > MAX_GPU_PARTS || receivers.is_empty() || k_count < 2 {
-            return Err(GpuError::Input(format!(
-                "{p} parts (1 to {MAX_GPU_PARTS}), {} receivers and {k_count} k values (≥ 2)",
-                receivers.len()
-            )));
-        }
-        let placeholder = vec![DVec3::Z; samples];
-        let parts = (meshes.iter())
-            .map(|m| {
-                let bvh = FlatBvh::build(m, UpdateStrategy::Refit)?;
-                let n = m.triangles.len();
-                let s =
-                    GpuSampler::at_points(ctx, order, h, DVec3::ZERO, &placeholder, (2 * n, n))?;
-                Ok((bvh, s))
-            })
-            .collect::<Result<Vec<_>, GpuError>>()?;
-        let channels = if transfer[0] == transfer[1] && transfer[1] == transfer[2] {
-            1
-        } else {
-            3
-        };
-        let t: Vec<f32> = (transfer[..channels].iter())
-            .flat_map(|c| c.iter().map(|&v| v as f32))
-            .collect();
-        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
-            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
-            .collect();
-        let q = DirectionSet::gauss_sphere_for_order(order);
-        let quad: Vec<[f32; 4]> = (q.dirs.iter().zip(&q.weights))
-            .map(|(d, &w)| [d[0] as f32, d[1] as f32, d[2] as f32, w as f32])
-            .collect();
+        check_sizes(p, receivers.len(), k_count)?;
+        let parts = part_samplers(ctx, meshes, (order, h, samples))?;
+        let Constants {
+            transfer: t,
+            gaunt: g,
+            quad,
+            channels,
+        } = constants(transfer, gaunt);
         let params = GpuPartsParams {
             receivers: receivers.len() as u32,
             order: order as u32,
@@ -128,18 +168,12 @@ impl GpuSubVolumes {
             channels: channels as u32,
             ..Default::default()
         };
-        use wgpu::util::DeviceExt;
-        let params_buf = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("parts params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
-        let mut geo: Vec<[f32; 4]> = (receivers.iter())
+        let params_buf = ctx.uniform("parts params", bytemuck::bytes_of(&params));
+        // The receivers, then the parts' spheres (written per frame).
+        let geo: Vec<[f32; 4]> = (receivers.iter())
             .map(|r| [r.x as f32, r.y as f32, r.z as f32, 1.0])
+            .chain(std::iter::repeat_n([0.0f32; 4], p))
             .collect();
-        geo.extend(std::iter::repeat_n([0.0f32; 4], p));
         let geo_buf = ctx.storage_init("parts geo", bytemuck::cast_slice(&geo));
         let locs_buf = ctx.storage("parts locations", (48 * p * receivers.len()) as u64);
         let tables_len = p * k_count * (1 + nn * nn) + channels * nn;
@@ -182,29 +216,10 @@ impl GpuSubVolumes {
         })
     }
 
-    /// Render one frame: every part's posed mesh, sampling sphere, samples, table and the
-    /// receivers' locations ([`PartFrame`], in the order the set-up's meshes came). Returns the
-    /// image (RGB per receiver) and the frame's times.
-    pub fn frame(
-        &mut self,
-        ctx: &GpuContext,
-        parts: &[PartFrame<'_>],
-    ) -> Result<(Vec<[f32; 3]>, GpuPartsTimes), GpuError> {
+    /// Upload a frame's inputs: every part's BVH and samples, the tables (abscissae, matrices,
+    /// the transfer), the receivers' locations and the parts' spheres.
+    fn write_inputs(&mut self, ctx: &GpuContext, parts: &[PartFrame<'_>]) -> Result<(), GpuError> {
         let nn = self.nn;
-        if parts.len() != self.parts.len() {
-            return Err(GpuError::Input(format!(
-                "{} parts for a set-up of {}",
-                parts.len(),
-                self.parts.len()
-            )));
-        }
-        let mut times = GpuPartsTimes::default();
-        let t0 = Instant::now();
-        for ((bvh, _), f) in self.parts.iter_mut().zip(parts) {
-            bvh.update(f.mesh)?;
-        }
-        times.bvh_seconds = t0.elapsed().as_secs_f64();
-        let t0 = Instant::now();
         let (mut xs, mut mats, mut locs, mut centres) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut log_k = None;
@@ -264,6 +279,33 @@ impl GpuSubVolumes {
             (16 * self.receivers) as u64,
             bytemuck::cast_slice(&centres),
         );
+        Ok(())
+    }
+
+    /// Render one frame: every part's posed mesh, sampling sphere, samples, table and the
+    /// receivers' locations ([`PartFrame`], in the order the set-up's meshes came). Returns the
+    /// image (RGB per receiver) and the frame's times.
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        parts: &[PartFrame<'_>],
+    ) -> Result<(Vec<[f32; 3]>, GpuPartsTimes), GpuError> {
+        let nn = self.nn;
+        if parts.len() != self.parts.len() {
+            return Err(GpuError::Input(format!(
+                "{} parts for a set-up of {}",
+                parts.len(),
+                self.parts.len()
+            )));
+        }
+        let mut times = GpuPartsTimes::default();
+        let t0 = Instant::now();
+        for ((bvh, _), f) in self.parts.iter_mut().zip(parts) {
+            bvh.update(f.mesh)?;
+        }
+        times.bvh_seconds = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        self.write_inputs(ctx, parts)?;
         times.upload_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let mut enc = ctx

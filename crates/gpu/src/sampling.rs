@@ -188,14 +188,7 @@ impl GpuSampler {
             rays: rays as u32,
             ..Default::default()
         };
-        use wgpu::util::DeviceExt;
-        let params_buf = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let params_buf = ctx.uniform("params", bytemuck::bytes_of(&params));
         let samples_buf = ctx.storage_init("samples", bytemuck::cast_slice(&samples));
         let hemi_buf = ctx.storage_init("hemisphere", bytemuck::cast_slice(&hemi4));
         let knorm_buf = ctx.storage_init("knorm", bytemuck::cast_slice(&knorm_table(order)));

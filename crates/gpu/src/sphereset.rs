@@ -145,14 +145,7 @@ impl GpuSphereSet {
             panel_rings: shscale_field::union::PANEL_RINGS as u32,
             ..Default::default()
         };
-        use wgpu::util::DeviceExt;
-        let params_buf = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("set params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let params_buf = ctx.uniform("set params", bytemuck::bytes_of(&params));
         let points_buf = ctx.storage_init("set points", bytemuck::cast_slice(&pts));
         let spheres_buf = ctx.storage("set spheres", (16 * MAX_GPU_SPHERES) as u64);
         let transfer_buf = ctx.storage_init("set transfer", bytemuck::cast_slice(&t));

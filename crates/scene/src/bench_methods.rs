@@ -63,16 +63,7 @@ impl Variant {
                 .split_once('=')
                 .ok_or_else(|| format!("{text:?}: {kv:?} is not key=value"))?;
             if k.trim() == "combine" {
-                if method != Method::SphereSet {
-                    return Err(format!("{text:?}: {name} does not read combine"));
-                }
-                let c = crate::combine::Combine::parse(val.trim()).ok_or_else(|| {
-                    format!(
-                        "{text:?}: combine={val:?} is not one of {}",
-                        crate::combine::Combine::NAMES.join(", ")
-                    )
-                })?;
-                v.sphere_combine = Some(c);
+                v.sphere_combine = Some(parse_combine(text, name, method, val)?);
                 continue;
             }
             let num: f64 = val
@@ -173,6 +164,24 @@ impl Variant {
         }
         s
     }
+}
+
+/// A variant's `combine=` value: a sphere set's combination by name.
+fn parse_combine(
+    text: &str,
+    name: &str,
+    method: Method,
+    val: &str,
+) -> Result<crate::combine::Combine, String> {
+    if method != Method::SphereSet {
+        return Err(format!("{text:?}: {name} does not read combine"));
+    }
+    crate::combine::Combine::parse(val.trim()).ok_or_else(|| {
+        format!(
+            "{text:?}: combine={val:?} is not one of {}",
+            crate::combine::Combine::NAMES.join(", ")
+        )
+    })
 }
 
 fn as_map<S: serde::Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {

@@ -22,6 +22,7 @@
 //! procedure's repeats with its order-statistic interval.
 
 use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
+use super::plane_timings::{cached_frame, cpu_frames, gpu_frame};
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, plot_name, specs_of, speed_claim,
     splits_by, variant, verdict_table, write_front, Front, Split,
@@ -307,6 +308,20 @@ const SHADE_SECONDS_PER_RECEIVER: f64 = 1.0e-6;
 
 /// The most frames of a run.
 pub const MAX_FRAMES: usize = 64;
+
+/// Per distance-to-surface bin: the mean over the frames of the error against full-frequency
+/// truth on that bin's receivers, and the first frame's count of them.
+fn distance_bins(es: &[Vec<f64>], sh: &Shared) -> ([Option<f64>; 7], [usize; 7]) {
+    let by_bin = std::array::from_fn(|k| {
+        let per_frame = (0..es.len()).map(|f| {
+            let keep: Vec<bool> = sh.bins[f].iter().map(|b| *b == k).collect();
+            rmse_where(&es[f], &sh.full[f], &sh.open, &keep, true)
+        });
+        shscale_field::metrics::mean_max(per_frame).0
+    });
+    let counts = std::array::from_fn(|k| sh.bins[0].iter().filter(|b| **b == k).count());
+    (by_bin, counts)
+}
 
 /// The scene at frame `f` of `frames` (the rest pose for one frame).
 fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
@@ -604,46 +619,19 @@ impl Kind for BudgetPlane {
         let method = p.typed.method.method();
         let frames = p.frames;
         let scenes: Vec<Scene> = (0..frames).map(|f| at_frame(&scene, f, frames)).collect();
-        // A frame: the render without the stages every method shares (the light's projection,
-        // the BVH build); the time is the mean over the sequence's frames.
-        let (imgs, [t]) = ctx.timing.measure_parts(|| {
-            let mut imgs = Vec::with_capacity(frames);
-            let mut total = 0.0;
-            for s in &scenes {
-                let t0 = std::time::Instant::now();
-                let img = render(s, method)?;
-                let shared: f64 = (img.stages.iter())
-                    .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
-                    .map(|(_, v)| v)
-                    .sum();
-                total += (t0.elapsed().as_secs_f64() - shared).max(0.0);
-                imgs.push(img);
-            }
-            Ok::<_, Error>((imgs, [total / frames as f64]))
-        })?;
+        let (imgs, t) = cpu_frames(&scenes, method, ctx)?;
         let black = || Error::config(format!("{}: the unshadowed image is black", p.scene));
         let occluders = scene.occluders.len() as f64;
         let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
         let rays = p.typed.method.rays(occluders.max(1.0), receivers);
         let memory = (p.typed.method).memory_bytes(scene.order, occluders, scene.k_count);
         if p.save_image {
-            let (w, h) = (imgs[0].width, imgs[0].height);
-            let exr = |name: &str| ctx.dir.join(format!("{name}_{run_id}.exr"));
-            shscale_runner::image::write_exr(&exr("plane"), w, h, &imgs[0].pixels)?;
-            let truth: Vec<[f32; 3]> = (sh.full[0].chunks(3))
-                .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
-                .collect();
-            shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
+            super::plane_images::save_images(&imgs[0], &sh.full[0], (ctx.dir, run_id))?;
         }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
-        let cached =
-            super::plane_timings::cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
-        let (gpu, gpu_adapter) = super::plane_timings::gpu_frame(
-            (p.typed.device, p.typed.method.method(), p.frames),
-            &scene,
-            (&es, &sh.open),
-            ctx,
-        )?;
+        let cached = cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
+        let device = (p.typed.device, method, frames);
+        let (gpu, gpu_adapter) = gpu_frame(device, &scene, (&es, &sh.open), ctx)?;
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };
@@ -651,14 +639,7 @@ impl Kind for BudgetPlane {
         let band = per(&|f| shade_rmse_rel(&es[f], &sh.band[f], &sh.open));
         let near = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, true));
         let far = per(&|f| rmse_where(&es[f], &sh.full[f], &sh.open, &sh.near, false));
-        let by_bin: [Option<f64>; 7] = std::array::from_fn(|k| {
-            mean(&per(&|f| {
-                let keep: Vec<bool> = sh.bins[f].iter().map(|b| *b == k).collect();
-                rmse_where(&es[f], &sh.full[f], &sh.open, &keep, true)
-            }))
-        });
-        let counts: [usize; 7] =
-            std::array::from_fn(|k| sh.bins[0].iter().filter(|b| **b == k).count());
+        let (by_bin, counts) = distance_bins(&es, sh);
         let ssims = per(&|f| {
             let (lt, le) = (lum(&sh.full[f]), lum(&es[f]));
             let range = lt.iter().copied().fold(0.0, f64::max);

@@ -128,6 +128,23 @@ pub(super) fn lum(v: &[f64]) -> Vec<f64> {
     v.chunks(3).map(|c| c.iter().sum::<f64>() / 3.0).collect()
 }
 
+/// The run's image and the group's full-frequency truth (flat RGB) as EXR for the figure
+/// (`plane_<run>.exr`, `plane_truth_<run>.exr` in `dir`).
+pub(super) fn save_images(
+    img: &shscale_scene::render::RenderOutput,
+    truth: &[f64],
+    (dir, run_id): (&Path, &str),
+) -> Result<(), Error> {
+    let (w, h) = (img.width, img.height);
+    let exr = |name: &str| dir.join(format!("{name}_{run_id}.exr"));
+    shscale_runner::image::write_exr(&exr("plane"), w, h, &img.pixels)?;
+    let truth: Vec<[f32; 3]> = (truth.chunks(3))
+        .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
+        .collect();
+    shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::flicker;

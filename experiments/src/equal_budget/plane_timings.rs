@@ -1,6 +1,6 @@
-//! A `budget_plane` run's frame timed other ways than the direct CPU render it is scored by:
-//! through the per-receiver caches on still one-occluder planes ([`cached_frame`]), and on the
-//! GPU path.
+//! A `budget_plane` run's frames timed: the direct CPU render it is scored by ([`cpu_frames`]),
+//! and other ways — through the per-receiver caches on still one-occluder planes
+//! ([`cached_frame`]), and on the GPU path.
 //!
 //! The device axis (`device = "cpu" | "gpu" | "auto"`): a run's frame timed on the
 //! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
@@ -283,4 +283,36 @@ pub fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
     } else {
         GPU_SEQUENCE_SECONDS + 2.0 * frame
     }
+}
+
+/// A run's frames rendered and timed: each the render without the stages every method shares
+/// (the light's projection, the BVH build); the time the mean over the sequence's frames, by
+/// the timing procedure.
+pub fn cpu_frames(
+    scenes: &[Scene],
+    method: Method,
+    ctx: &Ctx,
+) -> Result<
+    (
+        Vec<shscale_scene::render::RenderOutput>,
+        shscale_runner::timing::Timing,
+    ),
+    Error,
+> {
+    let (imgs, [t]) = ctx.timing.measure_parts(|| {
+        let mut imgs = Vec::with_capacity(scenes.len());
+        let mut total = 0.0;
+        for s in scenes {
+            let t0 = std::time::Instant::now();
+            let img = shscale_scene::render::render(s, method)?;
+            let shared: f64 = (img.stages.iter())
+                .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
+                .map(|(_, v)| v)
+                .sum();
+            total += (t0.elapsed().as_secs_f64() - shared).max(0.0);
+            imgs.push(img);
+        }
+        Ok::<_, Error>((imgs, [total / scenes.len() as f64]))
+    })?;
+    Ok((imgs, t))
 }
