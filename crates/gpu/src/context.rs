@@ -109,6 +109,18 @@ impl GpuContext {
             })
     }
 
+    /// `Ok` when a storage binding of `bytes` fits the adapter's limit, else an error naming
+    /// `what` and both sizes (a buffer over the limit would fail in the driver, not here).
+    pub fn check_binding(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
+        let max = self.device.limits().max_storage_buffer_binding_size;
+        if bytes > max {
+            return Err(GpuError::Input(format!(
+                "{what} need {bytes} bytes, above the adapter's storage binding limit of {max}"
+            )));
+        }
+        Ok(())
+    }
+
     /// A uniform buffer holding `data`, rewritable (`COPY_DST`).
     pub fn uniform(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;

@@ -79,6 +79,7 @@ impl GpuFullField {
                 transfer.iter().map(Vec::len).collect::<Vec<_>>()
             )));
         }
+        ctx.check_binding("the receivers' weights", 64 * receivers as u64)?;
         let bvh = FlatBvh::build(mesh, strategy)?;
         let ntris = mesh.triangles.len();
         // Placeholder positions (moved every frame): unit points about the origin.

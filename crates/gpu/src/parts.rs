@@ -149,6 +149,14 @@ impl GpuSubVolumes {
         let nn = order * order;
         let p = meshes.len();
         check_sizes(p, receivers.len(), k_count)?;
+        let tables_len = p * k_count * (1 + nn * nn) + 3 * nn;
+        for (what, bytes) in [
+            ("the receivers' locations", 48 * p * receivers.len()),
+            ("the parts' tables", 4 * tables_len),
+            ("the parts' coefficients", 4 * p * samples * nn),
+        ] {
+            ctx.check_binding(what, bytes as u64)?;
+        }
         let parts = part_samplers(ctx, meshes, (order, h, samples))?;
         let Constants {
             transfer: t,
@@ -176,7 +184,6 @@ impl GpuSubVolumes {
             .collect();
         let geo_buf = ctx.storage_init("parts geo", bytemuck::cast_slice(&geo));
         let locs_buf = ctx.storage("parts locations", (48 * p * receivers.len()) as u64);
-        let tables_len = p * k_count * (1 + nn * nn) + channels * nn;
         let tables_buf = ctx.storage("parts tables", (4 * tables_len) as u64);
         let coeffs_buf = ctx.storage("parts coeffs", (4 * p * samples * nn) as u64);
         let image_buf = ctx.storage("parts image", (16 * receivers.len()) as u64);

@@ -213,6 +213,7 @@ impl GpuReceiverBuilder {
         let nn = order * order;
         let t = setup.transfer;
         let channels = if t[0] == t[1] && t[1] == t[2] { 1 } else { 3 };
+        ctx.check_binding("the receivers' U", 4 * (n * channels * nn) as u64)?;
         let inputs = CacheInputs::of(setup, channels);
         use wgpu::util::DeviceExt;
         let cp_buf = ctx

@@ -486,3 +486,21 @@ fn wall_clock_fallback_times_every_stage_and_renders_the_same_frame() {
         "same inputs, same device: bit-identical frames"
     );
 }
+
+/// A storage binding over the adapter's limit is refused with both sizes named, before any
+/// buffer is made (the driver would fail on it otherwise); one within it is accepted.
+#[test]
+fn bindings_over_the_adapter_limit_are_refused_by_name() {
+    let Some(ctx) = ctx() else { return };
+    let max = ctx.device.limits().max_storage_buffer_binding_size;
+    assert!(ctx.check_binding("sixteen bytes", 16).is_ok());
+    let e = ctx
+        .check_binding("the receivers' weights", max + 1)
+        .unwrap_err();
+    let text = e.to_string();
+    println!("{text}");
+    assert!(
+        text.contains("the receivers' weights") && text.contains(&max.to_string()),
+        "{text}"
+    );
+}
