@@ -394,37 +394,30 @@ fn gpu_sequence_of(
     method: Method,
     frames: usize,
 ) -> anyhow::Result<ExitCode> {
-    use shscale_scene::sequence::cached_path;
+    use shscale_scene::gpu_methods::{gpu_form, GpuForm};
     if a.reference.is_some() {
         bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
     }
-    if a.pipelined && !cached_path(scene, method) {
+    let Some(form) = gpu_form(scene, method)? else {
+        bail!(
+            "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
+        );
+    };
+    if a.pipelined && form != GpuForm::Sequence {
         bail!(
             "--pipelined: the pipelined GPU sequence is the papers' extrapolation's (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
         );
     }
-    if method == Method::SphereSet {
-        return gpu_sphere_sequence(a, scene, frames);
+    if form == GpuForm::Sequence {
+        return gpu_sequence(a, scene, frames);
     }
-    if method == Method::FullField {
-        return gpu_field_sequence(a, scene, frames);
-    }
-    if method == Method::SubVolumes {
-        return gpu_parts_sequence(a, scene, frames);
-    }
-    let clearance = matches!(
-        scene.radial,
-        shscale_field::bsv::RadialRule::Clearance { .. }
-    );
-    if method == Method::Extrapolated && clearance {
-        return gpu_radial_sequence(a, scene, frames);
-    }
-    if !cached_path(scene, method) {
-        bail!(
-            "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\"), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
-        );
-    }
-    gpu_sequence(a, scene, frames)
+    let ctx = required_gpu()?;
+    let mut seq = Vec::with_capacity(frames);
+    let img =
+        shscale_scene::gpu_methods::render_gpu_frames(scene, form, frames, &ctx, &mut |f, _| {
+            seq.push(f.clone())
+        })?;
+    print_gpu_sequence(a, form.name(), &img, &seq, &ctx)
 }
 
 fn sequence(
@@ -523,66 +516,6 @@ fn print_sequence_table(seq: &[shscale_scene::sequence::SequenceFrame], referenc
         }
         println!("{line}");
     }
-}
-
-/// `render --frames --method sphere_set --gpu`: spheres fitted on the host, shading on the GPU.
-fn gpu_sphere_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_runner::GpuMode;
-    use shscale_scene::gpu_path::open_gpu;
-    use shscale_scene::gpu_sets::{check, render_sequence_sphere_set_gpu};
-    check(scene)?;
-    let ctx = (open_gpu(GpuMode::Required).map_err(|e| anyhow::anyhow!("--gpu: {e}"))?)
-        .context("--gpu")?;
-    let (img, stats) = render_sequence_sphere_set_gpu(scene, frames, &ctx, &mut |_, _| {})?;
-    let png = write_image(&a.out, &img).context("--out")?;
-    println!(
-        "GPU sphere-set sequence {} ({}×{} receivers, {} occluder(s) × {} parts, {frames} frames, adapter {})",
-        a.scene.display(),
-        img.width,
-        img.height,
-        scene.occluders.len(),
-        scene.parts,
-        ctx.describe()
-    );
-    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
-    print_sequence_table(&seq, None);
-    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
-    println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
-    println!("wrote {} and {}", a.out.display(), png.display());
-    Ok(ExitCode::SUCCESS)
-}
-
-/// `render --frames --method full_field --gpu`: the shells sampled, projected and shaded on the
-/// GPU about each frame's bounding sphere.
-fn gpu_field_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_scene::gpu_field::{check, render_sequence_full_field_gpu};
-    check(scene)?;
-    let ctx = required_gpu()?;
-    let (img, stats) = render_sequence_full_field_gpu(scene, frames, &ctx, &mut |_, _| {})?;
-    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
-    print_gpu_sequence(a, "full-field", &img, &seq, &ctx)
-}
-
-/// `render --frames --method extrapolated --gpu` with `radial = "clearance"`: the radii placed
-/// on the host, sampling, the receivers' setup and shading on the GPU, every frame.
-fn gpu_radial_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_scene::gpu_radial::{check, render_sequence_radial_gpu};
-    check(scene)?;
-    let ctx = required_gpu()?;
-    let (img, stats) = render_sequence_radial_gpu(scene, frames, &ctx, &mut |_, _| {})?;
-    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
-    print_gpu_sequence(a, "per-direction radii", &img, &seq, &ctx)
-}
-
-/// `render --frames --method sub_volumes --gpu`: the parts split and their tables made on the
-/// host, every part's rays, extrapolation and their product on the GPU, every frame.
-fn gpu_parts_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
-    use shscale_scene::gpu_parts::{check, render_sequence_sub_volumes_gpu};
-    check(scene)?;
-    let ctx = required_gpu()?;
-    let (img, stats) = render_sequence_sub_volumes_gpu(scene, frames, &ctx, &mut |_, _| {})?;
-    let seq: Vec<_> = stats.iter().map(|s| s.as_sequence_frame()).collect();
-    print_gpu_sequence(a, "sub-volumes", &img, &seq, &ctx)
 }
 
 /// The adapter, required (`--gpu`).

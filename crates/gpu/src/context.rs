@@ -121,6 +121,13 @@ impl GpuContext {
         Ok(())
     }
 
+    /// The first `n` receivers of an image buffer (`vec4<f32>` per receiver, RGB and a pad) as
+    /// RGB, copied back to the host (blocking).
+    pub fn read_image(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 3]>, GpuError> {
+        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&self.read_buffer(buffer)?).to_vec();
+        Ok(raw[..n].iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
     /// A uniform buffer holding `data`, rewritable (`COPY_DST`).
     pub fn uniform(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;

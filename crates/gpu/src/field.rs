@@ -172,12 +172,7 @@ impl GpuFullField {
             times.projection_seconds,
             times.shading_seconds,
         ] = device;
-        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&ctx.read_buffer(&self.image_buf)?).to_vec();
-        let image = raw[..self.receivers]
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect();
-        Ok((image, times))
+        Ok((ctx.read_image(&self.image_buf, self.receivers)?, times))
     }
 
     /// Rays cast per frame.

@@ -119,9 +119,6 @@ pub struct GpuSubVolumes {
     params: GpuPartsParams,
     params_buf: wgpu::Buffer,
     parts: Vec<(FlatBvh, GpuSampler)>,
-    receivers: usize,
-    nn: usize,
-    k_count: usize,
     geo_buf: wgpu::Buffer,
     locs_buf: wgpu::Buffer,
     tables_buf: wgpu::Buffer,
@@ -209,9 +206,6 @@ impl GpuSubVolumes {
             params,
             params_buf,
             parts,
-            receivers: receivers.len(),
-            nn,
-            k_count,
             geo_buf,
             locs_buf,
             tables_buf,
@@ -226,7 +220,7 @@ impl GpuSubVolumes {
     /// Upload a frame's inputs: every part's BVH and samples, the tables (abscissae, matrices,
     /// the transfer), the receivers' locations and the parts' spheres.
     fn write_inputs(&mut self, ctx: &GpuContext, parts: &[PartFrame<'_>]) -> Result<(), GpuError> {
-        let nn = self.nn;
+        let nn = self.params.nn as usize;
         let (mut xs, mut mats, mut locs, mut centres) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut log_k = None;
@@ -235,12 +229,12 @@ impl GpuSubVolumes {
             sampler.upload(ctx, bvh, tmin)?;
             sampler.move_samples(ctx, f.sampling.center, f.points)?;
             let (ks, lk) = (f.table.ks(), f.table.log_k());
-            if ks.len() != self.k_count || f.table.order() * f.table.order() != nn {
+            if ks.len() != self.params.k_count as usize || f.table.order() * f.table.order() != nn {
                 return Err(GpuError::Input(format!(
                     "a part's table of {} k at order {} for a set-up of {} at N² = {nn}",
                     ks.len(),
                     f.table.order(),
-                    self.k_count
+                    self.params.k_count as usize
                 )));
             }
             if *log_k.get_or_insert(lk) != lk {
@@ -255,11 +249,11 @@ impl GpuSubVolumes {
                     mats.extend(row.iter().map(|&v| v as f32));
                 }
             }
-            if f.locations.len() != self.receivers {
+            if f.locations.len() != self.params.receivers as usize {
                 return Err(GpuError::Input(format!(
                     "{} locations for {} receivers",
                     f.locations.len(),
-                    self.receivers
+                    self.params.receivers as usize
                 )));
             }
             locs.extend(f.locations.iter().map(|l| GpuReceiver {
@@ -283,7 +277,7 @@ impl GpuSubVolumes {
             .write_buffer(&self.locs_buf, 0, bytemuck::cast_slice(&locs));
         ctx.queue.write_buffer(
             &self.geo_buf,
-            (16 * self.receivers) as u64,
+            (16 * self.params.receivers as usize) as u64,
             bytemuck::cast_slice(&centres),
         );
         Ok(())
@@ -297,7 +291,7 @@ impl GpuSubVolumes {
         ctx: &GpuContext,
         parts: &[PartFrame<'_>],
     ) -> Result<(Vec<[f32; 3]>, GpuPartsTimes), GpuError> {
-        let nn = self.nn;
+        let nn = self.params.nn as usize;
         if parts.len() != self.parts.len() {
             return Err(GpuError::Input(format!(
                 "{} parts for a set-up of {}",
@@ -335,7 +329,7 @@ impl GpuSubVolumes {
         }
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
-            let (x, y) = grid_64(self.receivers as u32);
+            let (x, y) = grid_64(self.params.receivers);
             pass.set_pipeline(&self.pipe);
             pass.set_bind_group(0, &self.bind, &[]);
             pass.dispatch_workgroups(x, y, 1);
@@ -343,11 +337,9 @@ impl GpuSubVolumes {
         ctx.queue.submit([enc.finish()]);
         ctx.wait()?;
         times.device_seconds = t0.elapsed().as_secs_f64();
-        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&ctx.read_buffer(&self.image_buf)?).to_vec();
-        let image = raw[..self.receivers]
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect();
-        Ok((image, times))
+        Ok((
+            ctx.read_image(&self.image_buf, self.params.receivers as usize)?,
+            times,
+        ))
     }
 }

@@ -455,10 +455,6 @@ impl GpuShader {
 
     /// Irradiance per receiver (RGB) of the last frame.
     pub fn read_image(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
-        let v: Vec<[f32; 4]> = bytemuck::cast_slice(&ctx.read_buffer(&self.image_buf)?).to_vec();
-        Ok(v[..self.receivers]
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect())
+        ctx.read_image(&self.image_buf, self.receivers)
     }
 }

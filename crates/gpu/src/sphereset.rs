@@ -231,13 +231,6 @@ impl GpuSphereSet {
         ctx.wait()?;
         let wall = t0.elapsed().as_secs_f64();
         let device = timer.read(ctx)?.map_or(wall, |v| v[0]);
-        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&ctx.read_buffer(&self.image_buf)?).to_vec();
-        Ok((
-            raw[..self.receivers]
-                .iter()
-                .map(|p| [p[0], p[1], p[2]])
-                .collect(),
-            device,
-        ))
+        Ok((ctx.read_image(&self.image_buf, self.receivers)?, device))
     }
 }

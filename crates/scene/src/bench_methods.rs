@@ -371,11 +371,9 @@ fn gpu_extrapolated_stages(
 }
 
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
-/// form — the papers' extrapolation from one sampling sphere (`gpu_path`, the GPU Table 1
-/// sequence; no per-frame image, so no error), the extrapolation from per-direction radii
-/// (`gpu_radial`, `clearance=`), sub-volumes (`gpu_parts`), sphere sets (`gpu_sets`) and the
-/// full field (`gpu_field`), the last four scored against `truths` like the CPU rows; `None` for
-/// the others.
+/// form ([`crate::gpu_methods::gpu_form`]) — the papers' extrapolation from one sampling sphere
+/// (the GPU Table 1 sequence; no per-frame image, so no error), every other form scored against
+/// `truths` like the CPU rows; `None` for methods without one.
 pub fn bench_method_gpu(
     name: &str,
     scene: &Scene,
@@ -387,51 +385,21 @@ pub fn bench_method_gpu(
     let frames = frames.max(1);
     let total = warmup + frames;
     let s = variant.apply(scene);
-    let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match variant.method {
-        Method::Extrapolated if cached_path(&s, Method::Extrapolated) => {
-            (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new())
-        }
-        Method::Extrapolated if matches!(s.radial, RadialRule::Clearance { .. }) => {
+    use crate::gpu_methods::{gpu_form, render_gpu_frames, GpuForm};
+    let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match gpu_form(&s, variant.method)?
+    {
+        None => return Ok(None),
+        Some(GpuForm::Sequence) => (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new()),
+        Some(form) => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            crate::gpu_radial::render_sequence_radial_gpu(&s, total, ctx, &mut |f, px| {
+            render_gpu_frames(&s, form, total, ctx, &mut |f, px| {
                 if f.frame >= warmup {
-                    stages.push(f.as_sequence_frame().stages);
+                    stages.push(f.stages.clone());
                 }
                 scores.add(f.frame, px);
             })?;
             (stages, scores.finish(name)?)
         }
-        Method::SphereSet => {
-            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            crate::gpu_sets::render_sequence_sphere_set_gpu(&s, total, ctx, &mut |f, px| {
-                if f.frame >= warmup {
-                    stages.push(f.as_sequence_frame().stages);
-                }
-                scores.add(f.frame, px);
-            })?;
-            (stages, scores.finish(name)?)
-        }
-        Method::SubVolumes => {
-            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            crate::gpu_parts::render_sequence_sub_volumes_gpu(&s, total, ctx, &mut |f, px| {
-                if f.frame >= warmup {
-                    stages.push(f.as_sequence_frame().stages);
-                }
-                scores.add(f.frame, px);
-            })?;
-            (stages, scores.finish(name)?)
-        }
-        Method::FullField => {
-            let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            crate::gpu_field::render_sequence_full_field_gpu(&s, total, ctx, &mut |f, px| {
-                if f.frame >= warmup {
-                    stages.push(f.as_sequence_frame().stages);
-                }
-                scores.add(f.frame, px);
-            })?;
-            (stages, scores.finish(name)?)
-        }
-        _ => return Ok(None),
     };
     Ok(Some(row_of(
         (name, variant),

@@ -30,6 +30,7 @@ pub mod combine;
 pub mod error;
 pub mod frame;
 pub mod gpu_field;
+pub mod gpu_methods;
 pub mod gpu_parts;
 pub mod gpu_path;
 pub mod gpu_radial;

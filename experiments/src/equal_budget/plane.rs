@@ -487,6 +487,7 @@ impl Kind for BudgetPlane {
             let mut s = Scene::clone(&scene);
             spec.typed.method.apply(&mut s);
             super::plane_timings::gpu_form(&s, spec.typed.method.method(), p.frames)
+                .map(|_| ())
                 .map_err(|why| KeyError::new("device", format!("\"gpu\": {why}")))?;
         }
         spec.typed.scene = Some(scene);

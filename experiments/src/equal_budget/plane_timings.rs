@@ -17,6 +17,7 @@
 use shscale_gpu::GpuContext;
 use shscale_runner::timing::Timing;
 use shscale_runner::{Ctx, KeyError};
+use shscale_scene::gpu_methods::GpuForm;
 use shscale_scene::method::Method;
 use shscale_scene::scene::Scene;
 use shscale_scene::Error;
@@ -50,39 +51,20 @@ impl DeviceChoice {
     }
 }
 
-/// Whether the scene's extrapolation places its samples by clearance radii.
-fn clearance(scene: &Scene) -> bool {
-    matches!(
-        scene.radial,
-        shscale_field::bsv::RadialRule::Clearance { .. }
-    )
-}
-
-/// Whether `method` has a GPU form on `scene` (with `frames` frames), or why not.
-pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<(), String> {
+/// Whether `method` has a GPU form on `scene` (with `frames` frames,
+/// [`shscale_scene::gpu_methods::gpu_form`]), or why not.
+pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<GpuForm, String> {
     let deforming = scene.occluders.iter().any(|o| o.deformer.is_some());
     if frames == 1 && deforming {
         return Err(
             "a still frame of a deforming scene: the GPU sequences pose t = f/frames, the plane's one frame is the rest pose".into(),
         );
     }
-    let why = match method {
-        Method::Extrapolated if clearance(scene) => shscale_scene::gpu_radial::check(scene),
-        Method::Extrapolated => {
-            if !shscale_scene::sequence::cached_path(scene, method) {
-                Err(Error::config(
-                    "the GPU extrapolation samples one sphere or clearance radii (radial = \"uniform\" or \"clearance\", no plausibility clamp)".into(),
-                ))
-            } else {
-                shscale_scene::gpu_path::check(scene)
-            }
-        }
-        Method::FullField => shscale_scene::gpu_field::check(scene),
-        Method::SubVolumes => shscale_scene::gpu_parts::check(scene),
-        Method::SphereSet => shscale_scene::gpu_sets::check(scene),
-        other => Err(Error::config(format!("{other} has no GPU form"))),
-    };
-    why.map_err(|e| e.to_string())
+    match shscale_scene::gpu_methods::gpu_form(scene, method) {
+        Ok(Some(form)) => Ok(form),
+        Ok(None) => Err(format!("{method} has no GPU form")),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// A run's frame on the GPU path as its `device` asks (`(device, method, frames)` of the run on
@@ -107,10 +89,11 @@ pub fn gpu_frame(
         }
         return Ok((None, "none: no adapter".into()));
     };
-    if let Err(why) = gpu_form(scene, method, frames) {
-        return Ok((None, format!("none: {why}")));
-    }
-    let timed = time_on_gpu(scene, method, frames, gpu, ctx, cpu)?;
+    let form = match gpu_form(scene, method, frames) {
+        Ok(form) => form,
+        Err(why) => return Ok((None, format!("none: {why}"))),
+    };
+    let timed = time_on_gpu(scene, form, frames, gpu, ctx, cpu)?;
     Ok((Some(timed), gpu.describe()))
 }
 
@@ -123,10 +106,10 @@ pub struct GpuTimed {
     pub max_diff: f64,
 }
 
-/// Time `frames` frames of `scene` by `method` on the GPU path (see [`GpuTimed`]).
+/// Time `frames` frames of `scene` by its method's GPU `form` (see [`GpuTimed`]).
 pub fn time_on_gpu(
     scene: &Scene,
-    method: Method,
+    form: GpuForm,
     frames: usize,
     gpu: &GpuContext,
     ctx: &Ctx,
@@ -138,7 +121,7 @@ pub fn time_on_gpu(
     // first.
     let run = frames.max(2);
     let (mut images, [t]) = ctx.timing.measure_parts(|| {
-        let (images, seconds) = gpu_frames(scene, method, run, gpu)?;
+        let (images, seconds) = gpu_frames(scene, form, run, gpu)?;
         let later = &seconds[1.min(seconds.len() - 1)..];
         let mean = later.iter().sum::<f64>() / later.len() as f64;
         Ok::<_, Error>((images, [mean]))
@@ -166,68 +149,24 @@ pub fn time_on_gpu(
 /// One frame's pixels, RGB per receiver.
 type Image = Vec<[f32; 3]>;
 
-/// One GPU sequence of `scene`: its images (every frame's, or the last for the extrapolation)
-/// and every frame's seconds (host stages and device).
+/// One GPU sequence of `scene` by `form`: its images (every frame's, or the last for the papers'
+/// sequence) and every frame's seconds (host stages and device).
 fn gpu_frames(
     scene: &Scene,
-    method: Method,
+    form: GpuForm,
     frames: usize,
     gpu: &GpuContext,
 ) -> Result<(Vec<Image>, Vec<f64>), Error> {
     let (mut images, mut seconds) = (Vec::new(), Vec::new());
-    match method {
-        Method::Extrapolated if clearance(scene) => {
-            shscale_scene::gpu_radial::render_sequence_radial_gpu(
-                scene,
-                frames,
-                gpu,
-                &mut |f, px| {
-                    seconds.push(f.as_sequence_frame().seconds);
-                    images.push(px.to_vec());
-                },
-            )?;
-        }
-        Method::Extrapolated => {
-            let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
-            seconds.extend((run.frames.iter()).map(|f| f.seconds()));
-            images.push(run.image.pixels);
-        }
-        Method::SubVolumes => {
-            shscale_scene::gpu_parts::render_sequence_sub_volumes_gpu(
-                scene,
-                frames,
-                gpu,
-                &mut |f, px| {
-                    seconds.push(f.as_sequence_frame().seconds);
-                    images.push(px.to_vec());
-                },
-            )?;
-        }
-        Method::FullField => {
-            shscale_scene::gpu_field::render_sequence_full_field_gpu(
-                scene,
-                frames,
-                gpu,
-                &mut |f, px| {
-                    seconds.push(f.as_sequence_frame().seconds);
-                    images.push(px.to_vec());
-                },
-            )?;
-        }
-        Method::SphereSet => {
-            shscale_scene::gpu_sets::render_sequence_sphere_set_gpu(
-                scene,
-                frames,
-                gpu,
-                &mut |f, px| {
-                    seconds.push(f.as_sequence_frame().seconds);
-                    images.push(px.to_vec());
-                },
-            )?;
-        }
-        other => {
-            return Err(Error::config(format!("{other} has no GPU form")));
-        }
+    if form == GpuForm::Sequence {
+        let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
+        seconds.extend((run.frames.iter()).map(|f| f.seconds()));
+        images.push(run.image.pixels);
+    } else {
+        shscale_scene::gpu_methods::render_gpu_frames(scene, form, frames, gpu, &mut |f, px| {
+            seconds.push(f.seconds);
+            images.push(px.to_vec());
+        })?;
     }
     Ok((images, seconds))
 }

@@ -1,0 +1,111 @@
+//! Every method's GPU form behind one dispatch: which GPU sequence renders a scene's method
+//! ([`gpu_form`], with the reason where its keys have none) and, for the per-frame forms, the
+//! sequence itself with every frame as a [`SequenceFrame`] ([`render_gpu_frames`]) — the one
+//! place `render --frames --gpu`, `bench --methods … --gpu` and `budget_plane`'s device axis
+//! choose a GPU path.
+
+use crate::error::Error;
+use crate::method::Method;
+use crate::render::RenderOutput;
+use crate::scene::Scene;
+use crate::sequence::SequenceFrame;
+use shscale_field::bsv::RadialRule;
+use shscale_gpu::GpuContext;
+
+/// The GPU sequence a method runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuForm {
+    /// The papers' extrapolation from one sampling sphere: the real-time sequence
+    /// ([`crate::gpu_path`]), its sampling sphere enclosing every pose, no per-frame image.
+    Sequence,
+    /// The extrapolation from clearance radii ([`crate::gpu_radial`]).
+    Radial,
+    /// Sub-volumes ([`crate::gpu_parts`]).
+    SubVolumes,
+    /// The full field ([`crate::gpu_field`]).
+    FullField,
+    /// Sphere sets by the chain or the union ([`crate::gpu_sets`]).
+    SphereSet,
+}
+
+impl GpuForm {
+    /// How the form is named in a sequence's title.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sequence => "extrapolation",
+            Self::Radial => "per-direction radii",
+            Self::SubVolumes => "sub-volumes",
+            Self::FullField => "full-field",
+            Self::SphereSet => "sphere-set",
+        }
+    }
+}
+
+/// The GPU form of `method` on `scene`: `Ok(None)` where the method has none at all (the
+/// ray-traced references, the extrapolation with the occlusion rule or the plausibility clamp),
+/// an error naming the culprit where it has one but the scene's keys are outside it.
+pub fn gpu_form(scene: &Scene, method: Method) -> Result<Option<GpuForm>, Error> {
+    let form = match method {
+        Method::SphereSet => GpuForm::SphereSet,
+        Method::FullField => GpuForm::FullField,
+        Method::SubVolumes => GpuForm::SubVolumes,
+        Method::Extrapolated if matches!(scene.radial, RadialRule::Clearance { .. }) => {
+            GpuForm::Radial
+        }
+        Method::Extrapolated if crate::sequence::cached_path(scene, method) => GpuForm::Sequence,
+        _ => return Ok(None),
+    };
+    match form {
+        GpuForm::Sequence => crate::gpu_path::check(scene)?,
+        GpuForm::Radial => crate::gpu_radial::check(scene)?,
+        GpuForm::SubVolumes => crate::gpu_parts::check(scene)?,
+        GpuForm::FullField => crate::gpu_field::check(scene)?,
+        GpuForm::SphereSet => crate::gpu_sets::check(scene)?,
+    }
+    Ok(Some(form))
+}
+
+/// `frames` poses of `scene` rendered on the GPU by `form`, every frame handed to `each` as a
+/// [`SequenceFrame`] with its pixels; the last frame's image. [`GpuForm::Sequence`] keeps no
+/// per-frame image: it is [`crate::gpu_path::render_sequence_gpu_with`]'s, and refused here.
+pub fn render_gpu_frames(
+    scene: &Scene,
+    form: GpuForm,
+    frames: usize,
+    ctx: &GpuContext,
+    each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
+) -> Result<RenderOutput, Error> {
+    let out = match form {
+        GpuForm::Sequence => {
+            return Err(Error::config(format!(
+                "{}: the papers' GPU sequence keeps no per-frame image",
+                scene.file
+            )))
+        }
+        GpuForm::Radial => {
+            crate::gpu_radial::render_sequence_radial_gpu(scene, frames, ctx, &mut |f, px| {
+                each(&f.as_sequence_frame(), px)
+            })?
+            .0
+        }
+        GpuForm::SubVolumes => {
+            crate::gpu_parts::render_sequence_sub_volumes_gpu(scene, frames, ctx, &mut |f, px| {
+                each(&f.as_sequence_frame(), px)
+            })?
+            .0
+        }
+        GpuForm::FullField => {
+            crate::gpu_field::render_sequence_full_field_gpu(scene, frames, ctx, &mut |f, px| {
+                each(&f.as_sequence_frame(), px)
+            })?
+            .0
+        }
+        GpuForm::SphereSet => {
+            crate::gpu_sets::render_sequence_sphere_set_gpu(scene, frames, ctx, &mut |f, px| {
+                each(&f.as_sequence_frame(), px)
+            })?
+            .0
+        }
+    };
+    Ok(out)
+}
