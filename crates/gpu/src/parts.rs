@@ -27,7 +27,7 @@ pub const MAX_GPU_PARTS: usize = 16;
 
 /// The sub-volumes kernel's source.
 pub fn source() -> String {
-    shader(&[SH_WGSL, PARTS_WGSL])
+    shader(&[SH_WGSL, PARTS_WGSL, crate::sphereset::PRODUCT_WGSL])
 }
 
 /// One frame's host inputs per part: its sampling sphere (centre, `s·r_p`), its samples' points,

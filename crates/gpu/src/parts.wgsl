@@ -141,7 +141,6 @@ fn shade_parts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     }
     var acc: array<f32, 64>;
     var v: array<f32, 64>;
-    var tmp: array<f32, 64>;
     acc[0] = 3.5449077018110318;
     var first = true;
     for (var q = 0u; q < pp.parts; q++) {
@@ -153,20 +152,7 @@ fn shade_parts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
             first = false;
             continue;
         }
-        for (var i = 0u; i < nn; i++) {
-            tmp[i] = 0.0;
-        }
-        for (var g = 0u; g < pp.entries; g++) {
-            let en = gaunt[g];
-            let gi = en.x;
-            let gj = en.y;
-            var ab = acc[gi] * v[gi];
-            if (gi != gj) {
-                ab = acc[gi] * v[gj] + acc[gj] * v[gi];
-            }
-            tmp[en.z] += bitcast<f32>(en.w) * ab;
-        }
-        acc = tmp;
+        gaunt_product(&acc, &v, nn, pp.entries);
     }
     let tb = pp.parts * pp.k_count * (1u + nn * nn);
     var e = vec3<f32>(0.0);

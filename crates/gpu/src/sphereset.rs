@@ -18,6 +18,8 @@ use shscale_geometry::Sphere;
 use shscale_sh::GauntTensor;
 
 const SPHERESET_WGSL: &str = include_str!("sphereset.wgsl");
+/// The truncated Gaunt product of the multiplying kernels.
+pub(crate) const PRODUCT_WGSL: &str = include_str!("product.wgsl");
 const UNION_WGSL: &str = include_str!("union.wgsl");
 
 /// The most z-rings the GPU union takes (its private arrays' size).
@@ -28,7 +30,7 @@ pub const MAX_GPU_SPHERES: usize = 64;
 
 /// The sphere-set shading kernel's source.
 pub fn source() -> String {
-    shader(&[SH_WGSL, SPHERESET_WGSL])
+    shader(&[SH_WGSL, SPHERESET_WGSL, PRODUCT_WGSL])
 }
 
 /// The union kernel's source.

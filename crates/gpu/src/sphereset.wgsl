@@ -88,7 +88,6 @@ fn shade_set(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     }
     var acc: array<f32, 64>;
     var v: array<f32, 64>;
-    var tmp: array<f32, 64>;
     acc[0] = SQRT_FOUR_PI;
     var first = true;
     for (var q = 0u; q < count; q++) {
@@ -105,20 +104,7 @@ fn shade_set(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
             first = false;
             continue;
         }
-        for (var i = 0u; i < nn; i++) {
-            tmp[i] = 0.0;
-        }
-        for (var g = 0u; g < params.entries; g++) {
-            let en = gaunt[g];
-            let gi = en.x;
-            let gj = en.y;
-            var ab = acc[gi] * v[gi];
-            if (gi != gj) {
-                ab = acc[gi] * v[gj] + acc[gj] * v[gi];
-            }
-            tmp[en.z] += bitcast<f32>(en.w) * ab;
-        }
-        acc = tmp;
+        gaunt_product(&acc, &v, nn, params.entries);
     }
     var e = vec3<f32>(0.0);
     for (var ch = 0u; ch < params.channels; ch++) {
