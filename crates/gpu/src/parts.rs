@@ -155,12 +155,8 @@ impl GpuSubVolumes {
             ctx.check_binding(what, bytes as u64)?;
         }
         let parts = part_samplers(ctx, meshes, (order, h, samples))?;
-        let Constants {
-            transfer: t,
-            gaunt: g,
-            quad,
-            channels,
-        } = constants(transfer, gaunt);
+        let c = constants(transfer, gaunt);
+        let (g, quad, channels) = (&c.gaunt, &c.quad, c.channels);
         let params = GpuPartsParams {
             receivers: receivers.len() as u32,
             order: order as u32,
@@ -193,8 +189,8 @@ impl GpuSubVolumes {
                 &locs_buf,
                 &tables_buf,
                 &coeffs_buf,
-                &ctx.storage_init("parts gaunt", bytemuck::cast_slice(&g)),
-                &ctx.storage_init("parts quad", bytemuck::cast_slice(&quad)),
+                &ctx.storage_init("parts gaunt", bytemuck::cast_slice(g)),
+                &ctx.storage_init("parts quad", bytemuck::cast_slice(quad)),
                 &ctx.storage_init(
                     "knorm",
                     bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
@@ -211,7 +207,7 @@ impl GpuSubVolumes {
             tables_buf,
             coeffs_buf,
             image_buf,
-            transfer: t,
+            transfer: c.transfer,
             pipe,
             bind,
         })
