@@ -53,7 +53,7 @@ impl DeformerKind {
 /// angle `κ·x` around the centre of curvature at `y = 1/κ`, with `κ = max_curvature · sin(πt)`
 /// (t ∈ [0, 1] bends and straightens). The papers' bending plane and sponge.
 pub fn bend(rest: &Mesh, out: &mut Mesh, max_curvature: f64, t: f64) {
-    let k = max_curvature * (PI * t).sin();
+    let k = bend_curvature(max_curvature, t);
     per_vertex(&rest.positions, &mut out.positions, |p| {
         if k.abs() < 1e-12 {
             p
@@ -69,10 +69,12 @@ pub fn bend(rest: &Mesh, out: &mut Mesh, max_curvature: f64, t: f64) {
 /// Twist about the z axis by `max_turns · 2π · sin(πt) · z / h` (h = half height of the rest pose).
 pub fn twist(rest: &Mesh, out: &mut Mesh, max_turns: f64, t: f64) {
     // The maximum is exact, so the parallel reduction gives the serial value.
-    let h = (rest.positions.par_iter().with_min_len(CHUNK))
-        .map(|p| p.z.abs())
-        .reduce(|| 1e-12, f64::max);
-    let a = max_turns * 2.0 * PI * (PI * t).sin();
+    twist_about(rest, out, max_turns, twist_height(rest), t)
+}
+
+/// [`twist`] about a given half height `h > 0`.
+pub fn twist_about(rest: &Mesh, out: &mut Mesh, max_turns: f64, h: f64, t: f64) {
+    let a = twist_angle(max_turns, t);
     per_vertex(&rest.positions, &mut out.positions, |p| {
         let (s, c) = (a * p.z / h).sin_cos();
         DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
@@ -86,7 +88,7 @@ pub fn morph(a: &Mesh, b: &Mesh, out: &mut Mesh, t: f64) {
         b.positions.len(),
         "morph targets differ in vertex count"
     );
-    let w = 0.5 * (1.0 - (2.0 * PI * t).cos());
+    let w = morph_weight(t);
     (out.positions.par_chunks_mut(CHUNK))
         .zip(a.positions.par_chunks(CHUNK))
         .zip(b.positions.par_chunks(CHUNK))
@@ -100,7 +102,7 @@ pub fn morph(a: &Mesh, b: &Mesh, out: &mut Mesh, t: f64) {
 /// Flap wings: vertices with `|y| > y0` rotate about the x axis (through `y = ±y0`) by
 /// `amplitude · sin(2πt)` times a smooth span weight, so the wing bends as it flaps.
 pub fn flap(rest: &Mesh, out: &mut Mesh, y0: f64, amplitude: f64, t: f64) {
-    let a = amplitude * (2.0 * PI * t).sin();
+    let a = flap_angle(amplitude, t);
     per_vertex(&rest.positions, &mut out.positions, |p| {
         let d = p.y.abs() - y0;
         if d <= 0.0 {
@@ -112,6 +114,91 @@ pub fn flap(rest: &Mesh, out: &mut Mesh, y0: f64, amplitude: f64, t: f64) {
             DVec3::new(p.x, p.y.signum() * y0 + c * yy - s * zz, s * yy + c * zz)
         }
     });
+}
+
+/// The bend's curvature at time `t`: `κ = max_curvature · sin(πt)`.
+pub fn bend_curvature(max_curvature: f64, t: f64) -> f64 {
+    max_curvature * (PI * t).sin()
+}
+
+/// The twist's half height `h`: the rest pose's largest `|z|` (at least 1e-12).
+pub fn twist_height(rest: &Mesh) -> f64 {
+    // The maximum is exact, so the parallel reduction gives the serial value.
+    (rest.positions.par_iter().with_min_len(CHUNK))
+        .map(|p| p.z.abs())
+        .reduce(|| 1e-12, f64::max)
+}
+
+/// The twist's angle at `z = h` at time `t`: `max_turns · 2π · sin(πt)`.
+pub fn twist_angle(max_turns: f64, t: f64) -> f64 {
+    max_turns * 2.0 * PI * (PI * t).sin()
+}
+
+/// The morph's weight of the second pose at time `t`: `(1 − cos 2πt)/2`.
+pub fn morph_weight(t: f64) -> f64 {
+    0.5 * (1.0 - (2.0 * PI * t).cos())
+}
+
+/// The flap's amplitude at time `t`: `amplitude · sin(2πt)`.
+pub fn flap_angle(amplitude: f64, t: f64) -> f64 {
+    amplitude * (2.0 * PI * t).sin()
+}
+
+/// A deformer with its parameters: what posing a frame applies on the host ([`Self::apply`]),
+/// and what a device needs to apply the same map (each kind's per-frame scalar, [`Self::scalar`],
+/// and its constant, [`Self::constant`]).
+#[derive(Clone, Debug)]
+pub enum Deformer {
+    /// [`bend`] with this maximal curvature.
+    Bend { max_curvature: f64 },
+    /// [`twist`] with these maximal turns about the rest pose's half height `h`.
+    Twist { max_turns: f64, h: f64 },
+    /// [`morph`] from the rest pose to this target (same vertex count).
+    Morph { target: Mesh },
+    /// [`flap`] about `|y| = y0` with this amplitude.
+    Flap { y0: f64, amplitude: f64 },
+}
+
+impl Deformer {
+    /// Which of the four.
+    pub fn kind(&self) -> DeformerKind {
+        match self {
+            Deformer::Bend { .. } => DeformerKind::Bend,
+            Deformer::Twist { .. } => DeformerKind::Twist,
+            Deformer::Morph { .. } => DeformerKind::Morph,
+            Deformer::Flap { .. } => DeformerKind::Flap,
+        }
+    }
+
+    /// Pose `rest` at time `t` into `out` (same topology).
+    pub fn apply(&self, rest: &Mesh, t: f64, out: &mut Mesh) {
+        match self {
+            Deformer::Bend { max_curvature } => bend(rest, out, *max_curvature, t),
+            Deformer::Twist { max_turns, h } => twist_about(rest, out, *max_turns, *h, t),
+            Deformer::Morph { target } => morph(rest, target, out, t),
+            Deformer::Flap { y0, amplitude } => flap(rest, out, *y0, *amplitude, t),
+        }
+    }
+
+    /// The frame's one scalar: the bend's curvature κ, the twist's angle, the morph's weight,
+    /// the flap's angle.
+    pub fn scalar(&self, t: f64) -> f64 {
+        match self {
+            Deformer::Bend { max_curvature } => bend_curvature(*max_curvature, t),
+            Deformer::Twist { max_turns, .. } => twist_angle(*max_turns, t),
+            Deformer::Morph { .. } => morph_weight(t),
+            Deformer::Flap { amplitude, .. } => flap_angle(*amplitude, t),
+        }
+    }
+
+    /// The deformer's constant: the twist's `h`, the flap's `y0` (0 for the others).
+    pub fn constant(&self) -> f64 {
+        match self {
+            Deformer::Twist { h, .. } => *h,
+            Deformer::Flap { y0, .. } => *y0,
+            _ => 0.0,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -17,6 +17,19 @@ use std::time::Duration;
 /// Deepest tree the GPU traversal stack holds (the WGSL `STACK` constant).
 pub const MAX_GPU_BVH_DEPTH: usize = 64;
 
+/// What a device needs to refit a [`FlatBvh`] in place ([`FlatBvh::schedule`], `pose.wgsl`).
+#[derive(Clone, Debug, Default)]
+pub struct RefitSchedule {
+    /// Per triangle slot of the flattened tree: its three mesh vertex indices and a pad.
+    pub tri_verts: Vec<[u32; 4]>,
+    /// The leaves' node indices.
+    pub leaves: Vec<u32>,
+    /// The inner nodes' indices grouped by level, deepest level first.
+    pub inner: Vec<u32>,
+    /// Each level's `(start, count)` in `inner`, deepest first.
+    pub levels: Vec<(u32, u32)>,
+}
+
 /// Host side of the GPU BVH of one deforming mesh.
 pub struct FlatBvh {
     strategy: UpdateStrategy,
@@ -118,6 +131,79 @@ impl FlatBvh {
             }
         }
         self.flatten()
+    }
+
+    /// Build the tree again for `mesh` (same topology), whatever the strategy.
+    pub fn rebuild(&mut self, mesh: &Mesh) -> Result<(), GpuError> {
+        if mesh.triangles.len() != self.tris.len() {
+            return Err(GpuError::Input(format!(
+                "topology changed: {} triangles, the BVH has {}",
+                mesh.triangles.len(),
+                self.tris.len()
+            )));
+        }
+        self.tris = triangles(mesh);
+        self.bvh = Self::make(&self.tris);
+        self.built_area = relative_area(&self.bvh);
+        self.flatten()
+    }
+
+    /// The tree's relative box area after its last build (the reference of the rebuild rule,
+    /// `shscale_geometry::ray::rebuild_due`).
+    pub fn built_area(&self) -> f64 {
+        self.built_area
+    }
+
+    /// The tree's relative box area now.
+    pub fn relative_area(&self) -> f64 {
+        relative_area(&self.bvh)
+    }
+
+    /// What a device needs to refit this tree in place for a new pose of `mesh` (the mesh this
+    /// tree was built for, any pose): each triangle slot's vertex indices, the leaves, and the
+    /// inner nodes level by level, deepest first — a level's nodes have their children refitted
+    /// by the levels before it.
+    pub fn schedule(&self, mesh: &Mesh) -> Result<RefitSchedule, GpuError> {
+        if mesh.triangles.len() != self.tris.len() {
+            return Err(GpuError::Input(format!(
+                "{} triangles for a tree of {}",
+                mesh.triangles.len(),
+                self.tris.len()
+            )));
+        }
+        let tri_verts = (self.bvh.primitive_indices.iter())
+            .map(|&p| {
+                let [a, b, c] = mesh.triangles[p as usize];
+                [a, b, c, 0]
+            })
+            .collect();
+        let mut leaves = Vec::new();
+        let mut by_depth: Vec<Vec<u32>> = Vec::new();
+        let mut stack = vec![(0u32, 0usize)];
+        while let Some((n, depth)) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if node.count > 0 {
+                leaves.push(n);
+            } else {
+                if by_depth.len() <= depth {
+                    by_depth.resize(depth + 1, Vec::new());
+                }
+                by_depth[depth].push(n);
+                stack.push((node.first, depth + 1));
+                stack.push((node.first + 1, depth + 1));
+            }
+        }
+        let (mut inner, mut levels) = (Vec::new(), Vec::new());
+        for level in by_depth.iter().rev() {
+            levels.push((inner.len() as u32, level.len() as u32));
+            inner.extend_from_slice(level);
+        }
+        Ok(RefitSchedule {
+            tri_verts,
+            leaves,
+            inner,
+            levels,
+        })
     }
 
     fn flatten(&mut self) -> Result<(), GpuError> {

@@ -222,4 +222,25 @@ impl GpuContext {
             entries: &entries,
         })
     }
+
+    /// A bind group for group 0 of `pipeline` with each resource at its binding number (kernels
+    /// of one module numbering their bindings across the module).
+    pub fn bind_at(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        resources: &[(u32, wgpu::BindingResource<'_>)],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .iter()
+            .map(|(binding, r)| wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: r.clone(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    }
 }

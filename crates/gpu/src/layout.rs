@@ -149,6 +149,34 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// The frame's pose and the tree's sizes (`pose.wgsl`, a uniform).
+    GpuPose [32] {
+        /// 0 none, 1 bend, 2 twist, 3 morph, 4 flap.
+        kind: u32 => "u32",
+        vertices: u32 => "u32",
+        /// Leaves and nodes of the tree.
+        leaves: u32 => "u32",
+        nodes: u32 => "u32",
+        /// The frame's scalar (`Deformer::scalar`: bend κ, twist angle, morph weight, flap
+        /// angle) and the deformer's constant (`Deformer::constant`: twist h, flap y0).
+        scalar: f32 => "f32",
+        constant: f32 => "f32",
+        pad0: u32 => "u32",
+        pad1: u32 => "u32",
+    }
+}
+
+gpu_struct! {
+    /// One level of inner nodes to refit (`pose.wgsl`, a uniform per level).
+    GpuLevel [16] {
+        start: u32 => "u32",
+        count: u32 => "u32",
+        pad0: u32 => "u32",
+        pad1: u32 => "u32",
+    }
+}
+
 /// Every struct's WGSL declaration, prepended to each shader.
 pub fn wgsl_structs() -> String {
     [
@@ -160,6 +188,8 @@ pub fn wgsl_structs() -> String {
         GpuCacheParams::WGSL,
         GpuSetParams::WGSL,
         GpuPartsParams::WGSL,
+        GpuPose::WGSL,
+        GpuLevel::WGSL,
     ]
     .concat()
 }

@@ -19,7 +19,9 @@
 //! - [`radial`] ↔ `shscale_field::Bsv::sample_radial` with clearance radii and the receiver
 //!   cache with each receiver's `k = d / r(q)`;
 //! - [`parts`] ↔ `shscale_field::subvolume::SubVolumeField` (every part sampled alone,
-//!   extrapolated per receiver, the parts multiplied near to far).
+//!   extrapolated per receiver, the parts multiplied near to far);
+//! - [`pose`] ↔ `shscale_geometry::deform` and [`bvh::FlatBvh`]'s refit (the frame's pose and
+//!   the tree's boxes on the device, the host rebuilding when its rule says so).
 //!
 //! Precision: everything on the GPU is f32 (the CPU path ray casts in f32 too, through obvhs, and
 //! projects in f64). GPU orders are limited to `N ≤ 8` ([`MAX_GPU_ORDER`]): the projection keeps
@@ -35,6 +37,7 @@ pub mod error;
 pub mod field;
 pub mod layout;
 pub mod parts;
+pub mod pose;
 pub mod radial;
 pub mod sampling;
 pub mod sequence;

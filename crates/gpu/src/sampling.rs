@@ -10,7 +10,7 @@
 use crate::bvh::FlatBvh;
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::layout::{shader, GpuParams, GpuSample, SH_WGSL};
+use crate::layout::{shader, GpuNode, GpuParams, GpuSample, GpuTri, SH_WGSL};
 use crate::timing::grid_64;
 use glam::DVec3;
 use shscale_field::LocalFrame;
@@ -79,8 +79,8 @@ pub struct GpuSampler {
     pub rays: usize,
     pub(crate) params: GpuParams,
     pub(crate) params_buf: wgpu::Buffer,
-    nodes_buf: wgpu::Buffer,
-    tris_buf: wgpu::Buffer,
+    pub(crate) nodes_buf: wgpu::Buffer,
+    pub(crate) tris_buf: wgpu::Buffer,
     pub(crate) vis_buf: wgpu::Buffer,
     pub(crate) coeffs_buf: wgpu::Buffer,
     samples_buf: wgpu::Buffer,
@@ -294,6 +294,13 @@ impl GpuSampler {
         Ok(())
     }
 
+    /// Set the ray offset alone (the tree written on the device, `crate::pose`).
+    pub fn set_tmin(&mut self, ctx: &GpuContext, tmin: f64) {
+        self.params.tmin = tmin as f32;
+        ctx.queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+    }
+
     /// Record the ray-casting pass.
     pub fn record_cast(&self, pass: &mut wgpu::ComputePass<'_>) {
         let (x, y) = grid_64(self.params.samples * self.params.rays);
@@ -347,6 +354,22 @@ impl GpuSampler {
     pub fn read_coeffs(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
         let all: Vec<f32> = bytemuck::cast_slice(&ctx.read_buffer(&self.coeffs_buf)?).to_vec();
         Ok(all[..self.samples * self.order * self.order].to_vec())
+    }
+
+    /// The first `nodes` nodes and `tris` triangles of the tree buffers (tests: a tree written on
+    /// the device, `crate::pose`).
+    pub fn read_tree(
+        &self,
+        ctx: &GpuContext,
+        nodes: usize,
+        tris: usize,
+    ) -> Result<(Vec<GpuNode>, Vec<GpuTri>), GpuError> {
+        let n = ctx.read_buffer(&self.nodes_buf)?;
+        let t = ctx.read_buffer(&self.tris_buf)?;
+        Ok((
+            bytemuck::cast_slice::<u8, GpuNode>(&n)[..nodes].to_vec(),
+            bytemuck::cast_slice::<u8, GpuTri>(&t)[..tris].to_vec(),
+        ))
     }
 
     /// Run cast (unless `skip_cast`) and projection now and wait (tests and one-off use).

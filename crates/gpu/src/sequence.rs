@@ -6,11 +6,13 @@
 use crate::bvh::FlatBvh;
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::pose::GpuPoser;
 use crate::sampling::GpuSampler;
 use crate::shading::{GpuShader, ReceiverSetup};
 use crate::timing::StageTimer;
 use glam::DVec3;
 use shscale_field::receivers::ReceiverCache;
+use shscale_geometry::deform::Deformer;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{Mesh, Sphere, RAY_EPS};
 use std::time::Instant;
@@ -18,9 +20,13 @@ use std::time::Instant;
 /// Timings of one GPU frame, in seconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuStageTimes {
-    /// Host: BVH rebuild/refit and flattening.
+    /// Host: BVH rebuild/refit and flattening (posed on the device: the host's rebuilds only).
     pub bvh_seconds: f64,
-    /// Host → device: nodes, triangles, parameters.
+    /// Device: the pose (posed on the device, else 0: the host's pose is the caller's).
+    pub deform_seconds: f64,
+    /// Device: the BVH refit (posed on the device, else 0).
+    pub refit_seconds: f64,
+    /// Host → device: nodes, triangles, parameters (posed on the device: the pose's uniform).
     pub upload_seconds: f64,
     /// Device: ray casting at every base-sphere sample ("BSV sampling").
     pub sampling_seconds: f64,
@@ -52,6 +58,8 @@ pub struct GpuSequence {
     pub receiver_setup_seconds: f64,
     /// The prepared frame's ray offset ([`Self::prepare`]).
     tmin: f64,
+    /// The pose and refit on the device ([`Self::pose_on_device`]).
+    poser: Option<GpuPoser>,
 }
 
 impl GpuSequence {
@@ -107,11 +115,13 @@ impl GpuSequence {
             timer,
             receiver_setup_seconds,
             tmin: 0.0,
+            poser: None,
         })
     }
 
     /// Render one frame for the posed `mesh`.
     pub fn frame(&mut self, ctx: &GpuContext, mesh: &Mesh) -> Result<GpuStageTimes, GpuError> {
+        self.host_posed()?;
         let t0 = Instant::now();
         self.bvh.update(mesh)?;
         let bvh_seconds = t0.elapsed().as_secs_f64();
@@ -172,10 +182,88 @@ impl GpuSequence {
         Ok(times)
     }
 
+    /// From now on pose `rest` by `deformer` and refit the tree on the device
+    /// ([`crate::pose`]): frames are rendered by [`Self::frame_at`] from their time alone, and
+    /// only the pose's uniform is uploaded (the tree is built on the host only when the rebuild
+    /// rule finds it due, `strategy` `Refit` never). The ray offset is `RAY_EPS` times the rest
+    /// pose's bounding radius (the host never sees the posed mesh; the host path's per-frame
+    /// radius differs by the pose's change of it, and the offset matters only to rays starting
+    /// within it of the surface).
+    pub fn pose_on_device(
+        &mut self,
+        ctx: &GpuContext,
+        rest: &Mesh,
+        deformer: Option<&Deformer>,
+        strategy: UpdateStrategy,
+    ) -> Result<(), GpuError> {
+        let poser = GpuPoser::new(ctx, rest, deformer, strategy, &self.sampler)?;
+        self.sampler
+            .set_tmin(ctx, RAY_EPS * rest.bounding_sphere().radius);
+        self.timer = StageTimer::new(ctx, 5);
+        self.poser = Some(poser);
+        Ok(())
+    }
+
+    /// One frame at time `t` posed and refitted on the device ([`Self::pose_on_device`] first):
+    /// five passes — deform, refit, ray casting, projection, shading — each timed.
+    pub fn frame_at(&mut self, ctx: &GpuContext, t: f64) -> Result<GpuStageTimes, GpuError> {
+        let t0 = Instant::now();
+        let Some(poser) = self.poser.as_mut() else {
+            return Err(GpuError::Input(
+                "frame_at needs the pose on the device (pose_on_device)".into(),
+            ));
+        };
+        let bvh_seconds = poser.prepare(ctx, t)?;
+        let upload_seconds = t0.elapsed().as_secs_f64() - bvh_seconds;
+        let (poser, sampler, shader) = (&*poser, &self.sampler, &self.shader);
+        let labels = [
+            "deform",
+            "bvh refit",
+            "bsv sampling",
+            "sh conversion",
+            "shadowing",
+        ];
+        let s = self.timer.run(ctx, labels, |i, pass| match i {
+            0 => poser.record_deform(pass),
+            1 => poser.record_refit(pass),
+            2 => sampler.record_cast(pass),
+            3 => sampler.record_project(pass),
+            _ => shader.record(pass),
+        })?;
+        self.poser.as_mut().expect("set above").after_frame(ctx)?;
+        Ok(GpuStageTimes {
+            bvh_seconds,
+            deform_seconds: s[0],
+            refit_seconds: s[1],
+            upload_seconds,
+            sampling_seconds: s[2],
+            projection_seconds: s[3],
+            shading_seconds: s[4],
+            frame_seconds: t0.elapsed().as_secs_f64(),
+            timestamps: self.timer.uses_timestamps(),
+        })
+    }
+
+    /// `Ok` unless frames are posed on the device (whose tree a host upload would overwrite).
+    fn host_posed(&self) -> Result<(), GpuError> {
+        match self.poser {
+            Some(_) => Err(GpuError::Input(
+                "this sequence is posed on the device: render its frames by frame_at".into(),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The device pose, when set ([`Self::pose_on_device`]).
+    pub fn poser(&self) -> Option<&GpuPoser> {
+        self.poser.as_ref()
+    }
+
     /// Pipelined frames, host half: update the BVH for the posed `mesh` (host only: the device
     /// may still be running the previous frame, which reads its own uploaded copy). Returns the
     /// seconds it took. Then [`Self::finish`] the previous frame, and [`Self::submit`] this one.
     pub fn prepare(&mut self, mesh: &Mesh) -> Result<f64, GpuError> {
+        self.host_posed()?;
         let t0 = Instant::now();
         self.bvh.update(mesh)?;
         self.tmin = RAY_EPS * mesh.bounding_sphere().radius;

@@ -14,6 +14,7 @@ fn every_shader_parses_with_naga() {
         ("sphere set union", shscale_gpu::sphereset::union_source()),
         ("full field", shscale_gpu::field::source()),
         ("sub-volumes", shscale_gpu::parts::source()),
+        ("pose and refit", shscale_gpu::pose::pose_source()),
     ] {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));

@@ -213,42 +213,42 @@ pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, Error> {
 /// morph's target sphere), so that posing a frame is only the per-vertex map (in parallel,
 /// `shscale_geometry::deform`).
 pub struct Poser {
-    kind: deform::DeformerKind,
-    amount: f64,
-    /// The rest pose's bounding radius (flap and bend scale with it).
-    radius: f64,
-    /// The morph's target: a sphere fitted to the rest pose's bounding sphere.
-    target: Option<Mesh>,
+    deformer: deform::Deformer,
 }
 
 impl Poser {
     pub fn new(rest: &Mesh, kind: deform::DeformerKind, amount: f64) -> Self {
         let s = rest.bounding_sphere();
-        let target = (kind == deform::DeformerKind::Morph).then(|| {
-            let mut sphere = shapes::uv_sphere(1.0, 22, 24);
-            sphere.fit_to(&s);
-            sphere
-        });
-        Poser {
-            kind,
-            amount,
-            radius: s.radius,
-            target,
-        }
+        let deformer = match kind {
+            deform::DeformerKind::Flap => deform::Deformer::Flap {
+                y0: 0.3 * s.radius / 2.3,
+                amplitude: amount,
+            },
+            deform::DeformerKind::Bend => deform::Deformer::Bend {
+                max_curvature: amount / s.radius,
+            },
+            deform::DeformerKind::Twist => deform::Deformer::Twist {
+                max_turns: amount,
+                h: deform::twist_height(rest),
+            },
+            deform::DeformerKind::Morph => {
+                // The morph's target: a sphere fitted to the rest pose's bounding sphere.
+                let mut target = shapes::uv_sphere(1.0, 22, 24);
+                target.fit_to(&s);
+                deform::Deformer::Morph { target }
+            }
+        };
+        Poser { deformer }
     }
 
     /// Pose `rest` (the mesh this was made for) at time `t ∈ [0, 1)` into `out`.
     pub fn pose(&self, rest: &Mesh, t: f64, out: &mut Mesh) {
-        match self.kind {
-            deform::DeformerKind::Flap => {
-                deform::flap(rest, out, 0.3 * self.radius / 2.3, self.amount, t)
-            }
-            deform::DeformerKind::Bend => deform::bend(rest, out, self.amount / self.radius, t),
-            deform::DeformerKind::Twist => deform::twist(rest, out, self.amount, t),
-            deform::DeformerKind::Morph => {
-                deform::morph(rest, self.target.as_ref().expect("made for morph"), out, t)
-            }
-        }
+        self.deformer.apply(rest, t, out)
+    }
+
+    /// The deformer with its parameters (for posing on a device).
+    pub fn deformer(&self) -> &deform::Deformer {
+        &self.deformer
     }
 }
 
