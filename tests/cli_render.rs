@@ -420,6 +420,41 @@ fn sequences_take_every_method() {
         ],
         "--pipelined",
     );
+    // So is the pose on the device; and it is not pipelined.
+    for extra in [&["--method", "full_field"][..], &["--pipelined"][..]] {
+        let mut args = vec![
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            out,
+            "--frames",
+            "2",
+            "--gpu",
+            "--device-pose",
+        ];
+        args.extend_from_slice(extra);
+        fails(
+            &args,
+            if extra.len() == 1 {
+                "--pipelined"
+            } else {
+                "--device-pose"
+            },
+        );
+    }
+    fails(
+        &[
+            "bench",
+            "--gpu",
+            "--device-pose",
+            "--methods",
+            "full_field",
+            "--scene",
+            "bird",
+        ],
+        "--device-pose",
+    );
     // Sphere sets and the full field have a GPU sequence (where an adapter exists).
     for (method, title, parts) in [
         (

@@ -69,7 +69,7 @@ impl Kind for Timing {
             ),
             (
                 "path",
-                "`cpu`, `gpu` or `gpu-pipelined` (the host's half of frame i + 1 overlapping the device's frame i; timestamp queries needed); a GPU run without an adapter writes no row",
+                "`cpu`, `gpu`, `gpu-pipelined` (the host's half of frame i + 1 overlapping the device's frame i; timestamp queries needed) or `gpu-device` (the pose and the BVH refit on the device); a GPU run without an adapter writes no row",
             ),
             (
                 "frames",
@@ -141,8 +141,7 @@ impl Kind for Timing {
             None
         };
         let cpu = p.typed == BenchPath::Cpu;
-        let pipelined = p.typed == BenchPath::GpuPipelined;
-        let rows = bench_scene(&p.scene, (p.frames, p.warmup), cpu, gpu, pipelined)?;
+        let rows = bench_scene(&p.scene, (p.frames, p.warmup), cpu, gpu, &[p.typed])?;
         Ok((rows.into_iter())
             .filter(|r| r.path == p.typed)
             .map(|r| r.times)

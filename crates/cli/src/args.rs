@@ -189,6 +189,10 @@ pub struct BenchArgs {
     /// overlap.
     #[arg(long, requires = "gpu")]
     pub pipelined: bool,
+    /// With --gpu: one more row per scene, the GPU sequence posed and refitted on the device
+    /// (`gpu-device`: deform and refit are device stages, only the pose's uniform is uploaded).
+    #[arg(long, requires = "gpu")]
+    pub device_pose: bool,
     /// Skip the CPU path (with --gpu).
     #[arg(long, requires = "gpu")]
     pub no_cpu: bool,
@@ -534,6 +538,10 @@ pub struct RenderArgs {
     /// i + 1 while the device runs frame i; each frame's stages are printed beside its period.
     #[arg(long, requires = "gpu")]
     pub pipelined: bool,
+    /// With --gpu (the papers' extrapolation): pose and refit every frame on the device (the
+    /// deformation and the BVH refit become device stages; only the pose's uniform is uploaded).
+    #[arg(long, requires = "gpu", conflicts_with = "pipelined")]
+    pub device_pose: bool,
     /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
     #[arg(long)]
     pub allow_large: bool,

@@ -9,7 +9,7 @@ use crate::args::{
 use crate::flags;
 use shscale_runner::check::Ends;
 use shscale_runner::GpuMode;
-use shscale_scene::bench::{bench_scene, to_csv, to_markdown};
+use shscale_scene::bench::{bench_scene, to_csv, to_markdown, BenchPath};
 use shscale_scene::gpu_path::open_gpu;
 use shscale_scene::kernels::{self, Protocol, RaySet};
 use std::process::ExitCode;
@@ -22,10 +22,15 @@ fn check_frames(a: &BenchArgs) -> anyhow::Result<()> {
     if a.warmup > max {
         anyhow::bail!("--warmup: {} is more than the limit {max}", a.warmup);
     }
-    if a.methods.is_some() && a.pipelined {
-        anyhow::bail!(
-            "--pipelined: Table 1's papers' sequence only; drop it with --methods (each method's GPU frames run one after another)"
-        );
+    for (set, flag) in [
+        (a.pipelined, "--pipelined"),
+        (a.device_pose, "--device-pose"),
+    ] {
+        if a.methods.is_some() && set {
+            anyhow::bail!(
+                "{flag}: Table 1's papers' sequence only; drop it with --methods (each method's GPU frames run one after another, posed on the host)"
+            );
+        }
     }
     Ok(())
 }
@@ -52,7 +57,14 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         return bench_methods(&a, scenes, list, ctx.as_ref());
     }
     // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
-    let paths = usize::from(cpu) + usize::from(ctx.is_some()) * (1 + usize::from(a.pipelined));
+    let extra: Vec<BenchPath> = [
+        (a.pipelined, BenchPath::GpuPipelined),
+        (a.device_pose, BenchPath::GpuDevice),
+    ]
+    .into_iter()
+    .filter_map(|(set, p)| set.then_some(p))
+    .collect();
+    let paths = usize::from(cpu) + usize::from(ctx.is_some()) * (1 + extra.len());
     let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
     shscale_runner::limits::check_work(
         "bench",
@@ -75,7 +87,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
             (a.frames, a.warmup),
             cpu,
             ctx.as_ref(),
-            a.pipelined,
+            &extra,
         )?);
         bar.inc();
     }

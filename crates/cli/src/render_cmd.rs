@@ -403,10 +403,15 @@ fn gpu_sequence_of(
             "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
         );
     };
-    if a.pipelined && form != GpuForm::Sequence {
-        bail!(
-            "--pipelined: the pipelined GPU sequence is the papers' extrapolation's (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
-        );
+    for (set, flag) in [
+        (a.pipelined, "--pipelined"),
+        (a.device_pose, "--device-pose"),
+    ] {
+        if set && form != GpuForm::Sequence {
+            bail!(
+                "{flag}: the papers' extrapolation's GPU sequence only (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another, posed on the host"
+            );
+        }
     }
     if form == GpuForm::Sequence {
         return gpu_sequence(a, scene, frames);
@@ -551,9 +556,14 @@ fn print_gpu_sequence(
 
 fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
     use shscale_runner::GpuMode;
-    use shscale_scene::gpu_path::{open_gpu, render_sequence_gpu_with};
+    use shscale_scene::gpu_path::{open_gpu, render_sequence_gpu_with, GpuFrames};
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
-    let run = render_sequence_gpu_with(scene, frames, &ctx, a.pipelined)?;
+    let mode = match (a.pipelined, a.device_pose) {
+        (true, _) => GpuFrames::Pipelined,
+        (_, true) => GpuFrames::DevicePose,
+        _ => GpuFrames::Sequential,
+    };
+    let run = render_sequence_gpu_with(scene, frames, &ctx, mode)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
     let png = write_image(&a.out, img).context("--out")?;
     println!(
@@ -566,6 +576,9 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         run.receiver_setup_seconds * 1e3,
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
+    if a.device_pose {
+        println!("posed and refitted on the device: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild)");
+    }
     println!(
         "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "frame",
@@ -583,8 +596,8 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         println!(
             "{:>5} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3}",
             s.frame,
-            s.deform_seconds * 1e3,
-            g.bvh_seconds * 1e3,
+            (s.deform_seconds + g.deform_seconds) * 1e3,
+            (g.bvh_seconds + g.refit_seconds) * 1e3,
             g.upload_seconds * 1e3,
             g.sampling_seconds * 1e3,
             g.projection_seconds * 1e3,

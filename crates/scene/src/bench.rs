@@ -12,7 +12,7 @@
 //! conversion is inside its BSV sampling column (reported empty, not zero).
 
 use crate::error::Error;
-use crate::gpu_path::render_sequence_gpu_with;
+use crate::gpu_path::{render_sequence_gpu_with, GpuFrames};
 use crate::render::render_sequence;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -46,16 +46,32 @@ pub enum BenchPath {
     /// The GPU sequence with the host's half of frame i + 1 overlapping the device's frame i.
     #[serde(rename = "gpu-pipelined")]
     GpuPipelined,
+    /// The GPU sequence posed and refitted on the device.
+    #[serde(rename = "gpu-device")]
+    GpuDevice,
 }
 
 impl BenchPath {
-    /// `cpu`, `gpu` or `gpu-pipelined`.
+    /// `cpu`, `gpu`, `gpu-pipelined` or `gpu-device`.
     pub fn parse(s: &str) -> Result<Self, String> {
         match s {
             "cpu" => Ok(Self::Cpu),
             "gpu" => Ok(Self::Gpu),
             "gpu-pipelined" => Ok(Self::GpuPipelined),
-            _ => Err(format!("{s:?} is not cpu, gpu or gpu-pipelined")),
+            "gpu-device" => Ok(Self::GpuDevice),
+            _ => Err(format!(
+                "{s:?} is not cpu, gpu, gpu-pipelined or gpu-device"
+            )),
+        }
+    }
+
+    /// How a GPU path runs its frames (`None` for the CPU).
+    pub fn frames(self) -> Option<GpuFrames> {
+        match self {
+            Self::Cpu => None,
+            Self::Gpu => Some(GpuFrames::Sequential),
+            Self::GpuPipelined => Some(GpuFrames::Pipelined),
+            Self::GpuDevice => Some(GpuFrames::DevicePose),
         }
     }
 
@@ -64,6 +80,7 @@ impl BenchPath {
             Self::Cpu => "cpu",
             Self::Gpu => "gpu",
             Self::GpuPipelined => "gpu-pipelined",
+            Self::GpuDevice => "gpu-device",
         }
     }
 }
@@ -109,13 +126,14 @@ pub struct BenchRow {
 }
 
 /// Measure `scene` over `warmup + frames` frames: the CPU path always (unless `cpu` is false),
-/// the GPU path when `gpu` is given — and pipelined as well with `pipelined`.
+/// the GPU path when `gpu` is given — and each GPU path of `extra` as well (pipelined, posed on
+/// the device).
 pub fn bench_scene(
     name: &str,
     (frames, warmup): (usize, usize),
     cpu: bool,
     gpu: Option<&GpuContext>,
-    pipelined: bool,
+    extra: &[BenchPath],
 ) -> Result<Vec<BenchRow>, Error> {
     let sc = scene(name)?;
     let frames = frames.max(1);
@@ -144,14 +162,14 @@ pub fn bench_scene(
         rows.push(row(BenchPath::Cpu, cpu_times(&sc, total, warmup, &base)?));
     }
     if let Some(ctx) = gpu {
-        rows.push(row(
-            BenchPath::Gpu,
-            gpu_times(&sc, (total, warmup), ctx, &base, false)?,
-        ));
-        if pipelined {
+        let more = extra.iter().copied();
+        let paths = std::iter::once(BenchPath::Gpu)
+            .chain(more.filter(|p| !matches!(p, BenchPath::Cpu | BenchPath::Gpu)));
+        for path in paths {
+            let mode = path.frames().expect("a GPU path");
             rows.push(row(
-                BenchPath::GpuPipelined,
-                gpu_times(&sc, (total, warmup), ctx, &base, true)?,
+                path,
+                gpu_times(&sc, (total, warmup), ctx, &base, mode)?,
             ));
         }
     }
@@ -196,16 +214,18 @@ fn cpu_times(
     })
 }
 
-/// The GPU sequence's row on `ctx` (pipelined or not): per-stage device times (timestamps where
-/// available), the frame the median of [`crate::gpu_path::GpuFrameStats::seconds`].
+/// The GPU sequence's row on `ctx` (its frames run as `mode` says): per-stage device times
+/// (timestamps where available), the frame the median of
+/// [`crate::gpu_path::GpuFrameStats::seconds`]. Posed on the device, `deform_ms` is the device's
+/// pose and `bvh_update_ms` its refit plus any host rebuild.
 fn gpu_times(
     sc: &Scene,
     (total, warmup): (usize, usize),
     ctx: &GpuContext,
     base: &FrameTimes,
-    pipelined: bool,
+    mode: GpuFrames,
 ) -> Result<FrameTimes, Error> {
-    let run = render_sequence_gpu_with(sc, total, ctx, pipelined)?;
+    let run = render_sequence_gpu_with(sc, total, ctx, mode)?;
     let (stats, setup) = (&run.frames, run.setup_seconds);
     let st = &stats[warmup.min(stats.len() - 1)..];
     let frame_ms = ms(st.iter().map(|s| s.seconds()).collect());
@@ -213,8 +233,14 @@ fn gpu_times(
         device: ctx.describe(),
         timestamps: st[0].gpu.timestamps,
         setup_ms: Some(1e3 * setup),
-        deform_ms: ms(st.iter().map(|s| s.deform_seconds).collect()),
-        bvh_update_ms: ms(st.iter().map(|s| s.gpu.bvh_seconds).collect()),
+        deform_ms: ms(st
+            .iter()
+            .map(|s| s.deform_seconds + s.gpu.deform_seconds)
+            .collect()),
+        bvh_update_ms: ms(st
+            .iter()
+            .map(|s| s.gpu.bvh_seconds + s.gpu.refit_seconds)
+            .collect()),
         upload_ms: Some(ms(st.iter().map(|s| s.gpu.upload_seconds).collect())),
         bsv_sampling_ms: ms(st.iter().map(|s| s.gpu.sampling_seconds).collect()),
         sh_conversion_ms: Some(ms(st.iter().map(|s| s.gpu.projection_seconds).collect())),

@@ -48,11 +48,24 @@ pub fn gpu_of<'a>(ctx: &Ctx<'a>) -> Option<&'a GpuContext> {
     ctx.device.and_then(|d| d.get::<GpuContext>())
 }
 
+/// How the GPU sequence of the papers' extrapolation runs its frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuFrames {
+    /// The host poses and refits each frame, then the device runs it.
+    Sequential,
+    /// The host poses and refits frame i + 1 while the device runs frame i.
+    Pipelined,
+    /// The device poses and refits every frame (`shscale_gpu::pose`); the host only writes the
+    /// pose's uniform (and builds a tree when the rebuild rule finds it due).
+    DevicePose,
+}
+
 /// Per-frame statistics of the GPU sequence.
 #[derive(Clone, Debug, Default)]
 pub struct GpuFrameStats {
     pub frame: usize,
-    /// Host deformation (as the CPU path).
+    /// Host deformation (as the CPU path; 0 when posed on the device, whose pose is
+    /// `gpu.deform_seconds`).
     pub deform_seconds: f64,
     /// The frame's stages; in a pipelined sequence its `frame_seconds` is the frame's period
     /// (from the previous frame's completion to this one's), which its stages overlap.
@@ -78,6 +91,8 @@ impl GpuFrameStats {
         let g = &self.gpu;
         self.deform_seconds
             + g.bvh_seconds
+            + g.deform_seconds
+            + g.refit_seconds
             + g.upload_seconds
             + g.sampling_seconds
             + g.projection_seconds
@@ -170,19 +185,22 @@ pub fn render_sequence_gpu(
     frames: usize,
     ctx: &GpuContext,
 ) -> Result<GpuSequenceRun, Error> {
-    render_sequence_gpu_with(scene, frames, ctx, false)
+    render_sequence_gpu_with(scene, frames, ctx, GpuFrames::Sequential)
 }
 
-/// [`render_sequence_gpu`], pipelined when `pipelined` (timestamp queries needed): the host poses
-/// frame i + 1 and refits its BVH while the device runs frame i (the upload waits for frame i to
-/// finish, whose timestamps are read first). Every frame's stages are kept; its `frame_seconds`
-/// is the period between completions, so the overlap is the stages' sum less it
-/// ([`GpuFrameStats::stage_sum`]). The images are the sequential path's.
+/// [`render_sequence_gpu`] with its frames run as `mode` says. Pipelined (timestamp queries
+/// needed): the host poses frame i + 1 and refits its BVH while the device runs frame i (the
+/// upload waits for frame i to finish, whose timestamps are read first); every frame's stages are
+/// kept, its `frame_seconds` the period between completions, so the overlap is the stages' sum
+/// less it ([`GpuFrameStats::stage_sum`]); the images are the sequential path's. Posed on the
+/// device: the deformation and the refit are two more device stages (`gpu.deform_seconds`,
+/// `gpu.refit_seconds`); the images differ from the host-posed ones only where the f32 pose
+/// moves a grazing ray.
 pub fn render_sequence_gpu_with(
     scene: &Scene,
     frames: usize,
     ctx: &GpuContext,
-    pipelined: bool,
+    mode: GpuFrames,
 ) -> Result<GpuSequenceRun, Error> {
     let t_setup = Instant::now();
     let frames = frames.max(1);
@@ -232,18 +250,33 @@ pub fn render_sequence_gpu_with(
         t0.elapsed().as_secs_f64()
     };
     let mut stats = Vec::with_capacity(frames);
-    if pipelined {
-        pipelined_frames(&mut seq, ctx, (frames, &pose, &mut posed), &mut stats)?;
-    } else {
-        for f in 0..frames {
-            let deform_seconds = pose(f, &mut posed);
-            let gpu = seq.frame(ctx, &posed)?;
-            stats.push(GpuFrameStats {
-                frame: f,
-                deform_seconds,
-                gpu,
-                pipelined: false,
-            });
+    match mode {
+        GpuFrames::Pipelined => {
+            pipelined_frames(&mut seq, ctx, (frames, &pose, &mut posed), &mut stats)?
+        }
+        GpuFrames::DevicePose => {
+            seq.pose_on_device(ctx, &rest, poser.as_ref().map(|p| p.deformer()), strategy)?;
+            for f in 0..frames {
+                let gpu = seq.frame_at(ctx, f as f64 / frames as f64)?;
+                stats.push(GpuFrameStats {
+                    frame: f,
+                    deform_seconds: 0.0,
+                    gpu,
+                    pipelined: false,
+                });
+            }
+        }
+        GpuFrames::Sequential => {
+            for f in 0..frames {
+                let deform_seconds = pose(f, &mut posed);
+                let gpu = seq.frame(ctx, &posed)?;
+                stats.push(GpuFrameStats {
+                    frame: f,
+                    deform_seconds,
+                    gpu,
+                    pipelined: false,
+                });
+            }
         }
     }
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
@@ -291,6 +324,7 @@ fn pipelined_frames(
                 shading_seconds: shading,
                 frame_seconds: period.elapsed().as_secs_f64(),
                 timestamps: true,
+                ..GpuStageTimes::default()
             },
             pipelined: true,
         });

@@ -581,7 +581,7 @@ const RADIAL_GPU_TOL: f32 = 2e-5;
 /// sum. No speed is asserted (a timed test would measure the machine). Skips as the tests above.
 #[test]
 fn pipelined_gpu_frames_render_the_sequential_images() {
-    use shscale_scene::gpu_path::render_sequence_gpu_with;
+    use shscale_scene::gpu_path::{render_sequence_gpu_with, GpuFrames};
     let Some(ctx) = gpu_or_skip("pipelined GPU sequence") else {
         return;
     };
@@ -589,8 +589,8 @@ fn pipelined_gpu_frames_render_the_sequential_images() {
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
     for frames in [1, 4] {
-        let seq = render_sequence_gpu_with(&s, frames, &ctx, false).unwrap();
-        let pip = render_sequence_gpu_with(&s, frames, &ctx, true).unwrap();
+        let seq = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::Sequential).unwrap();
+        let pip = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::Pipelined).unwrap();
         assert_eq!(seq.image.pixels, pip.image.pixels, "{frames} frames");
         assert_eq!(pip.frames.len(), frames);
         for (i, f) in pip.frames.iter().enumerate() {
@@ -607,6 +607,65 @@ fn pipelined_gpu_frames_render_the_sequential_images() {
         assert!(seq.frames.iter().all(|f| !f.pipelined));
     }
 }
+
+/// Frames posed and refitted on the device against the same frames posed on the host (the
+/// host's f64 pose and obvhs refit, uploaded): a flapping bird, a bending sponge-like block and a
+/// morphing egg, 4 frames each. The f32 pose moves vertices by ≤ 1.2e-7 r (`gpu/tests/pose.rs`),
+/// so only rays grazing an edge may be decided differently; the images agree within
+/// [`DEVICE_POSE_TOL`] of the brightest pixel (the worst printed; 0 on lavapipe when written),
+/// while the pose moves the image by more than ten times that; the device stages are timed.
+/// Skips as the tests above.
+#[test]
+fn device_posed_gpu_frames_match_the_host_posed_ones() {
+    use shscale_scene::gpu_path::{render_sequence_gpu_with, GpuFrames};
+    let Some(ctx) = gpu_or_skip("device-posed GPU sequence") else {
+        return;
+    };
+    for (mesh, deformer) in [("bird", "flap"), ("sponge", "bend"), ("egg", "morph")] {
+        let s = scene(&format!(
+            "[[occluder]]\nmesh = \"{mesh}\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"{deformer}\"\n"
+        ));
+        let host = render_sequence_gpu_with(&s, 4, &ctx, GpuFrames::Sequential).unwrap();
+        let dev = render_sequence_gpu_with(&s, 4, &ctx, GpuFrames::DevicePose).unwrap();
+        let bright = host
+            .image
+            .pixels
+            .iter()
+            .flatten()
+            .fold(0f32, |a, &v| a.max(v));
+        let worst = (host.image.pixels.iter().zip(&dev.image.pixels))
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+            .fold(0f32, f32::max)
+            / bright;
+        println!(
+            "{mesh} {deformer}: device-posed vs host-posed last frame, worst {worst:.2e} of the brightest pixel"
+        );
+        assert!(worst <= DEVICE_POSE_TOL, "{mesh}: {worst:.2e}");
+        // The pose matters: the rest pose (t = 0) renders the plane otherwise.
+        let rest = render_sequence_gpu_with(&s, 1, &ctx, GpuFrames::DevicePose).unwrap();
+        let moved = (rest.image.pixels.iter().zip(&dev.image.pixels))
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+            .fold(0f32, f32::max)
+            / bright;
+        assert!(
+            moved > 10.0 * DEVICE_POSE_TOL,
+            "{mesh}: the pose moved the image by {moved:.2e}"
+        );
+        for f in &dev.frames {
+            let g = &f.gpu;
+            assert!(
+                g.deform_seconds > 0.0 && g.refit_seconds > 0.0,
+                "{mesh}: {g:?}"
+            );
+            assert_eq!(f.deform_seconds, 0.0);
+            assert!(f.stage_sum() >= g.deform_seconds + g.refit_seconds + g.sampling_seconds);
+        }
+    }
+}
+
+/// The device pose's image tolerance, relative to the brightest pixel: a ray grazing an edge may
+/// flip when a vertex moves by an f32 rounding (as [`FIELD_GPU_TOL`]'s grazing rays).
+const DEVICE_POSE_TOL: f32 = 1e-3;
 
 /// Sub-volumes on the GPU path against the CPU render of the same pose, frame by frame: a
 /// flapping bird in 3 parts (each part's own sphere, table and extrapolation, the parts

@@ -67,7 +67,9 @@ pub struct ShRotation<T> {
 /// Start of band `l` in the packed block storage: `Σ_{k<l} (2k+1)² = l(4l²−1)/3`.
 #[inline(always)]
 const fn offset(l: usize) -> usize {
-    l * (4 * l * l - 1) / 3
+    // As 4l³ − l, which has no negative intermediate at l = 0 (`4l² − 1` underflowed there in
+    // builds with overflow checks).
+    (4 * l * l * l - l) / 3
 }
 
 /// Per-row coefficients of the `U, V, W` terms, with `1/√denom(n)` factored out: entry
@@ -472,6 +474,20 @@ impl<T: Real> EulerRotator<T> {
                     .fold(T::zero(), |acc, (&d, &v)| acc + d * v);
             }
             zrot(yb, l, 0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod offset_tests {
+    /// The packed block offsets against their sum, from band 0 (whose closed form once
+    /// underflowed in builds with overflow checks) to band 40.
+    #[test]
+    fn block_offsets_are_the_sums_of_the_blocks_before() {
+        let mut sum = 0;
+        for l in 0..=40 {
+            assert_eq!(super::offset(l), sum, "band {l}");
+            sum += (2 * l + 1) * (2 * l + 1);
         }
     }
 }
