@@ -577,7 +577,10 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
     if a.device_pose {
-        println!("posed and refitted on the device: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild)");
+        println!(
+            "posed and refitted on the device: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild; {} frame(s) built on the host)",
+            run.host_rebuilds
+        );
     }
     println!(
         "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",

@@ -281,6 +281,7 @@ pub fn render_sequence_gpu_with(
     }
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
+        host_rebuilds: seq.poser().map_or(0, |p| p.rebuilds),
         image: out,
         frames: stats,
         setup_seconds: setup,
@@ -344,6 +345,8 @@ pub struct GpuSequenceRun {
     pub frames: Vec<GpuFrameStats>,
     /// One-off setup, wall clock (includes `receiver_setup_seconds`).
     pub setup_seconds: f64,
+    /// Posed on the device: the frames whose tree was built on the host (the rebuild rule).
+    pub host_rebuilds: usize,
     /// Device time of the per-receiver setup (k-table scaling and rotations, 25 600 receivers
     /// for the bench scenes).
     pub receiver_setup_seconds: f64,
