@@ -420,6 +420,39 @@ fn sequences_take_every_method() {
         ],
         "--pipelined",
     );
+    // Inscribed spheres: sphere sets only (refused by name otherwise), rendered on the CPU.
+    fails(
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            out,
+            "--method",
+            "extrapolated",
+            "--sphere-fit",
+            "inscribed",
+        ],
+        "--sphere-fit",
+    );
+    let v = json(&[
+        "render",
+        "--scene",
+        scene,
+        "--out",
+        out,
+        "--method",
+        "sphere_set",
+        "--parts",
+        "8",
+        "--sphere-fit",
+        "inscribed",
+        "--sphere-combine",
+        "union",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(v["method"], "sphere_set", "{v}");
     // So is the pose on the device; and it is not pipelined.
     for extra in [&["--method", "full_field"][..], &["--pipelined"][..]] {
         let mut args = vec![

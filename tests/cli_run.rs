@@ -1666,6 +1666,61 @@ fn budget_sub_volumes_cost_p_spheres_and_one_part_is_the_extrapolation() {
 }
 
 #[test]
+fn inscribed_sphere_sets_fall_with_s_and_report_their_fit() {
+    // The knot's inscribed balls (nested, inside the solid) combined as their exact union: the
+    // error against the mesh's truth falls with S (guaranteed at full frequency; here the
+    // band-limited error at N = 4 over 40 receivers), every run is given the one fit's cost, and
+    // the area fit runs beside it. A bad name is refused by key.
+    let (dir, head, rows) = run_csv(
+        "inscribed",
+        "budget",
+        "experiment = \"budget\"\nmesh = \"knot\"\norder = 4\nreceivers = 20\nradii = [1.3, 2.0]\ngpu = \"off\"\ntiming_repeats = 1\ntiming_warmup = 0\nmethod = \"sphere_set\"\nsphere_combine = \"union\"\n[[sweep]]\nparts = [1, 4, 16, 64]\nsphere_fit = [\"area\", \"inscribed\"]\n",
+    );
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let num = |r: &Vec<String>, k: &str| r[col(k)].parse::<f64>().unwrap();
+    let series = |fit: &str| {
+        let mut v: Vec<(f64, f64, f64)> = (rows.iter())
+            .filter(|r| r[col("sphere_fit")] == fit)
+            .map(|r| {
+                (
+                    num(r, "parts"),
+                    num(r, "occ_rel_l2_mean"),
+                    num(r, "partition_seconds"),
+                )
+            })
+            .collect();
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        v
+    };
+    let (area, ins) = (series("area"), series("inscribed"));
+    println!("knot, N = 4: area {area:?}\ninscribed {ins:?}");
+    assert_eq!((area.len(), ins.len()), (4, 4));
+    for w in ins.windows(2) {
+        assert!(
+            w[1].1 < w[0].1,
+            "inscribed error rose from S = {} to {}",
+            w[0].0,
+            w[1].0
+        );
+    }
+    // One fit, the same cost in every row.
+    assert!(ins.iter().all(|r| r.2 > 0.0 && r.2 == ins[0].2), "{ins:?}");
+    let cfg = dir.join("bad.toml");
+    std::fs::write(
+        &cfg,
+        "experiment = \"budget\"\nmesh = \"knot\"\nmethod = \"sphere_set\"\nsphere_fit = \"medial\"\ngpu = \"off\"\n",
+    )
+    .unwrap();
+    let out = shscale(&["run", cfg.to_str().unwrap(), "--dry-run"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("sphere_fit") && err.contains("medial"),
+        "{err}"
+    );
+}
+
+#[test]
 fn budget_radial_rules_and_sphere_sets_on_the_analytic_sphere() {
     // Every base sample of the sphere lies on its surface (the on-surface failure). Clearance
     // moves them out without rays; the occlusion rule's search casts two ends and six halvings

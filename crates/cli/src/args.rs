@@ -510,6 +510,11 @@ pub struct RenderArgs {
     /// Ren et al. 2006; orders up to 8); the last two on the CPU only.
     #[arg(long, value_enum, default_value_t = SphereCombine::Product)]
     pub sphere_combine: SphereCombine,
+    /// Which spheres `--method sphere_set` takes: `area` (one per k-means part, refitted every
+    /// frame) or `inscribed` (the greedy cover of each pose's interior by inscribed balls, nested
+    /// in --parts: a one-off fit per pose; CPU only).
+    #[arg(long, value_enum, default_value_t = SphereFitArg::Area)]
+    pub sphere_fit: SphereFitArg,
     /// How extrapolated fields combine — `--method sub_volumes`'s parts, or a scene's several
     /// occluders under `extrapolated`: `product` (near to far) or `shexp` (scaling in log space:
     /// the base-sphere samples' logs scaled, summed, exponentiated once; orders up to 8, no
@@ -610,6 +615,12 @@ pub enum SphereCombine {
     Product,
     Union,
     Shexp,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SphereFitArg {
+    Area,
+    Inscribed,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

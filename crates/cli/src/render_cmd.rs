@@ -1,6 +1,6 @@
 //! `shscale render`: a scene's receiver plane to EXR + PNG, with stage times.
 
-use crate::args::{PartCombine, RenderArgs, SphereCombine, TextFormat};
+use crate::args::{PartCombine, RenderArgs, SphereCombine, SphereFitArg, TextFormat};
 use crate::flags;
 use anyhow::{bail, Context};
 use shscale_scene::method::Combine;
@@ -99,6 +99,9 @@ fn scene_of(a: &RenderArgs) -> anyhow::Result<Scene> {
     if a.part_combine == PartCombine::Shexp {
         scene.part_combine = Combine::Shexp;
     }
+    if a.sphere_fit == SphereFitArg::Inscribed {
+        scene.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
+    }
     Ok(scene)
 }
 
@@ -125,6 +128,12 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
         bail!(
             "--sphere-combine {}: only --method sphere_set combines spheres (this is {})",
             format!("{:?}", a.sphere_combine).to_lowercase(),
+            a.method
+        );
+    }
+    if a.sphere_fit != SphereFitArg::Area && a.method != Method::SphereSet {
+        bail!(
+            "--sphere-fit inscribed: only --method sphere_set fits spheres (this is {})",
             a.method
         );
     }

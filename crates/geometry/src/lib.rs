@@ -6,6 +6,7 @@ pub mod bsphere;
 pub mod bundled;
 pub mod deform;
 pub mod error;
+pub mod inscribed;
 mod load;
 pub mod mesh;
 pub mod partition;

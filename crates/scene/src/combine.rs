@@ -45,3 +45,53 @@ impl Combine {
         }
     }
 }
+
+/// Which spheres a sphere set takes for a mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SphereFit {
+    /// One sphere per k-means part, by the part's area-weighted centroid and RMS spread
+    /// (`shscale_geometry::partition::fit_spheres`): cheap, refitted every frame.
+    #[default]
+    Area,
+    /// The greedy cover of the mesh's interior by inscribed balls
+    /// (`shscale_geometry::inscribed`): every ball inside the solid, the sets nested in their
+    /// count, so the exact union's full-frequency error cannot rise with S; a one-off fit of
+    /// each pose (cached per pose), not a per-frame one.
+    Inscribed,
+}
+
+impl SphereFit {
+    /// The names `sphere_fit` takes.
+    pub const NAMES: [&'static str; 2] = ["area", "inscribed"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Area => "area",
+            Self::Inscribed => "inscribed",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "area" => Some(Self::Area),
+            "inscribed" => Some(Self::Inscribed),
+            _ => None,
+        }
+    }
+
+    /// `parts` spheres for `mesh`: one per part of `labels` (area), or the first `parts` of the
+    /// mesh's inscribed balls (fewer where they cover its interior sooner).
+    pub fn spheres(
+        self,
+        mesh: &shscale_geometry::Mesh,
+        labels: &[u32],
+        parts: usize,
+    ) -> Result<Vec<shscale_geometry::Sphere>, shscale_geometry::GeometryError> {
+        match self {
+            Self::Area => Ok(shscale_geometry::partition::fit_spheres(
+                mesh, labels, parts,
+            )),
+            Self::Inscribed => Ok(shscale_geometry::inscribed::inscribed_set(mesh, parts)?.0),
+        }
+    }
+}

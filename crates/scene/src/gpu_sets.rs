@@ -69,7 +69,12 @@ struct PosedParts {
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
     use crate::combine::Combine;
-    let why = if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
+    let why = if scene.sphere_fit != crate::combine::SphereFit::Area {
+        Some(format!(
+            "sphere_fit \"{}\" has no GPU form (a one-off fit of each pose); the GPU sphere set refits its area-weighted spheres every frame",
+            scene.sphere_fit.name()
+        ))
+    } else if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
         Some(format!(
             "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain or the union",
             scene.sphere_combine.name()

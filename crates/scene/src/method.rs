@@ -120,7 +120,7 @@ pub enum Alpha {
     Fit,
 }
 
-pub use crate::combine::Combine;
+pub use crate::combine::{Combine, SphereFit};
 
 /// Rings of [`Combine::Union`], fixed before the study's runs from its convergence on random
 /// sets (`cargo test --release -p shscale-field --test union -- --ignored --nocapture`,
@@ -188,11 +188,12 @@ pub enum Spec {
         combine: Combine,
     },
     /// `internal_order`: the order M the caps are multiplied at before truncating to the run's
-    /// N (0: N itself, the plain order-N chain).
+    /// N (0: N itself, the plain order-N chain); `fit`: which spheres.
     SphereSet {
         parts: usize,
         combine: Combine,
         internal_order: usize,
+        fit: SphereFit,
     },
 }
 
@@ -222,6 +223,8 @@ pub struct Keys<'a> {
     pub radial_tau: Option<f64>,
     pub radial_max: Option<f64>,
     pub sphere_combine: Option<&'a str>,
+    /// Which spheres a sphere set takes: `area` or `inscribed`.
+    pub sphere_fit: Option<&'a str>,
     /// The internal order of a sphere set's products (0: the run's order).
     pub sphere_order: Option<usize>,
     /// How sub-volumes combine their parts: `product` or `shexp`.
@@ -255,6 +258,7 @@ impl<'a> Keys<'a> {
             ("radial_tau", self.radial_tau.map(|x| x.to_string())),
             ("radial_max", self.radial_max.map(|x| x.to_string())),
             ("sphere_combine", self.sphere_combine.map(str::to_string)),
+            ("sphere_fit", self.sphere_fit.map(str::to_string)),
             ("sphere_order", self.sphere_order.map(|x| x.to_string())),
             ("part_combine", self.part_combine.map(str::to_string)),
             ("k_count", self.k_count.map(|x| x.to_string())),
@@ -394,6 +398,15 @@ impl Spec {
                     0 => 0,
                     m => KeyError::int("sphere_order", m, 1, MAX_SPHERE_ORDER)?,
                 },
+                fit: {
+                    let s = k.sphere_fit.unwrap_or("area");
+                    SphereFit::parse(s).ok_or_else(|| {
+                        KeyError::new(
+                            "sphere_fit",
+                            format!("{s:?} is not one of {:?}", SphereFit::NAMES),
+                        )
+                    })?
+                },
             },
             Method::FullFrequency => unreachable!("not among the budgeted methods"),
         };
@@ -465,8 +478,8 @@ impl Spec {
             Spec::SphereSet {
                 combine: Combine::Product,
                 ..
-            } => vec!["parts", "sphere_combine", "sphere_order"],
-            Spec::SphereSet { .. } => vec!["parts", "sphere_combine"],
+            } => vec!["parts", "sphere_combine", "sphere_order", "sphere_fit"],
+            Spec::SphereSet { .. } => vec!["parts", "sphere_combine", "sphere_fit"],
         }
     }
 
@@ -556,10 +569,12 @@ impl Spec {
                 parts,
                 internal_order,
                 combine,
+                fit,
             } => {
                 scene.parts = *parts;
                 scene.sphere_order = *internal_order;
                 scene.sphere_combine = *combine;
+                scene.sphere_fit = *fit;
             }
         }
     }
@@ -589,6 +604,7 @@ mod tests {
             radial_tau: Some(0.5),
             radial_max: Some(2.0),
             sphere_combine: Some("product"),
+            sphere_fit: Some("area"),
             sphere_order: Some(0),
             part_combine: Some("product"),
             k_count: Some(40),
@@ -670,6 +686,22 @@ mod tests {
         ));
         k.sphere_order = Some(MAX_SPHERE_ORDER + 1);
         assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_order");
+        // The fit by name: both names parse, others are refused by key, and another method
+        // may not be given one.
+        for name in SphereFit::NAMES {
+            let mut k = keys("sphere_set");
+            k.sphere_fit = Some(name);
+            let Spec::SphereSet { fit, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
+                panic!("a sphere set")
+            };
+            assert_eq!(fit.name(), name);
+        }
+        let mut k = keys("sphere_set");
+        k.sphere_fit = Some("medial");
+        assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_fit");
+        let mut k = keys("extrapolated");
+        k.sphere_fit = Some("inscribed");
+        assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_fit");
         // The combinations by name: every sphere_combine name parses, part_combine takes two.
         for name in Combine::NAMES {
             let mut k = keys("sphere_set");

@@ -492,16 +492,16 @@ fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
 
 /// The sphere set of every occluder for [`Method::SphereSet`]: a mesh partitioned as for
 /// [`Method::SubVolumes`] (on the rest pose, per triangle) and one sphere fitted per part on the
-/// pose at [`Scene::pose_t`]; the analytic sphere is its own set.
+/// pose at [`Scene::pose_t`] — or that pose's first inscribed balls ([`Scene::sphere_fit`]);
+/// the analytic sphere is its own set.
 fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
     let mut out = Vec::new();
     for (o, split) in scene.occluders.iter().zip(partitioned(scene)?) {
         match split {
-            Some((posed, labels)) => out.extend(shscale_geometry::partition::fit_spheres(
-                &posed,
-                &labels,
-                scene.parts,
-            )),
+            Some((posed, labels)) => out.extend(
+                (scene.sphere_fit.spheres(&posed, &labels, scene.parts))
+                    .map_err(|e| Error::config(format!("{}: sphere_fit: {e}", scene.file)))?,
+            ),
             None => out.push(o.build()?.bounding_sphere()),
         }
     }

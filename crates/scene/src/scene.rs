@@ -237,6 +237,11 @@ pub struct Scene {
     /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
     /// --sphere-combine` (no scene-file key); products otherwise. The quadrature is not rendered.
     pub sphere_combine: crate::combine::Combine,
+    /// Which spheres a [`crate::render::Method::SphereSet`] takes: one per k-means part
+    /// (area-weighted), or the mesh's inscribed balls (`shscale_geometry::inscribed`, fitted to
+    /// each pose), set by experiments and `render --sphere-fit` (no scene-file key); area
+    /// otherwise.
+    pub sphere_fit: crate::combine::SphereFit,
     /// How extrapolated fields combine — a sub-volume's parts, or a scene's several occluders
     /// under [`crate::render::Method::Extrapolated`]: products near to far, or
     /// `Combine::Shexp` (each field's base-sphere log-visibility scaled, summed, exponentiated
@@ -405,6 +410,7 @@ impl Scene {
             parts: 1,
             sphere_order: 0,
             sphere_combine: crate::combine::Combine::Product,
+            sphere_fit: crate::combine::SphereFit::Area,
             part_combine: crate::combine::Combine::Product,
             radial: shscale_field::bsv::RadialRule::Uniform,
         })

@@ -154,6 +154,15 @@ pub(crate) fn extrapolation<'a>(
     }))
 }
 
+/// Where a sphere set's spheres come from each frame.
+pub(crate) enum SetSource<'a> {
+    /// Fitted every frame to the mesh's parts (`fit_spheres`, timed in the frame's build).
+    Refit(&'a shscale_geometry::Mesh, Vec<u32>),
+    /// Fixed before the frames: the analytic sphere as its own set, or a one-off fit (the
+    /// inscribed balls), whose time is the run's `partition_seconds`.
+    Fixed(Vec<shscale_geometry::Sphere>),
+}
+
 /// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
 /// frame — the analytic sphere is its own one-sphere set — combined by truncated products at
 /// the `internal` order (≥ `order`, truncated to `order` once), by the quadrature, whose rays
@@ -162,8 +171,7 @@ pub(crate) fn extrapolation<'a>(
 pub(crate) fn sphere_set<'a>(
     (order, internal): (usize, usize),
     (parts, combine): (usize, Combine),
-    occ: &'a dyn Occluder,
-    mesh: Option<(&'a shscale_geometry::Mesh, Vec<u32>)>,
+    source: SetSource<'a>,
     points: &'a Points,
 ) -> Result<FrameFn<'a>, Error> {
     let nn = order * order;
@@ -198,9 +206,9 @@ pub(crate) fn sphere_set<'a>(
     };
     Ok(Box::new(move || {
         let t0 = Instant::now();
-        let spheres = match &mesh {
-            Some((m, l)) => shscale_geometry::partition::fit_spheres(m, l, parts),
-            None => vec![occ.bounding_sphere()],
+        let spheres = match &source {
+            SetSource::Refit(m, l) => shscale_geometry::partition::fit_spheres(m, l, parts),
+            SetSource::Fixed(set) => set.clone(),
         };
         let build = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();

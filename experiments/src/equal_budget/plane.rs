@@ -78,6 +78,8 @@ pub struct Params {
     /// `union` (the exact union of the caps, `shscale_field::union`) or `shexp` (SH
     /// exponentiation, `shscale_field::shexp_ol`).
     pub sphere_combine: String,
+    /// Which spheres `sphere_set` takes: `area` or `inscribed` (fitted to each pose).
+    pub sphere_fit: String,
     /// How `sub_volumes` combines its parts: `product` or `shexp` (scaling in log space), as in
     /// `budget`.
     pub part_combine: String,
@@ -115,6 +117,7 @@ impl Default for Params {
             radial_delta: 0.1,
             sphere_order: 0,
             sphere_combine: "product".into(),
+            sphere_fit: "area".into(),
             part_combine: "product".into(),
             save_image: false,
             placement_seed: 0,
@@ -146,6 +149,7 @@ impl Params {
             radial_tau: None,
             radial_max: None,
             sphere_combine: Some(&self.sphere_combine),
+            sphere_fit: Some(&self.sphere_fit),
             part_combine: Some(&self.part_combine),
             sphere_order: Some(self.sphere_order),
             k_count: None,
@@ -420,6 +424,7 @@ impl Kind for BudgetPlane {
             ("method", "`extrapolated`, `full_field`, `ray_traced`, `sub_volumes` (every mesh occluder split into `parts`, each extrapolated from its own sphere; the partition's time is in the frame's) or `sphere_set` (one sphere fitted per part every frame, closed-form caps, no rays; Ren et al. 2006's occluder model). A method key the method does not read (docs/methods.md) must keep its default"),
             ("parts", "parts of every mesh occluder for `sub_volumes`, or its spheres for `sphere_set`, 1..=64 and at most one per triangle"),
             ("sphere_order", "the internal order M of `sphere_set`: each cap projected to M, every product at M, the result truncated to the scene's order once (docs/math.md, \"Combining many spheres\"); 0 (default) for the scene's order, else that order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
+            ("sphere_fit", "which spheres `sphere_set` takes: `area` (default; one per k-means part, refitted every frame) or `inscribed` (the greedy cover of each pose's interior by inscribed balls, a one-off fit per pose that a deforming sequence pays every frame; not on the GPU path; docs/math.md, \"Inscribed sphere sets\")"),
             ("sphere_combine", "how `sphere_set` combines its spheres: `product` (default; truncated SH products near to far, at `sphere_order`) `union` (the exact union of the caps: φ in closed form, 32 Gauss–Legendre rings in z, no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation by HYB, orders up to 8; docs/math.md, \"SH exponentiation\")"),
             ("part_combine", "how `sub_volumes` combines its parts: `product` (default; each part's scaled visibility multiplied near to far) or `shexp` (scaling in log space: the parts' base-sphere product-algebra logs scaled, summed and exponentiated once by HYB; orders up to 8, without the plausibility clamp; docs/math.md, \"Scaling in log space\")"),
             ("layout", "base-sphere layout (extrapolation) or the layout of every shell (full field)"),

@@ -47,7 +47,7 @@ use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::records::{list, Results};
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Combine, Keys, Spec};
+use shscale_scene::method::{Combine, Keys, Spec, SphereFit};
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -97,6 +97,10 @@ pub struct Params {
     /// projected by a quadrature, no truncated products), `union` (the same joint visibility,
     /// exact in φ, by rings in z, no rays) or `shexp` (SH exponentiation).
     pub sphere_combine: String,
+    /// Which spheres `sphere_set` takes: `area` (one per k-means part, refitted every frame) or
+    /// `inscribed` (the mesh's greedy inscribed balls, a one-off fit timed in
+    /// `partition_seconds`).
+    pub sphere_fit: String,
     /// How `sub_volumes` combines its parts: `product` (each part's scaled visibility
     /// multiplied near to far) or `shexp` (each part's scaled log-visibility summed and
     /// exponentiated once, SH exponentiation's HYB).
@@ -148,6 +152,7 @@ impl Default for Params {
             radial_tau: 0.5,
             radial_max: 2.0,
             sphere_combine: "product".into(),
+            sphere_fit: "area".into(),
             part_combine: "product".into(),
             sphere_order: 0,
             k_count: 40,
@@ -186,6 +191,7 @@ impl Params {
             radial_tau: Some(self.radial_tau),
             radial_max: Some(self.radial_max),
             sphere_combine: Some(&self.sphere_combine),
+            sphere_fit: Some(&self.sphere_fit),
             part_combine: Some(&self.part_combine),
             sphere_order: Some(self.sphere_order),
             k_count: Some(self.k_count),
@@ -247,7 +253,9 @@ pub struct Row {
     pub build_seconds: f64,
     pub eval_seconds: f64,
     /// `sub_volumes`: the partition (k-means, the parts' meshes and BVHs), once per run — for a
-    /// deforming mesh once per sequence, as the partition is per triangle.
+    /// deforming mesh once per sequence, as the partition is per triangle; `sphere_set`: its
+    /// k-means partition, or with `sphere_fit = "inscribed"` the inscribed fit's own cost (made
+    /// once per mesh and process, every run of the mesh given what it cost).
     pub partition_seconds: Option<f64>,
     /// Mean `occ_rel_l2` over the receivers, with the half-width of its 95 % interval clustered
     /// by direction (the radii of one direction are not independent receivers).
@@ -474,6 +482,7 @@ impl Kind for Budget {
             ("radial_tau", "τ of `radial = \"occlusion\"`, [0, 1)"),
             ("radial_max", "the search's ceiling for `radial = \"occlusion\"`, [1, 10] bounding radii"),
             ("sphere_combine", "how `sphere_set` combines its spheres: `product` (truncated SH products near to far) `quadrature` (the set's joint visibility projected by a 64 × 128-direction Gauss–Legendre × uniform quadrature at every receiver: no truncated products; its 8,192 rays per receiver, cast at the spheres, are counted in `rays`) `union` (the same joint visibility, the caps' union integrated in φ in closed form on 32 Gauss–Legendre rings in z: no rays; docs/math.md, \"The union of the caps\") or `shexp` (SH exponentiation, Ren et al. 2006: the blockers' product-algebra logs, clamped at 2 % of the largest eigenvalue, summed and exponentiated by HYB; orders up to 8; docs/math.md, \"SH exponentiation\")"),
+            ("sphere_fit", "which spheres `sphere_set` takes: `area` (default; one per k-means part, from the part's area-weighted centroid and RMS spread, refitted every frame) or `inscribed` (the greedy cover of the mesh's interior by inscribed balls on a 48-cell grid: every ball inside the solid and the sets nested in S, so the exact union's full-frequency error cannot rise with S; a one-off fit, timed in `partition_seconds`; docs/math.md, \"Inscribed sphere sets\")"),
             ("sphere_order", "the internal order M of `sphere_set` with `sphere_combine = \"product\"`: each cap projected to M, every product at M, the result truncated to `order` once (docs/math.md, \"Combining many spheres\"); 0 (default) for the run's order, else order..=16 (a product at M does about (M/4)⁵ the work of one at 4)"),
             ("part_combine", "how `sub_volumes` combines its parts: `product` (default; each part's scaled visibility multiplied near to far) or `shexp` (scaling in log space: each part's base-sphere samples replaced by their product-algebra logs, clamped at ε = 0.02, extrapolated with the part's own k, summed, and exponentiated once by HYB; orders up to 8, without the plausibility clamp; docs/math.md, \"SH exponentiation\")"),
             ("k_count", "k-table entries of the extrapolation, 2..=10000"),
@@ -702,14 +711,29 @@ impl Kind for Budget {
                 parts,
                 combine,
                 internal_order,
+                fit,
             } => {
-                let labels = partition(*parts)?;
-                if labels.is_some() {
-                    partition_seconds = Some(t0.elapsed().as_secs_f64());
-                }
-                let mesh = sh.mesh.as_ref().zip(labels);
+                let source = match (fit, sh.mesh.as_ref()) {
+                    (SphereFit::Inscribed, Some(m)) => {
+                        // The fit's own cost, also when an earlier run of the mesh made it.
+                        let (set, seconds) = shscale_geometry::inscribed::inscribed_set(m, *parts)
+                            .map_err(|e| Error::config(format!("sphere_fit: {e}")))?;
+                        partition_seconds = Some(seconds);
+                        frames::SetSource::Fixed(set)
+                    }
+                    (_, mesh) => {
+                        let labels = partition(*parts)?;
+                        if labels.is_some() {
+                            partition_seconds = Some(t0.elapsed().as_secs_f64());
+                        }
+                        match mesh.zip(labels) {
+                            Some((m, l)) => frames::SetSource::Refit(m, l),
+                            None => frames::SetSource::Fixed(vec![occ.bounding_sphere()]),
+                        }
+                    }
+                };
                 let internal = (*internal_order).max(order);
-                frames::sphere_set((order, internal), (*parts, *combine), occ, mesh, &sh.points)?
+                frames::sphere_set((order, internal), (*parts, *combine), source, &sh.points)?
             }
             Spec::FullField(f) => frames::full_field(f, order, occ, &sampler, &sh.points),
             Spec::RayTraced { rt_res } => {

@@ -10,7 +10,7 @@ use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::plots::{write_panels, write_scatter_noted, Labels, Panel};
 use shscale_runner::records::Results;
-use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec};
+use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec, SphereFit};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
 
@@ -279,8 +279,13 @@ pub(crate) fn variant(s: &Spec) -> String {
             parts,
             combine,
             internal_order,
+            fit,
         } => format!(
-            "sphere set (S = {parts}{})",
+            "sphere set (S = {parts}{}{})",
+            match fit {
+                SphereFit::Area => "",
+                SphereFit::Inscribed => ", inscribed",
+            },
             match (combine, internal_order) {
                 (Combine::Quadrature, _) => ", quadrature".to_string(),
                 (Combine::Union, _) => ", union".to_string(),
