@@ -56,28 +56,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     if let Some(list) = &a.methods {
         return bench_methods(&a, scenes, list, ctx.as_ref());
     }
-    // Every bench frame traces 240 samples × 32² rays per path (configs/bench/).
-    let extra: Vec<BenchPath> = [
-        (a.pipelined, BenchPath::GpuPipelined),
-        (a.device_pose, BenchPath::GpuDevice),
-    ]
-    .into_iter()
-    .filter_map(|(set, p)| set.then_some(p))
-    .collect();
+    let extra = extra_paths(&a);
     let paths = usize::from(cpu) + usize::from(ctx.is_some()) * (1 + extra.len());
-    let rays = (scenes.len() * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
-    shscale_runner::limits::check_work(
-        "bench",
-        rays,
-        0.0,
-        &format!(
-            "{} scene(s) × {paths} path(s) × (--frames {} + --warmup {}) × 240 × 32² rays",
-            scenes.len(),
-            a.frames,
-            a.warmup
-        ),
-        a.allow_large,
-    )?;
+    check_table1_work(&a, scenes.len(), paths)?;
     let mut rows = Vec::new();
     let bar = crate::output::Progress::new(scenes.len(), "scenes");
     for s in scenes {
@@ -116,6 +97,34 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchFormat::Json => println!("{}", serde_json::to_string_pretty(&rows)?),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The GPU paths asked for beside the sequential one: pipelined, posed on the device.
+fn extra_paths(a: &BenchArgs) -> Vec<BenchPath> {
+    [
+        (a.pipelined, BenchPath::GpuPipelined),
+        (a.device_pose, BenchPath::GpuDevice),
+    ]
+    .into_iter()
+    .filter_map(|(set, p)| set.then_some(p))
+    .collect()
+}
+
+/// Table 1's work within the limits (`--allow-large` lifts them): every bench frame traces 240
+/// samples × 32² rays per path (configs/bench/).
+fn check_table1_work(a: &BenchArgs, scenes: usize, paths: usize) -> anyhow::Result<()> {
+    let rays = (scenes * paths) as f64 * (a.frames + a.warmup) as f64 * 240.0 * 1024.0;
+    shscale_runner::limits::check_work(
+        "bench",
+        rays,
+        0.0,
+        &format!(
+            "{scenes} scene(s) × {paths} path(s) × (--frames {} + --warmup {}) × 240 × 32² rays",
+            a.frames, a.warmup
+        ),
+        a.allow_large,
+    )?;
+    Ok(())
 }
 
 /// `bench --methods`: Table 1 per method on the CPU sequence path (`shscale_scene::bench_methods`).

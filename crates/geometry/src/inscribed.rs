@@ -138,48 +138,87 @@ pub fn inscribed_spheres(
     if !(h.is_finite() && h > 0.0) {
         return Err(domain(format!("a bounding box of size {:?}", hi - lo)));
     }
-    let dims = ((hi - lo) / h).ceil().max(DVec3::ONE).as_uvec3();
-    let (nx, ny) = (dims.x as usize, dims.y as usize);
-    let cells = nx * ny * dims.z as usize;
-    let centre = |i: usize| {
-        let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
-        lo + h * DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5)
+    let grid = Grid {
+        lo,
+        h,
+        dims: ((hi - lo) / h).ceil().max(DVec3::ONE).as_uvec3(),
     };
-    let inside: Vec<usize> = (0..cells)
+    let inside: Vec<usize> = (0..grid.cells())
         .into_par_iter()
-        .filter(|&i| winding_number(mesh, centre(i)).abs() > 0.5)
+        .filter(|&i| winding_number(mesh, grid.centre(i)).abs() > 0.5)
         .collect();
     let radius: Vec<f64> = (inside.par_iter())
-        .map(|&i| mesh_distance(&mesh.positions, &mesh.triangles, centre(i)))
+        .map(|&i| mesh_distance(&mesh.positions, &mesh.triangles, grid.centre(i)))
         .collect();
-    // Each ball's inside cells (as indices into `inside`), through a cell → inside-index map.
-    let mut slot = vec![u32::MAX; cells];
-    for (k, &i) in inside.iter().enumerate() {
-        slot[i] = k as u32;
+    let covers = grid.covers(&inside, &radius);
+    Ok(greedy_cover(&covers, count)
+        .into_iter()
+        .map(|k| Sphere {
+            center: grid.centre(inside[k]),
+            radius: radius[k],
+        })
+        .collect())
+}
+
+/// The cubic cells of a box: `dims` cells of side `h` from `lo`, numbered x fastest.
+struct Grid {
+    lo: DVec3,
+    h: f64,
+    dims: glam::UVec3,
+}
+
+impl Grid {
+    fn cells(&self) -> usize {
+        (self.dims.x * self.dims.y * self.dims.z) as usize
     }
-    let covers: Vec<Vec<u32>> = (0..inside.len())
-        .into_par_iter()
-        .map(|k| {
-            let (c, r) = (centre(inside[k]), radius[k]);
-            let a = ((c - r - lo) / h).floor().max(DVec3::ZERO).as_uvec3();
-            let b = (((c + r - lo) / h).ceil().as_uvec3()).min(dims);
-            let mut out = Vec::new();
-            for z in a.z..b.z {
-                for y in a.y..b.y {
-                    for x in a.x..b.x {
-                        let i = x as usize + nx * (y as usize + ny * z as usize);
-                        if slot[i] != u32::MAX && (centre(i) - c).length() <= r {
-                            out.push(slot[i]);
+
+    fn centre(&self, i: usize) -> DVec3 {
+        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
+        let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
+        self.lo + self.h * DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5)
+    }
+
+    /// For every inside cell `k` (`inside[k]` its cell, `radius[k]` its ball's radius), the
+    /// inside cells whose centres its ball holds, as indices into `inside`.
+    fn covers(&self, inside: &[usize], radius: &[f64]) -> Vec<Vec<u32>> {
+        let mut slot = vec![u32::MAX; self.cells()];
+        for (k, &i) in inside.iter().enumerate() {
+            slot[i] = k as u32;
+        }
+        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
+        (0..inside.len())
+            .into_par_iter()
+            .map(|k| {
+                let (c, r) = (self.centre(inside[k]), radius[k]);
+                let a = ((c - r - self.lo) / self.h)
+                    .floor()
+                    .max(DVec3::ZERO)
+                    .as_uvec3();
+                let b = (((c + r - self.lo) / self.h).ceil().as_uvec3()).min(self.dims);
+                let mut out = Vec::new();
+                for z in a.z..b.z {
+                    for y in a.y..b.y {
+                        for x in a.x..b.x {
+                            let i = x as usize + nx * (y as usize + ny * z as usize);
+                            if slot[i] != u32::MAX && (self.centre(i) - c).length() <= r {
+                                out.push(slot[i]);
+                            }
                         }
                     }
                 }
-            }
-            out
-        })
-        .collect();
-    // Lazy greedy: a ball's gain only falls as others are chosen, so a popped ball whose
-    // re-counted gain is still its heap key is the best now.
-    let mut covered = vec![false; inside.len()];
+                out
+            })
+            .collect()
+    }
+}
+
+/// Up to `count` of the sets `covers` in the greedy order: each covering the most elements no
+/// earlier one covered (ties to the lower index), stopping when nothing is left to cover. Lazy:
+/// a set's gain only falls as others are chosen, so a popped set whose re-counted gain is still
+/// its heap key is the best now.
+fn greedy_cover(covers: &[Vec<u32>], count: usize) -> Vec<usize> {
+    let elements = (covers.iter().flatten().max()).map_or(0, |&m| m as usize + 1);
+    let mut covered = vec![false; elements];
     let mut heap: BinaryHeap<(usize, std::cmp::Reverse<usize>)> = (covers.iter().enumerate())
         .map(|(k, c)| (c.len(), std::cmp::Reverse(k)))
         .collect();
@@ -199,12 +238,9 @@ pub fn inscribed_spheres(
         for &j in &covers[k] {
             covered[j as usize] = true;
         }
-        out.push(Sphere {
-            center: centre(inside[k]),
-            radius: radius[k],
-        });
+        out.push(k);
     }
-    Ok(out)
+    out
 }
 
 #[cfg(test)]
@@ -271,6 +307,17 @@ mod tests {
                 all[..n.min(all.len())]
             );
         }
+    }
+
+    /// The lazy greedy cover against the cover worked by hand: the largest set first, then the
+    /// most new elements (ties to the lower index), a set adding nothing never chosen.
+    #[test]
+    fn greedy_cover_takes_the_most_new_elements_first() {
+        let covers = vec![vec![0, 1, 2], vec![2, 3], vec![3], vec![4]];
+        assert_eq!(greedy_cover(&covers, 10), vec![0, 1, 3]);
+        assert_eq!(greedy_cover(&covers, 2), vec![0, 1]);
+        assert!(greedy_cover(&covers, 0).is_empty());
+        assert!(greedy_cover(&[], 3).is_empty());
     }
 
     /// Edges: no balls asked, a flat mesh (no inside cell), res out of range, a box.

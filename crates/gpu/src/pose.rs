@@ -54,6 +54,128 @@ fn v4s(m: &Mesh) -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// The device buffers of a [`GpuPoser`] (the node and triangle buffers are the sampler's).
+struct PoseBuffers {
+    pose: wgpu::Buffer,
+    rest: wgpu::Buffer,
+    target: wgpu::Buffer,
+    posed: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    tri_verts: wgpu::Buffer,
+    leaves: wgpu::Buffer,
+    inner: wgpu::Buffer,
+    area: wgpu::Buffer,
+    area_out: wgpu::Buffer,
+    area_staging: wgpu::Buffer,
+    /// One uniform slot per tree level, `stride` bytes apart (the adapter's uniform offset
+    /// alignment).
+    levels: wgpu::Buffer,
+    stride: u64,
+}
+
+impl PoseBuffers {
+    fn new(
+        ctx: &GpuContext,
+        rest: &Mesh,
+        deformer: Option<&Deformer>,
+        sampler: &GpuSampler,
+        pose: &GpuPose,
+    ) -> Result<Self, GpuError> {
+        let (nv, nt) = (rest.positions.len() as u64, rest.triangles.len() as u64);
+        ctx.check_binding("the pose's vertices", 16 * nv)?;
+        ctx.check_binding("the pose's triangle indices", 16 * nt)?;
+        let nodes = sampler.nodes_buf.clone();
+        let target = match deformer {
+            Some(Deformer::Morph { target }) => v4s(target),
+            _ => vec![[0.0; 4]],
+        };
+        let stride = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(16);
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        Ok(Self {
+            pose: ctx.uniform("pose", bytemuck::bytes_of(pose)),
+            rest: ctx.storage_init("pose rest", bytemuck::cast_slice(&v4s(rest))),
+            target: ctx.storage_init("pose target", bytemuck::cast_slice(&target)),
+            posed: ctx.storage("posed", 16 * nv),
+            tris: sampler.tris_buf.clone(),
+            tri_verts: ctx.storage("tri verts", 16 * nt),
+            leaves: ctx.storage("leaves", 4 * nt),
+            inner: ctx.storage("inner nodes", 4 * nt),
+            area: ctx.storage("node areas", 4 * (nodes.size() / 32)),
+            nodes,
+            area_out: ctx.storage("relative area", 16),
+            area_staging: buffer("relative area readback", 16, U::MAP_READ | U::COPY_DST),
+            levels: buffer(
+                "refit levels",
+                stride * MAX_GPU_BVH_DEPTH as u64,
+                U::UNIFORM | U::COPY_DST,
+            ),
+            stride,
+        })
+    }
+
+    /// The bind groups of the four kernels (`pose.wgsl`'s binding numbers): deform, leaves and
+    /// the area sum; then the inner nodes', one per level slot.
+    fn bind_groups(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &[wgpu::ComputePipeline; 4],
+    ) -> ([wgpu::BindGroup; 3], Vec<wgpu::BindGroup>) {
+        fn whole(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+            b.as_entire_binding()
+        }
+        let b = self;
+        let binds = [
+            (
+                0,
+                vec![(0, &b.pose), (1, &b.rest), (2, &b.target), (3, &b.posed)],
+            ),
+            (
+                1,
+                vec![
+                    (0, &b.pose),
+                    (3, &b.posed),
+                    (4, &b.tri_verts),
+                    (5, &b.leaves),
+                    (6, &b.nodes),
+                    (7, &b.tris),
+                    (8, &b.area),
+                ],
+            ),
+            (3, vec![(0, &b.pose), (8, &b.area), (11, &b.area_out)]),
+        ]
+        .map(|(p, list)| {
+            let res: Vec<_> = list.into_iter().map(|(i, buf)| (i, whole(buf))).collect();
+            ctx.bind_at(&pipelines[p], &res)
+        });
+        let levels = (0..MAX_GPU_BVH_DEPTH as u64)
+            .map(|l| {
+                let level = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &b.levels,
+                    offset: l * b.stride,
+                    size: wgpu::BufferSize::new(16),
+                });
+                let res = [
+                    (6, whole(&b.nodes)),
+                    (8, whole(&b.area)),
+                    (9, level),
+                    (10, whole(&b.inner)),
+                ];
+                ctx.bind_at(&pipelines[2], &res)
+            })
+            .collect();
+        (binds, levels)
+    }
+}
+
 /// One deforming mesh posed and its tree refitted on the device, writing the sampler's node and
 /// triangle buffers in place.
 pub struct GpuPoser {
@@ -63,17 +185,7 @@ pub struct GpuPoser {
     /// Whether the tree is ever rebuilt (`Refit`: never, as on the host).
     adaptive: bool,
     pose: GpuPose,
-    pose_buf: wgpu::Buffer,
-    posed_buf: wgpu::Buffer,
-    nodes_buf: wgpu::Buffer,
-    tri_verts_buf: wgpu::Buffer,
-    leaves_buf: wgpu::Buffer,
-    inner_buf: wgpu::Buffer,
-    level_buf: wgpu::Buffer,
-    area_out_buf: wgpu::Buffer,
-    area_staging: wgpu::Buffer,
-    /// Bytes between two levels' uniforms (the adapter's uniform offset alignment).
-    level_stride: u64,
+    bufs: PoseBuffers,
     /// Each level's inner-node count, deepest first (the schedule last uploaded).
     level_counts: Vec<u32>,
     pipelines: [wgpu::ComputePipeline; 4],
@@ -108,114 +220,23 @@ impl GpuPoser {
             }
         }
         let bvh = FlatBvh::build(rest, UpdateStrategy::Refit)?;
-        let (nv, nt) = (rest.positions.len() as u64, rest.triangles.len() as u64);
-        ctx.check_binding("the pose's vertices", 16 * nv)?;
-        ctx.check_binding("the pose's triangle indices", 16 * nt)?;
-        let (nodes_buf, tris_buf) = (sampler.nodes_buf.clone(), sampler.tris_buf.clone());
-        let node_capacity = nodes_buf.size() / 32;
-        let rest_buf = ctx.storage_init("pose rest", bytemuck::cast_slice(&v4s(rest)));
-        let target = match deformer {
-            Some(Deformer::Morph { target }) => v4s(target),
-            _ => vec![[0.0; 4]],
-        };
-        let target_buf = ctx.storage_init("pose target", bytemuck::cast_slice(&target));
-        let posed_buf = ctx.storage("posed", 16 * nv);
-        let tri_verts_buf = ctx.storage("tri verts", 16 * nt);
-        let leaves_buf = ctx.storage("leaves", 4 * nt);
-        let inner_buf = ctx.storage("inner nodes", 4 * nt);
-        let area_buf = ctx.storage("node areas", 4 * node_capacity);
-        let area_out_buf = ctx.storage("relative area", 16);
-        let area_staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("relative area readback"),
-            size: 16,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let pose = GpuPose {
             kind: kind_code(deformer),
-            vertices: nv as u32,
+            vertices: rest.positions.len() as u32,
             ..Default::default()
         };
-        let pose_buf = ctx.uniform("pose", bytemuck::bytes_of(&pose));
-        let level_stride =
-            u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(16);
-        let level_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("refit levels"),
-            size: level_stride * MAX_GPU_BVH_DEPTH as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let bufs = PoseBuffers::new(ctx, rest, deformer, sampler, &pose)?;
         let src = pose_source();
         let pipelines = ["deform", "refit_leaves", "refit_inner", "area_sum"]
             .map(|entry| ctx.pipeline(entry, &src, entry));
-        fn whole(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
-            b.as_entire_binding()
-        }
-        let binds = [
-            ctx.bind_at(
-                &pipelines[0],
-                &[
-                    (0, whole(&pose_buf)),
-                    (1, whole(&rest_buf)),
-                    (2, whole(&target_buf)),
-                    (3, whole(&posed_buf)),
-                ],
-            ),
-            ctx.bind_at(
-                &pipelines[1],
-                &[
-                    (0, whole(&pose_buf)),
-                    (3, whole(&posed_buf)),
-                    (4, whole(&tri_verts_buf)),
-                    (5, whole(&leaves_buf)),
-                    (6, whole(&nodes_buf)),
-                    (7, whole(&tris_buf)),
-                    (8, whole(&area_buf)),
-                ],
-            ),
-            ctx.bind_at(
-                &pipelines[3],
-                &[
-                    (0, whole(&pose_buf)),
-                    (8, whole(&area_buf)),
-                    (11, whole(&area_out_buf)),
-                ],
-            ),
-        ];
-        let level_binds = (0..MAX_GPU_BVH_DEPTH as u64)
-            .map(|l| {
-                let level = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &level_buf,
-                    offset: l * level_stride,
-                    size: wgpu::BufferSize::new(16),
-                });
-                ctx.bind_at(
-                    &pipelines[2],
-                    &[
-                        (6, whole(&nodes_buf)),
-                        (8, whole(&area_buf)),
-                        (9, level),
-                        (10, whole(&inner_buf)),
-                    ],
-                )
-            })
-            .collect();
+        let (binds, level_binds) = bufs.bind_groups(ctx, &pipelines);
         let mut out = Self {
             deformer: deformer.cloned(),
             rest: rest.clone(),
             bvh,
             adaptive: strategy != UpdateStrategy::Refit,
             pose,
-            pose_buf,
-            posed_buf,
-            nodes_buf,
-            tri_verts_buf,
-            leaves_buf,
-            inner_buf,
-            level_buf,
-            area_out_buf,
-            area_staging,
-            level_stride,
+            bufs,
             level_counts: Vec::new(),
             pipelines,
             binds,
@@ -237,18 +258,18 @@ impl GpuPoser {
             inner,
             levels,
         } = self.bvh.schedule(mesh)?;
-        if 32 * self.bvh.nodes.len() as u64 > self.nodes_buf.size() {
+        if 32 * self.bvh.nodes.len() as u64 > self.bufs.nodes.size() {
             return Err(GpuError::Input(format!(
                 "a tree of {} nodes exceeds the sampler's node buffer",
                 self.bvh.nodes.len()
             )));
         }
         let q = &ctx.queue;
-        q.write_buffer(&self.nodes_buf, 0, bytemuck::cast_slice(&self.bvh.nodes));
-        q.write_buffer(&self.tri_verts_buf, 0, bytemuck::cast_slice(&tri_verts));
-        q.write_buffer(&self.leaves_buf, 0, bytemuck::cast_slice(&leaves));
+        q.write_buffer(&self.bufs.nodes, 0, bytemuck::cast_slice(&self.bvh.nodes));
+        q.write_buffer(&self.bufs.tri_verts, 0, bytemuck::cast_slice(&tri_verts));
+        q.write_buffer(&self.bufs.leaves, 0, bytemuck::cast_slice(&leaves));
         if !inner.is_empty() {
-            q.write_buffer(&self.inner_buf, 0, bytemuck::cast_slice(&inner));
+            q.write_buffer(&self.bufs.inner, 0, bytemuck::cast_slice(&inner));
         }
         for (l, &(start, count)) in levels.iter().enumerate() {
             let level = GpuLevel {
@@ -257,8 +278,8 @@ impl GpuPoser {
                 ..Default::default()
             };
             q.write_buffer(
-                &self.level_buf,
-                l as u64 * self.level_stride,
+                &self.bufs.levels,
+                l as u64 * self.bufs.stride,
                 bytemuck::bytes_of(&level),
             );
         }
@@ -288,7 +309,7 @@ impl GpuPoser {
         self.pose.scalar = self.deformer.as_ref().map_or(0.0, |d| d.scalar(t)) as f32;
         self.pose.constant = self.deformer.as_ref().map_or(0.0, Deformer::constant) as f32;
         ctx.queue
-            .write_buffer(&self.pose_buf, 0, bytemuck::bytes_of(&self.pose));
+            .write_buffer(&self.bufs.pose, 0, bytemuck::bytes_of(&self.pose));
         Ok(host)
     }
 
@@ -329,9 +350,9 @@ impl GpuPoser {
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        enc.copy_buffer_to_buffer(&self.area_out_buf, 0, &self.area_staging, 0, 16);
+        enc.copy_buffer_to_buffer(&self.bufs.area_out, 0, &self.bufs.area_staging, 0, 16);
         ctx.queue.submit([enc.finish()]);
-        let slice = self.area_staging.slice(..);
+        let slice = self.bufs.area_staging.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
@@ -346,7 +367,7 @@ impl GpuPoser {
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
             bytemuck::cast_slice::<u8, f32>(&view)[0]
         };
-        self.area_staging.unmap();
+        self.bufs.area_staging.unmap();
         self.last_area = f64::from(area);
         self.rebuild_next = rebuild_due(self.last_area, self.bvh.built_area());
         Ok(())
@@ -373,7 +394,7 @@ impl GpuPoser {
 
     /// The posed vertices of the last frame (tests).
     pub fn read_posed(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        let raw = ctx.read_buffer(&self.posed_buf)?;
+        let raw = ctx.read_buffer(&self.bufs.posed)?;
         Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..self.pose.vertices as usize].to_vec())
     }
 

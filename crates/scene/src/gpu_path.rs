@@ -240,45 +240,14 @@ pub fn render_sequence_gpu_with(
         }),
     )?;
     let setup = t_setup.elapsed().as_secs_f64();
-    let mut posed: Mesh = rest.clone();
     let poser = (o.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
-    let pose = |f: usize, posed: &mut Mesh| {
-        let t0 = Instant::now();
-        if let Some(p) = &poser {
-            p.pose(&rest, f as f64 / frames as f64, posed);
-        }
-        t0.elapsed().as_secs_f64()
-    };
-    let mut stats = Vec::with_capacity(frames);
-    match mode {
-        GpuFrames::Pipelined => {
-            pipelined_frames(&mut seq, ctx, (frames, &pose, &mut posed), &mut stats)?
-        }
-        GpuFrames::DevicePose => {
-            seq.pose_on_device(ctx, &rest, poser.as_ref().map(|p| p.deformer()), strategy)?;
-            for f in 0..frames {
-                let gpu = seq.frame_at(ctx, f as f64 / frames as f64)?;
-                stats.push(GpuFrameStats {
-                    frame: f,
-                    deform_seconds: 0.0,
-                    gpu,
-                    pipelined: false,
-                });
-            }
-        }
-        GpuFrames::Sequential => {
-            for f in 0..frames {
-                let deform_seconds = pose(f, &mut posed);
-                let gpu = seq.frame(ctx, &posed)?;
-                stats.push(GpuFrameStats {
-                    frame: f,
-                    deform_seconds,
-                    gpu,
-                    pipelined: false,
-                });
-            }
-        }
-    }
+    let stats = run_frames(
+        &mut seq,
+        ctx,
+        (&rest, poser.as_ref(), strategy),
+        frames,
+        mode,
+    )?;
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
         host_rebuilds: seq.poser().map_or(0, |p| p.rebuilds),
@@ -287,6 +256,51 @@ pub fn render_sequence_gpu_with(
         setup_seconds: setup,
         receiver_setup_seconds: seq.receiver_setup_seconds,
     })
+}
+
+/// The frames `t = f / frames` of [`render_sequence_gpu_with`] as `mode` says: posed on the
+/// host (by `poser`, none for a static mesh) one after another or pipelined, or posed and
+/// refitted on the device (the tree following `strategy`'s rebuild rule).
+fn run_frames(
+    seq: &mut GpuSequence,
+    ctx: &GpuContext,
+    (rest, poser, strategy): (&Mesh, Option<&crate::frame::Poser>, UpdateStrategy),
+    frames: usize,
+    mode: GpuFrames,
+) -> Result<Vec<GpuFrameStats>, Error> {
+    let mut posed: Mesh = rest.clone();
+    let pose = |f: usize, posed: &mut Mesh| {
+        let t0 = Instant::now();
+        if let Some(p) = poser {
+            p.pose(rest, f as f64 / frames as f64, posed);
+        }
+        t0.elapsed().as_secs_f64()
+    };
+    let mut stats = Vec::with_capacity(frames);
+    let stat = |frame, deform_seconds, gpu| GpuFrameStats {
+        frame,
+        deform_seconds,
+        gpu,
+        pipelined: false,
+    };
+    match mode {
+        GpuFrames::Pipelined => {
+            pipelined_frames(seq, ctx, (frames, &pose, &mut posed), &mut stats)?
+        }
+        GpuFrames::DevicePose => {
+            seq.pose_on_device(ctx, rest, poser.map(|p| p.deformer()), strategy)?;
+            for f in 0..frames {
+                stats.push(stat(f, 0.0, seq.frame_at(ctx, f as f64 / frames as f64)?));
+            }
+        }
+        GpuFrames::Sequential => {
+            for f in 0..frames {
+                let deform_seconds = pose(f, &mut posed);
+                stats.push(stat(f, deform_seconds, seq.frame(ctx, &posed)?));
+            }
+        }
+    }
+    Ok(stats)
 }
 
 /// Poses frame `f` into the mesh given; its seconds.

@@ -713,25 +713,8 @@ impl Kind for Budget {
                 internal_order,
                 fit,
             } => {
-                let source = match (fit, sh.mesh.as_ref()) {
-                    (SphereFit::Inscribed, Some(m)) => {
-                        // The fit's own cost, also when an earlier run of the mesh made it.
-                        let (set, seconds) = shscale_geometry::inscribed::inscribed_set(m, *parts)
-                            .map_err(|e| Error::config(format!("sphere_fit: {e}")))?;
-                        partition_seconds = Some(seconds);
-                        frames::SetSource::Fixed(set)
-                    }
-                    (_, mesh) => {
-                        let labels = partition(*parts)?;
-                        if labels.is_some() {
-                            partition_seconds = Some(t0.elapsed().as_secs_f64());
-                        }
-                        match mesh.zip(labels) {
-                            Some((m, l)) => frames::SetSource::Refit(m, l),
-                            None => frames::SetSource::Fixed(vec![occ.bounding_sphere()]),
-                        }
-                    }
-                };
+                let source;
+                (source, partition_seconds) = set_source(*fit, *parts, sh, occ)?;
                 let internal = (*internal_order).max(order);
                 frames::sphere_set((order, internal), (*parts, *combine), source, &sh.points)?
             }
@@ -883,6 +866,32 @@ const CONFIG_GROUPING: [&str; 10] = [
     "rho_max",
     "orientation_seed",
 ];
+
+/// Where a run's sphere set comes from, and the one-off seconds it took: the mesh's inscribed
+/// balls (the fit's own cost, also when an earlier run of the mesh made it), or its k-means
+/// partition whose parts are refitted every frame; the analytic sphere is its own set.
+fn set_source<'a>(
+    fit: SphereFit,
+    parts: usize,
+    sh: &'a Shared,
+    occ: &dyn Occluder,
+) -> Result<(frames::SetSource<'a>, Option<f64>), Error> {
+    let t0 = Instant::now();
+    match (fit, sh.mesh.as_ref()) {
+        (SphereFit::Inscribed, Some(m)) => {
+            let (set, seconds) = shscale_geometry::inscribed::inscribed_set(m, parts)
+                .map_err(|e| Error::config(format!("sphere_fit: {e}")))?;
+            Ok((frames::SetSource::Fixed(set), Some(seconds)))
+        }
+        (_, Some(m)) => {
+            let labels = shscale_geometry::partition::kmeans_parts(m, parts)
+                .map_err(|e| Error::config(e.to_string()))?;
+            let seconds = t0.elapsed().as_secs_f64();
+            Ok((frames::SetSource::Refit(m, labels), Some(seconds)))
+        }
+        (_, None) => Ok((frames::SetSource::Fixed(vec![occ.bounding_sphere()]), None)),
+    }
+}
 
 /// Each sub-volume part with its k range: its receivers' distances over its sampling radius
 /// (`sampling_radius` times its bounding radius), with 5 % margins.
