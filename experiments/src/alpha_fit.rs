@@ -222,6 +222,7 @@ impl Kind for AlphaFit {
         (
             Cost::default(),
             Cost {
+                cached_once: None,
                 rays: shared.rays,
                 bytes: shared.bytes,
                 seconds: 0.0,

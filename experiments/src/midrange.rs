@@ -209,6 +209,7 @@ impl Kind for MidRange {
         (
             Cost::default(),
             Cost {
+                cached_once: None,
                 rays: 0.0,
                 bytes: quad * 8.0 * (p.order * p.order) as f64,
                 // ≈ 70 ns per quadrature point and pair: `shscale run configs/experiments/

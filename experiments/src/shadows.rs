@@ -350,6 +350,7 @@ impl Kind for Shadows {
         (
             Cost::default(),
             Cost {
+                cached_once: None,
                 rays: rays + open,
                 bytes,
                 seconds: rays / RENDER_RAYS_PER_SECOND,

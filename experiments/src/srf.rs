@@ -157,6 +157,7 @@ impl Kind for Srf {
         (
             Cost::default(),
             Cost {
+                cached_once: None,
                 rays,
                 bytes: samples * (p.order * p.order) as f64 * 8.0 * 2.0,
                 seconds: 0.0,

@@ -106,6 +106,7 @@ impl Kind for Timing {
         (
             Cost::default(),
             Cost {
+                cached_once: None,
                 rays,
                 bytes: 256e6,
                 // The kind times its own frames (not the runner's procedure), so all of it is

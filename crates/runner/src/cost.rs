@@ -60,6 +60,8 @@ pub(crate) struct Tally {
     once_seconds: f64,
     /// Group key hash → the group's shared rays, timed seconds and once seconds.
     groups: HashMap<u64, (f64, f64, f64)>,
+    /// Cache key hash → the seconds of the work runs share through it ([`Cost::cached_once`]).
+    cached: HashMap<u64, f64>,
     bytes: f64,
     bytes_driver: (usize, String),
     max_group_rays: f64,
@@ -98,6 +100,9 @@ impl Tally {
         self.rays += r.cost.rays;
         self.seconds += r.cost.seconds;
         self.once_seconds += r.cost.once_seconds;
+        if let Some((key, seconds)) = &r.cost.cached_once {
+            self.cached.entry(key_hash(key)).or_insert(*seconds);
+        }
         let s = &r.shared_cost;
         self.groups
             .entry(key_hash(&r.group))
@@ -140,6 +145,9 @@ impl Tally {
         self.once_seconds += o.once_seconds;
         for (g, c) in o.groups {
             self.groups.entry(g).or_insert(c);
+        }
+        for (k, c) in o.cached {
+            self.cached.entry(k).or_insert(c);
         }
         keep_max(
             &mut self.bytes,
@@ -194,6 +202,7 @@ impl Tally {
             seconds: ((self.seconds + shared_seconds) * factor
                 + self.once_seconds
                 + shared_once
+                + self.cached.values().sum::<f64>()
                 + bookkeeping)
                 / speed,
             bookkeeping_seconds: bookkeeping / speed,

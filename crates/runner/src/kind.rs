@@ -48,6 +48,9 @@ pub struct Cost {
     pub once_seconds: f64,
     /// The keys that drive the cost, in words (`hemisphere_res = 256 → 131072 rays per probe`).
     pub drivers: String,
+    /// Seconds of work shared through a cache by every run naming the same key (a one-off fit
+    /// of a mesh that several runs reuse): counted once per distinct key in the plan.
+    pub cached_once: Option<(String, f64)>,
 }
 
 /// What a kind's work sees of the runner.

@@ -85,6 +85,8 @@ impl Kind for Product {
         let run = Cost {
             seconds: 1e-6 * p.n as f64,
             drivers: format!("n = {}", p.n),
+            // A one-off per label, shared by its runs through a cache (the estimate's test).
+            cached_once: (p.label.starts_with("fit")).then(|| (p.label.clone(), 10.0)),
             ..Cost::default()
         };
         (Cost::default(), run)
@@ -667,4 +669,21 @@ fn set_overrides_reach_every_sweep_block() {
         e.contains("block 1") && e.contains("block 2") && e.contains("--set n=5"),
         "{e}"
     );
+}
+
+/// Work runs share through a cache (`Cost::cached_once`) is counted once per key in the plan's
+/// estimate: 3 × 2 runs over two fitted labels add two fits' seconds, not six.
+#[test]
+fn cached_work_is_estimated_once_per_key() {
+    let seconds = |labels: &str| {
+        let text =
+            format!("experiment = \"product\"\n[[sweep]]\nn = [1, 2, 3]\nlabel = [{labels}]\n");
+        let plan = parse(&text).unwrap();
+        let speed = shscale_runner::timing::machine_speed().unwrap_or(1.0);
+        plan.estimate().seconds * speed
+    };
+    let plain = seconds("\"a\", \"b\"");
+    let fitted = seconds("\"fit-a\", \"fit-b\"");
+    println!("estimate {plain:.4} s without, {fitted:.4} s with two cached fits of 10 s");
+    assert!((fitted - plain - 20.0).abs() < 1e-9, "{plain} {fitted}");
 }

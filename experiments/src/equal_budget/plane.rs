@@ -34,7 +34,7 @@ use shscale_field::metrics::ssim;
 use shscale_field::shading::shade_rmse_rel;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Combine, Keys, Method, Spec};
+use shscale_scene::method::{Combine, Keys, Method, Spec, SphereFit};
 use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::MAX_ORDER;
@@ -550,6 +550,7 @@ impl Kind for BudgetPlane {
         let gpu = super::plane_timings::gpu_seconds(p.typed.device, frame);
         (
             Cost {
+                cached_once: None,
                 rays: once,
                 bytes,
                 seconds: 0.0,
@@ -560,6 +561,18 @@ impl Kind for BudgetPlane {
                 ),
             },
             Cost {
+                // The inscribed fit: once per mesh occluder and pose of the scene's sequence,
+                // whatever the runs using it.
+                cached_once: match p.typed.method {
+                    Spec::SphereSet {
+                        fit: SphereFit::Inscribed,
+                        ..
+                    } => Some((
+                        format!("inscribed {} {}", p.scene, p.frames),
+                        shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS * frames * occluders,
+                    )),
+                    _ => None,
+                },
                 rays,
                 bytes,
                 seconds: frame

@@ -567,6 +567,7 @@ impl Kind for Budget {
         let rays = p.typed.rays(1.0, n);
         (
             Cost {
+                cached_once: None,
                 rays: shared_rays,
                 bytes: n * nn * 8.0 + 64e6,
                 seconds: 0.0,
@@ -578,6 +579,17 @@ impl Kind for Budget {
                 ),
             },
             Cost {
+                // The inscribed fit: once per mesh and orientation, whatever the runs using it.
+                cached_once: match p.typed {
+                    Spec::SphereSet {
+                        fit: SphereFit::Inscribed,
+                        ..
+                    } if p.mesh != "sphere" => Some((
+                        format!("inscribed {} {}", p.mesh, p.orientation_seed),
+                        shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS,
+                    )),
+                    _ => None,
+                },
                 // One frame; the estimate multiplies its seconds by the timing procedure's
                 // warm-up + repeats (the rays counted are one frame's).
                 rays,

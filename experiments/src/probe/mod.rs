@@ -324,6 +324,7 @@ impl Kind for Probe {
         let bsv_rays = samples * h2 + direct_rays;
         let rays = bsv_rays + truth_rays;
         let shared = Cost {
+            cached_once: None,
             rays,
             bytes: (1.0 + radii) * samples * nn * 8.0 + 64e6,
             // The BSV is timed (warm-up + repeats); the truths and the BSV at the probe
@@ -349,6 +350,7 @@ impl Kind for Probe {
             0.0
         };
         let run = Cost {
+            cached_once: None,
             rays: part_rays,
             bytes: p.parts as f64 * table + radii * samples * nn * 8.0,
             // Table build ≈ 70 ns per k and element pair at N = 4 (2.7 ms for K = 40),
