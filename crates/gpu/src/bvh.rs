@@ -98,13 +98,7 @@ impl FlatBvh {
 
     /// Follow a deformation of the same mesh (same topology).
     pub fn update(&mut self, mesh: &Mesh) -> Result<(), GpuError> {
-        if mesh.triangles.len() != self.tris.len() {
-            return Err(GpuError::Input(format!(
-                "topology changed: {} triangles, the BVH has {}",
-                mesh.triangles.len(),
-                self.tris.len()
-            )));
-        }
+        self.same_topology(mesh)?;
         self.tris = triangles(mesh);
         match self.strategy {
             UpdateStrategy::Rebuild => self.bvh = Self::make(&self.tris),
@@ -135,6 +129,15 @@ impl FlatBvh {
 
     /// Build the tree again for `mesh` (same topology), whatever the strategy.
     pub fn rebuild(&mut self, mesh: &Mesh) -> Result<(), GpuError> {
+        self.same_topology(mesh)?;
+        self.tris = triangles(mesh);
+        self.bvh = Self::make(&self.tris);
+        self.built_area = relative_area(&self.bvh);
+        self.flatten()
+    }
+
+    /// `Ok` when `mesh` has the triangle count this tree was built for.
+    fn same_topology(&self, mesh: &Mesh) -> Result<(), GpuError> {
         if mesh.triangles.len() != self.tris.len() {
             return Err(GpuError::Input(format!(
                 "topology changed: {} triangles, the BVH has {}",
@@ -142,10 +145,7 @@ impl FlatBvh {
                 self.tris.len()
             )));
         }
-        self.tris = triangles(mesh);
-        self.bvh = Self::make(&self.tris);
-        self.built_area = relative_area(&self.bvh);
-        self.flatten()
+        Ok(())
     }
 
     /// The tree's relative box area after its last build (the reference of the rebuild rule,
@@ -164,13 +164,7 @@ impl FlatBvh {
     /// inner nodes level by level, deepest first — a level's nodes have their children refitted
     /// by the levels before it.
     pub fn schedule(&self, mesh: &Mesh) -> Result<RefitSchedule, GpuError> {
-        if mesh.triangles.len() != self.tris.len() {
-            return Err(GpuError::Input(format!(
-                "{} triangles for a tree of {}",
-                mesh.triangles.len(),
-                self.tris.len()
-            )));
-        }
+        self.same_topology(mesh)?;
         let tri_verts = (self.bvh.primitive_indices.iter())
             .map(|&p| {
                 let [a, b, c] = mesh.triangles[p as usize];

@@ -347,27 +347,8 @@ impl GpuPoser {
         if !self.adaptive {
             return Ok(());
         }
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        enc.copy_buffer_to_buffer(&self.bufs.area_out, 0, &self.bufs.area_staging, 0, 16);
-        ctx.queue.submit([enc.finish()]);
-        let slice = self.bufs.area_staging.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        ctx.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let area = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            bytemuck::cast_slice::<u8, f32>(&view)[0]
-        };
-        self.bufs.area_staging.unmap();
+        let raw = ctx.copy_and_map(&self.bufs.area_out, &self.bufs.area_staging, 16)?;
+        let area = bytemuck::cast_slice::<u8, f32>(&raw)[0];
         self.last_area = f64::from(area);
         self.rebuild_next = rebuild_due(self.last_area, self.bvh.built_area());
         Ok(())

@@ -7,6 +7,8 @@
 //! only for rays grazing an edge, where the GPU's f32 direction (frame applied in f32) and the
 //! CPU's (f64, then rounded) disagree in the last bit.
 
+mod common;
+use common::ctx;
 use glam::DVec3;
 use shscale_field::receivers::ReceiverCache;
 use shscale_field::{Bsv, Layout, LocalFrame, VisibilitySampler};
@@ -15,7 +17,7 @@ use shscale_geometry::{
     deform, min_enclosing_sphere, shapes, Mesh, MeshBvh, Occluder, Sphere, RAY_EPS,
 };
 use shscale_gpu::sampling::{sh_eval_gpu, GpuSampler};
-use shscale_gpu::{require_gpu_from_env, GpuContext, GpuSequence, ReceiverSetup, Receivers};
+use shscale_gpu::{GpuContext, GpuSequence, ReceiverSetup, Receivers};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
 use shscale_sh::{DirectionSet, ShBasis};
 
@@ -27,20 +29,6 @@ const PROJ_TOL: f64 = 2e-6;
 const VIS_MISMATCH_TOL: f64 = 2e-3;
 /// Shading: relative to the brightest receiver (f32 cache and coefficients).
 const SHADE_TOL: f64 = 1e-5;
-
-fn ctx() -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(c) => {
-            eprintln!("GPU adapter: {}", c.describe());
-            Some(c)
-        }
-        Err(e) if require_gpu_from_env() => panic!("SHSCALE_REQUIRE_GPU=1 but {e}"),
-        Err(e) => {
-            eprintln!("SKIPPED (no GPU adapter: {e}); set SHSCALE_REQUIRE_GPU=1 to fail instead");
-            None
-        }
-    }
-}
 
 #[test]
 fn sh_evaluation_matches_the_cpu_basis() {

@@ -5,6 +5,8 @@
 //! posed on the device against frames posed on the host. Without an adapter each test prints a
 //! notice and returns, unless `SHSCALE_REQUIRE_GPU=1` (CI, Mesa lavapipe), where it fails.
 
+mod common;
+use common::ctx;
 use glam::DVec3;
 use shscale_field::Layout;
 use shscale_geometry::deform::{twist_height, Deformer};
@@ -13,25 +15,11 @@ use shscale_geometry::{shapes, Mesh};
 use shscale_gpu::bvh::FlatBvh;
 use shscale_gpu::pose::GpuPoser;
 use shscale_gpu::sampling::GpuSampler;
-use shscale_gpu::{require_gpu_from_env, GpuContext};
+use shscale_gpu::GpuContext;
 
 /// Posed vertices: absolute error over the mesh's bounding radius (f32 rounding of coordinates
 /// of size ≤ the radius, and the adapter's f32 sin/cos/exp).
 const POSE_TOL: f64 = 2e-6;
-
-fn ctx() -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(c) => {
-            eprintln!("GPU adapter: {}", c.describe());
-            Some(c)
-        }
-        Err(e) if require_gpu_from_env() => panic!("SHSCALE_REQUIRE_GPU=1 but {e}"),
-        Err(e) => {
-            eprintln!("SKIPPED (no GPU adapter: {e}); set SHSCALE_REQUIRE_GPU=1 to fail instead");
-            None
-        }
-    }
-}
 
 /// A sampler whose tree buffers hold `mesh`'s tree (a few samples: only its buffers are used).
 fn sampler_for(ctx: &GpuContext, mesh: &Mesh) -> GpuSampler {
@@ -74,6 +62,15 @@ fn deformers(rest: &Mesh) -> Vec<(&'static str, Deformer)> {
             },
         ),
     ]
+}
+
+/// `rest` with the device's posed vertices (f32, exactly as f64).
+fn device_pose(rest: &Mesh, poser: &GpuPoser, ctx: &GpuContext) -> Mesh {
+    let mut m = rest.clone();
+    for (p, q) in m.positions.iter_mut().zip(poser.read_posed(ctx).unwrap()) {
+        *p = DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
+    }
+    m
 }
 
 fn worst_pose_error(got: &[[f32; 4]], want: &Mesh) -> f64 {
@@ -126,12 +123,7 @@ fn device_refit_is_the_host_refit_bit_for_bit() {
             let mut poser =
                 GpuPoser::new(&ctx, &rest, Some(&d), UpdateStrategy::Adaptive, &sampler).unwrap();
             poser.run(&ctx, t).unwrap();
-            let posed = poser.read_posed(&ctx).unwrap();
-            let mut dev_mesh = rest.clone();
-            for (p, q) in dev_mesh.positions.iter_mut().zip(&posed) {
-                *p = DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
-            }
-            host.update(&dev_mesh).unwrap();
+            host.update(&device_pose(&rest, &poser, &ctx)).unwrap();
             let (nodes, tris) = sampler
                 .read_tree(&ctx, host.nodes.len(), host.gpu_tris.len())
                 .unwrap();
@@ -201,12 +193,7 @@ fn a_grown_tree_is_rebuilt_on_the_host_the_next_frame() {
     let mut host_pose = rest.clone();
     d.apply(&rest, 0.5, &mut host_pose);
     let mut want = FlatBvh::build(&host_pose, UpdateStrategy::Refit).unwrap();
-    let posed = poser.read_posed(&ctx).unwrap();
-    let mut dev_mesh = rest.clone();
-    for (p, q) in dev_mesh.positions.iter_mut().zip(&posed) {
-        *p = DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
-    }
-    want.update(&dev_mesh).unwrap();
+    want.update(&device_pose(&rest, &poser, &ctx)).unwrap();
     let (nodes, tris) = sampler
         .read_tree(&ctx, want.nodes.len(), want.gpu_tris.len())
         .unwrap();
