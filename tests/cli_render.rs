@@ -383,7 +383,7 @@ fn sequences_take_every_method() {
             "--out",
             out,
             "--method",
-            "ray_traced",
+            "full_frequency",
             "--frames",
             "2",
             "--gpu",

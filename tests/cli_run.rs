@@ -1393,7 +1393,7 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     let cfg = dir.join("bpg.toml");
     std::fs::write(
         &cfg,
-        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ntiming_repeats = 1\ntiming_warmup = 0\nparallel_runs = false\ndevice = \"auto\"\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [4]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [4]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\nsphere_combine = [\"product\", \"union\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [2]\n[[sweep]]\nmethod = [\"extrapolated\"]\nradial = [\"clearance\"]\nradial_delta = [0.3]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [2]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\n",
+        "experiment = \"budget_plane\"\nscene = \"d.toml\"\ntiming_repeats = 1\ntiming_warmup = 0\nparallel_runs = false\ndevice = \"auto\"\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n[[sweep]]\nmethod = [\"extrapolated\"]\n[[sweep]]\nmethod = [\"full_field\"]\nshells = [4]\n[[sweep]]\nmethod = [\"sphere_set\"]\nparts = [4]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\nsphere_combine = [\"product\", \"union\"]\n[[sweep]]\nmethod = [\"sub_volumes\"]\nparts = [2]\n[[sweep]]\nmethod = [\"extrapolated\"]\nradial = [\"clearance\"]\nradial_delta = [0.3]\n[[sweep]]\nmethod = [\"ray_traced\"]\nrt_res = [3]\nlayout = [\"latlong:12x20\"]\nhemisphere_res = [32]\n",
     )
     .unwrap();
     let out = dir.join("r");
@@ -1418,13 +1418,17 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     } else {
         for r in &rows {
             let method = &r[col("method")];
-            if method == "ray_traced" {
-                assert_eq!(&r[col("gpu_adapter")], "none: ray_traced has no GPU form");
-                assert!(r[col("gpu_frame_seconds")].is_empty());
-                continue;
-            }
             let t: f64 = r[col("gpu_frame_seconds")].parse().unwrap();
             let diff: f64 = r[col("gpu_max_diff")].parse().unwrap();
+            if method == "ray_traced" {
+                // Another quadrature of the same projection (two Gauss hemispheres of H = 4
+                // rays a side against 36 stratified rays at rt_res = 3): timed, and as far from
+                // the CPU's image as two coarse quadratures are from each other (the converged
+                // comparison is the scene crate's `gpu_ray_traced_reference_converges_…`).
+                println!("ray_traced: GPU frame {t:.4} s, images {diff:.2e} from the CPU's");
+                assert!(t > 0.0 && diff > 0.0 && diff < 0.5, "{t} {diff}");
+                continue;
+            }
             println!(
                 "{method} {} {}: GPU frame {t:.4} s, images {diff:.2e} of the mean unshadowed irradiance from the CPU's ({})",
                 &r[col("sphere_combine")],
@@ -1440,8 +1444,8 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
     // why; no adapter opened (`gpu = "off"`) refused at run time.
     for (text, needle) in [
         (
-            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"ray_traced\"\nrt_res = 2\n",
-            "ray_traced has no GPU form",
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"sub_volumes\"\nparts = 2\npart_combine = \"shexp\"\n",
+            "has no GPU form",
         ),
         (
             "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"full_field\"\nshells = 4\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n",

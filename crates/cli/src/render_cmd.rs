@@ -409,7 +409,7 @@ fn gpu_sequence_of(
     }
     let Some(form) = gpu_form(scene, method)? else {
         bail!(
-            "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes and sphere sets only; --method {method} with these keys runs on the CPU path (without --gpu)"
+            "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes, sphere sets and the band-limited ray-traced reference only; --method {method} with these keys runs on the CPU path (without --gpu)"
         );
     };
     for (set, flag) in [

@@ -127,14 +127,27 @@ impl GpuFullField {
         })
     }
 
+    /// Place the samples once, each at `points[i]` casting toward `target(i)` (frames then
+    /// render with `samples = None`): fields whose samples do not follow the entity, as the
+    /// ray-traced receivers (`shscale_scene::gpu_truth`).
+    pub fn place_samples(
+        &self,
+        ctx: &GpuContext,
+        target: impl Fn(usize) -> DVec3,
+        points: &[DVec3],
+    ) -> Result<(), GpuError> {
+        self.sampler.move_samples_toward(ctx, target, points)
+    }
+
     /// Render one frame: the posed `mesh`, its shells' sample `points` casting toward `center`
-    /// (the frame's bounding sphere's), every receiver's `weights` for this frame. Returns the
-    /// image (RGB per receiver) and the frame's times.
+    /// (the frame's bounding sphere's; `None`: the samples stay where they are), every
+    /// receiver's `weights` for this frame. Returns the image (RGB per receiver) and the frame's
+    /// times.
     pub fn frame(
         &mut self,
         ctx: &GpuContext,
         mesh: &Mesh,
-        (center, points): (DVec3, &[DVec3]),
+        samples: Option<(DVec3, &[DVec3])>,
         weights: &[WeightSlots],
     ) -> Result<(Vec<[f32; 3]>, GpuFieldTimes), GpuError> {
         if weights.len() != self.receivers {
@@ -152,7 +165,9 @@ impl GpuFullField {
         // The CPU's ray offset rule: RAY_EPS times the occluder's bounding radius this frame.
         let tmin = RAY_EPS * mesh.bounding_sphere().radius;
         self.sampler.upload(ctx, &self.bvh, tmin)?;
-        self.sampler.move_samples(ctx, center, points)?;
+        if let Some((center, points)) = samples {
+            self.sampler.move_samples(ctx, center, points)?;
+        }
         ctx.queue
             .write_buffer(&self.weights_buf, 0, bytemuck::cast_slice(weights));
         times.upload_seconds = t1.elapsed().as_secs_f64();

@@ -119,12 +119,12 @@ fn hemisphere_rays(
         .collect())
 }
 
-/// Per sample at `points[i]`: its position and local frame (z toward `center`), and the back
+/// Per sample at `points[i]`: its position and local frame (z toward `target(i)`), and the back
 /// hemisphere's closed-form visibility (the zonal half-sphere cap rotated to −z of the frame) in
 /// f32.
 fn sample_frames(
     order: usize,
-    center: DVec3,
+    target: impl Fn(usize) -> DVec3,
     points: &[DVec3],
 ) -> Result<(Vec<GpuSample>, Vec<f32>), GpuError> {
     let nn = order * order;
@@ -134,8 +134,8 @@ fn sample_frames(
     let mut samples = Vec::with_capacity(points.len());
     let mut back = Vec::with_capacity(points.len() * nn);
     let mut b = vec![0.0; nn];
-    for &pos in points {
-        let f = LocalFrame::toward(pos, center);
+    for (i, &pos) in points.iter().enumerate() {
+        let f = LocalFrame::toward(pos, target(i));
         samples.push(GpuSample {
             pos: v4(pos, 1.0),
             fx: v4(f.x, 0.0),
@@ -178,7 +178,7 @@ impl GpuSampler {
     ) -> Result<Self, GpuError> {
         let nn = order * order;
         let hemi4 = hemisphere_rays(ctx, order, h, points.len())?;
-        let (samples, back) = sample_frames(order, center, points)?;
+        let (samples, back) = sample_frames(order, |_| center, points)?;
         let rays = hemi4.len();
         let total = points.len() as u64 * rays as u64;
         let params = GpuParams {
@@ -258,7 +258,25 @@ impl GpuSampler {
                 self.samples
             )));
         }
-        let (samples, back) = sample_frames(self.order, center, points)?;
+        self.move_samples_toward(ctx, |_| center, points)
+    }
+
+    /// [`Self::move_samples`] with each sample `i` casting its facing hemisphere toward
+    /// `target(i)` (the other hemisphere taken as unoccluded, in closed form).
+    pub fn move_samples_toward(
+        &self,
+        ctx: &GpuContext,
+        target: impl Fn(usize) -> DVec3,
+        points: &[DVec3],
+    ) -> Result<(), GpuError> {
+        if points.len() != self.samples {
+            return Err(GpuError::Input(format!(
+                "{} sample points for a sampler of {}",
+                points.len(),
+                self.samples
+            )));
+        }
+        let (samples, back) = sample_frames(self.order, target, points)?;
         ctx.queue
             .write_buffer(&self.samples_buf, 0, bytemuck::cast_slice(&samples));
         ctx.queue

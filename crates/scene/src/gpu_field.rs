@@ -158,7 +158,7 @@ pub fn render_sequence_full_field_gpu(
         template.recentre(sphere);
         weight_slots(&template, &recv, &mut slots);
         st.weights_seconds = t0.elapsed().as_secs_f64();
-        let (img, times) = gpu.frame(ctx, &posed, (sphere.center, &points), &slots)?;
+        let (img, times) = gpu.frame(ctx, &posed, Some((sphere.center, &points)), &slots)?;
         st.bvh_seconds = times.bvh_seconds;
         st.upload_seconds = times.upload_seconds;
         st.sampling_seconds = times.sampling_seconds;

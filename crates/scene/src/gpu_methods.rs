@@ -26,6 +26,8 @@ pub enum GpuForm {
     FullField,
     /// Sphere sets by the chain or the union ([`crate::gpu_sets`]).
     SphereSet,
+    /// The band-limited ray-traced reference ([`crate::gpu_truth`]).
+    RayTraced,
 }
 
 impl GpuForm {
@@ -37,18 +39,20 @@ impl GpuForm {
             Self::SubVolumes => "sub-volumes",
             Self::FullField => "full-field",
             Self::SphereSet => "sphere-set",
+            Self::RayTraced => "ray-traced",
         }
     }
 }
 
 /// The GPU form of `method` on `scene`: `Ok(None)` where the method has none at all (the
-/// ray-traced references, the extrapolation with the occlusion rule or the plausibility clamp),
+/// full-frequency reference, the extrapolation with the occlusion rule or the plausibility clamp),
 /// an error naming the culprit where it has one but the scene's keys are outside it.
 pub fn gpu_form(scene: &Scene, method: Method) -> Result<Option<GpuForm>, Error> {
     let form = match method {
         Method::SphereSet => GpuForm::SphereSet,
         Method::FullField => GpuForm::FullField,
         Method::SubVolumes => GpuForm::SubVolumes,
+        Method::RayTraced => GpuForm::RayTraced,
         Method::Extrapolated if matches!(scene.radial, RadialRule::Clearance { .. }) => {
             GpuForm::Radial
         }
@@ -61,6 +65,7 @@ pub fn gpu_form(scene: &Scene, method: Method) -> Result<Option<GpuForm>, Error>
         GpuForm::SubVolumes => crate::gpu_parts::check(scene)?,
         GpuForm::FullField => crate::gpu_field::check(scene)?,
         GpuForm::SphereSet => crate::gpu_sets::check(scene)?,
+        GpuForm::RayTraced => crate::gpu_truth::check(scene)?,
     }
     Ok(Some(form))
 }
@@ -102,6 +107,12 @@ pub fn render_gpu_frames(
         }
         GpuForm::SphereSet => {
             crate::gpu_sets::render_sequence_sphere_set_gpu(scene, frames, ctx, &mut |f, px| {
+                each(&f.as_sequence_frame(), px)
+            })?
+            .0
+        }
+        GpuForm::RayTraced => {
+            crate::gpu_truth::render_sequence_ray_traced_gpu(scene, frames, ctx, &mut |f, px| {
                 each(&f.as_sequence_frame(), px)
             })?
             .0

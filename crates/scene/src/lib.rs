@@ -35,6 +35,7 @@ pub mod gpu_parts;
 pub mod gpu_path;
 pub mod gpu_radial;
 pub mod gpu_sets;
+pub mod gpu_truth;
 pub mod kernels;
 pub mod method;
 pub mod method_cost;

@@ -743,3 +743,75 @@ fn gpu_sub_volumes_match_the_cpu_render_frame_by_frame() {
 /// and rotations per part (as [`RADIAL_GPU_TOL`]) and the f32 Gaunt products between them
 /// (measured 2.2e-6 on lavapipe).
 const PARTS_GPU_TOL: f32 = 2e-5;
+
+/// The band-limited ray-traced reference on the GPU path (two Gauss hemispheres of
+/// `H = round(√2·T)` rays per receiver, `shscale_scene::gpu_truth`) against the CPU's (4T²
+/// stratified rays), frame by frame on a flapping bird: both estimate one projection, so each is
+/// held against the CPU's at 4× the resolution (T = 64, its own error printed), and the GPU's
+/// distance from it must not exceed [`TRUTH_GPU_FACTOR`] times the CPU's at the same T. Skips
+/// as the tests above.
+#[test]
+fn gpu_ray_traced_reference_converges_with_the_cpu_one() {
+    use shscale_scene::gpu_truth::render_sequence_ray_traced_gpu;
+    let Some(ctx) = gpu_or_skip("GPU ray-traced reference") else {
+        return;
+    };
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
+    );
+    s.truth_res = 16;
+    let mut frames = Vec::new();
+    let (last, stats) =
+        render_sequence_ray_traced_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
+            .unwrap();
+    assert_eq!((stats.len(), frames.len()), (3, 3));
+    assert_eq!(last.pixels, frames[2].1);
+    let (mut gpu_worst, mut cpu_worst, mut own) = (0f32, 0f32, 0f32);
+    for (t, gpu) in &frames {
+        let at = |truth_res| Scene {
+            pose_t: Some(*t),
+            truth_res,
+            ..s.clone()
+        };
+        let cpu = render(&at(16), Method::RayTraced).unwrap();
+        let fine = render(&at(64), Method::RayTraced).unwrap();
+        let top = fine.pixels.iter().flatten().fold(0f32, |a, b| a.max(*b));
+        let worst = |img: &[[f32; 3]]| {
+            (img.iter().zip(&fine.pixels))
+                .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+                .fold(0f32, f32::max)
+                / top
+        };
+        gpu_worst = gpu_worst.max(worst(gpu));
+        cpu_worst = cpu_worst.max(worst(&cpu.pixels));
+        own = own.max(fine.error.iter().flatten().fold(0f32, |a, b| a.max(*b)) / top);
+    }
+    println!(
+        "ray-traced reference, 3 frames, T = 16, against the CPU's at T = 64 (own error ≤ {own:.1e}): GPU (H = {}) worst {gpu_worst:.2e}, CPU worst {cpu_worst:.2e} of the brightest pixel ({})",
+        shscale_scene::gpu_truth::gauss_res(16),
+        ctx.describe()
+    );
+    assert!(
+        gpu_worst <= TRUTH_GPU_FACTOR * cpu_worst,
+        "{gpu_worst} vs {cpu_worst}"
+    );
+    assert!(gpu_worst > 0.0);
+    // A frame's per-ray visibility beyond the adapter's binding is refused by name, before any
+    // buffer is made (160 × 160 receivers at T = 256: ~27 GB).
+    let mut big = s.clone();
+    big.resolution = [160, 160];
+    big.truth_res = 256;
+    let e = render_sequence_ray_traced_gpu(&big, 1, &ctx, &mut |_, _| ())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("truth_res") && e.contains("storage binding"),
+        "{e}"
+    );
+}
+
+/// How much farther than the CPU's own quadrature at the same `T` the GPU's may lie from the
+/// finer reference (both quadratures of one projection; the GPU's Gauss rule is not worse in
+/// kind, so a factor of 2 leaves room for where its rays fall).
+const TRUTH_GPU_FACTOR: f32 = 2.0;
