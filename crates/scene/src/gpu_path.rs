@@ -120,7 +120,7 @@ pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, 
         [o] if o.mesh != "sphere" => {
             if scene.order > shscale_gpu::MAX_GPU_ORDER {
                 return Err(Error::config(format!(
-                    "{}: order {} exceeds the GPU path's {}",
+                    "{}: --gpu: order {} exceeds the GPU path's {}",
                     scene.file,
                     scene.order,
                     shscale_gpu::MAX_GPU_ORDER
@@ -129,7 +129,7 @@ pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, 
             Ok(o)
         }
         _ => Err(Error::config(format!(
-            "{}: the GPU path renders scenes with exactly one mesh occluder (the analytic sphere has no triangles)",
+            "{}: --gpu: the GPU path renders scenes with exactly one mesh occluder (the analytic sphere has no triangles)",
             scene.file
         ))),
     }
