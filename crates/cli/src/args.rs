@@ -512,7 +512,7 @@ pub struct RenderArgs {
     pub sphere_combine: SphereCombine,
     /// Which spheres `--method sphere_set` takes: `area` (one per k-means part, refitted every
     /// frame) or `inscribed` (the greedy cover of each pose's interior by inscribed balls, nested
-    /// in --parts: a one-off fit per pose; CPU only).
+    /// in --parts: a one-off fit per pose, kept for the last 16 poses).
     #[arg(long, value_enum, default_value_t = SphereFitArg::Area)]
     pub sphere_fit: SphereFitArg,
     /// How extrapolated fields combine — `--method sub_volumes`'s parts, or a scene's several

@@ -1,6 +1,7 @@
 //! Sphere sets on the GPU path (`render --frames --method sphere_set --gpu`): per frame the
 //! mesh is posed and one sphere fitted per part on the host (the partition made once, on the
-//! rest pose, as the CPU render makes it), then every receiver is shaded on the GPU from the
+//! rest pose, as the CPU render makes it) — or the pose's inscribed balls
+//! (`sphere_fit = "inscribed"`, a one-off fit per pose) —, then every receiver is shaded on the GPU from the
 //! spheres' closed-form caps multiplied near to far, or combined as their exact union
 //! (`sphere_combine = "union"`; `shscale_gpu::sphereset`). The image of a frame is the CPU
 //! render's of the same pose within f32 rounding (tested on lavapipe).
@@ -69,12 +70,7 @@ struct PosedParts {
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
     use crate::combine::Combine;
-    let why = if scene.sphere_fit != crate::combine::SphereFit::Area {
-        Some(format!(
-            "sphere_fit \"{}\" has no GPU form (a one-off fit of each pose); the GPU sphere set refits its area-weighted spheres every frame",
-            scene.sphere_fit.name()
-        ))
-    } else if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
+    let why = if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
         Some(format!(
             "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain or the union",
             scene.sphere_combine.name()
@@ -171,11 +167,13 @@ pub fn render_sequence_sphere_set_gpu(
                     }
                     st.deform_seconds += t0.elapsed().as_secs_f64();
                     let t0 = Instant::now();
-                    spheres.extend(shscale_geometry::partition::fit_spheres(
-                        &m.posed,
-                        &m.labels,
-                        scene.parts,
-                    ));
+                    // The scene's fit: the parts' spheres every frame, or each pose's
+                    // inscribed balls (a one-off fit per pose, kept for the poses seen last).
+                    spheres.extend(
+                        (scene.sphere_fit.spheres(&m.posed, &m.labels, scene.parts)).map_err(
+                            |e| Error::config(format!("{}: sphere_fit: {e}", scene.file)),
+                        )?,
+                    );
                     st.sphere_fit_seconds += t0.elapsed().as_secs_f64();
                 }
             }

@@ -399,6 +399,11 @@ fn gpu_sphere_set_unions_match_the_cpu_render_frame_by_frame() {
     s.parts = 16;
     let worst = gpu_sets_vs_cpu(&s, &ctx);
     assert!(worst < UNION_GPU_TOL, "{worst}");
+    // Each pose's inscribed balls instead of the parts' spheres: the same sets on both paths.
+    s.order = 4;
+    s.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
+    let worst = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(worst < UNION_GPU_TOL, "inscribed: {worst}");
 }
 
 /// The GPU union's tolerance, relative to the brightest pixel: f32 rounding of the caps'
