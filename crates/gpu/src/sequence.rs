@@ -1,7 +1,9 @@
 //! One deforming entity over a receiver plane, frame by frame on the GPU: host BVH update
 //! (obvhs rebuild or refit, flattened), upload, then three compute passes — ray casting, SH
 //! projection, receiver shading — in one submission, each pass timed by timestamps (or, without
-//! them, submitted alone and timed by the synchronised wall clock).
+//! them, submitted alone and timed by the synchronised wall clock). Or, posed on the device
+//! ([`GpuSequence::pose_on_device`], `crate::pose`): the deformation and the BVH refit are two
+//! more timed passes before those three, and a frame uploads only the pose's uniform.
 
 use crate::bvh::FlatBvh;
 use crate::context::GpuContext;
