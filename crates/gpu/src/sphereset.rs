@@ -51,6 +51,8 @@ pub struct GpuSphereSet {
     image_buf: wgpu::Buffer,
     pipe: wgpu::ComputePipeline,
     bind: wgpu::BindGroup,
+    /// The frame's one stage, timed (its query set made once, not per frame).
+    timer: StageTimer,
 }
 
 impl GpuSphereSet {
@@ -179,6 +181,7 @@ impl GpuSphereSet {
             image_buf,
             pipe,
             bind,
+            timer: StageTimer::new(ctx, 1),
         })
     }
 
@@ -217,7 +220,7 @@ impl GpuSphereSet {
             .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
         ctx.queue
             .write_buffer(&self.spheres_buf, 0, bytemuck::cast_slice(&s));
-        let timer = StageTimer::new(ctx, 1);
+        let timer = &self.timer;
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
