@@ -10,13 +10,10 @@
 //! anything else is refused by name.
 
 use crate::error::Error;
-use crate::frame::{light_of, receiver_grid, Poser};
 use crate::render::{full_field_shells, RenderOutput};
 use crate::scene::Scene;
 use glam::DVec3;
 use shscale_field::evaluator::FullField;
-use shscale_field::shading::Shader;
-use shscale_geometry::ray::UpdateStrategy;
 use shscale_gpu::field::{GpuFullField, WeightSlots, BEYOND};
 use shscale_gpu::GpuContext;
 use std::time::Instant;
@@ -98,9 +95,8 @@ pub fn render_sequence_full_field_gpu(
 ) -> Result<(RenderOutput, Vec<GpuFieldFrame>), Error> {
     check(scene)?;
     let frames = frames.max(1);
-    let o = crate::gpu_path::single_mesh(scene)?;
-    let rest = o.placed()?;
-    let poser = (o.deformer).map(|(k, a)| Poser::new(&rest, k, a));
+    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let rest = &seq.rest;
     let shells = scene.full_field.unwrap_or_else(|| full_field_shells(scene));
     let err = |e: shscale_field::FieldError| Error::config(format!("{}: {e}", scene.file));
     let dirs = scene.layout.directions();
@@ -116,20 +112,15 @@ pub fn render_sequence_full_field_gpu(
         0,
     )
     .map_err(err)?;
-    let light = light_of(scene)?;
-    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
-    let recv = receiver_grid(scene);
-    let strategy = o
-        .deformer
-        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let recv = &seq.recv;
     let mut gpu = GpuFullField::new(
         ctx,
-        &rest,
-        strategy,
+        rest,
+        seq.strategy,
         (scene.order, scene.hemisphere_res),
         radii.len() * dirs.len(),
         recv.len(),
-        &transfer,
+        &seq.transfer,
     )?;
     let mut posed = rest.clone();
     let (mut points, mut slots) = (Vec::new(), Vec::new());
@@ -143,9 +134,7 @@ pub fn render_sequence_full_field_gpu(
             ..Default::default()
         };
         let t0 = Instant::now();
-        if let Some(p) = &poser {
-            p.pose(&rest, t, &mut posed);
-        }
+        seq.pose(t, &mut posed);
         let sphere = posed.bounding_sphere();
         st.deform_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
@@ -156,7 +145,7 @@ pub fn render_sequence_full_field_gpu(
             points.extend(dirs.iter().map(|&u| sphere.center + rs * u));
         }
         template.recentre(sphere);
-        weight_slots(&template, &recv, &mut slots);
+        weight_slots(&template, recv, &mut slots);
         st.weights_seconds = t0.elapsed().as_secs_f64();
         let (img, times) = gpu.frame(ctx, &posed, Some((sphere.center, &points)), &slots)?;
         st.bvh_seconds = times.bvh_seconds;

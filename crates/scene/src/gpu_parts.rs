@@ -11,14 +11,13 @@
 
 use crate::combine::Combine;
 use crate::error::Error;
-use crate::frame::{light_of, receiver_grid, table_for_radii, Poser};
+use crate::frame::table_for_radii;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::bsv::RadialRule;
 use shscale_field::extrapolate::Plausibility;
-use shscale_field::shading::Shader;
 use shscale_geometry::partition::{kmeans_parts, split};
 use shscale_geometry::{Mesh, Sphere};
 use shscale_gpu::parts::{GpuSubVolumes, PartFrame, MAX_GPU_PARTS};
@@ -132,23 +131,19 @@ pub fn render_sequence_sub_volumes_gpu(
 ) -> Result<(RenderOutput, Vec<GpuPartsFrame>), Error> {
     check(scene)?;
     let frames = frames.max(1);
-    let o = crate::gpu_path::single_mesh(scene)?;
-    let rest = o.placed()?;
+    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let (rest, recv) = (&seq.rest, &seq.recv);
     let err = |e: shscale_geometry::GeometryError| Error::config(format!("{}: {e}", scene.file));
-    let labels = kmeans_parts(&rest, scene.parts).map_err(err)?;
-    let poser = (o.deformer).map(|(k, a)| Poser::new(&rest, k, a));
-    let light = light_of(scene)?;
-    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+    let labels = kmeans_parts(rest, scene.parts).map_err(err)?;
     let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
         .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-    let recv = receiver_grid(scene);
     let samples = scene.layout.directions().len();
     let mut gpu = GpuSubVolumes::new(
         ctx,
-        &split(&rest, &labels, scene.parts),
+        &split(rest, &labels, scene.parts),
         (scene.hemisphere_res, samples, scene.k_count),
-        &recv,
-        &transfer,
+        recv,
+        &seq.transfer,
         &gaunt,
     )?;
     let mut posed = rest.clone();
@@ -162,14 +157,12 @@ pub fn render_sequence_sub_volumes_gpu(
             ..Default::default()
         };
         let t0 = Instant::now();
-        if let Some(p) = &poser {
-            p.pose(&rest, t, &mut posed);
-        }
+        seq.pose(t, &mut posed);
         let parts = split(&posed, &labels, scene.parts);
         st.deform_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let host = (parts.iter())
-            .map(|m| host_part(scene, m, &recv))
+            .map(|m| host_part(scene, m, recv))
             .collect::<Result<Vec<_>, Error>>()?;
         st.tables_seconds = t0.elapsed().as_secs_f64();
         let inputs: Vec<PartFrame<'_>> = (parts.iter().zip(&host))

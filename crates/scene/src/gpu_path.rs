@@ -115,6 +115,47 @@ pub fn check(scene: &Scene) -> Result<(), Error> {
     Ok(())
 }
 
+/// What every single-mesh GPU sequence sets up first: the occluder placed at rest, its poser,
+/// the light's transfer for an upward receiver, the receivers, and the BVH update its deformer
+/// prefers.
+pub(crate) struct MeshSequence<'a> {
+    pub occluder: &'a crate::scene::OccluderSpec,
+    pub rest: Mesh,
+    pub poser: Option<crate::frame::Poser>,
+    pub transfer: [Vec<f64>; 3],
+    pub recv: Vec<DVec3>,
+    pub strategy: UpdateStrategy,
+}
+
+impl<'a> MeshSequence<'a> {
+    pub(crate) fn of(scene: &'a Scene) -> Result<Self, Error> {
+        let occluder = single_mesh(scene)?;
+        let rest = occluder.placed()?;
+        let poser = (occluder.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
+        let light = light_of(scene)?;
+        let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+        let strategy =
+            (occluder.deformer).map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+        Ok(Self {
+            occluder,
+            rest,
+            poser,
+            transfer,
+            recv: receiver_grid(scene),
+            strategy,
+        })
+    }
+
+    /// Pose frame time `t` into `posed` (the rest pose without a deformer); its seconds.
+    pub(crate) fn pose(&self, t: f64, posed: &mut Mesh) -> f64 {
+        let t0 = Instant::now();
+        if let Some(p) = &self.poser {
+            p.pose(&self.rest, t, posed);
+        }
+        t0.elapsed().as_secs_f64()
+    }
+}
+
 pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
     match scene.occluders.as_slice() {
         [o] if o.mesh != "sphere" => {

@@ -11,13 +11,12 @@
 //! occluder, `N ≤ 8`, no local lights.
 
 use crate::error::Error;
-use crate::frame::{light_of, receiver_grid, table_for_radii, Poser};
+use crate::frame::table_for_radii;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::bsv::{clearance_radius, RadialRule};
-use shscale_field::shading::Shader;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{MeshBvh, Occluder, Sphere};
 use shscale_gpu::radial::GpuRadial;
@@ -155,15 +154,8 @@ pub fn render_sequence_radial_gpu(
 ) -> Result<(RenderOutput, Vec<GpuRadialFrame>), Error> {
     check(scene)?;
     let frames = frames.max(1);
-    let o = crate::gpu_path::single_mesh(scene)?;
-    let rest = o.placed()?;
-    let poser = (o.deformer).map(|(k, a)| Poser::new(&rest, k, a));
-    let light = light_of(scene)?;
-    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
-    let recv = receiver_grid(scene);
-    let strategy = o
-        .deformer
-        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let (rest, transfer, recv, strategy) = (&seq.rest, &seq.transfer, &seq.recv, seq.strategy);
     let mut posed = rest.clone();
     let mut gpu: Option<GpuRadial> = None;
     let mut stats = Vec::with_capacity(frames);
@@ -176,29 +168,21 @@ pub fn render_sequence_radial_gpu(
             ..Default::default()
         };
         let t0 = Instant::now();
-        if let Some(p) = &poser {
-            p.pose(&rest, t, &mut posed);
-        }
+        seq.pose(t, &mut posed);
         let occ = MeshBvh::build(&posed, UpdateStrategy::Rebuild);
         st.deform_seconds = t0.elapsed().as_secs_f64();
-        let h = host_frame(scene, &occ, &recv, &mut st)?;
+        let h = host_frame(scene, &occ, recv, &mut st)?;
         let setup = ReceiverSetup {
             table: &h.table,
-            transfer: &transfer,
-            receivers: &recv,
+            transfer,
+            receivers: recv,
             locations: &h.locations,
             sampling: h.sphere,
             radii: Some(&h.radii),
         };
         if gpu.is_none() {
             let samples = h.points.len();
-            let g = GpuRadial::new(
-                ctx,
-                &rest,
-                strategy,
-                (scene.hemisphere_res, samples),
-                &setup,
-            )?;
+            let g = GpuRadial::new(ctx, rest, strategy, (scene.hemisphere_res, samples), &setup)?;
             gpu = Some(g);
         }
         let g = gpu.as_mut().expect("made above");

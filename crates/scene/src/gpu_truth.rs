@@ -19,16 +19,12 @@
 //! binding (checked by name).
 
 use crate::error::Error;
-use crate::frame::{light_of, receiver_grid, Poser};
 use crate::gpu_field::GpuFieldFrame;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use glam::DVec3;
-use shscale_field::shading::Shader;
-use shscale_geometry::ray::UpdateStrategy;
 use shscale_gpu::field::{GpuFullField, WeightSlots};
 use shscale_gpu::GpuContext;
-use std::time::Instant;
 
 /// The most receivers: two samples each and the far one within one dispatch's 65,535.
 pub const MAX_GPU_TRUTH_RECEIVERS: usize = 32_767;
@@ -61,6 +57,34 @@ pub fn check(scene: &Scene) -> Result<(), Error> {
     }
 }
 
+/// Receiver `i`'s two samples `2i` (facing up) and `2i + 1` (facing down) at the receiver, and
+/// the last one far beyond every pose (`sphere` encloses them) facing away: the points and the
+/// point each casts toward.
+fn split_samples(recv: &[DVec3], sphere: shscale_geometry::Sphere) -> (Vec<DVec3>, Vec<DVec3>) {
+    let far = sphere.center + 1e3 * sphere.radius.max(1.0) * DVec3::X;
+    let mut points: Vec<DVec3> = recv.iter().flat_map(|&p| [p, p]).collect();
+    let mut target: Vec<DVec3> = (recv.iter())
+        .flat_map(|&p| [p + DVec3::Z, p - DVec3::Z])
+        .collect();
+    points.push(far);
+    target.push(far + DVec3::X);
+    (points, target)
+}
+
+/// Each of `n` receivers' weights over [`split_samples`]: `V = V↑ + V↓ − V_far`.
+fn split_weights(n: usize) -> Vec<WeightSlots> {
+    let one = 1.0f32.to_bits();
+    (0..n as u32)
+        .map(|i| {
+            let mut w = [[0u32; 2]; 8];
+            w[0] = [2 * i, one];
+            w[1] = [2 * i + 1, one];
+            w[2] = [2 * n as u32, (-1.0f32).to_bits()];
+            w
+        })
+        .collect()
+}
+
 /// `frames` poses of `scene` ray traced on the GPU (module documentation); the last frame's
 /// image and every frame's times. `each` sees every frame and its pixels after it is done.
 pub fn render_sequence_ray_traced_gpu(
@@ -71,16 +95,8 @@ pub fn render_sequence_ray_traced_gpu(
 ) -> Result<(RenderOutput, Vec<GpuFieldFrame>), Error> {
     check(scene)?;
     let frames = frames.max(1);
-    let o = crate::gpu_path::single_mesh(scene)?;
-    let rest = o.placed()?;
-    let poser = (o.deformer).map(|(k, a)| Poser::new(&rest, k, a));
-    let light = light_of(scene)?;
-    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
-    let recv = receiver_grid(scene);
-    let strategy = o
-        .deformer
-        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
-    let n = recv.len();
+    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let n = seq.recv.len();
     let h = gauss_res(scene.truth_res);
     let bytes = (2 * n + 1) as u64 * (h * h) as u64 * 4;
     let max = ctx.device.limits().max_storage_buffer_binding_size;
@@ -92,44 +108,22 @@ pub fn render_sequence_ray_traced_gpu(
     }
     let mut gpu = GpuFullField::new(
         ctx,
-        &rest,
-        strategy,
+        &seq.rest,
+        seq.strategy,
         (scene.order, h),
         2 * n + 1,
         n,
-        &transfer,
+        &seq.transfer,
     )?;
-    // Receiver i: samples 2i (facing up) and 2i + 1 (facing down); the last, far beyond every
-    // pose and facing away from the entity, sees nothing.
-    let s = crate::frame::sequence_sphere(&rest, o.deformer, frames);
-    let far = s.center + 1e3 * s.radius.max(1.0) * DVec3::X;
-    let mut points: Vec<DVec3> = recv.iter().flat_map(|&p| [p, p]).collect();
-    points.push(far);
-    let target = |i: usize| match (i == 2 * n, i % 2) {
-        (true, _) => far + DVec3::X,
-        (false, 0) => points[i] + DVec3::Z,
-        _ => points[i] - DVec3::Z,
-    };
-    gpu.place_samples(ctx, target, &points)?;
-    let one = 1.0f32.to_bits();
-    let slots: Vec<WeightSlots> = (0..n as u32)
-        .map(|i| {
-            let mut w = [[0u32; 2]; 8];
-            w[0] = [2 * i, one];
-            w[1] = [2 * i + 1, one];
-            w[2] = [2 * n as u32, (-1.0f32).to_bits()];
-            w
-        })
-        .collect();
-    let mut posed = rest.clone();
+    let s = crate::frame::sequence_sphere(&seq.rest, seq.occluder.deformer, frames);
+    let (points, target) = split_samples(&seq.recv, s);
+    gpu.place_samples(ctx, |i| target[i], &points)?;
+    let slots = split_weights(n);
+    let mut posed = seq.rest.clone();
     let (mut stats, mut pixels) = (Vec::with_capacity(frames), Vec::new());
     for f in 0..frames {
         let t = f as f64 / frames as f64;
-        let t0 = Instant::now();
-        if let Some(p) = &poser {
-            p.pose(&rest, t, &mut posed);
-        }
-        let deform_seconds = t0.elapsed().as_secs_f64();
+        let deform_seconds = seq.pose(t, &mut posed);
         let (img, times) = gpu.frame(ctx, &posed, None, &slots)?;
         let st = GpuFieldFrame {
             frame: f,
