@@ -14,8 +14,7 @@ use crate::sampling::GpuSampler;
 use crate::timing::{grid_64, StageTimer};
 use glam::DVec3;
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{Mesh, RAY_EPS};
-use std::time::Instant;
+use shscale_geometry::Mesh;
 
 const FIELD_WGSL: &str = include_str!("field.wgsl");
 
@@ -158,16 +157,8 @@ impl GpuFullField {
             )));
         }
         let mut times = GpuFieldTimes::default();
-        let t0 = Instant::now();
-        self.bvh.update(mesh)?;
-        times.bvh_seconds = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        // The CPU's ray offset rule: RAY_EPS times the occluder's bounding radius this frame.
-        let tmin = RAY_EPS * mesh.bounding_sphere().radius;
-        self.sampler.upload(ctx, &self.bvh, tmin)?;
-        if let Some((center, points)) = samples {
-            self.sampler.move_samples(ctx, center, points)?;
-        }
+        let t1;
+        (times.bvh_seconds, t1) = self.sampler.follow(ctx, &mut self.bvh, mesh, samples)?;
         ctx.queue
             .write_buffer(&self.weights_buf, 0, bytemuck::cast_slice(weights));
         times.upload_seconds = t1.elapsed().as_secs_f64();

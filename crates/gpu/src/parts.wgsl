@@ -126,18 +126,10 @@ fn shade_parts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     let x = geo[r].xyz;
     let nn = pp.nn;
     // Near to far by the distance to each part's centre (a stable insertion sort).
-    var idx: array<u32, 16>;
-    var dist: array<f32, 16>;
+    var idx: array<u32, 64>;
+    var dist: array<f32, 64>;
     for (var i = 0u; i < pp.parts; i++) {
-        let di = length(geo[pp.receivers + i].xyz - x);
-        var j = i;
-        while (j > 0u && dist[j - 1u] > di) {
-            dist[j] = dist[j - 1u];
-            idx[j] = idx[j - 1u];
-            j--;
-        }
-        dist[j] = di;
-        idx[j] = i;
+        place_by_distance(&idx, &dist, i, length(geo[pp.receivers + i].xyz - x));
     }
     var acc: array<f32, 64>;
     var v: array<f32, 64>;

@@ -1,4 +1,5 @@
-// The truncated SH product for the kernels that multiply visibilities (sphere sets, sub-volumes);
+// The truncated SH product for the kernels that multiply visibilities (sphere sets, sub-volumes),
+// and their order near to far;
 // the including kernel binds the order-N Gaunt tensor as `gaunt` (entries (i, j, k, bits of the
 // value) with i ≤ j, the CPU's GauntTensor::entries).
 
@@ -21,4 +22,19 @@ fn gaunt_product(acc: ptr<function, array<f32, 64>>, v: ptr<function, array<f32,
         tmp[en.z] += bitcast<f32>(en.w) * ab;
     }
     *acc = tmp;
+}
+
+// Occluder `i` (of those placed so far, 0..i) at distance `d` into the near-to-far order
+// `idx`/`dist`: a stable insertion (ties keep the earlier occluder first, as the CPU's stable
+// sort). At most 64 occluders.
+fn place_by_distance(idx: ptr<function, array<u32, 64>>, dist: ptr<function, array<f32, 64>>,
+                     i: u32, d: f32) {
+    var j = i;
+    while (j > 0u && (*dist)[j - 1u] > d) {
+        (*dist)[j] = (*dist)[j - 1u];
+        (*idx)[j] = (*idx)[j - 1u];
+        j--;
+    }
+    (*dist)[j] = d;
+    (*idx)[j] = i;
 }

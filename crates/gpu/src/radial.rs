@@ -16,8 +16,7 @@ use crate::shading::{GpuReceiverBuilder, GpuShader, ReceiverSetup};
 use crate::timing::StageTimer;
 use glam::DVec3;
 use shscale_geometry::ray::UpdateStrategy;
-use shscale_geometry::{Mesh, RAY_EPS};
-use std::time::Instant;
+use shscale_geometry::Mesh;
 
 /// Host and device times of one frame, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
@@ -83,13 +82,9 @@ impl GpuRadial {
         setup: &ReceiverSetup<'_>,
     ) -> Result<(Vec<[f32; 3]>, GpuRadialTimes), GpuError> {
         let mut times = GpuRadialTimes::default();
-        let t0 = Instant::now();
-        self.bvh.update(mesh)?;
-        times.bvh_seconds = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        let tmin = RAY_EPS * mesh.bounding_sphere().radius;
-        self.sampler.upload(ctx, &self.bvh, tmin)?;
-        self.sampler.move_samples(ctx, center, points)?;
+        let t1;
+        (times.bvh_seconds, t1) =
+            (self.sampler).follow(ctx, &mut self.bvh, mesh, Some((center, points)))?;
         self.builder.write(ctx, setup, &self.sampler.params)?;
         times.upload_seconds = t1.elapsed().as_secs_f64();
         let labels = [

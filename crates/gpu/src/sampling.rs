@@ -14,6 +14,7 @@ use crate::layout::{shader, GpuNode, GpuParams, GpuSample, GpuTri, SH_WGSL};
 use crate::timing::grid_64;
 use glam::DVec3;
 use shscale_field::LocalFrame;
+use shscale_geometry::{Mesh, RAY_EPS};
 use shscale_sh::{cap_zonal, rotate_zonal, DirectionSet, ShBasis};
 
 /// Highest SH order the GPU kernels support (`N² ≤ 64` accumulators).
@@ -281,6 +282,28 @@ impl GpuSampler {
     /// samples where they lie.
     pub fn coeffs_buffer(&self) -> &wgpu::Buffer {
         &self.coeffs_buf
+    }
+
+    /// A posed mesh's frame, host half: `bvh` follows `mesh` (its rebuild or refit), is uploaded
+    /// with the CPU's ray offset rule — `RAY_EPS` times the frame's bounding radius — and the
+    /// samples move to `points` casting toward `center` when given. Returns the BVH update's
+    /// seconds and when the uploads began (the caller adds its own and submits afterwards).
+    pub fn follow(
+        &mut self,
+        ctx: &GpuContext,
+        bvh: &mut FlatBvh,
+        mesh: &Mesh,
+        samples: Option<(DVec3, &[DVec3])>,
+    ) -> Result<(f64, std::time::Instant), GpuError> {
+        let t0 = std::time::Instant::now();
+        bvh.update(mesh)?;
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        self.upload(ctx, bvh, RAY_EPS * mesh.bounding_sphere().radius)?;
+        if let Some((center, points)) = samples {
+            self.move_samples(ctx, center, points)?;
+        }
+        Ok((bvh_seconds, t1))
     }
 
     /// Upload this frame's BVH and ray offset (the caller submits afterwards).

@@ -125,12 +125,7 @@ impl GpuSequence {
     pub fn frame(&mut self, ctx: &GpuContext, mesh: &Mesh) -> Result<GpuStageTimes, GpuError> {
         self.host_posed()?;
         let t0 = Instant::now();
-        self.bvh.update(mesh)?;
-        let bvh_seconds = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        // The CPU's ray offset rule: RAY_EPS times the occluder's bounding radius this frame.
-        let tmin = RAY_EPS * mesh.bounding_sphere().radius;
-        self.sampler.upload(ctx, &self.bvh, tmin)?;
+        let (bvh_seconds, t1) = self.sampler.follow(ctx, &mut self.bvh, mesh, None)?;
         let upload_seconds = t1.elapsed().as_secs_f64();
         let mut times = GpuStageTimes {
             bvh_seconds,

@@ -76,15 +76,7 @@ fn shade_set(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     var idx: array<u32, 64>;
     var dist: array<f32, 64>;
     for (var i = 0u; i < count; i++) {
-        let di = length(spheres[i].xyz - p);
-        var j = i;
-        while (j > 0u && dist[j - 1u] > di) {
-            dist[j] = dist[j - 1u];
-            idx[j] = idx[j - 1u];
-            j--;
-        }
-        dist[j] = di;
-        idx[j] = i;
+        place_by_distance(&idx, &dist, i, length(spheres[i].xyz - p));
     }
     var acc: array<f32, 64>;
     var v: array<f32, 64>;

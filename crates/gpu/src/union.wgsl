@@ -30,24 +30,33 @@ const U_SQRT_2: f32 = 1.4142135623730951;
 const CUT: f32 = 2.0;
 const MAX_RINGS: u32 = 32u;
 
-// Caps seen from the receiver (the local frame): axis height, its √(1 − z²), azimuth's sine,
+// A cap seen from the receiver (the local frame): axis height, its √(1 − z²), azimuth's sine,
 // cosine and pseudo-angle, cos A, z-range.
-var<private> cap_zu: array<f32, 64>;
-var<private> cap_su: array<f32, 64>;
-var<private> cap_sp: array<f32, 64>;
-var<private> cap_cp: array<f32, 64>;
-var<private> cap_key: array<f32, 64>;
-var<private> cap_cos_a: array<f32, 64>;
-var<private> cap_lo: array<f32, 64>;
-var<private> cap_hi: array<f32, 64>;
-// One ring's pieces: start (key, sin, cos), end (key, sin, cos), cos of the half-width or CUT.
-var<private> arc_ak: array<f32, 128>;
-var<private> arc_as: array<f32, 128>;
-var<private> arc_ac: array<f32, 128>;
-var<private> arc_bk: array<f32, 128>;
-var<private> arc_bs: array<f32, 128>;
-var<private> arc_bc: array<f32, 128>;
-var<private> arc_c: array<f32, 128>;
+struct UCap {
+    zu: f32,
+    su: f32,
+    sp: f32,
+    cp: f32,
+    key: f32,
+    cos_a: f32,
+    lo: f32,
+    hi: f32,
+};
+// An end of a piece of a ring: its pseudo-angle, sine and cosine.
+struct End {
+    k: f32,
+    s: f32,
+    c: f32,
+};
+// A piece of a ring from a to b, with the cosine of its half-width (or CUT).
+struct Piece {
+    a: End,
+    b: End,
+    c: f32,
+};
+var<private> caps: array<UCap, 64>;
+// One ring's pieces.
+var<private> pieces: array<Piece, 128>;
 var<private> arcs: u32;
 var<private> ring_z: array<f32, 32>;
 var<private> ring_w: array<f32, 32>;
@@ -67,51 +76,45 @@ fn pseudo_angle(x: f32, y: f32) -> f32 {
     return k;
 }
 
-fn push(ak: f32, as_: f32, ac: f32, bk: f32, bs: f32, bc: f32, c: f32) {
-    let i = arcs;
-    arc_ak[i] = ak;
-    arc_as[i] = as_;
-    arc_ac[i] = ac;
-    arc_bk[i] = bk;
-    arc_bs[i] = bs;
-    arc_bc[i] = bc;
-    arc_c[i] = c;
-    arcs = i + 1u;
-}
+// The start and the end of the turn (φ = 0 and 2π).
+const TURN_START: End = End(0.0, 0.0, 1.0);
+const TURN_END: End = End(4.0, 0.0, 1.0);
 
-fn push_full() {
-    push(0.0, 0.0, 1.0, 4.0, 0.0, 1.0, -1.0);
+fn push(a: End, b: End, c: f32) {
+    pieces[arcs] = Piece(a, b, c);
+    arcs++;
 }
 
 // Cap `q`'s interval on the ring at height z (s = √(1 − z²)), split at φ = 0 where it crosses it;
 // a rounding reversal of a near-empty interval is dropped (the CPU's `push_arc`).
 fn on_ring(q: u32, z: f32, s: f32) {
-    let ss = s * cap_su[q];
-    let num = cap_cos_a[q] - z * cap_zu[q];
+    let cap = caps[q];
+    let ss = s * cap.su;
+    let num = cap.cos_a - z * cap.zu;
     if (ss <= 1e-30) {
         if (num <= 0.0) {
-            push_full();
+            push(TURN_START, TURN_END, -1.0);
         }
         return;
     }
     let c = num / ss;
     if (c <= -1.0) {
-        push_full();
+        push(TURN_START, TURN_END, -1.0);
         return;
     }
     if (c >= 1.0) {
         return;
     }
     let sh = sqrt((1.0 - c) * (1.0 + c));
-    let sp = cap_sp[q];
-    let cp = cap_cp[q];
+    let sp = cap.sp;
+    let cp = cap.cp;
     let lc = cp * c + sp * sh;
     let ls = sp * c - cp * sh;
     let hc = cp * c - sp * sh;
     let hs = sp * c + cp * sh;
-    let lk = pseudo_angle(lc, ls);
-    let hk = pseudo_angle(hc, hs);
-    let d = hk - lk;
+    let lo = End(pseudo_angle(lc, ls), ls, lc);
+    let hi = End(pseudo_angle(hc, hs), hs, hc);
+    let d = hi.k - lo.k;
     var crosses = d < 0.0;
     var whole = d >= 0.0;
     if (c > 0.0) {
@@ -119,21 +122,21 @@ fn on_ring(q: u32, z: f32, s: f32) {
         whole = d >= 0.0 && d < 3.0;
     }
     if (crosses) {
-        push(lk, ls, lc, 4.0, 0.0, 1.0, CUT);
-        push(0.0, 0.0, 1.0, hk, hs, hc, CUT);
+        push(lo, TURN_END, CUT);
+        push(TURN_START, hi, CUT);
     } else if (whole) {
-        push(lk, ls, lc, hk, hs, hc, c);
+        push(lo, hi, c);
     }
 }
 
 // The length of the run from a to b (counter-clockwise, no crossing of φ = 0): 2·acos(c) for one
 // cap's whole interval, else one atan2 of the ends, lifted by 2π for a run of π or more.
-fn run_length(ak: f32, as_: f32, ac: f32, bk: f32, bs: f32, bc: f32, c: f32) -> f32 {
+fn run_length(a: End, b: End, c: f32) -> f32 {
     if (c != CUT) {
         return 2.0 * acos(clamp(c, -1.0, 1.0));
     }
-    let len = atan2(ac * bs - as_ * bc, ac * bc + as_ * bs);
-    if (bk - ak >= 2.0) {
+    let len = atan2(a.c * b.s - a.s * b.c, a.c * b.c + a.s * b.s);
+    if (b.k - a.k >= 2.0) {
         if (len <= 0.0) {
             return len + U_TAU;
         }
@@ -143,15 +146,17 @@ fn run_length(ak: f32, as_: f32, ac: f32, bk: f32, bs: f32, bc: f32, c: f32) -> 
 }
 
 // ∫ T_m over [a, b] added to cm (cos mφ; cm[0] the length) and sm (sin mφ), m < n.
-fn add_trig(as_: f32, ac: f32, bs: f32, bc: f32, len: f32, n: u32) {
+fn add_trig(a: End, b: End, len: f32, n: u32) {
+    let ac = a.c;
+    let bc = b.c;
     cm[0] += len;
     var sa0 = 0.0;
     var ca0 = 1.0;
-    var sa1 = as_;
+    var sa1 = a.s;
     var ca1 = ac;
     var sb0 = 0.0;
     var cb0 = 1.0;
-    var sb1 = bs;
+    var sb1 = b.s;
     var cb1 = bc;
     for (var m = 1u; m < n; m++) {
         let mf = f32(m);
@@ -179,17 +184,17 @@ fn rings_of(count: u32) -> u32 {
     var z0 = 1e30;
     var z1 = -1e30;
     for (var q = 0u; q < count; q++) {
-        z0 = min(z0, cap_lo[q]);
-        z1 = max(z1, cap_hi[q]);
+        z0 = min(z0, caps[q].lo);
+        z1 = max(z1, caps[q].hi);
     }
     let panels_max = max(params.rings / params.panel_rings, 1u);
     var cuts: array<f32, 34>;
     var n_cuts = 0u;
     var fits = true;
     for (var e = 0u; e < 2u * count && fits; e++) {
-        var x = cap_lo[e / 2u];
+        var x = caps[e / 2u].lo;
         if (e % 2u == 1u) {
-            x = cap_hi[e / 2u];
+            x = caps[e / 2u].hi;
         }
         if (!(x > z0 && x < z1)) {
             continue;
@@ -312,25 +317,11 @@ fn shade_union(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
         }
         let key = pseudo_angle(cp, sp);
         var j = count;
-        while (j > 0u && cap_key[j - 1u] > key) {
-            cap_zu[j] = cap_zu[j - 1u];
-            cap_su[j] = cap_su[j - 1u];
-            cap_sp[j] = cap_sp[j - 1u];
-            cap_cp[j] = cap_cp[j - 1u];
-            cap_key[j] = cap_key[j - 1u];
-            cap_cos_a[j] = cap_cos_a[j - 1u];
-            cap_lo[j] = cap_lo[j - 1u];
-            cap_hi[j] = cap_hi[j - 1u];
+        while (j > 0u && caps[j - 1u].key > key) {
+            caps[j] = caps[j - 1u];
             j--;
         }
-        cap_zu[j] = u.z;
-        cap_su[j] = su;
-        cap_sp[j] = sp;
-        cap_cp[j] = cp;
-        cap_key[j] = key;
-        cap_cos_a[j] = cos_a;
-        cap_lo[j] = z_lo;
-        cap_hi[j] = z_hi;
+        caps[j] = UCap(u.z, su, sp, cp, key, cos_a, z_lo, z_hi);
         count++;
     }
     // V in the local frame: √(4π)e₀ minus the union's projection, ring by ring.
@@ -347,7 +338,7 @@ fn shade_union(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
             let s = sqrt(max((1.0 - z) * (1.0 + z), 0.0));
             arcs = 0u;
             for (var q = 0u; q < count; q++) {
-                if (z >= cap_lo[q] && z <= cap_hi[q]) {
+                if (z >= caps[q].lo && z <= caps[q].hi) {
                     on_ring(q, z, s);
                 }
             }
@@ -356,64 +347,33 @@ fn shade_union(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
             }
             // Order the pieces by their starts (insertion: they arrive nearly sorted).
             for (var i = 1u; i < arcs; i++) {
-                let ak = arc_ak[i];
-                let as_ = arc_as[i];
-                let ac = arc_ac[i];
-                let bk = arc_bk[i];
-                let bs = arc_bs[i];
-                let bc = arc_bc[i];
-                let c = arc_c[i];
+                let x = pieces[i];
                 var k = i;
-                while (k > 0u && arc_ak[k - 1u] > ak) {
-                    arc_ak[k] = arc_ak[k - 1u];
-                    arc_as[k] = arc_as[k - 1u];
-                    arc_ac[k] = arc_ac[k - 1u];
-                    arc_bk[k] = arc_bk[k - 1u];
-                    arc_bs[k] = arc_bs[k - 1u];
-                    arc_bc[k] = arc_bc[k - 1u];
-                    arc_c[k] = arc_c[k - 1u];
+                while (k > 0u && pieces[k - 1u].a.k > x.a.k) {
+                    pieces[k] = pieces[k - 1u];
                     k--;
                 }
-                arc_ak[k] = ak;
-                arc_as[k] = as_;
-                arc_ac[k] = ac;
-                arc_bk[k] = bk;
-                arc_bs[k] = bs;
-                arc_bc[k] = bc;
-                arc_c[k] = c;
+                pieces[k] = x;
             }
             for (var m = 0u; m < 8u; m++) {
                 cm[m] = 0.0;
                 sm[m] = 0.0;
             }
             // Runs of overlapping pieces.
-            var ak = arc_ak[0];
-            var as_ = arc_as[0];
-            var ac = arc_ac[0];
-            var bk = arc_bk[0];
-            var bs = arc_bs[0];
-            var bc = arc_bc[0];
-            var c1 = arc_c[0];
+            var run = pieces[0];
             for (var i = 1u; i < arcs; i++) {
-                if (arc_ak[i] <= bk) {
-                    if (arc_bk[i] > bk) {
-                        bk = arc_bk[i];
-                        bs = arc_bs[i];
-                        bc = arc_bc[i];
-                        c1 = CUT;
+                let x = pieces[i];
+                if (x.a.k <= run.b.k) {
+                    if (x.b.k > run.b.k) {
+                        run.b = x.b;
+                        run.c = CUT;
                     }
                 } else {
-                    add_trig(as_, ac, bs, bc, run_length(ak, as_, ac, bk, bs, bc, c1), n);
-                    ak = arc_ak[i];
-                    as_ = arc_as[i];
-                    ac = arc_ac[i];
-                    bk = arc_bk[i];
-                    bs = arc_bs[i];
-                    bc = arc_bc[i];
-                    c1 = arc_c[i];
+                    add_trig(run.a, run.b, run_length(run.a, run.b, run.c), n);
+                    run = x;
                 }
             }
-            add_trig(as_, ac, bs, bc, run_length(ak, as_, ac, bk, bs, bc, c1), n);
+            add_trig(run.a, run.b, run_length(run.a, run.b, run.c), n);
             // Θ_lm(z) from the basis at φ = 0: Y_l0 = Θ_l0, Y_lm = Θ_lm (m > 0).
             sh_eval(vec3<f32>(s, 0.0, z), n, &y);
             let w = ring_w[j];

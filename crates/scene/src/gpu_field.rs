@@ -14,7 +14,7 @@ use crate::render::{full_field_shells, RenderOutput};
 use crate::scene::Scene;
 use glam::DVec3;
 use shscale_field::evaluator::FullField;
-use shscale_gpu::field::{GpuFullField, WeightSlots, BEYOND};
+use shscale_gpu::field::{GpuFieldTimes, GpuFullField, WeightSlots, BEYOND};
 use shscale_gpu::GpuContext;
 use std::time::Instant;
 
@@ -27,13 +27,8 @@ pub struct GpuFieldFrame {
     pub deform_seconds: f64,
     /// Host: every receiver's interpolation weights about this frame's sphere.
     pub weights_seconds: f64,
-    /// Host: BVH update; the BVH, sample positions and weights uploaded.
-    pub bvh_seconds: f64,
-    pub upload_seconds: f64,
-    /// Device: the shells' rays, their projection, the shading.
-    pub sampling_seconds: f64,
-    pub projection_seconds: f64,
-    pub shading_seconds: f64,
+    /// The GPU frame's own: BVH update and uploads on the host, the three device stages.
+    pub gpu: GpuFieldTimes,
 }
 
 impl GpuFieldFrame {
@@ -46,11 +41,11 @@ impl GpuFieldFrame {
             &[
                 ("deform", self.deform_seconds),
                 ("field_weights", self.weights_seconds),
-                ("bvh_update", self.bvh_seconds),
-                ("upload", self.upload_seconds),
-                ("bsv_sampling", self.sampling_seconds),
-                ("sh_conversion", self.projection_seconds),
-                ("shading", self.shading_seconds),
+                ("bvh_update", self.gpu.bvh_seconds),
+                ("upload", self.gpu.upload_seconds),
+                ("bsv_sampling", self.gpu.sampling_seconds),
+                ("sh_conversion", self.gpu.projection_seconds),
+                ("shading", self.gpu.shading_seconds),
             ],
         )
     }
@@ -148,11 +143,7 @@ pub fn render_sequence_full_field_gpu(
         weight_slots(&template, recv, &mut slots);
         st.weights_seconds = t0.elapsed().as_secs_f64();
         let (img, times) = gpu.frame(ctx, &posed, Some((sphere.center, &points)), &slots)?;
-        st.bvh_seconds = times.bvh_seconds;
-        st.upload_seconds = times.upload_seconds;
-        st.sampling_seconds = times.sampling_seconds;
-        st.projection_seconds = times.projection_seconds;
-        st.shading_seconds = times.shading_seconds;
+        st.gpu = times;
         each(&st, &img);
         pixels = img;
         stats.push(st);

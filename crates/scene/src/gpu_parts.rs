@@ -20,7 +20,7 @@ use shscale_field::bsv::RadialRule;
 use shscale_field::extrapolate::Plausibility;
 use shscale_geometry::partition::{kmeans_parts, split};
 use shscale_geometry::{Mesh, Sphere};
-use shscale_gpu::parts::{GpuSubVolumes, PartFrame, MAX_GPU_PARTS};
+use shscale_gpu::parts::{GpuPartsTimes, GpuSubVolumes, PartFrame, MAX_GPU_PARTS};
 use shscale_gpu::GpuContext;
 use shscale_scaling::{Eta, KTable};
 use std::time::Instant;
@@ -31,13 +31,11 @@ pub struct GpuPartsFrame {
     pub frame: usize,
     pub t: f64,
     /// Host: posing and splitting the mesh; the parts' spheres, tables and the receivers'
-    /// locations; the BVH updates; the uploads.
+    /// locations.
     pub deform_seconds: f64,
     pub tables_seconds: f64,
-    pub bvh_seconds: f64,
-    pub upload_seconds: f64,
-    /// Device: every part's rays and projection and the shading (one submission).
-    pub device_seconds: f64,
+    /// The GPU frame's own: the BVH updates and uploads, the device's one submission.
+    pub gpu: GpuPartsTimes,
 }
 
 impl GpuPartsFrame {
@@ -49,9 +47,9 @@ impl GpuPartsFrame {
             &[
                 ("deform", self.deform_seconds),
                 ("tables", self.tables_seconds),
-                ("bvh_update", self.bvh_seconds),
-                ("upload", self.upload_seconds),
-                ("device", self.device_seconds),
+                ("bvh_update", self.gpu.bvh_seconds),
+                ("upload", self.gpu.upload_seconds),
+                ("device", self.gpu.device_seconds),
             ],
         )
     }
@@ -175,9 +173,7 @@ pub fn render_sequence_sub_volumes_gpu(
             })
             .collect();
         let (img, times) = gpu.frame(ctx, &inputs)?;
-        st.bvh_seconds = times.bvh_seconds;
-        st.upload_seconds = times.upload_seconds;
-        st.device_seconds = times.device_seconds;
+        st.gpu = times;
         each(&st, &img);
         pixels = img;
         stats.push(st);

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use shscale_field::bsv::{clearance_radius, RadialRule};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{MeshBvh, Occluder, Sphere};
-use shscale_gpu::radial::GpuRadial;
+use shscale_gpu::radial::{GpuRadial, GpuRadialTimes};
 use shscale_gpu::{GpuContext, ReceiverSetup};
 use shscale_scaling::Eta;
 use std::time::Instant;
@@ -35,14 +35,8 @@ pub struct GpuRadialFrame {
     pub radii_seconds: f64,
     pub table_seconds: f64,
     pub locate_seconds: f64,
-    /// Host: the GPU's BVH update and the uploads.
-    pub bvh_seconds: f64,
-    pub upload_seconds: f64,
-    /// Device.
-    pub sampling_seconds: f64,
-    pub projection_seconds: f64,
-    pub setup_seconds: f64,
-    pub shading_seconds: f64,
+    /// The GPU frame's own: BVH update and uploads on the host, the four device stages.
+    pub gpu: GpuRadialTimes,
 }
 
 impl GpuRadialFrame {
@@ -56,12 +50,12 @@ impl GpuRadialFrame {
                 ("radii", self.radii_seconds),
                 ("table_build", self.table_seconds),
                 ("locate", self.locate_seconds),
-                ("bvh_update", self.bvh_seconds),
-                ("upload", self.upload_seconds),
-                ("bsv_sampling", self.sampling_seconds),
-                ("sh_conversion", self.projection_seconds),
-                ("receiver_setup", self.setup_seconds),
-                ("shading", self.shading_seconds),
+                ("bvh_update", self.gpu.bvh_seconds),
+                ("upload", self.gpu.upload_seconds),
+                ("bsv_sampling", self.gpu.sampling_seconds),
+                ("sh_conversion", self.gpu.projection_seconds),
+                ("receiver_setup", self.gpu.setup_seconds),
+                ("shading", self.gpu.shading_seconds),
             ],
         )
     }
@@ -187,12 +181,7 @@ pub fn render_sequence_radial_gpu(
         }
         let g = gpu.as_mut().expect("made above");
         let (img, times) = g.frame(ctx, &posed, (h.sphere.center, &h.points), &setup)?;
-        st.bvh_seconds = times.bvh_seconds;
-        st.upload_seconds = times.upload_seconds;
-        st.sampling_seconds = times.sampling_seconds;
-        st.projection_seconds = times.projection_seconds;
-        st.setup_seconds = times.setup_seconds;
-        st.shading_seconds = times.shading_seconds;
+        st.gpu = times;
         each(&st, &img);
         pixels = img;
         stats.push(st);

@@ -130,11 +130,7 @@ pub fn render_sequence_ray_traced_gpu(
             t,
             deform_seconds,
             weights_seconds: 0.0,
-            bvh_seconds: times.bvh_seconds,
-            upload_seconds: times.upload_seconds,
-            sampling_seconds: times.sampling_seconds,
-            projection_seconds: times.projection_seconds,
-            shading_seconds: times.shading_seconds,
+            gpu: times,
         };
         each(&st, &img);
         pixels = img;
