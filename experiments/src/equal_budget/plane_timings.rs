@@ -129,21 +129,26 @@ pub fn time_on_gpu(
     if frames == 1 {
         images.drain(..images.len().saturating_sub(1));
     }
-    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
     // The images the GPU path kept are the sequence's last ones.
     let skip = cpu.len() - images.len();
-    let diff = (images.iter().zip(&cpu[skip..]))
-        .flat_map(|(g, c)| {
-            g.iter()
-                .flatten()
-                .zip(c)
-                .map(|(a, b)| (*a as f64 - b).abs())
-        })
-        .fold(0.0f64, f64::max);
+    let pairs = (images.iter().zip(&cpu[skip..])).flat_map(|(g, c)| {
+        g.iter()
+            .flatten()
+            .map(|&a| f64::from(a))
+            .zip(c.iter().copied())
+    });
     Ok(GpuTimed {
         frame: t,
-        max_diff: diff / unit.max(1e-300),
+        max_diff: largest_difference(pairs, open),
     })
+}
+
+/// The largest `|a − b|` over `pairs`, in the unit of the mean of `open` (the mean unshadowed
+/// irradiance).
+fn largest_difference(pairs: impl Iterator<Item = (f64, f64)>, open: &[f64]) -> f64 {
+    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
+    let diff = pairs.map(|(a, b)| (a - b).abs()).fold(0.0f64, f64::max);
+    diff / unit.max(1e-300)
 }
 
 /// One frame's pixels, RGB per receiver.
@@ -199,11 +204,11 @@ pub fn cached_frame(
         return Ok(None);
     };
     let (img, t) = ctx.timing.measure(|| plane.frame())?;
-    let unit = open.iter().sum::<f64>() / open.len().max(1) as f64;
-    let diff = (img.iter().flatten().zip(direct))
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f64, f64::max);
-    Ok(Some((t, plane.build_seconds, diff / unit.max(1e-300))))
+    let diff = largest_difference(
+        img.iter().flatten().copied().zip(direct.iter().copied()),
+        open,
+    );
+    Ok(Some((t, plane.build_seconds, diff)))
 }
 
 /// Seconds of one GPU-timed repetition besides its frames (`device` ≠ `cpu`): the sequence's
