@@ -670,3 +670,60 @@ fn table1_per_method_gpu_rows() {
     );
     assert_ne!(chain, union, "{v}");
 }
+
+/// `bench --methods … --gpu --device-pose`: a `gpu-device` row for each method the device
+/// poses — sphere sets with the area fit (posed and fitted on the device, no read-back among
+/// its stages) and the papers' sequence — and none for the full field (posed on the host); the
+/// device-fitted spheres score as the host-fitted ones within the fit's f32 rounding.
+#[test]
+fn table1_per_method_device_posed_rows() {
+    let v = common::json(&[
+        "bench",
+        "--scene",
+        "bird",
+        "--methods",
+        "sphere_set:parts=4,full_field,extrapolated",
+        "--errors",
+        "--gpu",
+        "--device-pose",
+        "--frames",
+        "1",
+        "--warmup",
+        "1",
+        "--format",
+        "json",
+    ]);
+    let rows = v.as_array().unwrap();
+    if rows.len() == 3 {
+        assert!(!require_gpu(), "no GPU row: {v}");
+        eprintln!("notice: no adapter; the GPU rows were not measured");
+        return;
+    }
+    let paths: Vec<(String, String)> = (rows.iter())
+        .map(|r| {
+            (
+                r["method"].as_str().unwrap().to_string(),
+                r["path"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    println!("{paths:?}");
+    let device: Vec<&serde_json::Value> = (rows.iter())
+        .filter(|r| r["path"] == "gpu-device")
+        .collect();
+    assert_eq!(device.len(), 2, "{v}");
+    assert_eq!(device[0]["method"], "sphere_set:parts=4", "{v}");
+    assert_eq!(device[1]["method"], "extrapolated", "{v}");
+    let stages = device[0]["stages_ms"].as_object().unwrap();
+    let names: Vec<&String> = stages.keys().collect();
+    assert_eq!(names, ["deform", "sphere_fit", "upload", "shading"], "{v}");
+    let host = (rows.iter())
+        .find(|r| r["path"] == "gpu" && r["method"] == "sphere_set:parts=4")
+        .unwrap();
+    let (h, d) = (
+        host["error_mean"].as_f64().unwrap(),
+        device[0]["error_mean"].as_f64().unwrap(),
+    );
+    println!("bird, 4 spheres: host-fitted error {h:.6}, device-fitted {d:.6}");
+    assert!((h - d).abs() < 1e-3 * h, "{h} vs {d}");
+}

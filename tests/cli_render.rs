@@ -480,20 +480,26 @@ fn sequences_take_every_method() {
         &[
             "bench",
             "--gpu",
-            "--device-pose",
+            "--pipelined",
             "--methods",
             "full_field",
             "--scene",
             "bird",
         ],
-        "--device-pose",
+        "--pipelined",
     );
-    // Sphere sets and the full field have a GPU sequence (where an adapter exists).
+    // Sphere sets and the full field have a GPU sequence (where an adapter exists); sphere sets
+    // with the area fit are posed and fitted on the device too.
     for (method, title, parts) in [
         (
             "sphere_set",
             "GPU sphere-set sequence",
             &["--parts", "2"][..],
+        ),
+        (
+            "sphere_set",
+            "GPU sphere-set (posed and fitted on the device) sequence",
+            &["--parts", "2", "--device-pose"][..],
         ),
         ("full_field", "GPU full-field sequence", &[][..]),
     ] {

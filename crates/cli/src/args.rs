@@ -190,7 +190,9 @@ pub struct BenchArgs {
     #[arg(long, requires = "gpu")]
     pub pipelined: bool,
     /// With --gpu: one more row per scene, the GPU sequence posed and refitted on the device
-    /// (`gpu-device`: deform and refit are device stages, only the pose's uniform is uploaded).
+    /// (`gpu-device`: deform and refit are device stages, only the pose's uniform is uploaded);
+    /// with --methods, a `gpu-device` row for each method the device poses (the papers'
+    /// extrapolation, sphere sets with the area fit: posed and fitted on the device).
     #[arg(long, requires = "gpu")]
     pub device_pose: bool,
     /// Skip the CPU path (with --gpu).
@@ -543,8 +545,9 @@ pub struct RenderArgs {
     /// i + 1 while the device runs frame i; each frame's stages are printed beside its period.
     #[arg(long, requires = "gpu")]
     pub pipelined: bool,
-    /// With --gpu (the papers' extrapolation): pose and refit every frame on the device (the
-    /// deformation and the BVH refit become device stages; only the pose's uniform is uploaded).
+    /// With --gpu (the papers' extrapolation, or sphere sets with the area fit): pose every frame
+    /// on the device and refit its BVH there or fit its spheres there (device stages; only the
+    /// pose's uniform is uploaded).
     #[arg(long, requires = "gpu", conflicts_with = "pipelined")]
     pub device_pose: bool,
     /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).

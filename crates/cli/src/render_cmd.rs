@@ -412,26 +412,35 @@ fn gpu_sequence_of(
             "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes, sphere sets and the band-limited ray-traced reference only; --method {method} with these keys runs on the CPU path (without --gpu)"
         );
     };
-    for (set, flag) in [
-        (a.pipelined, "--pipelined"),
-        (a.device_pose, "--device-pose"),
-    ] {
-        if set && form != GpuForm::Sequence {
-            bail!(
-                "{flag}: the papers' extrapolation's GPU sequence only (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another, posed on the host"
-            );
-        }
+    if a.pipelined && form != GpuForm::Sequence {
+        bail!(
+            "--pipelined: the papers' extrapolation's GPU sequence only (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
+        );
+    }
+    if a.device_pose && !shscale_scene::gpu_methods::poses_on_device(scene, form) {
+        bail!(
+            "--device-pose: the papers' extrapolation (--method extrapolated, radial = \"uniform\") and sphere sets with sphere_fit = \"area\" only; --method {method} with these keys poses its GPU frames on the host"
+        );
     }
     if form == GpuForm::Sequence {
         return gpu_sequence(a, scene, frames);
     }
     let ctx = required_gpu()?;
     let mut seq = Vec::with_capacity(frames);
-    let img =
-        shscale_scene::gpu_methods::render_gpu_frames(scene, form, frames, &ctx, &mut |f, _| {
-            seq.push(f.clone())
-        })?;
-    print_gpu_sequence(a, form.name(), &img, &seq, &ctx)
+    let img = shscale_scene::gpu_methods::render_gpu_frames_posed(
+        scene,
+        form,
+        frames,
+        &ctx,
+        a.device_pose,
+        &mut |f, _| seq.push(f.clone()),
+    )?;
+    let what = if a.device_pose {
+        format!("{} (posed and fitted on the device)", form.name())
+    } else {
+        form.name().to_string()
+    };
+    print_gpu_sequence(a, &what, &img, &seq, &ctx)
 }
 
 fn sequence(

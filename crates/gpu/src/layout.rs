@@ -177,6 +177,19 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// One mesh's sphere fit (`fit.wgsl`, a uniform): its parts, the first of its spheres' slots
+    /// in the set's sphere buffer, and the point the moments are taken about (the rest pose's
+    /// bounding-sphere centre, for f32 precision).
+    GpuFit [32] {
+        parts: u32 => "u32",
+        slot: u32 => "u32",
+        pad0: u32 => "u32",
+        pad1: u32 => "u32",
+        origin: [f32; 4] => "vec4<f32>",
+    }
+}
+
 /// Every struct's WGSL declaration, prepended to each shader.
 pub fn wgsl_structs() -> String {
     [
@@ -190,6 +203,7 @@ pub fn wgsl_structs() -> String {
         GpuPartsParams::WGSL,
         GpuPose::WGSL,
         GpuLevel::WGSL,
+        GpuFit::WGSL,
     ]
     .concat()
 }

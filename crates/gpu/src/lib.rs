@@ -35,6 +35,7 @@ pub mod bvh;
 pub mod context;
 pub mod error;
 pub mod field;
+pub mod fit;
 pub mod layout;
 pub mod parts;
 pub mod pose;

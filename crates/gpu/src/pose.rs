@@ -38,7 +38,7 @@ pub fn pose_source() -> String {
 }
 
 /// The kind's number in `GpuPose::kind`.
-fn kind_code(d: Option<&Deformer>) -> u32 {
+pub(crate) fn kind_code(d: Option<&Deformer>) -> u32 {
     match d {
         None => 0,
         Some(Deformer::Bend { .. }) => 1,
@@ -48,7 +48,7 @@ fn kind_code(d: Option<&Deformer>) -> u32 {
     }
 }
 
-fn v4s(m: &Mesh) -> Vec<[f32; 4]> {
+pub(crate) fn v4s(m: &Mesh) -> Vec<[f32; 4]> {
     (m.positions.iter())
         .map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0])
         .collect()

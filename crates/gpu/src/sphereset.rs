@@ -53,6 +53,8 @@ pub struct GpuSphereSet {
     bind: wgpu::BindGroup,
     /// The frame's one stage, timed (its query set made once, not per frame).
     timer: StageTimer,
+    /// A frame posed and fitted on the device: deform, sphere fit, shading.
+    device_timer: StageTimer,
 }
 
 impl GpuSphereSet {
@@ -182,6 +184,7 @@ impl GpuSphereSet {
             pipe,
             bind,
             timer: StageTimer::new(ctx, 1),
+            device_timer: StageTimer::new(ctx, 3),
         })
     }
 
@@ -199,22 +202,8 @@ impl GpuSphereSet {
                 spheres.len()
             )));
         }
-        let s: Vec<[f32; 4]> = (spheres.iter())
-            .map(|s| {
-                let c = s.center;
-                [c.x as f32, c.y as f32, c.z as f32, s.radius as f32]
-            })
-            .collect();
-        let params = GpuSetParams {
-            receivers: self.receivers as u32,
-            order: self.order as u32,
-            nn: (self.order * self.order) as u32,
-            spheres: s.len() as u32,
-            entries: self.entries as u32,
-            channels: self.channels as u32,
-            rings: self.rings as u32,
-            panel_rings: shscale_field::union::PANEL_RINGS as u32,
-        };
+        let s = sphere_words(spheres);
+        let params = self.params(s.len());
         let t0 = std::time::Instant::now();
         ctx.queue
             .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
@@ -236,6 +225,95 @@ impl GpuSphereSet {
         ctx.wait()?;
         let wall = t0.elapsed().as_secs_f64();
         let device = timer.read(ctx)?.map_or(wall, |v| v[0]);
-        Ok((ctx.read_image(&self.image_buf, self.receivers)?, device))
+        Ok((self.read_image(ctx)?, device))
     }
+
+    /// The sphere buffer a device fit writes into ([`crate::fit::GpuSphereFit`]).
+    pub fn spheres_buffer(&self) -> &wgpu::Buffer {
+        &self.spheres_buf
+    }
+
+    /// Shade every receiver at time `t` with the spheres of `fits` (each mesh posed and fitted
+    /// on the device into its slots) followed by `fixed` (spheres that do not move, written
+    /// after the fits' slots): three device stages, their seconds — deform, sphere fit, shading
+    /// (timestamps where available, else each stage alone by the synchronised wall clock).
+    /// Nothing is read back ([`Self::read_image`] reads the frame).
+    pub fn frame_on_device(
+        &self,
+        ctx: &GpuContext,
+        fits: &mut [crate::fit::GpuSphereFit],
+        fixed: &[Sphere],
+        t: f64,
+    ) -> Result<[f64; 3], GpuError> {
+        let fitted: usize = fits.iter().map(crate::fit::GpuSphereFit::parts).sum();
+        let count = fitted + fixed.len();
+        if count == 0 || count > MAX_GPU_SPHERES {
+            return Err(GpuError::Input(format!(
+                "{count} spheres: the GPU sphere set takes 1 to {MAX_GPU_SPHERES}"
+            )));
+        }
+        let params = self.params(count);
+        ctx.queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
+        if !fixed.is_empty() {
+            ctx.queue.write_buffer(
+                &self.spheres_buf,
+                16 * fitted as u64,
+                bytemuck::cast_slice(&sphere_words(fixed)),
+            );
+        }
+        for f in fits.iter_mut() {
+            f.prepare(ctx, t);
+        }
+        let fits = &*fits;
+        self.device_timer.run(
+            ctx,
+            ["deform", "sphere fit", "sphere set"],
+            |i, pass| match i {
+                0 => fits.iter().for_each(|f| f.record_deform(pass)),
+                1 => fits.iter().for_each(|f| f.record_fit(pass)),
+                _ => {
+                    let (x, y) = grid_64(self.receivers as u32);
+                    pass.set_pipeline(&self.pipe);
+                    pass.set_bind_group(0, &self.bind, &[]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+            },
+        )
+    }
+
+    /// The last frame's image (RGB per receiver).
+    pub fn read_image(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
+        ctx.read_image(&self.image_buf, self.receivers)
+    }
+
+    /// The spheres as the kernel reads them (tests: a device fit's output).
+    pub fn read_spheres(&self, ctx: &GpuContext, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
+        let raw = ctx.read_buffer(&self.spheres_buf)?;
+        Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..n.min(MAX_GPU_SPHERES)].to_vec())
+    }
+
+    /// The kernel's parameters for `spheres` spheres.
+    fn params(&self, spheres: usize) -> GpuSetParams {
+        GpuSetParams {
+            receivers: self.receivers as u32,
+            order: self.order as u32,
+            nn: (self.order * self.order) as u32,
+            spheres: spheres as u32,
+            entries: self.entries as u32,
+            channels: self.channels as u32,
+            rings: self.rings as u32,
+            panel_rings: shscale_field::union::PANEL_RINGS as u32,
+        }
+    }
+}
+
+/// Spheres as the kernel reads them: centre and radius in f32.
+fn sphere_words(spheres: &[Sphere]) -> Vec<[f32; 4]> {
+    (spheres.iter())
+        .map(|s| {
+            let c = s.center;
+            [c.x as f32, c.y as f32, c.z as f32, s.radius as f32]
+        })
+        .collect()
 }

@@ -347,20 +347,28 @@ pub fn bench_method(
     ))
 }
 
-/// The GPU Table 1 sequence's stage times per measured frame (seconds).
+/// The GPU Table 1 sequence's stage times per measured frame (seconds), posed on the host or
+/// (`device_pose`) on the device: there `deform` and `bvh_update` are the device's pose and
+/// refit, the latter with any host rebuild.
 fn gpu_extrapolated_stages(
     s: &Scene,
-    total: usize,
-    warmup: usize,
+    (total, warmup): (usize, usize),
+    device_pose: bool,
     ctx: &shscale_gpu::GpuContext,
 ) -> Result<Vec<Vec<(String, f64)>>, Error> {
-    let run = crate::gpu_path::render_sequence_gpu(s, total, ctx)?;
+    use crate::gpu_path::{render_sequence_gpu_with, GpuFrames};
+    let mode = if device_pose {
+        GpuFrames::DevicePose
+    } else {
+        GpuFrames::Sequential
+    };
+    let run = render_sequence_gpu_with(s, total, ctx, mode)?;
     Ok((run.frames.iter().skip(warmup))
         .map(|f| {
             let g = &f.gpu;
             crate::sequence::named_stages(&[
-                ("deform", f.deform_seconds),
-                ("bvh_update", g.bvh_seconds),
+                ("deform", f.deform_seconds + g.deform_seconds),
+                ("bvh_update", g.bvh_seconds + g.refit_seconds),
                 ("upload", g.upload_seconds),
                 ("bsv_sampling", g.sampling_seconds),
                 ("sh_conversion", g.projection_seconds),
@@ -373,26 +381,33 @@ fn gpu_extrapolated_stages(
 /// `variant` on `scene` over `warmup + frames` frames on the GPU, where the method has a GPU
 /// form ([`crate::gpu_methods::gpu_form`]) — the papers' extrapolation from one sampling sphere
 /// (the GPU Table 1 sequence; no per-frame image, so no error), every other form scored against
-/// `truths` like the CPU rows; `None` for methods without one.
+/// `truths` like the CPU rows; `None` for methods without one. With `device_pose` the frames
+/// are posed on the device (path `gpu-device`), and methods that pose on the host
+/// ([`crate::gpu_methods::poses_on_device`]) give `None`.
 pub fn bench_method_gpu(
     name: &str,
     scene: &Scene,
     variant: &Variant,
     (frames, warmup): (usize, usize),
-    truths: Option<&Truths>,
+    (truths, device_pose): (Option<&Truths>, bool),
     ctx: &shscale_gpu::GpuContext,
 ) -> Result<Option<MethodRow>, Error> {
     let frames = frames.max(1);
     let total = warmup + frames;
     let s = variant.apply(scene);
-    use crate::gpu_methods::{gpu_form, render_gpu_frames, GpuForm};
-    let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match gpu_form(&s, variant.method)?
-    {
-        None => return Ok(None),
-        Some(GpuForm::Sequence) => (gpu_extrapolated_stages(&s, total, warmup, ctx)?, Vec::new()),
-        Some(form) => {
+    use crate::gpu_methods::{gpu_form, poses_on_device, render_gpu_frames_posed, GpuForm};
+    let form = match gpu_form(&s, variant.method)? {
+        Some(f) if !device_pose || poses_on_device(&s, f) => f,
+        _ => return Ok(None),
+    };
+    let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match form {
+        GpuForm::Sequence => (
+            gpu_extrapolated_stages(&s, (total, warmup), device_pose, ctx)?,
+            Vec::new(),
+        ),
+        form => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            render_gpu_frames(&s, form, total, ctx, &mut |f, px| {
+            render_gpu_frames_posed(&s, form, total, ctx, device_pose, &mut |f, px| {
                 if f.frame >= warmup {
                     stages.push(f.stages.clone());
                 }
@@ -401,9 +416,10 @@ pub fn bench_method_gpu(
             (stages, scores.finish(name)?)
         }
     };
+    let path = if device_pose { "gpu-device" } else { "gpu" };
     Ok(Some(row_of(
         (name, variant),
-        ("gpu", ctx.describe()),
+        (path, ctx.describe()),
         (frames, warmup),
         &stages,
         &errors,

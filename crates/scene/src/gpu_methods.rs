@@ -80,6 +80,37 @@ pub fn render_gpu_frames(
     ctx: &GpuContext,
     each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
 ) -> Result<RenderOutput, Error> {
+    render_gpu_frames_posed(scene, form, frames, ctx, false, each)
+}
+
+/// Whether `form` on `scene` can pose its frames on the device (`render --device-pose`,
+/// `bench --device-pose`): the papers' sequence ([`crate::gpu_path`]) and sphere sets with the
+/// area fit ([`crate::gpu_sets::SetPose::Device`]); the other forms pose on the host.
+pub fn poses_on_device(scene: &Scene, form: GpuForm) -> bool {
+    match form {
+        GpuForm::Sequence => true,
+        GpuForm::SphereSet => scene.sphere_fit == crate::combine::SphereFit::Area,
+        _ => false,
+    }
+}
+
+/// [`render_gpu_frames`], posed on the device where `device_pose` (sphere sets with the area fit
+/// only: the other per-frame forms refuse it by name).
+pub fn render_gpu_frames_posed(
+    scene: &Scene,
+    form: GpuForm,
+    frames: usize,
+    ctx: &GpuContext,
+    device_pose: bool,
+    each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
+) -> Result<RenderOutput, Error> {
+    if device_pose && form != GpuForm::SphereSet {
+        return Err(Error::config(format!(
+            "{}: --device-pose: the {} GPU frames are posed on the host (the device poses the papers' sequence and sphere sets)",
+            scene.file,
+            form.name()
+        )));
+    }
     let out = match form {
         GpuForm::Sequence => {
             return Err(Error::config(format!(
@@ -106,7 +137,13 @@ pub fn render_gpu_frames(
             .0
         }
         GpuForm::SphereSet => {
-            crate::gpu_sets::render_sequence_sphere_set_gpu(scene, frames, ctx, &mut |f, px| {
+            use crate::gpu_sets::{render_sequence_sphere_set_gpu_posed, SetPose};
+            let pose = if device_pose {
+                SetPose::Device
+            } else {
+                SetPose::Host
+            };
+            render_sequence_sphere_set_gpu_posed(scene, frames, ctx, pose, &mut |f, px| {
                 each(&f.as_sequence_frame(), px)
             })?
             .0

@@ -26,29 +26,36 @@ use std::time::Instant;
 pub struct GpuSetFrame {
     pub frame: usize,
     pub t: f64,
-    /// Host: posing the meshes, fitting the spheres.
+    /// Posing the meshes, fitting the spheres: host seconds, or device seconds where the frame
+    /// was posed on the device (`device_posed`).
     pub deform_seconds: f64,
     pub sphere_fit_seconds: f64,
+    /// Host, posed on the device: writing the poses, submitting and waiting, beyond the device
+    /// stages (0 when posed on the host).
+    pub upload_seconds: f64,
     /// Device: the shading kernel (timestamps where available).
     pub shading_seconds: f64,
-    /// Host: the image read back.
+    /// Host: the image read back for the caller, after the frame (not one of its stages: a
+    /// real-time renderer keeps the image on the device, as the papers' GPU sequence does).
     pub readback_seconds: f64,
+    /// Whether the frame was posed and fitted on the device.
+    pub device_posed: bool,
 }
 
 impl GpuSetFrame {
-    /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `shading`,
-    /// `readback`), the form every sequence's frames are printed and benchmarked in.
+    /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `upload` where
+    /// posed on the device, `shading`; the read-back is not a stage), the form every sequence's
+    /// frames are printed and benchmarked in.
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        crate::sequence::SequenceFrame::of_stages(
-            self.frame,
-            self.t,
-            &[
-                ("deform", self.deform_seconds),
-                ("sphere_fit", self.sphere_fit_seconds),
-                ("shading", self.shading_seconds),
-                ("readback", self.readback_seconds),
-            ],
-        )
+        let mut stages = vec![
+            ("deform", self.deform_seconds),
+            ("sphere_fit", self.sphere_fit_seconds),
+        ];
+        if self.device_posed {
+            stages.push(("upload", self.upload_seconds));
+        }
+        stages.push(("shading", self.shading_seconds));
+        crate::sequence::SequenceFrame::of_stages(self.frame, self.t, &stages)
     }
 }
 
@@ -123,15 +130,45 @@ fn set_occluders(scene: &Scene) -> Result<Vec<SetOccluder>, Error> {
     Ok(occs)
 }
 
-/// `frames` poses of `scene` shaded on the GPU from their sphere sets; the last frame's image
-/// and every frame's times. `each` sees every frame and its pixels after it is done.
+/// Where a sphere-set sequence poses its meshes and fits their spheres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetPose {
+    /// On the host (all cores), the spheres uploaded every frame.
+    Host,
+    /// On the device (`shscale_gpu::fit`): the frame uploads each mesh's 32-byte pose; the area
+    /// fit only (`sphere_fit = "area"`).
+    Device,
+}
+
+/// `frames` poses of `scene` shaded on the GPU from their sphere sets, posed and fitted on the
+/// host; the last frame's image and every frame's times. `each` sees every frame and its pixels
+/// after it is done (read back after the frame's stages, not one of them).
 pub fn render_sequence_sphere_set_gpu(
     scene: &Scene,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
+    render_sequence_sphere_set_gpu_posed(scene, frames, ctx, SetPose::Host, each)
+}
+
+/// [`render_sequence_sphere_set_gpu`] with the pose and fit where `pose` says; `Device` refuses
+/// the inscribed fit by name (a one-off fit per pose, on the host).
+pub fn render_sequence_sphere_set_gpu_posed(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    pose: SetPose,
+    each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
+) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
     check(scene)?;
+    if pose == SetPose::Device && scene.sphere_fit != crate::combine::SphereFit::Area {
+        return Err(Error::config(format!(
+            "{}: --device-pose with sphere_set: sphere_fit \"{}\" is fitted on the host (a one-off fit per pose); the device fits \"area\" spheres",
+            scene.file,
+            scene.sphere_fit.name()
+        )));
+    }
     let frames = frames.max(1);
     let mut occs = set_occluders(scene)?;
     let light = light_of(scene)?;
@@ -147,6 +184,9 @@ pub fn render_sequence_sphere_set_gpu(
         let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
         GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?
     };
+    if pose == SetPose::Device {
+        return device_frames(scene, frames, ctx, (&gpu, &occs), each);
+    }
     let mut stats = Vec::with_capacity(frames);
     let mut pixels = Vec::new();
     for f in 0..frames {
@@ -182,6 +222,60 @@ pub fn render_sequence_sphere_set_gpu(
         let (img, device) = gpu.frame(ctx, &spheres)?;
         st.shading_seconds = device;
         st.readback_seconds = (t0.elapsed().as_secs_f64() - device).max(0.0);
+        each(&st, &img);
+        pixels = img;
+        stats.push(st);
+    }
+    Ok((RenderOutput::plane(scene, pixels), stats))
+}
+
+/// The frames of [`render_sequence_sphere_set_gpu_posed`] posed and fitted on the device: each
+/// mesh occluder's parts fitted into its slots, the analytic spheres after them; per frame the
+/// host writes the poses (`upload`), the device deforms, fits and shades (three timed stages),
+/// and the image is read back after them.
+fn device_frames(
+    scene: &Scene,
+    frames: usize,
+    ctx: &GpuContext,
+    (gpu, occs): (&GpuSphereSet, &[SetOccluder]),
+    each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
+) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
+    let mut fits = Vec::new();
+    let mut fixed = Vec::new();
+    for o in occs {
+        match o {
+            SetOccluder::Sphere(s) => fixed.push(*s),
+            SetOccluder::Mesh(m) => {
+                let slot = fits.len() * scene.parts;
+                fits.push(shscale_gpu::fit::GpuSphereFit::new(
+                    ctx,
+                    &m.rest,
+                    m.poser.as_ref().map(Poser::deformer),
+                    (&m.labels, scene.parts),
+                    (gpu.spheres_buffer(), slot),
+                )?);
+            }
+        }
+    }
+    let mut stats = Vec::with_capacity(frames);
+    let mut pixels = Vec::new();
+    for f in 0..frames {
+        let t = f as f64 / frames as f64;
+        let t0 = Instant::now();
+        let [deform, fit, shading] = gpu.frame_on_device(ctx, &mut fits, &fixed, t)?;
+        let wall = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let img = gpu.read_image(ctx)?;
+        let st = GpuSetFrame {
+            frame: f,
+            t,
+            deform_seconds: deform,
+            sphere_fit_seconds: fit,
+            shading_seconds: shading,
+            upload_seconds: (wall - deform - fit - shading).max(0.0),
+            readback_seconds: t1.elapsed().as_secs_f64(),
+            device_posed: true,
+        };
         each(&st, &img);
         pixels = img;
         stats.push(st);

@@ -284,15 +284,30 @@ fn every_method_renders_sequences_frame_by_frame() {
 }
 
 /// The GPU sphere-set sequence of `s` (3 frames) against the CPU render of each pose: the worst
-/// difference over every pixel and channel, relative to the brightest CPU pixel. Checks on the
-/// way that receivers inside the plane-cutting sphere see nothing on both paths and that the
+/// difference over every pixel and channel, relative to the brightest CPU pixel, posed and
+/// fitted on the host, then on the device (the area fit only; `None` for another fit). Checks on
+/// the way that receivers inside the plane-cutting sphere see nothing on both paths and that the
 /// frames move with the wings.
-fn gpu_sets_vs_cpu(s: &Scene, ctx: &shscale_gpu::GpuContext) -> f32 {
-    use shscale_scene::gpu_sets::render_sequence_sphere_set_gpu;
+fn gpu_sets_vs_cpu(s: &Scene, ctx: &shscale_gpu::GpuContext) -> (f32, Option<f32>) {
+    use shscale_scene::combine::SphereFit;
+    use shscale_scene::gpu_sets::SetPose;
+    let host = gpu_sets_vs_cpu_posed(s, ctx, SetPose::Host);
+    let device =
+        (s.sphere_fit == SphereFit::Area).then(|| gpu_sets_vs_cpu_posed(s, ctx, SetPose::Device));
+    (host, device)
+}
+
+fn gpu_sets_vs_cpu_posed(
+    s: &Scene,
+    ctx: &shscale_gpu::GpuContext,
+    pose: shscale_scene::gpu_sets::SetPose,
+) -> f32 {
+    use shscale_scene::gpu_sets::render_sequence_sphere_set_gpu_posed;
     let mut frames = Vec::new();
-    let (last, stats) =
-        render_sequence_sphere_set_gpu(s, 3, ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
-            .unwrap();
+    let (last, stats) = render_sequence_sphere_set_gpu_posed(s, 3, ctx, pose, &mut |f, px| {
+        frames.push((f.t, px.to_vec()))
+    })
+    .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
     let mut worst = 0.0f32;
@@ -317,7 +332,7 @@ fn gpu_sets_vs_cpu(s: &Scene, ctx: &shscale_gpu::GpuContext) -> f32 {
         assert!(gpu.iter().zip(&frames[0].1).any(|(a, b)| a != b) || *t == 0.0);
     }
     println!(
-        "GPU sphere sets ({}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
+        "GPU sphere sets ({}, posed {pose:?}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
         s.sphere_combine.name(),
         frames[0].1.len(),
         ctx.describe()
@@ -358,8 +373,12 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
         return;
     };
     let s = sphere_set_scene();
-    let worst = gpu_sets_vs_cpu(&s, &ctx);
-    assert!(worst < 1e-4, "{worst}");
+    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(host < 1e-4, "{host}");
+    // Posed and fitted on the device, within the same bound: the spheres' f32 pose and sums
+    // (at most 1.4e-7 r from the host's, shscale_gpu's fit test) add nothing visible to it.
+    let device = device.expect("area fit");
+    assert!(device < 1e-4, "{device}");
     // Refused by name: a higher internal order, too many spheres, a combination without a GPU
     // form.
     let mut high = s.clone();
@@ -393,17 +412,37 @@ fn gpu_sphere_set_unions_match_the_cpu_render_frame_by_frame() {
     };
     let mut s = sphere_set_scene();
     s.sphere_combine = shscale_scene::combine::Combine::Union;
-    let worst = gpu_sets_vs_cpu(&s, &ctx);
-    assert!(worst < UNION_GPU_TOL, "{worst}");
+    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(host < UNION_GPU_TOL, "{host}");
+    assert!(device.expect("area fit") < UNION_GPU_TOL, "{device:?}");
     s.order = 8;
     s.parts = 16;
-    let worst = gpu_sets_vs_cpu(&s, &ctx);
-    assert!(worst < UNION_GPU_TOL, "{worst}");
-    // Each pose's inscribed balls instead of the parts' spheres: the same sets on both paths.
+    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(host < UNION_GPU_TOL, "{host}");
+    assert!(device.expect("area fit") < UNION_GPU_TOL, "{device:?}");
+    // Each pose's inscribed balls instead of the parts' spheres: the same sets on both paths
+    // (the device does not fit them: refused by name).
     s.order = 4;
     s.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
-    let worst = gpu_sets_vs_cpu(&s, &ctx);
-    assert!(worst < UNION_GPU_TOL, "inscribed: {worst}");
+    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    assert!(
+        host < UNION_GPU_TOL && device.is_none(),
+        "inscribed: {host}"
+    );
+    let e = shscale_scene::gpu_sets::render_sequence_sphere_set_gpu_posed(
+        &s,
+        1,
+        &ctx,
+        shscale_scene::gpu_sets::SetPose::Device,
+        &mut |_, _| (),
+    )
+    .err()
+    .expect("refused");
+    assert!(
+        e.to_string()
+            .contains("sphere_fit \"inscribed\" is fitted on the host"),
+        "{e}"
+    );
 }
 
 /// The GPU union's tolerance, relative to the brightest pixel: f32 rounding of the caps'
