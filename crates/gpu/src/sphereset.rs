@@ -2,7 +2,9 @@
 //! spheres multiplied near to far with the order-N Gaunt product, shaded with the light's
 //! transfer — the twin of the CPU's `SphereVisibility` fields through `near_to_far` and
 //! `Shader::shade` (sphereset.wgsl). Built once per receiver set and light ([`GpuSphereSet`]);
-//! per frame only the spheres (refitted to the posed mesh on the host) are uploaded. Two
+//! per frame only the spheres (refitted to the posed mesh on the host) are uploaded, or the
+//! meshes are posed and their spheres fitted on the device ([`GpuSphereSet::frame_on_device`],
+//! [`crate::fit`]) and only their poses are. Two
 //! combinations: the plain chain (internal order = N, [`GpuSphereSet::new`]) and the exact union
 //! of the caps ([`GpuSphereSet::union`], union.wgsl: the CPU's `SphereSetUnion` ring by ring in
 //! f32, shaded against the light's transfer taken into the union's local frame by an exact
@@ -188,14 +190,15 @@ impl GpuSphereSet {
         })
     }
 
-    /// Shade every receiver under `spheres`: the image (RGB per receiver) and the kernel's
-    /// device time in seconds (timestamps where available, else the synchronised wall clock of
-    /// the upload and the dispatch).
+    /// Shade every receiver under `spheres`: the image (RGB per receiver), the kernel's device
+    /// time in seconds (timestamps where available, else the synchronised wall clock of the
+    /// upload and the dispatch) and the synchronised wall clock of the upload, the dispatch and
+    /// the wait (the image's read-back not included).
     pub fn frame(
         &self,
         ctx: &GpuContext,
         spheres: &[Sphere],
-    ) -> Result<(Vec<[f32; 3]>, f64), GpuError> {
+    ) -> Result<(Vec<[f32; 3]>, f64, f64), GpuError> {
         if spheres.is_empty() || spheres.len() > MAX_GPU_SPHERES {
             return Err(GpuError::Input(format!(
                 "{} spheres: the GPU sphere set takes 1 to {MAX_GPU_SPHERES}",
@@ -225,7 +228,7 @@ impl GpuSphereSet {
         ctx.wait()?;
         let wall = t0.elapsed().as_secs_f64();
         let device = timer.read(ctx)?.map_or(wall, |v| v[0]);
-        Ok((self.read_image(ctx)?, device))
+        Ok((self.read_image(ctx)?, device, wall))
     }
 
     /// The sphere buffer a device fit writes into ([`crate::fit::GpuSphereFit`]).

@@ -183,7 +183,7 @@ fn a_frame_shaded_from_the_device_fit_is_the_host_fit_frame() {
     d.apply(&rest, t, &mut posed);
     let mut spheres = fit_spheres(&posed, &labels, 4);
     spheres.push(fixed);
-    let (host, _) = set.frame(&ctx, &spheres).unwrap();
+    let (host, _, _) = set.frame(&ctx, &spheres).unwrap();
     let peak = host.iter().flatten().fold(0.0f32, |a, &b| a.max(b.abs())) as f64;
     let diff = device
         .iter()

@@ -3,8 +3,11 @@
 //! rest pose, as the CPU render makes it) — or the pose's inscribed balls
 //! (`sphere_fit = "inscribed"`, a one-off fit per pose) —, then every receiver is shaded on the GPU from the
 //! spheres' closed-form caps multiplied near to far, or combined as their exact union
-//! (`sphere_combine = "union"`; `shscale_gpu::sphereset`). The image of a frame is the CPU
-//! render's of the same pose within f32 rounding (tested on lavapipe).
+//! (`sphere_combine = "union"`; `shscale_gpu::sphereset`). With [`SetPose::Device`]
+//! (`--device-pose`) the meshes are posed and the area fit's spheres fitted on the device
+//! (`shscale_gpu::fit`), and a frame uploads each mesh's 32-byte pose. The image of a frame is
+//! the CPU render's of the same pose within f32 rounding either way (tested on lavapipe); it is
+//! read back after the frame's stages, not as one of them.
 //!
 //! Scope: the plain chain (`sphere_order` at most the scene's order) and the union
 //! ([`crate::method::UNION_RINGS`] rings), `N ≤ 8`, at most [`MAX_GPU_SPHERES`] spheres over
@@ -30,8 +33,8 @@ pub struct GpuSetFrame {
     /// was posed on the device (`device_posed`).
     pub deform_seconds: f64,
     pub sphere_fit_seconds: f64,
-    /// Host, posed on the device: writing the poses, submitting and waiting, beyond the device
-    /// stages (0 when posed on the host).
+    /// Host: writing the spheres (or, posed on the device, the poses), submitting and waiting,
+    /// beyond the device stages.
     pub upload_seconds: f64,
     /// Device: the shading kernel (timestamps where available).
     pub shading_seconds: f64,
@@ -43,19 +46,20 @@ pub struct GpuSetFrame {
 }
 
 impl GpuSetFrame {
-    /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `upload` where
-    /// posed on the device, `shading`; the read-back is not a stage), the form every sequence's
-    /// frames are printed and benchmarked in.
+    /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `upload`,
+    /// `shading`; the read-back is not a stage), the form every sequence's frames are printed
+    /// and benchmarked in.
     pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
-        let mut stages = vec![
-            ("deform", self.deform_seconds),
-            ("sphere_fit", self.sphere_fit_seconds),
-        ];
-        if self.device_posed {
-            stages.push(("upload", self.upload_seconds));
-        }
-        stages.push(("shading", self.shading_seconds));
-        crate::sequence::SequenceFrame::of_stages(self.frame, self.t, &stages)
+        crate::sequence::SequenceFrame::of_stages(
+            self.frame,
+            self.t,
+            &[
+                ("deform", self.deform_seconds),
+                ("sphere_fit", self.sphere_fit_seconds),
+                ("upload", self.upload_seconds),
+                ("shading", self.shading_seconds),
+            ],
+        )
     }
 }
 
@@ -219,9 +223,10 @@ pub fn render_sequence_sphere_set_gpu_posed(
             }
         }
         let t0 = Instant::now();
-        let (img, device) = gpu.frame(ctx, &spheres)?;
+        let (img, device, wall) = gpu.frame(ctx, &spheres)?;
         st.shading_seconds = device;
-        st.readback_seconds = (t0.elapsed().as_secs_f64() - device).max(0.0);
+        st.upload_seconds = (wall - device).max(0.0);
+        st.readback_seconds = (t0.elapsed().as_secs_f64() - wall).max(0.0);
         each(&st, &img);
         pixels = img;
         stats.push(st);
