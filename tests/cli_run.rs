@@ -2182,15 +2182,15 @@ fn every_shipped_config_resolves() {
 
 #[test]
 fn timing_runs_the_gpu_paths_posed_on_the_host_and_on_the_device() {
-    // Table 1's `timing` kind on the bird with the GPU sequence posed on the host and on the
-    // device: one row each where an adapter exists (CI: lavapipe, `SHSCALE_REQUIRE_GPU=1`), none
-    // without one.
+    // Table 1's `timing` kind on the bird with the GPU sequence posed on the host, on the
+    // device, and on the device two frames in flight: one row each where an adapter exists (CI:
+    // lavapipe, `SHSCALE_REQUIRE_GPU=1`), none without one.
     let dir = std::env::temp_dir().join(format!("shscale-timing-dev-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let cfg = dir.join("t.toml");
     std::fs::write(
         &cfg,
-        "experiment = \"timing\"\nname = \"t\"\nscene = \"bird\"\nframes = 2\nwarmup = 0\ngpu = \"auto\"\n[sweep]\npath = [\"gpu\", \"gpu-device\"]\n",
+        "experiment = \"timing\"\nname = \"t\"\nscene = \"bird\"\nframes = 2\nwarmup = 0\ngpu = \"auto\"\n[sweep]\npath = [\"gpu\", \"gpu-device\", \"gpu-device-pipelined\"]\n",
     )
     .unwrap();
     let out = dir.join("r");
@@ -2205,8 +2205,12 @@ fn timing_runs_the_gpu_paths_posed_on_the_host_and_on_the_device() {
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     println!("{csv}");
     if std::env::var("SHSCALE_REQUIRE_GPU").as_deref() == Ok("1") {
-        assert_eq!(rows.len(), 2, "{csv}");
+        assert_eq!(rows.len(), 3, "{csv}");
         assert!(rows.iter().any(|r| r.contains(",gpu-device,")), "{csv}");
+        assert!(
+            rows.iter().any(|r| r.contains(",gpu-device-pipelined,")),
+            "{csv}"
+        );
         assert!(rows.iter().any(|r| r.contains(",gpu,")), "{csv}");
     }
 }

@@ -69,7 +69,7 @@ impl Kind for Timing {
             ),
             (
                 "path",
-                "`cpu`, `gpu`, `gpu-pipelined` (the host's half of frame i + 1 overlapping the device's frame i; timestamp queries needed) or `gpu-device` (the pose and the BVH refit on the device); a GPU run without an adapter writes no row",
+                "`cpu`, `gpu`, `gpu-pipelined` (the host's half of frame i + 1 overlapping the device's frame i; timestamp queries needed), `gpu-device` (the pose and the BVH refit on the device) or `gpu-device-pipelined` (posed on the device, two frames in flight; timestamp queries needed); a GPU run without an adapter writes no row",
             ),
             (
                 "frames",

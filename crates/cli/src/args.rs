@@ -190,7 +190,8 @@ pub struct BenchArgs {
     #[arg(long, requires = "gpu")]
     pub pipelined: bool,
     /// With --gpu: one more row per scene, the GPU sequence posed and refitted on the device
-    /// (`gpu-device`: deform and refit are device stages, only the pose's uniform is uploaded);
+    /// (`gpu-device`: deform and refit are device stages, only the pose's uniform is uploaded;
+    /// with --pipelined also `gpu-device-pipelined`, two such frames in flight);
     /// with --methods, a `gpu-device` row for each method the device poses (the papers'
     /// extrapolation, sphere sets with the area fit: posed and fitted on the device).
     #[arg(long, requires = "gpu")]
@@ -547,8 +548,9 @@ pub struct RenderArgs {
     pub pipelined: bool,
     /// With --gpu (the papers' extrapolation, or sphere sets with the area fit): pose every frame
     /// on the device and refit its BVH there or fit its spheres there (device stages; only the
-    /// pose's uniform is uploaded).
-    #[arg(long, requires = "gpu", conflicts_with = "pipelined")]
+    /// pose's uniform is uploaded). With --pipelined (the papers' extrapolation): two frames in
+    /// flight, each waited for alone.
+    #[arg(long, requires = "gpu")]
     pub device_pose: bool,
     /// Run even when the estimated work exceeds 1e10 rays or 8 GiB (docs/limits.md).
     #[arg(long)]

@@ -94,11 +94,13 @@ pub fn run(a: BenchArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The GPU paths asked for beside the sequential one: pipelined, posed on the device.
+/// The GPU paths asked for beside the sequential one: pipelined, posed on the device, and both
+/// (posed on the device, frames in flight).
 fn extra_paths(a: &BenchArgs) -> Vec<BenchPath> {
     [
         (a.pipelined, BenchPath::GpuPipelined),
         (a.device_pose, BenchPath::GpuDevice),
+        (a.pipelined && a.device_pose, BenchPath::GpuDevicePipelined),
     ]
     .into_iter()
     .filter_map(|(set, p)| set.then_some(p))

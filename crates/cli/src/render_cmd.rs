@@ -577,9 +577,10 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     use shscale_scene::gpu_path::{open_gpu, render_sequence_gpu_with, GpuFrames};
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
     let mode = match (a.pipelined, a.device_pose) {
-        (true, _) => GpuFrames::Pipelined,
-        (_, true) => GpuFrames::DevicePose,
-        _ => GpuFrames::Sequential,
+        (true, true) => GpuFrames::DeviceInFlight,
+        (true, false) => GpuFrames::Pipelined,
+        (false, true) => GpuFrames::DevicePose,
+        (false, false) => GpuFrames::Sequential,
     };
     let run = render_sequence_gpu_with(scene, frames, &ctx, mode)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
@@ -596,7 +597,12 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     );
     if a.device_pose {
         println!(
-            "posed and refitted on the device: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild; {} frame(s) built on the host)",
+            "posed and refitted on the device{}: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild; {} frame(s) built on the host)",
+            if a.pipelined {
+                ", two frames in flight"
+            } else {
+                ""
+            },
             run.host_rebuilds
         );
     }

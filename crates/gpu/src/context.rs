@@ -194,6 +194,38 @@ impl GpuContext {
         Ok(out)
     }
 
+    /// Read the first `size` bytes of `staging` (a `MAP_READ` buffer a copy in submission
+    /// `index` filled) once that submission has completed — waiting for it alone, not for work
+    /// submitted after it — then unmap it.
+    pub fn map_after(
+        &self,
+        staging: &wgpu::Buffer,
+        size: u64,
+        index: wgpu::SubmissionIndex,
+    ) -> Result<Vec<u8>, GpuError> {
+        let slice = staging.slice(..size);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let out = view.to_vec();
+        drop(view);
+        staging.unmap();
+        Ok(out)
+    }
+
     /// A compute pipeline from WGSL source with the automatic bind-group layout.
     pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
         let module = self

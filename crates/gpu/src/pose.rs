@@ -348,10 +348,32 @@ impl GpuPoser {
             return Ok(());
         }
         let raw = ctx.copy_and_map(&self.bufs.area_out, &self.bufs.area_staging, 16)?;
-        let area = bytemuck::cast_slice::<u8, f32>(&raw)[0];
+        self.decide(&raw);
+        Ok(())
+    }
+
+    /// Whether the tree may be rebuilt (its relative area is then summed every frame).
+    pub fn adaptive(&self) -> bool {
+        self.adaptive
+    }
+
+    /// Frames in flight: record the copy of this frame's relative area into `staging` (16
+    /// bytes, `MAP_READ | COPY_DST`), read after the frame by [`Self::after_frame_read`].
+    pub fn record_area_copy(&self, enc: &mut wgpu::CommandEncoder, staging: &wgpu::Buffer) {
+        enc.copy_buffer_to_buffer(&self.bufs.area_out, 0, staging, 0, 16);
+    }
+
+    /// Frames in flight: the relative area a frame copied (its 16 bytes), and whether the next
+    /// frame to be posed builds the tree on the host.
+    pub fn after_frame_read(&mut self, raw: &[u8]) {
+        self.decide(raw);
+    }
+
+    /// The rebuild rule on a frame's relative area (its 16 bytes as read back).
+    fn decide(&mut self, raw: &[u8]) {
+        let area = bytemuck::cast_slice::<u8, f32>(&raw[..4])[0];
         self.last_area = f64::from(area);
         self.rebuild_next = rebuild_due(self.last_area, self.bvh.built_area());
-        Ok(())
     }
 
     /// Pose at `t`, refit and wait, then read the relative area (tests and one-off use; a

@@ -3,7 +3,11 @@
 //! projection, receiver shading — in one submission, each pass timed by timestamps (or, without
 //! them, submitted alone and timed by the synchronised wall clock). Or, posed on the device
 //! ([`GpuSequence::pose_on_device`], `crate::pose`): the deformation and the BVH refit are two
-//! more timed passes before those three, and a frame uploads only the pose's uniform.
+//! more timed passes before those three, and a frame uploads only the pose's uniform; such
+//! frames may also run [`FRAMES_IN_FLIGHT`] at a time ([`GpuSequence::submit_at`],
+//! [`GpuSequence::finish_oldest`]): the host submits the next frame before the device has
+//! finished the last, waits for each frame alone, and reads its timestamps and relative area
+//! from staging copies recorded in the frame's own submission.
 
 use crate::bvh::FlatBvh;
 use crate::context::GpuContext;
@@ -17,7 +21,36 @@ use shscale_field::receivers::ReceiverCache;
 use shscale_geometry::deform::Deformer;
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{Mesh, Sphere, RAY_EPS};
+use std::collections::VecDeque;
 use std::time::Instant;
+
+/// Device-posed frames submitted before the oldest is waited for ([`GpuSequence::submit_at`]):
+/// two, the double buffering of a real-time renderer.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// One slot of the frames in flight: its timer and relative-area staging buffer.
+struct FlightSlot {
+    timer: StageTimer,
+    area: wgpu::Buffer,
+}
+
+/// A submitted frame not yet finished.
+struct Submitted {
+    slot: usize,
+    index: wgpu::SubmissionIndex,
+    /// The host's rebuild and upload seconds.
+    host: (f64, f64),
+    /// The poser's rebuild count at submission: a frame measured on a tree rebuilt since says
+    /// nothing about the current tree, and its area is not read.
+    generation: usize,
+}
+
+/// Frames in flight: [`FRAMES_IN_FLIGHT`] slots and the frames submitted, oldest first.
+struct Flight {
+    slots: Vec<FlightSlot>,
+    queue: VecDeque<Submitted>,
+    next: usize,
+}
 
 /// Timings of one GPU frame, in seconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -62,6 +95,8 @@ pub struct GpuSequence {
     tmin: f64,
     /// The pose and refit on the device ([`Self::pose_on_device`]).
     poser: Option<GpuPoser>,
+    /// Device-posed frames in flight ([`Self::submit_at`]), made at the first submission.
+    flight: Option<Flight>,
 }
 
 impl GpuSequence {
@@ -118,6 +153,7 @@ impl GpuSequence {
             receiver_setup_seconds,
             tmin: 0.0,
             poser: None,
+            flight: None,
         })
     }
 
@@ -239,6 +275,112 @@ impl GpuSequence {
             frame_seconds: t0.elapsed().as_secs_f64(),
             timestamps: self.timer.uses_timestamps(),
         })
+    }
+
+    /// Frames in flight: pose frame time `t` on the device and submit its five passes without
+    /// waiting (at most [`FRAMES_IN_FLIGHT`] submitted and not finished: [`Self::finish_oldest`]
+    /// first). The pose's uniform is written on the queue after the previous frame's commands,
+    /// so the frame still running reads its own. Timestamp queries needed.
+    pub fn submit_at(&mut self, ctx: &GpuContext, t: f64) -> Result<(), GpuError> {
+        let Some(poser) = self.poser.as_mut() else {
+            return Err(GpuError::Input(
+                "submit_at needs the pose on the device (pose_on_device)".into(),
+            ));
+        };
+        if !ctx.timestamps {
+            return Err(GpuError::Input(
+                "frames in flight need timestamp queries, which this adapter lacks".into(),
+            ));
+        }
+        let flight = self.flight.get_or_insert_with(|| Flight {
+            slots: (0..FRAMES_IN_FLIGHT)
+                .map(|_| FlightSlot {
+                    timer: StageTimer::new(ctx, 5),
+                    area: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("relative area in flight"),
+                        size: 16,
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }),
+                })
+                .collect(),
+            queue: VecDeque::new(),
+            next: 0,
+        });
+        if flight.queue.len() >= FRAMES_IN_FLIGHT {
+            return Err(GpuError::Input(format!(
+                "{FRAMES_IN_FLIGHT} frames are in flight: finish the oldest first"
+            )));
+        }
+        let t0 = Instant::now();
+        let rebuild = poser.prepare(ctx, t)?;
+        let upload = t0.elapsed().as_secs_f64() - rebuild;
+        let slot = flight.next % FRAMES_IN_FLIGHT;
+        flight.next += 1;
+        let (poser, sampler, shader) = (&*poser, &self.sampler, &self.shader);
+        let timer = &flight.slots[slot].timer;
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let labels = [
+            "deform",
+            "bvh refit",
+            "bsv sampling",
+            "sh conversion",
+            "shadowing",
+        ];
+        for (i, label) in labels.iter().enumerate() {
+            let mut pass = enc.begin_compute_pass(&timer.pass(label, i as u32));
+            match i {
+                0 => poser.record_deform(&mut pass),
+                1 => poser.record_refit(&mut pass),
+                2 => sampler.record_cast(&mut pass),
+                3 => sampler.record_project(&mut pass),
+                _ => shader.record(&mut pass),
+            }
+        }
+        timer.resolve_to_staging(&mut enc);
+        if poser.adaptive() {
+            poser.record_area_copy(&mut enc, &flight.slots[slot].area);
+        }
+        let index = ctx.queue.submit([enc.finish()]);
+        flight.queue.push_back(Submitted {
+            slot,
+            index,
+            host: (rebuild, upload),
+            generation: poser.rebuilds,
+        });
+        Ok(())
+    }
+
+    /// Frames in flight: wait for the oldest submitted frame alone (later ones keep running),
+    /// read its five device stages and, when its tree is still the current one, its relative
+    /// area for the rebuild rule; its times (`frame_seconds` left 0: the caller's period). `None`
+    /// when no frame is in flight.
+    pub fn finish_oldest(&mut self, ctx: &GpuContext) -> Result<Option<GpuStageTimes>, GpuError> {
+        let (Some(flight), Some(poser)) = (self.flight.as_mut(), self.poser.as_mut()) else {
+            return Ok(None);
+        };
+        let Some(done) = flight.queue.pop_front() else {
+            return Ok(None);
+        };
+        let slot = &flight.slots[done.slot];
+        let s = (slot.timer.read_after(ctx, done.index.clone())?)
+            .expect("submit_at requires timestamps");
+        if poser.adaptive() && done.generation == poser.rebuilds {
+            poser.after_frame_read(&ctx.map_after(&slot.area, 16, done.index)?);
+        }
+        Ok(Some(GpuStageTimes {
+            bvh_seconds: done.host.0,
+            upload_seconds: done.host.1,
+            deform_seconds: s[0],
+            refit_seconds: s[1],
+            sampling_seconds: s[2],
+            projection_seconds: s[3],
+            shading_seconds: s[4],
+            frame_seconds: 0.0,
+            timestamps: true,
+        }))
     }
 
     /// `Ok` unless frames are posed on the device (whose tree a host upload would overwrite).

@@ -11,6 +11,8 @@ use crate::error::GpuError;
 pub struct StageTimer {
     stages: u32,
     queries: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    /// A kept `MAP_READ` copy of the resolved timestamps ([`Self::resolve_to_staging`]).
+    staging: Option<wgpu::Buffer>,
 }
 
 impl StageTimer {
@@ -30,7 +32,19 @@ impl StageTimer {
             });
             (set, buf)
         });
-        Self { stages, queries }
+        let staging = ctx.timestamps.then(|| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp staging"),
+                size: 16 * stages as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        });
+        Self {
+            stages,
+            queries,
+            staging,
+        }
     }
 
     /// Whether stages are timed by timestamps (else by the wall clock).
@@ -110,14 +124,39 @@ impl StageTimer {
         let Some((_, buf)) = &self.queries else {
             return Ok(None);
         };
-        let bytes = ctx.read_buffer(buf)?;
-        let ticks: &[u64] = bytemuck::cast_slice(&bytes);
+        Ok(Some(self.seconds(ctx, &ctx.read_buffer(buf)?)))
+    }
+
+    /// Record the resolve of all timestamps and their copy into the timer's staging buffer,
+    /// for [`Self::read_after`] (frames in flight: nothing waits for the submission).
+    pub fn resolve_to_staging(&self, enc: &mut wgpu::CommandEncoder) {
+        self.resolve(enc);
+        if let (Some((_, buf)), Some(staging)) = (&self.queries, &self.staging) {
+            enc.copy_buffer_to_buffer(buf, 0, staging, 0, buf.size());
+        }
+    }
+
+    /// Seconds per stage of a frame resolved by [`Self::resolve_to_staging`] in submission
+    /// `index`, once that submission alone has completed; `None` without timestamps.
+    pub fn read_after(
+        &self,
+        ctx: &GpuContext,
+        index: wgpu::SubmissionIndex,
+    ) -> Result<Option<Vec<f64>>, GpuError> {
+        let Some(staging) = &self.staging else {
+            return Ok(None);
+        };
+        let bytes = ctx.map_after(staging, staging.size(), index)?;
+        Ok(Some(self.seconds(ctx, &bytes)))
+    }
+
+    /// Each stage's end minus its start, in seconds.
+    fn seconds(&self, ctx: &GpuContext, bytes: &[u8]) -> Vec<f64> {
+        let ticks: &[u64] = bytemuck::cast_slice(bytes);
         let period_ns = ctx.queue.get_timestamp_period() as f64;
-        Ok(Some(
-            (0..self.stages as usize)
-                .map(|i| ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-9)
-                .collect(),
-        ))
+        (0..self.stages as usize)
+            .map(|i| ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-9)
+            .collect()
     }
 }
 

@@ -317,6 +317,28 @@ fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
     println!("end to end: image RMSE {rmse:.2e} of max E {bright:.3}; {times:?}");
     assert!(rmse <= 1e-3 * bright, "{rmse:.2e}");
     assert!(times.frame_seconds > 0.0 && times.sampling_seconds > 0.0);
+
+    // Frames in flight: posed on the device only, at most two submitted and not finished; none
+    // in flight finishes nothing. (The images: scene/tests/sequence.rs.)
+    let e = seq.submit_at(&ctx, 0.0).unwrap_err().to_string();
+    assert!(e.contains("pose_on_device"), "{e}");
+    seq.pose_on_device(&ctx, &mesh, None, UpdateStrategy::Refit)
+        .unwrap();
+    if ctx.timestamps {
+        assert!(seq.finish_oldest(&ctx).unwrap().is_none());
+        seq.submit_at(&ctx, 0.0).unwrap();
+        seq.submit_at(&ctx, 0.5).unwrap();
+        let e = seq.submit_at(&ctx, 0.7).unwrap_err().to_string();
+        assert!(e.contains("2 frames are in flight"), "{e}");
+        for _ in 0..2 {
+            let t = seq.finish_oldest(&ctx).unwrap().expect("a frame in flight");
+            assert!(t.deform_seconds > 0.0 && t.sampling_seconds > 0.0, "{t:?}");
+        }
+        assert!(seq.finish_oldest(&ctx).unwrap().is_none());
+    } else {
+        let e = seq.submit_at(&ctx, 0.0).unwrap_err().to_string();
+        assert!(e.contains("timestamp queries"), "{e}");
+    }
 }
 
 /// `U = R M_kᵀ Rᵀ T` built on the GPU (k-table lookup and rotations by re-projection) against

@@ -49,18 +49,22 @@ pub enum BenchPath {
     /// The GPU sequence posed and refitted on the device.
     #[serde(rename = "gpu-device")]
     GpuDevice,
+    /// Posed and refitted on the device, two frames in flight.
+    #[serde(rename = "gpu-device-pipelined")]
+    GpuDevicePipelined,
 }
 
 impl BenchPath {
-    /// `cpu`, `gpu`, `gpu-pipelined` or `gpu-device`.
+    /// `cpu`, `gpu`, `gpu-pipelined`, `gpu-device` or `gpu-device-pipelined`.
     pub fn parse(s: &str) -> Result<Self, String> {
         match s {
             "cpu" => Ok(Self::Cpu),
             "gpu" => Ok(Self::Gpu),
             "gpu-pipelined" => Ok(Self::GpuPipelined),
             "gpu-device" => Ok(Self::GpuDevice),
+            "gpu-device-pipelined" => Ok(Self::GpuDevicePipelined),
             _ => Err(format!(
-                "{s:?} is not cpu, gpu, gpu-pipelined or gpu-device"
+                "{s:?} is not cpu, gpu, gpu-pipelined, gpu-device or gpu-device-pipelined"
             )),
         }
     }
@@ -72,6 +76,7 @@ impl BenchPath {
             Self::Gpu => Some(GpuFrames::Sequential),
             Self::GpuPipelined => Some(GpuFrames::Pipelined),
             Self::GpuDevice => Some(GpuFrames::DevicePose),
+            Self::GpuDevicePipelined => Some(GpuFrames::DeviceInFlight),
         }
     }
 
@@ -81,6 +86,7 @@ impl BenchPath {
             Self::Gpu => "gpu",
             Self::GpuPipelined => "gpu-pipelined",
             Self::GpuDevice => "gpu-device",
+            Self::GpuDevicePipelined => "gpu-device-pipelined",
         }
     }
 }

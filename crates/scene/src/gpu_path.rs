@@ -58,6 +58,10 @@ pub enum GpuFrames {
     /// The device poses and refits every frame (`shscale_gpu::pose`); the host only writes the
     /// pose's uniform (and builds a tree when the rebuild rule finds it due).
     DevicePose,
+    /// Posed on the device, [`shscale_gpu::sequence::FRAMES_IN_FLIGHT`] frames in flight: the
+    /// host submits frame i + 1 before waiting for frame i, and waits for each frame alone; a
+    /// frame's time is the period between completions (timestamp queries needed).
+    DeviceInFlight,
 }
 
 /// Per-frame statistics of the GPU sequence.
@@ -236,7 +240,10 @@ pub fn render_sequence_gpu(
 /// less it ([`GpuFrameStats::stage_sum`]); the images are the sequential path's. Posed on the
 /// device: the deformation and the refit are two more device stages (`gpu.deform_seconds`,
 /// `gpu.refit_seconds`); the images differ from the host-posed ones only where the f32 pose
-/// moves a grazing ray.
+/// moves a grazing ray. Posed on the device with frames in flight: the same passes, frame i + 1
+/// submitted before frame i is waited for, each frame's time its period as when pipelined; the
+/// rebuild rule reads a frame's area when it completes, so a due rebuild lands up to two frames
+/// later than posed one at a time (the tree's shape, never the rays' answers).
 pub fn render_sequence_gpu_with(
     scene: &Scene,
     frames: usize,
@@ -334,6 +341,10 @@ fn run_frames(
                 stats.push(stat(f, 0.0, seq.frame_at(ctx, f as f64 / frames as f64)?));
             }
         }
+        GpuFrames::DeviceInFlight => {
+            seq.pose_on_device(ctx, rest, poser.map(|p| p.deformer()), strategy)?;
+            in_flight_frames(seq, ctx, frames, &mut stats)?;
+        }
         GpuFrames::Sequential => {
             for f in 0..frames {
                 let deform_seconds = pose(f, &mut posed);
@@ -342,6 +353,40 @@ fn run_frames(
         }
     }
     Ok(stats)
+}
+
+/// The loop of [`GpuFrames::DeviceInFlight`]: submit frames until
+/// [`shscale_gpu::sequence::FRAMES_IN_FLIGHT`] are in flight, then finish the oldest before
+/// each next submission (its period ends at its completion), and finish the rest.
+fn in_flight_frames(
+    seq: &mut GpuSequence,
+    ctx: &GpuContext,
+    frames: usize,
+    stats: &mut Vec<GpuFrameStats>,
+) -> Result<(), Error> {
+    let mut period = Instant::now();
+    let mut finish = |seq: &mut GpuSequence, stats: &mut Vec<GpuFrameStats>| {
+        let done = seq.finish_oldest(ctx)?;
+        if let Some(mut gpu) = done {
+            gpu.frame_seconds = period.elapsed().as_secs_f64();
+            period = Instant::now();
+            stats.push(GpuFrameStats {
+                frame: stats.len(),
+                deform_seconds: 0.0,
+                gpu,
+                pipelined: true,
+            });
+        }
+        Ok::<_, Error>(done.is_some())
+    };
+    for f in 0..frames {
+        if f >= shscale_gpu::sequence::FRAMES_IN_FLIGHT {
+            finish(seq, stats)?;
+        }
+        seq.submit_at(ctx, f as f64 / frames as f64)?;
+    }
+    while finish(seq, stats)? {}
+    Ok(())
 }
 
 /// Poses frame `f` into the mesh given; its seconds.

@@ -707,6 +707,51 @@ fn device_posed_gpu_frames_match_the_host_posed_ones() {
     }
 }
 
+/// Device-posed frames two in flight (frame i + 1 submitted before frame i is waited for) render
+/// the images of device-posed frames one at a time bit for bit — the same pose and refit
+/// kernels; the rebuild rule, reading each frame's area when it completes, may rebuild later,
+/// which changes the tree's shape and never a ray's answer (the bending sponge rebuilds, the
+/// flapping bird refits) — in frame order, every frame with its five device stages and a period.
+/// No speed is asserted. Skips as the tests above.
+#[test]
+fn device_posed_frames_in_flight_render_the_one_at_a_time_images() {
+    use shscale_scene::gpu_path::{render_sequence_gpu_with, GpuFrames};
+    let Some(ctx) = gpu_or_skip("device-posed GPU frames in flight") else {
+        return;
+    };
+    for (mesh, deformer) in [("bird", "flap"), ("sponge", "bend")] {
+        let s = scene(&format!(
+            "[[occluder]]\nmesh = \"{mesh}\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"{deformer}\"\n"
+        ));
+        for frames in [1, 2, 5] {
+            let one = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::DevicePose).unwrap();
+            let fly =
+                render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::DeviceInFlight).unwrap();
+            assert_eq!(
+                one.image.pixels, fly.image.pixels,
+                "{mesh}, {frames} frames"
+            );
+            assert_eq!(fly.frames.len(), frames);
+            for (i, f) in fly.frames.iter().enumerate() {
+                let g = &f.gpu;
+                assert!(f.pipelined && f.frame == i, "{mesh}: {f:?}");
+                assert!(
+                    g.deform_seconds > 0.0
+                        && g.refit_seconds > 0.0
+                        && g.sampling_seconds > 0.0
+                        && g.shading_seconds > 0.0
+                        && f.seconds() > 0.0,
+                    "{mesh}: {g:?}"
+                );
+            }
+            println!(
+                "{mesh}, {frames} frames: identical images; host rebuilds one at a time {}, in flight {}",
+                one.host_rebuilds, fly.host_rebuilds
+            );
+        }
+    }
+}
+
 /// The device pose's image tolerance, relative to the brightest pixel: a ray grazing an edge may
 /// flip when a vertex moves by an f32 rounding (as [`FIELD_GPU_TOL`]'s grazing rays).
 const DEVICE_POSE_TOL: f32 = 1e-3;
