@@ -103,22 +103,13 @@ impl Axes {
             .map(|&(x, y)| (x, if log_y { y.log10() } else { y }))
             .collect();
         let integer_x = !log_x && pts.iter().all(|p| p.0.fract() == 0.0 && p.0.abs() < 1e9);
-        // A span narrower than 10⁻⁹ of its magnitude (one value, or values equal to the last
-        // digits) is widened to a drawable one: plotters' tick search needs a finite, non-empty
-        // range.
-        let span = |f: fn(&(f64, f64)) -> f64| {
+        let span = |f: fn(&(f64, f64)) -> f64, relative: bool| {
             let (lo, hi) =
                 (pts.iter().map(f)).fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-            let least = 1e-9 * lo.abs().max(hi.abs());
-            if hi - lo <= least {
-                let half = (0.5f64).max(least);
-                let mid = 0.5 * lo + 0.5 * hi;
-                (mid - half, mid + half)
-            } else {
-                (lo, hi)
-            }
+            degenerate_span(lo, hi, relative)
         };
-        let (x, (y0, y1)) = (span(|p| p.0), span(|p| p.1));
+        // (x keeps ±0.5 around a single value: integer parameters are labelled at integers.)
+        let (x, (y0, y1)) = (span(|p| p.0, false), span(|p| p.1, !log_y));
         let y = if log_y {
             let pad = 0.05 * (y1 - y0);
             (y0 - pad, y1 + pad)
@@ -839,6 +830,26 @@ pub fn log_axis(ys: &[f64]) -> bool {
     hi / lo >= 100.0
 }
 
+/// The range `[lo, hi]` of data on an axis, widened where it is narrower than 10⁻⁹ of its
+/// magnitude (one value, or values equal to the last digits): plotters' tick search needs a
+/// finite, non-empty range. With `relative` (a linear y axis) ±10 % of the value (±0.5 at 0),
+/// so a single positive error is not drawn on an axis reaching below zero; otherwise ±0.5 (half
+/// a decade of a log axis, whose `lo`, `hi` are log10 values; a unit either side of an integer
+/// parameter).
+pub fn degenerate_span(lo: f64, hi: f64, relative: bool) -> (f64, f64) {
+    let least = 1e-9 * lo.abs().max(hi.abs());
+    if hi - lo > least {
+        return (lo, hi);
+    }
+    let mid = 0.5 * lo + 0.5 * hi;
+    let half = if !relative || mid == 0.0 {
+        0.5
+    } else {
+        0.1 * mid.abs()
+    };
+    (mid - half.max(least), mid + half.max(least))
+}
+
 /// The drawn y range of data spanning `[y0, y1]` (`y0 < y1`): 5 % padding each side, the lower
 /// end not below 0 when the data are non-negative (errors start at the axis) — and never above
 /// the smallest value, so negative data are drawn where they are.
@@ -1081,6 +1092,30 @@ mod tests {
         assert!(!super::log_axis(&[-1.0, 1e3]));
         assert!(!super::log_axis(&[]));
         assert!(super::log_axis(&[f64::NAN, 1e-3, 1.0]));
+    }
+
+    /// One value (or values equal to the last digits) gets a drawable range around it: ±10 % on
+    /// a linear y axis — a single error of 0.068 stays above zero —, ±0.5 otherwise (half a
+    /// decade on a log axis, a unit around an integer parameter); 0 gets ±0.5; a real span is
+    /// kept.
+    #[test]
+    fn a_single_value_gets_a_range_around_it() {
+        for (v, relative, want) in [
+            (0.068, true, (0.0612, 0.0748)),
+            (-2.0, true, (-2.2, -1.8)),
+            (0.0, true, (-0.5, 0.5)),
+            (-0.4, false, (-0.9, 0.1)),
+            (4.0, false, (3.5, 4.5)),
+            (1e12, true, (0.9e12, 1.1e12)),
+        ] {
+            let (lo, hi) = super::degenerate_span(v, v, relative);
+            println!("{v} (relative {relative}) → [{lo}, {hi}]");
+            assert!((lo - want.0).abs() <= 1e-12 * want.0.abs().max(1.0), "{lo}");
+            assert!((hi - want.1).abs() <= 1e-12 * want.1.abs().max(1.0), "{hi}");
+        }
+        assert_eq!(super::degenerate_span(0.1, 0.2, true), (0.1, 0.2));
+        let (lo, hi) = super::degenerate_span(0.068, 0.068 * (1.0 + 1e-12), true);
+        assert!(lo > 0.0 && hi > lo, "{lo} {hi}");
     }
 
     /// A series reaching −0.76 (an element of M_k, Fig. 3) stays inside the drawn range; data
