@@ -219,7 +219,8 @@ pub struct BenchArgs {
     /// extrapolated:s=1.2, extrapolated:clearance=0.1, sub_volumes:parts=2, sphere_set:parts=4,
     /// sphere_set:parts=16, sphere_set:parts=16,combine=union). With --gpu, a GPU row too for
     /// each variant with a GPU form (the papers' extrapolation from one sampling sphere or
-    /// clearance radii, sub-volumes, the full field, sphere sets by the chain or the union).
+    /// clearance radii, sub-volumes, the full field, sphere sets by the chain, the union or SH
+    /// exponentiation).
     #[arg(long)]
     pub methods: Option<String>,
     /// With --methods: score every measured frame against the band-limited truth of its pose

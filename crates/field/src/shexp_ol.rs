@@ -235,6 +235,19 @@ impl ZonalLogTable {
         self.eps
     }
 
+    /// The tabulated zonal logs: `TABLE_INTERVALS + 1` rows of N coefficients at
+    /// `t = 1 − cos A = i / TABLE_INTERVALS` (what [`Self::log_of_t`] interpolates; a device
+    /// copy's).
+    pub fn log_rows(&self) -> &[Vec<f64>] {
+        &self.logs
+    }
+
+    /// The OL rows `(‖f̂‖, a, b)`, ascending in `‖f̂‖` (what [`Self::ol_coefficients`]
+    /// interpolates; a device copy's).
+    pub fn ol_rows(&self) -> &[(f64, f64, f64)] {
+        &self.ol
+    }
+
     /// The largest `‖f̂‖` the OL table covers (a hemisphere-sized blocker's).
     pub fn max_magnitude(&self) -> f64 {
         self.ol.last().map_or(0.0, |r| r.0)

@@ -1,5 +1,6 @@
 //! Sphere sets on the GPU: every receiver's visibility as the closed-form caps of a set of
-//! spheres multiplied near to far with the order-N Gaunt product, shaded with the light's
+//! spheres multiplied near to far with the order-N Gaunt product (or combined by SH
+//! exponentiation, [`GpuSphereSet::shexp`], shexp.wgsl), shaded with the light's
 //! transfer — the twin of the CPU's `SphereVisibility` fields through `near_to_far` and
 //! `Shader::shade` (sphereset.wgsl). Built once per receiver set and light ([`GpuSphereSet`]);
 //! per frame only the spheres (refitted to the posed mesh on the host) are uploaded, or the
@@ -23,6 +24,7 @@ const SPHERESET_WGSL: &str = include_str!("sphereset.wgsl");
 /// The truncated Gaunt product of the multiplying kernels.
 pub(crate) const PRODUCT_WGSL: &str = include_str!("product.wgsl");
 const UNION_WGSL: &str = include_str!("union.wgsl");
+const SHEXP_WGSL: &str = include_str!("shexp.wgsl");
 
 /// The most z-rings the GPU union takes (its private arrays' size).
 pub const MAX_GPU_RINGS: usize = 32;
@@ -33,6 +35,11 @@ pub const MAX_GPU_SPHERES: usize = 64;
 /// The sphere-set shading kernel's source.
 pub fn source() -> String {
     shader(&[SH_WGSL, SPHERESET_WGSL, PRODUCT_WGSL])
+}
+
+/// The SH-exponentiation kernel's source (it reuses the sphere-set kernel's bindings).
+pub fn shexp_source() -> String {
+    shader(&[SH_WGSL, SPHERESET_WGSL, PRODUCT_WGSL, SHEXP_WGSL])
 }
 
 /// The union kernel's source.
@@ -80,6 +87,7 @@ impl GpuSphereSet {
             gaunt.order(),
             (g.len(), 0),
             (pipe, table),
+            None,
         )
     }
 
@@ -110,11 +118,65 @@ impl GpuSphereSet {
         );
         let table = ctx.storage_init("union rules", bytemuck::cast_slice(&rules));
         let pipe = ctx.pipeline("sphere set union", &union_source(), "shade_union");
-        Self::build(ctx, points, transfer, order, (0, rings), (pipe, table))
+        Self::build(
+            ctx,
+            points,
+            transfer,
+            order,
+            (0, rings),
+            (pipe, table),
+            None,
+        )
     }
 
-    /// The buffers and bind group of either kernel: `(entries, rings)` of the kernel's table
-    /// (the Gaunt tensor's entries, or the union's rings), its pipeline and table.
+    /// Receivers at `points`, light transfer `transfer` (as [`Self::new`]), the caps combined by
+    /// SH exponentiation: each sphere's zonal log from `table` (interpolated in t = 1 − cos A)
+    /// rotated and summed, then the HYB exponential (halved below `min(HYB_MAGNITUDE, 0.96 ×
+    /// the table's largest magnitude)`, OL, squared back by `gaunt`'s truncated products) — the
+    /// CPU's `SphereSetShexp` with `Exp::Hyb` in f32. `gaunt` and `table` of one order, at most
+    /// `MAX_SHEXP_ORDER` and the GPU's order.
+    pub fn shexp(
+        ctx: &GpuContext,
+        points: &[DVec3],
+        transfer: &[Vec<f64>; 3],
+        gaunt: &GauntTensor<f64>,
+        table: &shscale_field::shexp_ol::ZonalLogTable,
+    ) -> Result<Self, GpuError> {
+        if table.order() != gaunt.order() {
+            return Err(GpuError::Input(format!(
+                "a log table of order {} with a Gaunt tensor of order {}",
+                table.order(),
+                gaunt.order()
+            )));
+        }
+        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
+            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
+            .collect();
+        let gaunt_buf = ctx.storage_init("shexp gaunt", bytemuck::cast_slice(&g));
+        let (ol, logs) = (table.ol_rows(), table.log_rows());
+        let limit = shscale_field::shexp_ol::HYB_MAGNITUDE.min(0.96 * table.max_magnitude());
+        let mut words: Vec<f32> = vec![ol.len() as f32, (logs.len() - 1) as f32, limit as f32, 0.0];
+        words.extend(
+            ol.iter()
+                .flat_map(|&(m, a, b)| [m as f32, a as f32, b as f32]),
+        );
+        words.extend(logs.iter().flatten().map(|&v| v as f32));
+        let tables = ctx.storage_init("shexp tables", bytemuck::cast_slice(&words));
+        let pipe = ctx.pipeline("sphere set shexp", &shexp_source(), "shade_shexp");
+        Self::build(
+            ctx,
+            points,
+            transfer,
+            gaunt.order(),
+            (g.len(), 0),
+            (pipe, gaunt_buf),
+            Some(&tables),
+        )
+    }
+
+    /// The buffers and bind group of any kernel: `(entries, rings)` of the kernel's table (the
+    /// Gaunt tensor's entries, or the union's rings), its pipeline and table, and the
+    /// exponentiation's tables (binding 7) for its kernel.
     fn build(
         ctx: &GpuContext,
         points: &[DVec3],
@@ -122,6 +184,7 @@ impl GpuSphereSet {
         order: usize,
         (entries, rings): (usize, usize),
         (pipe, table): (wgpu::ComputePipeline, wgpu::Buffer),
+        extra: Option<&wgpu::Buffer>,
     ) -> Result<Self, GpuError> {
         crate::sampling::check_gpu_order(order)?;
         let nn = order * order;
@@ -162,18 +225,17 @@ impl GpuSphereSet {
             bytemuck::cast_slice(&crate::sampling::knorm_table(order)),
         );
         let image_buf = ctx.storage("set image", (16 * points.len()) as u64);
-        let bind = ctx.bind(
-            &pipe,
-            &[
-                &params_buf,
-                &points_buf,
-                &spheres_buf,
-                &table,
-                &transfer_buf,
-                &knorm_buf,
-                &image_buf,
-            ],
-        );
+        let mut buffers = vec![
+            &params_buf,
+            &points_buf,
+            &spheres_buf,
+            &table,
+            &transfer_buf,
+            &knorm_buf,
+            &image_buf,
+        ];
+        buffers.extend(extra);
+        let bind = ctx.bind(&pipe, &buffers);
         Ok(Self {
             receivers: points.len(),
             order,

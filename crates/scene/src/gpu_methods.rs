@@ -24,7 +24,7 @@ pub enum GpuForm {
     SubVolumes,
     /// The full field ([`crate::gpu_field`]).
     FullField,
-    /// Sphere sets by the chain or the union ([`crate::gpu_sets`]).
+    /// Sphere sets by the chain, the union or SH exponentiation ([`crate::gpu_sets`]).
     SphereSet,
     /// The band-limited ray-traced reference ([`crate::gpu_truth`]).
     RayTraced,

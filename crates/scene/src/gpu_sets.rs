@@ -2,14 +2,15 @@
 //! mesh is posed and one sphere fitted per part on the host (the partition made once, on the
 //! rest pose, as the CPU render makes it) — or the pose's inscribed balls
 //! (`sphere_fit = "inscribed"`, a one-off fit per pose) —, then every receiver is shaded on the GPU from the
-//! spheres' closed-form caps multiplied near to far, or combined as their exact union
-//! (`sphere_combine = "union"`; `shscale_gpu::sphereset`). With [`SetPose::Device`]
+//! spheres' closed-form caps multiplied near to far, combined as their exact union
+//! (`sphere_combine = "union"`) or by SH exponentiation (`"shexp"`, the HYB exponential;
+//! `shscale_gpu::sphereset`). With [`SetPose::Device`]
 //! (`--device-pose`) the meshes are posed and the area fit's spheres fitted on the device
 //! (`shscale_gpu::fit`), and a frame uploads each mesh's 32-byte pose. The image of a frame is
 //! the CPU render's of the same pose within f32 rounding either way (tested on lavapipe); it is
 //! read back after the frame's stages, not as one of them.
 //!
-//! Scope: the plain chain (`sphere_order` at most the scene's order) and the union
+//! Scope: the plain chain (`sphere_order` at most the scene's order), SH exponentiation and the union
 //! ([`crate::method::UNION_RINGS`] rings), `N ≤ 8`, at most [`MAX_GPU_SPHERES`] spheres over
 //! all occluders, no local lights; anything else is refused by name.
 
@@ -81,9 +82,12 @@ struct PosedParts {
 /// Whether the GPU sphere-set path takes `scene`, or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
     use crate::combine::Combine;
-    let why = if !matches!(scene.sphere_combine, Combine::Product | Combine::Union) {
+    let why = if !matches!(
+        scene.sphere_combine,
+        Combine::Product | Combine::Union | Combine::Shexp
+    ) {
         Some(format!(
-            "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain or the union",
+            "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain, the union or SH exponentiation",
             scene.sphere_combine.name()
         ))
     } else if scene.sphere_combine == Combine::Product && scene.sphere_order > scene.order {
@@ -180,13 +184,23 @@ pub fn render_sequence_sphere_set_gpu_posed(
     let transfer = shader.transfer(&light, glam::DVec3::Z);
     let recv = receiver_grid(scene);
     let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-    let gpu = if scene.sphere_combine == crate::combine::Combine::Union {
-        let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
-        let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
-        GpuSphereSet::union(ctx, &recv, &transfer, &grid)?
-    } else {
-        let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
-        GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?
+    let gpu = match scene.sphere_combine {
+        crate::combine::Combine::Union => {
+            let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
+            let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
+            GpuSphereSet::union(ctx, &recv, &transfer, &grid)?
+        }
+        crate::combine::Combine::Shexp => {
+            // The CPU render's table (`SHEXP_EPS`) and exponential (HYB).
+            use shscale_field::shexp_ol::{ZonalLogTable, SHEXP_EPS};
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+            GpuSphereSet::shexp(ctx, &recv, &transfer, &gaunt, &table)?
+        }
+        _ => {
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?
+        }
     };
     if pose == SetPose::Device {
         return device_frames(scene, frames, ctx, (&gpu, &occs), each);

@@ -6,7 +6,7 @@
 //! GPU path beside the CPU's, for the methods that have one — the papers' extrapolation from one
 //! sampling sphere (`gpu_path`: the real-time sequence, whose sampling sphere encloses every
 //! pose) or from clearance radii (`gpu_radial`), sub-volumes (`gpu_parts`), the full field
-//! (`gpu_field`) and sphere sets by the chain or the union (`gpu_sets`).
+//! (`gpu_field`) and sphere sets by the chain, the union or SH exponentiation (`gpu_sets`).
 //! The run's errors stay the CPU render's; the GPU images are compared with it
 //! (`gpu_max_diff`, in the unit of the mean unshadowed irradiance) so a row says how far its GPU
 //! frame is from the frame it scores. `gpu` needs an adapter (the config's `gpu` setting opens
