@@ -132,38 +132,8 @@ fn bench_methods(
     gpu: Option<&shscale_scene::gpu_path::GpuContext>,
 ) -> anyhow::Result<ExitCode> {
     use shscale_scene::bench_methods::{bench_method, bench_method_gpu, Truths, Variant};
-    use shscale_scene::render::estimated_work;
     let variants = Variant::parse_list(list).map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
-    let total = (a.frames + a.warmup) as f64;
-    let mut rays = 0.0;
-    for s in scenes {
-        let sc = shscale_scene::bench::scene(s)?;
-        for v in &variants {
-            rays += estimated_work(&v.apply(&sc), v.method).0 * total;
-        }
-        if a.errors {
-            rays += estimated_work(&sc, shscale_scene::method::Method::RayTraced).0
-                * (a.frames + 1) as f64;
-        }
-    }
-    shscale_runner::limits::check_work(
-        "bench --methods",
-        rays,
-        0.0,
-        &format!(
-            "{} scene(s) × {} method(s) × (--frames {} + --warmup {}){}",
-            scenes.len(),
-            variants.len(),
-            a.frames,
-            a.warmup,
-            if a.errors {
-                ", and a truth per measured frame"
-            } else {
-                ""
-            }
-        ),
-        a.allow_large,
-    )?;
+    check_methods_work(a, scenes, &variants)?;
     let mut rows = Vec::new();
     let bar = crate::output::Progress::new(scenes.len() * variants.len(), "sequences");
     for s in scenes {
@@ -205,6 +175,47 @@ fn bench_methods(
     bar.finish();
     print_method_rows(a, &rows)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --methods`' work within the limits (`--allow-large` lifts them): every variant's rays
+/// per frame on every scene, and a truth per measured frame with `--errors`.
+fn check_methods_work(
+    a: &BenchArgs,
+    scenes: &[&str],
+    variants: &[shscale_scene::bench_methods::Variant],
+) -> anyhow::Result<()> {
+    use shscale_scene::render::estimated_work;
+    let total = (a.frames + a.warmup) as f64;
+    let mut rays = 0.0;
+    for s in scenes {
+        let sc = shscale_scene::bench::scene(s)?;
+        for v in variants {
+            rays += estimated_work(&v.apply(&sc), v.method).0 * total;
+        }
+        if a.errors {
+            rays += estimated_work(&sc, shscale_scene::method::Method::RayTraced).0
+                * (a.frames + 1) as f64;
+        }
+    }
+    shscale_runner::limits::check_work(
+        "bench --methods",
+        rays,
+        0.0,
+        &format!(
+            "{} scene(s) × {} method(s) × (--frames {} + --warmup {}){}",
+            scenes.len(),
+            variants.len(),
+            a.frames,
+            a.warmup,
+            if a.errors {
+                ", and a truth per measured frame"
+            } else {
+                ""
+            }
+        ),
+        a.allow_large,
+    )?;
+    Ok(())
 }
 
 /// `bench --methods`' rows: to `--csv`, then to stdout in `--format`.

@@ -57,46 +57,9 @@ impl GpuSphereFit {
         (labels, parts): (&[u32], usize),
         (spheres, slot): (&wgpu::Buffer, usize),
     ) -> Result<Self, GpuError> {
-        let (nv, nt) = (rest.positions.len(), rest.triangles.len());
-        if parts == 0 || parts > MAX_GPU_FIT_PARTS || slot + parts > MAX_GPU_FIT_PARTS {
-            return Err(GpuError::Input(format!(
-                "{parts} parts at slot {slot}: the device fit takes 1 to {MAX_GPU_FIT_PARTS} spheres in all"
-            )));
-        }
-        if labels.len() != nt || labels.iter().any(|&l| l as usize >= parts) {
-            return Err(GpuError::Input(format!(
-                "{} part labels below {parts} for {nt} triangles",
-                labels.len()
-            )));
-        }
-        if let Some(Deformer::Morph { target }) = deformer {
-            if target.positions.len() != nv {
-                return Err(GpuError::Input(format!(
-                    "the morph's target has {} vertices, the mesh {nv}",
-                    target.positions.len()
-                )));
-            }
-        }
-        ctx.check_binding("the fit's vertices", 16 * nv as u64)?;
-        ctx.check_binding("the fit's triangles", 16 * nt as u64)?;
-        // The triangles sorted by part (stable: each part keeps the mesh's order), each part a
-        // range of them.
-        let mut order: Vec<usize> = (0..nt).collect();
-        order.sort_by_key(|&f| labels[f]);
-        let part_tris: Vec<[u32; 4]> = (order.iter())
-            .map(|&f| {
-                let [a, b, c] = rest.triangles[f];
-                [a, b, c, 0]
-            })
-            .collect();
-        let mut ranges = vec![[0u32; 4]; parts];
-        for (i, &f) in order.iter().enumerate() {
-            let r = &mut ranges[labels[f] as usize];
-            if r[1] == 0 {
-                r[0] = i as u32;
-            }
-            r[1] = i as u32 + 1;
-        }
+        check(ctx, rest, deformer, (labels, parts), slot)?;
+        let nv = rest.positions.len();
+        let (part_tris, ranges) = by_part(rest, labels, parts);
         let pose = GpuPose {
             kind: kind_code(deformer),
             vertices: nv as u32,
@@ -195,6 +158,60 @@ impl GpuSphereFit {
         let raw = ctx.read_buffer(&self.posed)?;
         Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..self.pose.vertices as usize].to_vec())
     }
+}
+
+/// `Ok` when [`GpuSphereFit::new`] can take its arguments, else the culprit named.
+fn check(
+    ctx: &GpuContext,
+    rest: &Mesh,
+    deformer: Option<&Deformer>,
+    (labels, parts): (&[u32], usize),
+    slot: usize,
+) -> Result<(), GpuError> {
+    let (nv, nt) = (rest.positions.len(), rest.triangles.len());
+    if parts == 0 || parts > MAX_GPU_FIT_PARTS || slot + parts > MAX_GPU_FIT_PARTS {
+        return Err(GpuError::Input(format!(
+            "{parts} parts at slot {slot}: the device fit takes 1 to {MAX_GPU_FIT_PARTS} spheres in all"
+        )));
+    }
+    if labels.len() != nt || labels.iter().any(|&l| l as usize >= parts) {
+        return Err(GpuError::Input(format!(
+            "{} part labels below {parts} for {nt} triangles",
+            labels.len()
+        )));
+    }
+    if let Some(Deformer::Morph { target }) = deformer {
+        if target.positions.len() != nv {
+            return Err(GpuError::Input(format!(
+                "the morph's target has {} vertices, the mesh {nv}",
+                target.positions.len()
+            )));
+        }
+    }
+    ctx.check_binding("the fit's vertices", 16 * nv as u64)?;
+    ctx.check_binding("the fit's triangles", 16 * nt as u64)
+}
+
+/// The triangles sorted by part (stable: each part keeps the mesh's order) as the kernels read
+/// them, and each part's range of them (`first, end`; `0, 0` for a part without triangles).
+fn by_part(mesh: &Mesh, labels: &[u32], parts: usize) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
+    let mut order: Vec<usize> = (0..labels.len()).collect();
+    order.sort_by_key(|&f| labels[f]);
+    let tris = (order.iter())
+        .map(|&f| {
+            let [a, b, c] = mesh.triangles[f];
+            [a, b, c, 0]
+        })
+        .collect();
+    let mut ranges = vec![[0u32; 4]; parts];
+    for (i, &f) in order.iter().enumerate() {
+        let r = &mut ranges[labels[f] as usize];
+        if r[1] == 0 {
+            r[0] = i as u32;
+        }
+        r[1] = i as u32 + 1;
+    }
+    (tris, ranges)
 }
 
 /// A whole buffer as a binding.

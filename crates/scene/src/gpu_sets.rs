@@ -183,25 +183,7 @@ pub fn render_sequence_sphere_set_gpu_posed(
     let shader = Shader::new(scene.order)?;
     let transfer = shader.transfer(&light, glam::DVec3::Z);
     let recv = receiver_grid(scene);
-    let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-    let gpu = match scene.sphere_combine {
-        crate::combine::Combine::Union => {
-            let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
-            let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
-            GpuSphereSet::union(ctx, &recv, &transfer, &grid)?
-        }
-        crate::combine::Combine::Shexp => {
-            // The CPU render's table (`SHEXP_EPS`) and exponential (HYB).
-            use shscale_field::shexp_ol::{ZonalLogTable, SHEXP_EPS};
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
-            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-            GpuSphereSet::shexp(ctx, &recv, &transfer, &gaunt, &table)?
-        }
-        _ => {
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
-            GpuSphereSet::new(ctx, &recv, &transfer, &gaunt)?
-        }
-    };
+    let gpu = gpu_set(scene, ctx, &recv, &transfer)?;
     if pose == SetPose::Device {
         return device_frames(scene, frames, ctx, (&gpu, &occs), each);
     }
@@ -246,6 +228,35 @@ pub fn render_sequence_sphere_set_gpu_posed(
         stats.push(st);
     }
     Ok((RenderOutput::plane(scene, pixels), stats))
+}
+
+/// The GPU sphere set of `scene`'s combination for receivers `recv` and the light's `transfer`.
+fn gpu_set(
+    scene: &Scene,
+    ctx: &GpuContext,
+    recv: &[glam::DVec3],
+    transfer: &[Vec<f64>; 3],
+) -> Result<GpuSphereSet, Error> {
+    let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
+    let set = match scene.sphere_combine {
+        crate::combine::Combine::Union => {
+            let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
+            let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
+            GpuSphereSet::union(ctx, recv, transfer, &grid)?
+        }
+        crate::combine::Combine::Shexp => {
+            // The CPU render's table (`SHEXP_EPS`) and exponential (HYB).
+            use shscale_field::shexp_ol::{ZonalLogTable, SHEXP_EPS};
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+            GpuSphereSet::shexp(ctx, recv, transfer, &gaunt, &table)?
+        }
+        _ => {
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            GpuSphereSet::new(ctx, recv, transfer, &gaunt)?
+        }
+    };
+    Ok(set)
 }
 
 /// The frames of [`render_sequence_sphere_set_gpu_posed`] posed and fitted on the device: each
