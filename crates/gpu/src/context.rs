@@ -176,22 +176,7 @@ impl GpuContext {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         enc.copy_buffer_to_buffer(buffer, 0, staging, 0, size);
         self.queue.submit([enc.finish()]);
-        let slice = staging.slice(..size);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let out = view.to_vec();
-        drop(view);
-        staging.unmap();
-        Ok(out)
+        self.map_read(staging, size, wgpu::PollType::wait_indefinitely())
     }
 
     /// Read the first `size` bytes of `staging` (a `MAP_READ` buffer a copy in submission
@@ -203,23 +188,30 @@ impl GpuContext {
         size: u64,
         index: wgpu::SubmissionIndex,
     ) -> Result<Vec<u8>, GpuError> {
+        let wait = wgpu::PollType::Wait {
+            submission_index: Some(index),
+            timeout: None,
+        };
+        self.map_read(staging, size, wait)
+    }
+
+    /// Map the first `size` bytes of `staging` for reading, poll the device as `wait` says,
+    /// copy them out and unmap.
+    fn map_read(
+        &self,
+        staging: &wgpu::Buffer,
+        size: u64,
+        wait: wgpu::PollType,
+    ) -> Result<Vec<u8>, GpuError> {
+        let err = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
         let slice = staging.slice(..size);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        self.device.poll(wait).map_err(|e| err(&e))?;
+        rx.recv().map_err(|e| err(&e))?.map_err(|e| err(&e))?;
+        let view = slice.get_mapped_range().map_err(|e| err(&e))?;
         let out = view.to_vec();
         drop(view);
         staging.unmap();

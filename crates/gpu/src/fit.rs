@@ -15,7 +15,7 @@
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::layout::{shader, GpuFit, GpuPose};
+use crate::layout::{shader, GpuFit, GpuPose, MAX_GPU_SPHERES};
 use crate::pose::{kind_code, pose_source, v4s};
 use shscale_geometry::deform::Deformer;
 use shscale_geometry::Mesh;
@@ -23,8 +23,8 @@ use shscale_geometry::Mesh;
 const FIT_WGSL: &str = include_str!("fit.wgsl");
 
 /// The most parts one mesh's device fit takes (the set's sphere buffer holds
-/// [`crate::sphereset::MAX_GPU_SPHERES`]).
-pub const MAX_GPU_FIT_PARTS: usize = crate::sphereset::MAX_GPU_SPHERES;
+/// [`MAX_GPU_SPHERES`]).
+pub const MAX_GPU_FIT_PARTS: usize = MAX_GPU_SPHERES;
 
 /// The fit kernels' source.
 pub fn fit_source() -> String {
@@ -49,7 +49,7 @@ impl GpuSphereFit {
     /// Set up `rest` (placed; every frame's pose has its topology) deformed by `deformer` (none:
     /// every frame is the rest pose), its triangles in parts `labels` (one per triangle, below
     /// `parts`), writing spheres `slot..slot + parts` of `spheres` (the set's sphere buffer,
-    /// [`crate::sphereset::GpuSphereSet::spheres_buffer`]).
+    /// the sphere set's `spheres_buffer`).
     pub fn new(
         ctx: &GpuContext,
         rest: &Mesh,

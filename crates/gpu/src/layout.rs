@@ -177,6 +177,10 @@ gpu_struct! {
     }
 }
 
+/// The most spheres a sphere set's kernels sort and combine per receiver (and a device fit
+/// writes in all).
+pub const MAX_GPU_SPHERES: usize = 64;
+
 gpu_struct! {
     /// One mesh's sphere fit (`fit.wgsl`, a uniform): its parts, the first of its spheres' slots
     /// in the set's sphere buffer, and the point the moments are taken about (the rest pose's

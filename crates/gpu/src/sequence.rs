@@ -28,6 +28,15 @@ use std::time::Instant;
 /// two, the double buffering of a real-time renderer.
 pub const FRAMES_IN_FLIGHT: usize = 2;
 
+/// The five timed passes of a frame posed on the device.
+const DEVICE_POSED_STAGES: [&str; 5] = [
+    "deform",
+    "bvh refit",
+    "bsv sampling",
+    "sh conversion",
+    "shadowing",
+];
+
 /// One slot of the frames in flight: its timer and relative-area staging buffer.
 struct FlightSlot {
     timer: StageTimer,
@@ -249,13 +258,7 @@ impl GpuSequence {
         let bvh_seconds = poser.prepare(ctx, t)?;
         let upload_seconds = t0.elapsed().as_secs_f64() - bvh_seconds;
         let (poser, sampler, shader) = (&*poser, &self.sampler, &self.shader);
-        let labels = [
-            "deform",
-            "bvh refit",
-            "bsv sampling",
-            "sh conversion",
-            "shadowing",
-        ];
+        let labels = DEVICE_POSED_STAGES;
         let s = self.timer.run(ctx, labels, |i, pass| match i {
             0 => poser.record_deform(pass),
             1 => poser.record_refit(pass),
@@ -322,13 +325,7 @@ impl GpuSequence {
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        let labels = [
-            "deform",
-            "bvh refit",
-            "bsv sampling",
-            "sh conversion",
-            "shadowing",
-        ];
+        let labels = DEVICE_POSED_STAGES;
         for (i, label) in labels.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&timer.pass(label, i as u32));
             match i {

@@ -4,8 +4,8 @@
 // direction and summed; then the HYB exponential — the sum halved until its non-DC magnitude is
 // below the table's limit, the optimal linear approximation (a, b) looked up by that magnitude,
 // and squared back by truncated Gaunt products. A receiver inside a sphere sees nothing; a
-// sphere of radius 0 is skipped. Included after sphereset.wgsl (its bindings 0–6) and
-// product.wgsl.
+// sphere of radius 0 is skipped. Included after sphereset.wgsl (its bindings 0–6 and
+// `shade_receiver`) and product.wgsl.
 //
 // `shexp_tables`: a header (OL rows R, table intervals T, the halving limit, unused), R rows
 // (‖f̂‖, a, b) ascending in ‖f̂‖, then T + 1 rows of N zonal log coefficients at t = i/T.
@@ -113,16 +113,5 @@ fn shade_shexp(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
         v = acc;
         gaunt_product(&acc, &v, nn, params.entries);
     }
-    var e = vec3<f32>(0.0);
-    for (var ch = 0u; ch < params.channels; ch++) {
-        var sum = 0.0;
-        for (var j = 0u; j < nn; j++) {
-            sum += transfer[ch * nn + j] * acc[j];
-        }
-        e[ch] = sum;
-    }
-    if (params.channels == 1u) {
-        e = vec3<f32>(e.x);
-    }
-    image[r] = vec4<f32>(e, 1.0);
+    shade_receiver(r, &acc);
 }

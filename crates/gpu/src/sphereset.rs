@@ -29,8 +29,7 @@ const SHEXP_WGSL: &str = include_str!("shexp.wgsl");
 /// The most z-rings the GPU union takes (its private arrays' size).
 pub const MAX_GPU_RINGS: usize = 32;
 
-/// The most spheres the kernel sorts and multiplies per receiver.
-pub const MAX_GPU_SPHERES: usize = 64;
+pub use crate::layout::MAX_GPU_SPHERES;
 
 /// The sphere-set shading kernel's source.
 pub fn source() -> String {
@@ -75,9 +74,7 @@ impl GpuSphereSet {
         transfer: &[Vec<f64>; 3],
         gaunt: &GauntTensor<f64>,
     ) -> Result<Self, GpuError> {
-        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
-            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
-            .collect();
+        let g = gaunt_words(gaunt);
         let table = ctx.storage_init("set gaunt", bytemuck::cast_slice(&g));
         let pipe = ctx.pipeline("sphere set", &source(), "shade_set");
         Self::build(
@@ -149,9 +146,7 @@ impl GpuSphereSet {
                 gaunt.order()
             )));
         }
-        let g: Vec<[u32; 4]> = (gaunt.entries().iter())
-            .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
-            .collect();
+        let g = gaunt_words(gaunt);
         let gaunt_buf = ctx.storage_init("shexp gaunt", bytemuck::cast_slice(&g));
         let (ol, logs) = (table.ol_rows(), table.log_rows());
         let limit = shscale_field::shexp_ol::HYB_MAGNITUDE.min(0.96 * table.max_magnitude());
@@ -278,13 +273,7 @@ impl GpuSphereSet {
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        {
-            let mut pass = enc.begin_compute_pass(&timer.pass("sphere set", 0));
-            let (x, y) = grid_64(self.receivers as u32);
-            pass.set_pipeline(&self.pipe);
-            pass.set_bind_group(0, &self.bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
+        self.record(&mut enc.begin_compute_pass(&timer.pass("sphere set", 0)));
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         ctx.wait()?;
@@ -337,14 +326,17 @@ impl GpuSphereSet {
             |i, pass| match i {
                 0 => fits.iter().for_each(|f| f.record_deform(pass)),
                 1 => fits.iter().for_each(|f| f.record_fit(pass)),
-                _ => {
-                    let (x, y) = grid_64(self.receivers as u32);
-                    pass.set_pipeline(&self.pipe);
-                    pass.set_bind_group(0, &self.bind, &[]);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
+                _ => self.record(pass),
             },
         )
+    }
+
+    /// Record the shading pass (one invocation per receiver).
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let (x, y) = grid_64(self.receivers as u32);
+        pass.set_pipeline(&self.pipe);
+        pass.set_bind_group(0, &self.bind, &[]);
+        pass.dispatch_workgroups(x, y, 1);
     }
 
     /// The last frame's image (RGB per receiver).
@@ -371,6 +363,13 @@ impl GpuSphereSet {
             panel_rings: shscale_field::union::PANEL_RINGS as u32,
         }
     }
+}
+
+/// The Gaunt tensor's entries as the kernels read them: `(i, j, k, bits of the f32 value)`.
+fn gaunt_words(gaunt: &GauntTensor<f64>) -> Vec<[u32; 4]> {
+    (gaunt.entries().iter())
+        .map(|&(i, j, k, v)| [i, j, k, (v as f32).to_bits()])
+        .collect()
 }
 
 /// Spheres as the kernel reads them: centre and radius in f32.

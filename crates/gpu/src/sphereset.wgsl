@@ -98,11 +98,18 @@ fn shade_set(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
         }
         gaunt_product(&acc, &v, nn, params.entries);
     }
+    shade_receiver(r, &acc);
+}
+
+// Receiver `r`'s irradiance from its visibility `acc`: E_ch = ⟨T_ch, V⟩ (grey: one channel
+// copied to three).
+fn shade_receiver(r: u32, acc: ptr<function, array<f32, 64>>) {
+    let nn = params.nn;
     var e = vec3<f32>(0.0);
     for (var ch = 0u; ch < params.channels; ch++) {
         var s = 0.0;
         for (var j = 0u; j < nn; j++) {
-            s += transfer[ch * nn + j] * acc[j];
+            s += transfer[ch * nn + j] * (*acc)[j];
         }
         e[ch] = s;
     }
