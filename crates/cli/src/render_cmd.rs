@@ -596,14 +596,25 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
     if a.device_pose {
+        let built = if a.pipelined {
+            format!(
+                "{} tree(s) built on a host thread in {:.3} ms off the frames' path; bvh_ms adds a swapped-in tree's upload",
+                run.host_rebuilds,
+                run.background_build_seconds * 1e3
+            )
+        } else {
+            format!(
+                "bvh_ms adds any host rebuild; {} frame(s) built on the host",
+                run.host_rebuilds
+            )
+        };
         println!(
-            "posed and refitted on the device{}: deform_ms and bvh_ms are device stages (bvh_ms adds any host rebuild; {} frame(s) built on the host)",
+            "posed and refitted on the device{}: deform_ms and bvh_ms are device stages ({built})",
             if a.pipelined {
                 ", two frames in flight"
             } else {
                 ""
             },
-            run.host_rebuilds
         );
     }
     println!(

@@ -176,6 +176,9 @@ impl PoseBuffers {
     }
 }
 
+/// A tree built in the background: the tree, the pose it was built for, the build's seconds.
+type Built = (FlatBvh, Mesh, f64);
+
 /// One deforming mesh posed and its tree refitted on the device, writing the sampler's node and
 /// triangle buffers in place.
 pub struct GpuPoser {
@@ -197,6 +200,13 @@ pub struct GpuPoser {
     pub rebuilds: usize,
     /// The relative area the device read last (`NaN` before the first frame or without the rule).
     pub last_area: f64,
+    /// Build due trees on a host thread while frames go on with the old one
+    /// ([`Self::rebuild_in_background`]).
+    background: bool,
+    /// The tree being built in the background: the build and the pose it was built for.
+    pending: Option<std::thread::JoinHandle<Result<Built, GpuError>>>,
+    /// Host seconds of the trees built in the background (off every frame's path).
+    pub background_seconds: f64,
 }
 
 impl GpuPoser {
@@ -244,9 +254,20 @@ impl GpuPoser {
             rebuild_next: false,
             rebuilds: 0,
             last_area: f64::NAN,
+            background: false,
+            pending: None,
+            background_seconds: 0.0,
         };
         out.upload_tree(ctx, rest)?;
         Ok(out)
+    }
+
+    /// From now on, build a due tree on a host thread (posed at the frame it was found due for)
+    /// while frames go on refitting the old one, and swap it in at the first frame after it is
+    /// done: the frame pays the tree's upload, not its build. The tree's shape changes frames
+    /// later than built in place; a ray's answer never does.
+    pub fn rebuild_in_background(&mut self) {
+        self.background = true;
     }
 
     /// Write the host tree's topology (its nodes; the device refits their boxes), its refit
@@ -294,7 +315,9 @@ impl GpuPoser {
     /// the host seconds of the rebuild (0 without one).
     pub fn prepare(&mut self, ctx: &GpuContext, t: f64) -> Result<f64, GpuError> {
         let mut host = 0.0;
-        if self.rebuild_next {
+        if self.background {
+            host = self.background_step(ctx, t)?;
+        } else if self.rebuild_next {
             let t0 = Instant::now();
             let mut posed = self.rest.clone();
             if let Some(d) = &self.deformer {
@@ -311,6 +334,39 @@ impl GpuPoser {
         ctx.queue
             .write_buffer(&self.bufs.pose, 0, bytemuck::bytes_of(&self.pose));
         Ok(host)
+    }
+
+    /// [`Self::prepare`]'s rebuild in the background: swap in a finished tree (its upload is
+    /// the frame's host seconds, returned), or start building one when due and none is under
+    /// way.
+    fn background_step(&mut self, ctx: &GpuContext, t: f64) -> Result<f64, GpuError> {
+        let t0 = Instant::now();
+        if self.pending.as_ref().is_some_and(|h| h.is_finished()) {
+            let done = self.pending.take().expect("checked above");
+            let (bvh, posed, seconds) = done
+                .join()
+                .map_err(|_| GpuError::Input("the background tree build panicked".into()))??;
+            self.bvh = bvh;
+            self.background_seconds += seconds;
+            self.upload_tree(ctx, &posed)?;
+            self.rebuilds += 1;
+            self.rebuild_next = false;
+            return Ok(t0.elapsed().as_secs_f64());
+        }
+        if self.rebuild_next && self.pending.is_none() {
+            self.rebuild_next = false;
+            let (rest, deformer) = (self.rest.clone(), self.deformer.clone());
+            self.pending = Some(std::thread::spawn(move || {
+                let t0 = Instant::now();
+                let mut posed = rest.clone();
+                if let Some(d) = &deformer {
+                    d.apply(&rest, t, &mut posed);
+                }
+                let bvh = FlatBvh::build(&posed, UpdateStrategy::Refit)?;
+                Ok((bvh, posed, t0.elapsed().as_secs_f64()))
+            }));
+        }
+        Ok(0.0)
     }
 
     /// Record the deformation pass.

@@ -280,6 +280,20 @@ impl GpuSequence {
         })
     }
 
+    /// Posed on the device ([`Self::pose_on_device`] first): build due trees on a host thread
+    /// while frames go on refitting the old one ([`GpuPoser::rebuild_in_background`]).
+    pub fn rebuild_in_background(&mut self) -> Result<(), GpuError> {
+        match self.poser.as_mut() {
+            Some(p) => {
+                p.rebuild_in_background();
+                Ok(())
+            }
+            None => Err(GpuError::Input(
+                "rebuilding in the background needs the pose on the device (pose_on_device)".into(),
+            )),
+        }
+    }
+
     /// Frames in flight: pose frame time `t` on the device and submit its five passes without
     /// waiting (at most [`FRAMES_IN_FLIGHT`] submitted and not finished: [`Self::finish_oldest`]
     /// first). The pose's uniform is written on the queue after the previous frame's commands,

@@ -205,6 +205,57 @@ fn a_grown_tree_is_rebuilt_on_the_host_the_next_frame() {
     );
 }
 
+/// Rebuilt in the background: the due tree is built on a host thread (posed at the frame found
+/// due) while frames go on refitting the old one — no frame pays the build —, and once swapped in
+/// it is the host's build at that pose refitted to the device's pose, bit for bit, as in place.
+#[test]
+fn a_grown_tree_is_rebuilt_in_the_background() {
+    let Some(ctx) = ctx() else { return };
+    let rest = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 12);
+    let sampler = sampler_for(&ctx, &rest);
+    let d = Deformer::Twist {
+        max_turns: 0.25,
+        h: twist_height(&rest),
+    };
+    let mut poser =
+        GpuPoser::new(&ctx, &rest, Some(&d), UpdateStrategy::Adaptive, &sampler).unwrap();
+    poser.rebuild_in_background();
+    poser.run(&ctx, 0.5).unwrap();
+    assert_eq!(poser.rebuilds, 0, "due, not yet built");
+    // The frames go on with the old tree until the build is done (at most a few seconds).
+    let mut frames = 0;
+    let t0 = std::time::Instant::now();
+    while poser.rebuilds == 0 {
+        poser.run(&ctx, 0.5).unwrap();
+        frames += 1;
+        assert!(
+            t0.elapsed().as_secs() < 60,
+            "the background build never landed"
+        );
+    }
+    println!(
+        "swapped in after {frames} frame(s); built in {:.2} ms on a host thread",
+        1e3 * poser.background_seconds
+    );
+    assert!(poser.background_seconds > 0.0);
+    let mut host_pose = rest.clone();
+    d.apply(&rest, 0.5, &mut host_pose);
+    let mut want = FlatBvh::build(&host_pose, UpdateStrategy::Refit).unwrap();
+    want.update(&device_pose(&rest, &poser, &ctx)).unwrap();
+    // The swap uploads the tree; the frame that swapped it refitted it.
+    let (nodes, tris) = sampler
+        .read_tree(&ctx, want.nodes.len(), want.gpu_tris.len())
+        .unwrap();
+    assert!(nodes == want.nodes && tris == want.gpu_tris);
+    poser.run(&ctx, 0.5).unwrap();
+    assert!(
+        poser.last_area < 1.15 * poser.host_tree().built_area(),
+        "the rebuilt tree is not due again: {:.3}",
+        poser.last_area
+    );
+    assert_eq!(poser.rebuilds, 1);
+}
+
 /// A morph whose target has another vertex count is refused by name.
 #[test]
 fn a_morph_target_of_another_size_is_refused() {

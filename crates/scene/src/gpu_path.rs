@@ -60,7 +60,8 @@ pub enum GpuFrames {
     DevicePose,
     /// Posed on the device, [`shscale_gpu::sequence::FRAMES_IN_FLIGHT`] frames in flight: the
     /// host submits frame i + 1 before waiting for frame i, and waits for each frame alone; a
-    /// frame's time is the period between completions (timestamp queries needed).
+    /// due tree is built on a host thread and swapped in when done; a frame's time is the period
+    /// between completions (timestamp queries needed).
     DeviceInFlight,
 }
 
@@ -242,8 +243,9 @@ pub fn render_sequence_gpu(
 /// `gpu.refit_seconds`); the images differ from the host-posed ones only where the f32 pose
 /// moves a grazing ray. Posed on the device with frames in flight: the same passes, frame i + 1
 /// submitted before frame i is waited for, each frame's time its period as when pipelined; the
-/// rebuild rule reads a frame's area when it completes, so a due rebuild lands up to two frames
-/// later than posed one at a time (the tree's shape, never the rays' answers).
+/// rebuild rule reads a frame's area when it completes and a due tree is built on a host thread
+/// while frames go on with the old one, so it lands frames later than posed one at a time (the
+/// tree's shape, never the rays' answers).
 pub fn render_sequence_gpu_with(
     scene: &Scene,
     frames: usize,
@@ -299,6 +301,7 @@ pub fn render_sequence_gpu_with(
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
         host_rebuilds: seq.poser().map_or(0, |p| p.rebuilds),
+        background_build_seconds: seq.poser().map_or(0.0, |p| p.background_seconds),
         image: out,
         frames: stats,
         setup_seconds: setup,
@@ -343,6 +346,7 @@ fn run_frames(
         }
         GpuFrames::DeviceInFlight => {
             seq.pose_on_device(ctx, rest, poser.map(|p| p.deformer()), strategy)?;
+            seq.rebuild_in_background()?;
             in_flight_frames(seq, ctx, frames, &mut stats)?;
         }
         GpuFrames::Sequential => {
@@ -447,6 +451,9 @@ pub struct GpuSequenceRun {
     pub setup_seconds: f64,
     /// Posed on the device: the frames whose tree was built on the host (the rebuild rule).
     pub host_rebuilds: usize,
+    /// Frames in flight: the host seconds of the trees built on a host thread, off the frames'
+    /// path (0 otherwise).
+    pub background_build_seconds: f64,
     /// Device time of the per-receiver setup (k-table scaling and rotations, 25 600 receivers
     /// for the bench scenes).
     pub receiver_setup_seconds: f64,
