@@ -727,3 +727,81 @@ fn table1_per_method_device_posed_rows() {
     println!("bird, 4 spheres: host-fitted error {h:.6}, device-fitted {d:.6}");
     assert!((h - d).abs() < 1e-3 * h, "{h} vs {d}");
 }
+
+/// `scripts/device-targets.py` reads device-check's JSON and states each target from it: a
+/// synthetic run where the bird meets 1,000 FPS and 5× its CPU frame and the sponge meets
+/// neither, one sphere set at 6,000 FPS and one at 4,000; a missing file is refused with exit 2
+/// naming it.
+#[test]
+fn device_targets_are_read_from_the_device_checks_rows() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = std::env::temp_dir().join(format!("shscale-targets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let row = |scene: &str, path: &str, ms: f64| {
+        format!(
+            r#"{{"scene": "{scene}", "path": "{path}", "device": "{}", "frame_ms": {ms}, "fps": {}}}"#,
+            if path == "cpu" { "cpu" } else { "Test GPU" },
+            1e3 / ms
+        )
+    };
+    let table1 = [
+        row("bird", "cpu", 2.0),
+        row("bird", "gpu", 0.5),
+        row("bird", "gpu-device", 0.25),
+        row("sponge", "cpu", 5.0),
+        row("sponge", "gpu", 2.84),
+    ];
+    std::fs::write(dir.join("table1.json"), format!("[{}]", table1.join(","))).unwrap();
+    let set = |method: &str, path: &str, ms: f64| {
+        format!(
+            r#"{{"scene": "egg", "method": "{method}", "path": "{path}", "device": "Test GPU", "frame_ms": {ms}, "fps": {}, "error_mean": 0.03}}"#,
+            1e3 / ms
+        )
+    };
+    let methods = [
+        set("sphere_set:parts=4", "per-frame", 20.0),
+        set("sphere_set:parts=4", "gpu", 0.3),
+        set("sphere_set:parts=4", "gpu-device", 1.0 / 6.0),
+        set("sphere_set:parts=16", "gpu", 0.25),
+        set("extrapolated", "gpu", 0.1),
+    ];
+    std::fs::write(dir.join("methods.json"), format!("[{}]", methods.join(","))).unwrap();
+    let run = |d: &std::path::Path| {
+        std::process::Command::new("python3")
+            .arg(root.join("scripts/device-targets.py"))
+            .arg(d)
+            .output()
+            .expect("python3")
+    };
+    let o = run(&dir);
+    let text = String::from_utf8_lossy(&o.stdout);
+    println!("{text}");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let line = |start: &str| {
+        text.lines()
+            .find(|l| l.starts_with(start))
+            .unwrap_or_else(|| panic!("no line {start:?} in {text}"))
+            .to_string()
+    };
+    let bird = line("| bird |");
+    assert!(
+        bird.contains("gpu-device | 4000 | met") && bird.contains("8.00× | met"),
+        "{bird}"
+    );
+    let sponge = line("| sponge |");
+    assert!(
+        sponge.contains("| 352 | **not met**") && sponge.contains("1.76× | **not met**"),
+        "{sponge}"
+    );
+    let four = line("| egg | sphere_set:parts=4 |");
+    assert!(four.contains("gpu-device | 6000 | met | 0.0300"), "{four}");
+    let sixteen = line("| egg | sphere_set:parts=16 |");
+    assert!(sixteen.contains("gpu | 4000 | **not met**"), "{sixteen}");
+    assert!(!text.contains("extrapolated"), "{text}");
+    std::fs::remove_file(dir.join("methods.json")).unwrap();
+    let o = run(&dir);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("methods.json"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
