@@ -450,6 +450,24 @@ fn gpu_sphere_set_shexp_matches_the_cpu_render_frame_by_frame() {
     assert!(apart > 10.0 * SHEXP_GPU_TOL, "{apart}");
 }
 
+/// Two deforming meshes and an analytic sphere, posed and fitted on the device: each mesh's parts
+/// fitted into its own slots (the second mesh's after the first's), the fixed sphere after both;
+/// the frames are the CPU render's within the chain's bound, as posed on the host.
+#[test]
+fn gpu_sphere_sets_of_two_meshes_fit_on_the_device_into_their_own_slots() {
+    let Some(ctx) = gpu_or_skip("GPU sphere sets of two meshes") else {
+        return;
+    };
+    let mut s = scene(
+        "[[occluder]]\nmesh = \"bird\"\ncenter = [-1, 0, 1.4]\nradius = 0.8\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"egg\"\ncenter = [1.2, 0.5, 1.2]\nradius = 0.7\ndeformer = \"morph\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n",
+    );
+    s.parts = 3;
+    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    let device = device.expect("area fit");
+    println!("two meshes, 3 parts each: host-posed {host:.2e}, device-posed {device:.2e}");
+    assert!(host < 1e-4 && device < 1e-4, "{host} {device}");
+}
+
 /// The GPU exponentiation's tolerance, relative to the brightest pixel: f32 logs summed over up
 /// to 19 spheres, and each halving's squaring doubling the exponential's relative rounding
 /// (2.3e-5–2.6e-5 on lavapipe when written).
