@@ -15,8 +15,8 @@
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::layout::{shader, GpuFit, GpuPose, MAX_GPU_SPHERES};
-use crate::pose::{kind_code, pose_source, v4s};
+use crate::layout::{shader, GpuFit, MAX_GPU_SPHERES};
+use crate::pose::DeviceDeform;
 use shscale_geometry::deform::Deformer;
 use shscale_geometry::Mesh;
 
@@ -33,13 +33,8 @@ pub fn fit_source() -> String {
 
 /// One deforming mesh of a sphere set, posed and fitted on the device.
 pub struct GpuSphereFit {
-    deformer: Option<Deformer>,
-    pose: GpuPose,
+    deform: DeviceDeform,
     parts: usize,
-    pose_buf: wgpu::Buffer,
-    posed: wgpu::Buffer,
-    deform_pipe: wgpu::ComputePipeline,
-    deform_bind: wgpu::BindGroup,
     /// `fit_moments`, `fit_spheres`.
     fit_pipes: [wgpu::ComputePipeline; 2],
     fit_binds: [wgpu::BindGroup; 2],
@@ -57,18 +52,9 @@ impl GpuSphereFit {
         (labels, parts): (&[u32], usize),
         (spheres, slot): (&wgpu::Buffer, usize),
     ) -> Result<Self, GpuError> {
-        check(ctx, rest, deformer, (labels, parts), slot)?;
-        let nv = rest.positions.len();
+        check(ctx, rest, (labels, parts), slot)?;
+        let deform = DeviceDeform::new(ctx, rest, deformer)?;
         let (part_tris, ranges) = by_part(rest, labels, parts);
-        let pose = GpuPose {
-            kind: kind_code(deformer),
-            vertices: nv as u32,
-            ..Default::default()
-        };
-        let target = match deformer {
-            Some(Deformer::Morph { target }) => v4s(target),
-            _ => vec![[0.0; 4]],
-        };
         let o = rest.bounding_sphere().center;
         let fit = GpuFit {
             parts: parts as u32,
@@ -76,31 +62,17 @@ impl GpuSphereFit {
             origin: [o.x as f32, o.y as f32, o.z as f32, 0.0],
             ..Default::default()
         };
-        let pose_buf = ctx.uniform("fit pose", bytemuck::bytes_of(&pose));
-        let rest_buf = ctx.storage_init("fit rest", bytemuck::cast_slice(&v4s(rest)));
-        let target_buf = ctx.storage_init("fit target", bytemuck::cast_slice(&target));
-        let posed = ctx.storage("fit posed", 16 * nv as u64);
         let fit_buf = ctx.uniform("fit", bytemuck::bytes_of(&fit));
         let tris_buf = ctx.storage_init("fit part triangles", bytemuck::cast_slice(&part_tris));
         let ranges_buf = ctx.storage_init("fit part ranges", bytemuck::cast_slice(&ranges));
         let moments = ctx.storage("fit moments", 32 * parts as u64);
-        let deform_pipe = ctx.pipeline("deform", &pose_source(), "deform");
-        let deform_bind = ctx.bind_at(
-            &deform_pipe,
-            &[
-                (0, whole(&pose_buf)),
-                (1, whole(&rest_buf)),
-                (2, whole(&target_buf)),
-                (3, whole(&posed)),
-            ],
-        );
         let src = fit_source();
         let fit_pipes = ["fit_moments", "fit_spheres"].map(|e| ctx.pipeline(e, &src, e));
         // Both passes read the same five buffers; the second also writes the spheres.
         let fit_binds = [0, 1].map(|i| {
             let mut res = vec![
                 (0, whole(&fit_buf)),
-                (1, whole(&posed)),
+                (1, whole(&deform.posed)),
                 (2, whole(&tris_buf)),
                 (3, whole(&ranges_buf)),
                 (4, whole(&moments)),
@@ -111,13 +83,8 @@ impl GpuSphereFit {
             ctx.bind_at(&fit_pipes[i], &res)
         });
         Ok(Self {
-            deformer: deformer.cloned(),
-            pose,
+            deform,
             parts,
-            pose_buf,
-            posed,
-            deform_pipe,
-            deform_bind,
             fit_pipes,
             fit_binds,
         })
@@ -130,18 +97,12 @@ impl GpuSphereFit {
 
     /// The host's half of frame time `t`: write the frame's pose (32 bytes).
     pub fn prepare(&mut self, ctx: &GpuContext, t: f64) {
-        self.pose.scalar = self.deformer.as_ref().map_or(0.0, |d| d.scalar(t)) as f32;
-        self.pose.constant = self.deformer.as_ref().map_or(0.0, Deformer::constant) as f32;
-        ctx.queue
-            .write_buffer(&self.pose_buf, 0, bytemuck::bytes_of(&self.pose));
+        self.deform.write(ctx, t);
     }
 
     /// Record the deformation pass.
     pub fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
-        let (x, y) = crate::timing::grid_64(self.pose.vertices);
-        pass.set_pipeline(&self.deform_pipe);
-        pass.set_bind_group(0, &self.deform_bind, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        self.deform.record(pass);
     }
 
     /// Record the fit: the parts' moments, then their spheres (one workgroup per part each).
@@ -155,20 +116,19 @@ impl GpuSphereFit {
 
     /// The posed vertices of the last frame (tests).
     pub fn read_posed(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        let raw = ctx.read_buffer(&self.posed)?;
-        Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..self.pose.vertices as usize].to_vec())
+        self.deform.read_posed(ctx)
     }
 }
 
-/// `Ok` when [`GpuSphereFit::new`] can take its arguments, else the culprit named.
+/// `Ok` when [`GpuSphereFit::new`] can take its parts and slot, else the culprit named (the
+/// pose's own checks are [`DeviceDeform::new`]'s).
 fn check(
     ctx: &GpuContext,
     rest: &Mesh,
-    deformer: Option<&Deformer>,
     (labels, parts): (&[u32], usize),
     slot: usize,
 ) -> Result<(), GpuError> {
-    let (nv, nt) = (rest.positions.len(), rest.triangles.len());
+    let nt = rest.triangles.len();
     if parts == 0 || parts > MAX_GPU_FIT_PARTS || slot + parts > MAX_GPU_FIT_PARTS {
         return Err(GpuError::Input(format!(
             "{parts} parts at slot {slot}: the device fit takes 1 to {MAX_GPU_FIT_PARTS} spheres in all"
@@ -180,15 +140,6 @@ fn check(
             labels.len()
         )));
     }
-    if let Some(Deformer::Morph { target }) = deformer {
-        if target.positions.len() != nv {
-            return Err(GpuError::Input(format!(
-                "the morph's target has {} vertices, the mesh {nv}",
-                target.positions.len()
-            )));
-        }
-    }
-    ctx.check_binding("the fit's vertices", 16 * nv as u64)?;
     ctx.check_binding("the fit's triangles", 16 * nt as u64)
 }
 

@@ -38,7 +38,7 @@ pub fn pose_source() -> String {
 }
 
 /// The kind's number in `GpuPose::kind`.
-pub(crate) fn kind_code(d: Option<&Deformer>) -> u32 {
+fn kind_code(d: Option<&Deformer>) -> u32 {
     match d {
         None => 0,
         Some(Deformer::Bend { .. }) => 1,
@@ -48,18 +48,116 @@ pub(crate) fn kind_code(d: Option<&Deformer>) -> u32 {
     }
 }
 
-pub(crate) fn v4s(m: &Mesh) -> Vec<[f32; 4]> {
+fn v4s(m: &Mesh) -> Vec<[f32; 4]> {
     (m.positions.iter())
         .map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0])
         .collect()
 }
 
-/// The device buffers of a [`GpuPoser`] (the node and triangle buffers are the sampler's).
+/// `rest` posed at time `t` by `deformer` on the host (f64; the rest pose without one).
+fn host_pose(rest: &Mesh, deformer: Option<&Deformer>, t: f64) -> Mesh {
+    let mut posed = rest.clone();
+    if let Some(d) = deformer {
+        d.apply(rest, t, &mut posed);
+    }
+    posed
+}
+
+/// A mesh's rest pose on the device and its frame's pose: what `pose.wgsl`'s `deform` kernel
+/// reads (bindings 0–2: the pose uniform, the rest vertices, a morph's target) and writes (3:
+/// the posed vertices). The tree's pose ([`GpuPoser`]) and the sphere fit's
+/// (`crate::fit::GpuSphereFit`) are each one of these.
+pub(crate) struct DeviceDeform {
+    deformer: Option<Deformer>,
+    /// The uniform's value: kind, vertex count, the frame's scalar and constant (and, for the
+    /// tree's pose, its leaf and node counts).
+    pub(crate) pose: GpuPose,
+    pub(crate) pose_buf: wgpu::Buffer,
+    pub(crate) posed: wgpu::Buffer,
+    pipe: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+}
+
+impl DeviceDeform {
+    /// `rest` (placed) and `deformer` on the device; a morph target of another vertex count and
+    /// vertices beyond the adapter's storage binding are refused by name.
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        rest: &Mesh,
+        deformer: Option<&Deformer>,
+    ) -> Result<Self, GpuError> {
+        let nv = rest.positions.len();
+        let target = match deformer {
+            Some(Deformer::Morph { target }) if target.positions.len() != nv => {
+                return Err(GpuError::Input(format!(
+                    "the morph's target has {} vertices, the mesh {nv}",
+                    target.positions.len()
+                )))
+            }
+            Some(Deformer::Morph { target }) => v4s(target),
+            _ => vec![[0.0; 4]],
+        };
+        ctx.check_binding("the pose's vertices", 16 * nv as u64)?;
+        let pose = GpuPose {
+            kind: kind_code(deformer),
+            vertices: nv as u32,
+            ..Default::default()
+        };
+        let pose_buf = ctx.uniform("pose", bytemuck::bytes_of(&pose));
+        let rest_buf = ctx.storage_init("pose rest", bytemuck::cast_slice(&v4s(rest)));
+        let target_buf = ctx.storage_init("pose target", bytemuck::cast_slice(&target));
+        let posed = ctx.storage("posed", 16 * nv as u64);
+        let pipe = ctx.pipeline("deform", &pose_source(), "deform");
+        let bind = ctx.bind_at(
+            &pipe,
+            &[
+                (0, pose_buf.as_entire_binding()),
+                (1, rest_buf.as_entire_binding()),
+                (2, target_buf.as_entire_binding()),
+                (3, posed.as_entire_binding()),
+            ],
+        );
+        Ok(Self {
+            deformer: deformer.cloned(),
+            pose,
+            pose_buf,
+            posed,
+            pipe,
+            bind,
+        })
+    }
+
+    /// The deformer (none: every frame is the rest pose).
+    pub(crate) fn deformer(&self) -> Option<&Deformer> {
+        self.deformer.as_ref()
+    }
+
+    /// Write frame time `t`'s pose (the whole 32-byte uniform).
+    pub(crate) fn write(&mut self, ctx: &GpuContext, t: f64) {
+        self.pose.scalar = self.deformer.as_ref().map_or(0.0, |d| d.scalar(t)) as f32;
+        self.pose.constant = self.deformer.as_ref().map_or(0.0, Deformer::constant) as f32;
+        ctx.queue
+            .write_buffer(&self.pose_buf, 0, bytemuck::bytes_of(&self.pose));
+    }
+
+    /// Record the deformation pass.
+    pub(crate) fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let (x, y) = grid_64(self.pose.vertices);
+        pass.set_pipeline(&self.pipe);
+        pass.set_bind_group(0, &self.bind, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
+    /// The posed vertices of the last frame (tests).
+    pub(crate) fn read_posed(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
+        let raw = ctx.read_buffer(&self.posed)?;
+        Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..self.pose.vertices as usize].to_vec())
+    }
+}
+
+/// The device buffers of a [`GpuPoser`] besides its [`DeviceDeform`]'s (the node and triangle
+/// buffers are the sampler's).
 struct PoseBuffers {
-    pose: wgpu::Buffer,
-    rest: wgpu::Buffer,
-    target: wgpu::Buffer,
-    posed: wgpu::Buffer,
     nodes: wgpu::Buffer,
     tris: wgpu::Buffer,
     tri_verts: wgpu::Buffer,
@@ -75,21 +173,10 @@ struct PoseBuffers {
 }
 
 impl PoseBuffers {
-    fn new(
-        ctx: &GpuContext,
-        rest: &Mesh,
-        deformer: Option<&Deformer>,
-        sampler: &GpuSampler,
-        pose: &GpuPose,
-    ) -> Result<Self, GpuError> {
-        let (nv, nt) = (rest.positions.len() as u64, rest.triangles.len() as u64);
-        ctx.check_binding("the pose's vertices", 16 * nv)?;
+    fn new(ctx: &GpuContext, rest: &Mesh, sampler: &GpuSampler) -> Result<Self, GpuError> {
+        let nt = rest.triangles.len() as u64;
         ctx.check_binding("the pose's triangle indices", 16 * nt)?;
         let nodes = sampler.nodes_buf.clone();
-        let target = match deformer {
-            Some(Deformer::Morph { target }) => v4s(target),
-            _ => vec![[0.0; 4]],
-        };
         let stride = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(16);
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -101,10 +188,6 @@ impl PoseBuffers {
         };
         use wgpu::BufferUsages as U;
         Ok(Self {
-            pose: ctx.uniform("pose", bytemuck::bytes_of(pose)),
-            rest: ctx.storage_init("pose rest", bytemuck::cast_slice(&v4s(rest))),
-            target: ctx.storage_init("pose target", bytemuck::cast_slice(&target)),
-            posed: ctx.storage("posed", 16 * nv),
             tris: sampler.tris_buf.clone(),
             tri_verts: ctx.storage("tri verts", 16 * nt),
             leaves: ctx.storage("leaves", 4 * nt),
@@ -122,27 +205,26 @@ impl PoseBuffers {
         })
     }
 
-    /// The bind groups of the four kernels (`pose.wgsl`'s binding numbers): deform, leaves and
-    /// the area sum; then the inner nodes', one per level slot.
+    /// The bind groups of the refit's three kernels (`pose.wgsl`'s binding numbers, the pose
+    /// uniform and posed vertices `deform`'s): leaves and the area sum; then the inner nodes',
+    /// one per level slot.
     fn bind_groups(
         &self,
         ctx: &GpuContext,
-        pipelines: &[wgpu::ComputePipeline; 4],
-    ) -> ([wgpu::BindGroup; 3], Vec<wgpu::BindGroup>) {
+        deform: &DeviceDeform,
+        pipelines: &[wgpu::ComputePipeline; 3],
+    ) -> ([wgpu::BindGroup; 2], Vec<wgpu::BindGroup>) {
         fn whole(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
             b.as_entire_binding()
         }
         let b = self;
+        let pose = &deform.pose_buf;
         let binds = [
             (
                 0,
-                vec![(0, &b.pose), (1, &b.rest), (2, &b.target), (3, &b.posed)],
-            ),
-            (
-                1,
                 vec![
-                    (0, &b.pose),
-                    (3, &b.posed),
+                    (0, pose),
+                    (3, &deform.posed),
                     (4, &b.tri_verts),
                     (5, &b.leaves),
                     (6, &b.nodes),
@@ -150,7 +232,7 @@ impl PoseBuffers {
                     (8, &b.area),
                 ],
             ),
-            (3, vec![(0, &b.pose), (8, &b.area), (11, &b.area_out)]),
+            (2, vec![(0, pose), (8, &b.area), (11, &b.area_out)]),
         ]
         .map(|(p, list)| {
             let res: Vec<_> = list.into_iter().map(|(i, buf)| (i, whole(buf))).collect();
@@ -169,7 +251,7 @@ impl PoseBuffers {
                     (9, level),
                     (10, whole(&b.inner)),
                 ];
-                ctx.bind_at(&pipelines[2], &res)
+                ctx.bind_at(&pipelines[1], &res)
             })
             .collect();
         (binds, levels)
@@ -182,18 +264,18 @@ type Built = (FlatBvh, Mesh, f64);
 /// One deforming mesh posed and its tree refitted on the device, writing the sampler's node and
 /// triangle buffers in place.
 pub struct GpuPoser {
-    deformer: Option<Deformer>,
     rest: Mesh,
     bvh: FlatBvh,
     /// Whether the tree is ever rebuilt (`Refit`: never, as on the host).
     adaptive: bool,
-    pose: GpuPose,
+    deform: DeviceDeform,
     bufs: PoseBuffers,
     /// Each level's inner-node count, deepest first (the schedule last uploaded).
     level_counts: Vec<u32>,
-    pipelines: [wgpu::ComputePipeline; 4],
-    /// deform, leaves, area sum; then one inner-node bind group per level slot.
-    binds: [wgpu::BindGroup; 3],
+    /// leaves, inner nodes, area sum.
+    pipelines: [wgpu::ComputePipeline; 3],
+    /// leaves, area sum; then one inner-node bind group per level slot.
+    binds: [wgpu::BindGroup; 2],
     level_binds: Vec<wgpu::BindGroup>,
     rebuild_next: bool,
     /// Frames whose tree was built on the host (the first build not counted).
@@ -220,32 +302,18 @@ impl GpuPoser {
         strategy: UpdateStrategy,
         sampler: &GpuSampler,
     ) -> Result<Self, GpuError> {
-        if let Some(Deformer::Morph { target }) = deformer {
-            if target.positions.len() != rest.positions.len() {
-                return Err(GpuError::Input(format!(
-                    "the morph's target has {} vertices, the mesh {}",
-                    target.positions.len(),
-                    rest.positions.len()
-                )));
-            }
-        }
+        let deform = DeviceDeform::new(ctx, rest, deformer)?;
         let bvh = FlatBvh::build(rest, UpdateStrategy::Refit)?;
-        let pose = GpuPose {
-            kind: kind_code(deformer),
-            vertices: rest.positions.len() as u32,
-            ..Default::default()
-        };
-        let bufs = PoseBuffers::new(ctx, rest, deformer, sampler, &pose)?;
+        let bufs = PoseBuffers::new(ctx, rest, sampler)?;
         let src = pose_source();
-        let pipelines = ["deform", "refit_leaves", "refit_inner", "area_sum"]
+        let pipelines = ["refit_leaves", "refit_inner", "area_sum"]
             .map(|entry| ctx.pipeline(entry, &src, entry));
-        let (binds, level_binds) = bufs.bind_groups(ctx, &pipelines);
+        let (binds, level_binds) = bufs.bind_groups(ctx, &deform, &pipelines);
         let mut out = Self {
-            deformer: deformer.cloned(),
             rest: rest.clone(),
             bvh,
             adaptive: strategy != UpdateStrategy::Refit,
-            pose,
+            deform,
             bufs,
             level_counts: Vec::new(),
             pipelines,
@@ -305,8 +373,8 @@ impl GpuPoser {
             );
         }
         self.level_counts = levels.iter().map(|&(_, c)| c).collect();
-        self.pose.leaves = leaves.len() as u32;
-        self.pose.nodes = self.bvh.nodes.len() as u32;
+        self.deform.pose.leaves = leaves.len() as u32;
+        self.deform.pose.nodes = self.bvh.nodes.len() as u32;
         Ok(())
     }
 
@@ -319,20 +387,14 @@ impl GpuPoser {
             host = self.background_step(ctx, t)?;
         } else if self.rebuild_next {
             let t0 = Instant::now();
-            let mut posed = self.rest.clone();
-            if let Some(d) = &self.deformer {
-                d.apply(&self.rest, t, &mut posed);
-            }
+            let posed = host_pose(&self.rest, self.deform.deformer(), t);
             self.bvh.rebuild(&posed)?;
             self.upload_tree(ctx, &posed)?;
             self.rebuild_next = false;
             self.rebuilds += 1;
             host = t0.elapsed().as_secs_f64();
         }
-        self.pose.scalar = self.deformer.as_ref().map_or(0.0, |d| d.scalar(t)) as f32;
-        self.pose.constant = self.deformer.as_ref().map_or(0.0, Deformer::constant) as f32;
-        ctx.queue
-            .write_buffer(&self.bufs.pose, 0, bytemuck::bytes_of(&self.pose));
+        self.deform.write(ctx, t);
         Ok(host)
     }
 
@@ -355,13 +417,10 @@ impl GpuPoser {
         }
         if self.rebuild_next && self.pending.is_none() {
             self.rebuild_next = false;
-            let (rest, deformer) = (self.rest.clone(), self.deformer.clone());
+            let (rest, deformer) = (self.rest.clone(), self.deform.deformer().cloned());
             self.pending = Some(std::thread::spawn(move || {
                 let t0 = Instant::now();
-                let mut posed = rest.clone();
-                if let Some(d) = &deformer {
-                    d.apply(&rest, t, &mut posed);
-                }
+                let posed = host_pose(&rest, deformer.as_ref(), t);
                 let bvh = FlatBvh::build(&posed, UpdateStrategy::Refit)?;
                 Ok((bvh, posed, t0.elapsed().as_secs_f64()))
             }));
@@ -371,28 +430,25 @@ impl GpuPoser {
 
     /// Record the deformation pass.
     pub fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
-        let (x, y) = grid_64(self.pose.vertices);
-        pass.set_pipeline(&self.pipelines[0]);
-        pass.set_bind_group(0, &self.binds[0], &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        self.deform.record(pass);
     }
 
     /// Record the refit: the leaves, every level of inner nodes deepest first, and (when the
     /// tree may be rebuilt) the relative area's sum.
     pub fn record_refit(&self, pass: &mut wgpu::ComputePass<'_>) {
-        let (x, y) = grid_64(self.pose.leaves);
-        pass.set_pipeline(&self.pipelines[1]);
-        pass.set_bind_group(0, &self.binds[1], &[]);
+        let (x, y) = grid_64(self.deform.pose.leaves);
+        pass.set_pipeline(&self.pipelines[0]);
+        pass.set_bind_group(0, &self.binds[0], &[]);
         pass.dispatch_workgroups(x, y, 1);
-        pass.set_pipeline(&self.pipelines[2]);
+        pass.set_pipeline(&self.pipelines[1]);
         for (l, &count) in self.level_counts.iter().enumerate() {
             let (x, y) = grid_64(count);
             pass.set_bind_group(0, &self.level_binds[l], &[]);
             pass.dispatch_workgroups(x, y, 1);
         }
         if self.adaptive {
-            pass.set_pipeline(&self.pipelines[3]);
-            pass.set_bind_group(0, &self.binds[2], &[]);
+            pass.set_pipeline(&self.pipelines[2]);
+            pass.set_bind_group(0, &self.binds[1], &[]);
             pass.dispatch_workgroups(1, 1, 1);
         }
     }
@@ -453,8 +509,7 @@ impl GpuPoser {
 
     /// The posed vertices of the last frame (tests).
     pub fn read_posed(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        let raw = ctx.read_buffer(&self.bufs.posed)?;
-        Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&raw)[..self.pose.vertices as usize].to_vec())
+        self.deform.read_posed(ctx)
     }
 
     /// The host tree (tests: its topology is the device's).

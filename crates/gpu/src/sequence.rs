@@ -37,6 +37,21 @@ const DEVICE_POSED_STAGES: [&str; 5] = [
     "shadowing",
 ];
 
+/// Record stage `i` of [`DEVICE_POSED_STAGES`] into `pass`.
+fn record_posed_stage(
+    (poser, sampler, shader): (&GpuPoser, &GpuSampler, &GpuShader),
+    i: usize,
+    pass: &mut wgpu::ComputePass<'_>,
+) {
+    match i {
+        0 => poser.record_deform(pass),
+        1 => poser.record_refit(pass),
+        2 => sampler.record_cast(pass),
+        3 => sampler.record_project(pass),
+        _ => shader.record(pass),
+    }
+}
+
 /// One slot of the frames in flight: its timer and relative-area staging buffer.
 struct FlightSlot {
     timer: StageTimer,
@@ -257,14 +272,9 @@ impl GpuSequence {
         };
         let bvh_seconds = poser.prepare(ctx, t)?;
         let upload_seconds = t0.elapsed().as_secs_f64() - bvh_seconds;
-        let (poser, sampler, shader) = (&*poser, &self.sampler, &self.shader);
-        let labels = DEVICE_POSED_STAGES;
-        let s = self.timer.run(ctx, labels, |i, pass| match i {
-            0 => poser.record_deform(pass),
-            1 => poser.record_refit(pass),
-            2 => sampler.record_cast(pass),
-            3 => sampler.record_project(pass),
-            _ => shader.record(pass),
+        let stages = (&*poser, &self.sampler, &self.shader);
+        let s = self.timer.run(ctx, DEVICE_POSED_STAGES, |i, pass| {
+            record_posed_stage(stages, i, pass)
         })?;
         self.poser.as_mut().expect("set above").after_frame(ctx)?;
         Ok(GpuStageTimes {
@@ -334,21 +344,14 @@ impl GpuSequence {
         let upload = t0.elapsed().as_secs_f64() - rebuild;
         let slot = flight.next % FRAMES_IN_FLIGHT;
         flight.next += 1;
-        let (poser, sampler, shader) = (&*poser, &self.sampler, &self.shader);
+        let poser = &*poser;
         let timer = &flight.slots[slot].timer;
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        let labels = DEVICE_POSED_STAGES;
-        for (i, label) in labels.iter().enumerate() {
+        for (i, label) in DEVICE_POSED_STAGES.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&timer.pass(label, i as u32));
-            match i {
-                0 => poser.record_deform(&mut pass),
-                1 => poser.record_refit(&mut pass),
-                2 => sampler.record_cast(&mut pass),
-                3 => sampler.record_project(&mut pass),
-                _ => shader.record(&mut pass),
-            }
+            record_posed_stage((poser, &self.sampler, &self.shader), i, &mut pass);
         }
         timer.resolve_to_staging(&mut enc);
         if poser.adaptive() {

@@ -121,10 +121,14 @@ impl StageTimer {
     /// Seconds per stage from the resolved timestamps (after the submission has completed), or
     /// `None` without timestamps.
     pub fn read(&self, ctx: &GpuContext) -> Result<Option<Vec<f64>>, GpuError> {
-        let Some((_, buf)) = &self.queries else {
+        let (Some((_, buf)), Some(staging)) = (&self.queries, &self.staging) else {
             return Ok(None);
         };
-        Ok(Some(self.seconds(ctx, &ctx.read_buffer(buf)?)))
+        // Into the timer's own staging buffer: a frame reads its timestamps without allocating.
+        Ok(Some(self.seconds(
+            ctx,
+            &ctx.copy_and_map(buf, staging, buf.size())?,
+        )))
     }
 
     /// Record the resolve of all timestamps and their copy into the timer's staging buffer,
