@@ -254,50 +254,37 @@ pub fn render_sequence_gpu_with(
 ) -> Result<GpuSequenceRun, Error> {
     let t_setup = Instant::now();
     let frames = frames.max(1);
-    let o = single_mesh(scene)?;
-    let rest = o.placed()?;
-    let s = sequence_sphere(&rest, o.deformer, frames);
+    let m = MeshSequence::of(scene)?;
+    let s = sequence_sphere(&m.rest, m.occluder.deformer, frames);
     let sampling = Sphere {
         center: s.center,
         radius: s.radius * scene.sampling_radius,
     };
-    let recv = receiver_grid(scene);
-    let table = table_for(scene, sampling, &recv, Eta::Plain)?;
-    let light = light_of(scene)?;
-    let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+    let (recv, transfer) = (&m.recv, &m.transfer);
+    let table = table_for(scene, sampling, recv, Eta::Plain)?;
     // Point location in the spherical triangulation stays on the host; k-table scaling and the
     // rotations of every receiver run on the GPU (ReceiverSetup).
-    let locations = receiver_locations(scene, sampling, &recv)?;
-    let strategy = o
-        .deformer
-        .map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
+    let locations = receiver_locations(scene, sampling, recv)?;
     let dirs = scene.layout.directions();
     let mut seq = GpuSequence::new(
         ctx,
-        &rest,
-        strategy,
+        &m.rest,
+        m.strategy,
         scene.order,
         scene.hemisphere_res,
         sampling,
         &dirs,
         Receivers::Build(ReceiverSetup {
             table: &table,
-            transfer: &transfer,
-            receivers: &recv,
+            transfer,
+            receivers: recv,
             locations: &locations,
             sampling,
             radii: None,
         }),
     )?;
     let setup = t_setup.elapsed().as_secs_f64();
-    let poser = (o.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
-    let stats = run_frames(
-        &mut seq,
-        ctx,
-        (&rest, poser.as_ref(), strategy),
-        frames,
-        mode,
-    )?;
+    let stats = run_frames(&mut seq, ctx, &m, frames, mode)?;
     let out = RenderOutput::plane(scene, seq.read_image(ctx)?);
     Ok(GpuSequenceRun {
         host_rebuilds: seq.poser().map_or(0, |p| p.rebuilds),
@@ -309,24 +296,16 @@ pub fn render_sequence_gpu_with(
     })
 }
 
-/// The frames `t = f / frames` of [`render_sequence_gpu_with`] as `mode` says: posed on the
-/// host (by `poser`, none for a static mesh) one after another or pipelined, or posed and
-/// refitted on the device (the tree following `strategy`'s rebuild rule).
 fn run_frames(
     seq: &mut GpuSequence,
     ctx: &GpuContext,
-    (rest, poser, strategy): (&Mesh, Option<&crate::frame::Poser>, UpdateStrategy),
+    m: &MeshSequence,
     frames: usize,
     mode: GpuFrames,
 ) -> Result<Vec<GpuFrameStats>, Error> {
+    let (rest, poser, strategy) = (&m.rest, m.poser.as_ref(), m.strategy);
     let mut posed: Mesh = rest.clone();
-    let pose = |f: usize, posed: &mut Mesh| {
-        let t0 = Instant::now();
-        if let Some(p) = poser {
-            p.pose(rest, f as f64 / frames as f64, posed);
-        }
-        t0.elapsed().as_secs_f64()
-    };
+    let pose = |f: usize, posed: &mut Mesh| m.pose(f as f64 / frames as f64, posed);
     let mut stats = Vec::with_capacity(frames);
     let stat = |frame, deform_seconds, gpu| GpuFrameStats {
         frame,
