@@ -104,9 +104,9 @@ pub fn render_gpu_frames_posed(
     device_pose: bool,
     each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
 ) -> Result<RenderOutput, Error> {
-    if device_pose && form != GpuForm::SphereSet {
+    if device_pose && !poses_on_device(scene, form) {
         return Err(Error::config(format!(
-            "{}: --device-pose: the {} GPU frames are posed on the host (the device poses the papers' sequence and sphere sets)",
+            "{}: --device-pose: the {} GPU frames are posed on the host (the device poses the papers' sequence and sphere sets with sphere_fit = \"area\")",
             scene.file,
             form.name()
         )));

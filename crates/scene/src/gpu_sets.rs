@@ -31,7 +31,7 @@ pub struct GpuSetFrame {
     pub frame: usize,
     pub t: f64,
     /// Posing the meshes, fitting the spheres: host seconds, or device seconds where the frame
-    /// was posed on the device (`device_posed`).
+    /// was posed on the device ([`SetPose::Device`]).
     pub deform_seconds: f64,
     pub sphere_fit_seconds: f64,
     /// Host: writing the spheres (or, posed on the device, the poses), submitting and waiting,
@@ -42,8 +42,6 @@ pub struct GpuSetFrame {
     /// Host: the image read back for the caller, after the frame (not one of its stages: a
     /// real-time renderer keeps the image on the device, as the papers' GPU sequence does).
     pub readback_seconds: f64,
-    /// Whether the frame was posed and fitted on the device.
-    pub device_posed: bool,
 }
 
 impl GpuSetFrame {
@@ -304,7 +302,6 @@ fn device_frames(
             shading_seconds: shading,
             upload_seconds: (wall - deform - fit - shading).max(0.0),
             readback_seconds: t1.elapsed().as_secs_f64(),
-            device_posed: true,
         };
         each(&st, &img);
         pixels = img;
