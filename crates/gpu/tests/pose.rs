@@ -154,6 +154,36 @@ fn device_refit_is_the_host_refit_bit_for_bit() {
     }
 }
 
+/// A block and a quarter-turn twist, which grows a tree built at rest past the rebuild rule, with
+/// a sampler holding its tree buffers.
+fn twisted_block(ctx: &GpuContext) -> (Mesh, GpuSampler, Deformer) {
+    let rest = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 12);
+    let sampler = sampler_for(ctx, &rest);
+    let d = Deformer::Twist {
+        max_turns: 0.25,
+        h: twist_height(&rest),
+    };
+    (rest, sampler, d)
+}
+
+/// Whether the tree on the device is the host's build of `rest` posed by `d` at `t`, refitted
+/// to the device's pose, bit for bit.
+fn tree_is_host_build_refitted(
+    ctx: &GpuContext,
+    (rest, d, t): (&Mesh, &Deformer, f64),
+    poser: &GpuPoser,
+    sampler: &GpuSampler,
+) -> bool {
+    let mut host_pose = rest.clone();
+    d.apply(rest, t, &mut host_pose);
+    let mut want = FlatBvh::build(&host_pose, UpdateStrategy::Refit).unwrap();
+    want.update(&device_pose(rest, poser, ctx)).unwrap();
+    let (nodes, tris) = sampler
+        .read_tree(ctx, want.nodes.len(), want.gpu_tris.len())
+        .unwrap();
+    nodes == want.nodes && tris == want.gpu_tris
+}
+
 /// A twist of a quarter turn grows the boxes of a tree built at rest past the rebuild rule: the
 /// device reads the area, the next frame builds on the host (counted), and that frame's tree is
 /// the host's build of the host pose refitted to the device's pose, bit for bit. `Refit` never
@@ -161,12 +191,7 @@ fn device_refit_is_the_host_refit_bit_for_bit() {
 #[test]
 fn a_grown_tree_is_rebuilt_on_the_host_the_next_frame() {
     let Some(ctx) = ctx() else { return };
-    let rest = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 12);
-    let sampler = sampler_for(&ctx, &rest);
-    let d = Deformer::Twist {
-        max_turns: 0.25,
-        h: twist_height(&rest),
-    };
+    let (rest, sampler, d) = twisted_block(&ctx);
     let mut refit_only =
         GpuPoser::new(&ctx, &rest, Some(&d), UpdateStrategy::Refit, &sampler).unwrap();
     refit_only.run(&ctx, 0.5).unwrap();
@@ -190,14 +215,12 @@ fn a_grown_tree_is_rebuilt_on_the_host_the_next_frame() {
     let host_seconds = poser.run(&ctx, 0.5).unwrap();
     assert_eq!(poser.rebuilds, 1);
     assert!(host_seconds > 0.0);
-    let mut host_pose = rest.clone();
-    d.apply(&rest, 0.5, &mut host_pose);
-    let mut want = FlatBvh::build(&host_pose, UpdateStrategy::Refit).unwrap();
-    want.update(&device_pose(&rest, &poser, &ctx)).unwrap();
-    let (nodes, tris) = sampler
-        .read_tree(&ctx, want.nodes.len(), want.gpu_tris.len())
-        .unwrap();
-    assert!(nodes == want.nodes && tris == want.gpu_tris);
+    assert!(tree_is_host_build_refitted(
+        &ctx,
+        (&rest, &d, 0.5),
+        &poser,
+        &sampler
+    ));
     assert!(
         !poser.last_area.is_nan() && poser.last_area < 1.15 * poser.host_tree().built_area(),
         "the rebuilt tree is not due again: {:.3}",
@@ -211,12 +234,7 @@ fn a_grown_tree_is_rebuilt_on_the_host_the_next_frame() {
 #[test]
 fn a_grown_tree_is_rebuilt_in_the_background() {
     let Some(ctx) = ctx() else { return };
-    let rest = shapes::box_block(DVec3::new(1.0, 0.5, 0.3), 12);
-    let sampler = sampler_for(&ctx, &rest);
-    let d = Deformer::Twist {
-        max_turns: 0.25,
-        h: twist_height(&rest),
-    };
+    let (rest, sampler, d) = twisted_block(&ctx);
     let mut poser =
         GpuPoser::new(&ctx, &rest, Some(&d), UpdateStrategy::Adaptive, &sampler).unwrap();
     poser.rebuild_in_background();
@@ -238,15 +256,13 @@ fn a_grown_tree_is_rebuilt_in_the_background() {
         1e3 * poser.background_seconds
     );
     assert!(poser.background_seconds > 0.0);
-    let mut host_pose = rest.clone();
-    d.apply(&rest, 0.5, &mut host_pose);
-    let mut want = FlatBvh::build(&host_pose, UpdateStrategy::Refit).unwrap();
-    want.update(&device_pose(&rest, &poser, &ctx)).unwrap();
     // The swap uploads the tree; the frame that swapped it refitted it.
-    let (nodes, tris) = sampler
-        .read_tree(&ctx, want.nodes.len(), want.gpu_tris.len())
-        .unwrap();
-    assert!(nodes == want.nodes && tris == want.gpu_tris);
+    assert!(tree_is_host_build_refitted(
+        &ctx,
+        (&rest, &d, 0.5),
+        &poser,
+        &sampler
+    ));
     poser.run(&ctx, 0.5).unwrap();
     assert!(
         poser.last_area < 1.15 * poser.host_tree().built_area(),
