@@ -596,26 +596,7 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
     if a.device_pose {
-        let built = if a.pipelined {
-            format!(
-                "{} tree(s) built on a host thread in {:.3} ms off the frames' path; bvh_ms adds a swapped-in tree's upload",
-                run.host_rebuilds,
-                run.background_build_seconds * 1e3
-            )
-        } else {
-            format!(
-                "bvh_ms adds any host rebuild; {} frame(s) built on the host",
-                run.host_rebuilds
-            )
-        };
-        println!(
-            "posed and refitted on the device{}: deform_ms and bvh_ms are device stages ({built})",
-            if a.pipelined {
-                ", two frames in flight"
-            } else {
-                ""
-            },
-        );
+        print_device_pose(a.pipelined, &run);
     }
     println!(
         "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
@@ -660,6 +641,30 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     );
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// `render --frames --gpu --device-pose`'s line on where the pose and trees were made.
+fn print_device_pose(in_flight: bool, run: &shscale_scene::gpu_path::GpuSequenceRun) {
+    let built = if in_flight {
+        format!(
+            "{} tree(s) built on a host thread in {:.3} ms off the frames' path; bvh_ms adds a swapped-in tree's upload",
+            run.host_rebuilds,
+            run.background_build_seconds * 1e3
+        )
+    } else {
+        format!(
+            "bvh_ms adds any host rebuild; {} frame(s) built on the host",
+            run.host_rebuilds
+        )
+    };
+    println!(
+        "posed and refitted on the device{}: deform_ms and bvh_ms are device stages ({built})",
+        if in_flight {
+            ", two frames in flight"
+        } else {
+            ""
+        },
+    );
 }
 
 /// Liveness of a long render: a spinner with elapsed and estimated seconds on a terminal, a
