@@ -168,6 +168,13 @@ impl Kind for AlphaFit {
     type Error = Error;
     type Spec = Typed<Params, shscale_field::probe::ProbeSpec>;
 
+    fn inputs(
+        p: &Self::Params,
+        _config_dir: &std::path::Path,
+    ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
+        Ok(shscale_scene::vocab::mesh_inputs("mesh", &p.mesh))
+    }
+
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
             ("mesh", "the occluder, as in `probe`"),

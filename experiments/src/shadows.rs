@@ -275,6 +275,14 @@ impl Kind for Shadows {
     type Error = Error;
     type Spec = Typed<Params, Overrides>;
 
+    fn inputs(
+        p: &Self::Params,
+        config_dir: &std::path::Path,
+    ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
+        shscale_scene::scene::Scene::inputs("scene", &config_dir.join(&p.scene))
+            .map_err(|e| KeyError::new("scene", e.to_string()))
+    }
+
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
             ("scene", "scene file (docs/config-reference.md, scene files), relative to the config's folder"),

@@ -259,9 +259,8 @@ fn draw(
     structural: &dyn Fn(usize, usize) -> bool,
 ) -> Result<Vec<std::path::PathBuf>, Error> {
     shscale_runner::plots::ensure_font();
-    let pid = std::process::id();
     let png = out.join(format!("{stem}.png"));
-    let tmp = out.join(format!(".{stem}.tmp-{pid}.png"));
+    let tmp = shscale_runner::atomic::tmp_keeping_extension(&png);
     paint(
         BitMapBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
@@ -269,9 +268,9 @@ fn draw(
         structural,
     )
     .map_err(|e| Error::io(&png, e))?;
-    std::fs::rename(&tmp, &png).map_err(|e| Error::io(&png, e))?;
+    shscale_runner::atomic::rename_durable(&tmp, &png)?;
     let svg = out.join(format!("{stem}.svg"));
-    let tmp = out.join(format!(".{stem}.tmp-{pid}.svg"));
+    let tmp = shscale_runner::atomic::tmp_keeping_extension(&svg);
     paint(
         SVGBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
@@ -279,7 +278,7 @@ fn draw(
         structural,
     )
     .map_err(|e| Error::io(&svg, e))?;
-    std::fs::rename(&tmp, &svg).map_err(|e| Error::io(&svg, e))?;
+    shscale_runner::atomic::rename_durable(&tmp, &svg)?;
     Ok(vec![png, svg])
 }
 

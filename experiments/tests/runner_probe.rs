@@ -315,7 +315,7 @@ fn files_written_together_are_a_unit() {
     std::fs::write(&a, "old rows").unwrap();
     std::fs::write(&b, "old manifest").unwrap();
     // The second file's temporary is blocked by a directory: its write fails.
-    let blocker = d.join(format!(".manifest.toml.tmp-{}", std::process::id()));
+    let blocker = shscale_runner::atomic::tmp_path(&b);
     std::fs::create_dir(&blocker).unwrap();
     assert!(write_atomic_all(&[(&a, "new rows"), (&b, "new manifest")]).is_err());
     assert_eq!(std::fs::read_to_string(&a).unwrap(), "old rows");

@@ -485,6 +485,18 @@ pub struct RunArgs {
     /// Run plans beyond the limits (10^10 rays, 8 GiB per group).
     #[arg(long)]
     pub allow_large: bool,
+    /// Rows of this plan that are stale (computed by other numerical code, or from inputs whose
+    /// content changed; docs/provenance.md): `rerun` sets them aside into runs.csv.stale and
+    /// runs them again; `refuse` stops before any work, naming them.
+    #[arg(long, value_enum, default_value_t = StaleArg::Rerun)]
+    pub stale: StaleArg,
+}
+
+/// `--stale`: what `shscale run` does with stale rows of its plan.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StaleArg {
+    Rerun,
+    Refuse,
 }
 
 /// A method of the one vocabulary (`shscale_scene::method`): its name, or the command line's

@@ -48,8 +48,12 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
         s.estimate.check_limits(&s.file, a.allow_large)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
+    let mut plan = Plan::load(&config, &overrides(&a.overrides), &registry)?;
     plan.check_limits(a.allow_large)?;
+    plan.stale = match a.stale {
+        crate::args::StaleArg::Rerun => runner::StalePolicy::Rerun,
+        crate::args::StaleArg::Refuse => runner::StalePolicy::Refuse,
+    };
     let json = a.format == crate::args::TextFormat::Json;
     if !json {
         println!(
@@ -68,10 +72,11 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
     progress.finish();
     if !json {
         println!(
-        "ran {}, skipped {} already done ({} redone after invalid rows), of {} in this shard → {}",
+        "ran {}, skipped {} already done ({} redone after invalid rows, {} after stale rows), of {} in this shard → {}",
         s.ran,
         s.already_done,
         s.redone,
+        s.stale,
         s.in_shard,
         s.csv.display()
     );
@@ -91,6 +96,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<ExitCode> {
             "ran": s.ran,
             "already_done": s.already_done,
             "redone": s.redone,
+            "stale": s.stale,
             "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         }))?;
         return Ok(ExitCode::SUCCESS);

@@ -1,17 +1,169 @@
-//! Atomic file output: every file the runner writes goes to a temporary beside its target and is
-//! renamed into place, so an interrupted run never leaves a partial file under the final name;
-//! several files can be written as a unit ([`write_atomic_all`]).
+//! Atomic, durable file output: every file the runner writes goes to a temporary beside its
+//! target, is flushed to the disk (`fsync`), renamed into place, and the directory holding it is
+//! flushed after the rename — so an interrupted run, a crash or a power cut leaves under the final
+//! name either the old file or the new one, never a partial or empty one (a rename without the
+//! file's `fsync` can reach the disk before the data on XFS, ext4 without `auto_da_alloc` and
+//! cluster filesystems). Several files can be written as a unit ([`write_atomic_all`]).
+//!
+//! Temporaries are named `.<name>.tmp-<host>-<pid>-<token>` ([`tmp_path`]): the host name, the
+//! process id and a random token drawn once per process, so processes on two Slurm nodes that
+//! share a results folder (and may have equal pids) never write the same temporary.
 
 use crate::error::Error;
 use std::path::{Path, PathBuf};
 
-/// The temporary beside `path` that atomic writes go through: `.<name>.tmp-<pid>`.
+/// The steps of one durable replace, in order; a test injects a failure at each
+/// ([`tests`](self)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// Creating and writing the temporary.
+    Write,
+    /// `fsync` of the temporary's data.
+    SyncFile,
+    /// The rename onto the target.
+    Rename,
+    /// `fsync` of the directory, after the rename.
+    SyncDir,
+}
+
+#[cfg(test)]
+thread_local! {
+    /// The step at which the next replace on this thread fails (tests only).
+    pub(crate) static INJECT: std::cell::Cell<Option<Step>> = const { std::cell::Cell::new(None) };
+}
+
+/// An injected failure at `step` (tests only; always `Ok` in a build).
+fn injected(step: Step, path: &Path) -> Result<(), Error> {
+    #[cfg(test)]
+    if INJECT.with(|c| c.get()) == Some(step) {
+        INJECT.with(|c| c.set(None));
+        return Err(Error::io(path, format!("injected failure at {step:?}")));
+    }
+    let _ = (step, path);
+    Ok(())
+}
+
+/// This machine's host name as it goes into a file name (letters, digits, `-`, `.`; at most 32
+/// characters; `host` when it cannot be read).
+pub fn host_tag() -> &'static str {
+    static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    HOST.get_or_init(|| {
+        let raw = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .or_else(|_| std::fs::read_to_string("/etc/hostname"))
+            .unwrap_or_default();
+        sanitize_host(&raw)
+    })
+}
+
+/// A host name as it goes into a file name.
+pub(crate) fn sanitize_host(raw: &str) -> String {
+    let s: String = (raw.trim().chars())
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(32)
+        .collect();
+    if s.is_empty() {
+        "host".into()
+    } else {
+        s
+    }
+}
+
+/// A random token drawn once per process (8 hex digits, from the standard library's randomly
+/// keyed hasher, the clock and the pid): a pid reused on another node, or by a later process,
+/// gets another token.
+pub fn process_token() -> &'static str {
+    static TOKEN: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TOKEN.get_or_init(|| {
+        use std::hash::{BuildHasher, Hasher};
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        h.write_u128(nanos);
+        h.write_u32(std::process::id());
+        format!("{:08x}", h.finish() as u32)
+    })
+}
+
+/// The unique part of this process's temporary names: `<host>-<pid>-<token>`.
+pub fn unique_tag() -> String {
+    unique_tag_of(host_tag(), std::process::id(), process_token())
+}
+
+pub(crate) fn unique_tag_of(host: &str, pid: u32, token: &str) -> String {
+    format!("{host}-{pid}-{token}")
+}
+
+/// The temporary beside `path` that atomic writes of this process go through:
+/// `.<name>.tmp-<host>-<pid>-<token>`.
 pub fn tmp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    path.with_file_name(format!(".{name}.tmp-{}", unique_tag()))
+}
+
+/// `fsync` of the directory holding `path` (its entry, after a rename or a create, reaches the
+/// disk). Filesystems that cannot sync a directory (`EINVAL`) are taken as done.
+pub fn sync_parent(path: &Path) -> Result<(), Error> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    sync_dir(dir)
+}
+
+/// `fsync` of a directory; `EINVAL` (a filesystem without directory sync) is taken as done.
+pub fn sync_dir(dir: &Path) -> Result<(), Error> {
+    let f = std::fs::File::open(dir).map_err(|e| Error::io(dir, e))?;
+    match f.sync_all() {
+        Err(e) if e.raw_os_error() == Some(22) => Ok(()),
+        r => r.map_err(|e| Error::io(dir, e)),
+    }
+}
+
+/// `fsync` of a file already written (a temporary an encoder wrote by path).
+pub fn sync_file(path: &Path) -> Result<(), Error> {
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    f.sync_all().map_err(|e| Error::io(path, e))
+}
+
+/// Rename a finished temporary onto `target` durably: the temporary's data synced first, the
+/// directory after.
+pub fn rename_durable(tmp: &Path, target: &Path) -> Result<(), Error> {
+    injected(Step::SyncFile, target)?;
+    sync_file(tmp)?;
+    rename_then_sync_dir(tmp, target)
+}
+
+/// The rename of a synced temporary onto `target`, then the directory's sync.
+fn rename_then_sync_dir(tmp: &Path, target: &Path) -> Result<(), Error> {
+    injected(Step::Rename, target)?;
+    std::fs::rename(tmp, target).map_err(|e| Error::io(target, e))?;
+    injected(Step::SyncDir, target)?;
+    sync_parent(target)
+}
+
+/// Write `bytes` to a new temporary at `tmp` and sync it.
+fn write_synced(tmp: &Path, bytes: &[u8], target: &Path) -> Result<(), Error> {
+    use std::io::Write;
+    injected(Step::Write, target)?;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(tmp)
+        .map_err(|e| Error::io(tmp, e))?;
+    f.write_all(bytes).map_err(|e| Error::io(tmp, e))?;
+    injected(Step::SyncFile, target)?;
+    f.sync_all().map_err(|e| Error::io(tmp, e))
 }
 
 /// Temporary files that must not outlive an error: each path handed out by
@@ -25,15 +177,21 @@ impl Temporaries {
         Self::default()
     }
 
-    /// The temporary beside `path`, `.<stem>.tmp-<pid>.<extension>` (the extension kept: image
-    /// encoders choose their format by it), removed when the guard drops.
+    /// The temporary beside `path`, `.<stem>.tmp-<host>-<pid>-<token>.<extension>` (the
+    /// extension kept: image encoders choose their format by it), removed when the guard drops.
     pub fn beside(&mut self, path: &Path) -> PathBuf {
-        let stem = (path.file_stem()).map_or(String::new(), |n| n.to_string_lossy().to_string());
-        let ext = (path.extension()).map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
-        let t = path.with_file_name(format!(".{stem}.tmp-{}{ext}", std::process::id()));
+        let t = tmp_keeping_extension(path);
         self.0.push(t.clone());
         t
     }
+}
+
+/// The temporary beside `path` that keeps its extension:
+/// `.<stem>.tmp-<host>-<pid>-<token>.<extension>`.
+pub fn tmp_keeping_extension(path: &Path) -> PathBuf {
+    let stem = (path.file_stem()).map_or(String::new(), |n| n.to_string_lossy().to_string());
+    let ext = (path.extension()).map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
+    path.with_file_name(format!(".{stem}.tmp-{}{ext}", unique_tag()))
 }
 
 impl Drop for Temporaries {
@@ -44,28 +202,28 @@ impl Drop for Temporaries {
     }
 }
 
-/// Write `text` to `path` through a temporary file and a rename; the temporary is removed when
-/// either step fails.
+/// Write `text` to `path` through a synced temporary, a rename and the directory's sync; the
+/// temporary is removed when any step fails (the target then keeps its old bytes).
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), Error> {
     write_atomic_all(&[(path, text)])
 }
 
-/// Write `bytes` to `path` through a temporary file and a rename (binary files: ray sets, bit
-/// masks); the temporary is removed when either step fails. A directory at `path` is refused.
+/// Write `bytes` to `path` durably as [`write_atomic`] does (binary files: ray sets, bit
+/// masks). A directory at `path` is refused.
 pub fn write_atomic_bytes(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     if path.is_dir() {
         return Err(Error::io(path, "is a directory"));
     }
     let mut guard = Temporaries::new();
     let tmp = guard.beside(path);
-    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    write_synced(&tmp, bytes, path)?;
+    rename_then_sync_dir(&tmp, path)
 }
 
-/// Write several files as a unit: every text to a temporary beside its target first, then the
-/// renames, in order; when any write fails no target is touched, and every error path removes
-/// the temporaries not yet renamed. A directory at a target is refused before anything is
-/// written.
+/// Write several files as a unit: every text to a synced temporary beside its target first,
+/// then the renames, in order, each followed by its directory's sync; when any write fails no
+/// target is touched, and every error path removes the temporaries not yet renamed. A directory
+/// at a target is refused before anything is written.
 pub fn write_atomic_all(files: &[(&Path, &str)]) -> Result<(), Error> {
     let tmp_of = tmp_path;
     if let Some((p, _)) = files.iter().find(|(p, _)| p.is_dir()) {
@@ -79,28 +237,29 @@ pub fn write_atomic_all(files: &[(&Path, &str)]) -> Result<(), Error> {
     };
     for (path, text) in files {
         let tmp = tmp_of(path);
-        if let Err(e) = std::fs::write(&tmp, text) {
+        if let Err(e) = write_synced(&tmp, text.as_bytes(), path) {
             let _ = std::fs::remove_file(&tmp);
             cleanup(&written);
-            return Err(Error::io(path, e));
+            return Err(e);
         }
         written.push(tmp);
     }
     for (i, (path, _)) in files.iter().enumerate() {
-        if let Err(e) = std::fs::rename(&written[i], path) {
+        if let Err(e) = rename_then_sync_dir(&written[i], path) {
             cleanup(&written[i..]);
-            return Err(Error::io(path, e));
+            return Err(e);
         }
     }
     Ok(())
 }
 
 /// An output folder written as a unit: every file goes first into a hidden staging folder
-/// (`.shscale-staging-<pid>-<n>`) made in the nearest existing ancestor of the target, so a
+/// (`.shscale-staging-<host>-<pid>-<token>-<n>`) made in the nearest existing ancestor of the target, so a
 /// command that fails creates nothing and changes nothing under the target — the staging folder
 /// is removed when the guard drops, on every path out. [`Staging::commit`] creates the target
-/// and renames each staged file into it (one rename per file: a crash mid-commit can leave some
-/// files new and some old, never a partial file). Files already in the target and not staged are
+/// and renames each staged file into it, each synced before its rename and the folder after (one
+/// rename per file: a crash mid-commit can leave some files new and some old, never a partial
+/// or empty file). Files already in the target and not staged are
 /// left alone.
 pub struct Staging {
     dir: PathBuf,
@@ -136,7 +295,7 @@ impl Staging {
             };
         }
         let n = N.fetch_add(1, Ordering::Relaxed);
-        let dir = base.join(format!(".shscale-staging-{}-{n}", std::process::id()));
+        let dir = base.join(format!(".shscale-staging-{}-{n}", unique_tag()));
         // The error names the target the user gave, not the staging folder it never saw.
         std::fs::create_dir(&dir).map_err(|e| {
             Error::io(
@@ -187,9 +346,14 @@ impl Staging {
         }
         std::fs::create_dir_all(&self.out).map_err(|e| Error::io(&self.out, e))?;
         for s in &staged {
+            sync_file(s)?;
+        }
+        for s in &staged {
             let t = self.target(s);
             std::fs::rename(s, &t).map_err(|e| Error::io(&t, e))?;
         }
+        sync_dir(&self.out)?;
+        sync_parent(&self.out)?;
         Ok(files.iter().map(|f| self.target(f)).collect())
     }
 }
@@ -283,5 +447,107 @@ mod staging_tests {
             .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("f")]);
         std::fs::remove_dir_all(&d).ok();
+    }
+}
+
+#[cfg(test)]
+mod durable_tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("shscale-durable-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = (std::fs::read_dir(d).unwrap().flatten())
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// A failure injected at each step of the replace (writing the temporary, its `fsync`, the
+    /// rename, the directory's `fsync`) leaves the old file or the new one under the target —
+    /// never an empty or partial one — and no temporary; the same for a unit of two files and
+    /// for binary output.
+    #[test]
+    fn a_failure_at_every_step_leaves_the_old_or_the_new_file() {
+        let d = scratch("inject");
+        let (a, b) = (d.join("runs.csv"), d.join("manifest.toml"));
+        for step in [Step::Write, Step::SyncFile, Step::Rename, Step::SyncDir] {
+            for unit in [false, true] {
+                std::fs::write(&a, "old rows\n").unwrap();
+                std::fs::write(&b, "old manifest\n").unwrap();
+                INJECT.with(|c| c.set(Some(step)));
+                let r = if unit {
+                    write_atomic_all(&[(&a, "new rows\n"), (&b, "new manifest\n")])
+                } else {
+                    write_atomic(&a, "new rows\n")
+                };
+                let e = r.expect_err("the injected failure is reported").to_string();
+                println!("{step:?} unit={unit}: {e}");
+                assert!(e.contains("injected failure"), "{e}");
+                let got = std::fs::read_to_string(&a).unwrap();
+                // Before the rename the old bytes stand; after it (the directory's sync) the new.
+                let want = if step == Step::SyncDir {
+                    "new rows\n"
+                } else {
+                    "old rows\n"
+                };
+                assert_eq!(got, want, "{step:?} unit={unit}");
+                assert_eq!(
+                    std::fs::read_to_string(&b).unwrap(),
+                    "old manifest\n",
+                    "{step:?}: the unit's second file was touched"
+                );
+                assert_eq!(names(&d), ["manifest.toml", "runs.csv"], "{step:?}");
+            }
+            std::fs::write(&a, "old").unwrap();
+            INJECT.with(|c| c.set(Some(step)));
+            assert!(write_atomic_bytes(&a, b"new").is_err());
+            let got = std::fs::read(&a).unwrap();
+            assert!(
+                got == b"old" || (step == Step::SyncDir && got == b"new"),
+                "{step:?}"
+            );
+            assert_eq!(names(&d), ["manifest.toml", "runs.csv"], "{step:?}");
+        }
+        // Without an injected failure every step runs: the new bytes, synced.
+        write_atomic(&a, "new rows\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new rows\n");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// Two processes with the same pid on two hosts sharing a folder get different temporaries
+    /// (the host names differ, and so do their tokens); a host name with a path separator or
+    /// spaces cannot leave the folder.
+    #[test]
+    fn temporary_names_are_unique_across_two_simulated_hosts() {
+        let (a, b) = (
+            unique_tag_of(&sanitize_host("node01"), 4242, "0badf00d"),
+            unique_tag_of(&sanitize_host("node02"), 4242, "0badf00d"),
+        );
+        assert_ne!(a, b);
+        // The same host and pid (a pid reused after a restart) with another token.
+        assert_ne!(
+            unique_tag_of("node01", 4242, "0badf00d"),
+            unique_tag_of("node01", 4242, "12345678")
+        );
+        assert_eq!(sanitize_host("../evil host\n"), ".._evil_host");
+        assert_eq!(sanitize_host(""), "host");
+        let t = tmp_path(Path::new("/x/runs.csv"));
+        let name = t.file_name().unwrap().to_string_lossy().to_string();
+        let want = format!(
+            ".runs.csv.tmp-{}-{}-{}",
+            host_tag(),
+            std::process::id(),
+            process_token()
+        );
+        assert_eq!(name, want);
+        assert_eq!(t.parent(), Some(Path::new("/x")));
+        assert_eq!(process_token().len(), 8);
     }
 }

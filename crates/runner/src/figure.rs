@@ -231,12 +231,7 @@ pub fn write_png_stack(path: &Path, grids: &[Grid]) -> Result<(), Error> {
         sizes.iter().map(|s| s.0).max().unwrap_or(1),
         sizes.iter().map(|s| s.1).sum::<u32>().max(1),
     );
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp-{}.png",
-        path.file_name()
-            .map_or(String::new(), |n| n.to_string_lossy().to_string()),
-        std::process::id()
-    ));
+    let tmp = crate::atomic::tmp_keeping_extension(path);
     let stacked = || -> Result<(), String> {
         let root = BitMapBackend::new(&tmp, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -254,12 +249,7 @@ pub fn write_png_stack(path: &Path, grids: &[Grid]) -> Result<(), Error> {
             path: path.display().to_string(),
             reason: m,
         })
-        .and_then(|_| {
-            std::fs::rename(&tmp, path).map_err(|e| Error::Io {
-                path: path.display().to_string(),
-                reason: e.to_string(),
-            })
-        });
+        .and_then(|_| crate::atomic::rename_durable(&tmp, path));
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

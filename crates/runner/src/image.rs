@@ -56,11 +56,11 @@ fn to_tmp(path: &Path, write: impl FnOnce(&Path) -> Result<(), Error>) -> Result
 /// Rename finished temporaries onto their targets; on failure remove those not yet renamed.
 fn commit(pairs: &[(PathBuf, &Path)]) -> Result<(), Error> {
     for (i, (tmp, path)) in pairs.iter().enumerate() {
-        if let Err(e) = std::fs::rename(tmp, path) {
+        if let Err(e) = crate::atomic::rename_durable(tmp, path) {
             for (t, _) in &pairs[i..] {
                 let _ = std::fs::remove_file(t);
             }
-            return Err(crate::error::Error::io(path, e));
+            return Err(e);
         }
     }
     Ok(())
@@ -323,12 +323,12 @@ pub fn copy_image(
             continue;
         }
         let to = out.join(format!("{stem}.{ext}"));
-        let tmp = out.join(format!(".{stem}.tmp-{}.{ext}", std::process::id()));
+        let tmp = crate::atomic::tmp_keeping_extension(&to);
         std::fs::copy(&from, &tmp)
-            .and_then(|_| std::fs::rename(&tmp, &to))
-            .map_err(|e| {
+            .map_err(|e| crate::error::Error::io(&to, e))
+            .and_then(|_| crate::atomic::rename_durable(&tmp, &to))
+            .inspect_err(|_| {
                 let _ = std::fs::remove_file(&tmp);
-                crate::error::Error::io(&to, e)
             })?;
         files.push(to);
     }

@@ -112,6 +112,17 @@ pub trait Kind: Send + Sync + 'static {
         let _ = config_dir;
         Self::resolve(p)
     }
+    /// Every file one run reads and every bundled asset it reads by name
+    /// ([`crate::inputs::Input`]): hashed by content at plan time, their hashes identify the
+    /// run's rows with its parameters and the numerical fingerprint, so editing a file re-runs
+    /// exactly the runs that read it (docs/provenance.md). Paths as the run opens them
+    /// (`config_dir`: the config file's folder, for parameters relative to it). A kind that
+    /// reads a file it does not declare here has rows that do not know what made them. Default:
+    /// none.
+    fn inputs(p: &Self::Params, config_dir: &Path) -> Result<Vec<crate::inputs::Input>, KeyError> {
+        let _ = (p, config_dir);
+        Ok(Vec::new())
+    }
     /// Runs with equal keys share one [`Kind::Shared`]. Default: none share.
     fn group_key(p: &Self::Params) -> String {
         records::canonical(p).unwrap_or_default()
@@ -201,11 +212,19 @@ pub struct Resolved {
     pub shared_cost: Cost,
     pub cost: Cost,
     pub rows: usize,
+    /// The inputs the run reads, with their content hashes (empty when resolved from CSV cells).
+    pub inputs: Arc<Vec<crate::inputs::Hashed>>,
+    /// [`crate::inputs::digest`] of [`Resolved::inputs`]: the rows' `inputs` cell.
+    pub inputs_digest: String,
     params: Arc<dyn Any + Send + Sync>,
 }
 
 /// Rows of one finished run, handed to the runner: cells in [`DynKind::row_columns`] order.
 pub type RowCells = Vec<Vec<String>>;
+
+/// Where [`DynKind::run_group`] hands each finished run: its rows, seconds and contention.
+pub type Sink<'a> =
+    dyn Fn(&Resolved, RowCells, f64, crate::contention::Reading) -> Result<(), Error> + Sync + 'a;
 
 /// A kind behind a vtable: what the runner needs.
 pub trait DynKind: Send + Sync {
@@ -230,13 +249,14 @@ pub trait DynKind: Send + Sync {
     /// Check that row cells have the row struct's types.
     fn check_row(&self, headers: &[String], cells: &[String]) -> Result<(), String>;
     /// Run a group: the shared work once, then every run (in parallel when `parallel`);
-    /// `sink` gets each finished run's rows.
+    /// `sink` gets each finished run's rows, the seconds it took and how busy the machine was
+    /// meanwhile ([`crate::contention`]).
     fn run_group(
         &self,
         runs: &[&Resolved],
         ctx: &Ctx,
         parallel: bool,
-        sink: &(dyn Fn(&Resolved, RowCells, f64) -> Result<(), Error> + Sync),
+        sink: &Sink<'_>,
     ) -> Result<(), Error>;
     fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, Error>;
     /// [`Kind::open_device`].
@@ -280,6 +300,7 @@ impl<K: Kind> Erased<K> {
         p: K::Params,
         spec: K::Spec,
         config_dir: Option<&Path>,
+        inputs: Vec<crate::inputs::Hashed>,
     ) -> Result<Resolved, String> {
         let (headers, cells) = records::to_cells(&p)?;
         let canonical = records::canonical_of(&headers, &cells);
@@ -295,6 +316,8 @@ impl<K: Kind> Erased<K> {
             shared_cost,
             cost,
             rows: K::rows_per_run(&p),
+            inputs_digest: crate::inputs::digest(&inputs),
+            inputs: Arc::new(inputs),
             params: Arc::new(spec),
         })
     }
@@ -341,13 +364,16 @@ impl<K: Kind> DynKind for Erased<K> {
             .unwrap_or(Path::new("."));
         let spec = K::resolve_in(&p, dir)
             .map_err(|e| ex.error(combo, &config::parse_path(&e.key), e.message))?;
-        self.resolved(p, spec, Some(dir))
+        let at = |key: &str, m: String| ex.error(combo, &config::parse_path(key), m);
+        let declared = K::inputs(&p, dir).map_err(|e| at(&e.key, e.message))?;
+        let inputs = crate::inputs::hash_all(&declared).map_err(|(k, m)| at(&k, m))?;
+        self.resolved(p, spec, Some(dir), inputs)
             .map_err(|m| ex.error(combo, &[], format!("cannot be written as a CSV row: {m}")))
     }
     fn resolve_cells(&self, headers: &[String], cells: &[String]) -> Result<Resolved, String> {
         let p: K::Params = records::from_cells(headers, cells)?;
         let spec = K::resolve(&p).map_err(|e| format!("{}: {}", e.key, e.message))?;
-        self.resolved(p, spec, None)
+        self.resolved(p, spec, None, Vec::new())
     }
     fn id_of_cells(&self, headers: &[String], cells: &[String]) -> Result<(String, usize), String> {
         let p: K::Params = records::from_cells(headers, cells)?;
@@ -364,7 +390,7 @@ impl<K: Kind> DynKind for Erased<K> {
         runs: &[&Resolved],
         ctx: &Ctx,
         parallel: bool,
-        sink: &(dyn Fn(&Resolved, RowCells, f64) -> Result<(), Error> + Sync),
+        sink: &Sink<'_>,
     ) -> Result<(), Error> {
         use rayon::prelude::*;
         let Some(first) = runs.first() else {
@@ -372,14 +398,17 @@ impl<K: Kind> DynKind for Erased<K> {
         };
         let shared = K::shared(params_of::<K>(first)?, ctx).map_err(Into::into)?;
         let one = |r: &&Resolved| -> Result<(), Error> {
+            let s0 = crate::contention::sample();
             let t0 = std::time::Instant::now();
             let rows = K::run(params_of::<K>(r)?, &r.id, &shared, ctx).map_err(Into::into)?;
+            let secs = t0.elapsed().as_secs_f64();
+            let busy = crate::contention::since(s0);
             let cells = rows
                 .iter()
                 .map(|row| records::to_cells(row).map(|(_, c)| c))
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(Error::Config)?;
-            sink(r, cells, t0.elapsed().as_secs_f64())
+            sink(r, cells, secs, busy)
         };
         if parallel {
             runs.par_iter().try_for_each(one)

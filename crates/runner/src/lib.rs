@@ -17,7 +17,9 @@
 //! | [`plots`], [`figure`], [`image`] | line plots, image grids, EXR/PNG files |
 //! | [`timing`], [`limits`] | the timing procedure; the work limits |
 //! | [`bench`] | the runner's own cost per run (`shscale bench runner`) |
-//! | [`atomic`] | atomic file output |
+//! | [`atomic`] | atomic, durable file output |
+//! | [`inputs`], [`fingerprint`] | inputs by content; the numerical code's identity |
+//! | [`contention`] | how busy the machine was while a run was timed |
 //! | [`check`] | range checks that state the range they test |
 //! | [`reference`] | the config reference |
 //! | [`device`] | the `gpu` setting and an opened device |
@@ -28,14 +30,17 @@ pub mod check;
 pub mod column_plot;
 pub mod compare;
 pub mod config;
+pub mod contention;
 pub mod cost;
 pub mod device;
 pub mod error;
 pub mod figure;
+pub mod fingerprint;
 pub mod font;
 pub mod heatmap;
 pub mod image;
 pub mod input;
+pub mod inputs;
 pub mod kind;
 pub mod limits;
 pub mod manifest;
@@ -59,6 +64,6 @@ pub use manifest::Manifest;
 pub use merge::{merge, MergeOptions, MergeSummary};
 pub use plan::Plan;
 pub use report::{commit_report, report, report_staged, title_and_claim, Report};
-pub use run::{run_plan, RunEvent, RunSummary};
+pub use run::{run_plan, RunEvent, RunSummary, StalePolicy};
 pub use slurm::{shell_quote, slurm_script, SlurmOptions};
 pub use store::{header, load_rows};

@@ -6,7 +6,7 @@ use crate::error::Error;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Columns the runner adds to every row after the kind's.
+/// Columns the runner adds to every row after the kind's (docs/provenance.md).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct RowProvenance {
     pub threads: usize,
@@ -14,13 +14,37 @@ pub struct RowProvenance {
     pub timing_concurrent: bool,
     pub timing_warmup: usize,
     pub timing_repeats: usize,
+    /// The numerical fingerprint of the binary that computed the row ([`CODE_FINGERPRINT`]):
+    /// a row whose `code` is not the binary's is stale.
+    pub code: String,
+    /// The digest of the content of every input the run read ([`crate::inputs::digest`];
+    /// `none` without inputs): a row whose inputs changed is stale.
+    pub inputs: String,
+    /// Cores other processes used on average while the run was measured
+    /// ([`crate::contention`]).
+    pub other_cpu: f64,
+    /// Share of the machine's time the hypervisor stole meanwhile.
+    pub steal: f64,
+    /// The 1-minute load average when the run finished.
+    pub load_1m: f64,
+    /// Whether the run was measured on a busy machine (`other_cpu` ≥ 0.5 or `steal` ≥ 0.1):
+    /// its times are not comparable.
+    pub contended: bool,
     pub git_revision: String,
     pub git_dirty: bool,
 }
 
+/// The numerical fingerprint of this binary: 16 hex digits of BLAKE3 over the sources that
+/// compute numbers ([`crate::fingerprint`]), recorded by the build script; "unknown" when built
+/// out of the workspace.
+pub const CODE_FINGERPRINT: &str = env!("SHSCALE_CODE_FINGERPRINT");
+
 /// Where a plan's run writes, and the machine.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Provenance {
+    /// The numerical fingerprint ([`CODE_FINGERPRINT`]).
+    #[serde(default)]
+    pub code: String,
     pub git_revision: String,
     /// Whether the checkout had local changes.
     pub git_dirty: bool,
@@ -84,6 +108,7 @@ impl Provenance {
             })
             .unwrap_or_else(|| "unknown".into());
         Self {
+            code: CODE_FINGERPRINT.into(),
             git_revision: rev.into(),
             git_dirty: dirty,
             shscale_version: env!("CARGO_PKG_VERSION").into(),
@@ -100,7 +125,8 @@ impl Provenance {
 /// One config version that produced rows.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Version {
-    /// Hash of the config text, the overrides and the revision.
+    /// Hash of the config text, the overrides, the numerical fingerprint and the inputs' content
+    /// (not the git revision: a docs-only commit is the same version).
     pub id: String,
     pub config_file: String,
     pub overrides: Vec<String>,
@@ -109,6 +135,10 @@ pub struct Version {
     pub first_unix_time: u64,
     pub last_unix_time: u64,
     pub provenance: Provenance,
+    /// Every input the plan's runs read, by label (path, or `bundled:<name>`), with its
+    /// content hash (32 hex digits of BLAKE3).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub inputs: std::collections::BTreeMap<String, String>,
     pub config_text: String,
 }
 

@@ -28,6 +28,9 @@ pub struct Plan {
     /// How often a long unsharded plan writes the summary, plots and report of its rows so far
     /// while it runs ([`INTERIM_REPORT`]; `None`: only when it ends).
     pub interim_report: Option<std::time::Duration>,
+    /// What a run does with stale rows of this plan ([`crate::run::StalePolicy`]; the
+    /// `--stale` flag).
+    pub stale: crate::run::StalePolicy,
 }
 
 /// How often a long plan writes its summary and report while it runs, so a reader can follow:
@@ -259,6 +262,7 @@ impl Plan {
             parallel_runs: ex.runner.parallel_runs.unwrap_or(true),
             timing,
             interim_report: Some(INTERIM_REPORT),
+            stale: crate::run::StalePolicy::default(),
         })
     }
 

@@ -24,7 +24,7 @@ pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> Error {
 }
 
 pub(crate) fn finish(tmp: &Path, path: &Path) -> Result<(), Error> {
-    std::fs::rename(tmp, path).map_err(|e| err(path, e))
+    crate::atomic::rename_durable(tmp, path)
 }
 
 /// Title and axis labels (with units) of a plot.

@@ -262,6 +262,17 @@ pub fn cmp_cells(a: &str, b: &str) -> std::cmp::Ordering {
 /// One CSV record with its line number.
 pub type CsvLine = (u64, Vec<String>);
 
+/// The header of a CSV file alone.
+pub fn read_raw_header(path: &Path) -> Result<Vec<String>, Error> {
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(std::io::BufReader::new(f));
+    let h = r.headers().map_err(|e| Error::io(path, e))?;
+    Ok(h.iter().map(String::from).collect())
+}
+
 /// Header and records with their line numbers (records of any length).
 pub fn read_raw(path: &Path) -> Result<(Vec<String>, Vec<CsvLine>), Error> {
     let io = |e: &dyn std::fmt::Display| Error::Io {

@@ -82,6 +82,34 @@ pub struct RunSummary {
     pub already_done: usize,
     pub ran: usize,
     pub redone: usize,
+    /// Runs of the shard whose rows were stale (another numerical code, or inputs whose
+    /// content changed): set aside into `<csv>.stale` and run again.
+    pub stale: usize,
+}
+
+/// What a run does with rows of its plan that are stale: computed by another numerical code
+/// than this binary's, or from inputs whose content has changed since (docs/provenance.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StalePolicy {
+    /// Set the stale rows aside into `<csv>.stale` (valid CSV, restorable) and run those runs
+    /// again: the default, so a results folder holds the current code's numbers for the
+    /// current inputs.
+    #[default]
+    Rerun,
+    /// Stop before any work, naming the stale runs and both ways on (`--stale rerun`, or
+    /// another `--name`).
+    Refuse,
+}
+
+impl StalePolicy {
+    /// `rerun` or `refuse` (the `--stale` flag).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "rerun" => Ok(Self::Rerun),
+            "refuse" => Ok(Self::Refuse),
+            other => Err(format!("--stale {other:?}: expected rerun or refuse")),
+        }
+    }
 }
 
 /// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` hears of every step.
@@ -101,25 +129,24 @@ pub fn run_plan(
             p.display()
         )))
     };
-    let loaded = load_checked(plan, &dir, &csv, &waiting, progress)?;
+    let (loaded, stale) = load_checked(plan, &dir, &csv, &waiting, progress)?;
     let device = kind.open_device(plan.gpu)?;
     let gpu_device = device
         .as_ref()
         .map_or("none".to_string(), |d| d.description().to_string());
     let (summary, pending) = plan_progress(plan, shard, &loaded, &dir, &csv);
     let mut summary = summary;
+    summary.stale = stale;
     progress(RunEvent::Begin {
         total: summary.in_shard,
         pending: pending.len(),
     });
     let version = version_of(plan, Provenance::here(&gpu_device));
-    let provenance_cells = provenance_cells(plan, &version)?;
     let writer = Writer {
         plan,
         dir: &dir,
         csv: &csv,
         version,
-        provenance_cells,
         order: (plan.runs.iter().enumerate())
             .map(|(i, r)| (r.id.as_str(), i))
             .collect(),
@@ -144,6 +171,7 @@ pub fn run_plan(
         let ticker = scope.spawn(|| -> Result<(), Error> {
             while !stop.load(std::sync::atomic::Ordering::Acquire) {
                 std::thread::park_timeout(COMMIT_INTERVAL / 4);
+                crate::contention::tick();
                 let batch = (writer.queue.lock())
                     .unwrap_or_else(|e| e.into_inner())
                     .take(false);
@@ -176,24 +204,33 @@ fn shard_csv(dir: &Path, shard: Option<(usize, usize)>) -> Result<PathBuf, Error
     })
 }
 
-/// The provenance cells every row of the plan carries: timed alone, and timed while other runs
-/// of the process ran (`timing_concurrent`).
-fn provenance_cells(plan: &Plan, version: &Version) -> Result<[Vec<String>; 2], Error> {
-    let [alone, concurrent] = [false, true].map(|concurrent| {
-        let prov = RowProvenance {
-            threads: rayon::current_num_threads(),
-            timing_concurrent: concurrent,
-            timing_warmup: plan.timing.warmup,
-            timing_repeats: plan.timing.repeats,
-            git_revision: version.provenance.git_revision.clone(),
-            git_dirty: version.provenance.git_dirty,
-        };
-        records::to_cells(&prov).map(|(_, c)| c)
-    });
-    Ok([
-        alone.map_err(Error::Config)?,
-        concurrent.map_err(Error::Config)?,
-    ])
+/// The provenance cells of one run's rows: the plan's timing procedure, the binary's
+/// numerical fingerprint and revision, the run's inputs and how busy the machine was.
+fn provenance_cells(
+    plan: &Plan,
+    version: &Version,
+    r: &Resolved,
+    concurrent: bool,
+    busy: crate::contention::Reading,
+) -> Result<Vec<String>, Error> {
+    use crate::contention::round2;
+    let prov = RowProvenance {
+        threads: rayon::current_num_threads(),
+        timing_concurrent: concurrent,
+        timing_warmup: plan.timing.warmup,
+        timing_repeats: plan.timing.repeats,
+        code: version.provenance.code.clone(),
+        inputs: r.inputs_digest.clone(),
+        other_cpu: round2(busy.other_cpu),
+        steal: round2(busy.steal),
+        load_1m: round2(busy.load_1m),
+        contended: busy.contended,
+        git_revision: version.provenance.git_revision.clone(),
+        git_dirty: version.provenance.git_dirty,
+    };
+    records::to_cells(&prov)
+        .map(|(_, c)| c)
+        .map_err(Error::Config)
 }
 
 /// Every group with pending runs (`pending`: indices into the plan), its shared work once and
@@ -244,8 +281,8 @@ fn run_groups(
         }
         let concurrent = plan.parallel_runs && runs.len() > 1;
         plan.kind
-            .run_group(&runs, ctx, concurrent, &|r, rows, secs| {
-                writer.write_run(r, rows, concurrent)?;
+            .run_group(&runs, ctx, concurrent, &|r, rows, secs, busy| {
+                writer.write_run(r, rows, concurrent, busy)?;
                 progress(RunEvent::Done {
                     line: &format!("{} in {secs:.2} s", label(r)),
                     secs,
@@ -280,6 +317,7 @@ fn plan_progress(
         in_shard: mine.len(),
         already_done: mine.len() - pending.len(),
         ran: 0,
+        stale: 0,
         redone: (pending.iter())
             .filter(|&&i| rejected_ids.contains(&plan.runs[i].id))
             .count(),
@@ -289,17 +327,20 @@ fn plan_progress(
 
 /// Check the manifest and the existing rows before any work: a directory of another kind is
 /// refused; rows set aside are kept in `<csv>.rejected` (with a warning each) and the CSV keeps
-/// only the valid ones.
+/// only the valid ones; rows of this plan's runs that are stale ([`stale_rows`]) are set aside
+/// into `<csv>.stale` and their runs redone, or the run refused ([`Plan::stale`]), said in one
+/// line. Returns the rows kept and how many of the plan's runs were stale.
 fn load_checked(
     plan: &Plan,
     dir: &Path,
     csv: &Path,
     waiting: &dyn Fn(&Path),
     progress: &(dyn Fn(RunEvent) + Sync),
-) -> Result<crate::store::Loaded, Error> {
+) -> Result<(crate::store::Loaded, usize), Error> {
     let kind = plan.kind;
     let _lock = DirLock::acquire(dir, waiting)?;
-    if let Some(m) = Manifest::read(dir)? {
+    let manifest = Manifest::read(dir)?;
+    if let Some(m) = &manifest {
         if m.experiment != kind.name() {
             return Err(Error::Io {
                 path: dir.join("manifest.toml").display().to_string(),
@@ -307,7 +348,7 @@ fn load_checked(
             });
         }
     }
-    let l = load_rows(kind, csv)?;
+    let mut l = load_rows(kind, csv)?;
     for (line, why, _) in &l.rejected {
         progress(RunEvent::Warn(&format!(
             "{}:{line}: row set aside ({why}); kept in {}.rejected",
@@ -315,24 +356,169 @@ fn load_checked(
             csv.display()
         )));
     }
-    if !l.rejected.is_empty() {
+    let st = stale_rows(plan, &l, manifest.as_ref());
+    if !st.runs.is_empty() {
+        let line = st.describe(csv);
+        if plan.stale == StalePolicy::Refuse {
+            return Err(Error::Config(format!(
+                "{line}; stopped (--stale refuse): nothing was run or moved. Run again with --stale rerun to set them aside and recompute them, or give another --name to keep this folder as it is"
+            )));
+        }
+        progress(RunEvent::Warn(&format!(
+            "{line}: re-running them; their old rows are set aside in {}.stale (--stale refuse stops instead)",
+            csv.display()
+        )));
+    }
+    if let Some(w) = st.others_line() {
+        progress(RunEvent::Warn(&w));
+    }
+    if !l.rejected.is_empty() || !st.runs.is_empty() {
         keep_rejected(csv, &l.rejected)?;
+        let mut kept = Vec::with_capacity(l.rows.len());
+        let mut aside = Vec::new();
+        for (i, r) in std::mem::take(&mut l.rows).into_iter().enumerate() {
+            match st.runs.get(&r[0]) {
+                Some(why) => aside.push((i as u64 + 2, why.clone(), r)),
+                None => kept.push(r),
+            }
+        }
+        crate::store::set_aside(csv, "stale", &aside)?;
+        for id in st.runs.keys() {
+            l.complete.remove(id);
+        }
+        l.rows = kept;
         write_atomic(csv, &records::write_text(&header(kind), &l.rows)?)?;
     }
-    Ok(l)
+    Ok((l, st.runs.len()))
 }
 
-/// The config version a plan runs as: its id hashes the text, the overrides and the revision.
+/// The stale runs of a plan in a results file: run id → why (its rows' numerical code is not
+/// this binary's, or its inputs' digest is not the one hashed now), with counts for the line
+/// that says so; and rows of runs outside the plan computed by other code (kept).
+#[derive(Default)]
+struct Stale {
+    runs: std::collections::BTreeMap<String, String>,
+    by_code: std::collections::BTreeMap<String, usize>,
+    by_inputs: usize,
+    changed_inputs: BTreeSet<String>,
+    done: usize,
+    others_of_other_code: usize,
+}
+
+impl Stale {
+    fn describe(&self, csv: &Path) -> String {
+        let mut why = Vec::new();
+        for (code, n) in &self.by_code {
+            why.push(format!(
+                "{n} computed by numerical code {code} (this binary's is {})",
+                crate::manifest::CODE_FINGERPRINT
+            ));
+        }
+        if self.by_inputs > 0 {
+            let named: Vec<&str> = self.changed_inputs.iter().map(String::as_str).collect();
+            why.push(format!(
+                "{} read inputs whose content changed{}",
+                self.by_inputs,
+                if named.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", named.join(", "))
+                }
+            ));
+        }
+        format!(
+            "{}: {} of the {} finished run(s) of this plan are stale — {}",
+            csv.display(),
+            self.runs.len(),
+            self.done,
+            why.join("; ")
+        )
+    }
+
+    fn others_line(&self) -> Option<String> {
+        (self.others_of_other_code > 0).then(|| {
+            format!(
+                "the results file also holds {} row(s) of runs outside this plan computed by other numerical code than this binary's {} (kept; the summary names them)",
+                self.others_of_other_code,
+                crate::manifest::CODE_FINGERPRINT
+            )
+        })
+    }
+}
+
+/// [`Stale`] of the loaded rows against the plan; `manifest` names the inputs that changed.
+fn stale_rows(plan: &Plan, l: &crate::store::Loaded, manifest: Option<&Manifest>) -> Stale {
+    let h = header(plan.kind);
+    let (Some(code_at), Some(inputs_at)) = (
+        h.iter().position(|c| c == "code"),
+        h.iter().position(|c| c == "inputs"),
+    ) else {
+        return Stale::default();
+    };
+    let runs: HashMap<&str, &Resolved> = plan.runs.iter().map(|r| (r.id.as_str(), r)).collect();
+    let mut st = Stale::default();
+    let code = crate::manifest::CODE_FINGERPRINT;
+    let mut seen = BTreeSet::new();
+    for row in &l.rows {
+        let Some(r) = runs.get(row[0].as_str()) else {
+            if row[code_at] != code {
+                st.others_of_other_code += 1;
+            }
+            continue;
+        };
+        if seen.insert(row[0].clone()) {
+            st.done += 1;
+        }
+        if st.runs.contains_key(&row[0]) {
+            continue;
+        }
+        let why = if row[code_at] != code {
+            *st.by_code.entry(row[code_at].clone()).or_default() += 1;
+            format!(
+                "stale: numerical code {}, this binary's is {code}",
+                row[code_at]
+            )
+        } else if row[inputs_at] != r.inputs_digest {
+            st.by_inputs += 1;
+            for h in r.inputs.iter() {
+                let before = (manifest.into_iter().flat_map(|m| m.versions.iter()))
+                    .filter_map(|v| v.inputs.get(&h.label))
+                    .any(|old| *old != h.hash);
+                if before {
+                    st.changed_inputs.insert(h.label.clone());
+                }
+            }
+            format!(
+                "stale: inputs {} changed to {} since the row was computed",
+                row[inputs_at], r.inputs_digest
+            )
+        } else {
+            continue;
+        };
+        st.runs.insert(row[0].clone(), why);
+    }
+    st
+}
+
+/// The config version a plan runs as: its id hashes the text, the overrides, the numerical
+/// fingerprint and the content of every input the plan reads — not the git revision, so a
+/// docs-only commit runs the same version.
 fn version_of(plan: &Plan, prov: Provenance) -> Version {
-    let dirty = if prov.git_dirty { "+dirty" } else { "" };
+    let inputs: std::collections::BTreeMap<String, String> = (plan.runs.iter())
+        .flat_map(|r| r.inputs.iter())
+        .map(|h| (h.label.clone(), h.hash.clone()))
+        .collect();
+    let listed: String = (inputs.iter())
+        .map(|(l, h)| format!("{l}\t{h}\n"))
+        .collect();
     Version {
         id: records::run_id(
             "version",
             &format!(
-                "{}\n{}\n{}{dirty}",
+                "{}\n{}\n{}\n{listed}",
                 plan.text,
                 plan.overrides.join(" "),
-                prov.git_revision,
+                prov.code,
             ),
         ),
         config_file: plan.file.clone(),
@@ -342,6 +528,7 @@ fn version_of(plan: &Plan, prov: Provenance) -> Version {
         first_unix_time: prov.unix_time,
         last_unix_time: prov.unix_time,
         provenance: prov,
+        inputs,
         config_text: plan.text.clone(),
     }
 }
@@ -377,9 +564,6 @@ struct Writer<'a> {
     queue: std::sync::Mutex<Queue>,
     /// How often the summary and report of the rows so far are written (unsharded plans).
     interim: Option<std::time::Duration>,
-    /// The provenance cells every row ends with, timed alone (`[0]`) or concurrently (`[1]`):
-    /// built once, not per run.
-    provenance_cells: [Vec<String>; 2],
 }
 
 /// Finished runs waiting for the next commit: their ids and rows.
@@ -435,9 +619,15 @@ impl Known {
 
 impl Writer<'_> {
     /// Queue a finished run's rows, and commit the queue when it is due.
-    fn write_run(&self, r: &Resolved, rows: RowCells, concurrent: bool) -> Result<(), Error> {
+    fn write_run(
+        &self,
+        r: &Resolved,
+        rows: RowCells,
+        concurrent: bool,
+        busy: crate::contention::Reading,
+    ) -> Result<(), Error> {
         let kind = self.plan.kind;
-        let pcells = &self.provenance_cells[usize::from(concurrent)];
+        let pcells = &provenance_cells(self.plan, &self.version, r, concurrent, busy)?;
         let lines: Vec<Vec<String>> = rows
             .into_iter()
             .map(|row| {

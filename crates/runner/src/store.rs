@@ -236,25 +236,88 @@ fn check_header(
     Ok(())
 }
 
-/// Append set-aside rows to `<csv>.rejected` (never lost).
+/// Append set-aside rows to `<csv>.rejected` (never lost): [`set_aside`] with that suffix.
 pub(crate) fn keep_rejected(
     csv: &Path,
     rejected: &[(u64, String, Vec<String>)],
 ) -> Result<(), Error> {
-    if rejected.is_empty() {
+    set_aside(csv, "rejected", rejected)
+}
+
+/// The header of a file of set-aside rows: the line the row had, why it was set aside, then the
+/// row's own cells (as many as it had; under the results file's header when it had as many).
+pub const SET_ASIDE_HEAD: [&str; 2] = ["set_aside_line", "set_aside_reason"];
+
+/// Append rows set aside from `csv` to `<csv>.<suffix>` (`rejected`: invalid rows; `stale`: rows
+/// of other numerical code or input content) as valid CSV written by the `csv` crate — each
+/// record its line in `csv`, the reason, then the row's cells, quoted where they hold a comma,
+/// a quote or a line break — so [`read_set_aside`] gives back every cell byte for byte. The
+/// header (`set_aside_line,set_aside_reason,` and `csv`'s own header when readable) starts a
+/// new file; the append is flushed and synced.
+pub(crate) fn set_aside(
+    csv: &Path,
+    suffix: &str,
+    rows: &[(u64, String, Vec<String>)],
+) -> Result<(), Error> {
+    if rows.is_empty() {
         return Ok(());
     }
     use std::io::Write;
-    let p = PathBuf::from(format!("{}.rejected", csv.display()));
+    let p = PathBuf::from(format!("{}.{suffix}", csv.display()));
+    let fresh = std::fs::metadata(&p).map_or(true, |m| m.len() == 0);
+    let mut w = csv::WriterBuilder::new()
+        .flexible(true)
+        .from_writer(Vec::new());
+    let e = |e: csv::Error| Error::io(&p, format!("writing CSV: {e}"));
+    if fresh {
+        let mut head: Vec<String> = SET_ASIDE_HEAD.iter().map(|s| s.to_string()).collect();
+        if let Ok(columns) = records::read_raw_header(csv) {
+            head.extend(columns);
+        }
+        w.write_record(&head).map_err(e)?;
+    }
+    for (line, why, cells) in rows {
+        let mut rec = vec![line.to_string(), why.clone()];
+        rec.extend(cells.iter().cloned());
+        w.write_record(&rec).map_err(e)?;
+    }
+    let bytes = w.into_inner().map_err(|e| Error::io(&p, e.to_string()))?;
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
         .open(&p)
         .map_err(|e| Error::io(&p, e))?;
-    for (line, why, cells) in rejected {
-        writeln!(f, "# line {line}: {why}\n{}", cells.join(",")).map_err(|e| Error::io(&p, e))?;
+    f.write_all(&bytes)
+        .and_then(|_| f.sync_data())
+        .map_err(|e| Error::io(&p, e))?;
+    if fresh {
+        crate::atomic::sync_parent(&p)?;
     }
     Ok(())
+}
+
+/// The rows of a file of set-aside rows ([`set_aside`]): `(line, reason, cells)` each, the
+/// cells exactly as the results file held them.
+pub fn read_set_aside(path: &Path) -> Result<Vec<(u64, String, Vec<String>)>, Error> {
+    let bytes = crate::input::read_regular(path)?;
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(bytes.as_slice());
+    let mut out = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(|e| Error::io(path, e))?;
+        let at = rec.position().map_or(0, |p| p.line());
+        let line = (rec.get(0).unwrap_or("").parse::<u64>()).map_err(|_| {
+            Error::io(
+                path,
+                format!("line {at}: {:?} is not a line number", rec.get(0)),
+            )
+        })?;
+        let why = rec.get(1).unwrap_or("").to_string();
+        out.push((line, why, rec.iter().skip(2).map(String::from).collect()));
+    }
+    Ok(out)
 }
 
 /// The last byte of an open file, if any (appends still go to the end after the seek).
@@ -302,6 +365,73 @@ mod tests {
         let lines: Vec<u64> = rows.iter().map(|(l, _)| *l).collect();
         assert_eq!(lines, [3, 4, 5]);
         assert_eq!(rows[1].1, row("z"));
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
+    }
+
+    /// Rows with hostile cells (commas, quotes, line breaks, non-ASCII, an empty cell) set aside
+    /// on load come back from `runs.csv.rejected` cell for cell, and written again by the `csv`
+    /// crate they are the bytes the results file held, byte for byte.
+    #[test]
+    fn rejected_rows_round_trip_hostile_cells_byte_for_byte() {
+        let p = tmp("rejected");
+        let kind: &dyn DynKind = &crate::bench::TALLY;
+        let want = header(kind);
+        let hostile = [
+            "a,b",
+            "say \"hi\"",
+            "two\nlines",
+            "crlf\r\nend",
+            "ρ = 1.02r, α=45°",
+            "",
+            " lead and trail ",
+            "\"",
+        ];
+        let rows: Vec<Vec<String>> = vec![
+            hostile.iter().map(|c| c.to_string()).collect(),
+            vec!["mesh,with,commas.obj".into(); want.len() + 3],
+            (0..want.len()).map(|i| format!("x{i}\"\n,")).collect(),
+        ];
+        let mut w = csv::WriterBuilder::new()
+            .flexible(true)
+            .from_writer(Vec::new());
+        w.write_record(&want).unwrap();
+        let mut spans = Vec::new();
+        for r in &rows {
+            w.flush().unwrap();
+            let start = w.get_ref().len();
+            w.write_record(r).unwrap();
+            w.flush().unwrap();
+            spans.push(start..w.get_ref().len());
+        }
+        let bytes = w.into_inner().unwrap();
+        std::fs::write(&p, &bytes).unwrap();
+        let l = load_rows(kind, &p).unwrap();
+        assert_eq!(
+            l.rejected.len(),
+            rows.len(),
+            "every hostile row is set aside"
+        );
+        keep_rejected(&p, &l.rejected).unwrap();
+        let rej = PathBuf::from(format!("{}.rejected", p.display()));
+        let back = read_set_aside(&rej).unwrap();
+        assert_eq!(back.len(), rows.len());
+        for ((line, why, cells), (r, span)) in back.iter().zip(rows.iter().zip(&spans)) {
+            assert!(!why.is_empty() && *line >= 2, "{line} {why}");
+            assert_eq!(cells, r, "cells of line {line}");
+            let mut again = csv::WriterBuilder::new()
+                .flexible(true)
+                .from_writer(Vec::new());
+            again.write_record(cells).unwrap();
+            let again = again.into_inner().unwrap();
+            assert_eq!(again, bytes[span.clone()], "bytes of line {line}");
+        }
+        // The file is valid CSV with a header naming the columns.
+        let head = records::read_raw_header(&rej).unwrap();
+        assert_eq!(&head[..2], &SET_ASIDE_HEAD.map(String::from));
+        assert_eq!(&head[2..], &want[..]);
+        // A second set-aside appends records, not a second header.
+        keep_rejected(&p, &l.rejected[..1]).unwrap();
+        assert_eq!(read_set_aside(&rej).unwrap().len(), rows.len() + 1);
         std::fs::remove_dir_all(p.parent().unwrap()).ok();
     }
 

@@ -341,6 +341,49 @@ impl Camera {
 }
 
 impl Scene {
+    /// Every input a run reading the scene file at `path` reads
+    /// ([`shscale_runner::Kind::inputs`], named by the parameter `key`): the file, its
+    /// occluders' meshes ([`crate::vocab::mesh_inputs`]) and its environment map. The scene is
+    /// parsed (an error names it); parsed scenes are kept by path, size and modification time,
+    /// so a plan of many runs parses each once.
+    pub fn inputs(key: &str, path: &Path) -> Result<Vec<shscale_runner::inputs::Input>, Error> {
+        use shscale_runner::inputs::Input;
+        type Key = (PathBuf, u64, Option<std::time::SystemTime>);
+        static KNOWN: std::sync::Mutex<Vec<(Key, Vec<Input>)>> = std::sync::Mutex::new(Vec::new());
+        let m = std::fs::metadata(path).ok();
+        let k: Key = (
+            path.to_path_buf(),
+            m.as_ref().map_or(0, |m| m.len()),
+            m.and_then(|m| m.modified().ok()),
+        );
+        if let Some(found) = (KNOWN.lock().unwrap_or_else(|e| e.into_inner()).iter())
+            .find(|(x, _)| *x == k)
+            .map(|(_, v)| v.clone())
+        {
+            return Ok(found);
+        }
+        let scene = Self::load(path)?;
+        let mut out = vec![Input::File {
+            key: key.into(),
+            path: path.to_path_buf(),
+        }];
+        for o in &scene.occluders {
+            out.extend(crate::vocab::mesh_inputs(key, &o.mesh));
+        }
+        if let LightSpec::Exr { path, .. } = &scene.light {
+            out.push(Input::File {
+                key: key.into(),
+                path: path.clone(),
+            });
+        }
+        let mut known = KNOWN.lock().unwrap_or_else(|e| e.into_inner());
+        if known.len() >= 16 {
+            known.remove(0);
+        }
+        known.push((k, out.clone()));
+        Ok(out)
+    }
+
     /// Read and resolve a scene file.
     pub fn load(path: &Path) -> Result<Self, Error> {
         let text = shscale_runner::input::read_regular_string(path)?;

@@ -35,6 +35,28 @@ pub fn builtin_mesh(name: &str) -> bool {
     name == "sphere" || PROCEDURAL.contains(&name) || bundled::names().contains(&name)
 }
 
+/// What reading the mesh `name` reads ([`shscale_runner::Kind::inputs`], named by the
+/// parameter `key`): nothing for the analytic sphere and the procedural shapes (made by the
+/// code, which the numerical fingerprint covers), the embedded text of a bundled mesh, else the
+/// file at `name` (relative to the working directory, as [`mesh`] opens it).
+pub fn mesh_inputs(key: &str, name: &str) -> Vec<shscale_runner::inputs::Input> {
+    use shscale_runner::inputs::Input;
+    if name == "sphere" || PROCEDURAL.contains(&name) {
+        return Vec::new();
+    }
+    if let Some((n, text)) = bundled::BUNDLED.iter().find(|(n, _)| *n == name) {
+        return vec![Input::Embedded {
+            key: key.into(),
+            name: (*n).into(),
+            bytes: text.as_bytes(),
+        }];
+    }
+    vec![Input::File {
+        key: key.into(),
+        path: name.into(),
+    }]
+}
+
 /// The mesh of a name as built or stored (not moved or scaled); not for `sphere`.
 pub fn mesh(name: &str) -> Result<Mesh, Error> {
     Ok(match name {

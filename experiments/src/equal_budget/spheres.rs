@@ -460,6 +460,13 @@ impl Kind for Budget {
     type Error = Error;
     type Spec = Typed<Params, Spec>;
 
+    fn inputs(
+        p: &Self::Params,
+        _config_dir: &std::path::Path,
+    ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
+        Ok(shscale_scene::vocab::mesh_inputs("mesh", &p.mesh))
+    }
+
     fn describe() -> &'static [(&'static str, &'static str)] {
         &[
             ("mesh", "the occluder, as in `probe`"),

@@ -208,6 +208,13 @@ impl Kind for Probe {
     type Row = ProbeRow;
     type Error = Error;
     type Spec = Typed<ProbeParams, ProbeSpec>;
+
+    fn inputs(
+        p: &Self::Params,
+        _config_dir: &std::path::Path,
+    ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
+        Ok(shscale_scene::vocab::mesh_inputs("mesh", &p.mesh))
+    }
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
     }

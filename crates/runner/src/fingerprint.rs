@@ -1,0 +1,110 @@
+//! The numerical fingerprint: a hash of the content of the sources that compute numbers — the
+//! numerical crates, the experiment kinds' work, the method vocabulary, the row formatting, the
+//! dependency lock and the build profile — and of nothing else (not the CLI, its help text, the
+//! docs, the configs, the report writer or the kinds' discussions, verdicts and figures). Rows
+//! record the fingerprint of the binary that computed them; a row whose fingerprint is not the
+//! binary's is *stale* (docs/provenance.md). A dirty tree has an identity like any commit, and a
+//! docs-only commit keeps every row valid.
+//!
+//! The build script (`crates/runner/build.rs`) includes this file and computes
+//! [`crate::manifest::CODE_FINGERPRINT`] when the runner is compiled; tests call [`of_tree`] on
+//! copies of the workspace. Only `std` and `blake3`: the build script compiles it too.
+
+use std::path::{Path, PathBuf};
+
+/// Folders (relative to the workspace root) whose every source file counts, recursively.
+pub const NUMERICAL_DIRS: &[&str] = &[
+    "crates/sh/src",
+    "crates/scaling/src",
+    "crates/geometry/src",
+    "crates/field/src",
+    "crates/scene/src",
+    "crates/gpu/src",
+    "experiments/src",
+];
+
+/// Single files that count: the manifests of the numerical crates (features, dependencies), the
+/// workspace's (profiles), the lock (dependency versions: glam, obvhs, spade compute numbers),
+/// and the runner's row formatting and timing procedure.
+pub const NUMERICAL_FILES: &[&str] = &[
+    "Cargo.toml",
+    "Cargo.lock",
+    "crates/sh/Cargo.toml",
+    "crates/scaling/Cargo.toml",
+    "crates/geometry/Cargo.toml",
+    "crates/field/Cargo.toml",
+    "crates/scene/Cargo.toml",
+    "crates/gpu/Cargo.toml",
+    "experiments/Cargo.toml",
+    "crates/runner/src/records.rs",
+    "crates/runner/src/timing.rs",
+];
+
+/// File names inside [`NUMERICAL_DIRS`] that write words and pictures from rows, never rows:
+/// the kinds' discussions, verdicts and figures, and test modules.
+pub const PRESENTATION_NAMES: &[&str] = &[
+    "discussion.rs",
+    "verdict.rs",
+    "figure.rs",
+    "figures.rs",
+    "tests.rs",
+];
+
+/// Whether a file inside [`NUMERICAL_DIRS`] counts: a source (`.rs`, `.wgsl`) that is not
+/// presentation ([`PRESENTATION_NAMES`], `*_tests.rs`).
+pub fn counts(path: &Path) -> bool {
+    let name = path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().to_string());
+    let source = name.ends_with(".rs") || name.ends_with(".wgsl");
+    source && !PRESENTATION_NAMES.contains(&name.as_str()) && !name.ends_with("_tests.rs")
+}
+
+/// Every file that counts under `root`, relative to it, sorted (absent ones left out).
+pub fn files(root: &Path) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = NUMERICAL_FILES
+        .iter()
+        .map(PathBuf::from)
+        .filter(|p| root.join(p).is_file())
+        .collect();
+    for d in NUMERICAL_DIRS {
+        walk(root, Path::new(d), &mut out);
+    }
+    out.sort();
+    out.dedup();
+    out
+}
+
+fn walk(root: &Path, rel: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(root.join(rel)) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let r = rel.join(e.file_name());
+        match e.file_type() {
+            Ok(t) if t.is_dir() => walk(root, &r, out),
+            Ok(t) if t.is_file() && counts(&r) => out.push(r),
+            _ => {}
+        }
+    }
+}
+
+/// The fingerprint of the tree at `root`: 16 hex digits of BLAKE3 over each counted file's
+/// relative path, length and bytes, in path order; `None` when no file counts (not a checkout:
+/// a crate built out of its workspace).
+pub fn of_tree(root: &Path) -> Option<String> {
+    let files = files(root);
+    if files.is_empty() {
+        return None;
+    }
+    let mut h = blake3::Hasher::new();
+    for f in &files {
+        let bytes = std::fs::read(root.join(f)).ok()?;
+        let name = f.to_string_lossy().replace('\\', "/");
+        h.update(name.as_bytes());
+        h.update(&[0]);
+        h.update(&(bytes.len() as u64).to_le_bytes());
+        h.update(&bytes);
+    }
+    Some(h.finalize().to_hex()[..16].to_string())
+}
