@@ -805,3 +805,36 @@ fn device_targets_are_read_from_the_device_checks_rows() {
     assert!(err.contains("methods.json"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scripts/device-check` writes each file through a temporary renamed on success: a bench that
+/// fails (here a binary that exits 1 at once) leaves the previous sitting's `table1.json` whole
+/// and no temporary behind, and the script fails naming the file.
+#[test]
+fn a_failing_device_check_keeps_the_previous_sittings_files() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = std::env::temp_dir().join(format!("shscale-devcheck-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let old = r#"[{"scene": "bird", "path": "gpu", "frame_ms": 0.5}]"#;
+    std::fs::write(dir.join("table1.json"), old).unwrap();
+    let out = std::process::Command::new("bash")
+        .arg(root.join("scripts/device-check"))
+        .env("OUT", &dir)
+        .env("SHSCALE_BIN", "/bin/false")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    println!("{err}");
+    assert!(!out.status.success());
+    assert!(err.contains("table1.json left as it was"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(dir.join("table1.json")).unwrap(),
+        old
+    );
+    let left: Vec<String> = (std::fs::read_dir(&dir).unwrap().flatten())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(left.is_empty(), "temporaries left: {left:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

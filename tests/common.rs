@@ -77,7 +77,8 @@ pub fn comparable(csv: &std::path::Path) -> Vec<Vec<String>> {
                 || h.starts_with("timing_")
                 || *h == "threads"
                 || h.starts_with("gpu_")
-                || h.starts_with("git_"))
+                || h.starts_with("git_")
+                || matches!(h.as_str(), "other_cpu" | "steal" | "load_1m" | "contended"))
         })
         .map(|(i, _)| i)
         .collect();

@@ -124,18 +124,18 @@ fn fixture(tag: &str) -> Option<PathBuf> {
     let p = d.join("hdr/sparsity/c/runs.csv");
     let text = std::fs::read_to_string(&p).unwrap();
     std::fs::write(&p, text.lines().next().unwrap().to_string() + "\n").unwrap();
-    // Shards where one holds rows of another code revision.
+    // Shards where one holds rows of another numerical code.
     copy(s, "s_mixed");
     let p = d.join("s_mixed").join(shard1);
     let text = std::fs::read_to_string(&p).unwrap();
     let mut rd = csv::Reader::from_reader(text.as_bytes());
     let h = rd.headers().unwrap().clone();
-    let at = h.iter().position(|c| c == "git_revision").unwrap();
+    let at = h.iter().position(|c| c == "code").unwrap();
     let mut w = csv::Writer::from_path(&p).unwrap();
     w.write_record(&h).unwrap();
     for rec in rd.records() {
         let mut cells: Vec<String> = rec.unwrap().iter().map(String::from).collect();
-        cells[at] = "0123456789abcdef0123456789abcdef01234567".into();
+        cells[at] = "0123456789abcdef".into();
         w.write_record(&cells).unwrap();
     }
     drop(w);
@@ -432,7 +432,7 @@ const CASES: &[(&str, &str)] = &[
     ("merge|s/sparsity/c|--out|afile", "afile"),
     ("merge|r/sparsity/c|pr/probe/p|--out|o/m", "kind"),
     ("merge|empty|--out|o/m", "empty"),
-    ("merge|s_mixed|--out|o/m", "code revision"),
+    ("merge|s_mixed|--out|o/m", "numerical code"),
     // Shards and run options.
     ("run|c.toml|--shard|3/3", "--shard"),
     ("run|c.toml|--shard|0/0", "--shard"),

@@ -293,12 +293,21 @@ def run(
 
 
 def load_results(directory: str | os.PathLike):
-    """The rows of a results directory (its ``runs.csv``) as a pandas DataFrame."""
-    import pandas as pd
-
+    """The rows of a results directory (its ``runs.csv``) as a pandas DataFrame, typed by the
+    ``runs.schema.json`` beside it: ``run_id`` and every string column stay strings, integers
+    are nullable ``Int64``, booleans ``bool``, list parameters (``0.5;0.7;2``) lists of floats.
+    ``DataFrame.attrs`` holds ``units`` (column → unit), ``schema`` (the columns' entries),
+    ``code`` (this module's numerical fingerprint) and ``notes``: rows that are stale (computed
+    by another numerical code), of several codes (mixed) or timed on a busy machine, in the
+    words of ``shscale report`` — each also given as a ``UserWarning``. Without a schema (rows of
+    an older version) every cell is read as text and nothing is converted."""
+    import json
     import stat
 
-    path = os.path.join(os.fspath(directory), "runs.csv")
+    import pandas as pd
+
+    directory = os.fspath(directory)
+    path = os.path.join(directory, "runs.csv")
     try:
         # lstat: a FIFO, a device or a link is never opened (a FIFO would block forever).
         st = os.lstat(path)
@@ -308,7 +317,55 @@ def load_results(directory: str | os.PathLike):
         raise ValueError(f"{path}: {e.strerror}") from None
     if not stat.S_ISREG(st.st_mode):
         raise ValueError(f"{path}: not a regular file (a FIFO, a device, a link or a folder); nothing read")
-    return pd.read_csv(path, keep_default_na=True)
+    schema_path = os.path.join(directory, "runs.schema.json")
+    schema = None
+    if os.path.isfile(schema_path) and not os.path.islink(schema_path):
+        with open(schema_path, encoding="utf-8") as f:
+            try:
+                schema = json.load(f)
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{schema_path}: not JSON ({e})") from None
+    # Every cell as text first: no column is guessed (a run id of digits stays a string).
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    columns = (schema or {}).get("columns", [])
+    by_name = {c["name"]: c for c in columns}
+    missing = [c for c in by_name if c not in df.columns]
+    if schema is not None and missing:
+        raise ValueError(
+            f"{path}: lacks the column(s) {', '.join(missing[:5])} that {schema_path} names"
+        )
+    for name, c in by_name.items():
+        ty = c.get("type", "string").rstrip("?")
+        col = df[name]
+        try:
+            if ty == "integer":
+                df[name] = pd.to_numeric(col.where(col != "")).astype("Int64")
+            elif ty == "float":
+                df[name] = pd.to_numeric(col.where(col != "")).astype(float)
+            elif ty == "bool":
+                bad = set(col) - {"true", "false"}
+                if bad:
+                    raise ValueError(f"not true or false: {sorted(bad)[:3]}")
+                df[name] = col == "true"
+            elif ty == "list":
+                df[name] = [
+                    [float(x) for x in v.split(";")] if v.strip() else [] for v in col
+                ]
+        except (ValueError, TypeError) as e:
+            raise ValueError(f"{path}: column {name!r} ({ty}): {e}") from None
+    df.attrs["units"] = {n: c.get("unit", "") for n, c in by_name.items() if c.get("unit")}
+    df.attrs["schema"] = columns
+    df.attrs["code"] = _native.code_fingerprint()
+    has_times = any(c.get("role") == "time" for c in columns)
+    codes = list(df["code"].astype(str)) if "code" in df.columns else None
+    busy = (
+        ["true" if bool(x) else "false" for x in df["contended"]] if "contended" in df.columns else None
+    )
+    notes = list(_native.row_notes(codes, busy, has_times))
+    df.attrs["notes"] = notes
+    for n in notes:
+        warnings.warn(f"{path}: {n}", stacklevel=2)
+    return df
 
 
 def plot(

@@ -611,6 +611,35 @@ fn plot(
     })
 }
 
+/// The numerical fingerprint of the Rust code this module was built from (rows whose `code`
+/// differs are stale).
+#[pyfunction]
+fn code_fingerprint() -> &'static str {
+    shscale_runner::manifest::CODE_FINGERPRINT
+}
+
+/// What the `code` and `contended` cells of a table say (stale, mixed, timed on a busy
+/// machine), in the words of `shscale report` and `merge`.
+#[pyfunction]
+#[pyo3(signature = (codes, contended, has_times))]
+fn row_notes(
+    codes: Option<Vec<String>>,
+    contended: Option<Vec<String>>,
+    has_times: bool,
+) -> Vec<String> {
+    let rows = codes
+        .as_ref()
+        .map(Vec::len)
+        .or(contended.as_ref().map(Vec::len))
+        .unwrap_or(0);
+    shscale_runner::manifest::row_notes_of(
+        codes.as_ref().map(|v| v.iter().map(String::as_str)),
+        contended.as_ref().map(|v| v.iter().map(String::as_str)),
+        rows,
+        has_times,
+    )
+}
+
 /// The experiment kinds of the runner, by name.
 #[pyfunction]
 fn kinds<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
@@ -632,5 +661,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_config, m)?)?;
     m.add_function(wrap_pyfunction!(kinds, m)?)?;
     m.add_function(wrap_pyfunction!(plot, m)?)?;
+    m.add_function(wrap_pyfunction!(code_fingerprint, m)?)?;
+    m.add_function(wrap_pyfunction!(row_notes, m)?)?;
     Ok(())
 }

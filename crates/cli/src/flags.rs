@@ -48,10 +48,19 @@ pub fn calibrate_estimates() -> anyhow::Result<()> {
                 "SHSCALE_SPEED={v:?}: give this machine's speed against the development VM as a positive number (1 = the development VM), or unset it to measure"
             ),
         },
-        Err(_) => match shscale_scene::calibrate::rays_per_second() {
-            Some(rate) => rate / shscale_runner::timing::CALIBRATION_REFERENCE_RAYS_PER_SECOND,
-            None => return Ok(()),
-        },
+        Err(_) => {
+            let s0 = shscale_runner::contention::sample();
+            let rate = shscale_scene::calibrate::rays_per_second();
+            shscale_runner::timing::set_calibration_contention(
+                shscale_runner::contention::since(s0),
+            );
+            match rate {
+                Some(rate) => {
+                    rate / shscale_runner::timing::CALIBRATION_REFERENCE_RAYS_PER_SECOND
+                }
+                None => return Ok(()),
+            }
+        }
     };
     shscale_runner::timing::set_machine_speed(speed);
     Ok(())

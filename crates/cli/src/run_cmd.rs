@@ -266,6 +266,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
             "csv": m.out.join("runs.csv").display().to_string(),
             "files_merged": m.files,
             "rows": m.rows,
+            "notes": m.notes,
             "files": r.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         }))?;
         return Ok(ExitCode::SUCCESS);
@@ -276,6 +277,9 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
         m.rows,
         m.out.join("runs.csv").display()
     );
+    for n in &m.notes {
+        eprintln!("warning: {n}");
+    }
     for f in &r.files {
         println!("  wrote {}", f.display());
     }

@@ -62,6 +62,29 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
         ma.keys().filter(|k| !mb.contains_key(*k)).count(),
         mb.keys().filter(|k| !ma.contains_key(*k)).count()
     ));
+    // Stale or mixed rows, and rows timed on a busy machine, named as the report names them;
+    // and rows of two numerical codes across A and B.
+    let has_times = !kind.time_columns().is_empty();
+    for (side, t) in [("A", &ta), ("B", &tb)] {
+        for n in crate::manifest::row_notes(t, has_times) {
+            md.push_str(&format!("\n{side}: {n}\n"));
+        }
+    }
+    let codes = |t: &Results| {
+        t.col("code")
+            .map(|c| t.rows.iter().map(|r| r[c].clone()).collect::<BTreeSet<_>>())
+    };
+    if let (Some(x), Some(y)) = (codes(&ta), codes(&tb)) {
+        if x != y {
+            md.push_str(&format!(
+                "\nA and B were computed by different numerical codes (A: {}; B: {}): a difference may be the code's, not the parameters'.\n",
+                x.into_iter().collect::<Vec<_>>().join(", "),
+                y.into_iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
+    }
+    ta.check_read("compare")?;
+    tb.check_read("compare")?;
     // Everything goes to a staging folder first: a comparison that fails creates nothing.
     let staging = crate::atomic::Staging::new(out)?;
     let mut files = compare_plots(staging.path(), &m, &plots)?;

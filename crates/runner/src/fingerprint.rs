@@ -108,3 +108,100 @@ pub fn of_tree(root: &Path) -> Option<String> {
     }
     Some(h.finalize().to_hex()[..16].to_string())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tree(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("shscale-fp-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        for (f, text) in [
+            ("Cargo.lock", "lock"),
+            ("crates/sh/src/lib.rs", "pub fn y() -> f64 { 1.0 }"),
+            ("crates/gpu/src/sh.wgsl", "fn f() {}"),
+            ("experiments/src/probe/mod.rs", "run"),
+            ("experiments/src/probe/discussion.rs", "words"),
+            ("experiments/src/equal_budget/verdict.rs", "verdict"),
+            ("experiments/src/equal_budget/surface_tests.rs", "tests"),
+            ("crates/cli/src/args.rs", "help text"),
+            ("crates/runner/src/report.rs", "report"),
+            ("crates/runner/src/records.rs", "cells"),
+            ("docs/provenance.md", "docs"),
+            ("README.md", "readme"),
+        ] {
+            let p = d.join(f);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, text).unwrap();
+        }
+        d
+    }
+
+    /// Docs, the README, the CLI's help text, the report writer, the kinds' discussions and
+    /// verdicts and test modules leave the fingerprint as it is; a numerical source, a shader,
+    /// a kind's work, the row formatting or the lock change it.
+    #[test]
+    fn docs_only_changes_keep_the_fingerprint_and_numerical_ones_change_it() {
+        let d = tree("edits");
+        let base = of_tree(&d).unwrap();
+        assert_eq!(base.len(), 16);
+        for f in [
+            "docs/provenance.md",
+            "README.md",
+            "crates/cli/src/args.rs",
+            "crates/runner/src/report.rs",
+            "experiments/src/probe/discussion.rs",
+            "experiments/src/equal_budget/verdict.rs",
+            "experiments/src/equal_budget/surface_tests.rs",
+        ] {
+            std::fs::write(d.join(f), "edited").unwrap();
+            assert_eq!(of_tree(&d).unwrap(), base, "{f} changed the fingerprint");
+        }
+        std::fs::write(d.join("docs/new.md"), "a new page").unwrap();
+        assert_eq!(of_tree(&d).unwrap(), base);
+        let mut seen = vec![base.clone()];
+        for f in [
+            "crates/sh/src/lib.rs",
+            "crates/gpu/src/sh.wgsl",
+            "experiments/src/probe/mod.rs",
+            "crates/runner/src/records.rs",
+            "Cargo.lock",
+        ] {
+            std::fs::write(d.join(f), format!("edited {f}")).unwrap();
+            let now = of_tree(&d).unwrap();
+            assert!(!seen.contains(&now), "{f} left the fingerprint as it was");
+            seen.push(now);
+        }
+        // A new numerical file counts; renaming one counts.
+        std::fs::write(d.join("crates/sh/src/new.rs"), "x").unwrap();
+        let with_new = of_tree(&d).unwrap();
+        assert!(!seen.contains(&with_new));
+        std::fs::rename(
+            d.join("crates/sh/src/new.rs"),
+            d.join("crates/sh/src/renamed.rs"),
+        )
+        .unwrap();
+        assert_ne!(of_tree(&d).unwrap(), with_new);
+        assert_eq!(of_tree(&d.join("nothing-here")), None);
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// The binary's fingerprint is the workspace's as it is now: the build script reran on
+    /// every counted change (a stale build would record rows under the wrong code). Every crate
+    /// of the workspace is classified: numerical (its sources count) or not (listed here).
+    #[test]
+    fn the_compiled_fingerprint_is_the_workspaces_and_every_crate_is_classified() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let now = of_tree(&root).expect("the workspace has numerical sources");
+        assert_eq!(crate::manifest::CODE_FINGERPRINT, now);
+        let not_numerical = ["cli", "runner", "unify"];
+        for e in std::fs::read_dir(root.join("crates")).unwrap().flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            let numerical = NUMERICAL_DIRS.contains(&format!("crates/{name}/src").as_str());
+            assert!(
+                numerical || not_numerical.contains(&name.as_str()),
+                "crates/{name} is neither counted in the fingerprint nor listed as not numerical"
+            );
+        }
+    }
+}

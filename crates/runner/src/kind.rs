@@ -233,6 +233,8 @@ pub trait DynKind: Send + Sync {
     fn param_columns(&self) -> Vec<String>;
     fn row_columns(&self) -> Vec<String>;
     fn time_columns(&self) -> &'static [&'static str];
+    /// The CSV type of every parameter and row column ([`records::column_types`]).
+    fn column_types(&self) -> Vec<(String, String)>;
     fn summary_columns(&self) -> &'static [&'static str];
     /// Deserialise and validate one combination.
     fn resolve(
@@ -348,6 +350,11 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn time_columns(&self) -> &'static [&'static str] {
         K::time_columns()
+    }
+    fn column_types(&self) -> Vec<(String, String)> {
+        let mut v = records::column_types::<K::Params>().unwrap_or_default();
+        v.extend(records::column_types::<K::Row>().unwrap_or_default());
+        v
     }
     fn summary_columns(&self) -> &'static [&'static str] {
         K::summary_columns()

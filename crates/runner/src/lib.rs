@@ -52,6 +52,7 @@ pub mod records;
 pub mod reference;
 pub mod report;
 pub mod run;
+pub mod schema;
 pub mod slurm;
 pub mod store;
 pub mod timing;

@@ -180,6 +180,66 @@ impl Manifest {
     }
 }
 
+/// What a table's provenance columns say of its rows, one sentence each, in the words `merge`,
+/// `report`, `compare` and Python's `load_results` all use: rows of several numerical codes
+/// (mixed), rows of another code than this binary's (stale), and timed rows measured on a busy
+/// machine (`has_times`: the kind has time columns). Empty when there is nothing to say.
+pub fn row_notes(t: &crate::records::Results, has_times: bool) -> Vec<String> {
+    row_notes_of(
+        t.col("code")
+            .map(|c| t.rows.iter().map(move |r| r[c].as_str())),
+        t.col("contended")
+            .map(|c| t.rows.iter().map(move |r| r[c].as_str())),
+        t.rows.len(),
+        has_times,
+    )
+}
+
+/// [`row_notes`] of the `code` and `contended` cells.
+pub fn row_notes_of<'a>(
+    codes: Option<impl Iterator<Item = &'a str>>,
+    contended: Option<impl Iterator<Item = &'a str>>,
+    rows: usize,
+    has_times: bool,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(codes) = codes {
+        let mut by: std::collections::BTreeMap<&str, usize> = Default::default();
+        for c in codes {
+            *by.entry(c).or_default() += 1;
+        }
+        let here = CODE_FINGERPRINT;
+        let stale: usize = (by.iter())
+            .filter(|(c, _)| **c != here)
+            .map(|(_, n)| n)
+            .sum();
+        if by.len() > 1 {
+            let list: Vec<String> = by.iter().map(|(c, n)| format!("{c} ({n} rows)")).collect();
+            out.push(format!(
+                "mixed: the rows were computed by {} numerical codes — {}; {stale} of the {rows} are stale (this binary's code is {here}): compare them with care, or re-run with `shscale run` (docs/provenance.md)",
+                by.len(),
+                list.join(", ")
+            ));
+        } else if stale > 0 {
+            let code = by.keys().next().copied().unwrap_or("");
+            out.push(format!(
+                "stale: all {rows} rows were computed by numerical code {code}, not this binary's {here} (`shscale run` re-runs them; docs/provenance.md)"
+            ));
+        }
+    }
+    if let (Some(cells), true) = (contended, has_times) {
+        let busy = cells.filter(|c| *c == "true").count();
+        if busy > 0 {
+            out.push(format!(
+                "contended: {busy} of the {rows} rows were timed on a busy machine (other processes used ≥ {} core or the hypervisor stole ≥ {:.0} % of the time; columns `other_cpu`, `steal`, `contended`): their times are not comparable",
+                crate::contention::CONTENDED_OTHER_CPU,
+                crate::contention::CONTENDED_STEAL * 100.0
+            ));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod iso_tests {
     /// Against Python's `datetime.fromtimestamp(t, UTC)`: the epoch, two leap days (one in a

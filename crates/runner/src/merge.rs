@@ -2,10 +2,12 @@
 //! manifests' versions united, then the report. Linear in the rows: each file is read and
 //! validated once, and the runs already taken are a hash set.
 //!
-//! **Never mixed silently.** Shards of different config versions (text, overrides or code
-//! revision, as `manifest.toml` records them) or rows of different code revisions (their
-//! `git_revision` and `git_dirty` cells) are refused, naming both, unless the caller allows
-//! mixing ([`MergeOptions::allow_mixed`]: the rows still carry every parameter and revision).
+//! **Never mixed silently.** Shards of different config versions (text, overrides, numerical
+//! code or input content, as `manifest.toml` records them) or rows of different numerical codes
+//! (their `code` cells, docs/provenance.md) are refused, naming both, unless the caller allows
+//! mixing ([`MergeOptions::allow_mixed`]: the rows still carry every parameter and code). Rows
+//! all of one code that is not this binary's are merged and named stale
+//! ([`MergeSummary::notes`]).
 //!
 //! **Never overwrites by accident.** An existing `<out>/runs.csv` is refused unless
 //! [`MergeOptions::replace`] (the merge job of a script `shscale slurm` wrote, which owns its
@@ -38,6 +40,9 @@ pub struct MergeSummary {
     pub files: usize,
     pub rows: usize,
     pub kind: &'static dyn DynKind,
+    /// Stale or mixed rows and rows timed on a busy machine, in words
+    /// ([`crate::manifest::row_notes`]).
+    pub notes: Vec<String>,
 }
 
 /// Merge the `runs*.csv` of `dirs` into `out` (default `<dirs[0]>/merged`), a new directory:
@@ -103,7 +108,12 @@ pub fn merge(
         ),
         (&target, &records::write_text(&header(kind), &rows)?),
     ])?;
+    let notes = crate::manifest::row_notes(
+        &records::Results::new(header(kind), rows.clone()),
+        !kind.time_columns().is_empty(),
+    );
     Ok(MergeSummary {
+        notes,
         out,
         files: files.len(),
         rows: rows.len(),
@@ -120,8 +130,7 @@ fn union_rows(
     opts: MergeOptions,
 ) -> Result<(HashSet<String>, Vec<Vec<String>>), Error> {
     let want = header(kind);
-    let revision_at = want.iter().position(|c| c == "git_revision");
-    let dirty_at = want.iter().position(|c| c == "git_dirty");
+    let code_at = want.iter().position(|c| c == "code");
     let mut revision: Option<(String, PathBuf)> = None;
     let mut seen: HashSet<String> = HashSet::new();
     let mut rows = Vec::new();
@@ -134,8 +143,8 @@ fn union_rows(
             });
         }
         if !opts.allow_mixed {
-            if let (Some(ri), Some(di)) = (revision_at, dirty_at) {
-                one_revision(&l.rows, ri, di, f, &mut revision)?;
+            if let Some(ci) = code_at {
+                one_code(&l.rows, ci, f, &mut revision)?;
             }
         }
         let mut ids_here = HashSet::new();
@@ -155,7 +164,7 @@ fn one_version(m: &Manifest) -> Result<(), Error> {
     if let [a, b, ..] = m.versions.as_slice() {
         let what = |v: &crate::manifest::Version| {
             format!(
-                "{} ({}{}, revision {}{})",
+                "{} ({}{}, numerical code {}{})",
                 v.id,
                 v.config_file,
                 if v.overrides.is_empty() {
@@ -163,12 +172,16 @@ fn one_version(m: &Manifest) -> Result<(), Error> {
                 } else {
                     format!(" {}", v.overrides.join(" "))
                 },
-                v.provenance.git_revision,
-                if v.provenance.git_dirty { "+dirty" } else { "" }
+                v.provenance.code,
+                if v.inputs.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} input(s)", v.inputs.len())
+                }
             )
         };
         return Err(Error::Config(format!(
-            "merge: the inputs hold {} config versions, e.g. {} and {}: results of different configs or code revisions are not merged silently; merge each apart, or pass --allow-mixed (every row keeps its parameters and revision)",
+            "merge: the inputs hold {} config versions, e.g. {} and {}: results of different configs, numerical codes or input contents are not merged silently; merge each apart, or pass --allow-mixed (every row keeps its parameters, code and inputs)",
             m.versions.len(),
             what(a),
             what(b)
@@ -177,24 +190,23 @@ fn one_version(m: &Manifest) -> Result<(), Error> {
     Ok(())
 }
 
-/// Every row of `file` has the code revision (`git_revision` at `ri`, `git_dirty` at `di`) of
-/// the rows before it (`first`: the first one seen, with its file).
-fn one_revision(
+/// Every row of `file` has the numerical code (`code` at `ci`) of the rows before it (`first`:
+/// the first one seen, with its file).
+fn one_code(
     rows: &[Vec<String>],
-    ri: usize,
-    di: usize,
+    ci: usize,
     file: &Path,
     first: &mut Option<(String, PathBuf)>,
 ) -> Result<(), Error> {
     for r in rows {
-        let rev = format!("{}{}", r[ri], if r[di] == "true" { "+dirty" } else { "" });
+        let code = &r[ci];
         match first {
-            None => *first = Some((rev, file.to_path_buf())),
-            Some((want, f0)) if *want != rev => {
+            None => *first = Some((code.clone(), file.to_path_buf())),
+            Some((want, f0)) if want != code => {
                 return Err(Error::Io {
                     path: file.display().to_string(),
                     reason: format!(
-                        "holds rows of code revision {rev}, {} rows of {want}: results of different code revisions are not merged silently; merge each apart, or pass --allow-mixed",
+                        "holds rows of numerical code {code}, {} rows of {want}: results of different numerical codes are not merged silently; merge each apart, or pass --allow-mixed",
                         f0.display()
                     ),
                 })

@@ -443,6 +443,9 @@ impl Survey {
             self.timing.repeats,
             e.bookkeeping_seconds,
         );
+        if let Some(w) = timing::calibration_warning() {
+            s.push_str(&format!("  warning: {w}\n"));
+        }
         if !e.rays_driver.is_empty() {
             s.push_str(&format!("  largest group: {}\n", e.rays_driver));
         }

@@ -178,13 +178,61 @@ pub mod list {
 }
 
 /// A results CSV read through the `csv` crate.
+///
+/// **A missing column is an error, never NaN.** Every lookup of a cell by column name through
+/// [`Results::cell`], [`Results::num`] or [`Results::distinct`] in a column the table lacks is
+/// recorded; whoever computes from the table (the report, the verdicts, `figs`, `compare`)
+/// calls [`Results::check_read`] after, which fails naming the columns and the file — so a
+/// renamed row field makes the verdict fail instead of filling it with NaN. Test a column's
+/// presence with [`Results::col`] (not recorded).
 #[derive(Clone, Debug, Default)]
 pub struct Results {
     pub columns: Vec<String>,
     pub rows: Vec<Vec<String>>,
+    /// The file the rows came from (for errors; empty when built in memory).
+    pub source: String,
+    /// Columns looked up by name that the table lacks.
+    missing: std::sync::Arc<std::sync::Mutex<std::collections::BTreeSet<String>>>,
 }
 
 impl Results {
+    /// A table built in memory (tests, merged rows).
+    pub fn new(columns: Vec<String>, rows: Vec<Vec<String>>) -> Self {
+        Self {
+            columns,
+            rows,
+            ..Self::default()
+        }
+    }
+
+    /// `Ok` when every column looked up by name so far exists; else an error naming each
+    /// missing column and the file (what read them: `what`, e.g. "the verdict of kind budget").
+    pub fn check_read(&self, what: &str) -> Result<(), Error> {
+        let m = self.missing.lock().unwrap_or_else(|e| e.into_inner());
+        if m.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<String> = m.iter().map(|c| format!("{c:?}")).collect();
+        Err(Error::Io {
+            path: if self.source.is_empty() {
+                "(rows in memory)".into()
+            } else {
+                self.source.clone()
+            },
+            reason: format!(
+                "{what} read column(s) {} that the file does not have; nothing was written from it (a renamed row field, or rows of another version)",
+                names.join(", ")
+            ),
+        })
+    }
+
+    fn note_missing(&self, name: &str) {
+        let mut m = self.missing.lock().unwrap_or_else(|e| e.into_inner());
+        if !m.contains(name) {
+            m.insert(name.to_string());
+        }
+    }
+
     /// Read a CSV; every row must have the header's length (else an error naming the line).
     pub fn read(path: &Path) -> Result<Self, Error> {
         let (columns, rows) = read_raw(path)?;
@@ -198,22 +246,35 @@ impl Results {
             }
             out.push(r);
         }
-        Ok(Self { columns, rows: out })
+        Ok(Self {
+            columns,
+            rows: out,
+            source: path.display().to_string(),
+            ..Self::default()
+        })
     }
 
     pub fn col(&self, name: &str) -> Option<usize> {
         self.columns.iter().position(|c| c == name)
     }
 
-    /// The cell of `name` in row `r` ("" when the column is missing).
+    /// The cell of `name` in row `r` ("" when the column is missing, which
+    /// [`Results::check_read`] then reports).
     pub fn cell(&self, r: usize, name: &str) -> &str {
-        self.col(name)
-            .and_then(|c| self.rows[r].get(c))
-            .map_or("", String::as_str)
+        match self.col(name) {
+            Some(c) => self.rows[r].get(c).map_or("", String::as_str),
+            None => {
+                self.note_missing(name);
+                ""
+            }
+        }
     }
 
     /// The distinct cells of column `name`, sorted (text order).
     pub fn distinct(&self, name: &str) -> Vec<String> {
+        if self.col(name).is_none() {
+            self.note_missing(name);
+        }
         let mut v: Vec<String> = (0..self.rows.len())
             .map(|r| self.cell(r, name).to_string())
             .collect();
@@ -452,5 +513,204 @@ mod tests {
         fn split_line_never_panics(text in "\\PC{0,40}") {
             let _ = split_line(&text);
         }
+    }
+}
+
+/// The type of every field of a flat struct as the CSV cells hold it — `integer`, `float`,
+/// `bool`, `string` or `list` (of numbers, `;`-separated, [`list`]), with `?` after it when the
+/// cell may be empty (an `Option`) — read off the struct's `Deserialize` by a deserializer that
+/// records what each field asks for. `None` for a struct it cannot walk.
+pub fn column_types<T: DeserializeOwned>() -> Option<Vec<(String, String)>> {
+    let mut out = Vec::new();
+    T::deserialize(probe::Struct { out: &mut out }).ok()?;
+    Some(out)
+}
+
+mod probe {
+    use serde::de::{self, DeserializeSeed, IntoDeserializer, MapAccess, Visitor};
+    use serde::forward_to_deserialize_any;
+
+    #[derive(Debug)]
+    pub struct E(String);
+    impl std::fmt::Display for E {
+        fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str(&self.0)
+        }
+    }
+    impl std::error::Error for E {}
+    impl de::Error for E {
+        fn custom<T: std::fmt::Display>(m: T) -> Self {
+            E(m.to_string())
+        }
+    }
+
+    pub struct Struct<'a> {
+        pub out: &'a mut Vec<(String, String)>,
+    }
+
+    impl<'de> de::Deserializer<'de> for Struct<'_> {
+        type Error = E;
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, E> {
+            Err(E("not a struct".into()))
+        }
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            _: &'static str,
+            fields: &'static [&'static str],
+            v: V,
+        ) -> Result<V::Value, E> {
+            v.visit_map(Fields {
+                fields,
+                i: 0,
+                out: self.out,
+            })
+        }
+        forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf
+            option unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier
+            ignored_any
+        }
+    }
+
+    struct Fields<'a> {
+        fields: &'static [&'static str],
+        i: usize,
+        out: &'a mut Vec<(String, String)>,
+    }
+
+    impl<'de> MapAccess<'de> for Fields<'_> {
+        type Error = E;
+        fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, k: K) -> Result<Option<K::Value>, E> {
+            let Some(f) = self.fields.get(self.i) else {
+                return Ok(None);
+            };
+            self.out.push((f.to_string(), String::new()));
+            k.deserialize((*f).into_deserializer()).map(Some)
+        }
+        fn next_value_seed<V: DeserializeSeed<'de>>(&mut self, v: V) -> Result<V::Value, E> {
+            self.i += 1;
+            let slot = &mut self.out.last_mut().expect("a key before its value").1;
+            v.deserialize(Field { ty: slot })
+        }
+    }
+
+    struct Field<'a> {
+        ty: &'a mut String,
+    }
+
+    impl Field<'_> {
+        fn set(&mut self, t: &str) {
+            self.ty.push_str(t);
+        }
+    }
+
+    struct NoItems;
+    impl<'de> de::SeqAccess<'de> for NoItems {
+        type Error = E;
+        fn next_element_seed<T: DeserializeSeed<'de>>(
+            &mut self,
+            _: T,
+        ) -> Result<Option<T::Value>, E> {
+            Ok(None)
+        }
+    }
+
+    impl<'de> de::Deserializer<'de> for Field<'_> {
+        type Error = E;
+        fn deserialize_any<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            // The list cells' deserializer (`records::list`) asks for any and takes a sequence.
+            self.set("list");
+            v.visit_seq(NoItems)
+        }
+        fn deserialize_bool<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            self.set("bool");
+            v.visit_bool(false)
+        }
+        fn deserialize_u64<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            self.set("integer");
+            v.visit_u64(0)
+        }
+        fn deserialize_u32<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_u64(v)
+        }
+        fn deserialize_u16<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_u64(v)
+        }
+        fn deserialize_u8<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_u64(v)
+        }
+        fn deserialize_i64<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            self.set("integer");
+            v.visit_i64(0)
+        }
+        fn deserialize_i32<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_i64(v)
+        }
+        fn deserialize_i16<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_i64(v)
+        }
+        fn deserialize_i8<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_i64(v)
+        }
+        fn deserialize_f64<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            self.set("float");
+            v.visit_f64(0.0)
+        }
+        fn deserialize_f32<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_f64(v)
+        }
+        fn deserialize_str<V: Visitor<'de>>(mut self, v: V) -> Result<V::Value, E> {
+            self.set("string");
+            v.visit_str("")
+        }
+        fn deserialize_string<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_str(v)
+        }
+        fn deserialize_char<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            self.deserialize_str(v)
+        }
+        fn deserialize_option<V: Visitor<'de>>(self, v: V) -> Result<V::Value, E> {
+            let ty = self.ty;
+            let r = v.visit_some(Field { ty: &mut *ty });
+            ty.push('?');
+            r
+        }
+        forward_to_deserialize_any! {
+            i128 u128 bytes byte_buf unit unit_struct newtype_struct seq tuple tuple_struct map
+            struct enum identifier ignored_any
+        }
+    }
+}
+
+#[cfg(test)]
+mod read_tests {
+    /// A lookup of a column the table lacks is recorded and then an error naming the column and
+    /// the file — never a NaN in a verdict.
+    #[test]
+    fn a_missing_column_is_an_error_naming_it_and_the_file() {
+        let mut t = super::Results::new(
+            vec!["run_id".into(), "frame_ms".into()],
+            vec![vec!["a".into(), "1.5".into()]],
+        );
+        t.source = "results/x/runs.csv".into();
+        assert_eq!(t.num(0, "frame_ms"), 1.5);
+        assert!(t.check_read("the verdict").is_ok());
+        assert!(
+            t.col("frame_seconds").is_none(),
+            "a presence test is not recorded"
+        );
+        assert!(t.check_read("the verdict").is_ok());
+        assert!(t.num(0, "frame_seconds").is_nan());
+        let e = t
+            .check_read("the verdict of kind budget")
+            .unwrap_err()
+            .to_string();
+        println!("{e}");
+        assert!(
+            e.contains("results/x/runs.csv")
+                && e.contains("\"frame_seconds\"")
+                && e.contains("verdict of kind budget"),
+            "{e}"
+        );
     }
 }

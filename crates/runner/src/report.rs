@@ -230,7 +230,18 @@ fn answer_section(kind: &dyn DynKind, t: &Results) -> Result<String, Error> {
             .into(),
         ));
     }
-    Ok(format!("## The answer\n\n{verdict}\n\n"))
+    let busy = match t.col("contended") {
+        Some(c) if !kind.time_columns().is_empty() => {
+            let n = t.rows.iter().filter(|r| r[c] == "true").count();
+            format!(
+                "\n\nTimed on a busy machine: {n} of the {} rows behind the equal-time columns and the speed/accuracy (Pareto) front (`contended`; docs/provenance.md){}.",
+                t.rows.len(),
+                if n > 0 { " — their times are not comparable; rerun them on a quiet machine" } else { "" }
+            )
+        }
+        _ => String::new(),
+    };
+    Ok(format!("## The answer\n\n{verdict}{busy}\n\n"))
 }
 
 /// A parameter the kind gained after these rows were written (`sphere_order`, say) is read as
@@ -354,6 +365,10 @@ pub fn report_staged(
             varying.join(", ")
         }
     );
+    let notes = crate::manifest::row_notes(&t, !kind.time_columns().is_empty());
+    if !notes.is_empty() {
+        s.push_str(&format!("**Provenance.** {}\n\n", notes.join(" ")));
+    }
     // The answer first: the kind's discussion of its claim, and the best configuration per row
     // key; every run's row after it (collapsed in the HTML, after the figures).
     s.push_str(&answer_section(kind, &t)?);
@@ -376,6 +391,7 @@ pub fn report_staged(
     // The kind's figures first (each written as a unit); the texts that describe them — summary,
     // discussion, report.md and report.html — only when every figure succeeded, together.
     let figures = kind.report(out, &t)?;
+    t.check_read(&format!("the report of kind {}", kind.name()))?;
     let (md, html) = report_texts(dir, &s, &figures)?;
     let p = out.join("summary.md");
     let (pm, ph, full) = (
@@ -384,7 +400,10 @@ pub fn report_staged(
         out.join("discussion.md"),
     );
     let long = format!("# Our numbers against the claim\n\n{discussion}");
-    let mut texts: Vec<(&Path, &str)> = vec![(&p, &s), (&pm, &md), (&ph, &html)];
+    let schema_path = out.join("runs.schema.json");
+    let schema = crate::schema::schema_json(kind);
+    let mut texts: Vec<(&Path, &str)> =
+        vec![(&p, &s), (&pm, &md), (&ph, &html), (&schema_path, &schema)];
     if discussion.len() > MAX_DISCUSSION_BYTES {
         texts.push((&full, &long));
     }

@@ -755,6 +755,10 @@ impl Writer<'_> {
                 .map_or(0, |i| i + 1)
         });
         write_atomic(self.csv, &records::write_text(&header(kind), &cur.rows)?)?;
+        write_atomic(
+            &self.dir.join("runs.schema.json"),
+            &crate::schema::schema_json(kind),
+        )?;
         self.record_version()?;
         Ok(known.ran)
     }

@@ -210,6 +210,33 @@ pub fn set_machine_speed(speed: f64) -> Option<f64> {
     machine_speed()
 }
 
+static CALIBRATION_CONTENTION: std::sync::OnceLock<crate::contention::Reading> =
+    std::sync::OnceLock::new();
+
+/// Record how busy the machine was while its speed was measured (once per process).
+pub fn set_calibration_contention(r: crate::contention::Reading) {
+    let _ = CALIBRATION_CONTENTION.set(r);
+}
+
+/// What `--dry-run` says of a calibration measured on a busy machine: the other processes'
+/// cores, the load, and how far the estimate can move when the load changes — by up to
+/// `n / (n − c)` on `n` CPUs with `c` cores taken by others (their share freed, or doubled);
+/// `None` for a quiet calibration or none.
+pub fn calibration_warning() -> Option<String> {
+    let r = CALIBRATION_CONTENTION.get()?;
+    if !r.contended {
+        return None;
+    }
+    let n = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    let factor = n / (n - r.other_cpu).max(0.5);
+    Some(format!(
+        "the calibration ran on a busy machine (other processes used {:.1} of {n:.0} cores, steal {:.0} %, load {:.1}): the estimate can be {factor:.1}× too long or too short when the load changes",
+        r.other_cpu,
+        r.steal * 100.0,
+        r.load_1m
+    ))
+}
+
 /// The speed recorded by [`set_machine_speed`], if any.
 pub fn machine_speed() -> Option<f64> {
     MACHINE_SPEED.get().copied()

@@ -386,23 +386,20 @@ fn merge_refuses_mixed_versions_and_revisions_and_replaces_only_when_asked() {
         std::fs::read_to_string(out.join("runs.csv")).unwrap(),
         first
     );
-    // Rows of another code revision in one shard: refused, naming both files.
+    // Rows of another numerical code in one shard: refused, naming both files.
     let shard = dir.join("runs.shard-1-of-2.csv");
     let text = std::fs::read_to_string(&shard).unwrap();
     let rev = &load_rows(&PRODUCT, &shard).unwrap().rows[0];
-    let at = header(&PRODUCT)
-        .iter()
-        .position(|c| c == "git_revision")
-        .unwrap();
-    let other = text.replace(&format!(",{},", rev[at]), ",0123abc,");
-    assert_ne!(other, text, "the revision cell was not found to change");
+    let at = header(&PRODUCT).iter().position(|c| c == "code").unwrap();
+    let other = text.replace(&format!(",{},", rev[at]), ",0123456789abcdef,");
+    assert_ne!(other, text, "the code cell was not found to change");
     std::fs::write(&shard, other).unwrap();
     let e = merge(&dirs, Some(&out), &registry(), replace)
         .err()
         .unwrap()
         .to_string();
     assert!(
-        e.contains("code revision")
+        e.contains("numerical code 0123456789abcdef")
             && e.contains("runs.shard-1-of-2.csv")
             && e.contains("runs.shard-0-of-2.csv"),
         "{e}"

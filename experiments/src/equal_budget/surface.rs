@@ -58,8 +58,10 @@ pub const SEED_COLUMNS: [&str; 4] = [
 ];
 
 /// A row's seed: its seed columns' cells.
-fn seed_of(t: &Results, r: usize) -> String {
-    SEED_COLUMNS.map(|c| t.cell(r, c)).join(";")
+pub(crate) fn seed_of(t: &Results, r: usize) -> String {
+    SEED_COLUMNS
+        .map(|c| if t.col(c).is_some() { t.cell(r, c) } else { "" })
+        .join(";")
 }
 
 /// The distinct seeds of a table.

@@ -68,7 +68,7 @@ fn the_continuous_verdict_finds_the_winner_its_interval_and_the_tie() {
         }
         configs.push(Config { rows: mine, spec });
     }
-    let t = Results { columns, rows };
+    let t = Results::new(columns, rows);
     let splits = vec![Split {
         label: "N = 4".into(),
         groups: vec![("duck".into(), configs)],

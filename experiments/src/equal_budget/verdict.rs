@@ -733,8 +733,10 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
             let pairs: Vec<(usize, usize)> = (ff.rows.iter())
                 .filter_map(|&f| {
-                    let seed = t.cell(f, "probe_seed");
-                    let e = ex.rows.iter().find(|&&e| t.cell(e, "probe_seed") == seed)?;
+                    // The row's seed over every seed column either kind has (the plane's is
+                    // `placement_seed`; a missing column reads as empty, not as a match of all).
+                    let seed = super::surface::seed_of(t, f);
+                    let e = (ex.rows.iter()).find(|&&e| super::surface::seed_of(t, e) == seed)?;
                     Some((f, *e))
                 })
                 .collect();
