@@ -84,7 +84,12 @@ fn ran(r: &Ran) -> usize {
 /// The `(run_id, column)` cells of a results file.
 fn cells(csv: &Path, column: &str) -> Vec<(String, String)> {
     let mut r = ::csv::Reader::from_path(csv).unwrap();
-    let c = r.headers().unwrap().iter().position(|h| h == column).unwrap();
+    let c = r
+        .headers()
+        .unwrap()
+        .iter()
+        .position(|h| h == column)
+        .unwrap();
     r.records()
         .map(|rec| {
             let rec = rec.unwrap();
