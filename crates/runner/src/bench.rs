@@ -26,6 +26,9 @@ pub struct Tally;
 pub struct TallyParams {
     pub i: usize,
     pub j: usize,
+    /// A file every run "reads" (empty: none): hashed at plan time like a mesh, so the bench
+    /// times inputs by content ([`hash_cost`]).
+    pub input: String,
 }
 
 /// [`Tally`]'s row.
@@ -46,6 +49,16 @@ impl Kind for Tally {
     fn resolve(p: &TallyParams) -> Result<TallyParams, KeyError> {
         Ok(p.clone())
     }
+    fn inputs(p: &TallyParams, config_dir: &Path) -> Result<Vec<crate::inputs::Input>, KeyError> {
+        Ok(if p.input.is_empty() {
+            Vec::new()
+        } else {
+            vec![crate::inputs::Input::File {
+                key: "input".into(),
+                path: config_dir.join(&p.input),
+            }]
+        })
+    }
     fn cost(_: &Self::Spec) -> (Cost, Cost) {
         (Cost::default(), Cost::default())
     }
@@ -64,7 +77,14 @@ impl Kind for Tally {
         &["value"]
     }
     fn describe() -> &'static [(&'static str, &'static str)] {
-        &[("i", "an integer (swept)"), ("j", "an integer (swept)")]
+        &[
+            ("i", "an integer (swept)"),
+            ("j", "an integer (swept)"),
+            (
+                "input",
+                "a file every run reads (hashed by content), relative to the config",
+            ),
+        ]
     }
 }
 
@@ -81,6 +101,77 @@ pub fn tally_config(runs: usize) -> String {
         list(a),
         list(b)
     )
+}
+
+/// What hashing inputs by content costs: one file of `bytes` hashed cold (read and BLAKE3), the
+/// same bytes embedded in the binary (a bundled mesh), a cached lookup (a `stat` and the cache),
+/// and the plan of `runs` runs that all read the file against the same plan without it.
+#[derive(Clone, Debug, Serialize)]
+pub struct HashCost {
+    pub bytes: u64,
+    pub cold_file_s: f64,
+    pub cold_embedded_s: f64,
+    pub cached_per_call_s: f64,
+    pub runs: usize,
+    pub plan_with_input_s: f64,
+    pub plan_without_s: f64,
+    /// Files (or embedded data) read to hash during the plan with the input: 1 when the cache
+    /// works.
+    pub reads_in_plan: usize,
+}
+
+/// [`HashCost`] of `bytes` (written to a file in `dir`, which must exist) and a plan of `runs`
+/// runs reading it.
+pub fn hash_cost(dir: &Path, bytes: &'static [u8], runs: usize) -> Result<HashCost, Error> {
+    use crate::inputs::{hash_all, hash_embedded, hash_file, Input, HASHED_READS};
+    use std::sync::atomic::Ordering;
+    let f = dir.join("input-cold.bin");
+    std::fs::write(&f, bytes).map_err(|e| Error::io(&f, e))?;
+    let t = Instant::now();
+    hash_file(&f)?;
+    let cold_file_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    hash_embedded(bytes);
+    let cold_embedded_s = t.elapsed().as_secs_f64();
+    let one = [Input::File {
+        key: "input".into(),
+        path: f.clone(),
+    }];
+    let n = 10_000;
+    let t = Instant::now();
+    for _ in 0..n {
+        hash_all(&one).map_err(|(k, m)| Error::Config(format!("{k}: {m}")))?;
+    }
+    let cached_per_call_s = t.elapsed().as_secs_f64() / n as f64;
+    let g = dir.join("input-plan.bin");
+    std::fs::write(&g, bytes).map_err(|e| Error::io(&g, e))?;
+    let cfg = dir.join("tally.toml");
+    let file = cfg.display().to_string();
+    let without = tally_config(runs);
+    let with = without.replace("\n\n[sweep]", "\ninput = \"input-plan.bin\"\n\n[sweep]");
+    let t = Instant::now();
+    Plan::parse(&file, "bench", &without, &Overrides::default(), &[&TALLY])?;
+    let plan_without_s = t.elapsed().as_secs_f64();
+    let before = HASHED_READS.load(Ordering::Relaxed);
+    let t = Instant::now();
+    let p = Plan::parse(&file, "bench", &with, &Overrides::default(), &[&TALLY])?;
+    let plan_with_input_s = t.elapsed().as_secs_f64();
+    let reads_in_plan = HASHED_READS.load(Ordering::Relaxed) - before;
+    if p.runs.iter().any(|r| r.inputs.len() != 1) {
+        return Err(Error::Config(
+            "bench: a run of the plan does not read its input".into(),
+        ));
+    }
+    Ok(HashCost {
+        bytes: bytes.len() as u64,
+        cold_file_s,
+        cold_embedded_s,
+        cached_per_call_s,
+        runs: p.runs.len(),
+        plan_with_input_s,
+        plan_without_s,
+        reads_in_plan,
+    })
 }
 
 /// What one sweep cost, in seconds of wall time.
@@ -229,6 +320,17 @@ pub fn peak_rss() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hashing_a_plan_of_many_runs_reads_its_input_once() {
+        let d = std::env::temp_dir().join(format!("shscale-hashcost-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        let c = hash_cost(&d, b"v 0 0 0\n", 500).unwrap();
+        assert_eq!(c.runs, 500);
+        assert_eq!(c.reads_in_plan, 1, "{c:?}");
+        std::fs::remove_dir_all(&d).ok();
+    }
 
     #[test]
     fn tally_configs_have_the_runs_asked_for_and_the_bench_resumes_to_nothing() {

@@ -7,8 +7,9 @@
 //! Both files count in the same clock ticks (`USER_HZ`), so the share of the machine other
 //! processes used is `(Δbusy − Δself) / Δtotal`, times the CPU count for cores, with no tick
 //! rate needed. A tick is 10 ms: a window shorter than [`MIN_WINDOW`] reaches back to an older
-//! sample (kept in a small ring, [`tick`] adds one at most every 100 ms while a plan runs), so a
-//! sub-millisecond run reads the contention of the last quarter second around it.
+//! sample (kept in a ring of the last 256, at most one per 20 ms; [`tick`] adds one at least
+//! every 100 ms while a plan runs), so a sub-millisecond run reads the contention of the last
+//! quarter second around it.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -49,7 +50,7 @@ pub struct Reading {
 }
 
 static RING: Mutex<Vec<Sample>> = Mutex::new(Vec::new());
-const RING_LEN: usize = 64;
+const RING_LEN: usize = 256;
 
 fn parse_stat(text: &str) -> Option<(u64, u64, u64)> {
     let line = text.lines().find(|l| l.starts_with("cpu "))?;
@@ -74,8 +75,24 @@ fn parse_self(text: &str) -> Option<u64> {
     Some(n(11) + n(12) + n(13) + n(14))
 }
 
-/// Read the counters now (`None` off Linux or without `/proc`).
+/// The counters as of at most [`FRESH`] ago: the newest sample of the ring when it is that
+/// recent, else read now — so a sweep of sub-millisecond runs reads `/proc` about every 20 ms,
+/// not twice per run (a tick is 10 ms: nothing finer is lost). `None` off Linux.
 pub fn sample() -> Option<Sample> {
+    let recent = (RING
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .last()
+        .copied())
+    .filter(|l| l.at.elapsed() < FRESH);
+    recent.or_else(read_now)
+}
+
+/// How old a sample may be for [`sample`] to reuse it.
+pub const FRESH: Duration = Duration::from_millis(20);
+
+/// Read the counters now and keep the sample in the ring.
+fn read_now() -> Option<Sample> {
     let (busy, steal, total) = parse_stat(&std::fs::read_to_string("/proc/stat").ok()?)?;
     let own = parse_self(&std::fs::read_to_string("/proc/self/stat").ok()?)?;
     let s = Sample {
@@ -103,7 +120,7 @@ pub fn tick() {
     let due = (RING.lock().unwrap_or_else(|e| e.into_inner()).last())
         .is_none_or(|l| l.at.elapsed() >= Duration::from_millis(100));
     if due {
-        let _ = sample();
+        let _ = read_now();
     }
 }
 

@@ -53,31 +53,31 @@ pub fn hash_file(path: &Path) -> Result<String, Error> {
     }
     let m = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     let key = (path.to_path_buf(), m.len(), m.modified().ok());
-    if let Some(h) = (FILES.lock().unwrap_or_else(|e| e.into_inner()).as_ref())
-        .and_then(|c| c.get(&key).cloned())
-    {
-        return Ok(h);
+    // The lock is held through a miss's read: runs resolved in parallel wait for the first
+    // one's hash instead of reading the file again.
+    let mut c = FILES.lock().unwrap_or_else(|e| e.into_inner());
+    let c = c.get_or_insert_with(HashMap::new);
+    if let Some(h) = c.get(&key) {
+        return Ok(h.clone());
     }
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     HASHED_READS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let h = hex(&bytes);
-    let mut c = FILES.lock().unwrap_or_else(|e| e.into_inner());
-    c.get_or_insert_with(HashMap::new).insert(key, h.clone());
+    c.insert(key, h.clone());
     Ok(h)
 }
 
 /// The content hash of embedded data, once per process.
 pub fn hash_embedded(bytes: &'static [u8]) -> String {
     let key = (bytes.as_ptr() as usize, bytes.len());
-    if let Some(h) = (EMBEDDED.lock().unwrap_or_else(|e| e.into_inner()).as_ref())
-        .and_then(|c| c.get(&key).cloned())
-    {
-        return h;
+    let mut c = EMBEDDED.lock().unwrap_or_else(|e| e.into_inner());
+    let c = c.get_or_insert_with(HashMap::new);
+    if let Some(h) = c.get(&key) {
+        return h.clone();
     }
     HASHED_READS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let h = hex(bytes);
-    let mut c = EMBEDDED.lock().unwrap_or_else(|e| e.into_inner());
-    c.get_or_insert_with(HashMap::new).insert(key, h.clone());
+    c.insert(key, h.clone());
     h
 }
 
