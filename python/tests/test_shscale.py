@@ -345,3 +345,50 @@ def test_the_namespace_is_the_api():
     assert public == set(shscale.__all__) - {"__version__"}, public ^ set(shscale.__all__)
     for leaked in ["np", "os", "math", "warnings", "Any", "Mapping"]:
         assert not hasattr(shscale, leaked), leaked
+
+
+def test_load_results_applies_the_schema_and_names_stale_rows(tmp_path):
+    """``load_results`` types the columns by ``runs.schema.json`` (``run_id`` a string, list
+    parameters lists, booleans, nullable integers), puts the units in ``attrs``, and names rows of
+    another numerical code as stale — a warning and ``attrs["notes"]`` — as ``shscale report``
+    does."""
+    import csv
+    import warnings
+
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(
+        'experiment = "probe"\nmesh = "sphere"\norder = 2\nlayout = "fib:10"\nhemisphere_res = 2\n'
+        'k_count = 4\nradii = [2.0, 3.0]\nparallel_runs = false\n[sweep]\nalpha_deg = [30, 60]\n'
+    )
+    rows, directory = shscale.run(cfg, out_dir=tmp_path / "results")
+    df = shscale.load_results(directory)
+    assert df["run_id"].map(type).eq(str).all()
+    assert all(v == [2.0, 3.0] for v in df["radii"]), df["radii"]
+    assert df["contended"].dtype == bool
+    assert str(df["order"].dtype) == "Int64"
+    assert df.attrs["units"]["alpha_deg"] == "degree"
+    assert df.attrs["code"] == df["code"].iloc[0]
+    assert not any("stale" in n for n in df.attrs["notes"]), df.attrs["notes"]
+    # Every row as another numerical code wrote it: stale, said so.
+    path = Path(directory) / "runs.csv"
+    with open(path, newline="") as f:
+        table = list(csv.reader(f))
+    at = table[0].index("code")
+    for r in table[1:]:
+        r[at] = "0123456789abcdef"
+    with open(path, "w", newline="") as f:
+        csv.writer(f, lineterminator="\n").writerows(table)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        stale = shscale.load_results(directory)
+    said = [str(x.message) for x in w]
+    assert any("stale: all 4 rows were computed by numerical code 0123456789abcdef" in s for s in said), said
+    assert any("stale" in n for n in stale.attrs["notes"])
+    # A column the schema names but the file lacks is an error naming it.
+    for r in table:
+        del r[at]
+    with open(path, "w", newline="") as f:
+        csv.writer(f, lineterminator="\n").writerows(table)
+    with pytest.raises(ValueError) as e:
+        shscale.load_results(directory)
+    assert "code" in str(e.value) and "runs.schema.json" in str(e.value)

@@ -219,6 +219,29 @@ mod tests {
         assert!(between(&a, &stolen, 2.0, 0.1).contended);
     }
 
+    /// `--dry-run`'s line for a calibration on a busy machine: one of two cores taken by others
+    /// lets the estimate move by 2×; a quiet calibration says nothing.
+    #[test]
+    fn a_busy_calibration_says_how_far_the_estimate_can_move() {
+        let busy = Reading {
+            other_cpu: 1.0,
+            steal: 0.0,
+            load_1m: 3.0,
+            contended: true,
+            window_s: 1.0,
+        };
+        let w = crate::timing::calibration_warning_of(&busy, 2.0).unwrap();
+        assert!(
+            w.contains("1.0 of 2 cores") && w.contains("2.0× too long or too short"),
+            "{w}"
+        );
+        let quiet = Reading {
+            contended: false,
+            ..busy
+        };
+        assert!(crate::timing::calibration_warning_of(&quiet, 2.0).is_none());
+    }
+
     /// A window measured while two processes of this test spin (both cores of the development
     /// VM) is flagged; the same window without them is not. One test, so the load never overlaps
     /// the quiet window.

@@ -223,11 +223,15 @@ pub fn set_calibration_contention(r: crate::contention::Reading) {
 /// `n / (n − c)` on `n` CPUs with `c` cores taken by others (their share freed, or doubled);
 /// `None` for a quiet calibration or none.
 pub fn calibration_warning() -> Option<String> {
-    let r = CALIBRATION_CONTENTION.get()?;
+    let n = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    calibration_warning_of(CALIBRATION_CONTENTION.get()?, n)
+}
+
+/// [`calibration_warning`] of a reading on `n` CPUs.
+pub fn calibration_warning_of(r: &crate::contention::Reading, n: f64) -> Option<String> {
     if !r.contended {
         return None;
     }
-    let n = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
     let factor = n / (n - r.other_cpu).max(0.5);
     Some(format!(
         "the calibration ran on a busy machine (other processes used {:.1} of {n:.0} cores, steal {:.0} %, load {:.1}): the estimate can be {factor:.1}× too long or too short when the load changes",

@@ -684,3 +684,53 @@ fn cached_work_is_estimated_once_per_key() {
     println!("estimate {plain:.4} s without, {fitted:.4} s with two cached fits of 10 s");
     assert!((fitted - plain - 20.0).abs() < 1e-9, "{plain} {fitted}");
 }
+
+/// A timed row measured while one spinning process per CPU keeps every core busy (processes
+/// this test starts) is flagged `contended`, with `other_cpu` near the CPU count; the same plan
+/// run after the load stopped is not. Runs of 300 ms, so each row's window is its own.
+#[test]
+fn a_row_timed_under_load_is_flagged_and_a_quiet_one_is_not() {
+    if !Path::new("/proc/stat").exists() {
+        eprintln!("notice: no /proc: contention is not measured here; skipped");
+        return;
+    }
+    let flagged = |tag: &str, load: bool| -> Vec<(String, String)> {
+        let d = tmp(tag);
+        let plan = parse("experiment = \"product\"\nsleep_ms = 300\nparallel_runs = false\n[sweep]\nn = [1, 2]\n")
+            .unwrap();
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let mut spinners: Vec<std::process::Child> = if load {
+            (0..cpus)
+                .filter_map(|_| {
+                    std::process::Command::new("sh")
+                        .args(["-c", "while :; do :; done"])
+                        .spawn()
+                        .ok()
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let r = run_plan(&plan, &d, None, &|_| {});
+        for s in &mut spinners {
+            let _ = s.kill();
+            let _ = s.wait();
+        }
+        r.unwrap();
+        let (h, rows) = shscale_runner::records::read_raw(&d.join("product/c/runs.csv")).unwrap();
+        let at = |c: &str| h.iter().position(|x| x == c).unwrap();
+        let (oc, ct) = (at("other_cpu"), at("contended"));
+        std::fs::remove_dir_all(&d).ok();
+        rows.into_iter()
+            .map(|(_, r)| (r[oc].clone(), r[ct].clone()))
+            .collect()
+    };
+    let busy = flagged("busy", true);
+    println!("under load (other_cpu, contended): {busy:?}");
+    assert!(busy.iter().all(|(_, c)| c == "true"), "{busy:?}");
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let quiet = flagged("quiet", false);
+    println!("quiet: {quiet:?}");
+    assert!(quiet.iter().all(|(_, c)| c == "false"), "{quiet:?}");
+}
