@@ -32,6 +32,8 @@ pub struct Sample {
     total: u64,
     /// Ticks of this process (user + system, all threads, children waited for included).
     own: u64,
+    /// The 1-minute load average when read.
+    load_1m: f64,
 }
 
 /// What a window measured: the row's contention cells.
@@ -101,6 +103,7 @@ fn read_now() -> Option<Sample> {
         steal,
         total,
         own,
+        load_1m: load_1m(),
     };
     let mut r = RING.lock().unwrap_or_else(|e| e.into_inner());
     if r.last()
@@ -131,8 +134,11 @@ fn load_1m() -> f64 {
         .unwrap_or(0.0)
 }
 
+/// The CPUs this process may use, read once (`available_parallelism` reads cgroup files on
+/// every call: tens of µs, which a sweep of sub-millisecond runs would pay per run).
 fn cpus() -> f64 {
-    std::thread::available_parallelism().map_or(1, |n| n.get()) as f64
+    static N: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *N.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()) as f64)
 }
 
 /// The contention between `start` (a sample taken when the window opened) and now; a window
@@ -153,7 +159,7 @@ pub fn since(start: Option<Sample>) -> Reading {
             .filter(|s| s.at < start.at)
             .unwrap_or(start)
     };
-    between(&from, &end, cpus(), load_1m())
+    between(&from, &end, cpus(), end.load_1m)
 }
 
 /// The reading of two samples on a machine of `cpus` CPUs.
@@ -202,6 +208,7 @@ mod tests {
             steal: 0,
             total: 0,
             own: 0,
+            load_1m: 0.0,
         };
         // 2 CPUs, 200 ticks: 150 busy of which 50 ours → others used 100/200·2 = 1 core.
         let b = Sample {
@@ -210,6 +217,7 @@ mod tests {
             steal: 0,
             total: 200,
             own: 50,
+            load_1m: 0.0,
         };
         let r = between(&a, &b, 2.0, 3.0);
         assert!((r.other_cpu - 1.0).abs() < 1e-12 && r.contended, "{r:?}");
