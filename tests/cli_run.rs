@@ -1217,7 +1217,7 @@ fn provenance_is_the_binarys_revision_not_the_working_directorys_repository() {
     let built = version
         .split("(git ")
         .nth(1)
-        .and_then(|v| v.split(')').next())
+        .and_then(|v| v.split([')', ',']).next())
         .unwrap()
         .to_string();
     let (rev, dirty) = match built.strip_suffix("+dirty") {

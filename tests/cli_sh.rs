@@ -185,8 +185,16 @@ fn version_and_completions() {
     let inner = text
         .split("(git ")
         .nth(1)
-        .and_then(|r| r.split(')').next())
+        .and_then(|r| r.split([')', ',']).next())
         .unwrap_or_else(|| panic!("no git revision in {text:?}"));
+    // The numerical fingerprint the rows carry in `code`, 16 hex digits (or unknown).
+    let code = (text.split("numerical code ").nth(1))
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("no numerical code in {text:?}"));
+    assert!(
+        code == "unknown" || (code.len() == 16 && code.chars().all(|c| c.is_ascii_hexdigit())),
+        "{text}"
+    );
     assert!(
         inner == "unknown"
             || inner

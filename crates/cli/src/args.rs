@@ -4,13 +4,15 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use shscale_scene::method::Method;
 
-/// `--version`: the crate version and the git revision it was built from (`+dirty` when the
-/// checkout had local changes at build time).
+/// `--version`: the crate version, the git revision it was built from (`+dirty` when the
+/// checkout had local changes at build time) and the numerical fingerprint its rows carry in
+/// `code` (docs/provenance.md).
 pub static VERSION: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
     format!(
-        "{} (git {})",
+        "{} (git {}, numerical code {})",
         env!("CARGO_PKG_VERSION"),
-        shscale_runner::manifest::BUILD_REVISION
+        shscale_runner::manifest::BUILD_REVISION,
+        shscale_runner::manifest::CODE_FINGERPRINT
     )
 });
 
