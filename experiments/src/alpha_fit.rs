@@ -172,7 +172,7 @@ impl Kind for AlphaFit {
         p: &Self::Params,
         _config_dir: &std::path::Path,
     ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
-        Ok(shscale_scene::vocab::mesh_inputs("mesh", &p.mesh))
+        crate::common::mesh_inputs(&p.mesh)
     }
 
     fn describe() -> &'static [(&'static str, &'static str)] {

@@ -1,5 +1,5 @@
-//! What several kinds share: the cost model of computing two scaling matrices, and writing a
-//! text file into a figure's folder.
+//! What several kinds share: the cost model of computing two scaling matrices, writing a text
+//! file into a figure's folder, and the inputs of the kinds that read a mesh or a scene.
 
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
@@ -36,4 +36,22 @@ pub(crate) fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, 
     let p = out.join(name);
     shscale_runner::write_atomic(&p, text)?;
     Ok(p)
+}
+
+/// The inputs of a kind that reads the mesh named by its `mesh` key
+/// ([`shscale_runner::Kind::inputs`]).
+pub(crate) fn mesh_inputs(
+    mesh: &str,
+) -> Result<Vec<shscale_runner::inputs::Input>, shscale_runner::KeyError> {
+    Ok(shscale_scene::vocab::mesh_inputs("mesh", mesh))
+}
+
+/// The inputs of a kind that reads the scene file named by its `scene` key, relative to the
+/// config's folder: the file, its meshes and its environment map.
+pub(crate) fn scene_inputs(
+    config_dir: &Path,
+    scene: &str,
+) -> Result<Vec<shscale_runner::inputs::Input>, shscale_runner::KeyError> {
+    shscale_scene::scene::Scene::inputs("scene", &config_dir.join(scene))
+        .map_err(|e| shscale_runner::KeyError::new("scene", e.to_string()))
 }

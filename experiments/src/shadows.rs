@@ -279,8 +279,7 @@ impl Kind for Shadows {
         p: &Self::Params,
         config_dir: &std::path::Path,
     ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
-        shscale_scene::scene::Scene::inputs("scene", &config_dir.join(&p.scene))
-            .map_err(|e| KeyError::new("scene", e.to_string()))
+        crate::common::scene_inputs(config_dir, &p.scene)
     }
 
     fn describe() -> &'static [(&'static str, &'static str)] {

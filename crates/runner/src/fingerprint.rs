@@ -89,9 +89,29 @@ fn walk(root: &Path, rel: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// What of a counted file is hashed: for sources (`.rs`, `.wgsl`) every line but those that are
+/// only a comment (`//`, `///`, `//!` after indentation), with trailing spaces dropped — so a
+/// doc comment edited in a numerical crate keeps every row valid; other files (manifests, the
+/// lock) whole.
+pub fn hashed_text(name: &str, bytes: &[u8]) -> Vec<u8> {
+    if !(name.ends_with(".rs") || name.ends_with(".wgsl")) {
+        return bytes.to_vec();
+    }
+    let text = String::from_utf8_lossy(bytes);
+    let mut out = Vec::with_capacity(bytes.len());
+    for line in text.lines() {
+        if line.trim_start().starts_with("//") {
+            continue;
+        }
+        out.extend_from_slice(line.trim_end().as_bytes());
+        out.push(b'\n');
+    }
+    out
+}
+
 /// The fingerprint of the tree at `root`: 16 hex digits of BLAKE3 over each counted file's
-/// relative path, length and bytes, in path order; `None` when no file counts (not a checkout:
-/// a crate built out of its workspace).
+/// relative path, length and [`hashed_text`], in path order; `None` when no file counts (not a
+/// checkout: a crate built out of its workspace).
 pub fn of_tree(root: &Path) -> Option<String> {
     let files = files(root);
     if files.is_empty() {
@@ -99,8 +119,8 @@ pub fn of_tree(root: &Path) -> Option<String> {
     }
     let mut h = blake3::Hasher::new();
     for f in &files {
-        let bytes = std::fs::read(root.join(f)).ok()?;
         let name = f.to_string_lossy().replace('\\', "/");
+        let bytes = hashed_text(&name, &std::fs::read(root.join(f)).ok()?);
         h.update(name.as_bytes());
         h.update(&[0]);
         h.update(&(bytes.len() as u64).to_le_bytes());
@@ -159,6 +179,17 @@ mod tests {
         }
         std::fs::write(d.join("docs/new.md"), "a new page").unwrap();
         assert_eq!(of_tree(&d).unwrap(), base);
+        // A comment (doc or plain, indented) added to a numerical source: the same code.
+        std::fs::write(
+            d.join("crates/sh/src/lib.rs"),
+            "/// Y, documented.\n    // a note\npub fn y() -> f64 { 1.0 }   \n//! end",
+        )
+        .unwrap();
+        assert_eq!(
+            of_tree(&d).unwrap(),
+            base,
+            "a comment changed the fingerprint"
+        );
         let mut seen = vec![base.clone()];
         for f in [
             "crates/sh/src/lib.rs",

@@ -249,7 +249,8 @@ pub fn machine_speed() -> Option<f64> {
 /// What the runner itself spends per run on the development VM (2 threads): the plan, the
 /// rows appended and synced (group commits, about ten a second), resume, summary and report —
 /// 12–21 µs per run from 10³ to 10⁵ runs of a kind that does no work (`shscale bench runner`,
-/// docs/BENCHMARKS.md "Group commits"), and about 50 µs per run through `shscale run`, which
+/// docs/BENCHMARKS.md "Group commits"; 20–37 µs with the provenance columns on another VM,
+/// "Rows that know what made them"), and about 50 µs per run through `shscale run`, which
 /// also logs a line per run (a 10⁴-run `sparsity` sweep: 1.6–1.9 s, of which 1.1 s the runs' own
 /// work). Part of every plan's estimated seconds.
 pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;

@@ -213,7 +213,7 @@ impl Kind for Probe {
         p: &Self::Params,
         _config_dir: &std::path::Path,
     ) -> Result<Vec<shscale_runner::inputs::Input>, KeyError> {
-        Ok(shscale_scene::vocab::mesh_inputs("mesh", &p.mesh))
+        crate::common::mesh_inputs(&p.mesh)
     }
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
