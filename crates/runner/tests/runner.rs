@@ -730,7 +730,16 @@ fn a_row_timed_under_load_is_flagged_and_a_quiet_one_is_not() {
     println!("under load (other_cpu, contended): {busy:?}");
     assert!(busy.iter().all(|(_, c)| c == "true"), "{busy:?}");
     std::thread::sleep(std::time::Duration::from_millis(500));
-    let quiet = flagged("quiet", false);
+    // A shared machine may be busy by itself now and then: up to three quiet attempts.
+    let mut quiet = flagged("quiet", false);
+    for _ in 0..2 {
+        if quiet.iter().all(|(_, c)| c == "false") {
+            break;
+        }
+        println!("busy by itself: {quiet:?}; again");
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        quiet = flagged("quiet", false);
+    }
     println!("quiet: {quiet:?}");
     assert!(quiet.iter().all(|(_, c)| c == "false"), "{quiet:?}");
 }
