@@ -18,6 +18,51 @@ pub fn require_gpu_from_env() -> bool {
     std::env::var("SHSCALE_REQUIRE_GPU").is_ok_and(|v| v == "1")
 }
 
+/// `name (backend, driver driver_info)` of an adapter.
+fn describe_info(i: &wgpu::AdapterInfo) -> String {
+    let driver = [i.driver.as_str(), i.driver_info.as_str()]
+        .iter()
+        .filter(|s| !s.is_empty())
+        .copied()
+        .collect::<Vec<_>>()
+        .join(" ");
+    if driver.is_empty() {
+        format!("{} ({:?})", i.name, i.backend)
+    } else {
+        format!("{} ({:?}, {driver})", i.name, i.backend)
+    }
+}
+
+/// wgpu falls back to an OpenGL adapter when no Vulkan, Metal or DX12 driver is installed — on a
+/// Linux machine without `mesa-vulkan-drivers` that is llvmpipe through GL, where a 24 × 24
+/// two-frame render took 231 s (issue 57) and, measured on 2026-12-07 with Mesa 22.3.6, the
+/// sphere sets' union images came out 0.54 of the mean irradiance from the CPU's
+/// (`cli_run::budget_plane_times_the_gpu_path_beside_the_cpu`; 5e-7 through Vulkan lavapipe). shscale takes a GL adapter only
+/// when asked: `WGPU_BACKEND` naming `gl` (e.g. `WGPU_BACKEND=gl`); otherwise it is refused
+/// naming the adapter and both ways on, so `gpu = "auto"` continues on the CPU with that notice
+/// and `gpu = "required"` fails. `described`: the adapter in words; `wgpu_backend`: the
+/// variable's value.
+pub fn check_backend(
+    backend: wgpu::Backend,
+    described: &str,
+    wgpu_backend: Option<&str>,
+) -> Result<(), GpuError> {
+    let asked_for_gl = wgpu_backend.is_some_and(|v| {
+        v.split(',').any(|b| {
+            matches!(
+                b.trim().to_ascii_lowercase().as_str(),
+                "gl" | "gles" | "opengl"
+            )
+        })
+    });
+    if backend == wgpu::Backend::Gl && !asked_for_gl {
+        return Err(GpuError::NoAdapter(format!(
+            "the only adapter is {described}, wgpu's OpenGL fallback when no Vulkan driver is found, which shscale takes only when asked (WGPU_BACKEND=gl)"
+        )));
+    }
+    Ok(())
+}
+
 impl GpuContext {
     /// The default adapter (`WGPU_BACKEND=vulkan|gl|…` selects a backend, as wgpu reads it).
     /// Without one: [`GpuError::NoAdapter`], never a panic.
@@ -43,6 +88,11 @@ impl GpuContext {
             .await
             .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
+        check_backend(
+            info.backend,
+            &describe_info(&info),
+            std::env::var("WGPU_BACKEND").ok().as_deref(),
+        )?;
         let timestamps =
             want_timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let required_features = if timestamps {
@@ -74,18 +124,7 @@ impl GpuContext {
 
     /// `name (backend, driver driver_info)`, e.g. `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, llvmpipe Mesa 22.3.6)`.
     pub fn describe(&self) -> String {
-        let i = &self.info;
-        let driver = [i.driver.as_str(), i.driver_info.as_str()]
-            .iter()
-            .filter(|s| !s.is_empty())
-            .copied()
-            .collect::<Vec<_>>()
-            .join(" ");
-        if driver.is_empty() {
-            format!("{} ({:?})", i.name, i.backend)
-        } else {
-            format!("{} ({:?}, {driver})", i.name, i.backend)
-        }
+        describe_info(&self.info)
     }
 
     /// Block until all submitted work has finished.
@@ -277,5 +316,37 @@ impl GpuContext {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         })
+    }
+}
+
+#[cfg(test)]
+mod backend_tests {
+    use super::check_backend;
+
+    /// wgpu's GL fallback is refused unless `WGPU_BACKEND` asks for GL, naming the adapter and
+    /// both ways on; every other backend is taken whatever the variable says.
+    #[test]
+    fn the_gl_fallback_is_taken_only_when_asked_for() {
+        let gl = wgpu::Backend::Gl;
+        let e = check_backend(gl, "llvmpipe (Gl)", None)
+            .unwrap_err()
+            .to_string();
+        println!("{e}");
+        assert!(
+            e.contains("llvmpipe (Gl)") && e.contains("WGPU_BACKEND=gl"),
+            "{e}"
+        );
+        assert!(check_backend(gl, "x", Some("vulkan")).is_err());
+        for asked in ["gl", "GL", "vulkan,gl", " gles "] {
+            assert!(check_backend(gl, "x", Some(asked)).is_ok(), "{asked}");
+        }
+        for b in [
+            wgpu::Backend::Vulkan,
+            wgpu::Backend::Metal,
+            wgpu::Backend::Dx12,
+        ] {
+            assert!(check_backend(b, "x", None).is_ok());
+            assert!(check_backend(b, "x", Some("gl")).is_ok());
+        }
     }
 }
