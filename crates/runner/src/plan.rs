@@ -28,9 +28,33 @@ pub struct Plan {
     /// How often a long unsharded plan writes the summary, plots and report of its rows so far
     /// while it runs ([`INTERIM_REPORT`]; `None`: only when it ends).
     pub interim_report: Option<std::time::Duration>,
-    /// What a run does with stale rows of this plan ([`crate::run::StalePolicy`]; the
-    /// `--stale` flag).
-    pub stale: crate::run::StalePolicy,
+    /// What a run does with stale rows of this plan ([`StalePolicy`]; the `--stale` flag).
+    pub stale: StalePolicy,
+}
+
+/// What a run does with rows of its plan that are stale: computed by another numerical code
+/// than this binary's, or from inputs whose content has changed since (docs/provenance.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StalePolicy {
+    /// Set the stale rows aside into `<csv>.stale` (valid CSV, restorable) and run those runs
+    /// again: the default, so a results folder holds the current code's numbers for the
+    /// current inputs.
+    #[default]
+    Rerun,
+    /// Stop before any work, naming the stale runs and both ways on (`--stale rerun`, or
+    /// another `--name`).
+    Refuse,
+}
+
+impl StalePolicy {
+    /// `rerun` or `refuse` (the `--stale` flag).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "rerun" => Ok(Self::Rerun),
+            "refuse" => Ok(Self::Refuse),
+            other => Err(format!("--stale {other:?}: expected rerun or refuse")),
+        }
+    }
 }
 
 /// How often a long plan writes its summary and report while it runs, so a reader can follow:
@@ -262,7 +286,7 @@ impl Plan {
             parallel_runs: ex.runner.parallel_runs.unwrap_or(true),
             timing,
             interim_report: Some(INTERIM_REPORT),
-            stale: crate::run::StalePolicy::default(),
+            stale: StalePolicy::default(),
         })
     }
 

@@ -39,7 +39,7 @@ use crate::atomic::write_atomic;
 use crate::error::Error;
 use crate::kind::{Ctx, Resolved, RowCells};
 use crate::manifest::{unix_now, Manifest, Provenance, RowProvenance, Version};
-use crate::plan::{plan_dir, Plan};
+use crate::plan::{plan_dir, Plan, StalePolicy};
 use crate::records;
 use crate::store::{append_rows, header, keep_rejected, load_rows, read_tail, validate, DirLock};
 use std::collections::{BTreeSet, HashMap};
@@ -87,31 +87,6 @@ pub struct RunSummary {
     /// Runs of the shard whose rows were stale (another numerical code, or inputs whose
     /// content changed): set aside into `<csv>.stale` and run again.
     pub stale: usize,
-}
-
-/// What a run does with rows of its plan that are stale: computed by another numerical code
-/// than this binary's, or from inputs whose content has changed since (docs/provenance.md).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum StalePolicy {
-    /// Set the stale rows aside into `<csv>.stale` (valid CSV, restorable) and run those runs
-    /// again: the default, so a results folder holds the current code's numbers for the
-    /// current inputs.
-    #[default]
-    Rerun,
-    /// Stop before any work, naming the stale runs and both ways on (`--stale rerun`, or
-    /// another `--name`).
-    Refuse,
-}
-
-impl StalePolicy {
-    /// `rerun` or `refuse` (the `--stale` flag).
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "rerun" => Ok(Self::Rerun),
-            "refuse" => Ok(Self::Refuse),
-            other => Err(format!("--stale {other:?}: expected rerun or refuse")),
-        }
-    }
 }
 
 /// Run `plan` under `out_root`, optionally one shard `(i, n)`; `progress` hears of every step.

@@ -18,7 +18,7 @@
 //! end of the papers' frame's interval ([`papers_cap`]).
 
 use super::verdict::{
-    is_papers_extrapolation, mean_t95, name, place_zeros, sampling, variant, Config, Split,
+    is_papers_extrapolation, mean_t95, name, place_zeros, sampling, seed_of, variant, Config, Split,
 };
 use shscale_runner::plots::{write_panels, Bands, Panel, MAX_PANELS};
 use shscale_runner::records::Results;
@@ -46,22 +46,6 @@ pub fn surface_bin_mid(k: usize) -> f64 {
         .copied()
         .unwrap_or(2.0 * SURFACE_EDGES[5]);
     (lo * hi).sqrt()
-}
-
-/// The seed columns of both kinds: a row's replicate (rows of one configuration differ only in
-/// these; a kind without one reads it as empty).
-pub const SEED_COLUMNS: [&str; 4] = [
-    "probe_seed",
-    "truth_seed",
-    "orientation_seed",
-    "placement_seed",
-];
-
-/// A row's seed: its seed columns' cells.
-pub(crate) fn seed_of(t: &Results, r: usize) -> String {
-    SEED_COLUMNS
-        .map(|c| if t.col(c).is_some() { t.cell(r, c) } else { "" })
-        .join(";")
 }
 
 /// The distinct seeds of a table.

@@ -14,6 +14,22 @@ use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec, SphereF
 use shscale_scene::Error;
 use std::collections::BTreeMap;
 
+/// The seed columns of both kinds: a row's replicate (rows of one configuration differ only in
+/// these; a kind without one reads it as empty).
+pub const SEED_COLUMNS: [&str; 4] = [
+    "probe_seed",
+    "truth_seed",
+    "orientation_seed",
+    "placement_seed",
+];
+
+/// A row's seed: its seed columns' cells.
+pub(crate) fn seed_of(t: &Results, r: usize) -> String {
+    SEED_COLUMNS
+        .map(|c| if t.col(c).is_some() { t.cell(r, c) } else { "" })
+        .join(";")
+}
+
 /// Named point series of a plot.
 type Series = BTreeMap<String, Vec<(f64, f64)>>;
 
@@ -735,8 +751,8 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
                 .filter_map(|&f| {
                     // The row's seed over every seed column either kind has (the plane's is
                     // `placement_seed`; a missing column reads as empty, not as a match of all).
-                    let seed = super::surface::seed_of(t, f);
-                    let e = (ex.rows.iter()).find(|&&e| super::surface::seed_of(t, e) == seed)?;
+                    let seed = seed_of(t, f);
+                    let e = (ex.rows.iter()).find(|&&e| seed_of(t, e) == seed)?;
                     Some((f, *e))
                 })
                 .collect();
