@@ -838,3 +838,117 @@ fn a_failing_device_check_keeps_the_previous_sittings_files() {
     assert!(left.is_empty(), "temporaries left: {left:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scripts/device-targets.py` on hostile rows: a row without `device`, `frame_ms = 0`, a string
+/// `fps`, a list as `scene`, a non-string `path`, a boolean `fps`, a non-list file and a FIFO
+/// each exit 2 with one line naming the file (and the row and key), never a traceback or a
+/// hang; a scene named `x | <script>` is escaped in its Markdown cell. `scripts/device-check`
+/// with `OUT` at a file exits 2 naming it.
+#[test]
+fn device_targets_refuse_hostile_rows_and_escape_their_text() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = std::env::temp_dir().join(format!("shscale-targets-hostile-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let good =
+        r#"{"scene": "bird", "path": "gpu", "device": "Test GPU", "frame_ms": 0.5, "fps": 2000}"#;
+    let run = |table1: &str| {
+        std::fs::write(dir.join("table1.json"), table1).unwrap();
+        std::fs::write(dir.join("methods.json"), format!("[{good}]")).unwrap();
+        let out = std::process::Command::new("timeout")
+            .args(["20", "python3"])
+            .arg(root.join("scripts/device-targets.py"))
+            .arg(&dir)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    for (row, key) in [
+        (
+            r#"{"scene": "bird", "path": "gpu", "frame_ms": 0.5, "fps": 2000}"#,
+            "'device'",
+        ),
+        (
+            r#"{"scene": "bird", "path": "gpu", "device": "d", "frame_ms": 0, "fps": 2000}"#,
+            "'frame_ms'",
+        ),
+        (
+            r#"{"scene": "bird", "path": "gpu", "device": "d", "frame_ms": 0.5, "fps": "fast"}"#,
+            "'fps'",
+        ),
+        (
+            r#"{"scene": ["bird"], "path": "gpu", "device": "d", "frame_ms": 0.5, "fps": 2000}"#,
+            "'scene'",
+        ),
+        (
+            r#"{"scene": "bird", "path": 3, "device": "d", "frame_ms": 0.5, "fps": 2000}"#,
+            "'path'",
+        ),
+        (
+            r#"{"scene": "bird", "path": "gpu", "device": "d", "frame_ms": 0.5, "fps": true}"#,
+            "'fps'",
+        ),
+        (r#""a string""#, "row 1: not an object"),
+    ] {
+        let (code, _, err) = run(&format!("[{good}, {row}]"));
+        println!("{err}");
+        assert_eq!(code, Some(2), "{row}: {err}");
+        assert!(
+            !err.contains("Traceback") && err.lines().count() == 1,
+            "{err}"
+        );
+        assert!(
+            err.contains("table1.json") && err.contains(key),
+            "{row}: {err}"
+        );
+    }
+    let (code, _, err) = run(r#"{"rows": []}"#);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("not a list"), "{err}");
+    let (code, md, err) = run(&format!(
+        r#"[{good}, {{"scene": "x | <script>", "path": "gpu", "device": "d", "frame_ms": 1.0, "fps": 1000}}]"#
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        md.contains(r"x \| &lt;script&gt;") && !md.contains("<script>"),
+        "{md}"
+    );
+    // A FIFO where table1.json should be: refused at once, not read.
+    let _ = std::fs::remove_file(dir.join("table1.json"));
+    if std::process::Command::new("mkfifo")
+        .arg(dir.join("table1.json"))
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let out = std::process::Command::new("timeout")
+            .args(["20", "python3"])
+            .arg(root.join("scripts/device-targets.py"))
+            .arg(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("not a regular file"), "{err}");
+    }
+    // device-check with OUT at a file.
+    let f = dir.join("a-file");
+    std::fs::write(&f, "x").unwrap();
+    let out = std::process::Command::new("bash")
+        .arg(root.join("scripts/device-check"))
+        .env("OUT", &f)
+        .env("SHSCALE_BIN", "/bin/true")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("is not a folder") && err.contains("a-file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&f).unwrap(), "x");
+    std::fs::remove_dir_all(&dir).ok();
+}
