@@ -339,6 +339,10 @@ const CASES: &[(&str, &str)] = &[
     ("render|--scene|scene.toml|--out|o/x.exr", "FIFO"),
     ("run|mesh_fifo.toml", "regular file"),
     ("bench|runner|--config|fifo.toml|--out-dir|o/b", "FIFO"),
+    (
+        "bench|runner|--runs|10|--out-dir|afile",
+        "--out-dir afile: exists and is not a folder",
+    ),
     // Merge knows its plan: missing shards and shards that are not files are errors.
     ("merge|s_missing|--out|o/m", "runs.shard-1-of-3.csv"),
     ("merge|s_missing|--out|o/m", "--allow-partial"),

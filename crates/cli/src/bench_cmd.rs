@@ -353,6 +353,12 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     let root = a.out_dir.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()))
     });
+    if root.exists() && !root.is_dir() {
+        anyhow::bail!(
+            "--out-dir {}: exists and is not a folder; the bench needs an empty folder",
+            root.display()
+        );
+    }
     if root.exists() && std::fs::read_dir(&root)?.next().is_some() {
         anyhow::bail!(
             "--out-dir {}: not empty; the bench needs an empty folder",
