@@ -294,6 +294,12 @@ impl Staging {
                 _ => PathBuf::from("."),
             };
         }
+        for (gone, pid) in clean_dead_staging(&base) {
+            eprintln!(
+                "notice: removed {} (left by process {pid} of this host, which is no longer running)",
+                gone.display()
+            );
+        }
         let n = N.fetch_add(1, Ordering::Relaxed);
         let dir = base.join(format!(".shscale-staging-{}-{n}", unique_tag()));
         // The error names the target the user gave, not the staging folder it never saw.
@@ -356,6 +362,56 @@ impl Staging {
         sync_parent(&self.out)?;
         Ok(files.iter().map(|f| self.target(f)).collect())
     }
+}
+
+/// The process a staging folder's or temporary's name says made it, when it is of this host:
+/// `.shscale-staging-<host>-<pid>-<token>-<n>` or `.<name>.tmp-<host>-<pid>-<token>[.ext]`.
+fn maker_on_this_host(name: &str) -> Option<u32> {
+    let host = host_tag();
+    let rest = if let Some(r) = name.strip_prefix(".shscale-staging-") {
+        r.strip_prefix(host)?.strip_prefix('-')?
+    } else {
+        let at = name.find(&format!(".tmp-{host}-"))?;
+        &name[at + 6 + host.len()..]
+    };
+    let mut parts = rest.splitn(3, '-');
+    let pid: u32 = parts.next()?.parse().ok()?;
+    let token = parts.next()?;
+    let token = token.split('.').next()?;
+    (token.len() == 8 && token.chars().all(|c| c.is_ascii_hexdigit())).then_some(pid)
+}
+
+/// Remove the staging folders and temporaries in `dir` that a process of this host left when it
+/// was killed (`kill -9` during a merge or a report): made by a pid other than this process's
+/// that no longer runs (`/proc/<pid>` absent). Those of other hosts sharing the folder, of live
+/// processes and of this process are left alone. Returns what was removed, with its pid.
+pub fn clean_dead_staging(dir: &Path) -> Vec<(PathBuf, u32)> {
+    let proc_fs = Path::new("/proc/self").exists();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let me = std::process::id();
+    let mut gone = Vec::new();
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        let Some(pid) = maker_on_this_host(&name) else {
+            continue;
+        };
+        if !proc_fs || pid == me || Path::new(&format!("/proc/{pid}")).exists() {
+            continue;
+        }
+        let p = e.path();
+        let removed = match e.file_type() {
+            Ok(t) if t.is_dir() => std::fs::remove_dir_all(&p).is_ok(),
+            Ok(t) if t.is_file() => std::fs::remove_file(&p).is_ok(),
+            _ => false,
+        };
+        if removed {
+            gone.push((p, pid));
+        }
+    }
+    gone.sort();
+    gone
 }
 
 impl Drop for Staging {
@@ -549,5 +605,56 @@ mod durable_tests {
         assert_eq!(name, want);
         assert_eq!(t.parent(), Some(Path::new("/x")));
         assert_eq!(process_token().len(), 8);
+    }
+}
+
+#[cfg(test)]
+mod leftover_tests {
+    use super::*;
+
+    /// A staging folder and a temporary left by a dead process of this host are removed by the
+    /// next staging in that folder; those of a live process, of this process and of another host
+    /// stay.
+    #[test]
+    fn leftovers_of_a_dead_process_of_this_host_are_cleaned_and_no_other() {
+        if !Path::new("/proc/self").exists() {
+            eprintln!("notice: no /proc: leftovers are kept here; skipped");
+            return;
+        }
+        let d = std::env::temp_dir().join(format!("shscale-leftovers-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        // A pid that does not run: the largest one Linux hands out, checked.
+        let dead = (4_000_000..4_194_304)
+            .rev()
+            .find(|p| !Path::new(&format!("/proc/{p}")).exists())
+            .unwrap();
+        let host = host_tag();
+        let dead_stage = d.join(format!(".shscale-staging-{host}-{dead}-0badf00d-0"));
+        std::fs::create_dir_all(&dead_stage).unwrap();
+        std::fs::write(dead_stage.join(".a.tmp-x.png"), "partial").unwrap();
+        let dead_tmp = d.join(format!(".runs.csv.tmp-{host}-{dead}-0badf00d"));
+        std::fs::write(&dead_tmp, "partial").unwrap();
+        let live = d.join(format!(".shscale-staging-{host}-1-0badf00d-0"));
+        let mine = d.join(format!(".shscale-staging-{}-7", unique_tag()));
+        let other_host = d.join(format!(".shscale-staging-{host}x-{dead}-0badf00d-0"));
+        for p in [&live, &mine, &other_host] {
+            std::fs::create_dir_all(p).unwrap();
+        }
+        std::fs::write(d.join("runs.csv"), "kept").unwrap();
+        let gone = clean_dead_staging(&d);
+        let names: Vec<PathBuf> = gone.iter().map(|(p, _)| p.clone()).collect();
+        let mut want = vec![dead_stage.clone(), dead_tmp.clone()];
+        want.sort();
+        assert_eq!(names, want);
+        assert!(gone.iter().all(|(_, p)| *p == dead));
+        for p in [&live, &mine, &other_host] {
+            assert!(p.exists(), "{} was removed", p.display());
+        }
+        assert_eq!(std::fs::read_to_string(d.join("runs.csv")).unwrap(), "kept");
+        // Through a staging: the next one finds nothing more to remove.
+        drop(Staging::new(&d.join("out")).unwrap());
+        assert!(clean_dead_staging(&d).is_empty());
+        std::fs::remove_dir_all(&d).ok();
     }
 }
