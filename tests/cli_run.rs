@@ -1455,6 +1455,16 @@ fn budget_plane_times_the_gpu_path_beside_the_cpu() {
             "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"tpu\"\n",
             "device",
         ),
+        // The GPU sequences have no plausibility clamp: a clamped run is refused, not timed as
+        // the unclamped one (it once recorded gpu_max_diff = 0.303).
+        (
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"extrapolated\"\nplausibility = \"clamp\"\n",
+            "plausibility = \"clamp\": the GPU sequence has no plausibility clamp",
+        ),
+        (
+            "experiment = \"budget_plane\"\nscene = \"d.toml\"\ngpu = \"off\"\ndevice = \"gpu\"\nmethod = \"extrapolated\"\nradial = \"clearance\"\nradial_delta = 0.3\nplausibility = \"clamp\"\n",
+            "plausibility = \"clamp\": the GPU sequence has no plausibility clamp",
+        ),
     ] {
         let bad = dir.join("bad.toml");
         std::fs::write(&bad, text).unwrap();

@@ -111,6 +111,14 @@ impl GpuFrameStats {
 /// transfer only); or why not.
 pub fn check(scene: &Scene) -> Result<(), Error> {
     single_mesh(scene)?;
+    // The GPU sequences extrapolate the scaled coefficients as they are: a clamped run timed
+    // there would record the time of another computation (issue 57).
+    if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
+        return Err(Error::config(format!(
+            "{}: plausibility = \"clamp\": the GPU sequence has no plausibility clamp (it runs on the CPU only; device = \"cpu\" or plausibility = \"none\")",
+            scene.file
+        )));
+    }
     if !scene.light_sources.is_empty() {
         return Err(Error::config(format!(
             "{}: the GPU sequence shades the environment only; local lights are shaded on the CPU",
