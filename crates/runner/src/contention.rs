@@ -225,6 +225,22 @@ mod tests {
         assert!(!between(&a, &quiet, 2.0, 0.1).contended);
         let stolen = Sample { steal: 30, ..quiet };
         assert!(between(&a, &stolen, 2.0, 0.1).contended);
+        // Edges: no tick elapsed (a window inside one 10 ms tick) reads 0, not NaN; own ticks
+        // above the machine's busy ones (counters read a moment apart) clamp at 0; others can
+        // never exceed the CPU count.
+        let none = between(&a, &a, 2.0, 0.5);
+        assert_eq!(
+            (none.other_cpu, none.steal, none.contended),
+            (0.0, 0.0, false)
+        );
+        let ahead = Sample { own: 400, ..b };
+        assert_eq!(between(&a, &ahead, 2.0, 0.0).other_cpu, 0.0);
+        let all = Sample {
+            own: 0,
+            busy: 200,
+            ..b
+        };
+        assert_eq!(between(&a, &all, 2.0, 0.0).other_cpu, 2.0);
     }
 
     /// `--dry-run`'s line for a calibration on a busy machine: one of two cores taken by others

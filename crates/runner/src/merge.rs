@@ -108,8 +108,15 @@ pub fn merge(
         ),
         (&target, &records::write_text(&header(kind), &rows)?),
     ])?;
-    let notes = crate::manifest::row_notes(
-        &records::Results::new(header(kind), rows.clone()),
+    // The merged rows' notes read off their `code` and `contended` cells in place (no copy of
+    // the table).
+    let h = header(kind);
+    let at = |c: &str| h.iter().position(|x| x == c);
+    let cells = |i: Option<usize>| i.map(|i| rows.iter().map(move |r| r[i].as_str()));
+    let notes = crate::manifest::row_notes_of(
+        cells(at("code")),
+        cells(at("contended")),
+        rows.len(),
         !kind.time_columns().is_empty(),
     );
     Ok(MergeSummary {

@@ -127,6 +127,22 @@ mod tests {
         assert_eq!(ty("code"), "string");
     }
 
+    /// Every provenance column the runner writes is described (a field added to
+    /// `RowProvenance` without a line here would read as an undescribed metric).
+    #[test]
+    fn every_provenance_column_is_described() {
+        let (h, _) = crate::records::to_cells(&crate::manifest::RowProvenance::default()).unwrap();
+        for c in &h {
+            assert!(
+                super::PROVENANCE
+                    .iter()
+                    .any(|(n, _, d)| n == c && !d.is_empty()),
+                "{c} is not described in schema::PROVENANCE"
+            );
+        }
+        assert_eq!(h.len(), super::PROVENANCE.len());
+    }
+
     #[test]
     fn lists_options_and_numbers_are_told_apart() {
         #[derive(serde::Serialize, serde::Deserialize, Default)]
