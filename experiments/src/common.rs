@@ -55,3 +55,42 @@ pub(crate) fn scene_inputs(
     shscale_scene::scene::Scene::inputs("scene", &config_dir.join(scene))
         .map_err(|e| shscale_runner::KeyError::new("scene", e.to_string()))
 }
+
+/// The inscribed fit's work (cells × triangles, `shscale_geometry::inscribed::inscribable`) of
+/// `mesh` in the orientation `orientation_seed` gives it (as `budget` orients it), checked at
+/// plan time: a mesh with no inside, or one above the fit's bound, is refused naming
+/// `sphere_fit` and the mesh. Once per mesh and seed per process (a sweep plans each run).
+pub(crate) fn inscribed_work(
+    mesh: &str,
+    orientation_seed: u64,
+) -> Result<f64, shscale_runner::KeyError> {
+    type Memo = Vec<((String, u64), Result<f64, String>)>;
+    static MEMO: std::sync::Mutex<Memo> = std::sync::Mutex::new(Vec::new());
+    let key = (mesh.to_string(), orientation_seed);
+    let known = (MEMO.lock().unwrap_or_else(|e| e.into_inner()))
+        .iter()
+        .find(|(k, _)| *k == key)
+        .map(|(_, v)| v.clone());
+    let work = match known {
+        Some(w) => w,
+        None => {
+            let w = (|| {
+                let mut m = shscale_scene::vocab::placed_mesh(mesh, glam::DVec3::ZERO, 1.0, false)
+                    .map_err(|e| e.to_string())?;
+                if orientation_seed != 0 {
+                    let q = shscale_field::truth::SplitMix(orientation_seed).rotation();
+                    m.rotate_about(m.bounding_sphere().center, q);
+                }
+                shscale_geometry::inscribed::inscribable(&m).map_err(|e| e.to_string())
+            })();
+            (MEMO.lock().unwrap_or_else(|e| e.into_inner())).push((key, w.clone()));
+            w
+        }
+    };
+    work.map_err(|e| {
+        shscale_runner::KeyError::new(
+            "sphere_fit",
+            format!("\"inscribed\" on mesh \"{mesh}\": {e}"),
+        )
+    })
+}

@@ -552,21 +552,67 @@ fn run_config(
         plan.check_limits(allow_large)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let out = std::path::PathBuf::from(out_dir);
-        let (dir, warnings) = py
-            .allow_threads(|| {
-                let warnings = std::sync::Mutex::new(Vec::new());
-                let s = shscale_runner::run_plan(&plan, &out, None, &|ev| {
-                    if let shscale_runner::RunEvent::Warn(w) = ev {
-                        warnings
-                            .lock()
-                            .unwrap_or_else(|e| e.into_inner())
-                            .push(w.to_string());
+        // The plan runs on a thread of its own while this one, every 100 ms, takes the GIL to
+        // let Python's signal handlers run: Ctrl-C (KeyboardInterrupt) stops the plan between
+        // runs — within one run's time — keeping every finished run, and is raised again here
+        // once the finished runs are committed.
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        let mut signal: Option<PyErr> = None;
+        let result = py.allow_threads(|| {
+            std::thread::scope(|scope| {
+                let worker = scope.spawn(|| {
+                    let warnings = std::sync::Mutex::new(Vec::new());
+                    let s = shscale_runner::run_plan_until(
+                        &plan,
+                        &out,
+                        None,
+                        &|ev| {
+                            if let shscale_runner::RunEvent::Warn(w) = ev {
+                                warnings
+                                    .lock()
+                                    .unwrap_or_else(|e| e.into_inner())
+                                    .push(w.to_string());
+                            }
+                        },
+                        &stop,
+                    )?;
+                    shscale_runner::report(plan.kind, &s.dir)?;
+                    Ok::<_, shscale_scene::Error>((
+                        s.dir,
+                        warnings.into_inner().unwrap_or_default(),
+                    ))
+                });
+                while !worker.is_finished() {
+                    std::thread::sleep(std::time::Duration::from_millis(100));
+                    if signal.is_none() {
+                        if let Err(e) = Python::with_gil(|py| py.check_signals()) {
+                            stop.store(true, std::sync::atomic::Ordering::Release);
+                            signal = Some(e);
+                        }
                     }
-                })?;
-                shscale_runner::report(plan.kind, &s.dir)?;
-                Ok::<_, shscale_scene::Error>((s.dir, warnings.into_inner().unwrap_or_default()))
+                }
+                worker.join().unwrap_or_else(|_| {
+                    Err(shscale_scene::Error::config(
+                        "the plan's thread panicked".into(),
+                    ))
+                })
             })
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        });
+        if let Some(e) = signal {
+            // Say what was kept and how to go on, then raise what Python asked for.
+            let how = match &result {
+                Err(r) => r.to_string(),
+                Ok(_) => "every run had finished".to_string(),
+            };
+            Python::with_gil(|py| {
+                let msg = format!("shscale.run: {how}; the same call resumes");
+                let _ = py
+                    .import("sys")
+                    .and_then(|sys| sys.getattr("stderr")?.call_method1("write", (msg + "\n",)));
+            });
+            return Err(e);
+        }
+        let (dir, warnings) = result.map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok((dir.display().to_string(), warnings))
     })
 }

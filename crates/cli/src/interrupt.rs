@@ -3,14 +3,29 @@
 //! interruption loses no committed row; the runs of the last commit interval, and the one in
 //! progress, are redone by the next start of the same command (a torn last line is set aside).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 
 static MESSAGE: OnceLock<Vec<u8>> = OnceLock::new();
+/// The message when no run had finished (nothing saved, maybe no file at all).
+static NOTHING_YET: OnceLock<Vec<u8>> = OnceLock::new();
+/// Whether the results file holds finished runs: it held rows at the start, or a run finished.
+static SAVED: AtomicBool = AtomicBool::new(false);
+
+/// A run finished: its rows are (or within 100 ms will be) in the results file.
+pub fn note_finished() {
+    SAVED.store(true, Ordering::Release);
+}
 
 /// The handler: write the prepared message and exit with the conventional 128 + signal number.
 /// Only async-signal-safe calls (an atomic load, `write`, `_exit`).
 extern "C" fn on_signal(sig: libc::c_int) {
-    if let Some(m) = MESSAGE.get() {
+    let m = if SAVED.load(Ordering::Acquire) {
+        MESSAGE.get()
+    } else {
+        NOTHING_YET.get()
+    };
+    if let Some(m) = m {
         // SAFETY: `write` and `_exit` are async-signal-safe; `m` is never freed (a static).
         unsafe {
             libc::write(2, m.as_ptr().cast(), m.len());
@@ -21,14 +36,22 @@ extern "C" fn on_signal(sig: libc::c_int) {
 }
 
 /// From now on, SIGINT and SIGTERM print a line naming `csv` (where the finished runs are) and
-/// the command that resumes, then exit (130 for Ctrl-C).
+/// the command that resumes — or, before any run finished, that nothing was saved — then exit
+/// (130 for Ctrl-C).
 pub fn explain_on_interrupt(csv: &std::path::Path, resume: &str) {
     let text = format!(
         "\ninterrupted: the runs finished so far are saved in {} (those of the last 100 ms, and the one in progress, are redone); resume with: {resume}\n",
         csv.display()
     );
-    if MESSAGE.set(text.into_bytes()).is_err() {
+    let nothing = format!(
+        "\ninterrupted before any run finished: nothing was saved; start again with: {resume}\n"
+    );
+    if MESSAGE.set(text.into_bytes()).is_err() || NOTHING_YET.set(nothing.into_bytes()).is_err() {
         return;
+    }
+    // Rows of an earlier start are saved whatever happens now.
+    if std::fs::metadata(csv).is_ok_and(|m| m.is_file() && m.len() > 0) {
+        SAVED.store(true, Ordering::Release);
     }
     let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
     // SAFETY: installing a handler that only makes async-signal-safe calls.

@@ -47,6 +47,8 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     quiet_mesa();
+    // A long inscribed fit (seconds to minutes) says how far it is, on every path to it.
+    shscale_geometry::inscribed::set_progress(|line| eprintln!("progress: {line}"));
     // The kernels' instruction set is chosen from SHSCALE_SIMD once; a value the library would
     // silently read as `portable` is refused here.
     if let Err(e) = shscale_sh::simd::parse_setting(std::env::var("SHSCALE_SIMD").ok().as_deref()) {

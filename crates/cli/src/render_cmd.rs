@@ -158,6 +158,12 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
 /// the estimated rays.
 fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result<f64> {
     let frames = a.frames.unwrap_or(1).max(1) as f64;
+    if method == Method::SphereSet
+        && scene.sphere_fit == shscale_scene::combine::SphereFit::Inscribed
+    {
+        // A mesh with no inside is refused here, before any image (the run's `sphere_fit`).
+        shscale_scene::frame::inscribed_seconds(scene, true)?;
+    }
     let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, method);
     rays *= frames;
     if let Some(r) = a.reference {
@@ -474,13 +480,7 @@ fn sequence(
             "path": path,
             "threads": rayon::current_num_threads(),
             "reference": a.reference.map(|r| r.to_string()),
-            "frames": seq.iter().map(|f| serde_json::json!({
-                "frame": f.frame,
-                "t": f.t,
-                "seconds": f.seconds,
-                "stages": f.stages.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
-                "shade_rmse_rel": f.error,
-            })).collect::<Vec<_>>(),
+            "frames": seq.iter().map(frame_json).collect::<Vec<_>>(),
             "mean_frame_seconds": mean,
             "out": a.out.display().to_string(),
             "png": png.display().to_string(),
@@ -507,6 +507,18 @@ fn sequence(
     }
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// One frame of a sequence in `--format json`: its index, time, seconds, stages (seconds by
+/// name) and error against the reference (null without one).
+fn frame_json(f: &shscale_scene::sequence::SequenceFrame) -> serde_json::Value {
+    serde_json::json!({
+        "frame": f.frame,
+        "t": f.t,
+        "seconds": f.seconds,
+        "stages": f.stages.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+        "shade_rmse_rel": f.error,
+    })
 }
 
 /// One line per frame: its stages (ms, the first frame's names as columns), the total and, with
@@ -557,6 +569,20 @@ fn print_gpu_sequence(
     ctx: &shscale_scene::gpu_path::GpuContext,
 ) -> anyhow::Result<ExitCode> {
     let png = write_image(&a.out, img).context("--out")?;
+    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
+    if a.format == TextFormat::Json {
+        crate::output::print_json(&serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "method": a.method.to_string(),
+            "path": format!("gpu: {what}"),
+            "adapter": ctx.describe(),
+            "frames": seq.iter().map(frame_json).collect::<Vec<_>>(),
+            "mean_frame_seconds": mean,
+            "out": a.out.display().to_string(),
+            "png": png.display().to_string(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "GPU {what} sequence {} ({}×{} receivers, {} frames, adapter {})",
         a.scene.display(),
@@ -566,7 +592,6 @@ fn print_gpu_sequence(
         ctx.describe()
     );
     print_sequence_table(seq, None);
-    let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / seq.len() as f64;
     println!("mean frame {:.3} ms ({:.1} FPS)", mean * 1e3, 1.0 / mean);
     println!("wrote {} and {}", a.out.display(), png.display());
     Ok(ExitCode::SUCCESS)
@@ -585,6 +610,38 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
     let run = render_sequence_gpu_with(scene, frames, &ctx, mode)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
     let png = write_image(&a.out, img).context("--out")?;
+    if a.format == TextFormat::Json {
+        let ms = |x: f64| serde_json::json!(x);
+        crate::output::print_json(&serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "method": a.method.to_string(),
+            "path": "gpu: the papers' sequence",
+            "adapter": ctx.describe(),
+            "setup_seconds": setup,
+            "receiver_setup_seconds": run.receiver_setup_seconds,
+            "stage_clock": if ctx.timestamps { "timestamps" } else { "wall" },
+            "frames": stats.iter().map(|s| {
+                let g = &s.gpu;
+                serde_json::json!({
+                    "frame": s.frame,
+                    "seconds": s.seconds(),
+                    "stages": {
+                        "deform": ms(s.deform_seconds + g.deform_seconds),
+                        "bvh": ms(g.bvh_seconds + g.refit_seconds),
+                        "upload": ms(g.upload_seconds),
+                        "bsv": ms(g.sampling_seconds),
+                        "sh": ms(g.projection_seconds),
+                        "shade": ms(g.shading_seconds),
+                    },
+                    "stage_sum_seconds": s.stage_sum(),
+                })
+            }).collect::<Vec<_>>(),
+            "mean_frame_seconds": stats.iter().map(|s| s.seconds()).sum::<f64>() / stats.len() as f64,
+            "out": a.out.display().to_string(),
+            "png": png.display().to_string(),
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),

@@ -190,6 +190,7 @@ impl RunProgress {
                 self.log(what);
             }
             RunEvent::Done { line, .. } => {
+                crate::interrupt::note_finished();
                 self.log(line);
                 if let Some(b) = self.bar.get() {
                     b.inc(1);

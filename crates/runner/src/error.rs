@@ -15,6 +15,10 @@ pub enum Error {
     /// An error of a kind's own work (its numerical crates, its device), shown as it is.
     #[error(transparent)]
     Kind(Box<dyn std::error::Error + Send + Sync>),
+    /// The caller asked the plan to stop ([`crate::run_plan_until`]); the runs finished before
+    /// are committed, the others are left for the next start.
+    #[error("interrupted: {done} run(s) finished and saved in {csv}; the others are left for the next start of the same plan")]
+    Interrupted { done: usize, csv: String },
 }
 
 impl Error {

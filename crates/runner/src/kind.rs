@@ -64,6 +64,9 @@ pub struct Ctx<'a> {
     pub device: Option<&'a Device>,
     /// The timing procedure every time column uses.
     pub timing: timing::Procedure,
+    /// Set by the caller to stop the plan: no run starts after it is set
+    /// ([`crate::run_plan_until`]).
+    pub stop: &'a std::sync::atomic::AtomicBool,
 }
 
 /// A kind's parameters together with what was parsed from them at resolve time (the enums of
@@ -152,6 +155,15 @@ pub trait Kind: Send + Sync + 'static {
     fn open_device(mode: GpuMode) -> Result<Option<Device>, Self::Error> {
         let _ = mode;
         Ok(None)
+    }
+    /// Whether a run cannot do without the device [`Kind::open_device`] opens (a GPU timing it
+    /// was asked for, not one it may skip): with the config's `gpu = "auto"`, a plan holding
+    /// such a run opens the device as required, so a machine without one is refused before any
+    /// work in one line, not told "continuing with the CPU path" and then failed run by run.
+    /// Default: none.
+    fn needs_device(p: &Self::Spec) -> bool {
+        let _ = p;
+        false
     }
     /// The row key and the error metric of the report's "best per key" table (the lowest value of
     /// the metric at each value of the key, with the parameters that gave it). Default: none.
@@ -263,6 +275,8 @@ pub trait DynKind: Send + Sync {
     fn report(&self, dir: &Path, table: &records::Results) -> Result<Vec<PathBuf>, Error>;
     /// [`Kind::open_device`].
     fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error>;
+    /// [`Kind::needs_device`] of a resolved run (false for a run of another kind).
+    fn needs_device(&self, r: &Resolved) -> bool;
     fn discussion(&self, table: &records::Results) -> Result<String, Error>;
     /// [`Kind::verdict`].
     fn verdict(&self, table: &records::Results) -> Result<String, Error>;
@@ -405,6 +419,12 @@ impl<K: Kind> DynKind for Erased<K> {
         };
         let shared = K::shared(params_of::<K>(first)?, ctx).map_err(Into::into)?;
         let one = |r: &&Resolved| -> Result<(), Error> {
+            if ctx.stop.load(std::sync::atomic::Ordering::Acquire) {
+                return Err(Error::Interrupted {
+                    done: 0,
+                    csv: String::new(),
+                });
+            }
             let s0 = crate::contention::sample();
             let t0 = std::time::Instant::now();
             let rows = K::run(params_of::<K>(r)?, &r.id, &shared, ctx).map_err(Into::into)?;
@@ -428,6 +448,9 @@ impl<K: Kind> DynKind for Erased<K> {
     }
     fn open_device(&self, mode: GpuMode) -> Result<Option<Device>, Error> {
         K::open_device(mode).map_err(Into::into)
+    }
+    fn needs_device(&self, r: &Resolved) -> bool {
+        params_of::<K>(r).is_ok_and(K::needs_device)
     }
     fn best_of(&self) -> Option<(&'static str, &'static str)> {
         K::best_of()

@@ -65,6 +65,6 @@ pub use manifest::Manifest;
 pub use merge::{merge, MergeOptions, MergeSummary};
 pub use plan::{Plan, StalePolicy};
 pub use report::{commit_report, report, report_staged, title_and_claim, Report};
-pub use run::{run_plan, RunEvent, RunSummary};
+pub use run::{run_plan, run_plan_until, RunEvent, RunSummary};
 pub use slurm::{shell_quote, slurm_script, SlurmOptions};
 pub use store::{header, load_rows};

@@ -96,6 +96,21 @@ pub fn run_plan(
     shard: Option<(usize, usize)>,
     progress: &(dyn Fn(RunEvent) + Sync),
 ) -> Result<RunSummary, Error> {
+    static NEVER: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    run_plan_until(plan, out_root, shard, progress, &NEVER)
+}
+
+/// [`run_plan`] that stops when `stop` is set: no run starts after it (the ones in progress
+/// finish), the finished runs are committed, and the result is [`Error::Interrupted`] with the
+/// count of runs finished in this call — unless every run had finished by then. A caller
+/// that cannot take a signal on the runner's threads (Python's `run()`) sets it from its own.
+pub fn run_plan_until(
+    plan: &Plan,
+    out_root: &Path,
+    shard: Option<(usize, usize)>,
+    progress: &(dyn Fn(RunEvent) + Sync),
+    stop_flag: &std::sync::atomic::AtomicBool,
+) -> Result<RunSummary, Error> {
     let kind = plan.kind;
     let dir = plan_dir(plan, out_root);
     let csv = shard_csv(&dir, shard)?;
@@ -107,7 +122,7 @@ pub fn run_plan(
         )))
     };
     let (loaded, stale) = load_checked(plan, &dir, &csv, &waiting, progress)?;
-    let device = kind.open_device(plan.gpu)?;
+    let device = open_device(plan, &loaded, kind)?;
     let gpu_device = device
         .as_ref()
         .map_or("none".to_string(), |d| d.description().to_string());
@@ -139,6 +154,7 @@ pub fn run_plan(
         config_dir: config_dir(plan),
         device: device.as_ref(),
         timing: plan.timing,
+        stop: stop_flag,
     };
     // Finished runs are committed on a timer, not only when the next run finishes: a long run
     // never holds the rows of the runs that finished before it (SIGKILL loses at most
@@ -156,17 +172,71 @@ pub fn run_plan(
             }
             Ok(())
         });
+        // The timer stops however this thread leaves the scope: a panic in a run unwinds
+        // through the guard, which stops the timer, so the scope's join returns and the panic
+        // reaches the process (a panicking run cannot leave the process waiting on the timer).
+        let stopping = StopTimer {
+            stop: &stop,
+            timer: ticker.thread(),
+        };
         let ran = run_groups(plan, &pending, &ctx, &writer, progress);
-        stop.store(true, std::sync::atomic::Ordering::Release);
-        ticker.thread().unpark();
+        drop(stopping);
         let ticked = ticker
             .join()
             .unwrap_or_else(|_| Err(Error::Config("the commit timer panicked".into())));
         ran.and(ticked)
+    })
+    .or_else(|e| match e {
+        // Asked to stop: what finished is committed below; the error then says how much.
+        Error::Interrupted { .. } => Ok(()),
+        e => Err(e),
     })?;
     // On an error above, dropping the writer commits what finished before it.
     summary.ran = writer.finish()?;
+    if stop_flag.load(std::sync::atomic::Ordering::Acquire) && summary.ran < pending.len() {
+        return Err(Error::Interrupted {
+            done: summary.ran,
+            csv: csv.display().to_string(),
+        });
+    }
     Ok(summary)
+}
+
+/// The plan's device as its `gpu` setting says — opened as required under `gpu = "auto"` when
+/// a run still to do needs it ([`crate::Kind::needs_device`]): a machine without one is then
+/// refused before any work, naming that run, in one line.
+fn open_device(
+    plan: &Plan,
+    loaded: &crate::store::Loaded,
+    kind: &dyn crate::DynKind,
+) -> Result<Option<crate::Device>, Error> {
+    let needing = (plan.runs.iter())
+        .filter(|r| !loaded.complete.contains(&r.id))
+        .find(|r| kind.needs_device(r));
+    match (plan.gpu, needing) {
+        (crate::GpuMode::Auto, Some(r)) => kind.open_device(crate::GpuMode::Required).map_err(|e| {
+            let why = e.to_string();
+            let why = why.trim_start_matches("gpu = \"required\": ");
+            Error::Config(format!(
+                "run {} asks for the GPU timing (device = \"gpu\") and gpu = \"auto\" found no adapter: {why}",
+                r.id
+            ))
+        }),
+        _ => kind.open_device(plan.gpu),
+    }
+}
+
+/// Stops the commit timer when dropped (at the end of the runs, or by a panic's unwinding).
+struct StopTimer<'a> {
+    stop: &'a std::sync::atomic::AtomicBool,
+    timer: &'a std::thread::Thread,
+}
+
+impl Drop for StopTimer<'_> {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Release);
+        self.timer.unpark();
+    }
 }
 
 /// The CSV a run of `plan` (or of one shard `(i, n)` of it) writes in `dir`; a shard outside

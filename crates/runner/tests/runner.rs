@@ -23,6 +23,7 @@ struct ProductParams {
     label: String,
     repeat: usize,
     fail: bool,
+    panic: bool,
     sleep_ms: u64,
 }
 
@@ -34,6 +35,7 @@ impl Default for ProductParams {
             label: "a".into(),
             repeat: 1,
             fail: false,
+            panic: false,
             sleep_ms: 0,
         }
     }
@@ -108,6 +110,7 @@ impl Kind for Product {
         if p.fail {
             return Err(ProductError(p.n));
         }
+        assert!(!p.panic, "the run of n = {} panics", p.n);
         Ok((0..p.repeat)
             .map(|index| ProductRow {
                 index,
@@ -129,6 +132,7 @@ impl Kind for Product {
             ("label", "a word"),
             ("repeat", "rows per run, 1..=4"),
             ("fail", "make the run fail"),
+            ("panic", "make the run panic"),
             ("sleep_ms", "milliseconds the run sleeps"),
         ]
     }
@@ -446,6 +450,33 @@ fn a_kinds_error_reaches_the_caller_and_no_row_is_written_for_it() {
     assert!(e.to_string().starts_with("product failed for n = "), "{e}");
     let csv = d.join("product").join("c").join("runs.csv");
     assert!(!csv.exists() || ids_in(&csv).is_empty());
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A run that panics (a bug: kinds return errors) ends `run_plan` with that panic instead of
+/// leaving it waiting on the commit timer (which once kept a process running with only its
+/// lock left), and the runs finished before it are committed.
+#[test]
+fn a_panicking_run_ends_the_plan_and_keeps_the_finished_runs() {
+    let text = "experiment = \"product\"\nparallel_runs = false\n\n[[sweep]]\nn = [1, 2]\n\n[[sweep]]\nn = [3]\npanic = [true]\n";
+    let plan = parse(text).unwrap();
+    let d = tmp("panic");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let d2 = d.clone();
+    std::thread::spawn(move || {
+        let plan = parse(text).unwrap();
+        let quiet = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            run_plan(&plan, &d2, None, &|_| {}).map(|_| ())
+        }));
+        tx.send(quiet.is_err()).ok();
+    });
+    let panicked = rx
+        .recv_timeout(std::time::Duration::from_secs(30))
+        .expect("run_plan returned within 30 s of its run's panic");
+    assert!(panicked, "the run's panic reached the caller");
+    let csv = d.join("product").join("c").join("runs.csv");
+    let want: Vec<String> = plan.runs[..2].iter().map(|r| r.id.clone()).collect();
+    assert_eq!(ids_in(&csv), want, "the two finished runs kept");
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -58,10 +58,16 @@ impl Variant {
             clearance: None,
             sphere_combine: None,
         };
+        let mut seen: Vec<&str> = Vec::new();
         for kv in keys.split(',').filter(|k| !k.trim().is_empty()) {
             let (k, val) = kv
                 .split_once('=')
                 .ok_or_else(|| format!("{text:?}: {kv:?} is not key=value"))?;
+            // A key given twice would label the row with both values and use one.
+            if seen.contains(&k.trim()) {
+                return Err(format!("{text:?}: {} is given twice", k.trim()));
+            }
+            seen.push(k.trim());
             if k.trim() == "combine" {
                 v.sphere_combine = Some(parse_combine(text, name, method, val)?);
                 continue;
@@ -507,6 +513,11 @@ mod tests {
         let union = Some(crate::combine::Combine::Union);
         assert_eq!((u[0].parts, u[0].sphere_combine), (Some(16), union));
         for (bad, needle) in [
+            ("sphere_set:parts=4,parts=9", "parts is given twice"),
+            (
+                "sphere_set:combine=union,combine=product",
+                "combine is given twice",
+            ),
             ("sphere_set:parts=0", "parts=0"),
             ("sphere_set:parts=2.5", "parts=2.5"),
             ("extrapolated:s=0.5", "s=0.5"),

@@ -28,6 +28,35 @@ pub fn occluder_mesh_at(
     }))
 }
 
+/// The inscribed fit's seconds for the scene's mesh occluders at their pose at
+/// [`Scene::pose_t`], in the runner's reference seconds (`shscale_geometry::inscribed::
+/// inscribed_fit_seconds` of each one's work, cells × triangles); with `check`, each mesh is
+/// first checked by `inscribable`, before any render: a mesh with no inside (an open fan, a
+/// flat sheet), or one above the fit's bound, is refused naming `sphere_fit`, the occluder's
+/// mesh and the scene. A deforming sequence's later poses are checked by their own fit (an error
+/// of the same words, never an empty set).
+pub fn inscribed_seconds(scene: &Scene, check: bool) -> Result<f64, Error> {
+    use shscale_geometry::inscribed;
+    let mut seconds = 0.0;
+    for o in &scene.occluders {
+        if let Some(m) = occluder_mesh_at(o, scene.pose_t)? {
+            let work = if check {
+                inscribed::inscribable(&m)
+            } else {
+                inscribed::inscribed_work(&m)
+            };
+            let work = work.map_err(|e| {
+                Error::config(format!(
+                    "{}: sphere_fit = \"inscribed\" on mesh \"{}\": {e}",
+                    scene.file, o.mesh
+                ))
+            })?;
+            seconds += inscribed::inscribed_fit_seconds(work);
+        }
+    }
+    Ok(seconds)
+}
+
 /// `rest` (an occluder's placed mesh, [`crate::scene::OccluderSpec::placed`]) posed by the
 /// occluder's deformer at `pose_t`; a copy of `rest` without a deformer or time. A turned
 /// occluder deforms in its own frame and is turned after: the turn is undone about the rest's

@@ -495,6 +495,14 @@ impl Kind for BudgetPlane {
             ));
         }
         (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
+        if let Spec::SphereSet {
+            fit: SphereFit::Inscribed,
+            ..
+        } = spec.typed.method
+        {
+            shscale_scene::frame::inscribed_seconds(&scene, true)
+                .map_err(|e| KeyError::new("sphere_fit", e.to_string()))?;
+        }
         if spec.typed.device == super::plane_timings::DeviceChoice::Gpu {
             let mut s = Scene::clone(&scene);
             spec.typed.method.apply(&mut s);
@@ -508,6 +516,11 @@ impl Kind for BudgetPlane {
 
     fn open_device(mode: shscale_runner::GpuMode) -> Result<Option<shscale_runner::Device>, Error> {
         shscale_scene::gpu_path::open_device(mode)
+    }
+
+    /// `device = "gpu"` asks for the GPU timing (`auto` records the CPU where there is none).
+    fn needs_device(p: &Self::Spec) -> bool {
+        p.typed.device == super::plane_timings::DeviceChoice::Gpu
     }
 
     fn group_key(p: &Params) -> String {
@@ -576,7 +589,10 @@ impl Kind for BudgetPlane {
                         ..
                     } => Some((
                         format!("inscribed {} {}", p.scene, p.frames),
-                        shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS * frames * occluders,
+                        frames
+                            * shscale_scene::frame::inscribed_seconds(base, false).unwrap_or(
+                                shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS * occluders,
+                            ),
                     )),
                     _ => None,
                 },

@@ -543,6 +543,22 @@ impl Kind for Budget {
         })
     }
 
+    /// [`Kind::resolve`], then the inscribed fit's mesh checked: one with no inside, or above
+    /// the fit's bound, refused naming `sphere_fit` and the mesh before any work.
+    fn resolve_in(p: &Params, _config_dir: &std::path::Path) -> Result<Self::Spec, KeyError> {
+        let spec = Self::resolve(p)?;
+        if let Spec::SphereSet {
+            fit: SphereFit::Inscribed,
+            ..
+        } = spec.typed
+        {
+            if p.mesh != "sphere" {
+                crate::common::inscribed_work(&p.mesh, p.orientation_seed)?;
+            }
+        }
+        Ok(spec)
+    }
+
     fn group_key(p: &Params) -> String {
         format!(
             "{};{};{};{};{};{};{:?};{};{};{};{}",
@@ -593,7 +609,10 @@ impl Kind for Budget {
                         ..
                     } if p.mesh != "sphere" => Some((
                         format!("inscribed {} {}", p.mesh, p.orientation_seed),
-                        shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS,
+                        crate::common::inscribed_work(&p.mesh, p.orientation_seed).map_or(
+                            shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS,
+                            shscale_geometry::inscribed::inscribed_fit_seconds,
+                        ),
                     )),
                     _ => None,
                 },
