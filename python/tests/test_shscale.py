@@ -392,3 +392,49 @@ def test_load_results_applies_the_schema_and_names_stale_rows(tmp_path):
     with pytest.raises(ValueError) as e:
         shscale.load_results(directory)
     assert "code" in str(e.value) and "runs.schema.json" in str(e.value)
+
+
+def test_ctrl_c_stops_a_run_between_runs_and_keeps_the_finished_ones(tmp_path):
+    """SIGINT during ``shscale.run()`` raises KeyboardInterrupt within about one run's time
+    (it once waited for the whole plan, then discarded the rows), the finished runs stay in
+    runs.csv, stderr says the same call resumes, and that call then finishes the rest."""
+    import signal
+    import sys
+
+    cfg = tmp_path / "slow.toml"
+    cfg.write_text(
+        'experiment = "probe"\nmesh = "bunny"\nlayout = "latlong:12x20"\nhemisphere_res = 32\n'
+        "truth_res = 48\nparallel_runs = false\n[sweep]\n"
+        "alpha_deg = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0]\n"
+    )
+    out = tmp_path / "out"
+    script = (
+        "import shscale, sys\n"
+        "try:\n"
+        f"    shscale.run({str(cfg)!r}, out_dir={str(out)!r})\n"
+        "    print('finished')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted')\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    csv = out / "probe" / "slow" / "runs.csv"
+    t0 = time.monotonic()
+    while not (csv.exists() and len(csv.read_text().splitlines()) > 1):
+        assert time.monotonic() - t0 < 120, "no run finished in 120 s"
+        assert child.poll() is None, child.communicate()
+        time.sleep(0.02)
+    child.send_signal(signal.SIGINT)
+    t1 = time.monotonic()
+    stdout, stderr = child.communicate(timeout=120)
+    waited = time.monotonic() - t1
+    print(f"stopped {waited:.2f} s after SIGINT; stderr: {stderr.strip()}")
+    assert stdout.strip() == "interrupted", (stdout, stderr)
+    assert "the same call resumes" in stderr, stderr
+    kept = {line.split(",")[0] for line in csv.read_text().splitlines()[1:]}
+    assert 1 <= len(kept) < 8, kept
+    # One run takes well under 10 s here; the whole plan several times that.
+    assert waited < 10, waited
+    df, _ = shscale.run(str(cfg), out_dir=str(out))
+    assert df["run_id"].nunique() == 8

@@ -70,6 +70,76 @@ pub fn gpu_form(scene: &Scene, method: Method) -> Result<Option<GpuForm>, Error>
     Ok(Some(form))
 }
 
+impl GpuForm {
+    /// The method keys (the vocabulary's names, `method::Spec::reads`) whose values this GPU
+    /// form carries out: every other key its method reads must keep the kind's default on the
+    /// GPU path ([`unhonoured`]), so that no GPU time is recorded for a computation other than
+    /// the CPU's. Values a form takes only in part (a sphere set's combinations, its internal
+    /// order, sub-volumes' part count) are checked by the form's own `check`.
+    pub fn honours(self) -> &'static [&'static str] {
+        match self {
+            Self::Sequence => &[
+                "layout",
+                "hemisphere_res",
+                "alpha_deg",
+                "sampling_radius",
+                "k_count",
+            ],
+            Self::Radial => &[
+                "layout",
+                "hemisphere_res",
+                "alpha_deg",
+                "sampling_radius",
+                "k_count",
+                "radial",
+                "radial_delta",
+            ],
+            Self::SubVolumes => &[
+                "layout",
+                "hemisphere_res",
+                "alpha_deg",
+                "sampling_radius",
+                "k_count",
+                "parts",
+            ],
+            Self::FullField => &[
+                "layout",
+                "hemisphere_res",
+                "shells",
+                "shell_max",
+                "shell_spacing",
+                "field_interp",
+                "sampling_radius",
+            ],
+            Self::SphereSet => &["parts", "sphere_combine", "sphere_order", "sphere_fit"],
+            Self::RayTraced => &["rt_res"],
+        }
+    }
+}
+
+/// The first method key `form` does not carry out whose value is not the kind's default: of
+/// `read` (the keys the run's method reads), `cells` the run's `(key, value)` and `defaults`
+/// the kind's. `None` when the GPU form computes what the CPU does.
+pub fn unhonoured<'a>(
+    form: GpuForm,
+    read: &[&str],
+    cells: &'a [(&'static str, String)],
+    defaults: &'a [(&'static str, String)],
+) -> Option<(&'static str, &'a str, &'a str)> {
+    let default = |k: &str| {
+        defaults
+            .iter()
+            .find(|(d, _)| *d == k)
+            .map(|(_, v)| v.as_str())
+    };
+    (cells.iter())
+        .filter(|(k, _)| read.contains(k) && !form.honours().contains(k))
+        .find_map(|(k, v)| match default(k) {
+            Some(d) if d != v => Some((*k, v.as_str(), d)),
+            _ => None,
+        })
+}
+
 /// `frames` poses of `scene` rendered on the GPU by `form`, every frame handed to `each` as a
 /// [`SequenceFrame`] with its pixels; the last frame's image. [`GpuForm::Sequence`] keeps no
 /// per-frame image: it is [`crate::gpu_path::render_sequence_gpu_with`]'s, and refused here.
@@ -156,4 +226,48 @@ pub fn render_gpu_frames_posed(
         }
     };
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The vocabulary's rule: a key the method reads, that the form does not carry out, at a
+    /// value other than the default, is named; the same key at its default, a key the form
+    /// carries out, and a key the method does not read are not.
+    #[test]
+    fn a_key_the_form_does_not_carry_out_is_named() {
+        let cells = vec![
+            ("plausibility", "clamp".to_string()),
+            ("alpha_deg", "30".to_string()),
+            ("shells", "4".to_string()),
+        ];
+        let defaults = vec![
+            ("plausibility", "none".to_string()),
+            ("alpha_deg", "45".to_string()),
+            ("shells", "16".to_string()),
+        ];
+        let read = ["plausibility", "alpha_deg"];
+        assert_eq!(
+            unhonoured(GpuForm::Sequence, &read, &cells, &defaults),
+            Some(("plausibility", "clamp", "none"))
+        );
+        assert_eq!(
+            unhonoured(GpuForm::Sequence, &read, &defaults, &defaults),
+            None
+        );
+        assert_eq!(
+            unhonoured(GpuForm::Sequence, &["alpha_deg"], &cells, &defaults),
+            None
+        );
+        // `shells` is not read by the extrapolation; the full field carries it out.
+        assert_eq!(
+            unhonoured(GpuForm::FullField, &["shells"], &cells, &defaults),
+            None
+        );
+        assert_eq!(
+            unhonoured(GpuForm::SphereSet, &["shells"], &cells, &defaults),
+            Some(("shells", "4", "16"))
+        );
+    }
 }

@@ -236,8 +236,9 @@ pub struct Keys<'a> {
 pub const MAX_SHELLS: usize = 64;
 
 impl<'a> Keys<'a> {
-    /// Every method key this kind offers with its value as a cell, for the unread-key rule.
-    fn cells(&self) -> Vec<(&'static str, String)> {
+    /// Every method key this kind offers with its value as a cell, for the unread-key rule (and
+    /// the GPU forms' [`crate::gpu_methods::unhonoured`]).
+    pub fn cells(&self) -> Vec<(&'static str, String)> {
         let mut v = vec![
             ("parts", self.parts.to_string()),
             ("layout", self.layout.to_string()),

@@ -506,9 +506,23 @@ impl Kind for BudgetPlane {
         if spec.typed.device == super::plane_timings::DeviceChoice::Gpu {
             let mut s = Scene::clone(&scene);
             spec.typed.method.apply(&mut s);
-            super::plane_timings::gpu_form(&s, spec.typed.method.method(), p.frames)
-                .map(|_| ())
+            let form = super::plane_timings::gpu_form(&s, spec.typed.method.method(), p.frames)
                 .map_err(|why| KeyError::new("device", format!("\"gpu\": {why}")))?;
+            let (cells, defaults) = (p.keys().cells(), Params::default().keys().cells());
+            if let Some((key, value, default)) = shscale_scene::gpu_methods::unhonoured(
+                form,
+                &spec.typed.method.reads(),
+                &cells,
+                &defaults,
+            ) {
+                return Err(KeyError::new(
+                    "device",
+                    format!(
+                        "\"gpu\": the {} GPU form does not implement {key} = {value:?} (it would time another computation than the CPU's): device = \"cpu\", or {key} at its default {default:?}",
+                        form.name()
+                    ),
+                ));
+            }
         }
         spec.typed.scene = Some(scene);
         Ok(spec)
