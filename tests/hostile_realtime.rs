@@ -502,9 +502,9 @@ fn ctrl_c_says_what_was_saved() {
     let out = d.join("o");
     let csv = out.join("probe/s/runs.csv");
     let interrupt = |after_a_row: bool| {
-        let child = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_shscale"))
             .args(["run", &cfg, "--out-dir", out.to_str().unwrap()])
-            .stdout(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .unwrap();
@@ -515,7 +515,14 @@ fn ctrl_c_says_what_was_saved() {
                 std::thread::sleep(std::time::Duration::from_millis(20));
             }
         } else {
-            std::thread::sleep(std::time::Duration::from_millis(300));
+            // The plan's first line comes after the handler is installed (a signal before it
+            // would kill the process unexplained, as any program's would).
+            use std::io::BufRead;
+            let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+            assert!(
+                lines.any(|l| l.is_ok_and(|l| l.contains("run(s) to do"))),
+                "no plan line"
+            );
         }
         // SAFETY: signalling a child of this process by its pid.
         unsafe { libc::kill(child.id() as i32, libc::SIGINT) };

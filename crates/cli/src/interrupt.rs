@@ -11,6 +11,9 @@ static MESSAGE: OnceLock<Vec<u8>> = OnceLock::new();
 static NOTHING_YET: OnceLock<Vec<u8>> = OnceLock::new();
 /// Whether the results file holds finished runs: it held rows at the start, or a run finished.
 static SAVED: AtomicBool = AtomicBool::new(false);
+/// The results file, for the handler to look at: rows reach it before the run's "finished"
+/// event does, so a signal in between finds the flag unset but the file written.
+static CSV: OnceLock<std::ffi::CString> = OnceLock::new();
 
 /// A run finished: its rows are (or within 100 ms will be) in the results file.
 pub fn note_finished() {
@@ -18,9 +21,16 @@ pub fn note_finished() {
 }
 
 /// The handler: write the prepared message and exit with the conventional 128 + signal number.
-/// Only async-signal-safe calls (an atomic load, `write`, `_exit`).
+/// Only async-signal-safe calls (an atomic load, `stat`, `write`, `_exit`).
 extern "C" fn on_signal(sig: libc::c_int) {
-    let m = if SAVED.load(Ordering::Acquire) {
+    let written = CSV.get().is_some_and(|p| {
+        // SAFETY: `stat` is async-signal-safe; `p` is a NUL-terminated static, `st` a local.
+        unsafe {
+            let mut st: libc::stat = std::mem::zeroed();
+            libc::stat(p.as_ptr(), &mut st) == 0 && st.st_size > 0
+        }
+    });
+    let m = if written || SAVED.load(Ordering::Acquire) {
         MESSAGE.get()
     } else {
         NOTHING_YET.get()
@@ -48,6 +58,11 @@ pub fn explain_on_interrupt(csv: &std::path::Path, resume: &str) {
     );
     if MESSAGE.set(text.into_bytes()).is_err() || NOTHING_YET.set(nothing.into_bytes()).is_err() {
         return;
+    }
+    // The file is created by its first commit, header and rows in one write: not empty means
+    // rows. (A path with a NUL byte cannot name a file; the flag alone then decides.)
+    if let Ok(p) = std::ffi::CString::new(csv.as_os_str().as_encoded_bytes()) {
+        let _ = CSV.set(p);
     }
     // Rows of an earlier start are saved whatever happens now.
     if std::fs::metadata(csv).is_ok_and(|m| m.is_file() && m.len() > 0) {
