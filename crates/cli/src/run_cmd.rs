@@ -401,8 +401,7 @@ pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
         stem: None,
         title: None,
     };
-    let files = shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec)
-        .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("Config(", "")))?;
+    let files = shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec)?;
     for f in files {
         println!("wrote {}", f.display());
     }

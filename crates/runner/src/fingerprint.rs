@@ -51,13 +51,25 @@ pub const PRESENTATION_NAMES: &[&str] = &[
 ];
 
 /// Whether a file inside [`NUMERICAL_DIRS`] counts: a source (`.rs`, `.wgsl`) that is not
-/// presentation ([`PRESENTATION_NAMES`], `*_tests.rs`).
+/// presentation — named in [`PRESENTATION_NAMES`], `*_tests.rs` or `*_report.rs` (a kind's
+/// report, verdict and discussion), or inside a folder so named (`verdict/`, `tests/`: a module
+/// split into files keeps its classification).
 pub fn counts(path: &Path) -> bool {
     let name = path
         .file_name()
         .map_or(String::new(), |n| n.to_string_lossy().to_string());
     let source = name.ends_with(".rs") || name.ends_with(".wgsl");
-    source && !PRESENTATION_NAMES.contains(&name.as_str()) && !name.ends_with("_tests.rs")
+    let in_presentation_folder = path.parent().is_some_and(|p| {
+        p.components().any(|c| {
+            let folder = format!("{}.rs", c.as_os_str().to_string_lossy());
+            PRESENTATION_NAMES.contains(&folder.as_str())
+        })
+    });
+    source
+        && !PRESENTATION_NAMES.contains(&name.as_str())
+        && !name.ends_with("_tests.rs")
+        && !name.ends_with("_report.rs")
+        && !in_presentation_folder
 }
 
 /// Every file that counts under `root`, relative to it, sorted (absent ones left out).
@@ -144,6 +156,13 @@ mod tests {
             ("experiments/src/probe/discussion.rs", "words"),
             ("experiments/src/equal_budget/verdict.rs", "verdict"),
             ("experiments/src/equal_budget/surface_tests.rs", "tests"),
+            ("experiments/src/equal_budget/spheres_report.rs", "report"),
+            (
+                "experiments/src/equal_budget/verdict2/prose.rs",
+                "a counted folder",
+            ),
+            ("experiments/src/verdict/prose.rs", "verdict, split"),
+            ("crates/scene/src/method/tests.rs", "tests"),
             ("crates/cli/src/args.rs", "help text"),
             ("crates/runner/src/report.rs", "report"),
             ("crates/runner/src/records.rs", "cells"),
@@ -173,6 +192,9 @@ mod tests {
             "experiments/src/probe/discussion.rs",
             "experiments/src/equal_budget/verdict.rs",
             "experiments/src/equal_budget/surface_tests.rs",
+            "experiments/src/equal_budget/spheres_report.rs",
+            "experiments/src/verdict/prose.rs",
+            "crates/scene/src/method/tests.rs",
         ] {
             std::fs::write(d.join(f), "edited").unwrap();
             assert_eq!(of_tree(&d).unwrap(), base, "{f} changed the fingerprint");
@@ -195,6 +217,7 @@ mod tests {
             "crates/sh/src/lib.rs",
             "crates/gpu/src/sh.wgsl",
             "experiments/src/probe/mod.rs",
+            "experiments/src/equal_budget/verdict2/prose.rs",
             "crates/runner/src/records.rs",
             "Cargo.lock",
         ] {

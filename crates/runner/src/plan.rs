@@ -83,12 +83,6 @@ fn cfg(e: ConfigError) -> Error {
     Error::Config(e.to_string())
 }
 
-/// The kind of a config text (its `experiment` key), without resolving it.
-pub fn kind_of(text: &str) -> Option<String> {
-    let t: toml::Table = toml::from_str(text).ok()?;
-    t.get("experiment")?.as_str().map(String::from)
-}
-
 /// The timing procedure of the config's `timing_warmup` and `timing_repeats`, within their limits.
 fn timing_of(
     ex: &config::Expanded,

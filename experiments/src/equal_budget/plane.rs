@@ -21,12 +21,8 @@
 //! projection and the BVH build, which every method shares — as the median of the timing
 //! procedure's repeats with its order-statistic interval.
 
-use super::plane_images::{figure_runs, flicker, lum, own_err, rmse_where, write_plane_figure};
+use super::plane_images::{flicker, lum, own_err, rmse_where};
 use super::plane_timings::{cached_frame, cpu_frames, gpu_frame};
-use super::verdict::{
-    by_config, config_keys, distinct_pairs, equal_accuracy, plot_name, specs_of, speed_claim,
-    splits_by, variant, verdict_table, write_front, Front, Split,
-};
 use super::NEAR_RHO;
 use crate::figures::flat;
 use serde::{Deserialize, Serialize};
@@ -157,135 +153,15 @@ impl Params {
     }
 
     /// The method, parsed (the unread-key rule against the defaults).
-    fn spec(&self) -> Result<Spec, KeyError> {
+    pub(super) fn spec(&self) -> Result<Spec, KeyError> {
         Spec::parse(&self.keys(), &Params::default().keys(), MAX_RT_RES)
     }
 }
 
-/// The rows as splits (still, or a sequence's frame count) of groups (one per scene) of
-/// configurations.
-fn plane_splits(t: &Results) -> Vec<Split> {
-    let keys = config_keys::<Params>(&PLANE_GROUPING);
-    let place = |scene: &str, frames: &str| {
-        let label = if frames == "1" {
-            "still".to_string()
-        } else {
-            format!("{frames} frames")
-        };
-        (label, plot_name(scene))
-    };
-    splits_by(t, ("scene", "frames"), &keys, &specs(t), &place)
-}
-
-/// The plane's regimes with intervals: (column, words).
-fn plane_regimes() -> Vec<(String, String)> {
-    let bins = (0..=super::surface::SURFACE_EDGES.len()).map(|k| {
-        (
-            format!("rmse_s{k}_vs_full_frequency"),
-            super::surface::bin_words(k),
-        )
-    });
-    [
-        ("rmse_vs_full_frequency", "all, full-frequency truth"),
-        ("rmse_near_vs_full_frequency", "near (ρ ≤ 1.3)"),
-        ("rmse_far_vs_full_frequency", "far"),
-    ]
-    .map(|(c, w)| (c.to_string(), w.to_string()))
-    .into_iter()
-    .chain(bins)
-    .chain(std::iter::once((
-        "rmse_vs_band_limited".to_string(),
-        "all, band-limited truth".to_string(),
-    )))
-    .collect()
-}
-
-/// The receivers in words when the rows hold several placements (`None` with one: no interval).
-fn placements_grid(t: &Results) -> Option<String> {
-    let placements = t.distinct_in(0..t.rows.len(), "placement_seed").len();
-    (placements > 1).then(|| format!(
-        "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder's centre, d = distance to the nearest occluder's surface in its radii (each frame's pose); shade_rmse_rel against full-frequency truth unless said, sequences meaned over their frames; {placements} placements (each its own random rotation of every mesh occluder, truths rendered per placement)",
-        t.cell(0, "receivers"),
-    ))
-}
-
-/// The columns a plane configuration repeats over (or is split by): the scene, its frames, the
-/// placement seed.
-const PLANE_GROUPING: [&str; 3] = ["scene", "frames", "placement_seed"];
-
 /// The largest `rt_res` of a plane (and below the scene's `truth_res`, checked at plan time).
 const MAX_RT_RES: usize = 255;
 
-/// Every row's method, parsed once from its cells.
-fn specs(t: &Results) -> Vec<Option<Spec>> {
-    specs_of::<Params>(t, |p| p.spec().ok())
-}
-
-/// One row per run.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct Row {
-    pub receivers: usize,
-    /// Receivers within 1.3 bounding radii of an occluder's centre.
-    pub near_receivers: usize,
-    pub rays: f64,
-    pub memory_bytes: f64,
-    pub frame_seconds: f64,
-    pub frame_seconds_lo: f64,
-    pub frame_seconds_hi: f64,
-    pub timing_coverage: f64,
-    /// Errors: means over the frames.
-    pub rmse_vs_band_limited: f64,
-    pub rmse_vs_full_frequency: f64,
-    /// The worst frame's `rmse_vs_full_frequency`.
-    pub rmse_vs_full_frequency_max: f64,
-    /// Temporal flicker ([`flicker`]) of the error against full-frequency truth (none for one
-    /// frame).
-    pub flicker: Option<f64>,
-    pub rmse_near_vs_full_frequency: Option<f64>,
-    pub rmse_far_vs_full_frequency: Option<f64>,
-    /// `1 − SSIM` of the luminance against the full-frequency truth's (0 = identical).
-    pub one_minus_ssim: Option<f64>,
-    /// The truths' own errors in the unit of `rmse_vs_*` (as in `shadows`; the worst frame's).
-    pub full_frequency_truth_err: f64,
-    pub band_limited_truth_err: f64,
-    /// The frame through a per-receiver cache (`shscale_scene::cached`: the field re-sampled,
-    /// every receiver shaded from the cache), for the extrapolation and the full field on a
-    /// still scene of one occluder (none elsewhere): the median of the timing procedure's repeats
-    /// and its interval, the cache's one-off build time, and the largest difference of its image
-    /// from the direct render's in the unit of the mean unshadowed irradiance.
-    /// Receivers by distance to the nearest occluder's surface (in that occluder's radii; the
-    /// first frame's), in the bins of `surface::SURFACE_EDGES`, and the error against
-    /// full-frequency truth over each bin's receivers (mean over the frames; each frame bins its
-    /// own pose).
-    pub receivers_s0: usize,
-    pub receivers_s1: usize,
-    pub receivers_s2: usize,
-    pub receivers_s3: usize,
-    pub receivers_s4: usize,
-    pub receivers_s5: usize,
-    pub receivers_s6: usize,
-    pub rmse_s0_vs_full_frequency: Option<f64>,
-    pub rmse_s1_vs_full_frequency: Option<f64>,
-    pub rmse_s2_vs_full_frequency: Option<f64>,
-    pub rmse_s3_vs_full_frequency: Option<f64>,
-    pub rmse_s4_vs_full_frequency: Option<f64>,
-    pub rmse_s5_vs_full_frequency: Option<f64>,
-    pub rmse_s6_vs_full_frequency: Option<f64>,
-    pub cached_frame_seconds: Option<f64>,
-    pub cached_frame_seconds_lo: Option<f64>,
-    pub cached_frame_seconds_hi: Option<f64>,
-    pub cache_seconds: Option<f64>,
-    pub cached_max_diff: Option<f64>,
-    /// The frame on the GPU path (`device` = `gpu` or `auto`; `plane_timings`): the mean frame of
-    /// the sequence, host stages included, its interval, the adapter (or why none timed it), and
-    /// the largest difference of its images from the CPU's in the unit of the mean unshadowed
-    /// irradiance.
-    pub gpu_frame_seconds: Option<f64>,
-    pub gpu_frame_seconds_lo: Option<f64>,
-    pub gpu_frame_seconds_hi: Option<f64>,
-    pub gpu_adapter: String,
-    pub gpu_max_diff: Option<f64>,
-}
+pub use super::plane_rows::Row;
 
 /// The kind.
 pub struct BudgetPlane;
@@ -773,174 +649,18 @@ impl Kind for BudgetPlane {
     }
 
     fn report(dir: &Path, t: &Results) -> Result<Vec<PathBuf>, Error> {
-        let specs = specs(t);
-        let mut files = Vec::new();
-        for (si, (scene, frames)) in distinct_pairs(t, "scene", "frames").iter().enumerate() {
-            let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
-                .collect();
-            let name = Path::new(scene)
-                .file_stem()
-                .map_or(scene.clone(), |s| s.to_string_lossy().into_owned());
-            let title = if frames == "1" {
-                name
-            } else {
-                format!("{name}, {frames} frames")
-            };
-            for (x, stem, x_label, short) in [
-                ("rays", format!("plane_rays_{si}"), "rays per frame", "rays"),
-                (
-                    "frame_seconds",
-                    format!("plane_time_{si}"),
-                    "time per frame (s; bars: interval of the median)",
-                    "time",
-                ),
-            ] {
-                let front = Front {
-                    stem,
-                    title: format!("{title}: error against {short}"),
-                    x,
-                    x_label,
-                    y: "rmse_vs_full_frequency",
-                    y_label: "shade_rmse_rel vs full-frequency truth",
-                };
-                files.extend(write_front(dir, t, &rows, &front, &|r| specs[r])?);
-            }
-            // Against the GPU path's frame where rows were timed there (`device`).
-            let timed = (rows.iter()).find(|&&r| t.num(r, "gpu_frame_seconds").is_finite());
-            if let Some(&r) = timed {
-                let front = Front {
-                    stem: format!("plane_gpu_time_{si}"),
-                    title: format!(
-                        "{title}: error against GPU time ({})",
-                        t.cell(r, "gpu_adapter")
-                    ),
-                    x: "gpu_frame_seconds",
-                    x_label: "GPU path's time per frame (s; the methods with a GPU form)",
-                    y: "rmse_vs_full_frequency",
-                    y_label: "shade_rmse_rel vs full-frequency truth",
-                };
-                files.extend(write_front(dir, t, &rows, &front, &|r| specs[r])?);
-            }
-        }
-        Ok(files)
+        super::plane_report::report(dir, t)
     }
 
     fn figure(dir: &Path, t: &Results, out: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
-        let specs = specs(t);
-        let saved: Vec<usize> = (0..t.rows.len())
-            .filter(|&r| t.cell(r, "save_image") == "true")
-            .collect();
-        let Some(panels) = figure_runs(t, &saved, &|r| specs[r]) else {
-            return Ok(Vec::new());
-        };
-        let read = |name: &str, r: usize| {
-            let path = dir.join(format!("{name}_{}.exr", t.cell(r, "run_id")));
-            shscale_runner::image::read_exr(&path).map_err(Error::from)
-        };
-        let (w, h, truth) = read("plane_truth", panels[0])?;
-        let mut shown = Vec::new();
-        for &r in &panels {
-            let (_, _, px) = read("plane", r)?;
-            let title = format!(
-                "{} ({:.3} at {:.3e} rays)",
-                specs[r].map_or_else(|| t.cell(r, "method").to_string(), |s| variant(&s)),
-                t.num(r, "rmse_vs_full_frequency"),
-                t.num(r, "rays")
-            );
-            shown.push((title, px));
-        }
-        let png = out.join(format!("{stem}.png"));
-        write_plane_figure(&png, (w, h), &truth, &shown)?;
-        Ok(vec![png])
+        super::plane_report::figure(dir, t, out, stem)
     }
 
     fn verdict(t: &Results) -> Result<String, Error> {
-        let splits = plane_splits(t);
-        if splits.is_empty() {
-            return Ok(String::new());
-        }
-        if let Some(grid) = placements_grid(t) {
-            return Ok(super::surface::verdict(t, &splits, &plane_regimes(), &grid));
-        }
-        // One placement: no interval; the single-run table.
-        let grid = format!(
-            "The receiver plane: {} receivers per scene, near = within {NEAR_RHO} bounding radii of an occluder ({} of them in the first scene); shade_rmse_rel against full-frequency truth unless said, sequences meaned over their frames",
-            t.cell(0, "receivers"),
-            t.cell(0, "near_receivers")
-        );
-        Ok(verdict_table(
-            t,
-            &splits,
-            &[
-                ("rmse_vs_full_frequency", "all, full-frequency truth"),
-                ("rmse_near_vs_full_frequency", "near"),
-                ("rmse_far_vs_full_frequency", "far"),
-                ("rmse_vs_band_limited", "all, band-limited truth"),
-            ],
-            &grid,
-            false,
-        ))
+        super::plane_report::verdict(t)
     }
 
     fn discussion(t: &Results) -> Result<String, Error> {
-        let specs = specs(t);
-        let keys = config_keys::<Params>(&PLANE_GROUPING);
-        let mut s = String::new();
-        if let Some(grid) = placements_grid(t) {
-            let tables = super::surface::tables(t, &plane_splits(t), &plane_regimes(), &grid);
-            s.push_str(&tables);
-            s.push('\n');
-        }
-        for (scene, frames) in distinct_pairs(t, "scene", "frames") {
-            let rows: Vec<usize> = (0..t.rows.len())
-                .filter(|&r| t.cell(r, "scene") == scene && t.cell(r, "frames") == frames)
-                .collect();
-            let configs = by_config(t, &rows, &keys, &|r| specs[r]);
-            let r0 = rows[0];
-            let seq = if frames == "1" {
-                String::new()
-            } else {
-                format!(", {frames} frames of its deformers, every method from scratch per frame; errors are means over the frames")
-            };
-            s.push_str(&format!(
-                "**{scene}**{seq} ({} receivers, {} of them within {NEAR_RHO} bounding radii of an occluder; the truths' own errors: full-frequency {:.4}, band-limited {:.4}).\n\n",
-                t.cell(r0, "receivers"),
-                t.cell(r0, "near_receivers"),
-                t.num(r0, "full_frequency_truth_err"),
-                t.num(r0, "band_limited_truth_err"),
-            ));
-            s.push_str(&speed_claim(t, &configs, "rmse_vs_full_frequency"));
-            for (col, regime) in [
-                (
-                    "rmse_vs_full_frequency",
-                    "the plane against full-frequency truth (shade_rmse_rel)",
-                ),
-                (
-                    "rmse_near_vs_full_frequency",
-                    "near receivers, full-frequency truth",
-                ),
-                (
-                    "rmse_far_vs_full_frequency",
-                    "far receivers, full-frequency truth",
-                ),
-                (
-                    "rmse_vs_band_limited",
-                    "the plane against band-limited truth",
-                ),
-                ("one_minus_ssim", "1 − SSIM against full-frequency truth"),
-                (
-                    "rmse_vs_full_frequency_max",
-                    "the worst frame, full-frequency truth",
-                ),
-                ("flicker", "temporal flicker of the error"),
-            ] {
-                if (col == "rmse_vs_full_frequency_max" || col == "flicker") && frames == "1" {
-                    continue;
-                }
-                s.push_str(&equal_accuracy(t, &configs, col, regime));
-            }
-        }
-        Ok(s)
+        super::plane_report::discussion(t)
     }
 }
