@@ -102,15 +102,7 @@ impl GpuForm {
                 "k_count",
                 "parts",
             ],
-            Self::FullField => &[
-                "layout",
-                "hemisphere_res",
-                "shells",
-                "shell_max",
-                "shell_spacing",
-                "field_interp",
-                "sampling_radius",
-            ],
+            Self::FullField => crate::method::FULL_FIELD_KEYS,
             Self::SphereSet => &["parts", "sphere_combine", "sphere_order", "sphere_fit"],
             Self::RayTraced => &["rt_res"],
         }

@@ -466,15 +466,7 @@ impl Spec {
         match self {
             Spec::Extrapolated(e) => ex(e),
             Spec::SubVolumes { ex: e, .. } => [vec!["parts", "part_combine"], ex(e)].concat(),
-            Spec::FullField(_) => vec![
-                "layout",
-                "hemisphere_res",
-                "shells",
-                "shell_max",
-                "shell_spacing",
-                "field_interp",
-                "sampling_radius",
-            ],
+            Spec::FullField(_) => FULL_FIELD_KEYS.to_vec(),
             Spec::RayTraced { .. } => vec!["rt_res"],
             Spec::SphereSet {
                 combine: Combine::Product,
@@ -581,5 +573,16 @@ impl Spec {
     }
 }
 
+
+/// The keys the full field reads (its GPU form carries out every one of them).
+pub(crate) const FULL_FIELD_KEYS: &[&str] = &[
+    "layout",
+    "hemisphere_res",
+    "shells",
+    "shell_max",
+    "shell_spacing",
+    "field_interp",
+    "sampling_radius",
+];
 #[cfg(test)]
 mod tests;

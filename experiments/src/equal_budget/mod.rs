@@ -20,11 +20,13 @@
 mod frames;
 pub mod plane;
 mod plane_images;
+mod plane_params;
 mod plane_report;
 mod plane_rows;
 mod plane_timings;
 mod receivers;
 pub mod spheres;
+mod spheres_params;
 mod spheres_report;
 mod spheres_rows;
 mod surface;

@@ -1,8 +1,8 @@
 //! The `budget_plane` kind's report, figure, verdict and discussion, from its rows: the fronts
 //! per scene and frame count, the verdict table per regime, equal accuracy in words.
 
-use super::plane::Params;
 use super::plane_images::{figure_runs, write_plane_figure};
+use super::plane_params::Params;
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, plot_name, specs_of, speed_claim,
     splits_by, variant, verdict_table, write_front, Front, Split,

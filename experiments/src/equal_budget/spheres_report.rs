@@ -2,7 +2,7 @@
 //! order, the verdict table per regime, the papers' speed claim and equal accuracy in words.
 
 use super::receivers::{continuous_words, CONTINUOUS};
-use super::spheres::Params;
+use super::spheres_params::Params;
 use super::verdict::{
     by_config, config_keys, distinct_pairs, equal_accuracy, params_of, plot_name, specs_of,
     speed_claim, splits_by, verdict_table, write_front, Front, Split,

@@ -2,12 +2,13 @@
 //! receivers, near and far, contact directions and distance-to-surface bins.
 
 use super::frames;
-use super::spheres::Shared;
 use super::surface::{surface_bin, SURFACE_EDGES};
 use super::verdict::mean_ci95_clustered;
 use super::NEAR_RHO;
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shscale_field::metrics::{l2, l2_diff, mean_max, occlusion};
+use shscale_field::truth::Truth;
 
 /// One row per run.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -196,4 +197,24 @@ fn surface_bins(errs: &[Err2], surface: &[f64]) -> Row {
         occ_rel_l2_s6_ci95: b6.1,
         ..Row::default()
     }
+}
+
+/// What runs of a group share: the occluder, the receivers and their truth.
+pub struct Shared {
+    pub(super) occ: Box<dyn shscale_geometry::Occluder>,
+    /// The mesh (none for the analytic sphere), for the sub-volumes' partition.
+    pub(super) mesh: Option<shscale_geometry::Mesh>,
+    /// The receivers (ρ, point): on the grid radius by radius over the same directions, else
+    /// each with its own.
+    pub(super) points: Vec<(f64, DVec3)>,
+    /// Each receiver's direction (its cluster: a grid's radii share one).
+    pub(super) dir_of: Vec<usize>,
+    /// Each receiver's distance to the occluder's surface, in bounding radii.
+    pub(super) surface: Vec<f64>,
+    pub(super) truth: Vec<Option<Truth>>,
+    /// Per receiver: its direction is a contact direction — the bounding sphere's point in that
+    /// direction has its facing hemisphere occluded at least
+    /// [`shscale_field::probe::DEFAULT_CONTACT_OCCLUSION`] (docs/conventions.md §7), measured
+    /// once per group with [`CONTACT_RES`]² rays. Every direction of the analytic sphere is.
+    pub(super) contact: Vec<bool>,
 }
