@@ -69,14 +69,12 @@ pub enum EmitterKind {
     Sphere,
 }
 
+shscale_names::names!(EmitterKind { Hinged = "hinged", Sphere = "sphere" });
+
 impl EmitterKind {
     /// `hinged` or `sphere`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "hinged" => Ok(Self::Hinged),
-            "sphere" => Ok(Self::Sphere),
-            e => Err(format!("{e:?} is not `hinged` or `sphere`")),
-        }
+        Self::from_name(s).ok_or_else(|| format!("{s:?} is not `hinged` or `sphere`"))
     }
 }
 

@@ -331,16 +331,8 @@ fn visibility<'py>(
                 format!("{hemisphere_res} is outside 1..={MAX_VISIBILITY_RES}"),
             ));
         }
-        let frame = match frame {
-            "entity" => Frame::Entity,
-            "local" => Frame::Local,
-            other => {
-                return Err(bad(
-                    "frame",
-                    format!("{other:?} is not \"entity\" or \"local\""),
-                ))
-            }
-        };
+        let frame = Frame::from_name(frame)
+            .ok_or_else(|| bad("frame", format!("{frame:?} is not \"entity\" or \"local\"")))?;
         let pts = rows3("points", &points)?;
         let occ = shscale_scene::vocab::occluder(mesh).map_err(|e| bad("mesh", e))?;
         shscale_scene::vocab::check_query_points(occ.as_ref(), mesh, &pts, frame == Frame::Local)

@@ -63,6 +63,8 @@ pub enum ShellSpacing {
     Exp,
 }
 
+shscale_names::names!(ShellSpacing { Uniform = "uniform", Exp = "exp" });
+
 /// How a [`FullField`] interpolates between the samples of a shell.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FieldInterp {
@@ -76,45 +78,25 @@ pub enum FieldInterp {
     Barycentric,
 }
 
-impl ShellSpacing {
-    /// The name [`ShellSpacing::parse`] reads.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Uniform => "uniform",
-            Self::Exp => "exp",
-        }
-    }
+shscale_names::names!(FieldInterp { Trilinear = "trilinear", Barycentric = "barycentric" });
 
+impl ShellSpacing {
     /// Parse `uniform` or `exp`.
     pub fn parse(s: &str) -> Result<Self, FieldError> {
-        match s {
-            "uniform" => Ok(Self::Uniform),
-            "exp" => Ok(Self::Exp),
-            _ => Err(FieldError::Spec(format!(
-                "shell spacing {s:?}: expected uniform or exp"
-            ))),
-        }
+        Self::from_name(s).ok_or_else(|| {
+            FieldError::Spec(format!("shell spacing {s:?}: expected uniform or exp"))
+        })
     }
 }
 
 impl FieldInterp {
-    /// The name [`FieldInterp::parse`] reads.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Trilinear => "trilinear",
-            Self::Barycentric => "barycentric",
-        }
-    }
-
     /// Parse `trilinear` or `barycentric`.
     pub fn parse(s: &str) -> Result<Self, FieldError> {
-        match s {
-            "trilinear" => Ok(Self::Trilinear),
-            "barycentric" => Ok(Self::Barycentric),
-            _ => Err(FieldError::Spec(format!(
+        Self::from_name(s).ok_or_else(|| {
+            FieldError::Spec(format!(
                 "full-field interpolation {s:?}: expected trilinear or barycentric"
-            ))),
-        }
+            ))
+        })
     }
 }
 

@@ -65,14 +65,12 @@ pub enum Plausibility {
     Clamp,
 }
 
+shscale_names::names!(Plausibility { None = "none", Clamp = "clamp" });
+
 impl Plausibility {
     /// `"none" | "clamp"`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "none" => Ok(Self::None),
-            "clamp" => Ok(Self::Clamp),
-            _ => Err(format!("{s:?} is not one of \"none\", \"clamp\"")),
-        }
+        Self::from_name(s).ok_or_else(|| shscale_names::one_of(s, Self::NAMES))
     }
 }
 

@@ -49,6 +49,8 @@ pub enum Frame {
     Local,
 }
 
+shscale_names::names!(Frame { Entity = "entity", Local = "local" });
+
 /// Visibility sampler of one order and hemisphere resolution.
 #[derive(Clone, Debug)]
 pub struct VisibilitySampler {

@@ -19,20 +19,18 @@ enum Scalar {
     F64,
 }
 
+shscale_names::names!(Scalar {
+    I8 = "char" | "int8",
+    U8 = "uchar" | "uint8",
+    I16 = "short" | "int16",
+    U16 = "ushort" | "uint16",
+    I32 = "int" | "int32",
+    U32 = "uint" | "uint32",
+    F32 = "float" | "float32",
+    F64 = "double" | "float64",
+});
+
 impl Scalar {
-    fn parse(s: &str) -> Option<Self> {
-        Some(match s {
-            "char" | "int8" => Self::I8,
-            "uchar" | "uint8" => Self::U8,
-            "short" | "int16" => Self::I16,
-            "ushort" | "uint16" => Self::U16,
-            "int" | "int32" => Self::I32,
-            "uint" | "uint32" => Self::U32,
-            "float" | "float32" => Self::F32,
-            "double" | "float64" => Self::F64,
-            _ => return None,
-        })
-    }
     fn size(self) -> usize {
         match self {
             Self::I8 | Self::U8 => 1,
@@ -213,15 +211,15 @@ fn parse_header(
 fn parse_property(w: &[&str]) -> Option<Prop> {
     if w.get(1) == Some(&"list") {
         let (c, v, n) = (
-            Scalar::parse(w.get(2)?)?,
-            Scalar::parse(w.get(3)?)?,
+            Scalar::from_name(w.get(2)?)?,
+            Scalar::from_name(w.get(3)?)?,
             w.get(4)?,
         );
         Some(Prop::List(n.to_string(), c, v))
     } else {
         Some(Prop::Scalar(
             w.get(2)?.to_string(),
-            Scalar::parse(w.get(1)?)?,
+            Scalar::from_name(w.get(1)?)?,
         ))
     }
 }

@@ -16,26 +16,12 @@ pub enum GpuMode {
     Required,
 }
 
+shscale_names::names!(GpuMode { Auto = "auto", Off = "off", Required = "required" });
+
 impl GpuMode {
     /// `"auto"`, `"off"` or `"required"`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "auto" => Ok(Self::Auto),
-            "off" => Ok(Self::Off),
-            "required" => Ok(Self::Required),
-            _ => Err(format!(
-                "{s:?} is not one of \"auto\", \"off\", \"required\""
-            )),
-        }
-    }
-
-    /// The config spelling.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Auto => "auto",
-            Self::Off => "off",
-            Self::Required => "required",
-        }
+        Self::from_name(s).ok_or_else(|| shscale_names::one_of(s, Self::NAMES))
     }
 }
 

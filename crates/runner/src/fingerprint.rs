@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// Folders (relative to the workspace root) whose every source file counts, recursively.
 pub const NUMERICAL_DIRS: &[&str] = &[
+    "crates/names/src",
     "crates/sh/src",
     "crates/scaling/src",
     "crates/geometry/src",
@@ -29,6 +30,7 @@ pub const NUMERICAL_DIRS: &[&str] = &[
 pub const NUMERICAL_FILES: &[&str] = &[
     "Cargo.toml",
     "Cargo.lock",
+    "crates/names/Cargo.toml",
     "crates/sh/Cargo.toml",
     "crates/scaling/Cargo.toml",
     "crates/geometry/Cargo.toml",

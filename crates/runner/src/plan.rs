@@ -46,14 +46,12 @@ pub enum StalePolicy {
     Refuse,
 }
 
+shscale_names::names!(StalePolicy { Rerun = "rerun", Refuse = "refuse" });
+
 impl StalePolicy {
     /// `rerun` or `refuse` (the `--stale` flag).
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "rerun" => Ok(Self::Rerun),
-            "refuse" => Ok(Self::Refuse),
-            other => Err(format!("--stale {other:?}: expected rerun or refuse")),
-        }
+        Self::from_name(s).ok_or_else(|| format!("--stale {s:?}: expected rerun or refuse"))
     }
 }
 

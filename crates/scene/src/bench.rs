@@ -54,19 +54,20 @@ pub enum BenchPath {
     GpuDevicePipelined,
 }
 
+shscale_names::names!(BenchPath {
+    Cpu = "cpu",
+    Gpu = "gpu",
+    GpuPipelined = "gpu-pipelined",
+    GpuDevice = "gpu-device",
+    GpuDevicePipelined = "gpu-device-pipelined",
+});
+
 impl BenchPath {
     /// `cpu`, `gpu`, `gpu-pipelined`, `gpu-device` or `gpu-device-pipelined`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "cpu" => Ok(Self::Cpu),
-            "gpu" => Ok(Self::Gpu),
-            "gpu-pipelined" => Ok(Self::GpuPipelined),
-            "gpu-device" => Ok(Self::GpuDevice),
-            "gpu-device-pipelined" => Ok(Self::GpuDevicePipelined),
-            _ => Err(format!(
-                "{s:?} is not cpu, gpu, gpu-pipelined, gpu-device or gpu-device-pipelined"
-            )),
-        }
+        Self::from_name(s).ok_or_else(|| {
+            format!("{s:?} is not cpu, gpu, gpu-pipelined, gpu-device or gpu-device-pipelined")
+        })
     }
 
     /// How a GPU path runs its frames (`None` for the CPU).
@@ -77,16 +78,6 @@ impl BenchPath {
             Self::GpuPipelined => Some(GpuFrames::Pipelined),
             Self::GpuDevice => Some(GpuFrames::DevicePose),
             Self::GpuDevicePipelined => Some(GpuFrames::DeviceInFlight),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Cpu => "cpu",
-            Self::Gpu => "gpu",
-            Self::GpuPipelined => "gpu-pipelined",
-            Self::GpuDevice => "gpu-device",
-            Self::GpuDevicePipelined => "gpu-device-pipelined",
         }
     }
 }

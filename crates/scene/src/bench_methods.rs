@@ -182,7 +182,7 @@ fn parse_combine(
     if method != Method::SphereSet {
         return Err(format!("{text:?}: {name} does not read combine"));
     }
-    crate::combine::Combine::parse(val.trim()).ok_or_else(|| {
+    crate::combine::Combine::from_name(val.trim()).ok_or_else(|| {
         format!(
             "{text:?}: combine={val:?} is not one of {}",
             crate::combine::Combine::NAMES.join(", ")

@@ -21,30 +21,12 @@ pub enum Combine {
     Shexp,
 }
 
-impl Combine {
-    /// The names `sphere_combine` takes.
-    pub const NAMES: [&'static str; 4] = ["product", "quadrature", "union", "shexp"];
-
-    /// The name configs and flags give it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Product => "product",
-            Self::Quadrature => "quadrature",
-            Self::Union => "union",
-            Self::Shexp => "shexp",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "product" => Some(Self::Product),
-            "quadrature" => Some(Self::Quadrature),
-            "union" => Some(Self::Union),
-            "shexp" => Some(Self::Shexp),
-            _ => None,
-        }
-    }
-}
+shscale_names::names!(Combine {
+    Product = "product",
+    Quadrature = "quadrature",
+    Union = "union",
+    Shexp = "shexp",
+});
 
 /// Which spheres a sphere set takes for a mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -60,25 +42,9 @@ pub enum SphereFit {
     Inscribed,
 }
 
+shscale_names::names!(SphereFit { Area = "area", Inscribed = "inscribed" });
+
 impl SphereFit {
-    /// The names `sphere_fit` takes.
-    pub const NAMES: [&'static str; 2] = ["area", "inscribed"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Area => "area",
-            Self::Inscribed => "inscribed",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "area" => Some(Self::Area),
-            "inscribed" => Some(Self::Inscribed),
-            _ => None,
-        }
-    }
-
     /// `parts` spheres for `mesh`: one per part of `labels` (area), or the first `parts` of the
     /// mesh's inscribed balls (fewer where they cover its interior sooner).
     pub fn spheres(

@@ -35,6 +35,15 @@ pub enum Method {
     SphereSet,
 }
 
+shscale_names::names!(Method {
+    Extrapolated = "extrapolated",
+    FullField = "full_field",
+    RayTraced = "ray_traced",
+    FullFrequency = "full_frequency",
+    SubVolumes = "sub_volumes",
+    SphereSet = "sphere_set",
+});
+
 impl Method {
     /// Every method, in the order of the docs.
     pub const ALL: [Method; 6] = [
@@ -60,18 +69,6 @@ impl Method {
         ("raytraced", Method::RayTraced),
         ("raytraced-full", Method::FullFrequency),
     ];
-
-    /// The method's one name (config cell, CSV cell, command line, Python).
-    pub const fn name(self) -> &'static str {
-        match self {
-            Method::Extrapolated => "extrapolated",
-            Method::FullField => "full_field",
-            Method::RayTraced => "ray_traced",
-            Method::FullFrequency => "full_frequency",
-            Method::SubVolumes => "sub_volumes",
-            Method::SphereSet => "sphere_set",
-        }
-    }
 
     /// The method named `s` among `among`, or a message listing them.
     pub fn parse_among(s: &str, among: &[Method]) -> Result<Self, String> {
@@ -270,16 +267,17 @@ impl<'a> Keys<'a> {
 
     fn extrapolation(&self) -> Result<Extrapolation, KeyError> {
         let layout = layout(self.layout)?;
-        let alpha = match self.alpha_mode.unwrap_or("fixed") {
-            "fixed" => {
+        let mode = self.alpha_mode.unwrap_or("fixed");
+        let alpha = match AlphaMode::from_name(mode) {
+            Some(AlphaMode::Fixed) => {
                 KeyError::real("alpha_deg", self.alpha_deg, 0.0, 90.0, Ends::Open)?;
                 Alpha::Fixed(self.alpha_deg)
             }
-            "fit" => Alpha::Fit,
-            s => {
+            Some(AlphaMode::Fit) => Alpha::Fit,
+            None => {
                 return Err(KeyError::new(
                     "alpha_mode",
-                    format!("{s:?} is not one of \"fixed\", \"fit\""),
+                    shscale_names::one_of(mode, AlphaMode::NAMES),
                 ))
             }
         };
@@ -301,22 +299,22 @@ impl<'a> Keys<'a> {
     /// `uniform`, `clearance` (δ ∈ [0, 10]) or `occlusion` (τ ∈ [0, 1), ceiling ∈ [1, 10]),
     /// the last only where the kind offers `radial_tau` and `radial_max`.
     fn radial_rule(&self) -> Result<RadialRule, KeyError> {
-        match (self.radial, self.radial_tau.zip(self.radial_max)) {
-            ("uniform", _) => Ok(RadialRule::Uniform),
-            ("clearance", _) => Ok(RadialRule::Clearance {
+        match (RadialName::from_name(self.radial), self.radial_tau.zip(self.radial_max)) {
+            (Some(RadialName::Uniform), _) => Ok(RadialRule::Uniform),
+            (Some(RadialName::Clearance), _) => Ok(RadialRule::Clearance {
                 delta: KeyError::real("radial_delta", self.radial_delta, 0.0, 10.0, Ends::Closed)?,
             }),
-            ("occlusion", Some((tau, t_max))) => Ok(RadialRule::Occlusion {
+            (Some(RadialName::Occlusion), Some((tau, t_max))) => Ok(RadialRule::Occlusion {
                 tau: KeyError::real("radial_tau", tau, 0.0, 1.0, Ends::ClosedOpen)?,
                 t_max: KeyError::real("radial_max", t_max, 1.0, 10.0, Ends::Closed)?,
             }),
-            ("occlusion", None) => Err(KeyError::new(
+            (Some(RadialName::Occlusion), None) => Err(KeyError::new(
                 "radial",
                 "\"occlusion\" is offered by `budget` only (its search rays are not in the plane's ray count); use \"uniform\" or \"clearance\"",
             )),
-            (s, _) => Err(KeyError::new(
+            (None, _) => Err(KeyError::new(
                 "radial",
-                format!("{s:?} is not one of \"uniform\", \"clearance\", \"occlusion\""),
+                shscale_names::one_of(self.radial, RadialName::NAMES),
             )),
         }
     }
@@ -369,15 +367,16 @@ impl Spec {
             Method::SubVolumes => Spec::SubVolumes {
                 parts: parts()?,
                 ex: k.extrapolation()?,
-                combine: match k.part_combine.unwrap_or("product") {
-                    "product" => Combine::Product,
-                    "shexp" => Combine::Shexp,
-                    s => {
-                        return Err(KeyError::new(
-                            "part_combine",
-                            format!("{s:?} is not one of [\"product\", \"shexp\"]"),
-                        ))
-                    }
+                combine: {
+                    let s = k.part_combine.unwrap_or("product");
+                    Combine::from_name(s)
+                        .filter(|c| matches!(c, Combine::Product | Combine::Shexp))
+                        .ok_or_else(|| {
+                            KeyError::new(
+                                "part_combine",
+                                format!("{s:?} is not one of [\"product\", \"shexp\"]"),
+                            )
+                        })?
                 },
             },
             Method::FullField => Spec::FullField(k.field()?),
@@ -388,7 +387,7 @@ impl Spec {
                 parts: parts()?,
                 combine: {
                     let s = k.sphere_combine.unwrap_or("product");
-                    Combine::parse(s).ok_or_else(|| {
+                    Combine::from_name(s).ok_or_else(|| {
                         KeyError::new(
                             "sphere_combine",
                             format!("{s:?} is not one of {:?}", Combine::NAMES),
@@ -401,7 +400,7 @@ impl Spec {
                 },
                 fit: {
                     let s = k.sphere_fit.unwrap_or("area");
-                    SphereFit::parse(s).ok_or_else(|| {
+                    SphereFit::from_name(s).ok_or_else(|| {
                         KeyError::new(
                             "sphere_fit",
                             format!("{s:?} is not one of {:?}", SphereFit::NAMES),
@@ -573,7 +572,6 @@ impl Spec {
     }
 }
 
-
 /// The keys the full field reads (its GPU form carries out every one of them).
 pub(crate) const FULL_FIELD_KEYS: &[&str] = &[
     "layout",
@@ -584,5 +582,26 @@ pub(crate) const FULL_FIELD_KEYS: &[&str] = &[
     "field_interp",
     "sampling_radius",
 ];
+
+/// The names `alpha_mode` takes (the cone angle given, or fitted by distance).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AlphaMode {
+    Fixed,
+    Fit,
+}
+shscale_names::names!(AlphaMode { Fixed = "fixed", Fit = "fit" });
+
+/// The names `radial` takes ([`RadialRule`]'s variants, whose parameters are other keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RadialName {
+    Uniform,
+    Clearance,
+    Occlusion,
+}
+shscale_names::names!(RadialName {
+    Uniform = "uniform",
+    Clearance = "clearance",
+    Occlusion = "occlusion",
+});
 #[cfg(test)]
 mod tests;

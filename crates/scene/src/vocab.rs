@@ -285,21 +285,12 @@ pub enum Quadrature {
     Gauss,
 }
 
+shscale_names::names!(Quadrature { Stratified = "stratified", Gauss = "gauss" });
+
 impl Quadrature {
     /// `"stratified"` or `"gauss"`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "stratified" => Ok(Self::Stratified),
-            "gauss" => Ok(Self::Gauss),
-            other => Err(format!("{other:?} is not \"stratified\" or \"gauss\"")),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Stratified => "stratified",
-            Self::Gauss => "gauss",
-        }
+        Self::from_name(s).ok_or_else(|| format!("{s:?} is not \"stratified\" or \"gauss\""))
     }
 }
 

@@ -34,20 +34,16 @@ pub enum DeviceChoice {
     Auto,
 }
 
-impl DeviceChoice {
-    /// The names `device` takes.
-    pub const NAMES: [&'static str; 3] = ["cpu", "gpu", "auto"];
+shscale_names::names!(DeviceChoice { Cpu = "cpu", Gpu = "gpu", Auto = "auto" });
 
+impl DeviceChoice {
     pub fn parse(s: &str) -> Result<Self, KeyError> {
-        match s {
-            "cpu" => Ok(Self::Cpu),
-            "gpu" => Ok(Self::Gpu),
-            "auto" => Ok(Self::Auto),
-            other => Err(KeyError::new(
+        Self::from_name(s).ok_or_else(|| {
+            KeyError::new(
                 "device",
-                format!("{other:?}: give one of {}", Self::NAMES.join(", ")),
-            )),
-        }
+                format!("{s:?}: give one of {}", Self::NAMES.join(", ")),
+            )
+        })
     }
 }
 

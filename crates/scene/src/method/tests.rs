@@ -104,7 +104,7 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_order");
     // The fit by name: both names parse, others are refused by key, and another method
     // may not be given one.
-    for name in SphereFit::NAMES {
+    for &name in SphereFit::NAMES {
         let mut k = keys("sphere_set");
         k.sphere_fit = Some(name);
         let Spec::SphereSet { fit, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
@@ -119,13 +119,13 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     k.sphere_fit = Some("inscribed");
     assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_fit");
     // The combinations by name: every sphere_combine name parses, part_combine takes two.
-    for name in Combine::NAMES {
+    for &name in Combine::NAMES {
         let mut k = keys("sphere_set");
         k.sphere_combine = Some(name);
         let Spec::SphereSet { combine, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
             panic!("{name}")
         };
-        assert_eq!(Combine::parse(name), Some(combine));
+        assert_eq!(Combine::from_name(name), Some(combine));
         assert_eq!(combine.name(), name);
     }
     let mut k = keys("sub_volumes");
