@@ -108,7 +108,7 @@ pub struct Row {
 pub struct AlphaFit;
 
 /// The finest α grid step.
-pub const MIN_ALPHA_STEP_DEG: f64 = 0.01;
+pub(crate) const MIN_ALPHA_STEP_DEG: f64 = 0.01;
 
 /// Per probe, in its local frame: the BSV at its direction and the truth.
 struct Local {

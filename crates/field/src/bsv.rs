@@ -16,7 +16,6 @@ use crate::visibility::{Frame, VisibilitySampler};
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_geometry::{Occluder, Sphere};
-use std::f64::consts::PI;
 
 /// Placement of the base-sphere samples.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,7 +74,7 @@ impl Layout {
 
     /// The most base-sphere samples a layout may have (checked by [`Layout::parse`] before any
     /// allocation): 10⁶, about 4000× the TR's 12×20.
-    pub const MAX_SAMPLES: usize = 1_000_000;
+    pub(crate) const MAX_SAMPLES: usize = 1_000_000;
 
     /// The number of samples, without building them (`None` on overflow).
     pub fn sample_count(&self) -> Option<usize> {
@@ -497,14 +496,4 @@ fn bisect_first<V>(
         }
     }
     (b, vb, 2 + steps)
-}
-
-/// Solid angle of the cap subtended by a sphere of radius `r` seen from distance `d > r`:
-/// the half-angle is `asin(r/d)`.
-pub fn subtended_half_angle(r: f64, d: f64) -> f64 {
-    if d <= r {
-        PI / 2.0
-    } else {
-        (r / d).asin()
-    }
 }

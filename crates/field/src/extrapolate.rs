@@ -32,7 +32,7 @@ pub fn scale_to(
 
 /// [`scale_to`] with the [`Plausibility::Clamp`] projection in the local frame (`clamp`: the
 /// projector and the bounding cone's half-angle at `p`).
-pub fn scale_to_with(
+pub(crate) fn scale_to_with(
     rot: &EulerRotator<f64>,
     e: &[f64],
     p: DVec3,
@@ -125,7 +125,7 @@ impl Clamp {
 
 /// Half-angle of the cone the bounding sphere of radius `r` subtends at distance `d` from its
 /// centre (π inside it: every direction can be occluded).
-pub fn bounding_cone(r: f64, d: f64) -> f64 {
+pub(crate) fn bounding_cone(r: f64, d: f64) -> f64 {
     if d > r {
         (r / d).asin()
     } else {

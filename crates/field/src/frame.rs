@@ -15,7 +15,7 @@ pub struct LocalFrame {
 
 impl LocalFrame {
     /// Frame with the given unit z axis.
-    pub fn from_z(z: DVec3) -> Self {
+    pub(crate) fn from_z(z: DVec3) -> Self {
         let sign = 1f64.copysign(z.z);
         let a = -1.0 / (sign + z.z);
         let b = z.x * z.y * a;

@@ -278,7 +278,7 @@ impl<'a> Truths<'a> {
     }
 
     /// Rays per probe (0 for the closed form).
-    pub fn rays_per_probe(&self) -> usize {
+    pub(crate) fn rays_per_probe(&self) -> usize {
         if self.analytic.is_some() {
             0
         } else {

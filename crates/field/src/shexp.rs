@@ -58,7 +58,12 @@ pub fn log_by_quadrature(grid: &QuadratureGrid, v: &[f64], eps: f64, out: &mut [
 
 /// The SH projection (order of `basis`) of the clamped log-visibility of one sphere seen from
 /// `p`: `ln ε` on the cap the sphere subtends, 0 elsewhere; `None` when `p` is inside it.
-pub fn log_sphere(basis: &ShBasis<f64>, s: &Sphere, p: DVec3, ln_eps: f64) -> Option<Vec<f64>> {
+pub(crate) fn log_sphere(
+    basis: &ShBasis<f64>,
+    s: &Sphere,
+    p: DVec3,
+    ln_eps: f64,
+) -> Option<Vec<f64>> {
     let n = basis.order();
     let mut v = vec![0.0; n * n];
     if s.radius <= 0.0 {
@@ -143,7 +148,7 @@ impl<'a> SphereSetLog<'a> {
     }
 
     /// The summed (windowed) log at `p` (order M), or `None` when `p` is inside a sphere.
-    pub fn log_at(&self, p: DVec3) -> Option<Vec<f64>> {
+    pub(crate) fn log_at(&self, p: DVec3) -> Option<Vec<f64>> {
         let mut sum = vec![0.0; self.grid.nn];
         for s in &self.spheres {
             let l = log_sphere(self.basis, s, p, self.ln_eps)?;

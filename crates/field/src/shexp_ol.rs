@@ -378,7 +378,7 @@ impl<'a> SphereSetShexp<'a> {
     }
 
     /// The summed log at `p`, or `None` inside a sphere.
-    pub fn log_at(&self, p: DVec3) -> Option<Vec<f64>> {
+    pub(crate) fn log_at(&self, p: DVec3) -> Option<Vec<f64>> {
         let n = self.table.order();
         let (mut sum, mut rotated) = (vec![0.0; n * n], vec![0.0; n * n]);
         for s in self.spheres.iter().filter(|s| s.radius > 0.0) {

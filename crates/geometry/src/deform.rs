@@ -73,7 +73,7 @@ pub fn twist(rest: &Mesh, out: &mut Mesh, max_turns: f64, t: f64) {
 }
 
 /// [`twist`] about a given half height `h > 0`.
-pub fn twist_about(rest: &Mesh, out: &mut Mesh, max_turns: f64, h: f64, t: f64) {
+pub(crate) fn twist_about(rest: &Mesh, out: &mut Mesh, max_turns: f64, h: f64, t: f64) {
     let a = twist_angle(max_turns, t);
     per_vertex(&rest.positions, &mut out.positions, |p| {
         let (s, c) = (a * p.z / h).sin_cos();
@@ -117,7 +117,7 @@ pub fn flap(rest: &Mesh, out: &mut Mesh, y0: f64, amplitude: f64, t: f64) {
 }
 
 /// The bend's curvature at time `t`: `κ = max_curvature · sin(πt)`.
-pub fn bend_curvature(max_curvature: f64, t: f64) -> f64 {
+pub(crate) fn bend_curvature(max_curvature: f64, t: f64) -> f64 {
     max_curvature * (PI * t).sin()
 }
 
@@ -130,17 +130,17 @@ pub fn twist_height(rest: &Mesh) -> f64 {
 }
 
 /// The twist's angle at `z = h` at time `t`: `max_turns · 2π · sin(πt)`.
-pub fn twist_angle(max_turns: f64, t: f64) -> f64 {
+pub(crate) fn twist_angle(max_turns: f64, t: f64) -> f64 {
     max_turns * 2.0 * PI * (PI * t).sin()
 }
 
 /// The morph's weight of the second pose at time `t`: `(1 − cos 2πt)/2`.
-pub fn morph_weight(t: f64) -> f64 {
+pub(crate) fn morph_weight(t: f64) -> f64 {
     0.5 * (1.0 - (2.0 * PI * t).cos())
 }
 
 /// The flap's amplitude at time `t`: `amplitude · sin(2πt)`.
-pub fn flap_angle(amplitude: f64, t: f64) -> f64 {
+pub(crate) fn flap_angle(amplitude: f64, t: f64) -> f64 {
     amplitude * (2.0 * PI * t).sin()
 }
 

@@ -167,7 +167,7 @@ pub const INSCRIBED_FIT_SECONDS: f64 = 13.0;
 /// study's meshes, whose covers are cheaper than a ball's, and right for a ball.
 pub const INSCRIBED_SECONDS_PER_SOLID_ANGLE: f64 = 1.5e-8;
 /// The fit's seconds that do not grow with the mesh (see [`INSCRIBED_SECONDS_PER_SOLID_ANGLE`]).
-pub const INSCRIBED_COVER_SECONDS: f64 = 4.5;
+pub(crate) const INSCRIBED_COVER_SECONDS: f64 = 4.5;
 
 /// The estimated reference seconds of one fit of `work` solid angles ([`inscribable`]).
 pub fn inscribed_fit_seconds(work: f64) -> f64 {
@@ -183,7 +183,7 @@ pub const MAX_INSCRIBED_WORK: f64 = 2e10;
 /// The signed solid angle of triangle `abc` seen from `p` (Van Oosterom & Strackee 1983): 2
 /// atan2 of `a·(b×c)` over `|a||b||c| + (a·b)|c| + (a·c)|b| + (b·c)|a|`, with `a, b, c` the
 /// corners relative to `p`; in (−2π, 2π), 0 for a point in the triangle's plane outside it.
-pub fn solid_angle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
+pub(crate) fn solid_angle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
     let (a, b, c) = (a - p, b - p, c - p);
     let (la, lb, lc) = (a.length(), b.length(), c.length());
     let num = a.dot(b.cross(c));
@@ -193,7 +193,7 @@ pub fn solid_angle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
 
 /// The generalised winding number of `mesh` at `p`: its triangles' signed solid angles over 4π
 /// (±1 inside a closed, consistently oriented surface, 0 outside; between for open ones).
-pub fn winding_number(mesh: &Mesh, p: DVec3) -> f64 {
+pub(crate) fn winding_number(mesh: &Mesh, p: DVec3) -> f64 {
     (0..mesh.triangles.len())
         .map(|f| solid_angle(p, mesh.corners(f)))
         .sum::<f64>()

@@ -196,7 +196,7 @@ impl Mesh {
     }
 
     /// Area of triangle `f`.
-    pub fn triangle_area(&self, f: usize) -> f64 {
+    pub(crate) fn triangle_area(&self, f: usize) -> f64 {
         let [a, b, c] = self.corners(f);
         0.5 * (b - a).cross(c - a).length()
     }

@@ -583,7 +583,7 @@ impl Occluder for BruteForce {
 }
 
 /// Closest point on triangle `abc` to `p` (Ericson, *Real-Time Collision Detection*, §5.1.5).
-pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+pub(crate) fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {
@@ -616,7 +616,7 @@ pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec
 }
 
 /// Distance from `p` to the nearest triangle (brute force with a bounding-box early-out).
-pub fn mesh_distance(pos: &[DVec3], tris: &[[u32; 3]], p: DVec3) -> f64 {
+pub(crate) fn mesh_distance(pos: &[DVec3], tris: &[[u32; 3]], p: DVec3) -> f64 {
     let mut best = f64::INFINITY;
     for t in tris {
         let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);

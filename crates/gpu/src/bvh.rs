@@ -230,7 +230,8 @@ impl FlatBvh {
 
     /// Any-hit query on the host, through the flattened arrays exactly as the GPU walks them
     /// (the reference for the traversal shader and a check that flattening kept the tree).
-    pub fn occluded_flat(&self, o: [f32; 3], d: [f32; 3], tmin: f32) -> bool {
+    #[cfg(test)]
+    pub(crate) fn occluded_flat(&self, o: [f32; 3], d: [f32; 3], tmin: f32) -> bool {
         let (o, d) = (glam::Vec3::from(o), glam::Vec3::from(d));
         let inv = d.recip();
         let hit_box = |n: &GpuNode| {

@@ -42,7 +42,7 @@ fn describe_info(i: &wgpu::AdapterInfo) -> String {
 /// naming the adapter and both ways on, so `gpu = "auto"` continues on the CPU with that notice
 /// and `gpu = "required"` fails. `described`: the adapter in words; `wgpu_backend`: the
 /// variable's value.
-pub fn check_backend(
+pub(crate) fn check_backend(
     backend: wgpu::Backend,
     described: &str,
     wgpu_backend: Option<&str>,
@@ -136,7 +136,7 @@ impl GpuContext {
     }
 
     /// A storage buffer initialised from `data` (`COPY_DST` too, so it can be rewritten).
-    pub fn storage_init(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
+    pub(crate) fn storage_init(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -191,7 +191,7 @@ impl GpuContext {
     }
 
     /// Copy `buffer` back to the host (blocking).
-    pub fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    pub(crate) fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
         let size = buffer.size();
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
@@ -204,7 +204,7 @@ impl GpuContext {
 
     /// Copy the first `size` bytes of `buffer` into `staging` (a `MAP_READ | COPY_DST` buffer the
     /// caller keeps, so a per-frame readback makes none), wait, and read them back (blocking).
-    pub fn copy_and_map(
+    pub(crate) fn copy_and_map(
         &self,
         buffer: &wgpu::Buffer,
         staging: &wgpu::Buffer,
@@ -221,7 +221,7 @@ impl GpuContext {
     /// Read the first `size` bytes of `staging` (a `MAP_READ` buffer a copy in submission
     /// `index` filled) once that submission has completed — waiting for it alone, not for work
     /// submitted after it — then unmap it.
-    pub fn map_after(
+    pub(crate) fn map_after(
         &self,
         staging: &wgpu::Buffer,
         size: u64,
@@ -299,7 +299,7 @@ impl GpuContext {
 
     /// A bind group for group 0 of `pipeline` with each resource at its binding number (kernels
     /// of one module numbering their bindings across the module).
-    pub fn bind_at(
+    pub(crate) fn bind_at(
         &self,
         pipeline: &wgpu::ComputePipeline,
         resources: &[(u32, wgpu::BindingResource<'_>)],

@@ -27,7 +27,7 @@ const FIT_WGSL: &str = include_str!("fit.wgsl");
 pub const MAX_GPU_FIT_PARTS: usize = MAX_GPU_SPHERES;
 
 /// The fit kernels' source.
-pub fn fit_source() -> String {
+pub(crate) fn fit_source() -> String {
     shader(&[FIT_WGSL])
 }
 
@@ -101,12 +101,12 @@ impl GpuSphereFit {
     }
 
     /// Record the deformation pass.
-    pub fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
         self.deform.record(pass);
     }
 
     /// Record the fit: the parts' moments, then their spheres (one workgroup per part each).
-    pub fn record_fit(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_fit(&self, pass: &mut wgpu::ComputePass<'_>) {
         for (pipe, bind) in self.fit_pipes.iter().zip(&self.fit_binds) {
             pass.set_pipeline(pipe);
             pass.set_bind_group(0, bind, &[]);

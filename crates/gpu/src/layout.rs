@@ -195,7 +195,7 @@ gpu_struct! {
 }
 
 /// Every struct's WGSL declaration, prepended to each shader.
-pub fn wgsl_structs() -> String {
+pub(crate) fn wgsl_structs() -> String {
     [
         GpuNode::WGSL,
         GpuTri::WGSL,
@@ -213,9 +213,9 @@ pub fn wgsl_structs() -> String {
 }
 
 /// Common WGSL (constants, ray–box and ray–triangle tests), included at compile time.
-pub const COMMON_WGSL: &str = include_str!("common.wgsl");
+pub(crate) const COMMON_WGSL: &str = include_str!("common.wgsl");
 /// SH evaluation in WGSL (needs a `knorm` binding in the kernel).
-pub const SH_WGSL: &str = include_str!("sh.wgsl");
+pub(crate) const SH_WGSL: &str = include_str!("sh.wgsl");
 
 /// A complete shader: struct declarations, common code, then `parts` (e.g. SH code and a
 /// kernel).

@@ -429,13 +429,13 @@ impl GpuPoser {
     }
 
     /// Record the deformation pass.
-    pub fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_deform(&self, pass: &mut wgpu::ComputePass<'_>) {
         self.deform.record(pass);
     }
 
     /// Record the refit: the leaves, every level of inner nodes deepest first, and (when the
     /// tree may be rebuilt) the relative area's sum.
-    pub fn record_refit(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_refit(&self, pass: &mut wgpu::ComputePass<'_>) {
         let (x, y) = grid_64(self.deform.pose.leaves);
         pass.set_pipeline(&self.pipelines[0]);
         pass.set_bind_group(0, &self.binds[0], &[]);
@@ -455,7 +455,7 @@ impl GpuPoser {
 
     /// After the frame has completed: read its relative area and decide whether the next frame
     /// builds the tree on the host.
-    pub fn after_frame(&mut self, ctx: &GpuContext) -> Result<(), GpuError> {
+    pub(crate) fn after_frame(&mut self, ctx: &GpuContext) -> Result<(), GpuError> {
         if !self.adaptive {
             return Ok(());
         }
@@ -471,7 +471,7 @@ impl GpuPoser {
 
     /// Frames in flight: record the copy of this frame's relative area into `staging` (16
     /// bytes, `MAP_READ | COPY_DST`), read after the frame by [`Self::after_frame_read`].
-    pub fn record_area_copy(&self, enc: &mut wgpu::CommandEncoder, staging: &wgpu::Buffer) {
+    pub(crate) fn record_area_copy(&self, enc: &mut wgpu::CommandEncoder, staging: &wgpu::Buffer) {
         enc.copy_buffer_to_buffer(&self.bufs.area_out, 0, staging, 0, 16);
     }
 

@@ -39,7 +39,7 @@ pub fn sh_test_source() -> String {
 
 /// `K_l^m` (times √2 for m > 0) at `l·l + l + m`, m ≥ 0, from the factorial formula
 /// `K_l^m = √((2l+1)/(4π) · (l−m)!/(l+m)!)` in f64 (independent of the CPU recurrence tables).
-pub fn knorm_table(order: usize) -> Vec<f32> {
+pub(crate) fn knorm_table(order: usize) -> Vec<f32> {
     let mut k = vec![0f32; order * order];
     for l in 0..order {
         for m in 0..=l {
@@ -169,7 +169,7 @@ impl GpuSampler {
     /// Set up for samples at any `points` (none at `center`), each casting its hemisphere toward
     /// `center` (the fully sampled field's shells: [`Self::move_samples`] moves them per frame);
     /// the rest as [`Self::new`].
-    pub fn at_points(
+    pub(crate) fn at_points(
         ctx: &GpuContext,
         order: usize,
         h: usize,
@@ -257,7 +257,7 @@ impl GpuSampler {
 
     /// [`Self::move_samples`] with each sample `i` casting its facing hemisphere toward
     /// `target(i)` (the other hemisphere taken as unoccluded, in closed form).
-    pub fn move_samples_toward(
+    pub(crate) fn move_samples_toward(
         &self,
         ctx: &GpuContext,
         target: impl Fn(usize) -> DVec3,
@@ -280,7 +280,7 @@ impl GpuSampler {
 
     /// The coefficients' buffer (`samples × N²` f32, entity frame), for kernels that read the
     /// samples where they lie.
-    pub fn coeffs_buffer(&self) -> &wgpu::Buffer {
+    pub(crate) fn coeffs_buffer(&self) -> &wgpu::Buffer {
         &self.coeffs_buf
     }
 
@@ -329,14 +329,14 @@ impl GpuSampler {
     }
 
     /// Set the ray offset alone (the tree written on the device, `crate::pose`).
-    pub fn set_tmin(&mut self, ctx: &GpuContext, tmin: f64) {
+    pub(crate) fn set_tmin(&mut self, ctx: &GpuContext, tmin: f64) {
         self.params.tmin = tmin as f32;
         ctx.queue
             .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
     }
 
     /// Record the ray-casting pass.
-    pub fn record_cast(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_cast(&self, pass: &mut wgpu::ComputePass<'_>) {
         let (x, y) = grid_64(self.params.samples * self.params.rays);
         pass.set_pipeline(&self.cast);
         pass.set_bind_group(0, &self.cast_bind, &[]);
@@ -344,7 +344,7 @@ impl GpuSampler {
     }
 
     /// Record the projection pass.
-    pub fn record_project(&self, pass: &mut wgpu::ComputePass<'_>) {
+    pub(crate) fn record_project(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.project);
         pass.set_bind_group(0, &self.project_bind, &[]);
         pass.dispatch_workgroups(self.params.samples, 1, 1);

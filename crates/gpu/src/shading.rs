@@ -44,7 +44,7 @@ pub struct ReceiverSetup<'a> {
 }
 
 /// Receiver rows of a cache in GPU layout.
-pub fn receiver_rows(cache: &ReceiverCache) -> Vec<GpuReceiver> {
+pub(crate) fn receiver_rows(cache: &ReceiverCache) -> Vec<GpuReceiver> {
     let (idx, w, _, constant) = cache.rows();
     idx.iter()
         .zip(w)
@@ -358,7 +358,7 @@ impl GpuShader {
     /// Build the receiver cache on the GPU (k-table scaling and both rotations per receiver;
     /// see cache.wgsl) and set up shading from it. Returns the shader and the device time of the
     /// setup in seconds (timestamps where available, else the synchronised wall clock).
-    pub fn build_on_gpu(
+    pub(crate) fn build_on_gpu(
         ctx: &GpuContext,
         setup: &ReceiverSetup<'_>,
         params_buf: &wgpu::Buffer,

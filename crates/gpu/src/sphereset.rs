@@ -37,7 +37,7 @@ pub fn source() -> String {
 }
 
 /// The SH-exponentiation kernel's source (it reuses the sphere-set kernel's bindings).
-pub fn shexp_source() -> String {
+pub(crate) fn shexp_source() -> String {
     shader(&[SH_WGSL, SPHERESET_WGSL, PRODUCT_WGSL, SHEXP_WGSL])
 }
 

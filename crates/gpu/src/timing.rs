@@ -48,7 +48,7 @@ impl StageTimer {
     }
 
     /// Whether stages are timed by timestamps (else by the wall clock).
-    pub fn uses_timestamps(&self) -> bool {
+    pub(crate) fn uses_timestamps(&self) -> bool {
         self.queries.is_some()
     }
 
@@ -166,7 +166,7 @@ impl StageTimer {
 
 /// Workgroup counts `(x, y)` covering `n` invocations of a 64-wide workgroup within the 65 535
 /// per-dimension limit; kernels index `(wg.y · nwg.x + wg.x) · 64 + local`.
-pub fn grid_64(n: u32) -> (u32, u32) {
+pub(crate) fn grid_64(n: u32) -> (u32, u32) {
     let groups = n.div_ceil(64).max(1);
     let x = groups.min(65_535);
     (x, groups.div_ceil(x))

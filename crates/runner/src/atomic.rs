@@ -45,7 +45,7 @@ fn injected(step: Step, path: &Path) -> Result<(), Error> {
 
 /// This machine's host name as it goes into a file name (letters, digits, `-`, `.`; at most 32
 /// characters; `host` when it cannot be read).
-pub fn host_tag() -> &'static str {
+pub(crate) fn host_tag() -> &'static str {
     static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     HOST.get_or_init(|| {
         let raw = std::fs::read_to_string("/proc/sys/kernel/hostname")
@@ -77,7 +77,7 @@ pub(crate) fn sanitize_host(raw: &str) -> String {
 /// A random token drawn once per process (8 hex digits, from the standard library's randomly
 /// keyed hasher, the clock and the pid): a pid reused on another node, or by a later process,
 /// gets another token.
-pub fn process_token() -> &'static str {
+pub(crate) fn process_token() -> &'static str {
     static TOKEN: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     TOKEN.get_or_init(|| {
         use std::hash::{BuildHasher, Hasher};
@@ -92,7 +92,7 @@ pub fn process_token() -> &'static str {
 }
 
 /// The unique part of this process's temporary names: `<host>-<pid>-<token>`.
-pub fn unique_tag() -> String {
+pub(crate) fn unique_tag() -> String {
     unique_tag_of(host_tag(), std::process::id(), process_token())
 }
 
@@ -112,7 +112,7 @@ pub fn tmp_path(path: &Path) -> PathBuf {
 
 /// `fsync` of the directory holding `path` (its entry, after a rename or a create, reaches the
 /// disk). Filesystems that cannot sync a directory (`EINVAL`) are taken as done.
-pub fn sync_parent(path: &Path) -> Result<(), Error> {
+pub(crate) fn sync_parent(path: &Path) -> Result<(), Error> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -121,7 +121,7 @@ pub fn sync_parent(path: &Path) -> Result<(), Error> {
 }
 
 /// `fsync` of a directory; `EINVAL` (a filesystem without directory sync) is taken as done.
-pub fn sync_dir(dir: &Path) -> Result<(), Error> {
+pub(crate) fn sync_dir(dir: &Path) -> Result<(), Error> {
     let f = std::fs::File::open(dir).map_err(|e| Error::io(dir, e))?;
     match f.sync_all() {
         Err(e) if e.raw_os_error() == Some(22) => Ok(()),
@@ -130,7 +130,7 @@ pub fn sync_dir(dir: &Path) -> Result<(), Error> {
 }
 
 /// `fsync` of a file already written (a temporary an encoder wrote by path).
-pub fn sync_file(path: &Path) -> Result<(), Error> {
+pub(crate) fn sync_file(path: &Path) -> Result<(), Error> {
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     f.sync_all().map_err(|e| Error::io(path, e))
 }
@@ -385,7 +385,7 @@ fn maker_on_this_host(name: &str) -> Option<u32> {
 /// was killed (`kill -9` during a merge or a report): made by a pid other than this process's
 /// that no longer runs (`/proc/<pid>` absent). Those of other hosts sharing the folder, of live
 /// processes and of this process are left alone. Returns what was removed, with its pid.
-pub fn clean_dead_staging(dir: &Path) -> Vec<(PathBuf, u32)> {
+pub(crate) fn clean_dead_staging(dir: &Path) -> Vec<(PathBuf, u32)> {
     let proc_fs = Path::new("/proc/self").exists();
     let Ok(entries) = std::fs::read_dir(dir) else {
         return Vec::new();

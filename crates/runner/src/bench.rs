@@ -305,7 +305,7 @@ pub fn merge_shards(dir: &Path, shards: usize) -> Result<MergeCost, Error> {
 }
 
 /// The peak resident memory of this process (`VmHWM`, Linux), 0 where unknown.
-pub fn peak_rss() -> u64 {
+pub(crate) fn peak_rss() -> u64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {

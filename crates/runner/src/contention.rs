@@ -187,7 +187,7 @@ pub fn between(a: &Sample, b: &Sample, cpus: f64, load_1m: f64) -> Reading {
 }
 
 /// Round to two decimals (the cells are readings, not measurements to 17 digits).
-pub fn round2(x: f64) -> f64 {
+pub(crate) fn round2(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 

@@ -50,7 +50,7 @@ pub fn significant(x: f64, digits: usize) -> String {
 /// The caption size of a figure `width` pixels wide: 22, or smaller (to 14) where the title
 /// would not fit (DejaVu Sans averages about 0.55 em a character); always even (see
 /// [`TEXT_SIZES`]).
-pub fn caption_size(title: &str, width: u32) -> u32 {
+pub(crate) fn caption_size(title: &str, width: u32) -> u32 {
     let chars = title.chars().count().max(1) as f64;
     let fits = (f64::from(width.saturating_sub(24)) / (0.55 * chars)).floor() as u32;
     (fits.min(22) & !1).max(14)

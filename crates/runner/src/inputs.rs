@@ -39,7 +39,8 @@ static EMBEDDED: Mutex<Option<HashMap<(usize, usize), String>>> = Mutex::new(Non
 
 /// How many times this process read a file (or embedded data) to hash it: the cache's misses
 /// (`shscale bench runner` reports them).
-pub static HASHED_READS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub(crate) static HASHED_READS: std::sync::atomic::AtomicUsize =
+    std::sync::atomic::AtomicUsize::new(0);
 
 fn hex(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex()[..32].to_string()
@@ -47,7 +48,7 @@ fn hex(bytes: &[u8]) -> String {
 
 /// The content hash of the regular file at `path`, from the cache while its size and
 /// modification time are unchanged. An error names the file (absent, not a regular file).
-pub fn hash_file(path: &Path) -> Result<String, Error> {
+pub(crate) fn hash_file(path: &Path) -> Result<String, Error> {
     if !crate::input::regular_file(path)? {
         return Err(Error::io(path, "no such file"));
     }
@@ -68,7 +69,7 @@ pub fn hash_file(path: &Path) -> Result<String, Error> {
 }
 
 /// The content hash of embedded data, once per process.
-pub fn hash_embedded(bytes: &'static [u8]) -> String {
+pub(crate) fn hash_embedded(bytes: &'static [u8]) -> String {
     let key = (bytes.as_ptr() as usize, bytes.len());
     let mut c = EMBEDDED.lock().unwrap_or_else(|e| e.into_inner());
     let c = c.get_or_insert_with(HashMap::new);
@@ -83,7 +84,7 @@ pub fn hash_embedded(bytes: &'static [u8]) -> String {
 
 /// Every input hashed, sorted by label and deduplicated; an error is `(key, message)`, the
 /// parameter naming the file that could not be read.
-pub fn hash_all(inputs: &[Input]) -> Result<Vec<Hashed>, (String, String)> {
+pub(crate) fn hash_all(inputs: &[Input]) -> Result<Vec<Hashed>, (String, String)> {
     let mut out = Vec::with_capacity(inputs.len());
     for i in inputs {
         out.push(match i {

@@ -66,7 +66,7 @@ pub const BUILD_REVISION: &str = env!("SHSCALE_GIT_REVISION");
 /// calendar; days to a civil date by the era algorithm of H. Hinnant, "chrono-compatible
 /// low-level date algorithms"). Domain: every u64 second up to year 9999; later ones are
 /// written with more year digits.
-pub fn iso8601_utc(unix: u64) -> String {
+pub(crate) fn iso8601_utc(unix: u64) -> String {
     let (days, secs) = (unix / 86_400, unix % 86_400);
     let z = days as i64 + 719_468;
     let era = z.div_euclid(146_097);

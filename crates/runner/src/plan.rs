@@ -60,7 +60,7 @@ impl StalePolicy {
 pub const INTERIM_REPORT: std::time::Duration = std::time::Duration::from_secs(30);
 
 /// `name`: letters, digits, `.`, `_`, `-`; not empty, not `.` or `..`.
-pub fn check_name(name: &str) -> Result<(), String> {
+pub(crate) fn check_name(name: &str) -> Result<(), String> {
     if name.is_empty() || name == "." || name == ".." || name.len() > 128 {
         return Err(format!(
             "{name:?} must be 1 to 128 characters and not . or .."

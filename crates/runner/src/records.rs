@@ -92,7 +92,7 @@ pub fn canonical<T: Serialize>(p: &T) -> Result<String, String> {
 }
 
 /// [`canonical`] of parameters already in cells.
-pub fn canonical_of(headers: &[String], cells: &[String]) -> String {
+pub(crate) fn canonical_of(headers: &[String], cells: &[String]) -> String {
     let mut s = String::new();
     for (i, (k, v)) in headers.iter().zip(cells).enumerate() {
         if i > 0 {
@@ -324,7 +324,7 @@ pub fn cmp_cells(a: &str, b: &str) -> std::cmp::Ordering {
 pub type CsvLine = (u64, Vec<String>);
 
 /// The header of a CSV file alone.
-pub fn read_raw_header(path: &Path) -> Result<Vec<String>, Error> {
+pub(crate) fn read_raw_header(path: &Path) -> Result<Vec<String>, Error> {
     let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)

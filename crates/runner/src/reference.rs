@@ -7,7 +7,7 @@
 use crate::kind::DynKind;
 
 /// The runner's own keys of an experiment config.
-pub const RUNNER_KEYS: &[KeyRow] = &[
+pub(crate) const RUNNER_KEYS: &[KeyRow] = &[
     ("experiment", "string", "(required)", "the kind: one of the kinds below"),
     ("name", "string", "the config file's stem", "results go to `<out-dir>/<experiment>/<name>/`; letters, digits, `.`, `_`, `-`, 1–128 characters"),
     ("title", "string", "—", "the heading of `summary.md` / `report.html` and of a figure's section in `paper-figs/README.md`"),

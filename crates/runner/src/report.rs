@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The caption of a plot: the title plotters drew first in its SVG (its first `<text>`).
-pub fn svg_title(svg: &str) -> Option<String> {
+pub(crate) fn svg_title(svg: &str) -> Option<String> {
     let start = svg.find("<text")?;
     let open = start + svg[start..].find('>')? + 1;
     let close = open + svg[open..].find("</text>")?;
@@ -328,7 +328,7 @@ pub fn commit_report(staging: crate::atomic::Staging, staged: Report) -> Result<
 
 /// The file in a results directory listing what its last report wrote (hidden), so the next
 /// report removes what it no longer writes.
-pub const REPORT_FILES: &str = ".report-files";
+pub(crate) const REPORT_FILES: &str = ".report-files";
 
 /// [`report`] of the rows and manifest in `dir`, written into `staging` (named after the
 /// staging's target, not the staging folder); nothing moves until [`commit_report`].
@@ -464,7 +464,7 @@ fn every_run(kind: &dyn DynKind, t: &Results, varying: &[String]) -> String {
 
 /// The heading of the per-run section of a summary; `report.html` shows what follows it
 /// collapsed, after the figures.
-pub const EVERY_RUN: &str = "## Every run";
+pub(crate) const EVERY_RUN: &str = "## Every run";
 
 /// `## Best per <key>`: for each value of the row key, the row with the lowest `metric` and the
 /// varying parameters that gave it (empty when the table lacks either column).
@@ -530,7 +530,7 @@ pub const MAX_VERDICT_LINES: usize = 20;
 /// The most bytes of a kind's discussion the summary (and so `report.html`) holds: a longer
 /// one — a sentence per run at 10⁵ runs is megabytes — is cut at a line and written whole to
 /// `discussion.md`.
-pub const MAX_DISCUSSION_BYTES: usize = 32 * 1024;
+pub(crate) const MAX_DISCUSSION_BYTES: usize = 32 * 1024;
 
 /// The first lines of `text` within `max` bytes (at least one line), and how many were left out.
 /// The cut is at a line end, never inside a character: `max` is first moved down to a character

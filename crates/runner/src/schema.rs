@@ -28,7 +28,7 @@ const PROVENANCE: &[(&str, &str, &str)] = &[
 /// The unit of a column, from the naming conventions of docs/conventions.md (`_ms`, `_s`,
 /// `_seconds`, `_deg`, `_bytes`, `fps`, `rays`): empty when the column is a ratio or a count
 /// without a unit.
-pub fn unit_of(name: &str) -> &'static str {
+pub(crate) fn unit_of(name: &str) -> &'static str {
     let n = name;
     if n.ends_with("_ms") || n.contains("_ms_") {
         "ms"
@@ -48,7 +48,7 @@ pub fn unit_of(name: &str) -> &'static str {
 }
 
 /// The schema of a kind's `runs.csv`, as JSON.
-pub fn schema_json(kind: &dyn DynKind) -> String {
+pub(crate) fn schema_json(kind: &dyn DynKind) -> String {
     let types: std::collections::HashMap<String, String> = (kind.column_types().into_iter())
         .chain(records::column_types::<RowProvenance>().unwrap_or_default())
         .collect();

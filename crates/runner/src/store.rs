@@ -14,7 +14,7 @@ pub struct DirLock(std::fs::File);
 
 impl DirLock {
     /// Take `dir/.lock`, waiting for another process (`waiting` is called once if it must wait).
-    pub fn acquire(dir: &Path, waiting: &dyn Fn(&Path)) -> Result<Self, Error> {
+    pub(crate) fn acquire(dir: &Path, waiting: &dyn Fn(&Path)) -> Result<Self, Error> {
         let p = dir.join(".lock");
         let f = std::fs::OpenOptions::new()
             .create(true)
@@ -246,7 +246,7 @@ pub(crate) fn keep_rejected(
 
 /// The header of a file of set-aside rows: the line the row had, why it was set aside, then the
 /// row's own cells (as many as it had; under the results file's header when it had as many).
-pub const SET_ASIDE_HEAD: [&str; 2] = ["set_aside_line", "set_aside_reason"];
+pub(crate) const SET_ASIDE_HEAD: [&str; 2] = ["set_aside_line", "set_aside_reason"];
 
 /// Append rows set aside from `csv` to `<csv>.<suffix>` (`rejected`: invalid rows; `stale`: rows
 /// of other numerical code or input content) as valid CSV written by the `csv` crate — each

@@ -27,7 +27,7 @@ impl Default for Procedure {
 }
 
 /// The most repeats (and warm-up calls) a config may ask for.
-pub const MAX_REPEATS: usize = 100;
+pub(crate) const MAX_REPEATS: usize = 100;
 
 /// A measured time.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -228,7 +228,7 @@ pub fn calibration_warning() -> Option<String> {
 }
 
 /// [`calibration_warning`] of a reading on `n` CPUs.
-pub fn calibration_warning_of(r: &crate::contention::Reading, n: f64) -> Option<String> {
+pub(crate) fn calibration_warning_of(r: &crate::contention::Reading, n: f64) -> Option<String> {
     if !r.contended {
         return None;
     }
@@ -260,7 +260,7 @@ pub const BOOKKEEPING_SECONDS_PER_RUN: f64 = 6e-5;
 /// `shscale bench estimates` on the morning's development VM of 2026-12-04, 0.0074 s on the
 /// evening's — 0.013 s in the morning VM's seconds after calibration; set between the two).
 /// Part of the bookkeeping of every estimate.
-pub const PLAN_OVERHEAD_SECONDS: f64 = 0.02;
+pub(crate) const PLAN_OVERHEAD_SECONDS: f64 = 0.02;
 
 /// The most rays a plan may trace without `--allow-large`.
 pub const MAX_PLAN_RAYS: f64 = 1e10;

@@ -253,19 +253,6 @@ impl<T: Real> ScalingMatrix<T> {
         Ok(Self { order, values })
     }
 
-    /// Build from packed distinct values (block `m = 0, 1, …`, each row-major).
-    pub fn from_values(order: usize, values: Vec<T>) -> Result<Self, ScalingError> {
-        check_order(order)?;
-        if values.len() != distinct_count(order) {
-            return Err(ScalingError::Domain {
-                name: "packed value count",
-                value: values.len() as f64,
-                domain: "must equal N(N+1)(2N+1)/6",
-            });
-        }
-        Ok(Self { order, values })
-    }
-
     /// The order `N`.
     pub fn order(&self) -> usize {
         self.order

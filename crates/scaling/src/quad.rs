@@ -57,7 +57,7 @@ impl Ord for Panel {
 /// The numerical kernel of every scaling-matrix element (N⁴ calls for a matrix of order N), kept
 /// in one function of ~105 lines: the panel rule and the refinement loop share four scratch
 /// vectors and the evaluation count through closures, so no allocation happens per panel.
-pub fn integrate_vec(
+pub(crate) fn integrate_vec(
     f: &mut dyn FnMut(f64, &mut [f64]),
     dim: usize,
     breaks: &[f64],

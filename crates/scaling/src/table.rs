@@ -107,7 +107,7 @@ pub struct KTable {
 
 /// The K sample values for a spacing (validated: K ≥ 2, finite `k_min < k_max`, `k_min > 0` for
 /// exponential spacing).
-pub fn sample_ks(
+pub(crate) fn sample_ks(
     k_count: usize,
     k_min: f64,
     k_max: f64,

@@ -105,7 +105,7 @@ impl Cone {
 }
 
 /// Check a cone scale: finite and `> 0`.
-pub fn check_cone_k(k: f64) -> Result<(), ScalingError> {
+pub(crate) fn check_cone_k(k: f64) -> Result<(), ScalingError> {
     if k.is_finite() && k > 0.0 {
         Ok(())
     } else {
@@ -118,7 +118,7 @@ pub fn check_cone_k(k: f64) -> Result<(), ScalingError> {
 }
 
 /// Check a cone half-angle: `α ∈ (0, π/2)`.
-pub fn check_alpha(alpha: f64) -> Result<(), ScalingError> {
+pub(crate) fn check_alpha(alpha: f64) -> Result<(), ScalingError> {
     if alpha.is_finite() && alpha > 0.0 && alpha < 0.5 * PI {
         Ok(())
     } else {
@@ -187,7 +187,7 @@ impl MidRange {
 }
 
 /// Check a mid-range ratio: `−1 < k < 1`.
-pub fn check_midrange_k(k: f64) -> Result<(), ScalingError> {
+pub(crate) fn check_midrange_k(k: f64) -> Result<(), ScalingError> {
     if k.is_finite() && k > -1.0 && k < 1.0 {
         Ok(())
     } else {

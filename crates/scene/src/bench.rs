@@ -21,7 +21,7 @@ use shscale_gpu::GpuContext;
 use std::path::Path;
 
 /// The bench scenes, embedded (the files in `configs/bench/` are the same text).
-pub const SCENES: &[(&str, &str)] = &[
+pub(crate) const SCENES: &[(&str, &str)] = &[
     ("bird", include_str!("../../../configs/bench/bird.toml")),
     ("egg", include_str!("../../../configs/bench/egg.toml")),
     ("sponge", include_str!("../../../configs/bench/sponge.toml")),

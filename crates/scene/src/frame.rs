@@ -198,7 +198,7 @@ pub struct LightSource {
 }
 
 /// Build the scene's local lights, emitting toward −z from their centres.
-pub fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, Error> {
+pub(crate) fn build_emitters(scene: &Scene) -> Result<Vec<LightSource>, Error> {
     let mut out = Vec::new();
     for l in &scene.light_sources {
         let (mut mesh, rgb) = if l.hinge {
@@ -290,7 +290,7 @@ pub fn pose_mesh(rest: &Mesh, kind: deform::DeformerKind, amount: f64, t: f64, o
 /// The minimal sphere enclosing every pose `t = f/frames` of a sequence (the rest pose alone
 /// without a deformer): a sampling sphere fixed for the whole sequence keeps per-receiver caches
 /// valid.
-pub fn sequence_sphere(
+pub(crate) fn sequence_sphere(
     rest: &Mesh,
     deformer: Option<(deform::DeformerKind, f64)>,
     frames: usize,

@@ -34,7 +34,7 @@ pub struct GpuFieldFrame {
 impl GpuFieldFrame {
     /// As a [`crate::sequence::SequenceFrame`] (the stages above by name), the form every
     /// sequence's frames are printed and benchmarked in.
-    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+    pub(crate) fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
         crate::sequence::SequenceFrame::of_stages(
             self.frame,
             self.t,

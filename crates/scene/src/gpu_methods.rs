@@ -76,7 +76,7 @@ impl GpuForm {
     /// GPU path ([`unhonoured`]), so that no GPU time is recorded for a computation other than
     /// the CPU's. Values a form takes only in part (a sphere set's combinations, its internal
     /// order, sub-volumes' part count) are checked by the form's own `check`.
-    pub fn honours(self) -> &'static [&'static str] {
+    pub(crate) fn honours(self) -> &'static [&'static str] {
         match self {
             Self::Sequence => &[
                 "layout",

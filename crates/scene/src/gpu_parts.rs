@@ -40,7 +40,7 @@ pub struct GpuPartsFrame {
 
 impl GpuPartsFrame {
     /// As a [`crate::sequence::SequenceFrame`] (the stages above by name).
-    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+    pub(crate) fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
         crate::sequence::SequenceFrame::of_stages(
             self.frame,
             self.t,

@@ -41,7 +41,7 @@ pub struct GpuRadialFrame {
 
 impl GpuRadialFrame {
     /// As a [`crate::sequence::SequenceFrame`] (the stages above by name).
-    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+    pub(crate) fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
         crate::sequence::SequenceFrame::of_stages(
             self.frame,
             self.t,

@@ -48,7 +48,7 @@ impl GpuSetFrame {
     /// As a [`crate::sequence::SequenceFrame`] (stages `deform`, `sphere_fit`, `upload`,
     /// `shading`; the read-back is not a stage), the form every sequence's frames are printed
     /// and benchmarked in.
-    pub fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
+    pub(crate) fn as_sequence_frame(&self) -> crate::sequence::SequenceFrame {
         crate::sequence::SequenceFrame::of_stages(
             self.frame,
             self.t,

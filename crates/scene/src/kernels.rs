@@ -54,7 +54,7 @@ pub struct Timing {
 }
 
 /// Run `f` by the protocol; the median of the timed calls.
-pub fn time_reps(p: Protocol, mut f: impl FnMut()) -> Timing {
+pub(crate) fn time_reps(p: Protocol, mut f: impl FnMut()) -> Timing {
     for _ in 0..p.warmup {
         f();
     }
@@ -257,7 +257,10 @@ impl RaySet {
 }
 
 /// Run `f` on a pool of `threads` threads.
-pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, Error> {
+pub(crate) fn with_threads<R: Send>(
+    threads: usize,
+    f: impl FnOnce() -> R + Send,
+) -> Result<R, Error> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

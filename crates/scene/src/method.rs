@@ -56,7 +56,7 @@ impl Method {
     ];
     /// The methods a budget study compares (full-frequency truth is its reference, not a
     /// method under a budget).
-    pub const BUDGETED: [Method; 5] = [
+    pub(crate) const BUDGETED: [Method; 5] = [
         Method::Extrapolated,
         Method::FullField,
         Method::RayTraced,
@@ -71,7 +71,7 @@ impl Method {
     ];
 
     /// The method named `s` among `among`, or a message listing them.
-    pub fn parse_among(s: &str, among: &[Method]) -> Result<Self, String> {
+    pub(crate) fn parse_among(s: &str, among: &[Method]) -> Result<Self, String> {
         among
             .iter()
             .copied()
@@ -196,7 +196,7 @@ pub enum Spec {
 
 /// The highest internal order of a sphere set's products (a product at M = 16 does about
 /// 1,150× the work of one at 4: docs/math.md, "Combining many spheres").
-pub const MAX_SPHERE_ORDER: usize = 16;
+pub(crate) const MAX_SPHERE_ORDER: usize = 16;
 
 /// The raw method keys of a kind's parameters (each kind fills the ones it has; a key it does
 /// not offer is `None`, and the method uses the fixed value the kind documents).
@@ -230,7 +230,7 @@ pub struct Keys<'a> {
 }
 
 /// The most shells of a full field.
-pub const MAX_SHELLS: usize = 64;
+pub(crate) const MAX_SHELLS: usize = 64;
 
 impl<'a> Keys<'a> {
     /// Every method key this kind offers with its value as a cell, for the unread-key rule (and

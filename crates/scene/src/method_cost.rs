@@ -10,20 +10,20 @@ use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
 /// The cost model's time per receiver of [`Combine::Union`] on the 2-core development VM
 /// (both threads): a fixed part (the frame, the rotation back) and a part per sphere, from
 /// one thread's 2.1 / 3.1 / 5.6 / 8.4 µs at S = 2 / 8 / 32 / 64, N = 4, 32 rings.
-pub const UNION_SECONDS: f64 = 0.9e-6;
-pub const UNION_SPHERE_SECONDS: f64 = 0.05e-6;
+pub(crate) const UNION_SECONDS: f64 = 0.9e-6;
+pub(crate) const UNION_SPHERE_SECONDS: f64 = 0.05e-6;
 
 /// The cost model's time per receiver of [`Combine::Shexp`] on the 2-core development VM (both
 /// threads), per sphere (a table lookup and a zonal rotation) and per receiver (the HYB
 /// exponential: its squarings are truncated products, about `(N/4)⁵` times an order-4 one's).
-pub const SHEXP_SECONDS: f64 = 1.0e-6;
-pub const SHEXP_SPHERE_SECONDS: f64 = 0.05e-6;
+pub(crate) const SHEXP_SECONDS: f64 = 1.0e-6;
+pub(crate) const SHEXP_SPHERE_SECONDS: f64 = 0.05e-6;
 
 /// The cost model's time of one base-sphere sample's product-algebra log (an N² × N²
 /// eigenproblem, one thread) at N = 4, growing as `(N/4)⁶`: 43 µs from `part_combine = "shexp"`
 /// at P = 16 in `configs/experiments/subvolumes_log.toml` (2.4 ms at N = 8) on the development
 /// VM.
-pub const LOG_SAMPLE_SECONDS: f64 = 43e-6;
+pub(crate) const LOG_SAMPLE_SECONDS: f64 = 43e-6;
 
 /// The cost model's time per receiver of a sphere set, per sphere (a cap's projection and
 /// rotation and a truncated product at N = 4): 0.36 µs on spherical receivers, 0.57–0.63 µs on

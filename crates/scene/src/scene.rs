@@ -53,7 +53,7 @@ use shscale_runner::check::{self, num, Ends};
 use std::path::{Path, PathBuf};
 
 /// The default truth resolution of a scene (`4T²` rays per receiver).
-pub const DEFAULT_SCENE_TRUTH_RES: usize = 32;
+pub(crate) const DEFAULT_SCENE_TRUTH_RES: usize = 32;
 
 /// The file as written.
 #[derive(Debug, Deserialize)]
@@ -309,12 +309,12 @@ pub const SCENE_KEYS: &[(&str, &str, &str, &str)] = &[
 /// radii, the receiver plane, light sources (docs/limits.md).
 pub const MAX_SCENE_COORDINATE: f64 = 1e6;
 /// The smallest occluder radius, receiver size and light-source size.
-pub const MIN_SCENE_SIZE: f64 = 1e-6;
+pub(crate) const MIN_SCENE_SIZE: f64 = 1e-6;
 /// The largest radiance-like value (sky terms, intensities, light-source radiance): irradiance
 /// sums stay far from f32 overflow in the images.
-pub const MAX_RADIANCE: f64 = 1e12;
+pub(crate) const MAX_RADIANCE: f64 = 1e12;
 /// The most occluders (and light sources) of a scene.
-pub const MAX_OCCLUDERS: usize = 64;
+pub(crate) const MAX_OCCLUDERS: usize = 64;
 
 /// A perspective camera; +z is up.
 #[derive(Clone, Copy, Debug, PartialEq)]

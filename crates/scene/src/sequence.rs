@@ -170,7 +170,7 @@ fn cached(
 
 impl SequenceFrame {
     /// Frame `frame` at `t` with its `(stage, seconds)` (no error): its seconds their sum.
-    pub fn of_stages(frame: usize, t: f64, stages: &[(&str, f64)]) -> Self {
+    pub(crate) fn of_stages(frame: usize, t: f64, stages: &[(&str, f64)]) -> Self {
         let stages = named_stages(stages);
         Self {
             frame,

@@ -12,10 +12,10 @@ use shscale_runner::KeyError;
 use shscale_scaling::{Interp, Spacing};
 
 /// The procedural shapes, by name.
-pub const PROCEDURAL: &[&str] = &["bird", "egg", "sponge", "plane"];
+pub(crate) const PROCEDURAL: &[&str] = &["bird", "egg", "sponge", "plane"];
 
 /// Every name a mesh key accepts besides a file path, for messages.
-pub fn mesh_names() -> String {
+pub(crate) fn mesh_names() -> String {
     format!(
         "\"sphere\" (analytic), the procedural {} or the bundled {}",
         PROCEDURAL.join(", "),
@@ -25,13 +25,13 @@ pub fn mesh_names() -> String {
 
 /// Whether `name` names a mesh: the analytic sphere, a procedural shape, a bundled mesh or an
 /// existing file.
-pub fn mesh_exists(name: &str) -> bool {
+pub(crate) fn mesh_exists(name: &str) -> bool {
     builtin_mesh(name) || std::path::Path::new(name).is_file()
 }
 
 /// Whether `name` is a built-in mesh (the analytic sphere, a procedural shape, a bundled mesh):
 /// these names win over files of the same name in the working directory.
-pub fn builtin_mesh(name: &str) -> bool {
+pub(crate) fn builtin_mesh(name: &str) -> bool {
     name == "sphere" || PROCEDURAL.contains(&name) || bundled::names().contains(&name)
 }
 

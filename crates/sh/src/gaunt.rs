@@ -28,7 +28,7 @@ pub struct GauntTensor<T> {
 }
 
 /// Magnitude below which a computed coefficient is treated as a structural zero.
-pub const GAUNT_ZERO: f64 = 1e-14;
+pub(crate) const GAUNT_ZERO: f64 = 1e-14;
 
 impl<T: Real> GauntTensor<T> {
     /// Build the tensor for order `N` (`1 ≤ N ≤ 32`; the entry count grows like `N⁵`).

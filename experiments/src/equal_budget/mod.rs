@@ -37,4 +37,4 @@ mod verdict;
 pub use verdict::{mean_ci95, pareto};
 
 /// The near regime: receivers within 1.3 bounding radii (of the occluder's centre).
-pub const NEAR_RHO: f64 = 1.3;
+pub(crate) const NEAR_RHO: f64 = 1.3;

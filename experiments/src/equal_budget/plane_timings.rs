@@ -67,7 +67,7 @@ pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<GpuForm,
 /// `scene`, the CPU images and unshadowed image it is compared with): the timing, or none; and
 /// the adapter that timed it, or why none did. `gpu` without an adapter is an error naming the
 /// key (a method without a form was refused at plan time).
-pub fn gpu_frame(
+pub(crate) fn gpu_frame(
     (device, method, frames): (DeviceChoice, Method, usize),
     scene: &Scene,
     cpu: (&[Vec<f64>], &[f64]),
@@ -174,7 +174,13 @@ fn gpu_frames(
 
 /// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
 /// re-sampling's rays at the rate (its shading is a few dot products per receiver).
-pub fn cached_seconds(scene: &Scene, method: Method, frames: usize, rays: f64, rate: f64) -> f64 {
+pub(crate) fn cached_seconds(
+    scene: &Scene,
+    method: Method,
+    frames: usize,
+    rays: f64,
+    rate: f64,
+) -> f64 {
     if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, method) {
         rays / rate
     } else {
@@ -211,13 +217,13 @@ pub fn cached_frame(
 /// buffers, pipelines (a software device compiles them at the first dispatch) and receiver
 /// set-up, made per repetition. `budget_plane_gpu.toml` on Mesa lavapipe (32 runs × 6
 /// repetitions, 90.2 s, 2026-12-05, the development VM) puts it near 0.5 s.
-pub const GPU_SEQUENCE_SECONDS: f64 = 0.5;
+pub(crate) const GPU_SEQUENCE_SECONDS: f64 = 0.5;
 
 /// The cost model's seconds of a run's GPU-timed repetition besides the CPU's (`frame`: the CPU
 /// frame's estimate, all its frames): none for `device = "cpu"`, else a sequence's set-up and up
 /// to twice its frames (a still plane is rendered twice, [`time_on_gpu`]) at the CPU frame's
 /// cost (a software device's; an upper bound on a GPU).
-pub fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
+pub(crate) fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
     if device == DeviceChoice::Cpu {
         0.0
     } else {

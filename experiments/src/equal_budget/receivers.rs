@@ -17,7 +17,7 @@ pub const CONTINUOUS: &str = "continuous";
 /// stratified (one in each of n equal strata of the log, jittered by the seed), so every octave
 /// of clearance from the bounding sphere holds its share of receivers. Paired with the seeded
 /// directions in order: the directions are independent of the index, so the pairing is random.
-pub fn continuous_radii(seed: u64, n: usize, lo: f64, hi: f64) -> Vec<f64> {
+pub(crate) fn continuous_radii(seed: u64, n: usize, lo: f64, hi: f64) -> Vec<f64> {
     let mut rng = shscale_field::truth::SplitMix(seed ^ 0x7261_6469_7573_0001);
     let (a, b) = ((lo - 1.0).ln(), (hi - 1.0).ln());
     (0..n)
@@ -31,7 +31,7 @@ pub fn continuous_radii(seed: u64, n: usize, lo: f64, hi: f64) -> Vec<f64> {
 /// The unit occluder of `mesh` (bounding sphere as loaded), turned by the seeded rotation of
 /// `orientation_seed` about its bounding sphere's centre (0: as loaded). The analytic sphere is
 /// the same in every orientation. One BVH build, of the turned mesh.
-pub fn oriented_occluder(
+pub(crate) fn oriented_occluder(
     mesh: &str,
     orientation_seed: u64,
 ) -> Result<shscale_scene::vocab::UnitOccluder, Error> {
@@ -98,7 +98,11 @@ pub fn check_layout(
 
 /// The continuous layout in words, for a verdict's caption: `receivers` per seed, the range of
 /// ρ − 1, the seeds.
-pub fn continuous_words(receivers: usize, (rho_min, rho_max): (f64, f64), seeds: usize) -> String {
+pub(crate) fn continuous_words(
+    receivers: usize,
+    (rho_min, rho_max): (f64, f64),
+    seeds: usize,
+) -> String {
     // ρ − 1 to nine decimals: 1.02 − 1 prints 0.02, not 0.020000000000000018.
     let clearance = |rho: f64| ((rho - 1.0) * 1e9).round() / 1e9;
     format!(
@@ -111,7 +115,7 @@ pub fn continuous_words(receivers: usize, (rho_min, rho_max): (f64, f64), seeds:
 /// Each receiver of a scene's plane by its distance-to-surface bin ([`surface_bin`]), the scene
 /// posed at its `pose_t`: the distance to the nearest occluder's surface, in that occluder's
 /// radii (exact point-to-triangle through its BVH; the analytic sphere's in closed form).
-pub fn plane_bins(scene: &shscale_scene::scene::Scene) -> Result<Vec<usize>, Error> {
+pub(crate) fn plane_bins(scene: &shscale_scene::scene::Scene) -> Result<Vec<usize>, Error> {
     use rayon::prelude::*;
     let occs = (scene.occluders.iter())
         .map(|o| {

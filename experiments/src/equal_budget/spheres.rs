@@ -52,7 +52,7 @@ pub struct Budget;
 /// H of the contact classification of the receivers' directions.
 pub const CONTACT_RES: usize = 32;
 /// The most receivers per radius.
-pub const MAX_RECEIVERS: usize = 100_000;
+pub(crate) const MAX_RECEIVERS: usize = 100_000;
 
 impl Kind for Budget {
     const NAME: &'static str = "budget";

@@ -39,7 +39,7 @@ pub fn surface_bin(d: f64) -> usize {
 
 /// A bin's representative distance: the geometric middle of its edges (bin 0: 0.02r, where
 /// the continuous layout's nearest receivers start; bin 6: 1.81r).
-pub fn surface_bin_mid(k: usize) -> f64 {
+pub(crate) fn surface_bin_mid(k: usize) -> f64 {
     let lo = if k == 0 { 0.02 } else { SURFACE_EDGES[k - 1] };
     let hi = SURFACE_EDGES
         .get(k)
@@ -49,7 +49,7 @@ pub fn surface_bin_mid(k: usize) -> f64 {
 }
 
 /// The distinct seeds of a table.
-pub fn distinct_seeds(t: &Results) -> usize {
+pub(crate) fn distinct_seeds(t: &Results) -> usize {
     let mut v: Vec<String> = (0..t.rows.len()).map(|r| seed_of(t, r)).collect();
     v.sort();
     v.dedup();
@@ -79,7 +79,7 @@ fn paired(t: &Results, a: &Config, b: &Config, col: &str) -> (Option<f64>, Optio
 }
 
 /// The budget axes the verdict caps: (column, words).
-pub const AXES: [(&str, &str); 3] = [
+pub(crate) const AXES: [(&str, &str); 3] = [
     ("rays", "rays"),
     ("frame_seconds", "time per frame"),
     ("memory_bytes", "bytes"),
@@ -161,7 +161,7 @@ fn pm(m: f64, h: Option<f64>) -> String {
 
 /// The regimes of the continuous verdict: every distance bin, then all receivers and the
 /// contact directions. (column, words).
-pub fn sphere_regimes() -> Vec<(String, String)> {
+pub(crate) fn sphere_regimes() -> Vec<(String, String)> {
     let mut v: Vec<(String, String)> = (0..=SURFACE_EDGES.len())
         .map(|k| (format!("occ_rel_l2_s{k}_mean"), bin_words(k)))
         .collect();
@@ -174,7 +174,7 @@ pub fn sphere_regimes() -> Vec<(String, String)> {
 }
 
 /// Bin k's distances in words.
-pub fn bin_words(k: usize) -> String {
+pub(crate) fn bin_words(k: usize) -> String {
     let e = &SURFACE_EDGES;
     match k {
         0 => format!("d < {}r", e[0]),

@@ -240,7 +240,7 @@ fn example_of(truth: &[Option<Truth>], ext: &[Vec<f64>]) -> Option<usize> {
 
 /// A run's rows with the shared work's rays and times and its own stages: `table` and
 /// `radii[ri]` the timing procedure's medians and spreads.
-pub fn with_times(
+pub(crate) fn with_times(
     mut rows: Vec<ProbeRow>,
     b: &Base,
     table: &Timing,

@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// `.png` with labelled panels (what each shows, the radius and the point's direction), φ/θ axes
 /// in degrees and a grey-scale bar (0 occluded … 1 visible; extrapolated values outside [0, 1]
 /// are clipped in the picture, not in the EXR).
-pub fn visibility_figure(
+pub(crate) fn visibility_figure(
     dir: &Path,
     run_id: &str,
     order: usize,
@@ -95,7 +95,7 @@ pub fn visibility_figure(
 }
 
 /// The numeric parameters a probe sweep can plot against.
-pub const NUMERIC_PARAMS: &[&str] = &[
+pub(crate) const NUMERIC_PARAMS: &[&str] = &[
     "order",
     "hemisphere_res",
     "k_count",
@@ -109,7 +109,11 @@ pub const NUMERIC_PARAMS: &[&str] = &[
 /// (averaged over the probe radii), or one series per probe radius when nothing else varies —
 /// and the speed/accuracy scatter with its Pareto front (rows timed concurrently with other
 /// runs are left out of it). Returns the files written.
-pub fn probe_plots(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Error> {
+pub(crate) fn probe_plots(
+    dir: &Path,
+    t: &Table,
+    varying: &[String],
+) -> Result<Vec<PathBuf>, Error> {
     let numeric: Vec<&str> = varying
         .iter()
         .map(String::as_str)

@@ -116,7 +116,7 @@ impl Default for ProbeParams {
 }
 
 /// `"fixed" | "fit"`: whether α is fitted by distance.
-pub fn parse_alpha_mode(s: &str) -> Result<bool, String> {
+pub(crate) fn parse_alpha_mode(s: &str) -> Result<bool, String> {
     match s {
         "fixed" => Ok(false),
         "fit" => Ok(true),
@@ -125,7 +125,7 @@ pub fn parse_alpha_mode(s: &str) -> Result<bool, String> {
 }
 
 /// `"random" | "samples"` with the seed of `random`.
-pub fn parse_probe_dirs(s: &str, seed: u64) -> Result<ProbeDirs, String> {
+pub(crate) fn parse_probe_dirs(s: &str, seed: u64) -> Result<ProbeDirs, String> {
     match s {
         "random" => Ok(ProbeDirs::Random { seed }),
         "samples" => Ok(ProbeDirs::Samples),

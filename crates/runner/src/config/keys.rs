@@ -12,7 +12,7 @@ pub enum Seg {
 pub type KeyPath = Vec<Seg>;
 
 /// `occluder[1].radius`.
-pub fn path_name(path: &[Seg]) -> String {
+pub(crate) fn path_name(path: &[Seg]) -> String {
     let mut s = String::new();
     for seg in path {
         match seg {
@@ -89,7 +89,7 @@ pub fn parse_flag_key(s: &str) -> Result<KeyPath, String> {
 
 /// Parse `a.b[2].c` into a path (keys the code or a config wrote; see [`parse_flag_key`] for
 /// keys from the command line).
-pub fn parse_path(s: &str) -> KeyPath {
+pub(crate) fn parse_path(s: &str) -> KeyPath {
     let mut out = Vec::new();
     for part in s.split('.') {
         let (name, rest) = part.split_once('[').unwrap_or((part, ""));
@@ -106,7 +106,7 @@ pub fn parse_path(s: &str) -> KeyPath {
 }
 
 /// A serde_path_to_error path as ours.
-pub fn serde_path(p: &serde_path_to_error::Path) -> KeyPath {
+pub(crate) fn serde_path(p: &serde_path_to_error::Path) -> KeyPath {
     p.iter()
         .filter_map(|s| match s {
             serde_path_to_error::Segment::Map { key } => Some(Seg::Key(key.clone())),

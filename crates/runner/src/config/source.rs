@@ -56,7 +56,7 @@ impl Source {
 
     /// The line of the item at `path` in the file (or of its nearest written ancestor, with
     /// `exact = false`); `None` when not even the first key is written.
-    pub fn line_of(&self, path: &[Seg]) -> Option<(usize, bool)> {
+    pub(crate) fn line_of(&self, path: &[Seg]) -> Option<(usize, bool)> {
         let doc = self.doc.as_ref()?;
         let mut item: &toml_edit::Item = doc.as_item();
         let mut best: Option<usize> = None;
@@ -97,7 +97,7 @@ pub(super) fn item_span(item: &toml_edit::Item) -> Option<std::ops::Range<usize>
 }
 
 /// Deserialise one combination's table into `T`; errors name the place of the culprit value.
-pub fn deserialize<T: serde::de::DeserializeOwned>(
+pub(crate) fn deserialize<T: serde::de::DeserializeOwned>(
     ex: &Expanded,
     combo: &Combination,
 ) -> Result<T, ConfigError> {

@@ -20,7 +20,7 @@ pub struct RunnerKeys {
 }
 
 /// The runner's keys (everything else belongs to the kind).
-pub const RUNNER_KEYS: &[&str] = &[
+pub(crate) const RUNNER_KEYS: &[&str] = &[
     "experiment",
     "name",
     "gpu",
@@ -68,7 +68,7 @@ impl Expanded {
 
     /// Combination `i` in words: its number (1-based) and, with several `[[sweep]]` blocks, the
     /// block (1-based) and its place there — for errors that name two combinations.
-    pub fn describe_combination(&self, i: usize) -> String {
+    pub(crate) fn describe_combination(&self, i: usize) -> String {
         if self.blocks.len() < 2 {
             return format!("{}", i + 1);
         }
@@ -139,7 +139,7 @@ impl Expanded {
 
     /// Where the value at `path` (of one combination) came from: its sweep list element, the
     /// `--set` flag, its line in the file, or the file (a default).
-    pub fn place_of(&self, combo: &Combination, path: &[Seg]) -> Place {
+    pub(crate) fn place_of(&self, combo: &Combination, path: &[Seg]) -> Place {
         for (p, place) in &combo.swept {
             if path.starts_with(p) {
                 return place.clone();

@@ -179,7 +179,7 @@ pub fn log_axis(ys: &[f64]) -> bool {
 /// so a single positive error is not drawn on an axis reaching below zero; otherwise ±0.5 (half
 /// a decade of a log axis, whose `lo`, `hi` are log10 values; a unit either side of an integer
 /// parameter).
-pub fn degenerate_span(lo: f64, hi: f64, relative: bool) -> (f64, f64) {
+pub(crate) fn degenerate_span(lo: f64, hi: f64, relative: bool) -> (f64, f64) {
     let least = 1e-9 * lo.abs().max(hi.abs());
     if hi - lo > least {
         return (lo, hi);

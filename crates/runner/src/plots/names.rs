@@ -5,7 +5,7 @@ use super::*;
 /// A column name as part of a file name: letters, digits, `_`, `-` and `.` kept, anything else
 /// (a `/`, a space) as `_`, at most 64 characters. Column names come from files; they are data,
 /// never path parts.
-pub fn stem_part(name: &str) -> String {
+pub(crate) fn stem_part(name: &str) -> String {
     name.chars()
         .take(64)
         .map(|c| {

@@ -35,7 +35,7 @@ pub fn render_sequence(
 /// [`render_sequence`], with `each` called after every frame (outside its times) with the
 /// frame's stats and pixels: a per-frame error, progress.
 #[allow(clippy::type_complexity)]
-pub fn render_sequence_each(
+pub(crate) fn render_sequence_each(
     scene: &Scene,
     frames: usize,
     each: &mut dyn FnMut(&FrameStats, &[[f32; 3]]) -> Result<(), Error>,

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 
 /// The seed columns of both kinds: a row's replicate (rows of one configuration differ only in
 /// these; a kind without one reads it as empty).
-pub const SEED_COLUMNS: [&str; 4] = [
+pub(crate) const SEED_COLUMNS: [&str; 4] = [
     "probe_seed",
     "truth_seed",
     "orientation_seed",
