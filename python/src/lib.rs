@@ -644,7 +644,7 @@ fn plot(
         };
         let files = py
             .allow_threads(|| shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec))
-            .map_err(|e| PyValueError::new_err(e.to_string().replace("Config(", "")))?;
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(files.iter().map(|f| f.display().to_string()).collect())
     })
 }

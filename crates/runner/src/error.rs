@@ -9,6 +9,10 @@ pub enum Error {
     /// A config, parameter or input problem, in words that name the culprit.
     #[error("{0}")]
     Config(String),
+    /// A config problem at a known place (file and line, sweep element, `--set` flag) with its
+    /// key, kept as it is so that a caller can ask where it was; shown as the config error.
+    #[error(transparent)]
+    Place(#[from] crate::config::ConfigError),
     /// A file or directory that could not be read or written.
     #[error("{path}: {reason}")]
     Io { path: String, reason: String },

@@ -78,7 +78,7 @@ pub(crate) fn check_name(name: &str) -> Result<(), String> {
 }
 
 fn cfg(e: ConfigError) -> Error {
-    Error::Config(e.to_string())
+    Error::Place(e)
 }
 
 /// The timing procedure of the config's `timing_warmup` and `timing_repeats`, within their limits.

@@ -244,6 +244,53 @@ fn config_errors_name_file_line_and_key() {
     }
 }
 
+/// The place of a config error reaches the caller as a value (file, line, key), not only as
+/// words: a tool (an editor, the Python client) can point at the line.
+#[test]
+fn config_errors_keep_their_place_as_a_value() {
+    use shscale_runner::config::Place;
+    let text = CONFIG.replace("repeat = 2", "repeat = 9");
+    let e = Plan::parse("c.toml", "c", &text, &Overrides::default(), &registry())
+        .err()
+        .expect("repeat = 9 is refused");
+    println!("{e:?}");
+    match e {
+        shscale_runner::Error::Place(c) => {
+            assert_eq!(c.key, "repeat");
+            assert_eq!(
+                c.place,
+                Place::Line {
+                    file: "c.toml".into(),
+                    line: 4
+                }
+            );
+        }
+        other => panic!("want a placed config error, got {other:?}"),
+    }
+    let e = Plan::parse(
+        "c.toml",
+        "c",
+        CONFIG,
+        &Overrides {
+            set: vec!["scale=-1".to_string()],
+            ..Overrides::default()
+        },
+        &registry(),
+    )
+    .err()
+    .expect("--set scale=-1 is refused");
+    println!("{e}");
+    match e {
+        shscale_runner::Error::Place(c) => {
+            assert!(
+                matches!(c.place, Place::Flag(ref f) if f.contains("scale=-1")),
+                "{c:?}"
+            );
+        }
+        other => panic!("want a placed config error, got {other:?}"),
+    }
+}
+
 #[test]
 fn resume_sets_bad_rows_aside_and_redoes_their_runs() {
     let plan = parse(CONFIG).unwrap();

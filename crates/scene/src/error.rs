@@ -1,6 +1,6 @@
 //! The error of scenes and of the experiment kinds built on them: the runner's (config and file
 //! errors, which name the culprit) or one of the numerical crates' and the GPU's, carried as they
-//! are. At the runner's seam it becomes a [`shscale_runner::Error`].
+//! are (never flattened into a config string on the way up). At the runner's seam it becomes a [`shscale_runner::Error`].
 
 use std::path::Path;
 
@@ -15,6 +15,10 @@ pub enum Error {
     Field(#[from] shscale_field::FieldError),
     #[error(transparent)]
     Gpu(#[from] shscale_gpu::GpuError),
+    #[error(transparent)]
+    Sh(#[from] shscale_sh::ShError),
+    #[error(transparent)]
+    Scaling(#[from] shscale_scaling::ScalingError),
 }
 
 impl Error {

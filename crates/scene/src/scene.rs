@@ -487,7 +487,7 @@ impl Checker {
             key: key.into(),
             message,
         };
-        Error::config(e.to_string())
+        Error::Runner(shscale_runner::Error::Place(e))
     }
 
     /// `v` within `lo..=hi` (integers).

@@ -48,7 +48,7 @@ fn k_table(
         Spacing::Exp,
         Interp::Linear,
     )
-    .map_err(|e| Error::config(e.to_string()))
+    .map_err(Error::from)
 }
 
 /// Every receiver evaluated (in parallel).
@@ -108,7 +108,7 @@ pub(crate) fn extrapolation<'a>(
     let gaunt = (parts.len() > 1 || log_space)
         .then(|| shscale_sh::GauntTensor::<f64>::new(order))
         .transpose()
-        .map_err(|e| Error::config(e.to_string()))?;
+        .map_err(Error::from)?;
     let table = (gaunt.as_ref())
         .filter(|_| log_space)
         .map(|g| ZonalLogTable::new(g, SHEXP_EPS));
@@ -176,9 +176,8 @@ pub(crate) fn sphere_set<'a>(
 ) -> Result<FrameFn<'a>, Error> {
     let nn = order * order;
     let sh = |m: usize| -> Result<_, Error> {
-        let basis = shscale_sh::ShBasis::<f64>::new(m).map_err(|e| Error::config(e.to_string()))?;
-        let gaunt =
-            shscale_sh::GauntTensor::<f64>::new(m).map_err(|e| Error::config(e.to_string()))?;
+        let basis = shscale_sh::ShBasis::<f64>::new(m).map_err(Error::from)?;
+        let gaunt = shscale_sh::GauntTensor::<f64>::new(m).map_err(Error::from)?;
         Ok((basis, gaunt))
     };
     let (basis, gaunt) = sh(order)?;

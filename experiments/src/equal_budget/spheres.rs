@@ -260,8 +260,7 @@ impl Kind for Budget {
             .map(|(&rho, &i)| (rho, s.center + rho * s.radius * dirs[i]))
             .collect();
         let ts = TruthSampler::new(p.order, p.truth_res, p.truth_seed)?;
-        let basis =
-            shscale_sh::ShBasis::<f64>::new(p.order).map_err(|e| Error::config(e.to_string()))?;
+        let basis = shscale_sh::ShBasis::<f64>::new(p.order).map_err(Error::from)?;
         let truth: Vec<Option<Truth>> = points
             .par_iter()
             .enumerate()
@@ -321,7 +320,7 @@ impl Kind for Budget {
             (sh.mesh.as_ref())
                 .map(|m| shscale_geometry::partition::kmeans_parts(m, parts))
                 .transpose()
-                .map_err(|e| Error::config(e.to_string()))
+                .map_err(Error::from)
         };
         let part_bvhs: Vec<MeshBvh>;
         let mut partition_seconds = None;
@@ -416,8 +415,8 @@ fn set_source<'a>(
             Ok((frames::SetSource::Fixed(set), Some(seconds)))
         }
         (_, Some(m)) => {
-            let labels = shscale_geometry::partition::kmeans_parts(m, parts)
-                .map_err(|e| Error::config(e.to_string()))?;
+            let labels =
+                shscale_geometry::partition::kmeans_parts(m, parts).map_err(Error::from)?;
             let seconds = t0.elapsed().as_secs_f64();
             Ok((frames::SetSource::Refit(m, labels), Some(seconds)))
         }

@@ -125,7 +125,7 @@ pub fn once(base: &ProbeBase, spec: &ProbeSpec) -> Result<(Once, Vec<f64>), Erro
         spec.k_spacing,
         spec.k_interp,
     )
-    .map_err(|e| Error::config(e.to_string()))?;
+    .map_err(Error::from)?;
     let mut times = vec![t1.elapsed().as_secs_f64()];
     let at = Radii {
         base,
@@ -134,8 +134,7 @@ pub fn once(base: &ProbeBase, spec: &ProbeSpec) -> Result<(Once, Vec<f64>), Erro
         clamp: (spec.plausibility == Plausibility::Clamp)
             .then(|| Clamp::new(spec.order))
             .transpose()?,
-        rot: shscale_sh::EulerRotator::<f64>::new(spec.order)
-            .map_err(|e| Error::config(e.to_string()))?,
+        rot: shscale_sh::EulerRotator::<f64>::new(spec.order).map_err(Error::from)?,
         family,
         table: &table,
         theta0,
@@ -201,7 +200,7 @@ impl Radii<'_> {
         let secs = t2.elapsed().as_secs_f64();
         let exact_m = (self.family.at(k))
             .and_then(|tau| ScalingMatrix::compute(tau.as_ref(), Eta::Plain, spec.order))
-            .map_err(|e| Error::config(e.to_string()))?;
+            .map_err(Error::from)?;
         let dec = Decomposition {
             base: self.base,
             contact_occlusion: spec.contact_occlusion,

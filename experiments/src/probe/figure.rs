@@ -29,7 +29,7 @@ pub(crate) fn visibility_figure(
     if examples.is_empty() {
         return Ok(());
     }
-    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(|e| Error::config(e.to_string()))?;
+    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(Error::from)?;
     let set = shscale_sh::DirectionSet::latlong(H, W);
     let mut px = vec![[0f32; 3]; 2 * W * H * examples.len()];
     let mut rows = Vec::new();

@@ -33,8 +33,7 @@ pub(super) fn rows(
         Error::config("sub-volumes split a mesh; the analytic sphere has none".into())
     })?;
     let t0 = Instant::now();
-    let labels = shscale_geometry::partition::kmeans_parts(mesh, parts)
-        .map_err(|e| Error::config(e.to_string()))?;
+    let labels = shscale_geometry::partition::kmeans_parts(mesh, parts).map_err(Error::from)?;
     let bvhs: Vec<shscale_geometry::MeshBvh> =
         (shscale_geometry::partition::split(mesh, &labels, parts).iter())
             .map(|m| {
@@ -50,8 +49,7 @@ pub(super) fn rows(
                 .collect()
         })
         .collect();
-    let gaunt = shscale_sh::GauntTensor::<f64>::new(spec.order)
-        .map_err(|e| Error::config(e.to_string()))?;
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(spec.order).map_err(Error::from)?;
     let ((values, bsvs), t) = ctx
         .timing
         .measure_each(|| once(spec, &bvhs, &points, &gaunt))?;
@@ -151,7 +149,7 @@ fn table(spec: &ProbeSpec, b: &Bsv, points: &[Vec<DVec3>]) -> Result<KTable, Err
         spec.k_spacing,
         spec.k_interp,
     )
-    .map_err(|e| Error::config(e.to_string()))
+    .map_err(Error::from)
 }
 
 /// The α the parts used at one radius, degrees: the fixed α, or with α by distance the mean over

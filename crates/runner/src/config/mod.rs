@@ -97,9 +97,3 @@ impl fmt::Display for Place {
         }
     }
 }
-
-impl From<ConfigError> for crate::error::Error {
-    fn from(e: ConfigError) -> Self {
-        crate::error::Error::Config(e.to_string())
-    }
-}
