@@ -38,7 +38,6 @@ pub mod gpu_sets;
 pub mod gpu_truth;
 pub mod kernels;
 pub mod method;
-pub mod method_cost;
 pub mod render;
 pub mod scene;
 pub mod sequence;

@@ -7,18 +7,12 @@ use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
-use shscale_field::shexp_ol::{
-    log_bsv, Exp, SphereSetShexp, SubVolumeLog, ZonalLogTable, SHEXP_EPS,
-};
-use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
+use shscale_field::shexp_ol::{log_bsv, SubVolumeLog, ZonalLogTable, SHEXP_EPS};
 use shscale_field::subvolume::SubVolumeField;
 use shscale_field::truth::TruthSampler;
-use shscale_field::union::{RingGrid, SphereSetUnion};
 use shscale_field::{Bsv, Occluder, VisibilitySampler};
 use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
-use shscale_scene::method::{
-    Alpha, Combine, Extrapolation, FieldSpec, SPHERE_QUADRATURE_RES, UNION_RINGS,
-};
+use shscale_scene::method::{Alpha, Combine, Extrapolation, FieldSpec, SetSpec, SetTables};
 use shscale_scene::Error;
 use std::time::Instant;
 
@@ -163,46 +157,24 @@ pub(crate) enum SetSource<'a> {
     Fixed(Vec<shscale_geometry::Sphere>),
 }
 
-/// The frame of a sphere set: `parts` spheres refitted to the mesh's parts (`labels`) every
-/// frame — the analytic sphere is its own one-sphere set — combined by truncated products at
-/// the `internal` order (≥ `order`, truncated to `order` once), by the quadrature, whose rays
-/// (cast at the spheres, not at the mesh) are counted, as the exact union of the caps, or by SH
-/// exponentiation (HYB).
+/// The frame of a sphere set: `set.parts` spheres refitted to the mesh's parts (`labels`) every
+/// frame — the analytic sphere is its own one-sphere set — combined as `set` says, with the
+/// tables of [`SetTables`] (the factory `render` uses too): truncated products at the internal
+/// order (≥ `order`, truncated to `order` once), the quadrature, whose rays (cast at the
+/// spheres, not at the mesh) are counted, the exact union of the caps, or SH exponentiation
+/// (HYB).
 pub(crate) fn sphere_set<'a>(
-    (order, internal): (usize, usize),
-    (parts, combine): (usize, Combine),
+    order: usize,
+    set: &SetSpec,
     source: SetSource<'a>,
     points: &'a Points,
 ) -> Result<FrameFn<'a>, Error> {
     let nn = order * order;
-    let sh = |m: usize| -> Result<_, Error> {
-        let basis = shscale_sh::ShBasis::<f64>::new(m).map_err(Error::from)?;
-        let gaunt = shscale_sh::GauntTensor::<f64>::new(m).map_err(Error::from)?;
-        Ok((basis, gaunt))
-    };
-    let (basis, gaunt) = sh(order)?;
-    // What each combination needs, built once before the frames.
-    enum Tables {
-        Product(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>),
-        Quadrature(QuadratureGrid),
-        Union(RingGrid),
-        Shexp(shscale_sh::GauntTensor<f64>, ZonalLogTable),
-    }
-    let tables = match combine {
-        Combine::Product if internal > order => {
-            let (b, g) = sh(internal)?;
-            Tables::Product(b, g)
-        }
-        Combine::Product => Tables::Product(basis.clone(), gaunt),
-        Combine::Quadrature => {
-            Tables::Quadrature(QuadratureGrid::new(&basis, SPHERE_QUADRATURE_RES))
-        }
-        Combine::Union => Tables::Union(RingGrid::new(&basis, UNION_RINGS)),
-        Combine::Shexp => {
-            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-            Tables::Shexp(gaunt, table)
-        }
-    };
+    let parts = set.parts;
+    let basis = shscale_sh::ShBasis::<f64>::new(order).map_err(Error::from)?;
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(order).map_err(Error::from)?;
+    // What the combination needs, built once before the frames.
+    let tables = SetTables::new(set, order, &basis)?;
     Ok(Box::new(move || {
         let t0 = Instant::now();
         let spheres = match &source {
@@ -211,32 +183,10 @@ pub(crate) fn sphere_set<'a>(
         };
         let build = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let (v, rays, bytes) = match &tables {
-            Tables::Product(b, g) => {
-                let set = SphereSetField::new(&spheres, b, g);
-                (eval_all(&set, points, nn), 0, set.size_bytes())
-            }
-            Tables::Quadrature(g) => {
-                let set = SphereSetQuadrature::new(&spheres, g);
-                (
-                    eval_all(&set, points, nn),
-                    points.len() * g.len(),
-                    spheres.len() * 32 + g.size_bytes(),
-                )
-            }
-            Tables::Union(r) => {
-                let set = SphereSetUnion::new(&spheres, r);
-                (
-                    eval_all(&set, points, nn),
-                    0,
-                    set.size_bytes() + r.size_bytes(),
-                )
-            }
-            Tables::Shexp(g, t) => {
-                let set = SphereSetShexp::new(&spheres, (&basis, g), t, Exp::Hyb);
-                (eval_all(&set, points, nn), 0, set.size_bytes())
-            }
-        };
+        let f = (tables.field(&spheres, &basis, Some(&gaunt)))
+            .expect("the chain's Gaunt tensor is given");
+        let v = eval_all(f.field.as_ref(), points, nn);
+        let (rays, bytes) = (points.len() * f.rays_per_receiver, f.bytes);
         let eval = t1.elapsed().as_secs_f64();
         Ok(((v, rays as f64, bytes as f64), [build, eval, build + eval]))
     }))

@@ -29,7 +29,7 @@ use shscale_field::metrics::ssim;
 use shscale_field::shading::shade_rmse_rel;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Combine, Method, Spec, SphereFit};
+use shscale_scene::method::{Combine, Method, RayTracedSpec, SetSpec, Spec, SphereFit};
 use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
 use shscale_scene::vocab::MAX_ORDER;
@@ -133,7 +133,7 @@ fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Scene>, Error> {
 /// below the scene's `truth_res`.
 fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> {
     match spec {
-        Spec::RayTraced { rt_res } if *rt_res >= scene.truth_res => Err(KeyError::new(
+        Spec::RayTraced(RayTracedSpec { rt_res }) if *rt_res >= scene.truth_res => Err(KeyError::new(
             "rt_res",
             format!(
                 "rt_res = {rt_res} is not below the scene's truth_res = {} ({}): the band-limited truth must be converged beyond the method it measures",
@@ -237,10 +237,10 @@ impl Kind for BudgetPlane {
         let scene =
             planned_scene(p, config_dir).map_err(|e| KeyError::new("scene", e.to_string()))?;
         check_rt_res(&spec.typed.method, p, &scene)?;
-        if let Spec::SphereSet {
+        if let Spec::SphereSet(SetSpec {
             combine: Combine::Quadrature,
             ..
-        } = spec.typed.method
+        }) = spec.typed.method
         {
             return Err(KeyError::new(
                 "sphere_combine",
@@ -248,10 +248,10 @@ impl Kind for BudgetPlane {
             ));
         }
         (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
-        if let Spec::SphereSet {
+        if let Spec::SphereSet(SetSpec {
             fit: SphereFit::Inscribed,
             ..
-        } = spec.typed.method
+        }) = spec.typed.method
         {
             shscale_scene::frame::inscribed_seconds(&scene, true)
                 .map_err(|e| KeyError::new("sphere_fit", e.to_string()))?;
@@ -351,10 +351,10 @@ impl Kind for BudgetPlane {
                 // The inscribed fit: once per mesh occluder and pose of the scene's sequence,
                 // whatever the runs using it.
                 cached_once: match p.typed.method {
-                    Spec::SphereSet {
+                    Spec::SphereSet(SetSpec {
                         fit: SphereFit::Inscribed,
                         ..
-                    } => Some((
+                    }) => Some((
                         format!("inscribed {} {}", p.scene, p.frames),
                         frames
                             * shscale_scene::frame::inscribed_seconds(base, false).unwrap_or(

@@ -37,7 +37,7 @@ use shscale_geometry::MeshBvh;
 use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
-use shscale_scene::method::{Combine, Spec, SphereFit};
+use shscale_scene::method::{Combine, RayTracedSpec, SetSpec, Spec, SphereFit, SubVolumeSpec};
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -118,7 +118,7 @@ impl Kind for Budget {
         )?;
         let spec = p.spec()?;
         spec.check_order(p.order)?;
-        if matches!(spec, Spec::SubVolumes { .. }) && p.mesh == "sphere" {
+        if matches!(spec, Spec::SubVolumes(SubVolumeSpec { .. })) && p.mesh == "sphere" {
             return Err(KeyError::new(
                 "mesh",
                 "`sub_volumes` splits a mesh; the analytic sphere has none",
@@ -150,10 +150,10 @@ impl Kind for Budget {
     /// the fit's bound, refused naming `sphere_fit` and the mesh before any work.
     fn resolve_in(p: &Params, _config_dir: &std::path::Path) -> Result<Self::Spec, KeyError> {
         let spec = Self::resolve(p)?;
-        if let Spec::SphereSet {
+        if let Spec::SphereSet(SetSpec {
             fit: SphereFit::Inscribed,
             ..
-        } = spec.typed
+        }) = spec.typed
         {
             if p.mesh != "sphere" {
                 crate::common::inscribed_work(&p.mesh, p.orientation_seed)?;
@@ -207,10 +207,10 @@ impl Kind for Budget {
             Cost {
                 // The inscribed fit: once per mesh and orientation, whatever the runs using it.
                 cached_once: match p.typed {
-                    Spec::SphereSet {
+                    Spec::SphereSet(SetSpec {
                         fit: SphereFit::Inscribed,
                         ..
-                    } if p.mesh != "sphere" => Some((
+                    }) if p.mesh != "sphere" => Some((
                         format!("inscribed {} {}", p.mesh, p.orientation_seed),
                         crate::common::inscribed_work(&p.mesh, p.orientation_seed).map_or(
                             shscale_geometry::inscribed::INSCRIBED_FIT_SECONDS,
@@ -310,7 +310,9 @@ impl Kind for Budget {
         // sub-volumes' part meshes and BVHs are built with it; the spheres are refitted every
         // frame.
         let sampler = match &p.typed {
-            Spec::Extrapolated(e) | Spec::SubVolumes { ex: e, .. } => e.hemisphere_res,
+            Spec::Extrapolated(e) | Spec::SubVolumes(SubVolumeSpec { ex: e, .. }) => {
+                e.hemisphere_res
+            }
             Spec::FullField(f) => f.hemisphere_res,
             _ => 1,
         };
@@ -331,7 +333,7 @@ impl Kind for Budget {
                 let parts = vec![(occ, range)];
                 frames::extrapolation(ex, k, (parts, Combine::Product), &sampler, &sh.points)?
             }
-            Spec::SubVolumes { parts, ex, combine } => {
+            Spec::SubVolumes(SubVolumeSpec { parts, ex, combine }) => {
                 let (Some(mesh), Some(labels)) = (sh.mesh.as_ref(), partition(*parts)?) else {
                     return Err(Error::config(
                         "`sub_volumes` splits a mesh; the analytic sphere has none".into(),
@@ -347,19 +349,13 @@ impl Kind for Budget {
                 );
                 frames::extrapolation(ex, (order, p.k_count), parts, &sampler, &sh.points)?
             }
-            Spec::SphereSet {
-                parts,
-                combine,
-                internal_order,
-                fit,
-            } => {
+            Spec::SphereSet(set) => {
                 let source;
-                (source, partition_seconds) = set_source(*fit, *parts, sh, occ)?;
-                let internal = (*internal_order).max(order);
-                frames::sphere_set((order, internal), (*parts, *combine), source, &sh.points)?
+                (source, partition_seconds) = set_source(set.fit, set.parts, sh, occ)?;
+                frames::sphere_set(order, set, source, &sh.points)?
             }
             Spec::FullField(f) => frames::full_field(f, order, occ, &sampler, &sh.points),
-            Spec::RayTraced { rt_res } => {
+            Spec::RayTraced(RayTracedSpec { rt_res }) => {
                 frames::ray_traced(order, *rt_res, p.truth_seed, occ, &sh.points)?
             }
         };

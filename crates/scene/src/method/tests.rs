@@ -1,3 +1,4 @@
+use super::sphere_set::MAX_SPHERE_ORDER;
 use super::*;
 
 fn keys(method: &str) -> Keys<'_> {
@@ -95,10 +96,10 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     k.sphere_order = Some(12);
     assert!(matches!(
         Spec::parse(&k, &d, 1024).unwrap(),
-        Spec::SphereSet {
+        Spec::SphereSet(SetSpec {
             internal_order: 12,
             ..
-        }
+        })
     ));
     k.sphere_order = Some(MAX_SPHERE_ORDER + 1);
     assert_eq!(Spec::parse(&k, &d, 1024).unwrap_err().key, "sphere_order");
@@ -107,7 +108,7 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     for &name in SphereFit::NAMES {
         let mut k = keys("sphere_set");
         k.sphere_fit = Some(name);
-        let Spec::SphereSet { fit, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
+        let Spec::SphereSet(SetSpec { fit, .. }) = Spec::parse(&k, &d, 1024).unwrap() else {
             panic!("a sphere set")
         };
         assert_eq!(fit.name(), name);
@@ -122,7 +123,7 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     for &name in Combine::NAMES {
         let mut k = keys("sphere_set");
         k.sphere_combine = Some(name);
-        let Spec::SphereSet { combine, .. } = Spec::parse(&k, &d, 1024).unwrap() else {
+        let Spec::SphereSet(SetSpec { combine, .. }) = Spec::parse(&k, &d, 1024).unwrap() else {
             panic!("{name}")
         };
         assert_eq!(Combine::from_name(name), Some(combine));
@@ -132,10 +133,10 @@ fn a_key_the_method_does_not_read_is_refused_unless_at_its_default() {
     k.part_combine = Some("shexp");
     assert!(matches!(
         Spec::parse(&k, &d, 1024).unwrap(),
-        Spec::SubVolumes {
+        Spec::SubVolumes(SubVolumeSpec {
             combine: Combine::Shexp,
             ..
-        }
+        })
     ));
     k.part_combine = Some("union");
     let e = Spec::parse(&k, &d, 1024).unwrap_err();
@@ -250,10 +251,8 @@ fn domains_are_checked_at_their_edges_and_named() {
 
 #[test]
 fn rays_and_bytes_follow_the_formulas() {
-    use crate::method_cost::{
-        LOG_SAMPLE_SECONDS, SHEXP_SECONDS, SPHERE_DIRECTION_SECONDS, SPHERE_SECONDS,
-        SPHERE_TEST_SECONDS,
-    };
+    use super::sub_volumes::LOG_SAMPLE_SECONDS;
+    use super::SHEXP_SECONDS;
     let d = keys("extrapolated");
     let spec = |k: &Keys| Spec::parse(k, &d, 1024).unwrap();
     // 12 × 20 samples × 32² rays; 16 shells of them; 4T² per receiver.

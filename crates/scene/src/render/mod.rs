@@ -21,14 +21,11 @@ use crate::method::Combine;
 use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
-use shscale_field::evaluator::{ConvergedTruth, FieldInterp, FullField, Shells, VisibilityField};
+use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
 use shscale_field::extrapolate::Extrapolator;
 use shscale_field::shading::{EnvLight, Shader};
-use shscale_field::shexp_ol::{
-    log_bsv, Exp, SphereSetShexp, SubVolumeLog, ZonalLogTable, MAX_SHEXP_ORDER, SHEXP_EPS,
-};
-use shscale_field::sphereset::{SphereSetField, SphereVisibility};
-use shscale_field::union::{RingGrid, SphereSetUnion};
+use shscale_field::shexp_ol::{log_bsv, SubVolumeLog, ZonalLogTable, SHEXP_EPS};
+use shscale_field::sphereset::SphereVisibility;
 use shscale_field::{Bsv, Emitter, VisibilitySampler};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::{deform, AnalyticSphere, Mesh, MeshBvh, Occluder, Sphere};
@@ -38,6 +35,9 @@ use std::time::Instant;
 /// The visibility evaluator used for every occluder: the project's one method vocabulary
 /// ([`crate::method`]).
 pub use crate::method::Method;
+
+/// The renderer's full field where the scene names none (the full field's own file).
+pub use crate::method::full_field_shells;
 
 /// A rendered receiver plane.
 pub struct RenderOutput {
@@ -224,60 +224,38 @@ fn converged_truths<'a>(
     }
 }
 
-/// Several fields combined as one field, with the tables each way needs (all at the scene's
-/// order N unless said): none (the plain chains, one field per sphere, part or occluder), a
-/// sphere set multiplied at its internal order ([`Scene::sphere_order`] above N: that order's
-/// basis and Gaunt tensor), as its caps' union (the rings), by SH exponentiation, or extrapolated
+/// Several fields combined as one field, with the tables each way needs: none (the plain
+/// chains, one field per sphere, part or occluder, multiplied by the shader near to far), a
+/// sphere set's combination ([`SetTables`], the factory the budget frames use too: products at
+/// its internal order, the quadrature, its caps' union or SH exponentiation), or extrapolated
 /// fields — a sub-volume's parts, a scene's occluders — in log space ([`Scene::part_combine`];
-/// SHEXP's Gaunt tensor and log table for both, at most `MAX_SHEXP_ORDER`, refused by name
-/// above it).
+/// SHEXP's Gaunt tensor and log table, within the domain of
+/// [`crate::method::check_log_space`]).
 enum SetTables {
     Plain,
-    Internal(shscale_sh::ShBasis<f64>, shscale_sh::GauntTensor<f64>),
-    Union(RingGrid),
-    Shexp(shscale_sh::GauntTensor<f64>, ZonalLogTable),
+    Set(crate::method::SetTables),
     LogSpace(shscale_sh::GauntTensor<f64>, ZonalLogTable),
 }
 
 impl SetTables {
     fn new(scene: &Scene, method: Method, basis: &shscale_sh::ShBasis<f64>) -> Result<Self, Error> {
-        let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-        let shexp = |key: &str| -> Result<_, Error> {
-            if scene.order > MAX_SHEXP_ORDER {
-                return Err(Error::config(format!(
-                    "{}: {key} \"shexp\" takes orders up to {MAX_SHEXP_ORDER}, not {}",
-                    scene.file, scene.order
-                )));
-            }
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
-            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
-            Ok((gaunt, table))
-        };
         let extrapolated = matches!(method, Method::Extrapolated | Method::SubVolumes);
-        Ok(match (method, scene.sphere_combine) {
-            _ if extrapolated && scene.part_combine == Combine::Shexp => {
-                if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
-                    return Err(Error::config(format!(
-                        "{}: plausibility: the clamp bounds visibilities, not the logs part_combine \"shexp\" extrapolates",
-                        scene.file
-                    )));
-                }
-                let (g, t) = shexp("part_combine")?;
-                SetTables::LogSpace(g, t)
-            }
-            (Method::SphereSet, Combine::Union) => {
-                SetTables::Union(RingGrid::new(basis, crate::method::UNION_RINGS))
-            }
-            (Method::SphereSet, Combine::Shexp) => {
-                let (g, t) = shexp("sphere_combine")?;
-                SetTables::Shexp(g, t)
-            }
-            (Method::SphereSet, _) if scene.sphere_order > scene.order => SetTables::Internal(
-                shscale_sh::ShBasis::<f64>::new(scene.sphere_order).map_err(err)?,
-                shscale_sh::GauntTensor::<f64>::new(scene.sphere_order).map_err(err)?,
-            ),
-            _ => SetTables::Plain,
-        })
+        if extrapolated && scene.part_combine == Combine::Shexp {
+            crate::method::check_log_space(scene.order, scene.plausibility)
+                .map_err(|e| Error::config(format!("{}: {}: {}", scene.file, e.key, e.message)))?;
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)?;
+            let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
+            return Ok(SetTables::LogSpace(gaunt, table));
+        }
+        if method != Method::SphereSet {
+            return Ok(SetTables::Plain);
+        }
+        let set = crate::method::SetSpec::of_scene(scene);
+        match crate::method::SetTables::new(&set, scene.order, basis) {
+            Ok(crate::method::SetTables::Chain) => Ok(SetTables::Plain),
+            Ok(t) => Ok(SetTables::Set(t)),
+            Err(e) => Err(Error::config(format!("{}: {e}", scene.file))),
+        }
     }
 
     /// Every BSV replaced by its samples' logs when extrapolated fields combine in log space
@@ -300,18 +278,17 @@ impl SetTables {
         basis: &'a shscale_sh::ShBasis<f64>,
         exs: &'a [Extrapolator<'a>],
     ) -> Option<Box<dyn VisibilityField + 'a>> {
-        let one: Box<dyn VisibilityField + 'a> = match self {
-            SetTables::Plain => return None,
-            SetTables::LogSpace(g, t) if !exs.is_empty() => Box::new(SubVolumeLog::new(exs, g, t)),
-            SetTables::LogSpace(..) => return None,
-            _ if spheres.is_empty() => return None,
-            SetTables::Internal(b, g) => Box::new(SphereSetField::new(spheres, b, g)),
-            SetTables::Union(r) => Box::new(SphereSetUnion::new(spheres, r)),
-            SetTables::Shexp(g, t) => {
-                Box::new(SphereSetShexp::new(spheres, (basis, g), t, Exp::Hyb))
+        match self {
+            SetTables::Plain => None,
+            SetTables::LogSpace(g, t) if !exs.is_empty() => {
+                Some(Box::new(SubVolumeLog::new(exs, g, t)))
             }
-        };
-        Some(one)
+            SetTables::LogSpace(..) => None,
+            _ if spheres.is_empty() => None,
+            SetTables::Set(t) => t
+                .field(spheres, basis, None)
+                .map(|f| f.field as Box<dyn VisibilityField + 'a>),
+        }
     }
 }
 
@@ -531,22 +508,6 @@ fn partitioned(scene: &Scene) -> Result<Vec<Option<Partitioned>>, Error> {
             Ok(Some((crate::frame::posed(&rest, o, scene.pose_t), labels)))
         })
         .collect()
-}
-
-/// The renderer's full field: the papers' construction ([`Shells::PAPERS`]: 16 shells at uniform
-/// radial intervals, trilinear) over `[s, 8s]·r` for the sampling radius `s`; on a Fibonacci
-/// layout, which has no grid, barycentric in angle.
-pub fn full_field_shells(scene: &Scene) -> Shells {
-    let s = scene.sampling_radius;
-    Shells {
-        rho_min: s,
-        rho_max: 8.0 * s,
-        interp: match scene.layout {
-            shscale_field::Layout::Fibonacci { .. } => FieldInterp::Barycentric,
-            _ => FieldInterp::Trilinear,
-        },
-        ..Shells::PAPERS
-    }
 }
 
 /// Full-frequency truth: `∫ L Π V cos⁺` by direct quadrature with exact visibility per receiver,

@@ -141,13 +141,13 @@ pub(crate) fn variant(s: &Spec) -> String {
             cell(f.shell_max),
             f.interp.name()
         ),
-        Spec::RayTraced { .. } => "ray tracing".into(),
-        Spec::SphereSet {
+        Spec::RayTraced(RayTracedSpec { .. }) => "ray tracing".into(),
+        Spec::SphereSet(SetSpec {
             parts,
             combine,
             internal_order,
             fit,
-        } => format!(
+        }) => format!(
             "sphere set (S = {parts}{}{})",
             match fit {
                 SphereFit::Area => "",
@@ -162,12 +162,12 @@ pub(crate) fn variant(s: &Spec) -> String {
             }
         ),
         Spec::Extrapolated(e) => extrapolation_variant("extrapolation", None, e),
-        Spec::SubVolumes {
+        Spec::SubVolumes(SubVolumeSpec {
             parts,
             ex,
             combine: Combine::Shexp,
-        } => extrapolation_variant("sub-volumes in log space", Some(*parts), ex),
-        Spec::SubVolumes { parts, ex, .. } => {
+        }) => extrapolation_variant("sub-volumes in log space", Some(*parts), ex),
+        Spec::SubVolumes(SubVolumeSpec { parts, ex, .. }) => {
             extrapolation_variant("sub-volumes", Some(*parts), ex)
         }
     }
@@ -212,9 +212,9 @@ pub(crate) fn name(c: &Config) -> String {
             f.layout.name(),
             f.hemisphere_res
         ),
-        Spec::RayTraced { rt_res } => format!("ray tracing, T = {rt_res}"),
-        Spec::SphereSet { .. } => variant(s),
-        Spec::Extrapolated(e) | Spec::SubVolumes { ex: e, .. } => format!(
+        Spec::RayTraced(RayTracedSpec { rt_res }) => format!("ray tracing, T = {rt_res}"),
+        Spec::SphereSet(SetSpec { .. }) => variant(s),
+        Spec::Extrapolated(e) | Spec::SubVolumes(SubVolumeSpec { ex: e, .. }) => format!(
             "{}, `{}`{}, H = {}{}",
             variant(s),
             e.layout.name(),

@@ -18,9 +18,9 @@ fn family(s: &Spec) -> &'static str {
     match s {
         Spec::FullField(_) if is_papers_field(s) => "full field (papers')",
         Spec::FullField(_) => "full field (other shells)",
-        Spec::RayTraced { .. } => "ray tracing",
-        Spec::SphereSet { .. } => "sphere sets",
-        Spec::SubVolumes { .. } => "sub-volumes",
+        Spec::RayTraced(RayTracedSpec { .. }) => "ray tracing",
+        Spec::SphereSet(SetSpec { .. }) => "sphere sets",
+        Spec::SubVolumes(SubVolumeSpec { .. }) => "sub-volumes",
         Spec::Extrapolated(_) if is_papers_extrapolation(s) => "extrapolation (papers')",
         Spec::Extrapolated(_) => "extrapolation (variants)",
     }

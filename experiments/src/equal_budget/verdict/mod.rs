@@ -24,7 +24,9 @@ use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::plots::{write_panels, write_scatter_noted, Labels, Panel};
 use shscale_runner::records::Results;
-use shscale_scene::method::{Alpha, Combine, Extrapolation, Method, Spec, SphereFit};
+use shscale_scene::method::{
+    Alpha, Combine, Extrapolation, Method, RayTracedSpec, SetSpec, Spec, SphereFit, SubVolumeSpec,
+};
 use shscale_scene::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

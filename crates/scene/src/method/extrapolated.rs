@@ -1,0 +1,178 @@
+//! The papers' method, `extrapolated`: SH-scaling extrapolation from one base-sphere visibility
+//! per occluder (and, as [`Extrapolation`], each sub-volume's). Its parameters, the keys it
+//! reads, their domains, its cost and how it sets a scene, in one file.
+
+use super::{Keys, MethodSpec, Spec};
+use crate::scene::Scene;
+use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
+use shscale_field::extrapolate::Plausibility;
+use shscale_runner::check::Ends;
+use shscale_runner::KeyError;
+
+/// How α of the extrapolation's k-table is chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Alpha {
+    /// One cone angle, degrees, in (0, 90).
+    Fixed(f64),
+    /// α by distance at the BSV's effective cap (the table is then built per frame).
+    Fit,
+}
+
+/// The extrapolation's parameters (one sphere, or each sub-volume's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extrapolation {
+    pub layout: Layout,
+    /// H: H² rays per base-sphere sample.
+    pub hemisphere_res: usize,
+    pub alpha: Alpha,
+    pub plausibility: Plausibility,
+    /// The sampling sphere in bounding radii, [1, 1000].
+    pub sampling_radius: f64,
+    pub radial: RadialRule,
+    /// k-table entries; `None` where the scene's are used (`budget_plane`).
+    pub k_count: Option<usize>,
+}
+
+impl Extrapolation {
+    /// The extrapolation keys of `k`, each in its domain.
+    pub(crate) fn parse(k: &Keys) -> Result<Self, KeyError> {
+        let layout = super::layout(k.layout)?;
+        let mode = k.alpha_mode.unwrap_or("fixed");
+        let alpha = match AlphaMode::from_name(mode) {
+            Some(AlphaMode::Fixed) => {
+                KeyError::real("alpha_deg", k.alpha_deg, 0.0, 90.0, Ends::Open)?;
+                Alpha::Fixed(k.alpha_deg)
+            }
+            Some(AlphaMode::Fit) => Alpha::Fit,
+            None => {
+                return Err(KeyError::new(
+                    "alpha_mode",
+                    shscale_names::one_of(mode, AlphaMode::NAMES),
+                ))
+            }
+        };
+        Ok(Extrapolation {
+            layout,
+            hemisphere_res: super::hemisphere_res(k.hemisphere_res)?,
+            alpha,
+            plausibility: Plausibility::parse(k.plausibility)
+                .map_err(|m| KeyError::new("plausibility", m))?,
+            sampling_radius: super::sampling_radius(k.sampling_radius)?,
+            radial: radial_rule(k)?,
+            k_count: k
+                .k_count
+                .map(|k| KeyError::int("k_count", k, 2, crate::vocab::MAX_K_COUNT))
+                .transpose()?,
+        })
+    }
+
+    /// The keys the extrapolation reads (α only when fixed; the radial rule's own).
+    pub(crate) fn reads(&self) -> Vec<&'static str> {
+        let mut v = vec!["layout", "hemisphere_res", "alpha_mode"];
+        if matches!(self.alpha, Alpha::Fixed(_)) {
+            v.push("alpha_deg");
+        }
+        v.extend(["plausibility", "sampling_radius", "radial", "k_count"]);
+        match self.radial {
+            RadialRule::Uniform => {}
+            RadialRule::Clearance { .. } => v.push("radial_delta"),
+            RadialRule::Occlusion { .. } => v.extend(["radial_tau", "radial_max"]),
+        }
+        v
+    }
+
+    /// Rays of one base-sphere visibility: its samples' hemispheres, × the occlusion rule's
+    /// search steps.
+    pub(crate) fn bsv_rays(&self) -> f64 {
+        let search = match self.radial {
+            RadialRule::Occlusion { .. } => (2 + OCCLUSION_STEPS) as f64,
+            _ => 1.0,
+        };
+        search * super::samples(self.layout) * (self.hemisphere_res * self.hemisphere_res) as f64
+    }
+
+    /// Bytes of one base-sphere visibility and its k-table at order N (`k_count` entries where
+    /// the spec leaves them to the scene): N² doubles per sample, N × N doubles per entry.
+    pub(crate) fn bytes(&self, order: usize, k_count: usize) -> f64 {
+        let nn = (order * order) as f64;
+        super::samples(self.layout) * nn * 8.0
+            + self.k_count.unwrap_or(k_count) as f64 * nn * nn * 8.0
+    }
+
+    /// The extrapolation's keys set on `scene`.
+    pub(crate) fn set_on(&self, s: &mut Scene) {
+        s.layout = self.layout;
+        s.hemisphere_res = self.hemisphere_res;
+        if let Alpha::Fixed(deg) = self.alpha {
+            s.alpha = deg.to_radians();
+        }
+        s.plausibility = self.plausibility;
+        s.sampling_radius = self.sampling_radius;
+        s.radial = self.radial;
+        if let Some(k) = self.k_count {
+            s.k_count = k;
+        }
+    }
+}
+
+impl MethodSpec for Extrapolation {
+    fn reads(&self) -> Vec<&'static str> {
+        Extrapolation::reads(self)
+    }
+    fn rays(&self, occluders: f64, _receivers: f64) -> f64 {
+        occluders * self.bsv_rays()
+    }
+    fn memory_bytes(&self, order: usize, occluders: f64, k_count: usize) -> f64 {
+        occluders * self.bytes(order, k_count)
+    }
+    fn apply(&self, scene: &mut Scene) {
+        self.set_on(scene)
+    }
+    fn into_spec(self) -> Spec {
+        Spec::Extrapolated(self)
+    }
+}
+
+/// `uniform`, `clearance` (δ ∈ [0, 10]) or `occlusion` (τ ∈ [0, 1), ceiling ∈ [1, 10]), the
+/// last only where the kind offers `radial_tau` and `radial_max`.
+fn radial_rule(k: &Keys) -> Result<RadialRule, KeyError> {
+    match (RadialName::from_name(k.radial), k.radial_tau.zip(k.radial_max)) {
+        (Some(RadialName::Uniform), _) => Ok(RadialRule::Uniform),
+        (Some(RadialName::Clearance), _) => Ok(RadialRule::Clearance {
+            delta: KeyError::real("radial_delta", k.radial_delta, 0.0, 10.0, Ends::Closed)?,
+        }),
+        (Some(RadialName::Occlusion), Some((tau, t_max))) => Ok(RadialRule::Occlusion {
+            tau: KeyError::real("radial_tau", tau, 0.0, 1.0, Ends::ClosedOpen)?,
+            t_max: KeyError::real("radial_max", t_max, 1.0, 10.0, Ends::Closed)?,
+        }),
+        (Some(RadialName::Occlusion), None) => Err(KeyError::new(
+            "radial",
+            "\"occlusion\" is offered by `budget` only (its search rays are not in the plane's ray count); use \"uniform\" or \"clearance\"",
+        )),
+        (None, _) => Err(KeyError::new(
+            "radial",
+            shscale_names::one_of(k.radial, RadialName::NAMES),
+        )),
+    }
+}
+
+/// The names `alpha_mode` takes (the cone angle given, or fitted by distance).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AlphaMode {
+    Fixed,
+    Fit,
+}
+shscale_names::names!(AlphaMode { Fixed = "fixed", Fit = "fit" });
+
+/// The names `radial` takes ([`RadialRule`]'s variants, whose parameters are other keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RadialName {
+    Uniform,
+    Clearance,
+    Occlusion,
+}
+shscale_names::names!(RadialName {
+    Uniform = "uniform",
+    Clearance = "clearance",
+    Occlusion = "occlusion",
+});

@@ -1,0 +1,396 @@
+//! The methods' vocabulary: every way this project computes the visibility a receiver sees,
+//! spelled one way ([`Method`]: the config's `method` cell, the CSV column, `render --method`,
+//! Python), and the typed spec of each method a budget study compares ([`Spec`]), parsed once
+//! from a kind's keys ([`Keys`]) (docs/methods.md).
+//!
+//! One file per method: `extrapolated.rs` ([`Extrapolation`]), `sub_volumes.rs`
+//! ([`SubVolumeSpec`]), `full_field.rs` ([`FieldSpec`]), `ray_traced.rs` ([`RayTracedSpec`]) and
+//! `sphere_set.rs` ([`SetSpec`], with the one factory of its combinations' tables). Each holds
+//! its parameters, how they are parsed from the keys and checked, the keys it reads, its cost
+//! (rays, bytes, seconds) and how it sets a scene, behind [`MethodSpec`]; [`Spec`] is the enum
+//! of those types and [`REGISTRY`] the one line per method that ties a name to its parse.
+//!
+//! A key that the chosen method does not read must keep its default: given any other value it
+//! is refused, naming the key and the method (Mitsuba's rule for unqueried properties), so it
+//! never changes a run id without changing the run.
+
+use crate::scene::Scene;
+use shscale_field::bsv::Layout;
+use shscale_runner::check::Ends;
+use shscale_runner::KeyError;
+
+mod extrapolated;
+mod full_field;
+mod ray_traced;
+mod sphere_set;
+mod sub_volumes;
+
+pub use crate::combine::{Combine, SphereFit};
+pub use extrapolated::{Alpha, Extrapolation};
+pub(crate) use full_field::FULL_FIELD_KEYS;
+pub use full_field::{full_field_shells, FieldSpec};
+pub use ray_traced::RayTracedSpec;
+pub use sphere_set::{
+    SetField, SetSpec, SetTables, SPHERE_DIRECTION_SECONDS, SPHERE_QUADRATURE_RES, SPHERE_SECONDS,
+    SPHERE_TEST_SECONDS, UNION_RINGS,
+};
+pub(crate) use sub_volumes::check_log_space;
+pub use sub_volumes::SubVolumeSpec;
+
+/// A method of computing a receiver's visibility.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// SH-scaling extrapolation from one base-sphere visibility per occluder (the papers').
+    Extrapolated,
+    /// The fully sampled shadow field (Zhou et al. 2005): shells of samples, interpolated.
+    FullField,
+    /// Band-limited ray-traced visibility (the converged stratified truth at `4T²` rays per
+    /// receiver), shaded through SH like the others.
+    RayTraced,
+    /// Full-frequency truth: direct quadrature of `∫ L Π V cos⁺` with exact ray-cast visibility.
+    FullFrequency,
+    /// Sub-volumes (TR §6, SHS §5 future work): every mesh occluder split into parts, each part
+    /// extrapolated from its own bounding sphere, multiplied near to far.
+    SubVolumes,
+    /// Sphere sets (Ren et al. 2006's occluder model): one sphere fitted per part, closed-form
+    /// caps; no rays.
+    SphereSet,
+}
+
+shscale_names::names!(Method {
+    Extrapolated = "extrapolated",
+    FullField = "full_field",
+    RayTraced = "ray_traced",
+    FullFrequency = "full_frequency",
+    SubVolumes = "sub_volumes",
+    SphereSet = "sphere_set",
+});
+
+impl Method {
+    /// Every method, in the order of the docs.
+    pub const ALL: [Method; 6] = [
+        Method::Extrapolated,
+        Method::FullField,
+        Method::RayTraced,
+        Method::FullFrequency,
+        Method::SubVolumes,
+        Method::SphereSet,
+    ];
+    /// The methods a budget study compares (full-frequency truth is its reference, not a
+    /// method under a budget).
+    pub(crate) const BUDGETED: [Method; 5] = [
+        Method::Extrapolated,
+        Method::FullField,
+        Method::RayTraced,
+        Method::SubVolumes,
+        Method::SphereSet,
+    ];
+    /// The command line's earlier spellings, still accepted by [`Method::parse_cli`].
+    const CLI_ALIASES: [(&'static str, Method); 3] = [
+        ("full-field", Method::FullField),
+        ("raytraced", Method::RayTraced),
+        ("raytraced-full", Method::FullFrequency),
+    ];
+
+    /// The method named `s` among `among`, or a message listing them.
+    pub(crate) fn parse_among(s: &str, among: &[Method]) -> Result<Self, String> {
+        among
+            .iter()
+            .copied()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<String> = among.iter().map(|m| format!("{:?}", m.name())).collect();
+                format!("{s:?} is not one of {}", names.join(", "))
+            })
+    }
+
+    /// Any method by its name.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        Self::parse_among(s, &Self::ALL)
+    }
+
+    /// A method as the command line takes it: its name, or an earlier spelling
+    /// (`full-field`, `raytraced`, `raytraced-full`).
+    pub fn parse_cli(s: &str) -> Result<Self, String> {
+        (Self::CLI_ALIASES.iter())
+            .find(|(a, _)| *a == s)
+            .map(|(_, m)| *m)
+            .map_or_else(|| Self::parse(s), Ok)
+    }
+
+    /// The references: ray-traced truths, band-limited and full-frequency.
+    pub fn is_truth(self) -> bool {
+        matches!(self, Method::RayTraced | Method::FullFrequency)
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The raw method keys of a kind's parameters (each kind fills the ones it has; a key it does
+/// not offer is `None`, and the method uses the fixed value the kind documents).
+#[derive(Clone, Copy, Debug)]
+pub struct Keys<'a> {
+    pub method: &'a str,
+    pub parts: usize,
+    pub layout: &'a str,
+    pub hemisphere_res: usize,
+    pub shells: usize,
+    pub shell_max: f64,
+    pub shell_spacing: &'a str,
+    pub field_interp: &'a str,
+    pub rt_res: usize,
+    pub alpha_deg: f64,
+    pub alpha_mode: Option<&'a str>,
+    pub plausibility: &'a str,
+    pub sampling_radius: f64,
+    pub radial: &'a str,
+    pub radial_delta: f64,
+    pub radial_tau: Option<f64>,
+    pub radial_max: Option<f64>,
+    pub sphere_combine: Option<&'a str>,
+    /// Which spheres a sphere set takes: `area` or `inscribed`.
+    pub sphere_fit: Option<&'a str>,
+    /// The internal order of a sphere set's products (0: the run's order).
+    pub sphere_order: Option<usize>,
+    /// How sub-volumes combine their parts: `product` or `shexp`.
+    pub part_combine: Option<&'a str>,
+    pub k_count: Option<usize>,
+}
+
+impl<'a> Keys<'a> {
+    /// Every method key this kind offers with its value as a cell, for the unread-key rule (and
+    /// the GPU forms' [`crate::gpu_methods::unhonoured`]).
+    pub fn cells(&self) -> Vec<(&'static str, String)> {
+        let mut v = vec![
+            ("parts", self.parts.to_string()),
+            ("layout", self.layout.to_string()),
+            ("hemisphere_res", self.hemisphere_res.to_string()),
+            ("shells", self.shells.to_string()),
+            ("shell_max", self.shell_max.to_string()),
+            ("shell_spacing", self.shell_spacing.to_string()),
+            ("field_interp", self.field_interp.to_string()),
+            ("rt_res", self.rt_res.to_string()),
+            ("alpha_deg", self.alpha_deg.to_string()),
+            ("plausibility", self.plausibility.to_string()),
+            ("sampling_radius", self.sampling_radius.to_string()),
+            ("radial", self.radial.to_string()),
+            ("radial_delta", self.radial_delta.to_string()),
+        ];
+        let opt = [
+            ("alpha_mode", self.alpha_mode.map(str::to_string)),
+            ("radial_tau", self.radial_tau.map(|x| x.to_string())),
+            ("radial_max", self.radial_max.map(|x| x.to_string())),
+            ("sphere_combine", self.sphere_combine.map(str::to_string)),
+            ("sphere_fit", self.sphere_fit.map(str::to_string)),
+            ("sphere_order", self.sphere_order.map(|x| x.to_string())),
+            ("part_combine", self.part_combine.map(str::to_string)),
+            ("k_count", self.k_count.map(|x| x.to_string())),
+        ];
+        v.extend(opt.into_iter().filter_map(|(k, c)| Some((k, c?))));
+        v
+    }
+}
+
+/// What every method's spec answers (each method's file implements it for its type).
+pub trait MethodSpec {
+    /// The method keys this spec reads (the others must keep their defaults).
+    fn reads(&self) -> Vec<&'static str>;
+    /// The method's own domains at the run's order N, named by their keys (both budget kinds
+    /// check it at plan time; `render` through the same code).
+    fn check_order(&self, _order: usize) -> Result<(), KeyError> {
+        Ok(())
+    }
+    /// Rays of one frame for `occluders` occluders and `receivers` receivers.
+    fn rays(&self, occluders: f64, receivers: f64) -> f64;
+    /// Bytes the method holds at order N for `occluders` occluders (`k_count` table entries
+    /// where the spec leaves them to the scene).
+    fn memory_bytes(&self, order: usize, occluders: f64, k_count: usize) -> f64;
+    /// Seconds of one frame for the cost model: `rays` at `rays_per_second` unless the method
+    /// prices its own work.
+    fn seconds(&self, _order: usize, rays: f64, _receivers: f64, rays_per_second: f64) -> f64 {
+        rays / rays_per_second
+    }
+    /// The method's parameters set on `scene` (the keys it does not read leave it as it is).
+    fn apply(&self, scene: &mut Scene);
+    /// The spec as the vocabulary's enum.
+    fn into_spec(self) -> Spec;
+}
+
+/// One method with everything it reads, parsed: the enum of the methods' own types.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Spec {
+    Extrapolated(Extrapolation),
+    FullField(FieldSpec),
+    RayTraced(RayTracedSpec),
+    SubVolumes(SubVolumeSpec),
+    SphereSet(SetSpec),
+}
+
+/// The one dispatch from [`Spec`] to its method's type.
+macro_rules! each {
+    ($spec:expr, $m:ident => $e:expr) => {
+        match $spec {
+            Spec::Extrapolated($m) => $e,
+            Spec::FullField($m) => $e,
+            Spec::RayTraced($m) => $e,
+            Spec::SubVolumes($m) => $e,
+            Spec::SphereSet($m) => $e,
+        }
+    };
+}
+
+/// A method's parse from a kind's keys (`rt_res_max`: the kind's largest `rt_res`).
+type Parse = fn(&Keys, usize) -> Result<Spec, KeyError>;
+
+/// The budgeted methods, one registration line each: the name's variant and its parse.
+pub const REGISTRY: [(Method, Parse); 5] = [
+    (Method::Extrapolated, |k, _| {
+        Extrapolation::parse(k).map(MethodSpec::into_spec)
+    }),
+    (Method::FullField, |k, _| {
+        FieldSpec::parse(k).map(MethodSpec::into_spec)
+    }),
+    (Method::RayTraced, |k, max| {
+        RayTracedSpec::parse(k.rt_res, max).map(MethodSpec::into_spec)
+    }),
+    (Method::SubVolumes, |k, _| {
+        SubVolumeSpec::parse(k).map(MethodSpec::into_spec)
+    }),
+    (Method::SphereSet, |k, _| {
+        SetSpec::parse(k).map(MethodSpec::into_spec)
+    }),
+];
+
+impl Spec {
+    /// Parse the method keys `k` once; `defaults` are the kind's defaults (the unread-key
+    /// rule), `rt_res_max` the kind's largest `rt_res`. Errors name the key.
+    pub fn parse(k: &Keys, defaults: &Keys, rt_res_max: usize) -> Result<Spec, KeyError> {
+        let method = Method::parse_among(k.method, &Method::BUDGETED)
+            .map_err(|m| KeyError::new("method", m))?;
+        let parse = (REGISTRY.iter())
+            .find(|(m, _)| *m == method)
+            .map(|(_, p)| *p)
+            .expect("every budgeted method is registered");
+        let spec = parse(k, rt_res_max)?;
+        let cells = k.cells();
+        // The keys it reads among those the kind offers, for the message.
+        let reads: Vec<&str> = (spec.reads().into_iter())
+            .filter(|r| cells.iter().any(|(c, _)| c == r))
+            .collect();
+        for ((key, v), (_, d)) in cells.iter().zip(defaults.cells()) {
+            if *v != d && !reads.contains(key) {
+                return Err(KeyError::new(
+                    key,
+                    format!(
+                        "{v} is not read by method \"{method}\" (it reads {}); leave {key} at its default {d}",
+                        reads.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(spec)
+    }
+
+    pub fn method(&self) -> Method {
+        match self {
+            Spec::Extrapolated(_) => Method::Extrapolated,
+            Spec::FullField(_) => Method::FullField,
+            Spec::RayTraced(_) => Method::RayTraced,
+            Spec::SubVolumes(_) => Method::SubVolumes,
+            Spec::SphereSet(_) => Method::SphereSet,
+        }
+    }
+
+    /// The extrapolation of `extrapolated` and of each sub-volume.
+    pub fn extrapolation(&self) -> Option<&Extrapolation> {
+        match self {
+            Spec::Extrapolated(e) | Spec::SubVolumes(SubVolumeSpec { ex: e, .. }) => Some(e),
+            _ => None,
+        }
+    }
+
+    /// The method keys this spec reads (the others must keep their defaults).
+    pub fn reads(&self) -> Vec<&'static str> {
+        each!(self, m => m.reads())
+    }
+
+    /// The method's domains at the run's order N ([`MethodSpec::check_order`]).
+    pub fn check_order(&self, order: usize) -> Result<(), KeyError> {
+        each!(self, m => m.check_order(order))
+    }
+
+    /// Rays of one frame ([`MethodSpec::rays`]; docs/methods.md, "Rays, bytes and time").
+    pub fn rays(&self, occluders: f64, receivers: f64) -> f64 {
+        each!(self, m => m.rays(occluders, receivers))
+    }
+
+    /// Bytes held ([`MethodSpec::memory_bytes`]).
+    pub fn memory_bytes(&self, order: usize, occluders: f64, k_count: usize) -> f64 {
+        each!(self, m => m.memory_bytes(order, occluders, k_count))
+    }
+
+    /// Seconds of one frame for the cost model ([`MethodSpec::seconds`]). The rates are the
+    /// development VM's; `--dry-run` scales them by the running machine's measured ray rate.
+    pub fn seconds(&self, order: usize, rays: f64, receivers: f64, rays_per_second: f64) -> f64 {
+        each!(self, m => m.seconds(order, rays, receivers, rays_per_second))
+    }
+
+    /// The scene rendered with this method ([`MethodSpec::apply`]). `rt_res` must be below the
+    /// scene's `truth_res` (checked by the kinds at plan time).
+    pub fn apply(&self, scene: &mut Scene) {
+        each!(self, m => m.apply(scene))
+    }
+}
+
+/// The cost model's time per receiver of SH exponentiation's HYB exponential on the 2-core
+/// development VM (both threads), at N = 4 (its squarings are truncated products, about
+/// `(N/4)⁵` times an order-4 one's): sphere sets and sub-volumes in log space.
+pub(crate) const SHEXP_SECONDS: f64 = 1.0e-6;
+
+/// A truncated product's work at order M against one at 4: its Gaunt entries, ~`(M/4)⁵`.
+fn product_work(m: usize) -> f64 {
+    (m as f64 / 4.0).powi(5).max(1.0)
+}
+
+/// Base-sphere samples of a layout (0 for one without a count).
+fn samples(l: Layout) -> f64 {
+    l.sample_count().unwrap_or(0) as f64
+}
+
+/// SH exponentiation's order domain, named by `key`: orders up to
+/// `shscale_field::shexp_ol::MAX_SHEXP_ORDER` (its exact exponential's eigenproblem is N² × N²).
+fn check_shexp_order(key: &str, order: usize) -> Result<(), KeyError> {
+    let max = shscale_field::shexp_ol::MAX_SHEXP_ORDER;
+    if order > max {
+        return Err(KeyError::new(
+            key,
+            format!("\"shexp\" takes orders up to {max} (its exact exponential's eigenproblem is N² × N²), not {order}"),
+        ));
+    }
+    Ok(())
+}
+
+fn layout(s: &str) -> Result<Layout, KeyError> {
+    Layout::parse(s).map_err(|e| KeyError::new("layout", e.to_string()))
+}
+
+fn hemisphere_res(h: usize) -> Result<usize, KeyError> {
+    KeyError::int("hemisphere_res", h, 1, crate::vocab::MAX_HEMISPHERE_RES)
+}
+
+/// The sampling sphere (and innermost shell) in bounding radii, [1, 1000].
+fn sampling_radius(s: f64) -> Result<f64, KeyError> {
+    KeyError::real("sampling_radius", s, 1.0, 1e3, Ends::Closed)
+}
+
+/// A sub-volume's or sphere set's parts.
+fn parts(p: usize) -> Result<usize, KeyError> {
+    KeyError::int("parts", p, 1, shscale_geometry::partition::MAX_PARTS)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,44 @@
+//! `ray_traced`: band-limited ray-traced visibility (the stratified truth at `4T²` rays per
+//! receiver and occluder), shaded through SH like the others. Its one key, its cost and how it
+//! sets a scene.
+
+use super::{MethodSpec, Spec};
+use crate::scene::Scene;
+use shscale_runner::KeyError;
+
+/// Ray tracing's parameters: `T`, for `4T²` stratified rays per receiver and occluder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RayTracedSpec {
+    pub rt_res: usize,
+}
+
+impl RayTracedSpec {
+    /// `rt_res` within `1..=rt_res_max` (the kind's largest; below its truth's).
+    pub(crate) fn parse(rt_res: usize, rt_res_max: usize) -> Result<Self, KeyError> {
+        Ok(Self {
+            rt_res: KeyError::int("rt_res", rt_res, 1, rt_res_max)?,
+        })
+    }
+}
+
+impl MethodSpec for RayTracedSpec {
+    fn reads(&self) -> Vec<&'static str> {
+        vec!["rt_res"]
+    }
+    /// `4T²` per receiver and occluder.
+    fn rays(&self, occluders: f64, receivers: f64) -> f64 {
+        occluders * (receivers * 4.0 * (self.rt_res * self.rt_res) as f64)
+    }
+    /// Nothing held.
+    fn memory_bytes(&self, _order: usize, _occluders: f64, _k_count: usize) -> f64 {
+        0.0
+    }
+    /// The scene's truth resolution (the kinds check at plan time that it is below the
+    /// reference's).
+    fn apply(&self, scene: &mut Scene) {
+        scene.truth_res = self.rt_res;
+    }
+    fn into_spec(self) -> Spec {
+        Spec::RayTraced(self)
+    }
+}
