@@ -1,5 +1,6 @@
 use super::sphere_set::MAX_SPHERE_ORDER;
 use super::*;
+use shscale_field::bsv::RadialRule;
 
 fn keys(method: &str) -> Keys<'_> {
     Keys {
