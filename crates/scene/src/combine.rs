@@ -1,6 +1,6 @@
 //! How several occluders' visibilities become one — the choice a sphere set (and, for products
 //! and SH exponentiation, sub-volumes) makes: its own module so that the scene's settings
-//! (`Scene::sphere_combine`) and the method vocabulary (`method.rs`) both name it without
+//! (`Scene::sphere_combine`) and the method vocabulary (`method/`) both name it without
 //! importing each other.
 
 /// How a sphere set combines its spheres.

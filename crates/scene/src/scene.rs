@@ -235,7 +235,8 @@ pub struct Scene {
     /// How a [`crate::render::Method::SphereSet`] combines its spheres: products (at
     /// `sphere_order`), the exact union of its caps (`shscale_field::union`) or SH
     /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
-    /// --sphere-combine` (no scene-file key); products otherwise. The quadrature is not rendered.
+    /// --sphere-combine` (no scene-file key); products otherwise. Every combination renders
+    /// through [`crate::method::SetTables`], the quadrature included.
     pub sphere_combine: crate::combine::Combine,
     /// Which spheres a [`crate::render::Method::SphereSet`] takes: one per k-means part
     /// (area-weighted), or the mesh's inscribed balls (`shscale_geometry::inscribed`, fitted to
