@@ -20,6 +20,7 @@ use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER};
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
@@ -159,7 +160,11 @@ fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error>
 /// The labelled figure of the receiver plane: the three irradiance images (full field,
 /// extrapolated, full-frequency truth) on one scale, then the differences of the two fields from
 /// the truth on a symmetric diverging scale.
-fn write_field_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
+fn write_field_figure(
+    png: &Path,
+    (scene, order): (&Scene, usize),
+    imgs: [&RenderOutput; 3],
+) -> Result<(), Error> {
     let (w, h) = (imgs[0].width, imgs[0].height);
     let [ff, ex, tr] = imgs.map(|i| lum(&i.pixels));
     let c = scene.receiver_center;
@@ -174,7 +179,7 @@ fn write_field_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Re
             ff.clone(),
         ),
         (
-            format!("SH-scaling extrapolation (N = {})", scene.order),
+            format!("SH-scaling extrapolation (N = {order})"),
             ex.clone(),
         ),
         ("full-frequency ray-traced truth".to_string(), tr.clone()),
@@ -245,9 +250,12 @@ pub struct Overrides {
     plausibility: Option<shscale_field::extrapolate::Plausibility>,
 }
 
-/// The run's scene: the file with the run's overrides applied.
-fn scene_of(p: &Typed<Params, Overrides>, config_dir: &Path) -> Result<Scene, Error> {
-    let mut s = Scene::load(&config_dir.join(&p.scene))?;
+/// The run's scene and its render settings: the file's with the run's overrides applied.
+fn scene_of(
+    p: &Typed<Params, Overrides>,
+    config_dir: &Path,
+) -> Result<(Scene, RenderSettings), Error> {
+    let (scene, mut s) = Scene::load(&config_dir.join(&p.scene))?;
     if let Some(n) = p.order {
         s.order = n;
     }
@@ -263,7 +271,7 @@ fn scene_of(p: &Typed<Params, Overrides>, config_dir: &Path) -> Result<Scene, Er
     if let Some(m) = p.typed.plausibility {
         s.plausibility = m;
     }
-    Ok(s)
+    Ok((scene, s))
 }
 
 impl Kind for Shadows {
@@ -343,10 +351,10 @@ impl Kind for Shadows {
     /// at [`RENDER_RAYS_PER_SECOND`]. A scene that cannot be read leaves the time unestimated
     /// (the run reports the error).
     fn cost_in(p: &Self::Spec, config_dir: &Path) -> (Cost, Cost) {
-        let Ok(scene) = scene_of(p, config_dir) else {
+        let Ok((scene, rs)) = scene_of(p, config_dir) else {
             return Self::cost(p);
         };
-        let work = |m| shscale_scene::render::estimated_work(&scene, m);
+        let work = |m| shscale_scene::render::estimated_work(&scene, &rs.with(m));
         let (mut rays, mut bytes) = (0.0, 0.0f64);
         for m in METHODS {
             let (r, b) = work(m);
@@ -367,8 +375,8 @@ impl Kind for Shadows {
                     p.scene,
                     scene.resolution[0],
                     scene.resolution[1],
-                    scene.truth_res,
-                    scene.hemisphere_res,
+                    rs.truth_res,
+                    rs.hemisphere_res,
                     rays
                 ),
             },
@@ -384,17 +392,17 @@ impl Kind for Shadows {
     }
 
     fn run(p: &Self::Spec, run_id: &str, _: &(), ctx: &Ctx) -> Result<Vec<Row>, Error> {
-        let scene = scene_of(p, ctx.config_dir)?;
+        let (scene, rs) = scene_of(p, ctx.config_dir)?;
         let mut imgs = Vec::new();
         for m in METHODS {
-            let (img, t) = ctx.timing.measure(|| render(&scene, m))?;
+            let (img, t) = ctx.timing.measure(|| render(&scene, &rs.with(m)))?;
             imgs.push((m.name(), img, t));
         }
         let mut open = scene.clone();
         open.occluders.clear();
-        let unshadowed = flat(&render(&open, Method::RayTraced)?);
+        let unshadowed = flat(&render(&open, &rs.with(Method::RayTraced))?);
         let (band, full) = (flat(&imgs[2].1), flat(&imgs[3].1));
-        let truth_light = shscale_scene::frame::truth_light(&scene)?;
+        let truth_light = shscale_scene::frame::truth_light(&scene, rs.order)?;
         let mean_open = unshadowed.iter().sum::<f64>() / unshadowed.len().max(1) as f64;
         let (ff_err, bl_err) = (
             own_err(&imgs[3].1.error, mean_open),
@@ -411,7 +419,7 @@ impl Kind for Shadows {
             .dir
             .join(format!("shadows_fullfield_extrapolated_truth_{run_id}.exr"));
         write_side_by_side(&exr, shown)?;
-        write_field_figure(&exr.with_extension("png"), &scene, shown)?;
+        write_field_figure(&exr.with_extension("png"), (&scene, rs.order), shown)?;
         let camera_png = ctx.dir.join(format!("shadows_camera_view_{run_id}.png"));
         write_camera_figure(&camera_png, &scene, shown)?;
         imgs.iter()
@@ -422,11 +430,11 @@ impl Kind for Shadows {
                     rmse_vs_full_frequency: err(img, &full)?,
                     render_seconds: t.median,
                     render_spread: t.spread(),
-                    scene_order: scene.order,
-                    scene_alpha_deg: scene.alpha.to_degrees(),
-                    scene_layout: scene.layout.name(),
-                    scene_hemisphere_res: scene.hemisphere_res,
-                    scene_truth_res: scene.truth_res,
+                    scene_order: rs.order,
+                    scene_alpha_deg: rs.alpha.to_degrees(),
+                    scene_layout: rs.layout.name(),
+                    scene_hemisphere_res: rs.hemisphere_res,
+                    scene_truth_res: rs.truth_res,
                     receivers: w * h,
                     truth_light: truth_light.to_string(),
                     full_frequency_truth_err: ff_err,

@@ -67,11 +67,11 @@ fn replace_value(text: &str, n: usize, v: &str) -> String {
         .join("\n")
 }
 
-fn scene_ok(s: &Scene) {
-    assert!((1..=16).contains(&s.order));
-    assert!(s.alpha > 0.0 && s.alpha < std::f64::consts::FRAC_PI_2);
-    assert!((1..=256).contains(&s.hemisphere_res));
-    assert!(s.layout.sample_count().is_some_and(|n| n <= 1_000_000));
+fn scene_ok((s, rs): &(Scene, shscale_scene::settings::RenderSettings)) {
+    assert!((1..=16).contains(&rs.order));
+    assert!(rs.alpha > 0.0 && rs.alpha < std::f64::consts::FRAC_PI_2);
+    assert!((1..=256).contains(&rs.hemisphere_res));
+    assert!(rs.layout.sample_count().is_some_and(|n| n <= 1_000_000));
     assert!(s.resolution.iter().all(|n| (2..=4096).contains(n)));
     assert!(s.occluders.iter().all(|o| o.center.is_finite()
         && o.radius.is_finite()

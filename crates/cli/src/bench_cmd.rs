@@ -137,28 +137,22 @@ fn bench_methods(
     let mut rows = Vec::new();
     let bar = crate::output::Progress::new(scenes.len() * variants.len(), "sequences");
     for s in scenes {
-        let sc = shscale_scene::bench::scene(s)?;
+        let (scene, rs) = shscale_scene::bench::scene(s)?;
+        let sc = (&scene, &rs);
         let truths = if a.errors {
             bar.set_message(format!("{s}: band-limited truths of {} frames", a.frames));
-            Some(Truths::new(&sc, a.warmup, a.warmup + a.frames)?)
+            Some(Truths::new(&scene, &rs, a.warmup, a.warmup + a.frames)?)
         } else {
             None
         };
         for v in &variants {
             bar.set_message(format!("{s} {}", v.label));
-            rows.push(bench_method(
-                s,
-                &sc,
-                v,
-                a.frames,
-                a.warmup,
-                truths.as_ref(),
-            )?);
+            rows.push(bench_method(s, sc, v, a.frames, a.warmup, truths.as_ref())?);
             if let Some(ctx) = gpu {
                 let fw = (a.frames, a.warmup);
                 rows.extend(bench_method_gpu(
                     s,
-                    &sc,
+                    sc,
                     v,
                     fw,
                     (truths.as_ref(), false),
@@ -166,7 +160,7 @@ fn bench_methods(
                 )?);
                 if a.device_pose {
                     let posed = (truths.as_ref(), true);
-                    rows.extend(bench_method_gpu(s, &sc, v, fw, posed, ctx)?);
+                    rows.extend(bench_method_gpu(s, sc, v, fw, posed, ctx)?);
                 }
             }
             bar.inc();
@@ -188,12 +182,12 @@ fn check_methods_work(
     let total = (a.frames + a.warmup) as f64;
     let mut rays = 0.0;
     for s in scenes {
-        let sc = shscale_scene::bench::scene(s)?;
+        let (sc, rs) = shscale_scene::bench::scene(s)?;
         for v in variants {
-            rays += estimated_work(&v.apply(&sc), v.method).0 * total;
+            rays += estimated_work(&sc, &v.apply(&rs)).0 * total;
         }
         if a.errors {
-            rays += estimated_work(&sc, shscale_scene::method::Method::RayTraced).0
+            rays += estimated_work(&sc, &rs.with(shscale_scene::method::Method::RayTraced)).0
                 * (a.frames + 1) as f64;
         }
     }

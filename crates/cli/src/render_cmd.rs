@@ -6,6 +6,7 @@ use anyhow::{bail, Context};
 use shscale_scene::method::Combine;
 use shscale_scene::render::{render, Method, RenderOutput};
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use std::process::ExitCode;
 
 /// The most frames `render --frames` renders.
@@ -13,18 +14,17 @@ const MAX_FRAMES: usize = 10_000;
 
 pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_args(&a)?;
-    let scene = scene_of(&a)?;
-    let method = a.method;
-    let rays = check_limits(&a, &scene, method)?;
+    let (scene, rs) = scene_of(&a)?;
+    let rays = check_limits(&a, (&scene, &rs))?;
     if let Some(frames) = a.frames {
-        return sequence(&a, &scene, method, frames);
+        return sequence(&a, (&scene, &rs), frames);
     }
     let t0 = std::time::Instant::now();
     // Ray-traced methods can take minutes: a spinner with the estimate on a terminal, a line on
     // stderr every 10 s otherwise.
     let est = rays / shscale_runner::timing::CPU_RAYS_PER_SECOND;
     let ticker = Ticker::start(&a.method.to_string(), est);
-    let img = render(&scene, method);
+    let img = render(&scene, &rs);
     ticker.stop();
     let img = img?;
     let total = t0.elapsed().as_secs_f64();
@@ -33,7 +33,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let (reference, truth) = match a.reference {
         None => (None, None),
         Some(r) => {
-            let (m, rel, secs, truth) = reference_error(&scene, &img, r)?;
+            let (m, rel, secs, truth) = reference_error((&scene, &rs), &img, r)?;
             (Some((m, rel, secs)), Some((r, truth)))
         }
     };
@@ -57,7 +57,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     };
     // What the full-frequency truth lights with, and a truth's own error (RMS over pixels and
     // channels of its per-pixel estimate; only the truth methods have one).
-    let truth_light = shscale_scene::frame::truth_light(&scene)?;
+    let truth_light = shscale_scene::frame::truth_light(&scene, rs.order)?;
     let truth_error_rms = (!img.error.is_empty()).then(|| {
         (img.error
             .iter()
@@ -84,25 +84,27 @@ pub fn run(a: RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The scene file with the flags that set what it has no key for: the parts of sub-volumes and
-/// sphere sets, and how spheres and extrapolated fields combine.
-fn scene_of(a: &RenderArgs) -> anyhow::Result<Scene> {
-    let mut scene = Scene::load(&a.scene)?;
+/// The scene file and its render settings with `--method` and the flags that set what the file
+/// has no key for: the parts of sub-volumes and sphere sets, and how spheres and extrapolated
+/// fields combine.
+fn scene_of(a: &RenderArgs) -> anyhow::Result<(Scene, RenderSettings)> {
+    let (scene, rs) = Scene::load(&a.scene)?;
+    let mut rs = rs.with(a.method);
     if matches!(a.method, Method::SubVolumes | Method::SphereSet) {
-        scene.parts = a.parts;
+        rs.parts = a.parts;
     }
-    scene.sphere_combine = match a.sphere_combine {
+    rs.sphere_combine = match a.sphere_combine {
         SphereCombine::Product => Combine::Product,
         SphereCombine::Union => Combine::Union,
         SphereCombine::Shexp => Combine::Shexp,
     };
     if a.part_combine == PartCombine::Shexp {
-        scene.part_combine = Combine::Shexp;
+        rs.part_combine = Combine::Shexp;
     }
     if a.sphere_fit == SphereFitArg::Inscribed {
-        scene.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
+        rs.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
     }
-    Ok(scene)
+    Ok((scene, rs))
 }
 
 /// `--out` (an `.exr` in an existing directory) and `--frames`.
@@ -156,20 +158,20 @@ fn check_args(a: &RenderArgs) -> anyhow::Result<()> {
 
 /// The work limits: the method, the reference (and its unshadowed image), every frame. Returns
 /// the estimated rays.
-fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result<f64> {
+fn check_limits(a: &RenderArgs, (scene, rs): (&Scene, &RenderSettings)) -> anyhow::Result<f64> {
     let frames = a.frames.unwrap_or(1).max(1) as f64;
-    if method == Method::SphereSet
-        && scene.sphere_fit == shscale_scene::combine::SphereFit::Inscribed
+    if rs.method == Method::SphereSet
+        && rs.sphere_fit == shscale_scene::combine::SphereFit::Inscribed
     {
         // A mesh with no inside is refused here, before any image (the run's `sphere_fit`).
         shscale_scene::frame::inscribed_seconds(scene, true)?;
     }
-    let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, method);
+    let (mut rays, mut bytes) = shscale_scene::render::estimated_work(scene, rs);
     rays *= frames;
     if let Some(r) = a.reference {
         // The reference of every frame, and the unshadowed image once.
-        let (r2, b2) = shscale_scene::render::estimated_work(scene, r);
-        let (r3, _) = shscale_scene::render::estimated_work(scene, Method::RayTraced);
+        let (r2, b2) = shscale_scene::render::estimated_work(scene, &rs.with(r));
+        let (r3, _) = shscale_scene::render::estimated_work(scene, &rs.with(Method::RayTraced));
         rays += r2 * frames + r3;
         bytes = bytes.max(b2);
     }
@@ -181,8 +183,8 @@ fn check_limits(a: &RenderArgs, scene: &Scene, method: Method) -> anyhow::Result
             "{}×{} receivers, hemisphere_res {}, layout {}, {} occluder(s), {frames} frame(s)",
             scene.resolution[0],
             scene.resolution[1],
-            scene.hemisphere_res,
-            scene.layout.name(),
+            rs.hemisphere_res,
+            rs.layout.name(),
             scene.occluders.len()
         ),
         a.allow_large,
@@ -217,12 +219,12 @@ fn write_output(
 /// unshadowed irradiance: the scene without occluders, docs/conventions.md §6), with the
 /// reference's render time.
 fn reference_error(
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     img: &RenderOutput,
     r: Method,
 ) -> anyhow::Result<(Method, f64, f64, RenderOutput)> {
     let t = std::time::Instant::now();
-    let reference = shscale_scene::sequence::Reference::new(scene, r)?;
+    let reference = shscale_scene::sequence::Reference::new(scene, rs, r)?;
     let truth = reference.image(scene, None)?;
     let flat = shscale_scene::sequence::flat(&truth.pixels);
     let rel = (reference.error(&img.pixels, &flat))
@@ -405,15 +407,15 @@ impl Rendered<'_> {
 /// `render --frames --gpu`: the method's GPU sequence, or a refusal naming why it has none.
 fn gpu_sequence_of(
     a: &RenderArgs,
-    scene: &Scene,
-    method: Method,
+    (scene, rs): (&Scene, &RenderSettings),
     frames: usize,
 ) -> anyhow::Result<ExitCode> {
+    let method = rs.method;
     use shscale_scene::gpu_methods::{gpu_form, GpuForm};
     if a.reference.is_some() {
         bail!("--reference: not with --gpu (the GPU sequence keeps no per-frame images)");
     }
-    let Some(form) = gpu_form(scene, method)? else {
+    let Some(form) = gpu_form(scene, rs)? else {
         bail!(
             "--gpu: the GPU sequence renders the papers' extrapolation (--method extrapolated, radial = \"uniform\" or \"clearance\", no clamp), the full field, sub-volumes, sphere sets and the band-limited ray-traced reference only; --method {method} with these keys runs on the CPU path (without --gpu)"
         );
@@ -423,18 +425,19 @@ fn gpu_sequence_of(
             "--pipelined: the papers' extrapolation's GPU sequence only (--method extrapolated, radial = \"uniform\"); --method {method} with these keys runs its GPU frames one after another"
         );
     }
-    if a.device_pose && !shscale_scene::gpu_methods::poses_on_device(scene, form) {
+    if a.device_pose && !shscale_scene::gpu_methods::poses_on_device(rs, form) {
         bail!(
             "--device-pose: the papers' extrapolation (--method extrapolated, radial = \"uniform\") and sphere sets with sphere_fit = \"area\" only; --method {method} with these keys poses its GPU frames on the host"
         );
     }
     if form == GpuForm::Sequence {
-        return gpu_sequence(a, scene, frames);
+        return gpu_sequence(a, (scene, rs), frames);
     }
     let ctx = required_gpu()?;
     let mut seq = Vec::with_capacity(frames);
     let img = shscale_scene::gpu_methods::render_gpu_frames_posed(
         scene,
+        rs,
         form,
         frames,
         &ctx,
@@ -451,24 +454,23 @@ fn gpu_sequence_of(
 
 fn sequence(
     a: &RenderArgs,
-    scene: &Scene,
-    method: Method,
+    (scene, rs): (&Scene, &RenderSettings),
     frames: usize,
 ) -> anyhow::Result<ExitCode> {
+    let method = rs.method;
     use shscale_scene::sequence::{cached_path, render_sequence_with};
     flags::int("--frames", frames, 1, MAX_FRAMES)?;
     if a.gpu {
-        return gpu_sequence_of(a, scene, method, frames);
+        return gpu_sequence_of(a, (scene, rs), frames);
     }
     let bar = crate::output::Progress::new(frames, "frames");
-    let (img, seq) =
-        render_sequence_with(scene, method, frames, a.reference, &mut |_, _| bar.inc())?;
+    let (img, seq) = render_sequence_with(scene, rs, frames, a.reference, &mut |_, _| bar.inc())?;
     bar.finish();
     let png = write_image(&a.out, &img).context("--out")?;
     let n = seq.len() as f64;
     let mean = seq.iter().map(|f| f.seconds).sum::<f64>() / n;
     let errors: Vec<f64> = seq.iter().filter_map(|f| f.error).collect();
-    let path = if cached_path(scene, method) {
+    let path = if cached_path(rs) {
         "cached: refit, one BSV per frame, receiver cache"
     } else {
         "every frame rendered from its posed mesh"
@@ -597,7 +599,11 @@ fn print_gpu_sequence(
     Ok(ExitCode::SUCCESS)
 }
 
-fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<ExitCode> {
+fn gpu_sequence(
+    a: &RenderArgs,
+    (scene, rs): (&Scene, &RenderSettings),
+    frames: usize,
+) -> anyhow::Result<ExitCode> {
     use shscale_runner::GpuMode;
     use shscale_scene::gpu_path::{open_gpu, render_sequence_gpu_with, GpuFrames};
     let ctx = open_gpu(GpuMode::Required)?.context("--gpu")?;
@@ -607,7 +613,7 @@ fn gpu_sequence(a: &RenderArgs, scene: &Scene, frames: usize) -> anyhow::Result<
         (false, true) => GpuFrames::DevicePose,
         (false, false) => GpuFrames::Sequential,
     };
-    let run = render_sequence_gpu_with(scene, frames, &ctx, mode)?;
+    let run = render_sequence_gpu_with(scene, rs, frames, &ctx, mode)?;
     let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
     let png = write_image(&a.out, img).context("--out")?;
     if a.format == TextFormat::Json {

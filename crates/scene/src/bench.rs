@@ -15,6 +15,7 @@ use crate::error::Error;
 use crate::gpu_path::{render_sequence_gpu_with, GpuFrames};
 use crate::render::render_sequence;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use serde::{Deserialize, Serialize};
 use shscale_gpu::timing::median;
 use shscale_gpu::GpuContext;
@@ -27,8 +28,8 @@ pub(crate) const SCENES: &[(&str, &str)] = &[
     ("sponge", include_str!("../../../configs/bench/sponge.toml")),
 ];
 
-/// A bench scene by name.
-pub fn scene(name: &str) -> Result<Scene, Error> {
+/// A bench scene by name, with the render settings of its file.
+pub fn scene(name: &str) -> Result<(Scene, RenderSettings), Error> {
     let (_, text) = SCENES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
         Error::config(format!(
             "--scene {name:?}: not one of bird, egg, sponge, all"
@@ -132,7 +133,7 @@ pub fn bench_scene(
     gpu: Option<&GpuContext>,
     extra: &[BenchPath],
 ) -> Result<Vec<BenchRow>, Error> {
-    let sc = scene(name)?;
+    let (sc, rs) = scene(name)?;
     let frames = frames.max(1);
     let total = frames + warmup;
     let o = &sc.occluders[0];
@@ -141,8 +142,8 @@ pub fn bench_scene(
     let base = FrameTimes {
         vertices: mesh.positions.len(),
         triangles: mesh.triangles.len(),
-        samples: sc.layout.directions().len(),
-        rays_per_sample: sc.hemisphere_res * sc.hemisphere_res,
+        samples: rs.layout.directions().len(),
+        rays_per_sample: rs.hemisphere_res * rs.hemisphere_res,
         receivers: sc.resolution[0] * sc.resolution[1],
         ..FrameTimes::default()
     };
@@ -156,7 +157,10 @@ pub fn bench_scene(
     };
     let mut rows = Vec::new();
     if cpu {
-        rows.push(row(BenchPath::Cpu, cpu_times(&sc, total, warmup, &base)?));
+        rows.push(row(
+            BenchPath::Cpu,
+            cpu_times((&sc, &rs), total, warmup, &base)?,
+        ));
     }
     if let Some(ctx) = gpu {
         let more = extra.iter().copied();
@@ -166,7 +170,7 @@ pub fn bench_scene(
             let mode = path.frames().expect("a GPU path");
             rows.push(row(
                 path,
-                gpu_times(&sc, (total, warmup), ctx, &base, mode)?,
+                gpu_times((&sc, &rs), (total, warmup), ctx, &base, mode)?,
             ));
         }
     }
@@ -180,13 +184,13 @@ fn ms(v: Vec<f64>) -> f64 {
 
 /// The CPU sequence's row: per-stage medians over the frames after `warmup`.
 fn cpu_times(
-    sc: &Scene,
+    (sc, rs): (&Scene, &RenderSettings),
     total: usize,
     warmup: usize,
     base: &FrameTimes,
 ) -> Result<FrameTimes, Error> {
     let threads = rayon::current_num_threads();
-    let (_, stats) = render_sequence(sc, total)?;
+    let (_, stats) = render_sequence(sc, rs, total)?;
     let st = &stats[warmup.min(stats.len() - 1)..];
     let frame: Vec<f64> = st
         .iter()
@@ -216,13 +220,13 @@ fn cpu_times(
 /// [`crate::gpu_path::GpuFrameStats::seconds`]. Posed on the device, `deform_ms` is the device's
 /// pose and `bvh_update_ms` its refit plus any host rebuild.
 fn gpu_times(
-    sc: &Scene,
+    (sc, rs): (&Scene, &RenderSettings),
     (total, warmup): (usize, usize),
     ctx: &GpuContext,
     base: &FrameTimes,
     mode: GpuFrames,
 ) -> Result<FrameTimes, Error> {
-    let run = render_sequence_gpu_with(sc, total, ctx, mode)?;
+    let run = render_sequence_gpu_with(sc, rs, total, ctx, mode)?;
     let (stats, setup) = (&run.frames, run.setup_seconds);
     let st = &stats[warmup.min(stats.len() - 1)..];
     let frame_ms = ms(st.iter().map(|s| s.seconds()).collect());

@@ -14,6 +14,7 @@ use crate::error::Error;
 use crate::method::Method;
 use crate::scene::Scene;
 use crate::sequence::{cached_path, flat, render_sequence_with, Reference};
+use crate::settings::RenderSettings;
 use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_gpu::timing::median;
@@ -150,10 +151,10 @@ impl Variant {
         items.iter().map(|i| Self::parse(i)).collect()
     }
 
-    /// `scene` with this variant's keys; sub-volumes and sphere sets without `parts` take 4,
-    /// as `render --parts` does by default.
-    pub fn apply(&self, scene: &Scene) -> Scene {
-        let mut s = scene.clone();
+    /// The render settings `rs` with this variant's method and keys; sub-volumes and sphere sets
+    /// without `parts` take 4, as `render --parts` does by default.
+    pub fn apply(&self, rs: &RenderSettings) -> RenderSettings {
+        let mut s = rs.with(self.method);
         if let Some(p) = self.parts {
             s.parts = p;
         } else if matches!(self.method, Method::SubVolumes | Method::SphereSet) {
@@ -224,9 +225,14 @@ pub struct Truths {
 }
 
 impl Truths {
-    /// `ray_traced` at `t = f / total` for `f` in `from..total`.
-    pub fn new(scene: &Scene, from: usize, total: usize) -> Result<Self, Error> {
-        let reference = Reference::new(scene, Method::RayTraced)?;
+    /// `ray_traced` at `t = f / total` for `f` in `from..total` (with the settings `rs`).
+    pub fn new(
+        scene: &Scene,
+        rs: &RenderSettings,
+        from: usize,
+        total: usize,
+    ) -> Result<Self, Error> {
+        let reference = Reference::new(scene, rs, Method::RayTraced)?;
         let frames = (from..total)
             .map(|f| {
                 Ok(flat(
@@ -316,24 +322,23 @@ fn row_of(
 /// (of the measured frames) when given.
 pub fn bench_method(
     name: &str,
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     variant: &Variant,
     frames: usize,
     warmup: usize,
     truths: Option<&Truths>,
 ) -> Result<MethodRow, Error> {
     let frames = frames.max(1);
-    let s = variant.apply(scene);
+    let s = variant.apply(rs);
     let mut scores = Scores::new(truths, warmup);
-    let (_, seq) =
-        render_sequence_with(&s, variant.method, warmup + frames, None, &mut |f, px| {
-            scores.add(f.frame, px)
-        })?;
+    let (_, seq) = render_sequence_with(scene, &s, warmup + frames, None, &mut |f, px| {
+        scores.add(f.frame, px)
+    })?;
     let errors = scores.finish(name)?;
     let stages: Vec<Vec<(String, f64)>> = (seq.iter().skip(warmup))
         .map(|f| f.stages.clone())
         .collect();
-    let path = if cached_path(&s, variant.method) {
+    let path = if cached_path(&s) {
         "cached"
     } else {
         "per-frame"
@@ -357,7 +362,7 @@ pub fn bench_method(
 /// (`device_pose`) on the device: there `deform` and `bvh_update` are the device's pose and
 /// refit, the latter with any host rebuild.
 fn gpu_extrapolated_stages(
-    s: &Scene,
+    (scene, s): (&Scene, &RenderSettings),
     (total, warmup): (usize, usize),
     device_pose: bool,
     ctx: &shscale_gpu::GpuContext,
@@ -368,7 +373,7 @@ fn gpu_extrapolated_stages(
     } else {
         GpuFrames::Sequential
     };
-    let run = render_sequence_gpu_with(s, total, ctx, mode)?;
+    let run = render_sequence_gpu_with(scene, s, total, ctx, mode)?;
     Ok((run.frames.iter().skip(warmup))
         .map(|f| {
             let g = &f.gpu;
@@ -392,7 +397,7 @@ fn gpu_extrapolated_stages(
 /// ([`crate::gpu_methods::poses_on_device`]) give `None`.
 pub fn bench_method_gpu(
     name: &str,
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     variant: &Variant,
     (frames, warmup): (usize, usize),
     (truths, device_pose): (Option<&Truths>, bool),
@@ -400,20 +405,20 @@ pub fn bench_method_gpu(
 ) -> Result<Option<MethodRow>, Error> {
     let frames = frames.max(1);
     let total = warmup + frames;
-    let s = variant.apply(scene);
+    let s = variant.apply(rs);
     use crate::gpu_methods::{gpu_form, poses_on_device, render_gpu_frames_posed, GpuForm};
-    let form = match gpu_form(&s, variant.method)? {
+    let form = match gpu_form(scene, &s)? {
         Some(f) if !device_pose || poses_on_device(&s, f) => f,
         _ => return Ok(None),
     };
     let (stages, errors): (Vec<Vec<(String, f64)>>, Vec<f64>) = match form {
         GpuForm::Sequence => (
-            gpu_extrapolated_stages(&s, (total, warmup), device_pose, ctx)?,
+            gpu_extrapolated_stages((scene, &s), (total, warmup), device_pose, ctx)?,
             Vec::new(),
         ),
         form => {
             let (mut stages, mut scores) = (Vec::new(), Scores::new(truths, warmup));
-            render_gpu_frames_posed(&s, form, total, ctx, device_pose, &mut |f, px| {
+            render_gpu_frames_posed(scene, &s, form, total, ctx, device_pose, &mut |f, px| {
                 if f.frame >= warmup {
                     stages.push(f.stages.clone());
                 }

@@ -15,6 +15,7 @@ use crate::error::Error;
 use crate::frame::{build_occluder_at, light_of, receiver_grid, table_for};
 use crate::render::{full_field_shells, Method};
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FullField, Shells};
@@ -37,7 +38,7 @@ enum Cache {
 
 /// A scene's plane set up for cached frames ([`CachedPlane::frame`]).
 pub struct CachedPlane {
-    scene: Scene,
+    settings: RenderSettings,
     occ: Box<dyn Occluder>,
     sampler: VisibilitySampler,
     transfer: [Vec<f64>; 3],
@@ -47,34 +48,34 @@ pub struct CachedPlane {
 }
 
 impl CachedPlane {
-    /// Set up `method` on `scene` (posed at its `pose_t`) with its cache; `None` where no cached
-    /// path applies (module docs).
-    pub fn new(scene: &Scene, method: Method) -> Result<Option<Self>, Error> {
-        if !Self::applies(scene, method) {
+    /// Set up the method of `rs` on `scene` (posed at its `pose_t`) with its cache; `None` where
+    /// no cached path applies (module docs).
+    pub fn new(scene: &Scene, rs: &RenderSettings) -> Result<Option<Self>, Error> {
+        if !Self::applies(scene, rs) {
             return Ok(None);
         }
         let t0 = Instant::now();
         let occ = build_occluder_at(&scene.occluders[0], scene.pose_t)?;
-        let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
-        let light = light_of(scene)?;
-        let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+        let sampler = VisibilitySampler::new(rs.order, rs.hemisphere_res)?;
+        let light = light_of(scene, rs.order)?;
+        let transfer = Shader::new(rs.order)?.transfer(&light, DVec3::Z);
         let recv = receiver_grid(scene);
-        let cache = if method == Method::Extrapolated {
-            let bsv = sample_bsv(scene, occ.as_ref(), &sampler)?;
+        let cache = if rs.method == Method::Extrapolated {
+            let bsv = sample_bsv(rs, occ.as_ref(), &sampler)?;
             let s = Sphere {
                 center: bsv.sphere.center,
                 radius: bsv.sampling_radius,
             };
-            let table = table_for(scene, s, &recv, Eta::Plain)?;
+            let table = table_for((scene, rs), s, &recv, Eta::Plain)?;
             Cache::Extrapolated(ReceiverCache::build(&bsv, &table, &transfer, &recv))
         } else {
-            let shells = scene.full_field.unwrap_or_else(|| full_field_shells(scene));
-            let field = FullField::build(occ.as_ref(), scene.layout, &sampler, &shells)?;
+            let shells = rs.full_field.unwrap_or_else(|| full_field_shells(rs));
+            let field = FullField::build(occ.as_ref(), rs.layout, &sampler, &shells)?;
             let cache = FieldShadingCache::build(&field, &recv);
             Cache::Full { shells, cache }
         };
         Ok(Some(Self {
-            scene: scene.clone(),
+            settings: rs.clone(),
             occ,
             sampler,
             transfer,
@@ -83,14 +84,15 @@ impl CachedPlane {
         }))
     }
 
-    /// Whether `method` on `scene` has a cached path (module docs): one occluder, no local
-    /// lights, the full field, or the extrapolation without the clamp on its sampling sphere.
-    pub fn applies(scene: &Scene, method: Method) -> bool {
+    /// Whether `scene` rendered with `rs` has a cached path (module docs): one occluder, no
+    /// local lights, the full field, or the extrapolation without the clamp on its sampling
+    /// sphere.
+    pub fn applies(scene: &Scene, rs: &RenderSettings) -> bool {
         scene.occluders.len() == 1
             && scene.light_sources.is_empty()
-            && match method {
+            && match rs.method {
                 Method::Extrapolated => {
-                    scene.plausibility == Plausibility::None && scene.radial == RadialRule::Uniform
+                    rs.plausibility == Plausibility::None && rs.radial == RadialRule::Uniform
                 }
                 Method::FullField => true,
                 _ => false,
@@ -102,14 +104,18 @@ impl CachedPlane {
     pub fn frame(&self) -> Result<Vec<[f64; 3]>, Error> {
         Ok(match &self.cache {
             Cache::Extrapolated(cache) => {
-                let bsv = sample_bsv(&self.scene, self.occ.as_ref(), &self.sampler)?;
+                let bsv = sample_bsv(&self.settings, self.occ.as_ref(), &self.sampler)?;
                 let mut out = vec![[0.0; 3]; cache.len()];
                 cache.shade(&bsv, &mut out);
                 out
             }
             Cache::Full { shells, cache } => {
-                let field =
-                    FullField::build(self.occ.as_ref(), self.scene.layout, &self.sampler, shells)?;
+                let field = FullField::build(
+                    self.occ.as_ref(),
+                    self.settings.layout,
+                    &self.sampler,
+                    shells,
+                )?;
                 let mut out = vec![[0.0; 3]; cache.len()];
                 cache.shade(&field, &self.transfer, &mut out);
                 out
@@ -118,17 +124,17 @@ impl CachedPlane {
     }
 }
 
-/// The scene's BSV of its occluder on its sampling sphere.
+/// The BSV of the occluder on its sampling sphere (the layout and radius of `rs`).
 fn sample_bsv(
-    scene: &Scene,
+    rs: &RenderSettings,
     occ: &dyn Occluder,
     sampler: &VisibilitySampler,
 ) -> Result<Bsv, Error> {
     Ok(Bsv::sample_radial(
         occ,
-        scene.layout,
+        rs.layout,
         sampler,
-        scene.sampling_radius,
+        rs.sampling_radius,
         RadialRule::Uniform,
     )?)
 }

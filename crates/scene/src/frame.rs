@@ -5,6 +5,7 @@
 
 use crate::error::Error;
 use crate::scene::{LightSpec, Scene};
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use shscale_field::shading::EnvLight;
 use shscale_field::Emitter;
@@ -91,12 +92,14 @@ pub fn build_occluder_at(
     }
 }
 
-/// What the full-frequency truth of `scene` lights with ([`EnvLight::truth_light`]).
-pub fn truth_light(scene: &Scene) -> Result<&'static str, Error> {
-    Ok(light_of(scene)?.truth_light())
+/// What the full-frequency truth of `scene` lights with ([`EnvLight::truth_light`]) at SH
+/// order `order`.
+pub fn truth_light(scene: &Scene, order: usize) -> Result<&'static str, Error> {
+    Ok(light_of(scene, order)?.truth_light())
 }
 
-pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, Error> {
+/// The scene's light projected to SH order `order`.
+pub(crate) fn light_of(scene: &Scene, order: usize) -> Result<EnvLight, Error> {
     Ok(match &scene.light {
         LightSpec::Sky {
             ambient,
@@ -105,7 +108,7 @@ pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, Error> {
             sun_dir,
             sun_radius,
         } => EnvLight::sky(
-            scene.order,
+            order,
             *ambient,
             *zenith,
             DVec3::Z,
@@ -129,7 +132,7 @@ pub(crate) fn light_of(scene: &Scene) -> Result<EnvLight, Error> {
                 .into_iter()
                 .map(|p| p.map(|v| v * *intensity as f32))
                 .collect();
-            EnvLight::from_latlong(scene.order, w, h, &px)?
+            EnvLight::from_latlong(order, w, h, &px)?
         }
     })
 }
@@ -151,20 +154,21 @@ pub fn receiver_grid(scene: &Scene) -> Vec<DVec3> {
         .collect()
 }
 
-/// The cone k-table covering every receiver's `k = |p − c| / r_s` for a sampling sphere.
+/// The cone k-table (α, order and entries of `rs`) covering every receiver's
+/// `k = |p − c| / r_s` for a sampling sphere; errors name `scene`'s file.
 pub(crate) fn table_for(
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     sampling: Sphere,
     recv: &[DVec3],
     eta: Eta,
 ) -> Result<KTable, Error> {
-    table_for_radii(scene, sampling, sampling.radius, recv, eta)
+    table_for_radii((scene, rs), sampling, sampling.radius, recv, eta)
 }
 
 /// [`table_for`] for samples at radii between `sampling.radius` and `outer` (a
 /// [`shscale_field::bsv::RadialRule`]): `k = d / r(q)` spans `d_min / outer … d_max / r`.
 pub(crate) fn table_for_radii(
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     sampling: Sphere,
     outer: f64,
     recv: &[DVec3],
@@ -178,10 +182,10 @@ pub(crate) fn table_for_radii(
         });
     let (lo, hi) = (lo.max(1e-3), hi.max(lo.max(1e-3) * 1.01));
     KTable::build(
-        TauFamily::Cone { alpha: scene.alpha },
+        TauFamily::Cone { alpha: rs.alpha },
         eta,
-        scene.order,
-        scene.k_count,
+        rs.order,
+        rs.k_count,
         lo,
         hi,
         Spacing::Exp,

@@ -12,6 +12,7 @@
 use crate::error::Error;
 use crate::render::{full_field_shells, RenderOutput};
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use shscale_field::evaluator::FullField;
 use shscale_gpu::field::{GpuFieldTimes, GpuFullField, WeightSlots, BEYOND};
@@ -52,8 +53,8 @@ impl GpuFieldFrame {
 }
 
 /// Whether the GPU full-field path takes `scene`, or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
-    crate::gpu_path::single_mesh(scene)?;
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
+    crate::gpu_path::single_mesh(scene, rs.order)?;
     if !scene.light_sources.is_empty() {
         return Err(Error::config(format!(
             "{}: --gpu with full_field: local lights are shaded on the CPU only",
@@ -84,26 +85,27 @@ fn weight_slots(field: &FullField, recv: &[DVec3], out: &mut Vec<WeightSlots>) {
 /// and every frame's times. `each` sees every frame and its pixels after it is done.
 pub fn render_sequence_full_field_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuFieldFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuFieldFrame>), Error> {
-    check(scene)?;
+    check(scene, rs)?;
     let frames = frames.max(1);
-    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let seq = crate::gpu_path::MeshSequence::of(scene, rs.order)?;
     let rest = &seq.rest;
-    let shells = scene.full_field.unwrap_or_else(|| full_field_shells(scene));
+    let shells = rs.full_field.unwrap_or_else(|| full_field_shells(rs));
     let err = |e: shscale_field::FieldError| Error::config(format!("{}: {e}", scene.file));
-    let dirs = scene.layout.directions();
+    let dirs = rs.layout.directions();
     let radii = shells.radii();
-    let nn = scene.order * scene.order;
+    let nn = rs.order * rs.order;
     let zeros = vec![vec![vec![0.0; nn]; dirs.len()]; radii.len()];
     let mut template = FullField::from_samples(
         rest.bounding_sphere(),
-        scene.layout,
+        rs.layout,
         &shells,
         zeros,
-        scene.order,
+        rs.order,
         0,
     )
     .map_err(err)?;
@@ -112,7 +114,7 @@ pub fn render_sequence_full_field_gpu(
         ctx,
         rest,
         seq.strategy,
-        (scene.order, scene.hemisphere_res),
+        (rs.order, rs.hemisphere_res),
         radii.len() * dirs.len(),
         recv.len(),
         &seq.transfer,
@@ -136,8 +138,8 @@ pub fn render_sequence_full_field_gpu(
         // The CPU's FullField::build: shell-major, `centre + ρ·R·u`.
         points.clear();
         for rho in &radii {
-            let rs = rho * sphere.radius;
-            points.extend(dirs.iter().map(|&u| sphere.center + rs * u));
+            let r = rho * sphere.radius;
+            points.extend(dirs.iter().map(|&u| sphere.center + r * u));
         }
         template.recentre(sphere);
         weight_slots(&template, recv, &mut slots);

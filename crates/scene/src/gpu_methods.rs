@@ -9,6 +9,7 @@ use crate::method::Method;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
 use crate::sequence::SequenceFrame;
+use crate::settings::RenderSettings;
 use shscale_field::bsv::RadialRule;
 use shscale_gpu::GpuContext;
 
@@ -44,28 +45,28 @@ impl GpuForm {
     }
 }
 
-/// The GPU form of `method` on `scene`: `Ok(None)` where the method has none at all (the
+/// The GPU form of `scene` rendered with `rs`: `Ok(None)` where its method has none at all (the
 /// full-frequency reference, the extrapolation with the occlusion rule or the plausibility clamp),
-/// an error naming the culprit where it has one but the scene's keys are outside it.
-pub fn gpu_form(scene: &Scene, method: Method) -> Result<Option<GpuForm>, Error> {
-    let form = match method {
+/// an error naming the culprit where it has one but the keys are outside it.
+pub fn gpu_form(scene: &Scene, rs: &RenderSettings) -> Result<Option<GpuForm>, Error> {
+    let form = match rs.method {
         Method::SphereSet => GpuForm::SphereSet,
         Method::FullField => GpuForm::FullField,
         Method::SubVolumes => GpuForm::SubVolumes,
         Method::RayTraced => GpuForm::RayTraced,
-        Method::Extrapolated if matches!(scene.radial, RadialRule::Clearance { .. }) => {
+        Method::Extrapolated if matches!(rs.radial, RadialRule::Clearance { .. }) => {
             GpuForm::Radial
         }
-        Method::Extrapolated if crate::sequence::cached_path(scene, method) => GpuForm::Sequence,
+        Method::Extrapolated if crate::sequence::cached_path(rs) => GpuForm::Sequence,
         _ => return Ok(None),
     };
     match form {
-        GpuForm::Sequence => crate::gpu_path::check(scene)?,
-        GpuForm::Radial => crate::gpu_radial::check(scene)?,
-        GpuForm::SubVolumes => crate::gpu_parts::check(scene)?,
-        GpuForm::FullField => crate::gpu_field::check(scene)?,
-        GpuForm::SphereSet => crate::gpu_sets::check(scene)?,
-        GpuForm::RayTraced => crate::gpu_truth::check(scene)?,
+        GpuForm::Sequence => crate::gpu_path::check(scene, rs)?,
+        GpuForm::Radial => crate::gpu_radial::check(scene, rs)?,
+        GpuForm::SubVolumes => crate::gpu_parts::check(scene, rs)?,
+        GpuForm::FullField => crate::gpu_field::check(scene, rs)?,
+        GpuForm::SphereSet => crate::gpu_sets::check(scene, rs)?,
+        GpuForm::RayTraced => crate::gpu_truth::check(scene, rs)?,
     }
     Ok(Some(form))
 }
@@ -137,21 +138,22 @@ pub fn unhonoured<'a>(
 /// per-frame image: it is [`crate::gpu_path::render_sequence_gpu_with`]'s, and refused here.
 pub fn render_gpu_frames(
     scene: &Scene,
+    rs: &RenderSettings,
     form: GpuForm,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
 ) -> Result<RenderOutput, Error> {
-    render_gpu_frames_posed(scene, form, frames, ctx, false, each)
+    render_gpu_frames_posed(scene, rs, form, frames, ctx, false, each)
 }
 
-/// Whether `form` on `scene` can pose its frames on the device (`render --device-pose`,
+/// Whether `form` with the settings `rs` can pose its frames on the device (`render --device-pose`,
 /// `bench --device-pose`): the papers' sequence ([`crate::gpu_path`]) and sphere sets with the
 /// area fit ([`crate::gpu_sets::SetPose::Device`]); the other forms pose on the host.
-pub fn poses_on_device(scene: &Scene, form: GpuForm) -> bool {
+pub fn poses_on_device(rs: &RenderSettings, form: GpuForm) -> bool {
     match form {
         GpuForm::Sequence => true,
-        GpuForm::SphereSet => scene.sphere_fit == crate::combine::SphereFit::Area,
+        GpuForm::SphereSet => rs.sphere_fit == crate::combine::SphereFit::Area,
         _ => false,
     }
 }
@@ -160,13 +162,14 @@ pub fn poses_on_device(scene: &Scene, form: GpuForm) -> bool {
 /// only: the other per-frame forms refuse it by name).
 pub fn render_gpu_frames_posed(
     scene: &Scene,
+    rs: &RenderSettings,
     form: GpuForm,
     frames: usize,
     ctx: &GpuContext,
     device_pose: bool,
     each: &mut dyn FnMut(&SequenceFrame, &[[f32; 3]]),
 ) -> Result<RenderOutput, Error> {
-    if device_pose && !poses_on_device(scene, form) {
+    if device_pose && !poses_on_device(rs, form) {
         return Err(Error::config(format!(
             "{}: --device-pose: the {} GPU frames are posed on the host (the device poses the papers' sequence and sphere sets with sphere_fit = \"area\")",
             scene.file,
@@ -181,21 +184,29 @@ pub fn render_gpu_frames_posed(
             )))
         }
         GpuForm::Radial => {
-            crate::gpu_radial::render_sequence_radial_gpu(scene, frames, ctx, &mut |f, px| {
+            crate::gpu_radial::render_sequence_radial_gpu(scene, rs, frames, ctx, &mut |f, px| {
                 each(&f.as_sequence_frame(), px)
             })?
             .0
         }
         GpuForm::SubVolumes => {
-            crate::gpu_parts::render_sequence_sub_volumes_gpu(scene, frames, ctx, &mut |f, px| {
-                each(&f.as_sequence_frame(), px)
-            })?
+            crate::gpu_parts::render_sequence_sub_volumes_gpu(
+                scene,
+                rs,
+                frames,
+                ctx,
+                &mut |f, px| each(&f.as_sequence_frame(), px),
+            )?
             .0
         }
         GpuForm::FullField => {
-            crate::gpu_field::render_sequence_full_field_gpu(scene, frames, ctx, &mut |f, px| {
-                each(&f.as_sequence_frame(), px)
-            })?
+            crate::gpu_field::render_sequence_full_field_gpu(
+                scene,
+                rs,
+                frames,
+                ctx,
+                &mut |f, px| each(&f.as_sequence_frame(), px),
+            )?
             .0
         }
         GpuForm::SphereSet => {
@@ -205,15 +216,19 @@ pub fn render_gpu_frames_posed(
             } else {
                 SetPose::Host
             };
-            render_sequence_sphere_set_gpu_posed(scene, frames, ctx, pose, &mut |f, px| {
+            render_sequence_sphere_set_gpu_posed(scene, rs, frames, ctx, pose, &mut |f, px| {
                 each(&f.as_sequence_frame(), px)
             })?
             .0
         }
         GpuForm::RayTraced => {
-            crate::gpu_truth::render_sequence_ray_traced_gpu(scene, frames, ctx, &mut |f, px| {
-                each(&f.as_sequence_frame(), px)
-            })?
+            crate::gpu_truth::render_sequence_ray_traced_gpu(
+                scene,
+                rs,
+                frames,
+                ctx,
+                &mut |f, px| each(&f.as_sequence_frame(), px),
+            )?
             .0
         }
     };

@@ -14,6 +14,7 @@ use crate::error::Error;
 use crate::frame::table_for_radii;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::bsv::RadialRule;
@@ -56,18 +57,18 @@ impl GpuPartsFrame {
 }
 
 /// Whether the GPU sub-volumes path takes `scene`, or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
-    crate::gpu_path::check(scene)?;
-    let why = if scene.parts > MAX_GPU_PARTS {
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
+    crate::gpu_path::check(scene, rs)?;
+    let why = if rs.parts > MAX_GPU_PARTS {
         Some(format!(
             "{} parts: the GPU sub-volumes take at most {MAX_GPU_PARTS}",
-            scene.parts
+            rs.parts
         ))
-    } else if scene.radial != RadialRule::Uniform {
+    } else if rs.radial != RadialRule::Uniform {
         Some("per-direction radii of parts are sampled on the CPU only".into())
-    } else if scene.plausibility != Plausibility::None {
+    } else if rs.plausibility != Plausibility::None {
         Some("the plausibility clamp runs on the CPU only".into())
-    } else if scene.part_combine != Combine::Product {
+    } else if rs.part_combine != Combine::Product {
         Some("part_combine \"shexp\" has no GPU form".into())
     } else {
         None
@@ -90,17 +91,22 @@ struct HostPart {
 }
 
 /// A part's sampling sphere, samples, table and the receivers' locations (the CPU render's).
-fn host_part(scene: &Scene, part: &Mesh, recv: &[DVec3]) -> Result<HostPart, Error> {
+fn host_part(
+    scene: &Scene,
+    rs: &RenderSettings,
+    part: &Mesh,
+    recv: &[DVec3],
+) -> Result<HostPart, Error> {
     let sphere = part.bounding_sphere();
     let sampling = Sphere {
         center: sphere.center,
-        radius: scene.sampling_radius * sphere.radius,
+        radius: rs.sampling_radius * sphere.radius,
     };
-    let points = (scene.layout.directions().iter())
+    let points = (rs.layout.directions().iter())
         .map(|&d| sampling.center + sampling.radius * d)
         .collect();
-    let table = table_for_radii(scene, sampling, sampling.radius, recv, Eta::Plain)?;
-    let bsv = crate::gpu_path::layout_only_bsv(scene.layout, sampling)?;
+    let table = table_for_radii((scene, rs), sampling, sampling.radius, recv, Eta::Plain)?;
+    let bsv = crate::gpu_path::layout_only_bsv(rs.layout, sampling)?;
     let locations = (recv.par_iter())
         .map(|p| {
             let d = *p - sampling.center;
@@ -123,23 +129,24 @@ fn host_part(scene: &Scene, part: &Mesh, recv: &[DVec3]) -> Result<HostPart, Err
 /// every frame's times. `each` sees every frame and its pixels after it is done.
 pub fn render_sequence_sub_volumes_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuPartsFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuPartsFrame>), Error> {
-    check(scene)?;
+    check(scene, rs)?;
     let frames = frames.max(1);
-    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let seq = crate::gpu_path::MeshSequence::of(scene, rs.order)?;
     let (rest, recv) = (&seq.rest, &seq.recv);
     let err = |e: shscale_geometry::GeometryError| Error::config(format!("{}: {e}", scene.file));
-    let labels = kmeans_parts(rest, scene.parts).map_err(err)?;
-    let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)
+    let labels = kmeans_parts(rest, rs.parts).map_err(err)?;
+    let gaunt = shscale_sh::GauntTensor::<f64>::new(rs.order)
         .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-    let samples = scene.layout.directions().len();
+    let samples = rs.layout.directions().len();
     let mut gpu = GpuSubVolumes::new(
         ctx,
-        &split(rest, &labels, scene.parts),
-        (scene.hemisphere_res, samples, scene.k_count),
+        &split(rest, &labels, rs.parts),
+        (rs.hemisphere_res, samples, rs.k_count),
         recv,
         &seq.transfer,
         &gaunt,
@@ -156,11 +163,11 @@ pub fn render_sequence_sub_volumes_gpu(
         };
         let t0 = Instant::now();
         seq.pose(t, &mut posed);
-        let parts = split(&posed, &labels, scene.parts);
+        let parts = split(&posed, &labels, rs.parts);
         st.deform_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let host = (parts.iter())
-            .map(|m| host_part(scene, m, recv))
+            .map(|m| host_part(scene, rs, m, recv))
             .collect::<Result<Vec<_>, Error>>()?;
         st.tables_seconds = t0.elapsed().as_secs_f64();
         let inputs: Vec<PartFrame<'_>> = (parts.iter().zip(&host))

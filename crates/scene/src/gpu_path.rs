@@ -7,6 +7,7 @@ use crate::error::Error;
 use crate::frame::{light_of, receiver_grid, sequence_sphere, table_for};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use shscale_field::shading::Shader;
 use shscale_field::{Bsv, BsvSample, Layout};
@@ -107,13 +108,13 @@ impl GpuFrameStats {
 
 /// The single mesh occluder of a scene, or an error naming why the GPU path cannot take it.
 /// Whether the GPU sequence of the papers' extrapolation ([`render_sequence_gpu`]) takes
-/// `scene`: one mesh occluder, `N ≤ 8`, no local lights (the GPU shades the environment's
-/// transfer only); or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
-    single_mesh(scene)?;
+/// `scene` rendered with `rs`: one mesh occluder, `N ≤ 8`, no local lights (the GPU shades the
+/// environment's transfer only); or why not.
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
+    single_mesh(scene, rs.order)?;
     // The GPU sequences extrapolate the scaled coefficients as they are: a clamped run timed
     // there would record the time of another computation (issue 57).
-    if scene.plausibility != shscale_field::extrapolate::Plausibility::None {
+    if rs.plausibility != shscale_field::extrapolate::Plausibility::None {
         return Err(Error::config(format!(
             "{}: plausibility = \"clamp\": the GPU sequence has no plausibility clamp (it runs on the CPU only; device = \"cpu\" or plausibility = \"none\")",
             scene.file
@@ -141,12 +142,13 @@ pub(crate) struct MeshSequence<'a> {
 }
 
 impl<'a> MeshSequence<'a> {
-    pub(crate) fn of(scene: &'a Scene) -> Result<Self, Error> {
-        let occluder = single_mesh(scene)?;
+    /// The sequence of `scene`'s one mesh occluder, shaded at SH order `order`.
+    pub(crate) fn of(scene: &'a Scene, order: usize) -> Result<Self, Error> {
+        let occluder = single_mesh(scene, order)?;
         let rest = occluder.placed()?;
         let poser = (occluder.deformer).map(|(k, a)| crate::frame::Poser::new(&rest, k, a));
-        let light = light_of(scene)?;
-        let transfer = Shader::new(scene.order)?.transfer(&light, DVec3::Z);
+        let light = light_of(scene, order)?;
+        let transfer = Shader::new(order)?.transfer(&light, DVec3::Z);
         let strategy =
             (occluder.deformer).map_or(UpdateStrategy::Rebuild, |(k, _)| k.preferred_update());
         Ok(Self {
@@ -169,14 +171,19 @@ impl<'a> MeshSequence<'a> {
     }
 }
 
-pub(crate) fn single_mesh(scene: &Scene) -> Result<&crate::scene::OccluderSpec, Error> {
+/// The one mesh occluder of `scene` rendered at SH order `order`, or why the GPU path cannot
+/// take it.
+pub(crate) fn single_mesh(
+    scene: &Scene,
+    order: usize,
+) -> Result<&crate::scene::OccluderSpec, Error> {
     match scene.occluders.as_slice() {
         [o] if o.mesh != "sphere" => {
-            if scene.order > shscale_gpu::MAX_GPU_ORDER {
+            if order > shscale_gpu::MAX_GPU_ORDER {
                 return Err(Error::config(format!(
                     "{}: --gpu: order {} exceeds the GPU path's {}",
                     scene.file,
-                    scene.order,
+                    order,
                     shscale_gpu::MAX_GPU_ORDER
                 )));
             }
@@ -214,11 +221,11 @@ pub(crate) fn layout_only_bsv(layout: Layout, sphere: Sphere) -> Result<Bsv, Err
 /// Point location of every receiver's direction in the spherical triangulation of the layout
 /// (on the host): the three samples and weights each receiver interpolates.
 fn receiver_locations(
-    scene: &Scene,
+    layout: Layout,
     sampling: Sphere,
     recv: &[DVec3],
 ) -> Result<Vec<[(u32, f64); 3]>, Error> {
-    let bsv = layout_only_bsv(scene.layout, sampling)?;
+    let bsv = layout_only_bsv(layout, sampling)?;
     Ok(recv
         .iter()
         .map(|p| {
@@ -236,10 +243,11 @@ fn receiver_locations(
 /// buffers, pipelines, GPU receiver setup) in seconds.
 pub fn render_sequence_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
 ) -> Result<GpuSequenceRun, Error> {
-    render_sequence_gpu_with(scene, frames, ctx, GpuFrames::Sequential)
+    render_sequence_gpu_with(scene, rs, frames, ctx, GpuFrames::Sequential)
 }
 
 /// [`render_sequence_gpu`] with its frames run as `mode` says. Pipelined (timestamp queries
@@ -256,30 +264,31 @@ pub fn render_sequence_gpu(
 /// tree's shape, never the rays' answers).
 pub fn render_sequence_gpu_with(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     mode: GpuFrames,
 ) -> Result<GpuSequenceRun, Error> {
     let t_setup = Instant::now();
     let frames = frames.max(1);
-    let m = MeshSequence::of(scene)?;
+    let m = MeshSequence::of(scene, rs.order)?;
     let s = sequence_sphere(&m.rest, m.occluder.deformer, frames);
     let sampling = Sphere {
         center: s.center,
-        radius: s.radius * scene.sampling_radius,
+        radius: s.radius * rs.sampling_radius,
     };
     let (recv, transfer) = (&m.recv, &m.transfer);
-    let table = table_for(scene, sampling, recv, Eta::Plain)?;
+    let table = table_for((scene, rs), sampling, recv, Eta::Plain)?;
     // Point location in the spherical triangulation stays on the host; k-table scaling and the
     // rotations of every receiver run on the GPU (ReceiverSetup).
-    let locations = receiver_locations(scene, sampling, recv)?;
-    let dirs = scene.layout.directions();
+    let locations = receiver_locations(rs.layout, sampling, recv)?;
+    let dirs = rs.layout.directions();
     let mut seq = GpuSequence::new(
         ctx,
         &m.rest,
         m.strategy,
-        scene.order,
-        scene.hemisphere_res,
+        rs.order,
+        rs.hemisphere_res,
         sampling,
         &dirs,
         Receivers::Build(ReceiverSetup {

@@ -14,6 +14,7 @@ use crate::error::Error;
 use crate::frame::table_for_radii;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::bsv::{clearance_radius, RadialRule};
@@ -62,9 +63,9 @@ impl GpuRadialFrame {
 }
 
 /// Whether the GPU radial path takes `scene` (its method the extrapolation), or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
-    crate::gpu_path::check(scene)?;
-    if !matches!(scene.radial, RadialRule::Clearance { .. }) {
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
+    crate::gpu_path::check(scene, rs)?;
+    if !matches!(rs.radial, RadialRule::Clearance { .. }) {
         return Err(Error::config(format!(
             "{}: --gpu with per-direction radii takes radial = \"clearance\" (the occlusion rule searches with rays, on the CPU)",
             scene.file
@@ -86,17 +87,18 @@ struct HostFrame {
 /// and the receivers in parallel), timing its stages into `st`.
 fn host_frame(
     scene: &Scene,
+    rs: &RenderSettings,
     occ: &dyn Occluder,
     recv: &[DVec3],
     st: &mut GpuRadialFrame,
 ) -> Result<HostFrame, Error> {
-    let RadialRule::Clearance { delta } = scene.radial else {
+    let RadialRule::Clearance { delta } = rs.radial else {
         unreachable!("checked");
     };
     let t0 = Instant::now();
     let sphere = occ.bounding_sphere();
-    let dirs = scene.layout.directions();
-    let s = scene.sampling_radius;
+    let dirs = rs.layout.directions();
+    let s = rs.sampling_radius;
     let ts: Vec<f64> = (dirs.par_iter())
         .map(|&d| clearance_radius(occ, (sphere.center, sphere.radius), d, s, delta))
         .collect();
@@ -110,10 +112,10 @@ fn host_frame(
         radius: s * sphere.radius,
     };
     let outer = ts.iter().copied().fold(sampling.radius, f64::max);
-    let table = table_for_radii(scene, sampling, outer, recv, Eta::Plain)?;
+    let table = table_for_radii((scene, rs), sampling, outer, recv, Eta::Plain)?;
     st.table_seconds = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let mut bsv = crate::gpu_path::layout_only_bsv(scene.layout, sampling)?;
+    let mut bsv = crate::gpu_path::layout_only_bsv(rs.layout, sampling)?;
     bsv.sphere = sphere;
     bsv.radii = ts;
     let (locations, radii) = (recv.par_iter())
@@ -142,13 +144,14 @@ fn host_frame(
 /// after it is done.
 pub fn render_sequence_radial_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuRadialFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuRadialFrame>), Error> {
-    check(scene)?;
+    check(scene, rs)?;
     let frames = frames.max(1);
-    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let seq = crate::gpu_path::MeshSequence::of(scene, rs.order)?;
     let (rest, transfer, recv, strategy) = (&seq.rest, &seq.transfer, &seq.recv, seq.strategy);
     let mut posed = rest.clone();
     let mut gpu: Option<GpuRadial> = None;
@@ -165,7 +168,7 @@ pub fn render_sequence_radial_gpu(
         seq.pose(t, &mut posed);
         let occ = MeshBvh::build(&posed, UpdateStrategy::Rebuild);
         st.deform_seconds = t0.elapsed().as_secs_f64();
-        let h = host_frame(scene, &occ, recv, &mut st)?;
+        let h = host_frame(scene, rs, &occ, recv, &mut st)?;
         let setup = ReceiverSetup {
             table: &h.table,
             transfer,
@@ -176,7 +179,7 @@ pub fn render_sequence_radial_gpu(
         };
         if gpu.is_none() {
             let samples = h.points.len();
-            let g = GpuRadial::new(ctx, rest, strategy, (scene.hemisphere_res, samples), &setup)?;
+            let g = GpuRadial::new(ctx, rest, strategy, (rs.hemisphere_res, samples), &setup)?;
             gpu = Some(g);
         }
         let g = gpu.as_mut().expect("made above");

@@ -18,6 +18,7 @@ use crate::error::Error;
 use crate::frame::{light_of, receiver_grid, Poser};
 use crate::render::RenderOutput;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::shading::Shader;
 use shscale_field::union::RingGrid;
 use shscale_geometry::{Mesh, Sphere};
@@ -78,28 +79,28 @@ struct PosedParts {
 }
 
 /// Whether the GPU sphere-set path takes `scene`, or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
     use crate::combine::Combine;
     let why = if !matches!(
-        scene.sphere_combine,
+        rs.sphere_combine,
         Combine::Product | Combine::Union | Combine::Shexp
     ) {
         Some(format!(
             "sphere_combine \"{}\" has no GPU form; the GPU sphere set is the plain chain, the union or SH exponentiation",
-            scene.sphere_combine.name()
+            rs.sphere_combine.name()
         ))
-    } else if scene.sphere_combine == Combine::Product && scene.sphere_order > scene.order {
+    } else if rs.sphere_combine == Combine::Product && rs.sphere_order > rs.order {
         Some(format!(
             "sphere_order {} multiplies above the scene's order; the GPU sphere set is the plain chain",
-            scene.sphere_order
+            rs.sphere_order
         ))
     } else if !scene.light_sources.is_empty() {
         Some("local lights are shaded on the CPU only".to_string())
-    } else if scene.occluders.len() * scene.parts > MAX_GPU_SPHERES {
+    } else if scene.occluders.len() * rs.parts > MAX_GPU_SPHERES {
         Some(format!(
             "{} occluders × {} parts: the GPU sphere set takes at most {MAX_GPU_SPHERES} spheres",
             scene.occluders.len(),
-            scene.parts
+            rs.parts
         ))
     } else {
         None
@@ -109,13 +110,13 @@ pub fn check(scene: &Scene) -> Result<(), Error> {
             "{}: --gpu with sphere_set: {w}",
             scene.file
         ))),
-        None => shscale_gpu::sampling::check_gpu_order(scene.order).map_err(Error::from),
+        None => shscale_gpu::sampling::check_gpu_order(rs.order).map_err(Error::from),
     }
 }
 
 /// Every occluder of `scene` as the sequence needs it: meshes placed, partitioned once on the
 /// rest pose (as the CPU render partitions them), with their posers.
-fn set_occluders(scene: &Scene) -> Result<Vec<SetOccluder>, Error> {
+fn set_occluders(scene: &Scene, rs: &RenderSettings) -> Result<Vec<SetOccluder>, Error> {
     let mut occs = Vec::new();
     for o in &scene.occluders {
         if o.mesh == "sphere" {
@@ -124,7 +125,7 @@ fn set_occluders(scene: &Scene) -> Result<Vec<SetOccluder>, Error> {
             continue;
         }
         let rest = o.placed()?;
-        let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+        let labels = shscale_geometry::partition::kmeans_parts(&rest, rs.parts)
             .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
         occs.push(SetOccluder::Mesh(Box::new(PosedParts {
             poser: (o.deformer).map(|(k, a)| Poser::new(&rest, k, a)),
@@ -151,39 +152,41 @@ pub enum SetPose {
 /// after it is done (read back after the frame's stages, not one of them).
 pub fn render_sequence_sphere_set_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
-    render_sequence_sphere_set_gpu_posed(scene, frames, ctx, SetPose::Host, each)
+    render_sequence_sphere_set_gpu_posed(scene, rs, frames, ctx, SetPose::Host, each)
 }
 
 /// [`render_sequence_sphere_set_gpu`] with the pose and fit where `pose` says; `Device` refuses
 /// the inscribed fit by name (a one-off fit per pose, on the host).
 pub fn render_sequence_sphere_set_gpu_posed(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     pose: SetPose,
     each: &mut dyn FnMut(&GpuSetFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuSetFrame>), Error> {
-    check(scene)?;
-    if pose == SetPose::Device && scene.sphere_fit != crate::combine::SphereFit::Area {
+    check(scene, rs)?;
+    if pose == SetPose::Device && rs.sphere_fit != crate::combine::SphereFit::Area {
         return Err(Error::config(format!(
             "{}: --device-pose with sphere_set: sphere_fit \"{}\" is fitted on the host (a one-off fit per pose); the device fits \"area\" spheres",
             scene.file,
-            scene.sphere_fit.name()
+            rs.sphere_fit.name()
         )));
     }
     let frames = frames.max(1);
-    let mut occs = set_occluders(scene)?;
-    let light = light_of(scene)?;
-    let shader = Shader::new(scene.order)?;
+    let mut occs = set_occluders(scene, rs)?;
+    let light = light_of(scene, rs.order)?;
+    let shader = Shader::new(rs.order)?;
     let transfer = shader.transfer(&light, glam::DVec3::Z);
     let recv = receiver_grid(scene);
-    let gpu = gpu_set(scene, ctx, &recv, &transfer)?;
+    let gpu = gpu_set(scene, rs, ctx, &recv, &transfer)?;
     if pose == SetPose::Device {
-        return device_frames(scene, frames, ctx, (&gpu, &occs), each);
+        return device_frames(scene, rs, frames, ctx, (&gpu, &occs), each);
     }
     let mut stats = Vec::with_capacity(frames);
     let mut pixels = Vec::new();
@@ -208,9 +211,9 @@ pub fn render_sequence_sphere_set_gpu_posed(
                     // The scene's fit: the parts' spheres every frame, or each pose's
                     // inscribed balls (a one-off fit per pose, kept for the poses seen last).
                     spheres.extend(
-                        (scene.sphere_fit.spheres(&m.posed, &m.labels, scene.parts)).map_err(
-                            |e| Error::config(format!("{}: sphere_fit: {e}", scene.file)),
-                        )?,
+                        (rs.sphere_fit.spheres(&m.posed, &m.labels, rs.parts)).map_err(|e| {
+                            Error::config(format!("{}: sphere_fit: {e}", scene.file))
+                        })?,
                     );
                     st.sphere_fit_seconds += t0.elapsed().as_secs_f64();
                 }
@@ -231,26 +234,27 @@ pub fn render_sequence_sphere_set_gpu_posed(
 /// The GPU sphere set of `scene`'s combination for receivers `recv` and the light's `transfer`.
 fn gpu_set(
     scene: &Scene,
+    rs: &RenderSettings,
     ctx: &GpuContext,
     recv: &[glam::DVec3],
     transfer: &[Vec<f64>; 3],
 ) -> Result<GpuSphereSet, Error> {
     let err = |e: shscale_sh::ShError| Error::config(format!("{}: {e}", scene.file));
-    let set = match scene.sphere_combine {
+    let set = match rs.sphere_combine {
         crate::combine::Combine::Union => {
-            let basis = shscale_sh::ShBasis::<f64>::new(scene.order).map_err(err)?;
+            let basis = shscale_sh::ShBasis::<f64>::new(rs.order).map_err(err)?;
             let grid = RingGrid::new(&basis, crate::method::UNION_RINGS);
             GpuSphereSet::union(ctx, recv, transfer, &grid)?
         }
         crate::combine::Combine::Shexp => {
             // The CPU render's table (`SHEXP_EPS`) and exponential (HYB).
             use shscale_field::shexp_ol::{ZonalLogTable, SHEXP_EPS};
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(rs.order).map_err(err)?;
             let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
             GpuSphereSet::shexp(ctx, recv, transfer, &gaunt, &table)?
         }
         _ => {
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order).map_err(err)?;
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(rs.order).map_err(err)?;
             GpuSphereSet::new(ctx, recv, transfer, &gaunt)?
         }
     };
@@ -263,6 +267,7 @@ fn gpu_set(
 /// and the image is read back after them.
 fn device_frames(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     (gpu, occs): (&GpuSphereSet, &[SetOccluder]),
@@ -274,12 +279,12 @@ fn device_frames(
         match o {
             SetOccluder::Sphere(s) => fixed.push(*s),
             SetOccluder::Mesh(m) => {
-                let slot = fits.len() * scene.parts;
+                let slot = fits.len() * rs.parts;
                 fits.push(shscale_gpu::fit::GpuSphereFit::new(
                     ctx,
                     &m.rest,
                     m.poser.as_ref().map(Poser::deformer),
-                    (&m.labels, scene.parts),
+                    (&m.labels, rs.parts),
                     (gpu.spheres_buffer(), slot),
                 )?);
             }

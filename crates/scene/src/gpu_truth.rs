@@ -22,6 +22,7 @@ use crate::error::Error;
 use crate::gpu_field::GpuFieldFrame;
 use crate::render::RenderOutput;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use shscale_gpu::field::{GpuFullField, WeightSlots};
 use shscale_gpu::GpuContext;
@@ -36,8 +37,8 @@ pub fn gauss_res(truth_res: usize) -> usize {
 }
 
 /// Whether the GPU ray-traced reference takes `scene`, or why not.
-pub fn check(scene: &Scene) -> Result<(), Error> {
-    crate::gpu_path::single_mesh(scene)?;
+pub fn check(scene: &Scene, rs: &RenderSettings) -> Result<(), Error> {
+    crate::gpu_path::single_mesh(scene, rs.order)?;
     let why = if !scene.light_sources.is_empty() {
         Some("local lights are shaded on the CPU only".to_string())
     } else if scene.resolution[0] * scene.resolution[1] > MAX_GPU_TRUTH_RECEIVERS {
@@ -89,28 +90,29 @@ fn split_weights(n: usize) -> Vec<WeightSlots> {
 /// image and every frame's times. `each` sees every frame and its pixels after it is done.
 pub fn render_sequence_ray_traced_gpu(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     ctx: &GpuContext,
     each: &mut dyn FnMut(&GpuFieldFrame, &[[f32; 3]]),
 ) -> Result<(RenderOutput, Vec<GpuFieldFrame>), Error> {
-    check(scene)?;
+    check(scene, rs)?;
     let frames = frames.max(1);
-    let seq = crate::gpu_path::MeshSequence::of(scene)?;
+    let seq = crate::gpu_path::MeshSequence::of(scene, rs.order)?;
     let n = seq.recv.len();
-    let h = gauss_res(scene.truth_res);
+    let h = gauss_res(rs.truth_res);
     let bytes = (2 * n + 1) as u64 * (h * h) as u64 * 4;
     let max = ctx.device.limits().max_storage_buffer_binding_size;
     if bytes > max {
         return Err(Error::config(format!(
             "{}: --gpu with ray_traced: {n} receivers × 2 hemispheres × {h}² rays (truth_res = {} → H = {h}) need {bytes} bytes of per-ray visibility, above the adapter's storage binding of {max}: lower truth_res or the receiver resolution",
-            scene.file, scene.truth_res
+            scene.file, rs.truth_res
         )));
     }
     let mut gpu = GpuFullField::new(
         ctx,
         &seq.rest,
         seq.strategy,
-        (scene.order, h),
+        (rs.order, h),
         2 * n + 1,
         n,
         &seq.transfer,

@@ -41,6 +41,7 @@ pub mod method;
 pub mod render;
 pub mod scene;
 pub mod sequence;
+pub mod settings;
 pub mod vocab;
 
 pub use error::Error;

@@ -45,6 +45,7 @@
 //! ```
 
 use crate::error::Error;
+use crate::settings::RenderSettings;
 use crate::vocab::MAX_K_COUNT;
 use glam::DVec3;
 use serde::Deserialize;
@@ -196,21 +197,13 @@ pub enum LightSpec {
     },
 }
 
-/// A resolved scene.
+/// A resolved scene: what is there to be seen — its occluders (and their pose), the receiver
+/// plane, the light, the local light sources and the camera. How it is rendered (the method
+/// and every parameter a method reads) is a [`crate::settings::RenderSettings`], which the scene
+/// file's top-level keys give defaults for ([`Scene::load`] returns both).
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub file: String,
-    pub order: usize,
-    pub alpha: f64,
-    pub layout: Layout,
-    pub hemisphere_res: usize,
-    /// T of the ray-traced truths (band-limited: `4T²` stratified rays per receiver and occluder;
-    /// full-frequency: `4T²` plus the sun's `4·max(4, T/2)²` per receiver).
-    pub truth_res: usize,
-    /// The extrapolation's plausibility mitigation (docs/conventions.md §6).
-    pub plausibility: shscale_field::extrapolate::Plausibility,
-    pub k_count: usize,
-    pub sampling_radius: f64,
     pub occluders: Vec<OccluderSpec>,
     pub receiver_center: DVec3,
     pub receiver_size: [f64; 2],
@@ -219,39 +212,9 @@ pub struct Scene {
     pub light_sources: Vec<LightSourceSpec>,
     /// The `[camera]` table, if any (`render --camera` uses a default view otherwise).
     pub camera: Option<Camera>,
-    /// The full field's construction, set by experiments (no scene-file key); `None`: the
-    /// papers' ([`crate::render::full_field_shells`]).
-    pub full_field: Option<shscale_field::evaluator::Shells>,
     /// The deformers' time t ∈ [0, 1) at which [`crate::render::render`] poses the occluders, set
     /// by experiments (no scene-file key); `None`: the rest pose.
     pub pose_t: Option<f64>,
-    /// Parts of every mesh occluder for [`crate::render::Method::SubVolumes`], set by
-    /// experiments (no scene-file key); 1 otherwise.
-    pub parts: usize,
-    /// The internal order of a [`crate::render::Method::SphereSet`]'s products (its caps
-    /// multiplied at this order, truncated to `order` once), set by experiments (no scene-file
-    /// key); 0 (the scene's order) otherwise.
-    pub sphere_order: usize,
-    /// How a [`crate::render::Method::SphereSet`] combines its spheres: products (at
-    /// `sphere_order`), the exact union of its caps (`shscale_field::union`) or SH
-    /// exponentiation (`shscale_field::shexp_ol`), set by experiments and `render
-    /// --sphere-combine` (no scene-file key); products otherwise. Every combination renders
-    /// through [`crate::method::SetTables`], the quadrature included.
-    pub sphere_combine: crate::combine::Combine,
-    /// Which spheres a [`crate::render::Method::SphereSet`] takes: one per k-means part
-    /// (area-weighted), or the mesh's inscribed balls (`shscale_geometry::inscribed`, fitted to
-    /// each pose), set by experiments and `render --sphere-fit` (no scene-file key); area
-    /// otherwise.
-    pub sphere_fit: crate::combine::SphereFit,
-    /// How extrapolated fields combine — a sub-volume's parts, or a scene's several occluders
-    /// under [`crate::render::Method::Extrapolated`]: products near to far, or
-    /// `Combine::Shexp` (each field's base-sphere log-visibility scaled, summed, exponentiated
-    /// once: `shscale_field::shexp_ol::SubVolumeLog`), set by experiments and `render
-    /// --part-combine` (no scene-file key); products otherwise.
-    pub part_combine: crate::combine::Combine,
-    /// Where the extrapolation's base-sphere samples lie along their directions, set by
-    /// experiments (no scene-file key); [`shscale_field::bsv::RadialRule::Uniform`] otherwise.
-    pub radial: shscale_field::bsv::RadialRule,
 }
 
 /// A local area light, emitting downward (toward −z) from `center`.
@@ -363,7 +326,7 @@ impl Scene {
         {
             return Ok(found);
         }
-        let scene = Self::load(path)?;
+        let (scene, _) = Self::load(path)?;
         let mut out = vec![Input::File {
             key: key.into(),
             path: path.to_path_buf(),
@@ -385,8 +348,9 @@ impl Scene {
         Ok(out)
     }
 
-    /// Read and resolve a scene file.
-    pub fn load(path: &Path) -> Result<Self, Error> {
+    /// Read and resolve a scene file: the scene and the render settings its top-level keys
+    /// give (the method [`crate::method::Method::Extrapolated`] until a caller sets another).
+    pub fn load(path: &Path) -> Result<(Self, RenderSettings), Error> {
         let text = shscale_runner::input::read_regular_string(path)?;
         Self::parse(
             &path.display().to_string(),
@@ -396,7 +360,7 @@ impl Scene {
     }
 
     /// Resolve scene text; `file` names it in errors and `base` anchors relative paths.
-    pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, Error> {
+    pub fn parse(file: &str, text: &str, base: &Path) -> Result<(Self, RenderSettings), Error> {
         let raw: RawScene = toml::from_str(text).map_err(|e| {
             Error::config(shscale_runner::config::toml_error(file, text, &e).to_string())
         })?;
@@ -432,9 +396,18 @@ impl Scene {
             .map(|(i, l)| c.light_source(i, l))
             .collect::<Result<_, _>>()?;
         let camera = raw.camera.as_ref().map(|r| c.camera(r)).transpose()?;
-        Ok(Self {
+        let scene = Self {
             camera,
             file: file.into(),
+            occluders,
+            receiver_center,
+            receiver_size: r.size,
+            resolution: r.resolution,
+            light,
+            light_sources,
+            pose_t: None,
+        };
+        let settings = RenderSettings {
             order: s.order,
             alpha: s.alpha_deg.to_radians(),
             layout: s.layout,
@@ -443,21 +416,9 @@ impl Scene {
             plausibility: s.plausibility,
             k_count: s.k_count,
             sampling_radius: s.sampling_radius,
-            occluders,
-            receiver_center,
-            receiver_size: r.size,
-            resolution: r.resolution,
-            light,
-            light_sources,
-            full_field: None,
-            pose_t: None,
-            parts: 1,
-            sphere_order: 0,
-            sphere_combine: crate::combine::Combine::Product,
-            sphere_fit: crate::combine::SphereFit::Area,
-            part_combine: crate::combine::Combine::Product,
-            radial: shscale_field::bsv::RadialRule::Uniform,
-        })
+            ..RenderSettings::default()
+        };
+        Ok((scene, settings))
     }
 }
 

@@ -14,6 +14,7 @@ use crate::error::Error;
 use crate::method::Method;
 use crate::render::{render, render_sequence_each, FrameStats, RenderOutput};
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::bsv::RadialRule;
 
 /// One frame of a sequence: its stage times (seconds, in execution order) and, with a
@@ -29,10 +30,10 @@ pub struct SequenceFrame {
     pub error: Option<f64>,
 }
 
-/// Whether `method` on `scene` takes the cached real-time path: the papers' extrapolation
+/// Whether a render with `rs` takes the cached real-time path: the papers' extrapolation
 /// sampled on one sphere (uniform radial rule).
-pub fn cached_path(scene: &Scene, method: Method) -> bool {
-    method == Method::Extrapolated && scene.radial == RadialRule::Uniform
+pub fn cached_path(rs: &RenderSettings) -> bool {
+    rs.method == Method::Extrapolated && rs.radial == RadialRule::Uniform
 }
 
 /// The pixels as one flat list of channels.
@@ -46,16 +47,21 @@ pub fn flat(p: &[[f32; 3]]) -> Vec<f64> {
 /// frame) and `bench --methods --errors`.
 pub struct Reference {
     pub method: Method,
+    /// The render settings of the scored renders with the reference's method.
+    settings: RenderSettings,
     unshadowed: Vec<f64>,
 }
 
 impl Reference {
-    pub fn new(scene: &Scene, method: Method) -> Result<Self, Error> {
+    /// The reference `method` for renders of `scene` with the settings `rs` (their order, truth
+    /// resolution and every other parameter).
+    pub fn new(scene: &Scene, rs: &RenderSettings, method: Method) -> Result<Self, Error> {
         let mut open = scene.clone();
         open.occluders.clear();
         Ok(Reference {
             method,
-            unshadowed: flat(&render(&open, Method::RayTraced)?.pixels),
+            settings: rs.with(method),
+            unshadowed: flat(&render(&open, &rs.with(Method::RayTraced))?.pixels),
         })
     }
 
@@ -63,13 +69,13 @@ impl Reference {
     /// `pose_t`).
     pub fn image(&self, scene: &Scene, t: Option<f64>) -> Result<RenderOutput, Error> {
         match t {
-            None => render(scene, self.method),
+            None => render(scene, &self.settings),
             Some(t) => render(
                 &Scene {
                     pose_t: Some(t),
                     ..scene.clone()
                 },
-                self.method,
+                &self.settings,
             ),
         }
     }
@@ -92,20 +98,20 @@ impl Reference {
 /// pixels.
 pub type EachFrame<'a> = dyn FnMut(&SequenceFrame, &[[f32; 3]]) + 'a;
 
-/// `frames` poses `t = f / frames` of `scene` rendered with `method`, each frame's stage times
+/// `frames` poses `t = f / frames` of `scene` rendered with `rs`, each frame's stage times
 /// and (with `reference`) its error; the image is the last frame's. `each` sees every frame
 /// and its pixels as it is done (progress, errors against other references).
 pub fn render_sequence_with(
     scene: &Scene,
-    method: Method,
+    rs: &RenderSettings,
     frames: usize,
     reference: Option<Method>,
     each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let frames = frames.max(1);
-    let scorer = reference.map(|r| Reference::new(scene, r)).transpose()?;
-    if cached_path(scene, method) {
-        return cached(scene, frames, scorer.as_ref(), each);
+    let scorer = (reference.map(|r| Reference::new(scene, rs, r))).transpose()?;
+    if cached_path(rs) {
+        return cached(scene, rs, frames, scorer.as_ref(), each);
     }
     let mut out = Vec::with_capacity(frames);
     let mut last = None;
@@ -115,7 +121,7 @@ pub fn render_sequence_with(
             pose_t: Some(t),
             ..scene.clone()
         };
-        let img = render(&posed, method)?;
+        let img = render(&posed, rs)?;
         let error = match &scorer {
             Some(s) => Some(s.error_at(scene, t, &img.pixels)?),
             None => None,
@@ -138,12 +144,13 @@ pub fn render_sequence_with(
 /// `bsv_sampling`, `shading`).
 fn cached(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     scorer: Option<&Reference>,
     each: &mut EachFrame,
 ) -> Result<(RenderOutput, Vec<SequenceFrame>), Error> {
     let mut out = Vec::with_capacity(frames);
-    let (img, _) = render_sequence_each(scene, frames, &mut |st: &FrameStats, pixels| {
+    let (img, _) = render_sequence_each(scene, rs, frames, &mut |st: &FrameStats, pixels| {
         let error = match scorer {
             Some(s) => Some(s.error_at(scene, st.t, pixels)?),
             None => None,

@@ -7,9 +7,10 @@ use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
 use shscale_scene::cached::CachedPlane;
 use shscale_scene::render::{render, Method};
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use std::path::Path;
 
-fn scene(extra: &str, occluders: &str) -> Scene {
+fn scene(extra: &str, occluders: &str) -> (Scene, RenderSettings) {
     let text = format!(
         "order = 4\nlayout = \"latlong:6x10\"\nhemisphere_res = 8\n{extra}\n{occluders}\n[receiver]\ncenter = [0, 0, 0]\nsize = [5, 5]\nresolution = [24, 24]\n[light]\nkind = \"sky\"\nsun = 30.0\nsun_dir = [0.4, 0.3, 1.0]\nsun_radius_deg = 8\n"
     );
@@ -20,9 +21,10 @@ const DUCK: &str = "[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.1]\nradius 
 
 /// The largest difference of the cached frame from the direct render, relative to the largest
 /// pixel.
-fn worst(s: &Scene, method: Method) -> f64 {
-    let direct = render(s, method).unwrap();
-    let plane = CachedPlane::new(s, method).unwrap().expect("a cached path");
+fn worst((s, rs): &(Scene, RenderSettings), method: Method) -> f64 {
+    let rs = rs.with(method);
+    let direct = render(s, &rs).unwrap();
+    let plane = CachedPlane::new(s, &rs).unwrap().expect("a cached path");
     let cached = plane.frame().unwrap();
     // Twice: a frame re-samples and re-shades, the same image.
     assert_eq!(cached, plane.frame().unwrap());
@@ -51,7 +53,7 @@ fn a_cached_full_field_frame_equals_the_direct_render_for_every_construction() {
         // Receivers beyond the outermost shell (1.5r): unshadowed through the cache too.
         (ShellSpacing::Uniform, FieldInterp::Trilinear, 3, 1.5),
     ] {
-        s.full_field = Some(Shells {
+        s.1.full_field = Some(Shells {
             count,
             rho_min: 1.0,
             rho_max: max,
@@ -76,6 +78,9 @@ fn no_cached_path_where_the_cache_would_be_wrong() {
         (scene("", DUCK), Method::RayTraced),
         (scene("", DUCK), Method::SphereSet),
     ] {
-        assert!(CachedPlane::new(&s, m).unwrap().is_none(), "{m:?}");
+        assert!(
+            CachedPlane::new(&s.0, &s.1.with(m)).unwrap().is_none(),
+            "{m:?}"
+        );
     }
 }

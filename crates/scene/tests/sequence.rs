@@ -3,9 +3,10 @@
 
 use shscale_scene::render::{render, render_sequence, Method};
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use std::path::Path;
 
-fn scene(occluders: &str) -> Scene {
+fn scene(occluders: &str) -> (Scene, RenderSettings) {
     let text = format!(
         r#"
 order = 4
@@ -26,9 +27,9 @@ kind = "sky"
 
 #[test]
 fn one_frame_sequence_equals_the_direct_render() {
-    let s = scene("[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.2]\nradius = 1.0\n");
-    let direct = render(&s, Method::Extrapolated).unwrap();
-    let (seq, stats) = render_sequence(&s, 1).unwrap();
+    let (s, rs) = scene("[[occluder]]\nmesh = \"duck\"\ncenter = [0, 0, 1.2]\nradius = 1.0\n");
+    let direct = render(&s, &rs.with(Method::Extrapolated)).unwrap();
+    let (seq, stats) = render_sequence(&s, &rs, 1).unwrap();
     assert_eq!(stats.len(), 1);
     let worst = direct
         .pixels
@@ -42,10 +43,10 @@ fn one_frame_sequence_equals_the_direct_render() {
 
 #[test]
 fn deforming_occluders_are_resampled_and_static_ones_reused() {
-    let s = scene(
+    let (s, rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [2, 0, 1.0]\nradius = 0.5\n",
     );
-    let (img, stats) = render_sequence(&s, 3).unwrap();
+    let (img, stats) = render_sequence(&s, &rs, 3).unwrap();
     assert_eq!(stats.len(), 3);
     assert_eq!((stats[0].resampled, stats[0].reused), (2, 0));
     for st in &stats[1..] {
@@ -54,7 +55,7 @@ fn deforming_occluders_are_resampled_and_static_ones_reused() {
     }
     assert!(img.pixels.iter().all(|p| p[0].is_finite() && p[0] > 0.0));
     // The flapping changes the image between frames.
-    let (a, _) = render_sequence(&s, 1).unwrap();
+    let (a, _) = render_sequence(&s, &rs, 1).unwrap();
     assert!(a
         .pixels
         .iter()
@@ -106,17 +107,17 @@ size = 1.0
 hinge_deg = 100
 intensity = 5
 "#;
-    let plain = Scene::parse("l.toml", base, Path::new(".")).unwrap();
-    let energy = Scene::parse(
+    let (plain, rs) = Scene::parse("l.toml", base, Path::new(".")).unwrap();
+    let (energy, _) = Scene::parse(
         "l.toml",
         &format!("{base}eta = \"energy\"\n"),
         Path::new("."),
     )
     .unwrap();
-    let rt = render(&plain, Method::RayTraced).unwrap();
-    let full = render(&plain, Method::FullFrequency).unwrap();
-    let ex_p = render(&plain, Method::Extrapolated).unwrap();
-    let ex_e = render(&energy, Method::Extrapolated).unwrap();
+    let rt = render(&plain, &rs.with(Method::RayTraced)).unwrap();
+    let full = render(&plain, &rs.with(Method::FullFrequency)).unwrap();
+    let ex_p = render(&plain, &rs.with(Method::Extrapolated)).unwrap();
+    let ex_e = render(&energy, &rs.with(Method::Extrapolated)).unwrap();
     let rel = |a: &[[f32; 3]], b: &[[f32; 3]], c: usize| {
         let e: Vec<f64> = a.iter().map(|p| p[c] as f64).collect();
         let t: Vec<f64> = b.iter().map(|p| p[c] as f64).collect();
@@ -136,7 +137,7 @@ intensity = 5
     assert!(rt.pixels.iter().any(|p| p[0] > 0.01) && rt.pixels.iter().any(|p| p[1] > 0.01));
     assert!(rt.pixels.iter().all(|p| p[2] == 0.0));
     // The full field does not model lights: a clear error.
-    assert!(render(&plain, Method::FullField)
+    assert!(render(&plain, &rs.with(Method::FullField))
         .err()
         .unwrap()
         .to_string()
@@ -165,8 +166,8 @@ fn real_hdr_environment_map_loads_and_lights_a_scene() {
         "order = 3\nlayout = \"fib:40\"\nhemisphere_res = 8\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 1.2]\nradius = 1\n[receiver]\ncenter = [0, 0, 0]\nsize = [4, 4]\nresolution = [8, 8]\n[light]\nkind = \"exr\"\npath = {:?}\n",
         exr.to_str().unwrap()
     );
-    let s = Scene::parse("env.toml", &text, Path::new("/")).unwrap();
-    let img = render(&s, Method::Extrapolated).unwrap();
+    let (s, rs) = Scene::parse("env.toml", &text, Path::new("/")).unwrap();
+    let img = render(&s, &rs.with(Method::Extrapolated)).unwrap();
     assert!(img
         .pixels
         .iter()
@@ -191,11 +192,11 @@ fn real_hdr_environment_map_loads_and_lights_a_scene() {
 #[test]
 fn every_method_renders_sequences_frame_by_frame() {
     use shscale_scene::sequence::{cached_path, render_sequence_with};
-    let mut s = scene(
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
     // Sub-volumes and sphere sets split the bird in three.
-    s.parts = 3;
+    rs.parts = 3;
     let frames = 3;
     let mut open = s.clone();
     open.occluders.clear();
@@ -204,7 +205,7 @@ fn every_method_renders_sequences_frame_by_frame() {
             .flat_map(|p| p.map(f64::from))
             .collect::<Vec<f64>>()
     };
-    let unshadowed = flat(&render(&open, Method::RayTraced).unwrap().pixels);
+    let unshadowed = flat(&render(&open, &rs.with(Method::RayTraced)).unwrap().pixels);
     for method in [
         Method::Extrapolated,
         Method::FullField,
@@ -212,19 +213,22 @@ fn every_method_renders_sequences_frame_by_frame() {
         Method::SphereSet,
     ] {
         let mut seen = 0;
-        let (img, seq) =
-            render_sequence_with(&s, method, frames, Some(Method::RayTraced), &mut |_, _| {
-                seen += 1
-            })
-            .unwrap();
+        let (img, seq) = render_sequence_with(
+            &s,
+            &rs.with(method),
+            frames,
+            Some(Method::RayTraced),
+            &mut |_, _| seen += 1,
+        )
+        .unwrap();
         assert_eq!((seq.len(), seen), (frames, frames), "{method}");
         for f in &seq {
             let posed = Scene {
                 pose_t: Some(f.t),
                 ..s.clone()
             };
-            let truth = render(&posed, Method::RayTraced).unwrap();
-            let direct = render(&posed, method).unwrap();
+            let truth = render(&posed, &rs.with(Method::RayTraced)).unwrap();
+            let direct = render(&posed, &rs.with(method)).unwrap();
             let want = shscale_field::shading::shade_rmse_rel(
                 &flat(&direct.pixels),
                 &flat(&truth.pixels),
@@ -236,7 +240,7 @@ fn every_method_renders_sequences_frame_by_frame() {
                 "{method} frame {}: shade_rmse_rel {got:.4} (direct {want:.4})",
                 f.frame
             );
-            if cached_path(&s, method) {
+            if cached_path(&rs.with(method)) {
                 // The cached path samples on the sequence's sphere and shades through f32
                 // caches: its frames are not the direct images; its last frame's error is
                 // checked against its own image below.
@@ -250,8 +254,8 @@ fn every_method_renders_sequences_frame_by_frame() {
             pose_t: Some((frames - 1) as f64 / frames as f64),
             ..s.clone()
         };
-        if cached_path(&s, method) {
-            let truth = render(&last, Method::RayTraced).unwrap();
+        if cached_path(&rs.with(method)) {
+            let truth = render(&last, &rs.with(Method::RayTraced)).unwrap();
             let own = shscale_field::shading::shade_rmse_rel(
                 &flat(&img.pixels),
                 &flat(&truth.pixels),
@@ -264,16 +268,15 @@ fn every_method_renders_sequences_frame_by_frame() {
                 "{method}: the last frame's error"
             );
         } else {
-            let want = render(&last, method).unwrap();
+            let want = render(&last, &rs.with(method)).unwrap();
             assert_eq!(img.pixels, want.pixels, "{method}: the last frame");
         }
     }
     // Per-direction sampling radii leave the cached path (it samples one sphere).
-    let mut radial = s.clone();
+    let mut radial = rs.with(Method::Extrapolated);
     radial.radial = shscale_field::bsv::RadialRule::Clearance { delta: 0.2 };
-    assert!(!cached_path(&radial, Method::Extrapolated));
-    let (_, seq) =
-        render_sequence_with(&radial, Method::Extrapolated, 2, None, &mut |_, _| ()).unwrap();
+    assert!(!cached_path(&radial));
+    let (_, seq) = render_sequence_with(&s, &radial, 2, None, &mut |_, _| ()).unwrap();
     assert!(
         seq.iter().all(|f| f.error.is_none()
             && f.stages
@@ -288,23 +291,26 @@ fn every_method_renders_sequences_frame_by_frame() {
 /// fitted on the host, then on the device (the area fit only; `None` for another fit). Checks on
 /// the way that receivers inside the plane-cutting sphere see nothing on both paths and that the
 /// frames move with the wings.
-fn gpu_sets_vs_cpu(s: &Scene, ctx: &shscale_gpu::GpuContext) -> (f32, Option<f32>) {
+fn gpu_sets_vs_cpu(
+    (s, rs): (&Scene, &RenderSettings),
+    ctx: &shscale_gpu::GpuContext,
+) -> (f32, Option<f32>) {
     use shscale_scene::combine::SphereFit;
     use shscale_scene::gpu_sets::SetPose;
-    let host = gpu_sets_vs_cpu_posed(s, ctx, SetPose::Host);
-    let device =
-        (s.sphere_fit == SphereFit::Area).then(|| gpu_sets_vs_cpu_posed(s, ctx, SetPose::Device));
+    let host = gpu_sets_vs_cpu_posed((s, rs), ctx, SetPose::Host);
+    let device = (rs.sphere_fit == SphereFit::Area)
+        .then(|| gpu_sets_vs_cpu_posed((s, rs), ctx, SetPose::Device));
     (host, device)
 }
 
 fn gpu_sets_vs_cpu_posed(
-    s: &Scene,
+    (s, rs): (&Scene, &RenderSettings),
     ctx: &shscale_gpu::GpuContext,
     pose: shscale_scene::gpu_sets::SetPose,
 ) -> f32 {
     use shscale_scene::gpu_sets::render_sequence_sphere_set_gpu_posed;
     let mut frames = Vec::new();
-    let (last, stats) = render_sequence_sphere_set_gpu_posed(s, 3, ctx, pose, &mut |f, px| {
+    let (last, stats) = render_sequence_sphere_set_gpu_posed(s, rs, 3, ctx, pose, &mut |f, px| {
         frames.push((f.t, px.to_vec()))
     })
     .unwrap();
@@ -316,7 +322,7 @@ fn gpu_sets_vs_cpu_posed(
             pose_t: Some(*t),
             ..s.clone()
         };
-        let cpu = render(&posed, Method::SphereSet).unwrap();
+        let cpu = render(&posed, &rs.with(Method::SphereSet)).unwrap();
         let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
         for (g, c) in gpu.iter().zip(&cpu.pixels) {
             for ch in 0..3 {
@@ -333,7 +339,7 @@ fn gpu_sets_vs_cpu_posed(
     }
     println!(
         "GPU sphere sets ({}, posed {pose:?}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
-        s.sphere_combine.name(),
+        rs.sphere_combine.name(),
         frames[0].1.len(),
         ctx.describe()
     );
@@ -343,12 +349,12 @@ fn gpu_sets_vs_cpu_posed(
 /// The scene of the GPU sphere-set parity tests: a flapping bird of 4 spheres and three static
 /// analytic spheres, one cutting the receiver plane (receivers inside it see nothing) and one
 /// 10⁴ radii away (a cap of 1e-4 rad).
-fn sphere_set_scene() -> Scene {
-    let mut s = scene(
+fn sphere_set_scene() -> (Scene, RenderSettings) {
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [0, 0, 3000]\nradius = 0.3\n",
     );
-    s.parts = 4;
-    s
+    rs.parts = 4;
+    (s, rs)
 }
 
 /// The adapter, or `None` with a notice (a failure under `SHSCALE_REQUIRE_GPU=1`).
@@ -372,8 +378,8 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
     let Some(ctx) = gpu_or_skip("GPU sphere-set parity") else {
         return;
     };
-    let s = sphere_set_scene();
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    let (s, rs) = sphere_set_scene();
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(host < 1e-4, "{host}");
     // Posed and fitted on the device, within the same bound: the spheres' f32 pose and sums
     // (at most 1.4e-7 r from the host's, shscale_gpu's fit test) add nothing visible to it.
@@ -381,21 +387,21 @@ fn gpu_sphere_sets_match_the_cpu_render_frame_by_frame() {
     assert!(device < 1e-4, "{device}");
     // Refused by name: a higher internal order, too many spheres, a combination without a GPU
     // form.
-    let mut high = s.clone();
+    let mut high = rs.clone();
     high.sphere_order = 8;
-    let e = render_sequence_sphere_set_gpu(&high, 1, &ctx, &mut |_, _| ())
+    let e = render_sequence_sphere_set_gpu(&s, &high, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused");
     assert!(e.to_string().contains("sphere_order"), "{e}");
-    let mut many = s.clone();
+    let mut many = rs.clone();
     many.parts = 40;
-    let e = render_sequence_sphere_set_gpu(&many, 1, &ctx, &mut |_, _| ())
+    let e = render_sequence_sphere_set_gpu(&s, &many, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused");
     assert!(e.to_string().contains("at most 64 spheres"), "{e}");
-    let mut quad = s.clone();
+    let mut quad = rs.clone();
     quad.sphere_combine = shscale_scene::combine::Combine::Quadrature;
-    let e = render_sequence_sphere_set_gpu(&quad, 1, &ctx, &mut |_, _| ())
+    let e = render_sequence_sphere_set_gpu(&s, &quad, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused");
     assert!(
@@ -414,28 +420,29 @@ fn gpu_sphere_set_shexp_matches_the_cpu_render_frame_by_frame() {
     let Some(ctx) = gpu_or_skip("GPU sphere-set SH exponentiation parity") else {
         return;
     };
-    let mut s = sphere_set_scene();
-    s.sphere_combine = shscale_scene::combine::Combine::Shexp;
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    let (s, mut rs) = sphere_set_scene();
+    rs.sphere_combine = shscale_scene::combine::Combine::Shexp;
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(host < SHEXP_GPU_TOL, "{host}");
     assert!(device.expect("area fit") < SHEXP_GPU_TOL, "{device:?}");
-    s.order = 8;
-    s.parts = 16;
-    let (host, _) = gpu_sets_vs_cpu(&s, &ctx);
+    rs.order = 8;
+    rs.parts = 16;
+    let (host, _) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(host < SHEXP_GPU_TOL, "{host}");
     // The combination matters here: the CPU's exponentiation and chain differ by far more than
     // the tolerance on this scene (so a kernel multiplying the caps would fail the bound).
+    let (set, chain_rs) = sphere_set_scene();
     let posed = Scene {
         pose_t: Some(1.0 / 3.0),
-        ..sphere_set_scene()
+        ..set
     };
-    let chain = render(&posed, Method::SphereSet).unwrap();
+    let chain = render(&posed, &chain_rs.with(Method::SphereSet)).unwrap();
     let shexp = render(
-        &Scene {
+        &posed,
+        &RenderSettings {
             sphere_combine: shscale_scene::combine::Combine::Shexp,
-            ..posed
+            ..chain_rs.with(Method::SphereSet)
         },
-        Method::SphereSet,
     )
     .unwrap();
     let top = chain.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
@@ -458,11 +465,11 @@ fn gpu_sphere_sets_of_two_meshes_fit_on_the_device_into_their_own_slots() {
     let Some(ctx) = gpu_or_skip("GPU sphere sets of two meshes") else {
         return;
     };
-    let mut s = scene(
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [-1, 0, 1.4]\nradius = 0.8\ndeformer = \"flap\"\n\n[[occluder]]\nmesh = \"egg\"\ncenter = [1.2, 0.5, 1.2]\nradius = 0.7\ndeformer = \"morph\"\n\n[[occluder]]\nmesh = \"sphere\"\ncenter = [-1.5, -1.5, 0.1]\nradius = 0.6\n",
     );
-    s.parts = 3;
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    rs.parts = 3;
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     let device = device.expect("area fit");
     println!("two meshes, 3 parts each: host-posed {host:.2e}, device-posed {device:.2e}");
     assert!(host < 1e-4 && device < 1e-4, "{host} {device}");
@@ -482,27 +489,28 @@ fn gpu_sphere_set_unions_match_the_cpu_render_frame_by_frame() {
     let Some(ctx) = gpu_or_skip("GPU sphere-set union parity") else {
         return;
     };
-    let mut s = sphere_set_scene();
-    s.sphere_combine = shscale_scene::combine::Combine::Union;
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    let (s, mut rs) = sphere_set_scene();
+    rs.sphere_combine = shscale_scene::combine::Combine::Union;
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(host < UNION_GPU_TOL, "{host}");
     assert!(device.expect("area fit") < UNION_GPU_TOL, "{device:?}");
-    s.order = 8;
-    s.parts = 16;
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    rs.order = 8;
+    rs.parts = 16;
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(host < UNION_GPU_TOL, "{host}");
     assert!(device.expect("area fit") < UNION_GPU_TOL, "{device:?}");
     // Each pose's inscribed balls instead of the parts' spheres: the same sets on both paths
     // (the device does not fit them: refused by name).
-    s.order = 4;
-    s.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
-    let (host, device) = gpu_sets_vs_cpu(&s, &ctx);
+    rs.order = 4;
+    rs.sphere_fit = shscale_scene::combine::SphereFit::Inscribed;
+    let (host, device) = gpu_sets_vs_cpu((&s, &rs), &ctx);
     assert!(
         host < UNION_GPU_TOL && device.is_none(),
         "inscribed: {host}"
     );
     let e = shscale_scene::gpu_sets::render_sequence_sphere_set_gpu_posed(
         &s,
+        &rs,
         1,
         &ctx,
         shscale_scene::gpu_sets::SetPose::Device,
@@ -526,7 +534,7 @@ const UNION_GPU_TOL: f32 = 1e-4;
 /// the rest; the turn keeps the bounding sphere.
 #[test]
 fn a_turned_occluder_deforms_in_its_own_frame() {
-    let s = scene(
+    let (s, _) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
     let plain = s.occluders[0].clone();
@@ -560,14 +568,18 @@ fn a_turned_occluder_deforms_in_its_own_frame() {
 /// The worst difference, over every pixel and channel of `frames` (`(t, pixels)` of a GPU
 /// sequence of `s`), from the CPU render by `method` of the same pose, relative to the brightest
 /// CPU pixel; every frame after the first must differ from the first (the shadows move).
-fn worst_against_cpu(s: &Scene, method: Method, frames: &[(f64, Vec<[f32; 3]>)]) -> f32 {
+fn worst_against_cpu(
+    (s, rs): (&Scene, &RenderSettings),
+    method: Method,
+    frames: &[(f64, Vec<[f32; 3]>)],
+) -> f32 {
     let mut worst = 0.0f32;
     for (t, gpu) in frames {
         let posed = Scene {
             pose_t: Some(*t),
             ..s.clone()
         };
-        let cpu = render(&posed, method).unwrap();
+        let cpu = render(&posed, &rs.with(method)).unwrap();
         let top = cpu.pixels.iter().flatten().fold(0.0f32, |a, b| a.max(*b));
         for (g, c) in gpu.iter().zip(&cpu.pixels) {
             for ch in 0..3 {
@@ -593,16 +605,16 @@ fn gpu_full_field_matches_the_cpu_render_frame_by_frame() {
     let bird =
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n";
     for layout in ["fib:60", "latlong:6x10"] {
-        let mut s = scene(bird);
-        s.layout = shscale_field::Layout::parse(layout).unwrap();
+        let (s, mut rs) = scene(bird);
+        rs.layout = shscale_field::Layout::parse(layout).unwrap();
         let mut frames = Vec::new();
-        let (last, stats) = render_sequence_full_field_gpu(&s, 3, &ctx, &mut |f, px| {
+        let (last, stats) = render_sequence_full_field_gpu(&s, &rs, 3, &ctx, &mut |f, px| {
             frames.push((f.t, px.to_vec()))
         })
         .unwrap();
         assert_eq!((stats.len(), frames.len()), (3, 3));
         assert_eq!(last.pixels, frames[2].1);
-        let worst = worst_against_cpu(&s, Method::FullField, &frames);
+        let worst = worst_against_cpu((&s, &rs), Method::FullField, &frames);
         println!(
             "GPU full field ({layout}) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
             frames[0].1.len(),
@@ -611,10 +623,10 @@ fn gpu_full_field_matches_the_cpu_render_frame_by_frame() {
         assert!(worst < FIELD_GPU_TOL, "{layout}: {worst}");
     }
     // Refused by name: the analytic sphere (no triangles), several occluders.
-    let two = scene(&format!(
+    let (two, rs) = scene(&format!(
         "{bird}\n[[occluder]]\nmesh = \"sphere\"\ncenter = [1.5, 0.5, 0.9]\nradius = 0.4\n"
     ));
-    let e = render_sequence_full_field_gpu(&two, 1, &ctx, &mut |_, _| ())
+    let e = render_sequence_full_field_gpu(&two, &rs, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused");
     assert!(e.to_string().contains("exactly one mesh occluder"), "{e}");
@@ -638,17 +650,18 @@ fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
     let Some(ctx) = gpu_or_skip("GPU per-direction radii parity") else {
         return;
     };
-    let mut s = scene(
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
-    s.radial = RadialRule::Clearance { delta: 0.5 };
+    rs.radial = RadialRule::Clearance { delta: 0.5 };
     let mut frames = Vec::new();
-    let (last, stats) =
-        render_sequence_radial_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
-            .unwrap();
+    let (last, stats) = render_sequence_radial_gpu(&s, &rs, 3, &ctx, &mut |f, px| {
+        frames.push((f.t, px.to_vec()))
+    })
+    .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
-    let worst = worst_against_cpu(&s, Method::Extrapolated, &frames);
+    let worst = worst_against_cpu((&s, &rs), Method::Extrapolated, &frames);
     println!(
         "GPU per-direction radii vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
         frames[0].1.len(),
@@ -660,13 +673,13 @@ fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
         pose_t: Some(frames[2].0),
         ..s.clone()
     };
-    let uniform = Scene {
+    let uniform = RenderSettings {
         radial: RadialRule::Uniform,
-        ..posed.clone()
+        ..rs.with(Method::Extrapolated)
     };
     let (a, b) = (
-        render(&posed, Method::Extrapolated).unwrap(),
-        render(&uniform, Method::Extrapolated).unwrap(),
+        render(&posed, &rs.with(Method::Extrapolated)).unwrap(),
+        render(&posed, &uniform).unwrap(),
     );
     let apart = (a.pixels.iter().flatten().zip(b.pixels.iter().flatten()))
         .map(|(x, y)| (x - y).abs())
@@ -675,12 +688,12 @@ fn gpu_radial_extrapolation_matches_the_cpu_render_frame_by_frame() {
         apart > 100.0 * worst,
         "radial and uniform renders only {apart} apart"
     );
-    let mut occ = s.clone();
+    let mut occ = rs.clone();
     occ.radial = RadialRule::Occlusion {
         tau: 0.05,
         t_max: 3.0,
     };
-    let e = render_sequence_radial_gpu(&occ, 1, &ctx, &mut |_, _| ())
+    let e = render_sequence_radial_gpu(&s, &occ, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused");
     assert!(e.to_string().contains("clearance"), "{e}");
@@ -701,12 +714,12 @@ fn pipelined_gpu_frames_render_the_sequential_images() {
     let Some(ctx) = gpu_or_skip("pipelined GPU sequence") else {
         return;
     };
-    let s = scene(
+    let (s, rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
     for frames in [1, 4] {
-        let seq = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::Sequential).unwrap();
-        let pip = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::Pipelined).unwrap();
+        let seq = render_sequence_gpu_with(&s, &rs, frames, &ctx, GpuFrames::Sequential).unwrap();
+        let pip = render_sequence_gpu_with(&s, &rs, frames, &ctx, GpuFrames::Pipelined).unwrap();
         assert_eq!(seq.image.pixels, pip.image.pixels, "{frames} frames");
         assert_eq!(pip.frames.len(), frames);
         for (i, f) in pip.frames.iter().enumerate() {
@@ -738,11 +751,11 @@ fn device_posed_gpu_frames_match_the_host_posed_ones() {
         return;
     };
     for (mesh, deformer) in [("bird", "flap"), ("sponge", "bend"), ("egg", "morph")] {
-        let s = scene(&format!(
+        let (s, rs) = scene(&format!(
             "[[occluder]]\nmesh = \"{mesh}\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"{deformer}\"\n"
         ));
-        let host = render_sequence_gpu_with(&s, 4, &ctx, GpuFrames::Sequential).unwrap();
-        let dev = render_sequence_gpu_with(&s, 4, &ctx, GpuFrames::DevicePose).unwrap();
+        let host = render_sequence_gpu_with(&s, &rs, 4, &ctx, GpuFrames::Sequential).unwrap();
+        let dev = render_sequence_gpu_with(&s, &rs, 4, &ctx, GpuFrames::DevicePose).unwrap();
         let bright = host
             .image
             .pixels
@@ -758,7 +771,7 @@ fn device_posed_gpu_frames_match_the_host_posed_ones() {
         );
         assert!(worst <= DEVICE_POSE_TOL, "{mesh}: {worst:.2e}");
         // The pose matters: the rest pose (t = 0) renders the plane otherwise.
-        let rest = render_sequence_gpu_with(&s, 1, &ctx, GpuFrames::DevicePose).unwrap();
+        let rest = render_sequence_gpu_with(&s, &rs, 1, &ctx, GpuFrames::DevicePose).unwrap();
         let moved = (rest.image.pixels.iter().zip(&dev.image.pixels))
             .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
             .fold(0f32, f32::max)
@@ -792,13 +805,14 @@ fn device_posed_frames_in_flight_render_the_one_at_a_time_images() {
         return;
     };
     for (mesh, deformer) in [("bird", "flap"), ("sponge", "bend")] {
-        let s = scene(&format!(
+        let (s, rs) = scene(&format!(
             "[[occluder]]\nmesh = \"{mesh}\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"{deformer}\"\n"
         ));
         for frames in [1, 2, 5] {
-            let one = render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::DevicePose).unwrap();
+            let one =
+                render_sequence_gpu_with(&s, &rs, frames, &ctx, GpuFrames::DevicePose).unwrap();
             let fly =
-                render_sequence_gpu_with(&s, frames, &ctx, GpuFrames::DeviceInFlight).unwrap();
+                render_sequence_gpu_with(&s, &rs, frames, &ctx, GpuFrames::DeviceInFlight).unwrap();
             assert_eq!(
                 one.image.pixels, fly.image.pixels,
                 "{mesh}, {frames} frames"
@@ -839,17 +853,18 @@ fn gpu_sub_volumes_match_the_cpu_render_frame_by_frame() {
     let Some(ctx) = gpu_or_skip("GPU sub-volumes parity") else {
         return;
     };
-    let mut s = scene(
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
-    s.parts = 3;
+    rs.parts = 3;
     let mut frames = Vec::new();
-    let (last, stats) =
-        render_sequence_sub_volumes_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
-            .unwrap();
+    let (last, stats) = render_sequence_sub_volumes_gpu(&s, &rs, 3, &ctx, &mut |f, px| {
+        frames.push((f.t, px.to_vec()))
+    })
+    .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
-    let worst = worst_against_cpu(&s, Method::SubVolumes, &frames);
+    let worst = worst_against_cpu((&s, &rs), Method::SubVolumes, &frames);
     println!(
         "GPU sub-volumes (3 parts) vs CPU render, 3 frames, {} receivers: worst difference {worst:.2e} of the brightest pixel ({})",
         frames[0].1.len(),
@@ -862,11 +877,11 @@ fn gpu_sub_volumes_match_the_cpu_render_frame_by_frame() {
         ..s.clone()
     };
     let one = render(
-        &Scene {
+        &posed,
+        &RenderSettings {
             parts: 1,
-            ..posed.clone()
+            ..rs.with(Method::SubVolumes)
         },
-        Method::SubVolumes,
     )
     .unwrap();
     let apart = (one
@@ -879,21 +894,21 @@ fn gpu_sub_volumes_match_the_cpu_render_frame_by_frame() {
     assert!(apart > 100.0 * worst, "1 and 3 parts only {apart} apart");
     for (bad, needle) in [
         (
-            Scene {
+            RenderSettings {
                 parts: 17,
-                ..s.clone()
+                ..rs.clone()
             },
             "at most 16",
         ),
         (
-            Scene {
+            RenderSettings {
                 radial: RadialRule::Clearance { delta: 0.1 },
-                ..s.clone()
+                ..rs.clone()
             },
             "per-direction radii",
         ),
     ] {
-        let e = render_sequence_sub_volumes_gpu(&bad, 1, &ctx, &mut |_, _| ())
+        let e = render_sequence_sub_volumes_gpu(&s, &bad, 1, &ctx, &mut |_, _| ())
             .err()
             .expect("refused");
         assert!(e.to_string().contains(needle), "{e}");
@@ -917,25 +932,29 @@ fn gpu_ray_traced_reference_converges_with_the_cpu_one() {
     let Some(ctx) = gpu_or_skip("GPU ray-traced reference") else {
         return;
     };
-    let mut s = scene(
+    let (s, mut rs) = scene(
         "[[occluder]]\nmesh = \"bird\"\ncenter = [0, 0, 1.4]\nradius = 1.0\ndeformer = \"flap\"\n",
     );
-    s.truth_res = 16;
+    rs.truth_res = 16;
     let mut frames = Vec::new();
-    let (last, stats) =
-        render_sequence_ray_traced_gpu(&s, 3, &ctx, &mut |f, px| frames.push((f.t, px.to_vec())))
-            .unwrap();
+    let (last, stats) = render_sequence_ray_traced_gpu(&s, &rs, 3, &ctx, &mut |f, px| {
+        frames.push((f.t, px.to_vec()))
+    })
+    .unwrap();
     assert_eq!((stats.len(), frames.len()), (3, 3));
     assert_eq!(last.pixels, frames[2].1);
     let (mut gpu_worst, mut cpu_worst, mut own) = (0f32, 0f32, 0f32);
     for (t, gpu) in &frames {
-        let at = |truth_res| Scene {
+        let posed = Scene {
             pose_t: Some(*t),
-            truth_res,
             ..s.clone()
         };
-        let cpu = render(&at(16), Method::RayTraced).unwrap();
-        let fine = render(&at(64), Method::RayTraced).unwrap();
+        let at = |truth_res| RenderSettings {
+            truth_res,
+            ..rs.with(Method::RayTraced)
+        };
+        let cpu = render(&posed, &at(16)).unwrap();
+        let fine = render(&posed, &at(64)).unwrap();
         let top = fine.pixels.iter().flatten().fold(0f32, |a, b| a.max(*b));
         let worst = |img: &[[f32; 3]]| {
             (img.iter().zip(&fine.pixels))
@@ -961,8 +980,9 @@ fn gpu_ray_traced_reference_converges_with_the_cpu_one() {
     // buffer is made (160 × 160 receivers at T = 256: ~27 GB).
     let mut big = s.clone();
     big.resolution = [160, 160];
-    big.truth_res = 256;
-    let e = render_sequence_ray_traced_gpu(&big, 1, &ctx, &mut |_, _| ())
+    let mut big_rs = rs.clone();
+    big_rs.truth_res = 256;
+    let e = render_sequence_ray_traced_gpu(&big, &big_rs, 1, &ctx, &mut |_, _| ())
         .err()
         .expect("refused")
         .to_string();
@@ -988,9 +1008,9 @@ const TRUTH_GPU_FACTOR: f32 = 2.0;
 fn a_sphere_set_quadrature_renders_the_quadrature_not_the_chain() {
     use shscale_scene::combine::Combine;
     let at = |c: Combine| {
-        let mut s = sphere_set_scene();
-        s.sphere_combine = c;
-        render(&s, Method::SphereSet).unwrap().pixels
+        let (s, mut rs) = sphere_set_scene();
+        rs.sphere_combine = c;
+        render(&s, &rs.with(Method::SphereSet)).unwrap().pixels
     };
     let (union, quad, chain) = (
         at(Combine::Union),

@@ -32,6 +32,7 @@ use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::method::{Combine, Method, RayTracedSpec, SetSpec, Spec, SphereFit};
 use shscale_scene::render::{estimated_work, render};
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use shscale_scene::vocab::MAX_ORDER;
 use shscale_scene::Error;
 use std::path::{Path, PathBuf};
@@ -46,6 +47,8 @@ pub struct BudgetPlane;
 /// A group's scene and its truths.
 pub struct Shared {
     scene: Scene,
+    /// The group's render settings (the scene file's, with the order override).
+    settings: RenderSettings,
     /// Per frame: the band-limited and full-frequency truth images.
     band: Vec<Vec<f64>>,
     full: Vec<Vec<f64>>,
@@ -87,11 +90,14 @@ fn at_frame(scene: &Scene, f: usize, frames: usize) -> Scene {
     s
 }
 
-/// The scene of a group: the file with the order override.
-fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
-    let mut s = Scene::load(&config_dir.join(&p.scene))?;
+/// A group's scene and the render settings of its file.
+type Setup = (Scene, RenderSettings);
+
+/// The scene of a group and its render settings: the file with the order override.
+fn group_scene(p: &Params, config_dir: &Path) -> Result<Setup, Error> {
+    let (mut s, mut rs) = Scene::load(&config_dir.join(&p.scene))?;
     if let Some(n) = p.order {
-        s.order = n;
+        rs.order = n;
     }
     if p.placement_seed != 0 {
         let mut rng = shscale_field::truth::SplitMix(p.placement_seed);
@@ -99,15 +105,15 @@ fn group_scene(p: &Params, config_dir: &Path) -> Result<Scene, Error> {
             o.turn = Some(rng.rotation());
         }
     }
-    Ok(s)
+    Ok((s, rs))
 }
 
 /// The scenes read at plan time, by path and modification time: a plan reads each scene file
 /// once, however many runs name it.
-fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Scene>, Error> {
+fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Setup>, Error> {
     type Cache = Vec<(
         (PathBuf, Option<std::time::SystemTime>, Option<usize>, u64),
-        Arc<Scene>,
+        Arc<Setup>,
     )>;
     static CACHE: Mutex<Cache> = Mutex::new(Vec::new());
     const KEEP: usize = 16;
@@ -130,14 +136,14 @@ fn planned_scene(p: &Params, config_dir: &Path) -> Result<Arc<Scene>, Error> {
 }
 
 /// Ray tracing is scored against a band-limited truth that must be converged beyond it: `rt_res`
-/// below the scene's `truth_res`.
-fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> {
+/// below the scene's `truth_res` (of its render settings `rs`).
+fn check_rt_res(spec: &Spec, p: &Params, rs: &RenderSettings) -> Result<(), KeyError> {
     match spec {
-        Spec::RayTraced(RayTracedSpec { rt_res }) if *rt_res >= scene.truth_res => Err(KeyError::new(
+        Spec::RayTraced(RayTracedSpec { rt_res }) if *rt_res >= rs.truth_res => Err(KeyError::new(
             "rt_res",
             format!(
                 "rt_res = {rt_res} is not below the scene's truth_res = {} ({}): the band-limited truth must be converged beyond the method it measures",
-                scene.truth_res, p.scene
+                rs.truth_res, p.scene
             ),
         )),
         _ => Ok(()),
@@ -148,11 +154,14 @@ fn check_rt_res(spec: &Spec, p: &Params, scene: &Scene) -> Result<(), KeyError> 
 pub struct PlaneSpec {
     method: Spec,
     device: super::plane_timings::DeviceChoice,
-    scene: Option<Arc<Scene>>,
+    scene: Option<Arc<Setup>>,
 }
 
-/// The scene of a run: the group's with the run's method parameters.
-fn run_scene(p: &Typed<Params, PlaneSpec>, base: &Scene) -> Result<Scene, Error> {
+/// The render settings of a run: the group's with the run's method and its parameters.
+fn run_settings(
+    p: &Typed<Params, PlaneSpec>,
+    base: &RenderSettings,
+) -> Result<RenderSettings, Error> {
     check_rt_res(&p.typed.method, p, base)
         .map_err(|e| Error::config(format!("{}: {}", e.key, e.message)))?;
     let mut s = base.clone();
@@ -234,9 +243,10 @@ impl Kind for BudgetPlane {
     /// With the scene read (once per plan): `rt_res` against its `truth_res`, before any work.
     fn resolve_in(p: &Params, config_dir: &Path) -> Result<Self::Spec, KeyError> {
         let mut spec = Self::resolve(p)?;
-        let scene =
+        let setup =
             planned_scene(p, config_dir).map_err(|e| KeyError::new("scene", e.to_string()))?;
-        check_rt_res(&spec.typed.method, p, &scene)?;
+        let (scene, base) = (&setup.0, &setup.1);
+        check_rt_res(&spec.typed.method, p, base)?;
         if let Spec::SphereSet(SetSpec {
             combine: Combine::Quadrature,
             ..
@@ -247,19 +257,19 @@ impl Kind for BudgetPlane {
                 "\"quadrature\" is the spherical receivers' diagnostic (kind `budget`); the plane renders `product` or `union`".to_string(),
             ));
         }
-        (spec.typed.method).check_order(p.order.unwrap_or(scene.order))?;
+        (spec.typed.method).check_order(base.order)?;
         if let Spec::SphereSet(SetSpec {
             fit: SphereFit::Inscribed,
             ..
         }) = spec.typed.method
         {
-            shscale_scene::frame::inscribed_seconds(&scene, true)
+            shscale_scene::frame::inscribed_seconds(scene, true)
                 .map_err(|e| KeyError::new("sphere_fit", e.to_string()))?;
         }
         if spec.typed.device == super::plane_timings::DeviceChoice::Gpu {
-            let mut s = Scene::clone(&scene);
-            spec.typed.method.apply(&mut s);
-            let form = super::plane_timings::gpu_form(&s, spec.typed.method.method(), p.frames)
+            let mut rs = base.clone();
+            spec.typed.method.apply(&mut rs);
+            let form = super::plane_timings::gpu_form(scene, &rs, p.frames)
                 .map_err(|why| KeyError::new("device", format!("\"gpu\": {why}")))?;
             let (cells, defaults) = (p.keys().cells(), Params::default().keys().cells());
             if let Some((key, value, default)) = shscale_scene::gpu_methods::unhonoured(
@@ -277,7 +287,7 @@ impl Kind for BudgetPlane {
                 ));
             }
         }
-        spec.typed.scene = Some(scene);
+        spec.typed.scene = Some(setup);
         Ok(spec)
     }
 
@@ -301,7 +311,7 @@ impl Kind for BudgetPlane {
     /// unshadowed), the run's method per timed render, at the `shadows` kind's render rate.
     /// Resolved without it (rows read back from a CSV): not estimated.
     fn cost(p: &Self::Spec) -> (Cost, Cost) {
-        let Some(base) = p.typed.scene.as_deref() else {
+        let Some((base, base_rs)) = p.typed.scene.as_deref() else {
             let unread = Cost {
                 drivers: format!(
                     "scene {} (its truths; not estimated before the scene is read)",
@@ -312,26 +322,23 @@ impl Kind for BudgetPlane {
             };
             return (unread, Cost::default());
         };
-        let mut scene = base.clone();
-        p.typed.method.apply(&mut scene);
+        let mut rs = base_rs.clone();
+        p.typed.method.apply(&mut rs);
         let frames = p.frames as f64;
         let once: f64 = frames
             * [Method::RayTraced, Method::FullFrequency]
                 .iter()
-                .map(|m| estimated_work(base, *m).0)
+                .map(|m| estimated_work(base, &base_rs.with(*m)).0)
                 .sum::<f64>()
-            + estimated_work(base, Method::RayTraced).0 / base.occluders.len().max(1) as f64;
-        let (_, bytes) = estimated_work(&scene, p.typed.method.method());
+            + estimated_work(base, &base_rs.with(Method::RayTraced)).0
+                / base.occluders.len().max(1) as f64;
+        let (_, bytes) = estimated_work(base, &rs);
         let receivers = (base.resolution[0] * base.resolution[1]) as f64;
         let occluders = base.occluders.len().max(1) as f64;
         let rays = frames * p.typed.method.rays(occluders, receivers);
         let rate = crate::shadows::RENDER_RAYS_PER_SECOND;
-        let frame = (p.typed.method).seconds(
-            p.order.unwrap_or(base.order),
-            rays,
-            frames * receivers,
-            rate,
-        ) + frames * receivers * SHADE_SECONDS_PER_RECEIVER;
+        let frame = (p.typed.method).seconds(base_rs.order, rays, frames * receivers, rate)
+            + frames * receivers * SHADE_SECONDS_PER_RECEIVER;
         // The GPU path's repetition (`device`): a sequence's set-up and its frames, counted at
         // the CPU frame's cost (a software device's; an upper bound on a GPU).
         let gpu = super::plane_timings::gpu_seconds(p.typed.device, frame);
@@ -344,7 +351,7 @@ impl Kind for BudgetPlane {
                 once_seconds: once / rate,
                 drivers: format!(
                     "scene {}: {}×{} receivers, truth_res {}",
-                    p.scene, base.resolution[0], base.resolution[1], base.truth_res
+                    p.scene, base.resolution[0], base.resolution[1], base_rs.truth_res
                 ),
             },
             Cost {
@@ -367,7 +374,7 @@ impl Kind for BudgetPlane {
                 bytes,
                 seconds: frame
                     + gpu
-                    + super::plane_timings::cached_seconds(&scene, p.typed.method.method(), p.frames, rays, rate),
+                    + super::plane_timings::cached_seconds((base, &rs), p.frames, rays, rate),
                 once_seconds: 0.0,
                 drivers: format!(
                     "method {} → {rays:.3e} rays and {receivers} receivers shaded, over {} frame(s)",
@@ -382,8 +389,8 @@ impl Kind for BudgetPlane {
     }
 
     fn shared(p: &Self::Spec, ctx: &Ctx) -> Result<Shared, Error> {
-        let scene = match &p.typed.scene {
-            Some(s) => Scene::clone(s),
+        let (scene, settings) = match &p.typed.scene {
+            Some(s) => Setup::clone(s),
             None => group_scene(&p.params, ctx.config_dir)?,
         };
         let frames = p.frames;
@@ -391,11 +398,15 @@ impl Kind for BudgetPlane {
         let (mut full_err, mut band_err) = (Vec::new(), Vec::new());
         let mut unshadowed = scene.clone();
         unshadowed.occluders.clear();
-        let open = flat(&render(&unshadowed, Method::RayTraced)?);
+        let (band_rs, full_rs) = (
+            settings.with(Method::RayTraced),
+            settings.with(Method::FullFrequency),
+        );
+        let open = flat(&render(&unshadowed, &band_rs)?);
         for f in 0..frames {
             let s = at_frame(&scene, f, frames);
-            let b = render(&s, Method::RayTraced)?;
-            let u = render(&s, Method::FullFrequency)?;
+            let b = render(&s, &band_rs)?;
+            let u = render(&s, &full_rs)?;
             band_err.push(own_err(&b.error, &open));
             full_err.push(own_err(&u.error, &open));
             band.push(flat(&b));
@@ -420,27 +431,28 @@ impl Kind for BudgetPlane {
             open,
             near,
             scene,
+            settings,
         })
     }
 
     fn run(p: &Self::Spec, run_id: &str, sh: &Shared, ctx: &Ctx) -> Result<Vec<Row>, Error> {
-        let scene = run_scene(p, &sh.scene)?;
-        let method = p.typed.method.method();
+        let rs = run_settings(p, &sh.settings)?;
+        let scene = &sh.scene;
         let frames = p.frames;
-        let scenes: Vec<Scene> = (0..frames).map(|f| at_frame(&scene, f, frames)).collect();
-        let (imgs, t) = cpu_frames(&scenes, method, ctx)?;
+        let scenes: Vec<Scene> = (0..frames).map(|f| at_frame(scene, f, frames)).collect();
+        let (imgs, t) = cpu_frames(&scenes, &rs, ctx)?;
         let black = || Error::config(format!("{}: the unshadowed image is black", p.scene));
         let occluders = scene.occluders.len() as f64;
         let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
         let rays = p.typed.method.rays(occluders.max(1.0), receivers);
-        let memory = (p.typed.method).memory_bytes(scene.order, occluders, scene.k_count);
+        let memory = (p.typed.method).memory_bytes(rs.order, occluders, rs.k_count);
         if p.save_image {
             super::plane_images::save_images(&imgs[0], &sh.full[0], (ctx.dir, run_id))?;
         }
         let es: Vec<Vec<f64>> = imgs.iter().map(flat).collect();
-        let cached = cached_frame(&scene, method, frames, &es[0], &sh.open, ctx)?;
-        let device = (p.typed.device, method, frames);
-        let (gpu, gpu_adapter) = gpu_frame(device, &scene, (&es, &sh.open), ctx)?;
+        let cached = cached_frame((scene, &rs), frames, &es[0], &sh.open, ctx)?;
+        let device = (p.typed.device, frames);
+        let (gpu, gpu_adapter) = gpu_frame(device, (scene, &rs), (&es, &sh.open), ctx)?;
         let mean = |v: &[Option<f64>]| shscale_field::metrics::mean_max(v.iter().copied()).0;
         let per =
             |f: &dyn Fn(usize) -> Option<f64>| -> Vec<Option<f64>> { (0..frames).map(f).collect() };

@@ -18,8 +18,8 @@ use shscale_gpu::GpuContext;
 use shscale_runner::timing::Timing;
 use shscale_runner::{Ctx, KeyError};
 use shscale_scene::gpu_methods::GpuForm;
-use shscale_scene::method::Method;
 use shscale_scene::scene::Scene;
+use shscale_scene::settings::RenderSettings;
 use shscale_scene::Error;
 
 /// Where a run's frame is timed besides the CPU.
@@ -47,29 +47,29 @@ impl DeviceChoice {
     }
 }
 
-/// Whether `method` has a GPU form on `scene` (with `frames` frames,
+/// Whether the method of `rs` has a GPU form on `scene` (with `frames` frames,
 /// [`shscale_scene::gpu_methods::gpu_form`]), or why not.
-pub fn gpu_form(scene: &Scene, method: Method, frames: usize) -> Result<GpuForm, String> {
+pub fn gpu_form(scene: &Scene, rs: &RenderSettings, frames: usize) -> Result<GpuForm, String> {
     let deforming = scene.occluders.iter().any(|o| o.deformer.is_some());
     if frames == 1 && deforming {
         return Err(
             "a still frame of a deforming scene: the GPU sequences pose t = f/frames, the plane's one frame is the rest pose".into(),
         );
     }
-    match shscale_scene::gpu_methods::gpu_form(scene, method) {
+    match shscale_scene::gpu_methods::gpu_form(scene, rs) {
         Ok(Some(form)) => Ok(form),
-        Ok(None) => Err(format!("{method} has no GPU form")),
+        Ok(None) => Err(format!("{} has no GPU form", rs.method)),
         Err(e) => Err(e.to_string()),
     }
 }
 
-/// A run's frame on the GPU path as its `device` asks (`(device, method, frames)` of the run on
-/// `scene`, the CPU images and unshadowed image it is compared with): the timing, or none; and
+/// A run's frame on the GPU path as its `device` asks (`(device, frames)` of the run on `scene`
+/// with `rs`, the CPU images and unshadowed image it is compared with): the timing, or none; and
 /// the adapter that timed it, or why none did. `gpu` without an adapter is an error naming the
 /// key (a method without a form was refused at plan time).
 pub(crate) fn gpu_frame(
-    (device, method, frames): (DeviceChoice, Method, usize),
-    scene: &Scene,
+    (device, frames): (DeviceChoice, usize),
+    (scene, rs): (&Scene, &RenderSettings),
     cpu: (&[Vec<f64>], &[f64]),
     ctx: &Ctx,
 ) -> Result<(Option<GpuTimed>, String), Error> {
@@ -85,11 +85,11 @@ pub(crate) fn gpu_frame(
         }
         return Ok((None, "none: no adapter".into()));
     };
-    let form = match gpu_form(scene, method, frames) {
+    let form = match gpu_form(scene, rs, frames) {
         Ok(form) => form,
         Err(why) => return Ok((None, format!("none: {why}"))),
     };
-    let timed = time_on_gpu(scene, form, frames, gpu, ctx, cpu)?;
+    let timed = time_on_gpu((scene, rs), form, frames, gpu, ctx, cpu)?;
     Ok((Some(timed), gpu.describe()))
 }
 
@@ -102,9 +102,9 @@ pub struct GpuTimed {
     pub max_diff: f64,
 }
 
-/// Time `frames` frames of `scene` by its method's GPU `form` (see [`GpuTimed`]).
+/// Time `frames` frames of `scene` by the GPU `form` of the method of `rs` (see [`GpuTimed`]).
 pub fn time_on_gpu(
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     form: GpuForm,
     frames: usize,
     gpu: &GpuContext,
@@ -117,7 +117,7 @@ pub fn time_on_gpu(
     // first.
     let run = frames.max(2);
     let (mut images, [t]) = ctx.timing.measure_parts(|| {
-        let (images, seconds) = gpu_frames(scene, form, run, gpu)?;
+        let (images, seconds) = gpu_frames((scene, rs), form, run, gpu)?;
         let later = &seconds[1.min(seconds.len() - 1)..];
         let mean = later.iter().sum::<f64>() / later.len() as f64;
         Ok::<_, Error>((images, [mean]))
@@ -153,21 +153,28 @@ type Image = Vec<[f32; 3]>;
 /// One GPU sequence of `scene` by `form`: its images (every frame's, or the last for the papers'
 /// sequence) and every frame's seconds (host stages and device).
 fn gpu_frames(
-    scene: &Scene,
+    (scene, rs): (&Scene, &RenderSettings),
     form: GpuForm,
     frames: usize,
     gpu: &GpuContext,
 ) -> Result<(Vec<Image>, Vec<f64>), Error> {
     let (mut images, mut seconds) = (Vec::new(), Vec::new());
     if form == GpuForm::Sequence {
-        let run = shscale_scene::gpu_path::render_sequence_gpu(scene, frames, gpu)?;
+        let run = shscale_scene::gpu_path::render_sequence_gpu(scene, rs, frames, gpu)?;
         seconds.extend((run.frames.iter()).map(|f| f.seconds()));
         images.push(run.image.pixels);
     } else {
-        shscale_scene::gpu_methods::render_gpu_frames(scene, form, frames, gpu, &mut |f, px| {
-            seconds.push(f.seconds);
-            images.push(px.to_vec());
-        })?;
+        shscale_scene::gpu_methods::render_gpu_frames(
+            scene,
+            rs,
+            form,
+            frames,
+            gpu,
+            &mut |f, px| {
+                seconds.push(f.seconds);
+                images.push(px.to_vec());
+            },
+        )?;
     }
     Ok((images, seconds))
 }
@@ -175,13 +182,12 @@ fn gpu_frames(
 /// The cost model's seconds of the cached frame ([`cached_frame`]) where it applies: the
 /// re-sampling's rays at the rate (its shading is a few dot products per receiver).
 pub(crate) fn cached_seconds(
-    scene: &Scene,
-    method: Method,
+    (scene, rs): (&Scene, &RenderSettings),
     frames: usize,
     rays: f64,
     rate: f64,
 ) -> f64 {
-    if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, method) {
+    if frames == 1 && shscale_scene::cached::CachedPlane::applies(scene, rs) {
         rays / rate
     } else {
         0.0
@@ -192,8 +198,7 @@ pub(crate) fn cached_seconds(
 /// applies: its timing, the cache's build seconds and the largest difference of its image from
 /// the direct render's `direct` (flat RGB) in the unit of the mean unshadowed irradiance.
 pub fn cached_frame(
-    scene: &Scene,
-    method: Method,
+    (scene, rs): (&Scene, &RenderSettings),
     frames: usize,
     direct: &[f64],
     open: &[f64],
@@ -202,7 +207,7 @@ pub fn cached_frame(
     if frames != 1 {
         return Ok(None);
     }
-    let Some(plane) = shscale_scene::cached::CachedPlane::new(scene, method)? else {
+    let Some(plane) = shscale_scene::cached::CachedPlane::new(scene, rs)? else {
         return Ok(None);
     };
     let (img, t) = ctx.timing.measure(|| plane.frame())?;
@@ -236,7 +241,7 @@ pub(crate) fn gpu_seconds(device: DeviceChoice, frame: f64) -> f64 {
 /// the timing procedure.
 pub fn cpu_frames(
     scenes: &[Scene],
-    method: Method,
+    rs: &RenderSettings,
     ctx: &Ctx,
 ) -> Result<
     (
@@ -250,7 +255,7 @@ pub fn cpu_frames(
         let mut total = 0.0;
         for s in scenes {
             let t0 = std::time::Instant::now();
-            let img = shscale_scene::render::render(s, method)?;
+            let img = shscale_scene::render::render(s, rs)?;
             let shared: f64 = (img.stages.iter())
                 .filter(|(s, _)| s == "light_projection" || s == "bvh_build")
                 .map(|(_, v)| v)

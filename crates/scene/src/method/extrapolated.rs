@@ -1,9 +1,9 @@
 //! The papers' method, `extrapolated`: SH-scaling extrapolation from one base-sphere visibility
 //! per occluder (and, as [`Extrapolation`], each sub-volume's). Its parameters, the keys it
-//! reads, their domains, its cost and how it sets a scene, in one file.
+//! reads, their domains, its cost and how it sets a render's settings, in one file.
 
 use super::{Keys, MethodSpec, Spec};
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::check::Ends;
@@ -99,8 +99,8 @@ impl Extrapolation {
             + self.k_count.unwrap_or(k_count) as f64 * nn * nn * 8.0
     }
 
-    /// The extrapolation's keys set on `scene`.
-    pub(crate) fn set_on(&self, s: &mut Scene) {
+    /// The extrapolation's keys set on the render settings `s`.
+    pub(crate) fn set_on(&self, s: &mut RenderSettings) {
         s.layout = self.layout;
         s.hemisphere_res = self.hemisphere_res;
         if let Alpha::Fixed(deg) = self.alpha {
@@ -125,8 +125,8 @@ impl MethodSpec for Extrapolation {
     fn memory_bytes(&self, order: usize, occluders: f64, k_count: usize) -> f64 {
         occluders * self.bytes(order, k_count)
     }
-    fn apply(&self, scene: &mut Scene) {
-        self.set_on(scene)
+    fn apply(&self, rs: &mut RenderSettings) {
+        self.set_on(rs)
     }
     fn into_spec(self) -> Spec {
         Spec::Extrapolated(self)

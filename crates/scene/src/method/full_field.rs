@@ -1,8 +1,8 @@
 //! `full_field`: the fully sampled shadow field (Zhou et al. 2005) — shells of base-sphere
-//! samples, interpolated. Its parameters, keys, domains, cost and how it sets a scene.
+//! samples, interpolated. Its parameters, keys, domains, cost and how it sets a render's settings.
 
 use super::{Keys, MethodSpec, Spec};
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::bsv::Layout;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
 use shscale_runner::check::Ends;
@@ -81,26 +81,26 @@ impl MethodSpec for FieldSpec {
         let nn = (order * order) as f64;
         occluders * (self.count as f64 * super::samples(self.layout) * nn * 8.0)
     }
-    fn apply(&self, scene: &mut Scene) {
-        scene.layout = self.layout;
-        scene.hemisphere_res = self.hemisphere_res;
-        scene.sampling_radius = self.sampling_radius;
-        scene.full_field = Some(self.shells());
+    fn apply(&self, rs: &mut RenderSettings) {
+        rs.layout = self.layout;
+        rs.hemisphere_res = self.hemisphere_res;
+        rs.sampling_radius = self.sampling_radius;
+        rs.full_field = Some(self.shells());
     }
     fn into_spec(self) -> Spec {
         Spec::FullField(self)
     }
 }
 
-/// The renderer's full field where a scene names none: the papers' construction
+/// The renderer's full field where the settings name none: the papers' construction
 /// ([`Shells::PAPERS`]: 16 shells at uniform radial intervals, trilinear) over `[s, 8s]·r` for
 /// the sampling radius `s`; on a Fibonacci layout, which has no grid, barycentric in angle.
-pub fn full_field_shells(scene: &Scene) -> Shells {
-    let s = scene.sampling_radius;
+pub fn full_field_shells(rs: &RenderSettings) -> Shells {
+    let s = rs.sampling_radius;
     Shells {
         rho_min: s,
         rho_max: 8.0 * s,
-        interp: match scene.layout {
+        interp: match rs.layout {
             shscale_field::Layout::Fibonacci { .. } => FieldInterp::Barycentric,
             _ => FieldInterp::Trilinear,
         },

@@ -7,14 +7,14 @@
 //! ([`SubVolumeSpec`]), `full_field.rs` ([`FieldSpec`]), `ray_traced.rs` ([`RayTracedSpec`]) and
 //! `sphere_set.rs` ([`SetSpec`], with the one factory of its combinations' tables). Each holds
 //! its parameters, how they are parsed from the keys and checked, the keys it reads, its cost
-//! (rays, bytes, seconds) and how it sets a scene, behind [`MethodSpec`]; [`Spec`] is the enum
+//! (rays, bytes, seconds) and how it sets a render's settings, behind [`MethodSpec`]; [`Spec`] is the enum
 //! of those types and [`REGISTRY`] the one line per method that ties a name to its parse.
 //!
 //! A key that the chosen method does not read must keep its default: given any other value it
 //! is refused, naming the key and the method (Mitsuba's rule for unqueried properties), so it
 //! never changes a run id without changing the run.
 
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::bsv::Layout;
 use shscale_runner::check::Ends;
 use shscale_runner::KeyError;
@@ -214,8 +214,8 @@ pub trait MethodSpec {
     fn seconds(&self, _order: usize, rays: f64, _receivers: f64, rays_per_second: f64) -> f64 {
         rays / rays_per_second
     }
-    /// The method's parameters set on `scene` (the keys it does not read leave it as it is).
-    fn apply(&self, scene: &mut Scene);
+    /// The method's parameters set on `rs` (the keys it does not read leave it as it is).
+    fn apply(&self, rs: &mut RenderSettings);
     /// The spec as the vocabulary's enum.
     fn into_spec(self) -> Spec;
 }
@@ -339,10 +339,12 @@ impl Spec {
         each!(self, m => m.seconds(order, rays, receivers, rays_per_second))
     }
 
-    /// The scene rendered with this method ([`MethodSpec::apply`]). `rt_res` must be below the
-    /// scene's `truth_res` (checked by the kinds at plan time).
-    pub fn apply(&self, scene: &mut Scene) {
-        each!(self, m => m.apply(scene))
+    /// `rs` set to render with this method ([`MethodSpec::apply`]): its method and the
+    /// parameters it reads. `rt_res` must be below the settings' `truth_res` (checked by the
+    /// kinds at plan time).
+    pub fn apply(&self, rs: &mut RenderSettings) {
+        rs.method = self.method();
+        each!(self, m => m.apply(rs))
     }
 }
 

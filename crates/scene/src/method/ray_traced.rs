@@ -1,9 +1,9 @@
 //! `ray_traced`: band-limited ray-traced visibility (the stratified truth at `4T²` rays per
 //! receiver and occluder), shaded through SH like the others. Its one key, its cost and how it
-//! sets a scene.
+//! sets a render's settings.
 
 use super::{MethodSpec, Spec};
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_runner::KeyError;
 
 /// Ray tracing's parameters: `T`, for `4T²` stratified rays per receiver and occluder.
@@ -33,10 +33,10 @@ impl MethodSpec for RayTracedSpec {
     fn memory_bytes(&self, _order: usize, _occluders: f64, _k_count: usize) -> f64 {
         0.0
     }
-    /// The scene's truth resolution (the kinds check at plan time that it is below the
+    /// The render's truth resolution (the kinds check at plan time that it is below the
     /// reference's).
-    fn apply(&self, scene: &mut Scene) {
-        scene.truth_res = self.rt_res;
+    fn apply(&self, rs: &mut RenderSettings) {
+        rs.truth_res = self.rt_res;
     }
     fn into_spec(self) -> Spec {
         Spec::RayTraced(self)

@@ -1,13 +1,13 @@
 //! `sphere_set` (Ren et al. 2006's occluder model): one sphere per part (or the mesh's inscribed
 //! balls), closed-form caps combined by truncated products, the quadrature, the exact union of
 //! the caps or SH exponentiation; no rays on the mesh. Its parameters, keys, domains, cost, how
-//! it sets a scene, and the one factory of each combination's tables that `render` and the
+//! it sets a render's settings, and the one factory of each combination's tables that `render` and the
 //! budget frames both use ([`SetTables`]).
 
 use super::{product_work, Keys, MethodSpec, Spec, SHEXP_SECONDS};
 use crate::combine::{Combine, SphereFit};
 use crate::error::Error;
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::evaluator::VisibilityField;
 use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, SHEXP_EPS};
 use shscale_field::sphereset::{QuadratureGrid, SphereSetField, SphereSetQuadrature};
@@ -91,14 +91,14 @@ impl SetSpec {
         })
     }
 
-    /// The set a scene's keys describe (`render`'s: the scene's parts, combination, internal
+    /// The set the render settings describe (`render`'s: their parts, combination, internal
     /// order and fit).
-    pub(crate) fn of_scene(scene: &Scene) -> Self {
+    pub(crate) fn of_settings(rs: &RenderSettings) -> Self {
         Self {
-            parts: scene.parts,
-            combine: scene.sphere_combine,
-            internal_order: scene.sphere_order,
-            fit: scene.sphere_fit,
+            parts: rs.parts,
+            combine: rs.sphere_combine,
+            internal_order: rs.sphere_order,
+            fit: rs.sphere_fit,
         }
     }
 }
@@ -160,11 +160,11 @@ impl MethodSpec for SetSpec {
             }
         }
     }
-    fn apply(&self, scene: &mut Scene) {
-        scene.parts = self.parts;
-        scene.sphere_order = self.internal_order;
-        scene.sphere_combine = self.combine;
-        scene.sphere_fit = self.fit;
+    fn apply(&self, rs: &mut RenderSettings) {
+        rs.parts = self.parts;
+        rs.sphere_order = self.internal_order;
+        rs.sphere_combine = self.combine;
+        rs.sphere_fit = self.fit;
     }
     fn into_spec(self) -> Spec {
         Spec::SphereSet(self)

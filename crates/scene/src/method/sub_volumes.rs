@@ -1,11 +1,11 @@
 //! `sub_volumes` (TR §6, SHS §5 future work): every mesh occluder split into parts, each part
 //! extrapolated from its own bounding sphere, multiplied near to far — or, with
 //! `part_combine = "shexp"`, each part's log-visibility extrapolated, summed and exponentiated
-//! once. Its parameters, keys, domains, cost and how it sets a scene.
+//! once. Its parameters, keys, domains, cost and how it sets a render's settings.
 
 use super::{product_work, Extrapolation, Keys, MethodSpec, Spec, SHEXP_SECONDS};
 use crate::combine::Combine;
-use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::KeyError;
 
@@ -93,10 +93,10 @@ impl MethodSpec for SubVolumeSpec {
             _ => rays / rays_per_second,
         }
     }
-    fn apply(&self, scene: &mut Scene) {
-        self.ex.set_on(scene);
-        scene.parts = self.parts;
-        scene.part_combine = self.combine;
+    fn apply(&self, rs: &mut RenderSettings) {
+        self.ex.set_on(rs);
+        rs.parts = self.parts;
+        rs.part_combine = self.combine;
     }
     fn into_spec(self) -> Spec {
         Spec::SubVolumes(self)

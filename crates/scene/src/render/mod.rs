@@ -19,6 +19,7 @@ use crate::frame::{
 };
 use crate::method::Combine;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
@@ -72,41 +73,40 @@ impl RenderOutput {
     }
 }
 
-/// Estimated rays and peak bytes of one [`render`] of `scene` with `method` (for the work limits
+/// Estimated rays and peak bytes of one [`render`] of `scene` with the settings `rs` (for the work limits
 /// of `shscale render`): the BSV of every occluder (one per shell for the full field), 4T² rays per
 /// receiver and occluder for band-limited ray tracing, 4T² plus the sun's cap per receiver for
 /// full-frequency truth.
-pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
-    let samples = scene.layout.sample_count().unwrap_or(usize::MAX) as f64;
-    let h2 = (scene.hemisphere_res * scene.hemisphere_res) as f64;
-    let t2 = (scene.truth_res * scene.truth_res) as f64;
+pub fn estimated_work(scene: &Scene, rs: &RenderSettings) -> (f64, f64) {
+    let method = rs.method;
+    let samples = rs.layout.sample_count().unwrap_or(usize::MAX) as f64;
+    let h2 = (rs.hemisphere_res * rs.hemisphere_res) as f64;
+    let t2 = (rs.truth_res * rs.truth_res) as f64;
     let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
     let occluders = scene.occluders.len().max(1) as f64;
-    let nn = (scene.order * scene.order) as f64;
+    let nn = (rs.order * rs.order) as f64;
     let bsv = occluders * samples * h2;
-    let shells = (scene.full_field)
-        .unwrap_or_else(|| full_field_shells(scene))
+    let shells = (rs.full_field)
+        .unwrap_or_else(|| full_field_shells(rs))
         .count as f64;
     let rays = match method {
         Method::Extrapolated => bsv,
-        Method::SubVolumes => scene.parts.max(1) as f64 * bsv,
+        Method::SubVolumes => rs.parts.max(1) as f64 * bsv,
         Method::SphereSet => 0.0,
         Method::FullField => shells * bsv,
         Method::RayTraced => receivers * occluders * 4.0 * t2,
         Method::FullFrequency => {
-            receivers
-                * 4.0
-                * (t2 + (shscale_field::shading::sun_bands(scene.truth_res).pow(2)) as f64)
+            receivers * 4.0 * (t2 + (shscale_field::shading::sun_bands(rs.truth_res).pow(2)) as f64)
         }
     };
     let shells = match method {
         Method::FullField => shells,
-        Method::SubVolumes => scene.parts.max(1) as f64,
+        Method::SubVolumes => rs.parts.max(1) as f64,
         Method::SphereSet => 0.0,
         _ => 1.0,
     };
     let spheres = if method == Method::SphereSet {
-        occluders * scene.parts.max(1) as f64 * 32.0
+        occluders * rs.parts.max(1) as f64 * 32.0
     } else {
         0.0
     };
@@ -114,37 +114,52 @@ pub fn estimated_work(scene: &Scene, method: Method) -> (f64, f64) {
     (rays, bytes)
 }
 
-/// Render `scene` with `method` (its occluders posed at [`Scene::pose_t`] when set).
-pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
+/// Render `scene` with the method and parameters of `rs` (its occluders posed at
+/// [`Scene::pose_t`] when set). Only what the method uses is built: the truth sampler for the
+/// band-limited truth, the SH basis and the sphere-set tables for sphere sets, the base-sphere
+/// sampler for the methods that sample one (and for local lights).
+pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error> {
+    let method = rs.method;
     let mut stages = Stages::default();
-    let light = stages.time("light_projection", || light_of(scene))?;
+    let light = stages.time("light_projection", || light_of(scene, rs.order))?;
     let occs: Vec<Box<dyn Occluder>> = stages.time("bvh_build", || {
         (scene.occluders.iter())
             .map(|o| build_occluder_at(o, scene.pose_t))
             .collect::<Result<_, _>>()
     })?;
     let recv = receiver_grid(scene);
-    let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
+    let sampler = VisibilitySampler::new(rs.order, rs.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
-    let basis = shscale_sh::ShBasis::<f64>::new(scene.order)
-        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-    let set_tables = SetTables::new(scene, method, &basis)?;
-    let built = build_fields(scene, method, &occs, &sampler, &recv, &mut stages)?;
+    let basis = match method {
+        Method::SphereSet => Some(
+            shscale_sh::ShBasis::<f64>::new(rs.order)
+                .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?,
+        ),
+        _ => None,
+    };
+    let set_tables = SetTables::new(scene, rs, basis.as_ref())?;
+    let built = build_fields(scene, rs, &occs, &sampler, &recv, &mut stages)?;
     let built = set_tables.to_logs(built, &mut stages);
-    let exs = extrapolators(&built, scene.plausibility);
-    let truth = shscale_field::truth::TruthSampler::new(
-        scene.order,
-        scene.truth_res,
-        shscale_field::truth::DEFAULT_TRUTH_SEED,
-    )?;
-    let rts = converged_truths(method, &occs, &truth);
-    let spheres: Vec<SphereVisibility> = (built.spheres.iter())
-        .map(|s| SphereVisibility::new(*s, &basis))
-        .collect();
+    let exs = extrapolators(&built, rs.plausibility);
+    let truth = match method {
+        Method::RayTraced => Some(shscale_field::truth::TruthSampler::new(
+            rs.order,
+            rs.truth_res,
+            shscale_field::truth::DEFAULT_TRUTH_SEED,
+        )?),
+        _ => None,
+    };
+    let rts = converged_truths(&occs, truth.as_ref());
+    let spheres: Vec<SphereVisibility> = match &basis {
+        Some(basis) => (built.spheres.iter())
+            .map(|s| SphereVisibility::new(*s, basis))
+            .collect(),
+        None => Vec::new(),
+    };
     // A sphere set combined at a higher internal order, as its caps' union or by SH
     // exponentiation, and extrapolated fields combined in log space, are one field (the shader
     // then multiplies nothing more).
-    let one_set = set_tables.field(&built.spheres, &basis, &exs);
+    let one_set = set_tables.field(&built.spheres, basis.as_ref(), &exs);
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
     if let Some(set) = &one_set {
         fields = vec![set.as_ref()];
@@ -156,21 +171,21 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     }
     if method == Method::FullFrequency {
         return Ok(render_full_frequency(
-            scene, &light, &occs, &emitters, &recv, stages,
+            scene, rs, &light, &occs, &emitters, &recv, stages,
         ));
     }
     let t = Instant::now();
-    let light_fields = light_fields(scene, method, &emitters, &sampler, &recv)?;
+    let light_fields = light_fields(scene, rs, &emitters, &sampler, &recv)?;
     if !emitters.is_empty() {
         stages.push("light_fields", t);
     }
     let t = Instant::now();
-    let shader = Shader::new(scene.order)?;
+    let shader = Shader::new(rs.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
     // Band-limited truth of one occluder and no local lights: the truth's own error per receiver,
     // |⟨T, (A − B)/2⟩| (irradiance is linear in the visibility), beside the pixel.
-    if let (Method::RayTraced, [o], true) = (method, occs.as_slice(), emitters.is_empty()) {
-        let out = truth_with_error(scene, o.as_ref(), &truth, &transfer, &recv);
+    if let (Some(truth), [o], true) = (&truth, occs.as_slice(), emitters.is_empty()) {
+        let out = truth_with_error(scene, o.as_ref(), truth, &transfer, &recv);
         stages.push("shading", t);
         return Ok(RenderOutput {
             stages: stages.0,
@@ -184,6 +199,7 @@ pub fn render(scene: &Scene, method: Method) -> Result<RenderOutput, Error> {
     let local = LocalLights::new(&emitters, &light_fields, &sampler);
     let mut out = shade_all(
         scene,
+        rs.order,
         &fields,
         &centers,
         (&shader, &transfer),
@@ -207,28 +223,28 @@ fn extrapolators(
 }
 
 /// Ray tracing's field per occluder (the converged truth at `truth`'s resolution); none for
-/// the other methods.
+/// the other methods (which build no truth sampler).
 fn converged_truths<'a>(
-    method: Method,
     occs: &'a [Box<dyn Occluder>],
-    truth: &'a shscale_field::truth::TruthSampler,
+    truth: Option<&'a shscale_field::truth::TruthSampler>,
 ) -> Vec<ConvergedTruth<'a>> {
-    match method {
-        Method::RayTraced => (occs.iter())
-            .map(|o| ConvergedTruth {
-                occ: o.as_ref(),
-                truth,
-            })
-            .collect(),
-        _ => Vec::new(),
-    }
+    let Some(truth) = truth else {
+        return Vec::new();
+    };
+    (occs.iter())
+        .map(|o| ConvergedTruth {
+            occ: o.as_ref(),
+            truth,
+        })
+        .collect()
 }
 
 /// Several fields combined as one field, with the tables each way needs: none (the plain
 /// chains, one field per sphere, part or occluder, multiplied by the shader near to far), a
 /// sphere set's combination ([`SetTables`], the factory the budget frames use too: products at
 /// its internal order, the quadrature, its caps' union or SH exponentiation), or extrapolated
-/// fields — a sub-volume's parts, a scene's occluders — in log space ([`Scene::part_combine`];
+/// fields — a sub-volume's parts, a scene's occluders — in log space
+/// ([`RenderSettings::part_combine`];
 /// SHEXP's Gaunt tensor and log table, within the domain of
 /// [`crate::method::check_log_space`]).
 enum SetTables {
@@ -238,20 +254,25 @@ enum SetTables {
 }
 
 impl SetTables {
-    fn new(scene: &Scene, method: Method, basis: &shscale_sh::ShBasis<f64>) -> Result<Self, Error> {
-        let extrapolated = matches!(method, Method::Extrapolated | Method::SubVolumes);
-        if extrapolated && scene.part_combine == Combine::Shexp {
-            crate::method::check_log_space(scene.order, scene.plausibility)
+    /// The tables of `rs`' method; `basis` is built for sphere sets only.
+    fn new(
+        scene: &Scene,
+        rs: &RenderSettings,
+        basis: Option<&shscale_sh::ShBasis<f64>>,
+    ) -> Result<Self, Error> {
+        let extrapolated = matches!(rs.method, Method::Extrapolated | Method::SubVolumes);
+        if extrapolated && rs.part_combine == Combine::Shexp {
+            crate::method::check_log_space(rs.order, rs.plausibility)
                 .map_err(|e| Error::config(format!("{}: {}: {}", scene.file, e.key, e.message)))?;
-            let gaunt = shscale_sh::GauntTensor::<f64>::new(scene.order)?;
+            let gaunt = shscale_sh::GauntTensor::<f64>::new(rs.order)?;
             let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
             return Ok(SetTables::LogSpace(gaunt, table));
         }
-        if method != Method::SphereSet {
+        let Some(basis) = basis.filter(|_| rs.method == Method::SphereSet) else {
             return Ok(SetTables::Plain);
-        }
-        let set = crate::method::SetSpec::of_scene(scene);
-        match crate::method::SetTables::new(&set, scene.order, basis) {
+        };
+        let set = crate::method::SetSpec::of_settings(rs);
+        match crate::method::SetTables::new(&set, rs.order, basis) {
             Ok(crate::method::SetTables::Chain) => Ok(SetTables::Plain),
             Ok(t) => Ok(SetTables::Set(t)),
             Err(e) => Err(Error::config(format!("{}: {e}", scene.file))),
@@ -275,7 +296,7 @@ impl SetTables {
     fn field<'a>(
         &'a self,
         spheres: &'a [shscale_geometry::Sphere],
-        basis: &'a shscale_sh::ShBasis<f64>,
+        basis: Option<&'a shscale_sh::ShBasis<f64>>,
         exs: &'a [Extrapolator<'a>],
     ) -> Option<Box<dyn VisibilityField + 'a>> {
         match self {
@@ -286,7 +307,7 @@ impl SetTables {
             SetTables::LogSpace(..) => None,
             _ if spheres.is_empty() => None,
             SetTables::Set(t) => t
-                .field(spheres, basis, None)
+                .field(spheres, basis?, None)
                 .map(|f| f.field as Box<dyn VisibilityField + 'a>),
         }
     }
@@ -327,6 +348,7 @@ fn field_centers(method: Method, built: &Built, occs: &[Box<dyn Occluder>]) -> V
 /// transfer, plus the local lights.
 fn shade_all(
     scene: &Scene,
+    order: usize,
     fields: &[&dyn VisibilityField],
     centers: &[DVec3],
     (shader, transfer): (&Shader, &[Vec<f64>; 3]),
@@ -338,7 +360,7 @@ fn shade_all(
         .map(|p| {
             let (v, products, skipped) = shader.combined_visibility_counted(fields, centers, *p);
             let mut e = Shader::shade(transfer, &v);
-            local.add(scene.order, shader, *p, &v, &mut e);
+            local.add(order, shader, *p, &v, &mut e);
             (e.map(|x| x as f32), products, skipped)
         })
         .collect();
@@ -383,19 +405,20 @@ struct Built {
 
 fn build_fields(
     scene: &Scene,
-    method: Method,
+    rs: &RenderSettings,
     occs: &[Box<dyn Occluder>],
     sampler: &VisibilitySampler,
     recv: &[DVec3],
     stages: &mut Stages,
 ) -> Result<Built, Error> {
     let mut b = Built::default();
+    let method = rs.method;
     match method {
         Method::Extrapolated | Method::SubVolumes => {
             // Whole occluders, or their sub-volumes: a BSV on each one's own bounding sphere and
             // a table over the receivers.
             let parts = if method == Method::SubVolumes {
-                stages.time("partition", || sub_volume_parts(scene))?
+                stages.time("partition", || sub_volume_parts(scene, rs.parts))?
             } else {
                 Vec::new()
             };
@@ -404,16 +427,16 @@ fn build_fields(
             } else {
                 occs
             };
-            let r = scene.sampling_radius;
+            let r = rs.sampling_radius;
             b.bsvs = stages.time("bsv_sampling", || {
                 (sources.iter())
                     .map(|o| {
                         Ok(Bsv::sample_radial(
                             o.as_ref(),
-                            scene.layout,
+                            rs.layout,
                             sampler,
                             r,
-                            scene.radial,
+                            rs.radial,
                         )?)
                     })
                     .collect::<Result<_, Error>>()
@@ -427,7 +450,7 @@ fn build_fields(
                             radius: b.sampling_radius,
                         };
                         let outer = b.radii.iter().copied().fold(s.radius, f64::max);
-                        crate::frame::table_for_radii(scene, s, outer, recv, Eta::Plain)
+                        crate::frame::table_for_radii((scene, rs), s, outer, recv, Eta::Plain)
                     })
                     .collect()
             })?;
@@ -438,16 +461,16 @@ fn build_fields(
                     .map(|o| {
                         Ok(FullField::build(
                             o.as_ref(),
-                            scene.layout,
+                            rs.layout,
                             sampler,
-                            &scene.full_field.unwrap_or_else(|| full_field_shells(scene)),
+                            &rs.full_field.unwrap_or_else(|| full_field_shells(rs)),
                         )?)
                     })
                     .collect::<Result<_, Error>>()
             })?;
         }
         Method::SphereSet => {
-            b.spheres = stages.time("sphere_fit", || sphere_set(scene))?;
+            b.spheres = stages.time("sphere_fit", || sphere_set(scene, rs))?;
         }
         Method::RayTraced | Method::FullFrequency => {}
     }
@@ -455,15 +478,15 @@ fn build_fields(
 }
 
 /// The parts of every occluder for [`Method::SubVolumes`], each as its own BVH: a mesh split into
-/// [`Scene::parts`] by k-means on the rest pose's triangle centroids (per triangle, so a
-/// deforming mesh keeps its partition over a sequence), posed at [`Scene::pose_t`]; the analytic
-/// sphere is one part.
-fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
+/// `n` parts ([`RenderSettings::parts`]) by k-means on the rest pose's triangle centroids (per
+/// triangle, so a deforming mesh keeps its partition over a sequence), posed at
+/// [`Scene::pose_t`]; the analytic sphere is one part.
+fn sub_volume_parts(scene: &Scene, n: usize) -> Result<Vec<Box<dyn Occluder>>, Error> {
     let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
-    for (o, split) in scene.occluders.iter().zip(partitioned(scene)?) {
+    for (o, split) in scene.occluders.iter().zip(partitioned(scene, n)?) {
         match split {
             Some((posed, labels)) => {
-                for p in shscale_geometry::partition::split(&posed, &labels, scene.parts) {
+                for p in shscale_geometry::partition::split(&posed, &labels, n) {
                     parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
                 }
             }
@@ -475,14 +498,14 @@ fn sub_volume_parts(scene: &Scene) -> Result<Vec<Box<dyn Occluder>>, Error> {
 
 /// The sphere set of every occluder for [`Method::SphereSet`]: a mesh partitioned as for
 /// [`Method::SubVolumes`] (on the rest pose, per triangle) and one sphere fitted per part on the
-/// pose at [`Scene::pose_t`] — or that pose's first inscribed balls ([`Scene::sphere_fit`]);
-/// the analytic sphere is its own set.
-fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
+/// pose at [`Scene::pose_t`] — or that pose's first inscribed balls
+/// ([`RenderSettings::sphere_fit`]); the analytic sphere is its own set.
+fn sphere_set(scene: &Scene, rs: &RenderSettings) -> Result<Vec<Sphere>, Error> {
     let mut out = Vec::new();
-    for (o, split) in scene.occluders.iter().zip(partitioned(scene)?) {
+    for (o, split) in scene.occluders.iter().zip(partitioned(scene, rs.parts)?) {
         match split {
             Some((posed, labels)) => out.extend(
-                (scene.sphere_fit.spheres(&posed, &labels, scene.parts))
+                (rs.sphere_fit.spheres(&posed, &labels, rs.parts))
                     .map_err(|e| Error::config(format!("{}: sphere_fit: {e}", scene.file)))?,
             ),
             None => out.push(o.build()?.bounding_sphere()),
@@ -495,15 +518,15 @@ fn sphere_set(scene: &Scene) -> Result<Vec<Sphere>, Error> {
 type Partitioned = (shscale_geometry::Mesh, Vec<u32>);
 
 /// Per occluder: its mesh posed at [`Scene::pose_t`] with the part of every triangle
-/// ([`Scene::parts`] by k-means on the rest pose's triangle centroids, so a deforming mesh keeps
-/// its partition over a sequence), or `None` for the analytic sphere.
-fn partitioned(scene: &Scene) -> Result<Vec<Option<Partitioned>>, Error> {
+/// (`parts` by k-means on the rest pose's triangle centroids, so a deforming mesh keeps its
+/// partition over a sequence), or `None` for the analytic sphere.
+fn partitioned(scene: &Scene, parts: usize) -> Result<Vec<Option<Partitioned>>, Error> {
     (scene.occluders.iter())
         .map(|o| {
             let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
                 return Ok(None);
             };
-            let labels = shscale_geometry::partition::kmeans_parts(&rest, scene.parts)
+            let labels = shscale_geometry::partition::kmeans_parts(&rest, parts)
                 .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
             Ok(Some((crate::frame::posed(&rest, o, scene.pose_t), labels)))
         })
@@ -514,6 +537,7 @@ fn partitioned(scene: &Scene) -> Result<Vec<Option<Partitioned>>, Error> {
 /// with the quadrature's own error estimate.
 fn render_full_frequency(
     scene: &Scene,
+    rs: &RenderSettings,
     light: &EnvLight,
     occs: &[Box<dyn Occluder>],
     emitters: &[LightSource],
@@ -534,7 +558,7 @@ fn render_full_frequency(
                 &ems,
                 *p,
                 DVec3::Z,
-                scene.truth_res,
+                rs.truth_res,
                 shscale_field::truth::DEFAULT_TRUTH_SEED,
             )
         })
@@ -555,7 +579,7 @@ fn render_full_frequency(
 /// BSV and the η k-table for the extrapolated method; nothing to build for ray tracing.
 fn light_fields(
     scene: &Scene,
-    method: Method,
+    rs: &RenderSettings,
     emitters: &[LightSource],
     sampler: &VisibilitySampler,
     recv: &[DVec3],
@@ -563,6 +587,7 @@ fn light_fields(
     if emitters.is_empty() {
         return Ok(Vec::new());
     }
+    let method = rs.method;
     if matches!(
         method,
         Method::FullField | Method::SubVolumes | Method::SphereSet
@@ -578,12 +603,12 @@ fn light_fields(
         if method == Method::Extrapolated {
             for c in 0..3 {
                 if let Some(em) = &e.channels[c] {
-                    let b = shscale_field::srf::radiance_bsv(em, scene.layout, sampler, 1.0)?;
+                    let b = shscale_field::srf::radiance_bsv(em, rs.layout, sampler, 1.0)?;
                     lf.bsvs[c] = Some(b);
                 }
             }
             let eta = if e.energy { Eta::Energy } else { Eta::Plain };
-            lf.table = Some(table_for(scene, e.sphere, recv, eta)?);
+            lf.table = Some(table_for((scene, rs), e.sphere, recv, eta)?);
         }
         out.push(lf);
     }

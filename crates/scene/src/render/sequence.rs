@@ -17,7 +17,8 @@ pub struct FrameStats {
     pub reused: usize,
 }
 
-/// Render `frames ≥ 1` frames of a deforming scene with the extrapolated method (t = f/frames).
+/// Render `frames ≥ 1` frames of a deforming scene with the extrapolated method and the
+/// parameters of `rs` (t = f/frames).
 ///
 /// What is computed only when needed: the sampling sphere of each occluder is fixed for the
 /// sequence (the minimal sphere enclosing all of its poses, found once up front), so the k-table
@@ -27,9 +28,10 @@ pub struct FrameStats {
 /// reuse their BSV. Returns the last frame's image and per-frame statistics.
 pub fn render_sequence(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
 ) -> Result<(RenderOutput, Vec<FrameStats>), Error> {
-    render_sequence_each(scene, frames, &mut |_, _| Ok(()))
+    render_sequence_each(scene, rs, frames, &mut |_, _| Ok(()))
 }
 
 /// [`render_sequence`], with `each` called after every frame (outside its times) with the
@@ -37,23 +39,24 @@ pub fn render_sequence(
 #[allow(clippy::type_complexity)]
 pub(crate) fn render_sequence_each(
     scene: &Scene,
+    rs: &RenderSettings,
     frames: usize,
     each: &mut dyn FnMut(&FrameStats, &[[f32; 3]]) -> Result<(), Error>,
 ) -> Result<(RenderOutput, Vec<FrameStats>), Error> {
     let frames = frames.max(1);
-    let light = light_of(scene)?;
+    let light = light_of(scene, rs.order)?;
     let [w, h] = scene.resolution;
     let recv = receiver_grid(scene);
-    let sampler = VisibilitySampler::new(scene.order, scene.hemisphere_res)?;
+    let sampler = VisibilitySampler::new(rs.order, rs.hemisphere_res)?;
     let mut ents = (scene.occluders.iter())
-        .map(|o| Entity::new(scene, o, frames))
+        .map(|o| Entity::new(rs.sampling_radius, o, frames))
         .collect::<Result<Vec<_>, _>>()?;
     // Tables: one per occluder over the receivers' k range.
     let tables: Vec<KTable> = ents
         .iter()
-        .map(|e| table_for(scene, e.sampling, &recv, Eta::Plain))
+        .map(|e| table_for((scene, rs), e.sampling, &recv, Eta::Plain))
         .collect::<Result<_, _>>()?;
-    let shader = Shader::new(scene.order)?;
+    let shader = Shader::new(rs.order)?;
     let transfer = shader.transfer(&light, DVec3::Z);
     let mut cache: Option<shscale_field::receivers::ReceiverCache> = None;
     let mut stats = Vec::new();
@@ -67,12 +70,12 @@ pub(crate) fn render_sequence_each(
             ..Default::default()
         };
         for e in ents.iter_mut() {
-            e.advance(scene, &sampler, t, &mut st)?;
+            e.advance(rs.layout, &sampler, t, &mut st)?;
         }
         let t0 = Instant::now();
         // The receiver cache is linear in the visibility; the clamp mitigation is not, so a
         // clamped sequence takes the direct path.
-        if ents.len() == 1 && scene.plausibility == shscale_field::extrapolate::Plausibility::None {
+        if ents.len() == 1 && rs.plausibility == shscale_field::extrapolate::Plausibility::None {
             let bsv = ents[0].bsv.as_ref().expect("sampled");
             let c = cache.get_or_insert_with(|| {
                 shscale_field::receivers::ReceiverCache::build(bsv, &tables[0], &transfer, &recv)
@@ -82,7 +85,7 @@ pub(crate) fn render_sequence_each(
             pixels = out.iter().map(|e| e.map(|x| x as f32)).collect();
         } else {
             (pixels, products, skipped) =
-                shade_direct(scene, &ents, &tables, &shader, &transfer, &recv);
+                shade_direct(rs.plausibility, &ents, &tables, &shader, &transfer, &recv);
         }
         st.shading_seconds = t0.elapsed().as_secs_f64();
         each(&st, &pixels)?;
@@ -115,8 +118,10 @@ pub(super) struct Entity {
 }
 
 impl Entity {
+    /// The occluder `o` of a sequence of `frames` frames, sampled on its sphere scaled by the
+    /// sampling radius `sampling_radius` (in bounding radii).
     pub(super) fn new(
-        scene: &Scene,
+        sampling_radius: f64,
         o: &crate::scene::OccluderSpec,
         frames: usize,
     ) -> Result<Self, Error> {
@@ -130,7 +135,7 @@ impl Entity {
                 poser: None,
                 sampling: Sphere {
                     center: o.center,
-                    radius: o.radius * scene.sampling_radius,
+                    radius: o.radius * sampling_radius,
                 },
                 bsv: None,
             });
@@ -148,7 +153,7 @@ impl Entity {
             deformer: o.deformer,
             sampling: Sphere {
                 center: s.center,
-                radius: s.radius * scene.sampling_radius,
+                radius: s.radius * sampling_radius,
             },
             bsv: None,
         })
@@ -158,7 +163,7 @@ impl Entity {
     /// when its shape changed (or was never sampled); the times and counts go to `st`.
     pub(super) fn advance(
         &mut self,
-        scene: &Scene,
+        layout: shscale_field::Layout,
         sampler: &VisibilitySampler,
         t: f64,
         st: &mut FrameStats,
@@ -183,13 +188,7 @@ impl Entity {
             Some(b) => b,
             None => self.occ.as_ref(),
         };
-        self.bsv = Some(Bsv::sample_on(
-            occ,
-            scene.layout,
-            sampler,
-            self.sampling,
-            0.0,
-        )?);
+        self.bsv = Some(Bsv::sample_on(occ, layout, sampler, self.sampling, 0.0)?);
         st.bsv_sampling_seconds += t0.elapsed().as_secs_f64();
         st.resampled += 1;
         Ok(())
@@ -199,7 +198,7 @@ impl Entity {
 /// A frame shaded receiver by receiver through the extrapolators of every occluder (no cache):
 /// the pixels, SH products computed and evaluations skipped.
 pub(super) fn shade_direct(
-    scene: &Scene,
+    plausibility: shscale_field::extrapolate::Plausibility,
     ents: &[Entity],
     tables: &[KTable],
     shader: &Shader,
@@ -208,8 +207,7 @@ pub(super) fn shade_direct(
 ) -> (Vec<[f32; 3]>, usize, usize) {
     let exs: Vec<Extrapolator> = (ents.iter().zip(tables))
         .map(|(e, t)| {
-            Extrapolator::new(e.bsv.as_ref().expect("sampled"), t)
-                .with_plausibility(scene.plausibility)
+            Extrapolator::new(e.bsv.as_ref().expect("sampled"), t).with_plausibility(plausibility)
         })
         .collect();
     let fields: Vec<&dyn VisibilityField> = exs.iter().map(|e| e as &dyn VisibilityField).collect();
