@@ -552,28 +552,7 @@ fn run_config(
         let mut signal: Option<PyErr> = None;
         let result = py.allow_threads(|| {
             std::thread::scope(|scope| {
-                let worker = scope.spawn(|| {
-                    let warnings = std::sync::Mutex::new(Vec::new());
-                    let s = shscale_runner::run_plan_until(
-                        &plan,
-                        &out,
-                        None,
-                        &|ev| {
-                            if let shscale_runner::RunEvent::Warn(w) = ev {
-                                warnings
-                                    .lock()
-                                    .unwrap_or_else(|e| e.into_inner())
-                                    .push(w.to_string());
-                            }
-                        },
-                        &stop,
-                    )?;
-                    shscale_runner::report(plan.kind, &s.dir)?;
-                    Ok::<_, shscale_scene::Error>((
-                        s.dir,
-                        warnings.into_inner().unwrap_or_default(),
-                    ))
-                });
+                let worker = scope.spawn(|| run_and_report(&plan, &out, &stop));
                 while !worker.is_finished() {
                     std::thread::sleep(std::time::Duration::from_millis(100));
                     if signal.is_none() {
@@ -607,6 +586,29 @@ fn run_config(
         let (dir, warnings) = result.map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok((dir.display().to_string(), warnings))
     })
+}
+
+/// `plan` run into `out` until `stop` is set, then reported: its results folder and the
+/// runner's warnings.
+fn run_and_report(
+    plan: &shscale_runner::Plan,
+    out: &std::path::Path,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<(std::path::PathBuf, Vec<String>), shscale_scene::Error> {
+    let warnings = std::sync::Mutex::new(Vec::new());
+    let s = shscale_runner::run_plan_until(
+        plan,
+        out,
+        None,
+        &|ev| {
+            if let shscale_runner::RunEvent::Warn(w) = ev {
+                (warnings.lock().unwrap_or_else(|e| e.into_inner())).push(w.to_string());
+            }
+        },
+        stop,
+    )?;
+    shscale_runner::report(plan.kind, &s.dir)?;
+    Ok((s.dir, warnings.into_inner().unwrap_or_default()))
 }
 
 /// `shscale plot` on a results directory: the files written (PNG and SVG).

@@ -344,21 +344,7 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     use shscale_runner::bench::{self, TALLY};
     let sizes = runner_sizes(a)?;
     flags::int("--shards", a.shards, 0, 100_000)?;
-    let root = a.out_dir.clone().unwrap_or_else(|| {
-        std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()))
-    });
-    if root.exists() && !root.is_dir() {
-        anyhow::bail!(
-            "--out-dir {}: exists and is not a folder; the bench needs an empty folder",
-            root.display()
-        );
-    }
-    if root.exists() && std::fs::read_dir(&root)?.next().is_some() {
-        anyhow::bail!(
-            "--out-dir {}: not empty; the bench needs an empty folder",
-            root.display()
-        );
-    }
+    let root = runner_root(a)?;
     struct Cleanup(Option<std::path::PathBuf>);
     impl Drop for Cleanup {
         fn drop(&mut self) {
@@ -390,18 +376,8 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
             eprintln!("{} runs done", n);
         }
     }
-    // Inputs by content: the largest bundled mesh hashed cold (as a file and embedded), a
-    // cached lookup, and the largest plan with every run reading it.
     let hashing = match sizes.iter().max() {
-        Some(&n) => {
-            let (name, text) = (shscale_geometry::bundled::BUNDLED.iter())
-                .max_by_key(|(_, t)| t.len())
-                .copied()
-                .unwrap_or(("none", ""));
-            let d = root.join("hashing");
-            std::fs::create_dir_all(&d)?;
-            Some((name, bench::hash_cost(&d, text.as_bytes(), n)?))
-        }
+        Some(&n) => Some(runner_hashing(&root, n)?),
         None => None,
     };
     let merge = match sizes.iter().max() {
@@ -440,6 +416,45 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `bench runner`'s folder: `--out-dir` (which must be an empty folder or absent) or a fresh
+/// one in the temporary directory.
+fn runner_root(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<std::path::PathBuf> {
+    let root = a.out_dir.clone().unwrap_or_else(|| {
+        std::env::temp_dir().join(format!("shscale-bench-runner-{}", std::process::id()))
+    });
+    if root.exists() && !root.is_dir() {
+        anyhow::bail!(
+            "--out-dir {}: exists and is not a folder; the bench needs an empty folder",
+            root.display()
+        );
+    }
+    if root.exists() && std::fs::read_dir(&root)?.next().is_some() {
+        anyhow::bail!(
+            "--out-dir {}: not empty; the bench needs an empty folder",
+            root.display()
+        );
+    }
+    Ok(root)
+}
+
+/// Inputs by content: the largest bundled mesh hashed cold (as a file and embedded), a cached
+/// lookup, and a plan of `n` runs with every run reading it (in `root/hashing`).
+fn runner_hashing(
+    root: &std::path::Path,
+    n: usize,
+) -> anyhow::Result<(&'static str, shscale_runner::bench::HashCost)> {
+    let (name, text) = (shscale_geometry::bundled::BUNDLED.iter())
+        .max_by_key(|(_, t)| t.len())
+        .copied()
+        .unwrap_or(("none", ""));
+    let d = root.join("hashing");
+    std::fs::create_dir_all(&d)?;
+    Ok((
+        name,
+        shscale_runner::bench::hash_cost(&d, text.as_bytes(), n)?,
+    ))
 }
 
 /// The most runs of one `bench runner` sweep, and the most sweeps (`--runs` entries).

@@ -614,40 +614,64 @@ fn gpu_sequence(
         (false, false) => GpuFrames::Sequential,
     };
     let run = render_sequence_gpu_with(scene, rs, frames, &ctx, mode)?;
-    let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
+    let img = &run.image;
     let png = write_image(&a.out, img).context("--out")?;
     if a.format == TextFormat::Json {
-        let ms = |x: f64| serde_json::json!(x);
-        crate::output::print_json(&serde_json::json!({
-            "scene": a.scene.display().to_string(),
-            "method": a.method.to_string(),
-            "path": "gpu: the papers' sequence",
-            "adapter": ctx.describe(),
-            "setup_seconds": setup,
-            "receiver_setup_seconds": run.receiver_setup_seconds,
-            "stage_clock": if ctx.timestamps { "timestamps" } else { "wall" },
-            "frames": stats.iter().map(|s| {
-                let g = &s.gpu;
-                serde_json::json!({
-                    "frame": s.frame,
-                    "seconds": s.seconds(),
-                    "stages": {
-                        "deform": ms(s.deform_seconds + g.deform_seconds),
-                        "bvh": ms(g.bvh_seconds + g.refit_seconds),
-                        "upload": ms(g.upload_seconds),
-                        "bsv": ms(g.sampling_seconds),
-                        "sh": ms(g.projection_seconds),
-                        "shade": ms(g.shading_seconds),
-                    },
-                    "stage_sum_seconds": s.stage_sum(),
-                })
-            }).collect::<Vec<_>>(),
-            "mean_frame_seconds": stats.iter().map(|s| s.seconds()).sum::<f64>() / stats.len() as f64,
-            "out": a.out.display().to_string(),
-            "png": png.display().to_string(),
-        }))?;
-        return Ok(ExitCode::SUCCESS);
+        print_gpu_run_json(a, &ctx, &run, &png)?;
+    } else {
+        print_gpu_run_text(a, (&ctx, frames), &run, &png);
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The papers' GPU sequence as JSON: the adapter, set-up, every frame's stages and the files.
+fn print_gpu_run_json(
+    a: &RenderArgs,
+    ctx: &shscale_scene::gpu_path::GpuContext,
+    run: &shscale_scene::gpu_path::GpuSequenceRun,
+    png: &std::path::Path,
+) -> anyhow::Result<()> {
+    let (stats, setup) = (&run.frames, run.setup_seconds);
+    let ms = |x: f64| serde_json::json!(x);
+    crate::output::print_json(&serde_json::json!({
+        "scene": a.scene.display().to_string(),
+        "method": a.method.to_string(),
+        "path": "gpu: the papers' sequence",
+        "adapter": ctx.describe(),
+        "setup_seconds": setup,
+        "receiver_setup_seconds": run.receiver_setup_seconds,
+        "stage_clock": if ctx.timestamps { "timestamps" } else { "wall" },
+        "frames": stats.iter().map(|s| {
+            let g = &s.gpu;
+            serde_json::json!({
+                "frame": s.frame,
+                "seconds": s.seconds(),
+                "stages": {
+                    "deform": ms(s.deform_seconds + g.deform_seconds),
+                    "bvh": ms(g.bvh_seconds + g.refit_seconds),
+                    "upload": ms(g.upload_seconds),
+                    "bsv": ms(g.sampling_seconds),
+                    "sh": ms(g.projection_seconds),
+                    "shade": ms(g.shading_seconds),
+                },
+                "stage_sum_seconds": s.stage_sum(),
+            })
+        }).collect::<Vec<_>>(),
+        "mean_frame_seconds": stats.iter().map(|s| s.seconds()).sum::<f64>() / stats.len() as f64,
+        "out": a.out.display().to_string(),
+        "png": png.display().to_string(),
+    }))?;
+    Ok(())
+}
+
+/// The papers' GPU sequence as a table of every frame's stages, with the mean frame.
+fn print_gpu_run_text(
+    a: &RenderArgs,
+    (ctx, frames): (&shscale_scene::gpu_path::GpuContext, usize),
+    run: &shscale_scene::gpu_path::GpuSequenceRun,
+    png: &std::path::Path,
+) {
+    let (img, stats, setup) = (&run.image, &run.frames, run.setup_seconds);
     println!(
         "GPU sequence {} ({}×{} receivers, {frames} frames, adapter {}, setup {:.1} ms of which GPU receiver setup {:.1} ms, stage clock: {})",
         a.scene.display(),
@@ -703,7 +727,6 @@ fn gpu_sequence(
         }
     );
     println!("wrote {} and {}", a.out.display(), png.display());
-    Ok(ExitCode::SUCCESS)
 }
 
 /// `render --frames --gpu --device-pose`'s line on where the pose and trees were made.

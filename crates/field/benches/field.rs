@@ -161,20 +161,27 @@ fn frame_cost(c: &mut Criterion) {
     g.finish();
 }
 
-/// Per-receiver visibility on a 160×160 receiver plane under the bunny: extrapolated (N = 4,
-/// latlong:12x20, K = 40), full field (16 shells), and ray-traced truth (2·16² rays, a subset).
-fn receivers(c: &mut Criterion) {
-    use shscale_field::evaluator::{FullField, RayTraced, Shells, VisibilityField};
-    use shscale_field::extrapolate::Extrapolator;
-    use shscale_scaling::{Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
+/// The bunny's BVH and a 160×160 receiver plane 2r × 2r, 0.1 r below its lowest point (y-up
+/// mesh), with the base-sphere sampler (N = 4, H = 32) and layout (latlong:12x20) of the
+/// receivers' benches.
+fn bunny_plane() -> (MeshBvh, Vec<DVec3>, VisibilitySampler, Layout) {
     let mesh = bundled::load("bunny").unwrap();
     let bvh = MeshBvh::build(&mesh, UpdateStrategy::Rebuild);
     let s = bvh.bounding_sphere();
+    let y0 = mesh.positions.iter().map(|p| p.y).fold(f64::MAX, f64::min) - 0.1 * s.radius;
+    let grid = |i: usize| 2.0 * s.radius * ((i % 160) as f64 / 159.0 - 0.5);
+    let recv: Vec<DVec3> = (0..160 * 160)
+        .map(|i| DVec3::new(s.center.x + grid(i), y0, s.center.z + grid(i / 160)))
+        .collect();
     let sampler = VisibilitySampler::new(4, 32).unwrap();
-    let layout = Layout::LatLong { rows: 12, cols: 20 };
-    let bsv = Bsv::sample(&bvh, layout, &sampler, 1.0, 0.0).unwrap();
+    (bvh, recv, sampler, Layout::LatLong { rows: 12, cols: 20 })
+}
+
+/// The receivers' benches' k-table: cone α = π/4, N = 4, K = 40 entries over k ∈ [0.2, 8].
+fn bunny_table() -> shscale_scaling::KTable {
+    use shscale_scaling::{Eta, Interp, KTable, Spacing, TauFamily};
     let alpha = 0.25 * std::f64::consts::PI;
-    let table = KTable::build(
+    KTable::build(
         TauFamily::Cone { alpha },
         Eta::Plain,
         4,
@@ -184,14 +191,20 @@ fn receivers(c: &mut Criterion) {
         Spacing::Exp,
         Interp::Linear,
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// Per-receiver visibility on a 160×160 receiver plane under the bunny ([`bunny_plane`]):
+/// extrapolated (N = 4, latlong:12x20, K = 40), the cached shading and its build, and the full
+/// field (16 shells).
+fn receivers(c: &mut Criterion) {
+    use shscale_field::evaluator::{FullField, Shells, VisibilityField};
+    use shscale_field::extrapolate::Extrapolator;
+    use shscale_scaling::ScalingMatrix;
+    let (bvh, recv, sampler, layout) = bunny_plane();
+    let bsv = Bsv::sample(&bvh, layout, &sampler, 1.0, 0.0).unwrap();
+    let table = bunny_table();
     let ex = Extrapolator::new(&bsv, &table);
-    // Plane 2r × 2r, 0.1 r below the bunny's lowest point (y-up mesh).
-    let y0 = mesh.positions.iter().map(|p| p.y).fold(f64::MAX, f64::min) - 0.1 * s.radius;
-    let grid = |i: usize| 2.0 * s.radius * ((i % 160) as f64 / 159.0 - 0.5);
-    let recv: Vec<DVec3> = (0..160 * 160)
-        .map(|i| DVec3::new(s.center.x + grid(i), y0, s.center.z + grid(i / 160)))
-        .collect();
     let p2 = pool(2);
     let mut g = c.benchmark_group("receivers_160x160_bunny_n4");
     g.sample_size(10);
@@ -258,6 +271,15 @@ fn receivers(c: &mut Criterion) {
         })
     });
     g.finish();
+}
+
+/// The per-frame costs beside the receivers' evaluation on the bunny's plane
+/// ([`bunny_plane`]): ray-traced truth (2·16² rays, a subset of 400 receivers) and the full
+/// field's rebuild (16 shells).
+fn receivers_per_frame_costs(c: &mut Criterion) {
+    use shscale_field::evaluator::{FullField, RayTraced, Shells, VisibilityField};
+    let (bvh, recv, sampler, layout) = bunny_plane();
+    let p2 = pool(2);
     let mut g = c.benchmark_group("receivers_bunny_n4_per_frame_costs");
     g.sample_size(10);
     let sub: Vec<DVec3> = recv.iter().step_by(64).copied().collect();
@@ -302,6 +324,7 @@ criterion_group!(
     occlusion_rays,
     bsv_sampling,
     frame_cost,
-    receivers
+    receivers,
+    receivers_per_frame_costs
 );
 criterion_main!(benches);

@@ -342,29 +342,7 @@ pub fn report_staged(
     fill_added_parameters(kind, &mut t);
     check_kind(kind, dir, &t)?;
     let varying = t.varying(&kind.param_columns());
-    let (title, claim) = title_and_claim(dir);
-    let mut s = format!(
-        "# {}{} — {}\n\n{}{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
-        title.map_or(String::new(), |t| format!("{}\n\nExperiment ", md_text(&t))),
-        kind.name(),
-        md_text(
-            &staging
-                .target(dir)
-                .file_name()
-                .map_or(String::new(), |n| n.to_string_lossy().to_string())
-        ),
-        claim.map_or(String::new(), |c| format!(
-            "**Claim.** {}\n\n**Question.** ",
-            md_text(c.trim())
-        )),
-        kind.question(),
-        t.rows.len(),
-        if varying.is_empty() {
-            "none".to_string()
-        } else {
-            varying.join(", ")
-        }
-    );
+    let mut s = summary_head(kind, (dir, staging), &t, &varying);
     let notes = crate::manifest::row_notes(&t, !kind.time_columns().is_empty());
     if !notes.is_empty() {
         s.push_str(&format!("**Provenance.** {}\n\n", notes.join(" ")));
@@ -415,6 +393,39 @@ pub fn report_staged(
         discussion,
         files,
     })
+}
+
+/// A summary's head: the experiment's title, kind and folder, its claim and question, the
+/// rows' count and the parameters that vary.
+fn summary_head(
+    kind: &dyn DynKind,
+    (dir, staging): (&Path, &crate::atomic::Staging),
+    t: &Results,
+    varying: &[String],
+) -> String {
+    let (title, claim) = title_and_claim(dir);
+    format!(
+        "# {}{} — {}\n\n{}{}\n\nRows: {} in `runs.csv`; parameters that vary: {}.\n\n",
+        title.map_or(String::new(), |t| format!("{}\n\nExperiment ", md_text(&t))),
+        kind.name(),
+        md_text(
+            &staging
+                .target(dir)
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().to_string())
+        ),
+        claim.map_or(String::new(), |c| format!(
+            "**Claim.** {}\n\n**Question.** ",
+            md_text(c.trim())
+        )),
+        kind.question(),
+        t.rows.len(),
+        if varying.is_empty() {
+            "none".to_string()
+        } else {
+            varying.join(", ")
+        }
+    )
 }
 
 /// The per-run section of a summary: every row (or, beyond `MAX_LISTED_ROWS`, the distributions)

@@ -156,9 +156,29 @@ pub fn run_plan_until(
         timing: plan.timing,
         stop: stop_flag,
     };
-    // Finished runs are committed on a timer, not only when the next run finishes: a long run
-    // never holds the rows of the runs that finished before it (SIGKILL loses at most
-    // COMMIT_INTERVAL of finished runs).
+    run_with_commit_timer(plan, &pending, &ctx, &writer, progress)?;
+    // On an error above, dropping the writer commits what finished before it.
+    summary.ran = writer.finish()?;
+    if stop_flag.load(std::sync::atomic::Ordering::Acquire) && summary.ran < pending.len() {
+        return Err(Error::Interrupted {
+            done: summary.ran,
+            csv: csv.display().to_string(),
+        });
+    }
+    Ok(summary)
+}
+
+/// The pending runs of `plan` run by [`run_groups`], with the finished ones committed on a
+/// timer, not only when the next run finishes: a long run never holds the rows of the runs that
+/// finished before it (SIGKILL loses at most COMMIT_INTERVAL of finished runs). Asked to stop,
+/// it returns `Ok` once the runs in progress finish (the caller commits and says how much).
+fn run_with_commit_timer(
+    plan: &Plan,
+    pending: &[usize],
+    ctx: &Ctx,
+    writer: &Writer,
+    progress: &(dyn Fn(RunEvent) + Sync),
+) -> Result<(), Error> {
     let stop = std::sync::atomic::AtomicBool::new(false);
     std::thread::scope(|scope| {
         let ticker = scope.spawn(|| -> Result<(), Error> {
@@ -179,7 +199,7 @@ pub fn run_plan_until(
             stop: &stop,
             timer: ticker.thread(),
         };
-        let ran = run_groups(plan, &pending, &ctx, &writer, progress);
+        let ran = run_groups(plan, pending, ctx, writer, progress);
         drop(stopping);
         let ticked = ticker
             .join()
@@ -187,19 +207,10 @@ pub fn run_plan_until(
         ran.and(ticked)
     })
     .or_else(|e| match e {
-        // Asked to stop: what finished is committed below; the error then says how much.
+        // Asked to stop: the caller commits what finished; its error then says how much.
         Error::Interrupted { .. } => Ok(()),
         e => Err(e),
-    })?;
-    // On an error above, dropping the writer commits what finished before it.
-    summary.ran = writer.finish()?;
-    if stop_flag.load(std::sync::atomic::Ordering::Acquire) && summary.ran < pending.len() {
-        return Err(Error::Interrupted {
-            done: summary.ran,
-            csv: csv.display().to_string(),
-        });
-    }
-    Ok(summary)
+    })
 }
 
 /// The plan's device as its `gpu` setting says — opened as required under `gpu = "auto"` when

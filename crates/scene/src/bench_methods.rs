@@ -69,59 +69,67 @@ impl Variant {
                 return Err(format!("{text:?}: {} is given twice", k.trim()));
             }
             seen.push(k.trim());
-            if k.trim() == "combine" {
-                v.sphere_combine = Some(parse_combine(text, name, method, val)?);
-                continue;
-            }
-            let num: f64 = val
-                .trim()
-                .parse()
-                .map_err(|_| format!("{text:?}: {k}={val:?} is not a number"))?;
-            let allowed = match k.trim() {
-                "parts" => matches!(method, Method::SubVolumes | Method::SphereSet),
-                "s" => matches!(
-                    method,
-                    Method::Extrapolated | Method::SubVolumes | Method::FullField
-                ),
-                "clearance" => method == Method::Extrapolated,
-                other => {
-                    return Err(format!(
-                        "{text:?}: unknown key {other:?} (parts, s, clearance, combine)"
-                    ))
-                }
-            };
-            if !allowed {
-                return Err(format!("{text:?}: {name} does not read {}", k.trim()));
-            }
-            match k.trim() {
-                "parts" => {
-                    let max = shscale_geometry::partition::MAX_PARTS;
-                    if num.fract() != 0.0 || !(1.0..=max as f64).contains(&num) {
-                        return Err(format!(
-                            "{text:?}: parts={val} is not a whole number in 1..={max}"
-                        ));
-                    }
-                    v.parts = Some(num as usize);
-                }
-                "s" => {
-                    if !(1.0..=10.0).contains(&num) {
-                        return Err(format!(
-                            "{text:?}: s={val} is outside [1, 10] bounding radii"
-                        ));
-                    }
-                    v.sampling_radius = Some(num);
-                }
-                _ => {
-                    if !(0.0..=10.0).contains(&num) {
-                        return Err(format!(
-                            "{text:?}: clearance={val} is outside [0, 10] bounding radii"
-                        ));
-                    }
-                    v.clearance = Some(num);
-                }
-            }
+            v.set(text, (name, k, val))?;
         }
         Ok(v)
+    }
+
+    /// Set the key `k` of `name`'s variant (`text` as given) to `val`, checked against the
+    /// method and the key's range; every error names the variant and the key.
+    fn set(&mut self, text: &str, (name, k, val): (&str, &str, &str)) -> Result<(), String> {
+        let method = self.method;
+        if k.trim() == "combine" {
+            self.sphere_combine = Some(parse_combine(text, name, method, val)?);
+            return Ok(());
+        }
+        let num: f64 = val
+            .trim()
+            .parse()
+            .map_err(|_| format!("{text:?}: {k}={val:?} is not a number"))?;
+        let allowed = match k.trim() {
+            "parts" => matches!(method, Method::SubVolumes | Method::SphereSet),
+            "s" => matches!(
+                method,
+                Method::Extrapolated | Method::SubVolumes | Method::FullField
+            ),
+            "clearance" => method == Method::Extrapolated,
+            other => {
+                return Err(format!(
+                    "{text:?}: unknown key {other:?} (parts, s, clearance, combine)"
+                ))
+            }
+        };
+        if !allowed {
+            return Err(format!("{text:?}: {name} does not read {}", k.trim()));
+        }
+        match k.trim() {
+            "parts" => {
+                let max = shscale_geometry::partition::MAX_PARTS;
+                if num.fract() != 0.0 || !(1.0..=max as f64).contains(&num) {
+                    return Err(format!(
+                        "{text:?}: parts={val} is not a whole number in 1..={max}"
+                    ));
+                }
+                self.parts = Some(num as usize);
+            }
+            "s" => {
+                if !(1.0..=10.0).contains(&num) {
+                    return Err(format!(
+                        "{text:?}: s={val} is outside [1, 10] bounding radii"
+                    ));
+                }
+                self.sampling_radius = Some(num);
+            }
+            _ => {
+                if !(0.0..=10.0).contains(&num) {
+                    return Err(format!(
+                        "{text:?}: clearance={val} is outside [0, 10] bounding radii"
+                    ));
+                }
+                self.clearance = Some(num);
+            }
+        }
+        Ok(())
     }
 
     /// A comma-separated list (`default` = [`DEFAULT_VARIANTS`]), at most [`MAX_VARIANTS`].

@@ -116,8 +116,8 @@ pub fn estimated_work(scene: &Scene, rs: &RenderSettings) -> (f64, f64) {
 
 /// Render `scene` with the method and parameters of `rs` (its occluders posed at
 /// [`Scene::pose_t`] when set). Only what the method uses is built: the truth sampler for the
-/// band-limited truth, the SH basis and the sphere-set tables for sphere sets, the base-sphere
-/// sampler for the methods that sample one (and for local lights).
+/// band-limited truth, the SH basis and the sphere-set tables for sphere sets, base-sphere
+/// samples and tables for the extrapolations, shells for the full field.
 pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error> {
     let method = rs.method;
     let mut stages = Stages::default();
@@ -161,9 +161,52 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     // then multiplies nothing more).
     let one_set = set_tables.field(&built.spheres, basis.as_ref(), &exs);
     let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
+    let mut centers = field_centers(method, &built, &occs);
     if let Some(set) = &one_set {
         fields = vec![set.as_ref()];
+        centers.truncate(1);
     }
+    let common = Common {
+        light: &light,
+        occs: &occs,
+        recv: &recv,
+        sampler: &sampler,
+    };
+    shade_render(
+        (scene, rs),
+        common,
+        truth.as_ref(),
+        (&fields, &centers),
+        stages,
+    )
+}
+
+/// What every method's render shares, built before its fields: the light projected, the posed
+/// occluders, the receivers and the base-sphere sampler.
+struct Common<'a> {
+    light: &'a EnvLight,
+    occs: &'a [Box<dyn Occluder>],
+    recv: &'a [DVec3],
+    sampler: &'a VisibilitySampler,
+}
+
+/// The second half of [`render`]: the local lights built, then every receiver shaded from the
+/// method's `fields` multiplied near to far about their `centers` (the full-frequency truth by
+/// its own quadrature, the band-limited truth of one occluder with its own error).
+fn shade_render(
+    (scene, rs): (&Scene, &RenderSettings),
+    c: Common,
+    truth: Option<&shscale_field::truth::TruthSampler>,
+    (fields, centers): (&[&dyn VisibilityField], &[DVec3]),
+    mut stages: Stages,
+) -> Result<RenderOutput, Error> {
+    let Common {
+        light,
+        occs,
+        recv,
+        sampler,
+    } = c;
+    let method = rs.method;
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
     if !emitters.is_empty() {
@@ -171,40 +214,36 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     }
     if method == Method::FullFrequency {
         return Ok(render_full_frequency(
-            scene, rs, &light, &occs, &emitters, &recv, stages,
+            scene, rs, light, occs, &emitters, recv, stages,
         ));
     }
     let t = Instant::now();
-    let light_fields = light_fields(scene, rs, &emitters, &sampler, &recv)?;
+    let light_fields = light_fields(scene, rs, &emitters, sampler, recv)?;
     if !emitters.is_empty() {
         stages.push("light_fields", t);
     }
     let t = Instant::now();
     let shader = Shader::new(rs.order)?;
-    let transfer = shader.transfer(&light, DVec3::Z);
+    let transfer = shader.transfer(light, DVec3::Z);
     // Band-limited truth of one occluder and no local lights: the truth's own error per receiver,
     // |⟨T, (A − B)/2⟩| (irradiance is linear in the visibility), beside the pixel.
-    if let (Some(truth), [o], true) = (&truth, occs.as_slice(), emitters.is_empty()) {
-        let out = truth_with_error(scene, o.as_ref(), truth, &transfer, &recv);
+    if let (Some(truth), [o], true) = (truth, occs, emitters.is_empty()) {
+        let out = truth_with_error(scene, o.as_ref(), truth, &transfer, recv);
         stages.push("shading", t);
         return Ok(RenderOutput {
             stages: stages.0,
             ..out
         });
     }
-    let mut centers = field_centers(method, &built, &occs);
-    if one_set.is_some() {
-        centers.truncate(1);
-    }
-    let local = LocalLights::new(&emitters, &light_fields, &sampler);
+    let local = LocalLights::new(&emitters, &light_fields, sampler);
     let mut out = shade_all(
         scene,
         rs.order,
-        &fields,
-        &centers,
+        fields,
+        centers,
         (&shader, &transfer),
         &local,
-        &recv,
+        recv,
     );
     stages.push("shading", t);
     out.stages = stages.0;
