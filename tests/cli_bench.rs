@@ -247,8 +247,8 @@ fn gpu_sequence_image_matches_the_cpu_sequence() {
         return;
     }
     assert!(out.status.success(), "{err}");
-    let (w, h, a) = shscale_runner::image::read_exr(&cpu).unwrap();
-    let (w2, h2, b) = shscale_runner::image::read_exr(&gpu).unwrap();
+    let (w, h, a) = shscale_present::image::read_exr(&cpu).unwrap();
+    let (w2, h2, b) = shscale_present::image::read_exr(&gpu).unwrap();
     assert_eq!((w, h), (w2, h2));
     let max = a.iter().flatten().fold(0f32, |m, v| m.max(*v)) as f64;
     let rmse = (a

@@ -69,7 +69,7 @@ fn render_all_methods_to_exr_and_png() {
         );
         assert!(text.contains("total") && text.contains(" ms"), "{text}");
         assert!(out.with_extension("png").exists());
-        let (w, h, px) = shscale_runner::image::read_exr(&out).unwrap();
+        let (w, h, px) = shscale_present::image::read_exr(&out).unwrap();
         assert_eq!((w, h), (24, 24));
         images.push(px);
     }
@@ -276,8 +276,8 @@ fn camera_renders_see_the_plane_with_its_irradiance() {
         let o = shscale(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    let (gw, gh, e) = shscale_runner::image::read_exr(&plane).unwrap();
-    let (w, h, v) = shscale_runner::image::read_exr(&view).unwrap();
+    let (gw, gh, e) = shscale_present::image::read_exr(&plane).unwrap();
+    let (w, h, v) = shscale_present::image::read_exr(&view).unwrap();
     assert_eq!((w, h), (120, 80));
     // The pixel's ray, as the camera casts it (right = +x, up = +y looking down).
     let tan = 20f64.to_radians().tan();

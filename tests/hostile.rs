@@ -1143,7 +1143,7 @@ fn extreme_but_valid_inputs_work() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (_, _, px) = shscale_runner::image::read_exr(&out).unwrap();
+    let (_, _, px) = shscale_present::image::read_exr(&out).unwrap();
     assert!(px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
     std::fs::remove_dir_all(&d).ok();
 }

@@ -14,7 +14,7 @@
 //! over its k).
 
 use serde::{Deserialize, Serialize};
-use shscale_runner::plots::{write_both, Labels};
+use shscale_present::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scaling::{AngularScaling, Eta, QuadOptions, ScalingMatrix};

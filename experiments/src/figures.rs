@@ -46,7 +46,7 @@ pub(crate) fn write_irradiance_figure(
     methods: Vec<(String, Vec<f32>)>,
     px: u32,
 ) -> Result<(), Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    use shscale_present::figure::{ColourMap, Grid, Panel};
     let max = (top.iter().flat_map(|(_, v)| v)).fold(0f32, |a, v| a.max(*v)) as f64;
     let diffs: Vec<(String, Vec<f32>)> = (methods.into_iter())
         .map(|(n, v)| (n, v.iter().zip(truth).map(|(a, t)| a - t).collect()))
@@ -83,7 +83,7 @@ pub(crate) fn write_irradiance_figure(
         scale_label: "irradiance difference",
         panel_px: (px, px),
     };
-    Ok(shscale_runner::figure::write_png_stack(
+    Ok(shscale_present::figure::write_png_stack(
         png,
         &[images, differences],
     )?)

@@ -7,8 +7,8 @@
 //! parameter but the element). Sweep the elements with `[sweep.zip] row = […], col = […]`.
 
 use serde::{Deserialize, Serialize};
+use shscale_present::plots::{write_both, Labels};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind};
 use shscale_scaling::{Cone, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
@@ -307,7 +307,7 @@ shadowing but not negligible; docs/math.md shows it falls as K⁻² (cubic inter
                 t.cell(r, "col"),
                 others
                     .iter()
-                    .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
+                    .map(|o| format!(", {} = {}", shscale_present::plots::words(o), t.cell(r, o)))
                     .collect::<String>()
             );
             series

@@ -12,8 +12,8 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::EnvLight;
+use shscale_present::plots::{write_both, Labels};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind};
 use shscale_scene::Error;
@@ -261,7 +261,7 @@ impl Kind for MidRange {
         for r in 0..t.rows.len() {
             let label = others
                 .iter()
-                .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_present::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [
                 ("SH scaling (mid-range τ)", "scaled_rel_err_mean"),

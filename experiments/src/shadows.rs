@@ -154,7 +154,7 @@ fn write_side_by_side(exr: &Path, imgs: [&RenderOutput; 3]) -> Result<(), Error>
             }
         }
     }
-    Ok(shscale_runner::image::write_exr(exr, 3 * w, h, &px)?)
+    Ok(shscale_present::image::write_exr(exr, 3 * w, h, &px)?)
 }
 
 /// The labelled figure of the receiver plane: the three irradiance images (full field,
@@ -203,7 +203,7 @@ fn write_field_figure(
 /// The same comparison seen through the scene's camera (or the default view), as the papers
 /// show it: the plane shaded with each method's irradiance.
 fn write_camera_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> Result<(), Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    use shscale_present::figure::{ColourMap, Grid, Panel};
     let cam = scene
         .camera
         .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(scene));
@@ -241,7 +241,7 @@ fn write_camera_figure(png: &Path, scene: &Scene, imgs: [&RenderOutput; 3]) -> R
         scale_label: "radiance (scene units)",
         panel_px: (360, (360 * ch / cw.max(1)) as u32),
     };
-    Ok(shscale_runner::figure::write_png(png, &grid)?)
+    Ok(shscale_present::figure::write_png(png, &grid)?)
 }
 
 /// The scene's own values a run overrides, parsed once at resolve time.
@@ -541,13 +541,13 @@ verdict is in experiments/README.md (\"Equal budget\", the kinds `budget` and `b
             return Ok(Vec::new());
         };
         let id = t.cell(r, "run_id");
-        let mut files = shscale_runner::image::copy_image(
+        let mut files = shscale_present::image::copy_image(
             dir,
             &format!("shadows_fullfield_extrapolated_truth_{id}"),
             out,
             stem,
         )?;
-        files.extend(shscale_runner::image::copy_image(
+        files.extend(shscale_present::image::copy_image(
             dir,
             &format!("shadows_camera_view_{id}"),
             out,

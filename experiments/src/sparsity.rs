@@ -258,9 +258,9 @@ fn draw(
     pattern: &[bool],
     structural: &dyn Fn(usize, usize) -> bool,
 ) -> Result<Vec<std::path::PathBuf>, Error> {
-    shscale_runner::plots::ensure_font();
+    shscale_present::plots::ensure_font();
     let png = out.join(format!("{stem}.png"));
-    let tmp = shscale_runner::atomic::tmp_keeping_extension(&png);
+    let tmp = shscale_files::atomic::tmp_keeping_extension(&png);
     paint(
         BitMapBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
@@ -268,9 +268,9 @@ fn draw(
         structural,
     )
     .map_err(|e| Error::io(&png, e))?;
-    shscale_runner::atomic::rename_durable(&tmp, &png)?;
+    shscale_files::atomic::rename_durable(&tmp, &png)?;
     let svg = out.join(format!("{stem}.svg"));
-    let tmp = shscale_runner::atomic::tmp_keeping_extension(&svg);
+    let tmp = shscale_files::atomic::tmp_keeping_extension(&svg);
     paint(
         SVGBackend::new(&tmp, (640, 700)).into_drawing_area(),
         n,
@@ -278,7 +278,7 @@ fn draw(
         structural,
     )
     .map_err(|e| Error::io(&svg, e))?;
-    shscale_runner::atomic::rename_durable(&tmp, &svg)?;
+    shscale_files::atomic::rename_durable(&tmp, &svg)?;
     Ok(vec![png, svg])
 }
 

@@ -13,8 +13,8 @@ use serde::{Deserialize, Serialize};
 use shscale_field::{Emitter, Layout, Radiant, SphereEmitter};
 use shscale_geometry::ray::UpdateStrategy;
 use shscale_geometry::MeshBvh;
+use shscale_present::plots::{write_both, Labels};
 use shscale_runner::check::Ends;
-use shscale_runner::plots::{write_both, Labels};
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::vocab::{MAX_HEMISPHERE_RES, MAX_ORDER, MAX_RADII};
@@ -251,7 +251,7 @@ impl Kind for Srf {
         for r in 0..t.rows.len() {
             let label = varying
                 .iter()
-                .map(|o| format!(", {} = {}", shscale_runner::plots::words(o), t.cell(r, o)))
+                .map(|o| format!(", {} = {}", shscale_present::plots::words(o), t.cell(r, o)))
                 .collect::<String>();
             for (name, col) in [
                 ("plain η", "plain_rel_l2"),

@@ -123,7 +123,7 @@ proptest! {
         std::fs::create_dir_all(&dir).unwrap();
         let good = dir.join("good.exr");
         if !good.exists() {
-            shscale_runner::image::write_exr(&good, 4, 3, &[[0.5, 1.0, 2.0]; 12]).unwrap();
+            shscale_present::image::write_exr(&good, 4, 3, &[[0.5, 1.0, 2.0]; 12]).unwrap();
         }
         let mut b = std::fs::read(&good).unwrap();
         for (at, v) in edits { let i = at % b.len(); b[i] = v; }
@@ -131,12 +131,12 @@ proptest! {
         let p = dir.join(format!("d{}.exr", std::thread::current().name().map_or(0, |n| n.len())));
         for bytes in [b, garbage] {
             std::fs::write(&p, &bytes).unwrap();
-            if let Ok((w, h, px)) = shscale_runner::image::read_exr(&p) {
+            if let Ok((w, h, px)) = shscale_present::image::read_exr(&p) {
                 prop_assert_eq!(px.len(), w * h);
-                prop_assert!(w <= shscale_runner::image::MAX_IMAGE_SIDE && h <= shscale_runner::image::MAX_IMAGE_SIDE);
+                prop_assert!(w <= shscale_present::image::MAX_IMAGE_SIDE && h <= shscale_present::image::MAX_IMAGE_SIDE);
                 prop_assert!(px.iter().flatten().all(|v| v.is_finite()));
             }
-            let _ = shscale_runner::image::read_radiance_exr(&p);
+            let _ = shscale_present::image::read_radiance_exr(&p);
         }
     }
 }

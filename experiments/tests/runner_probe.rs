@@ -200,7 +200,7 @@ fn runs_resume_validate_rows_and_shards_partition() {
         let exr = s
             .dir
             .join(format!("visibility_truth_vs_extrapolated_{}.exr", r.id));
-        let (w, h, _) = shscale_runner::image::read_exr(&exr).unwrap();
+        let (w, h, _) = shscale_present::image::read_exr(&exr).unwrap();
         assert_eq!((w, h), (512, 256));
     }
     let again = run_plan(&plan, &d, None, &|_| {}).unwrap();
@@ -315,7 +315,7 @@ fn files_written_together_are_a_unit() {
     std::fs::write(&a, "old rows").unwrap();
     std::fs::write(&b, "old manifest").unwrap();
     // The second file's temporary is blocked by a directory: its write fails.
-    let blocker = shscale_runner::atomic::tmp_path(&b);
+    let blocker = shscale_files::atomic::tmp_path(&b);
     std::fs::create_dir(&blocker).unwrap();
     assert!(write_atomic_all(&[(&a, "new rows"), (&b, "new manifest")]).is_err());
     assert_eq!(std::fs::read_to_string(&a).unwrap(), "old rows");

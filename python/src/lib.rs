@@ -632,8 +632,8 @@ fn plot(
         let kind = shscale_experiments::kind_of_dir(dir).map_err(err)?;
         let t = shscale_runner::records::Results::read(&dir.join("runs.csv"))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let keys = shscale_runner::column_plot::row_keys(kind);
-        let spec = shscale_runner::column_plot::PlotSpec {
+        let keys = shscale_runner::kind::row_keys(kind);
+        let spec = shscale_present::column_plot::PlotSpec {
             metric,
             x,
             series: &series,
@@ -645,7 +645,7 @@ fn plot(
             title: None,
         };
         let files = py
-            .allow_threads(|| shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec))
+            .allow_threads(|| shscale_present::column_plot::plot_column(dir, &t, &keys, &spec))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(files.iter().map(|f| f.display().to_string()).collect())
     })

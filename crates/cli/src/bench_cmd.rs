@@ -357,7 +357,7 @@ fn bench_runner(a: &crate::args::BenchRunnerArgs) -> anyhow::Result<()> {
     let json = a.format == crate::args::TextFormat::Json;
     let mut sweeps = Vec::new();
     if let Some(cfg) = &a.config {
-        let text = shscale_runner::input::read_regular_string(cfg)
+        let text = shscale_files::input::read_regular_string(cfg)
             .map_err(|e| anyhow::anyhow!("--config: {e}"))?;
         let registry = shscale_experiments::registry();
         let file = cfg.display().to_string();

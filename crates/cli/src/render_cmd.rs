@@ -206,13 +206,13 @@ fn write_output(
         .unwrap_or_else(|| shscale_scene::scene::Camera::default_for(scene));
     let view = shscale_scene::camera::render_camera(scene, img, &cam)
         .map_err(shscale_runner::Error::from)?;
-    shscale_runner::image::write_exr_and_png(
+    Ok(shscale_present::image::write_exr_and_png(
         &a.out,
         cam.resolution[0],
         cam.resolution[1],
         &view,
-        shscale_runner::image::Png::Preview,
-    )
+        shscale_present::image::Png::Preview,
+    )?)
 }
 
 /// The reference `r` rendered on the same scene and `img`'s error against it (relative to the
@@ -242,7 +242,7 @@ fn write_figure(
     img: &RenderOutput,
     reference: Option<&(Method, RenderOutput)>,
 ) -> Result<std::path::PathBuf, shscale_runner::Error> {
-    use shscale_runner::figure::{ColourMap, Grid, Panel};
+    use shscale_present::figure::{ColourMap, Grid, Panel};
     let stem = a
         .out
         .file_stem()
@@ -310,7 +310,7 @@ fn write_figure(
             panel_px: px,
         });
     }
-    shscale_runner::figure::write_png_stack(&path, &grids)?;
+    shscale_present::figure::write_png_stack(&path, &grids)?;
     Ok(path)
 }
 
@@ -683,7 +683,7 @@ fn print_gpu_run_text(
         if ctx.timestamps { "timestamps" } else { "wall" }
     );
     if a.device_pose {
-        print_device_pose(a.pipelined, &run);
+        print_device_pose(a.pipelined, run);
     }
     println!(
         "{:>5} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
@@ -812,11 +812,11 @@ fn write_image(
     out: &std::path::Path,
     img: &shscale_scene::render::RenderOutput,
 ) -> Result<std::path::PathBuf, shscale_runner::Error> {
-    shscale_runner::image::write_exr_and_png(
+    Ok(shscale_present::image::write_exr_and_png(
         out,
         img.width,
         img.height,
         &img.pixels,
-        shscale_runner::image::Png::Preview,
-    )
+        shscale_present::image::Png::Preview,
+    )?)
 }

@@ -389,8 +389,8 @@ pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    let keys = shscale_runner::column_plot::row_keys(kind);
-    let spec = shscale_runner::column_plot::PlotSpec {
+    let keys = shscale_runner::kind::row_keys(kind);
+    let spec = shscale_present::column_plot::PlotSpec {
         metric,
         x,
         series: &f.series,
@@ -401,7 +401,7 @@ pub fn plot(f: crate::args::PlotArgs) -> anyhow::Result<ExitCode> {
         stem: None,
         title: None,
     };
-    let files = shscale_runner::column_plot::plot_column(dir, &t, &keys, &spec)?;
+    let files = shscale_present::column_plot::plot_column(dir, &t, &keys, &spec)?;
     for f in files {
         println!("wrote {}", f.display());
     }

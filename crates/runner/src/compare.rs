@@ -2,11 +2,11 @@
 //! the parameters they share, each headline metric for A, B and B − A (`compare.md`), and a plot
 //! per metric — written to a staging folder and moved into place only when all of it succeeded.
 
-use crate::atomic::write_atomic;
 use crate::error::Error;
 use crate::kind::DynKind;
-use crate::markdown::md_cell;
 use crate::records::Results;
+use shscale_files::atomic::write_atomic;
+use shscale_present::markdown::md_cell;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -86,7 +86,7 @@ pub fn compare(kind: &dyn DynKind, a: &Path, b: &Path, out: &Path) -> Result<Com
     ta.check_read("compare")?;
     tb.check_read("compare")?;
     // Everything goes to a staging folder first: a comparison that fails creates nothing.
-    let staging = crate::atomic::Staging::new(out)?;
+    let staging = shscale_files::atomic::Staging::new(out)?;
     let mut files = compare_plots(staging.path(), &m, &plots)?;
     let p = staging.path().join("compare.md");
     write_atomic(&p, &md)?;
@@ -137,7 +137,7 @@ type Facets = BTreeMap<String, BTreeMap<String, Vec<(f64, f64)>>>;
 
 /// A plot per metric of the matched rows, A against B over the first key, into `dir`: one panel
 /// per value of the kind's row coordinate (the probe radius, say) when the rows have one and it
-/// takes 2 to [`crate::plots::MAX_PANELS`] values — as the report splits its plots —, else one
+/// takes 2 to [`shscale_present::plots::MAX_PANELS`] values — as the report splits its plots —, else one
 /// panel.
 fn compare_plots(dir: &Path, m: &Matching, plots: &[Facets]) -> Result<Vec<PathBuf>, Error> {
     let mut files = Vec::new();
@@ -146,22 +146,25 @@ fn compare_plots(dir: &Path, m: &Matching, plots: &[Facets]) -> Result<Vec<PathB
             continue;
         }
         let title = format!("{c}: A vs B");
-        let (x_words, y_words) = (crate::plots::words(&m.keys[0]), crate::plots::words(c));
+        let (x_words, y_words) = (
+            shscale_present::plots::words(&m.keys[0]),
+            shscale_present::plots::words(c),
+        );
         let stem = format!("compare_{c}");
-        let facet = m.facet.map(|f| crate::plots::words(&m.keys[f]));
+        let facet = m.facet.map(|f| shscale_present::plots::words(&m.keys[f]));
         match facet {
-            Some(name) if plots[i].len() <= crate::plots::MAX_PANELS => {
+            Some(name) if plots[i].len() <= shscale_present::plots::MAX_PANELS => {
                 let mut values: Vec<(&String, _)> = plots[i].iter().collect();
                 values.sort_by(|a, b| numeric_order(a.0, b.0));
-                let panels: Vec<crate::plots::Panel> = (values.into_iter())
-                    .map(|(v, series)| crate::plots::Panel {
+                let panels: Vec<shscale_present::plots::Panel> = (values.into_iter())
+                    .map(|(v, series)| shscale_present::plots::Panel {
                         title: format!("{name} = {v}"),
                         series: series.clone(),
                         bands: Default::default(),
                         scatter: false,
                     })
                     .collect();
-                files.extend(crate::plots::write_panels(
+                files.extend(shscale_present::plots::write_panels(
                     dir, &stem, &title, &x_words, &y_words, &panels, None, false,
                 )?);
             }
@@ -176,12 +179,12 @@ fn compare_plots(dir: &Path, m: &Matching, plots: &[Facets]) -> Result<Vec<PathB
                         all.entry(name).or_default().extend(pts);
                     }
                 }
-                let labels = crate::plots::Labels {
+                let labels = shscale_present::plots::Labels {
                     title: &title,
                     x: &x_words,
                     y: &y_words,
                 };
-                files.extend(crate::plots::write_both(
+                files.extend(shscale_present::plots::write_both(
                     dir,
                     &stem,
                     &labels,

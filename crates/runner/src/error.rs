@@ -25,6 +25,24 @@ pub enum Error {
     Interrupted { done: usize, csv: String },
 }
 
+impl From<shscale_files::Error> for Error {
+    fn from(e: shscale_files::Error) -> Self {
+        Self::Io {
+            path: e.path,
+            reason: e.reason,
+        }
+    }
+}
+
+impl From<shscale_present::Error> for Error {
+    fn from(e: shscale_present::Error) -> Self {
+        match e {
+            shscale_present::Error::Config(m) => Self::Config(m),
+            shscale_present::Error::Io { path, reason } => Self::Io { path, reason },
+        }
+    }
+}
+
 impl Error {
     /// A file error naming `path`.
     pub fn io(path: &Path, e: impl std::fmt::Display) -> Self {

@@ -49,7 +49,7 @@ fn hex(bytes: &[u8]) -> String {
 /// The content hash of the regular file at `path`, from the cache while its size and
 /// modification time are unchanged. An error names the file (absent, not a regular file).
 pub(crate) fn hash_file(path: &Path) -> Result<String, Error> {
-    if !crate::input::regular_file(path)? {
+    if !shscale_files::input::regular_file(path)? {
         return Err(Error::io(path, "no such file"));
     }
     let m = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;

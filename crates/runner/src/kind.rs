@@ -479,3 +479,15 @@ impl<K: Kind> DynKind for Erased<K> {
         K::figure(dir, table, out, stem).map_err(Into::into)
     }
 }
+
+/// The columns that tell a kind's rows apart, for `shscale_present::column_plot::plot_column`: its parameters and its row key
+/// (the first headline column, e.g. the probe radius).
+pub fn row_keys(kind: &dyn DynKind) -> Vec<String> {
+    let mut keys = kind.param_columns();
+    if let Some(first) = kind.summary_columns().first() {
+        if !keys.iter().any(|k| k == first) {
+            keys.push(first.to_string());
+        }
+    }
+    keys
+}

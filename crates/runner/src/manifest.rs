@@ -159,10 +159,10 @@ impl Manifest {
     /// Read `dir/manifest.toml` (`None` when absent).
     pub fn read(dir: &Path) -> Result<Option<Self>, Error> {
         let p = dir.join("manifest.toml");
-        if !crate::input::regular_file(&p)? {
+        if !shscale_files::input::regular_file(&p)? {
             return Ok(None);
         }
-        let text = crate::input::read_regular_string(&p)?;
+        let text = shscale_files::input::read_regular_string(&p)?;
         toml::from_str(&text).map(Some).map_err(|e| Error::Io {
             path: p.display().to_string(),
             reason: format!(

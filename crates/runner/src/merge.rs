@@ -13,12 +13,12 @@
 //! [`MergeOptions::replace`] (the merge job of a script `shscale slurm` wrote, which owns its
 //! output): then `runs.csv` and `manifest.toml` are replaced together, atomically.
 
-use crate::atomic::write_atomic_all;
 use crate::error::Error;
 use crate::kind::DynKind;
 use crate::manifest::Manifest;
 use crate::records;
 use crate::store::{header, load_rows};
+use shscale_files::atomic::write_atomic_all;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
@@ -282,7 +282,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
         // A shard that is a FIFO, a device, a symlink loop or a link to nothing is an error
         // naming it, never skipped.
         for p in &here {
-            crate::input::regular_file(p)?;
+            shscale_files::input::regular_file(p)?;
         }
         here.sort();
         files.extend(here);

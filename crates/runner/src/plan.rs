@@ -349,7 +349,7 @@ pub struct Survey {
 
 /// A config file's name (for errors), stem (the default plan name) and text.
 fn read_config(path: &Path) -> Result<(String, String, String), Error> {
-    let text = crate::input::read_regular_string(path)?;
+    let text = shscale_files::input::read_regular_string(path)?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())

@@ -4,12 +4,12 @@
 //! runs per config version) and the provenance of every version (revision, machine, GPU, time).
 //! Written by [`crate::report`] after every run and by `shscale report DIR`.
 
-use crate::atomic::{write_atomic, write_atomic_all};
 use crate::error::Error;
 use crate::kind::DynKind;
 use crate::manifest::Manifest;
-use crate::markdown::{esc, fence_for, markdown_to_html, md_cell, md_text};
 use crate::records::Results;
+use shscale_files::atomic::{write_atomic, write_atomic_all};
+use shscale_present::markdown::{esc, fence_for, markdown_to_html, md_cell, md_text};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -205,7 +205,7 @@ pub struct Report {
 /// nothing: every file (plots, summary, reports) is written to a staging folder first and moved
 /// into `dir` only when all succeeded, so a failing report changes no file there.
 pub fn report(kind: &dyn DynKind, dir: &Path) -> Result<Report, Error> {
-    let staging = crate::atomic::Staging::new(dir)?;
+    let staging = shscale_files::atomic::Staging::new(dir)?;
     let staged = report_staged(kind, dir, &staging)?;
     commit_report(staging, staged)
 }
@@ -290,7 +290,10 @@ fn check_kind(kind: &dyn DynKind, dir: &Path, t: &Results) -> Result<(), Error> 
 
 /// Move a staged report ([`report_staged`]) into its folder, with the other staged files, and
 /// remove a `discussion.md` of an earlier, longer discussion that the summary now holds whole.
-pub fn commit_report(staging: crate::atomic::Staging, staged: Report) -> Result<Report, Error> {
+pub fn commit_report(
+    staging: shscale_files::atomic::Staging,
+    staged: Report,
+) -> Result<Report, Error> {
     let out = staging.target(staging.path());
     // The plots an earlier report wrote and this one does not (an interim report drew the error
     // against the radius before the swept parameter varied, say) are removed after the commit:
@@ -335,7 +338,7 @@ pub(crate) const REPORT_FILES: &str = ".report-files";
 pub fn report_staged(
     kind: &dyn DynKind,
     dir: &Path,
-    staging: &crate::atomic::Staging,
+    staging: &shscale_files::atomic::Staging,
 ) -> Result<Report, Error> {
     let csv = dir.join("runs.csv");
     let mut t = Results::read(&csv)?;
@@ -399,7 +402,7 @@ pub fn report_staged(
 /// rows' count and the parameters that vary.
 fn summary_head(
     kind: &dyn DynKind,
-    (dir, staging): (&Path, &crate::atomic::Staging),
+    (dir, staging): (&Path, &shscale_files::atomic::Staging),
     t: &Results,
     varying: &[String],
 ) -> String {

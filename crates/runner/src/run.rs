@@ -35,13 +35,13 @@
 //! appended since it last looked (validated as on resume) and adds its rows only for runs not
 //! already there, so two processes on one directory never lose or duplicate a run.
 
-use crate::atomic::write_atomic;
 use crate::error::Error;
 use crate::kind::{Ctx, Resolved, RowCells};
 use crate::manifest::{unix_now, Manifest, Provenance, RowProvenance, Version};
 use crate::plan::{plan_dir, Plan, StalePolicy};
 use crate::records;
 use crate::store::{append_rows, header, keep_rejected, load_rows, read_tail, validate, DirLock};
+use shscale_files::atomic::write_atomic;
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -769,7 +769,7 @@ impl Writer<'_> {
         v.last_unix_time = unix_now();
         m.add(&v);
         let text = toml::to_string(&m).map_err(|e| Error::Config(e.to_string()))?;
-        write_atomic(&self.dir.join("manifest.toml"), &text)
+        Ok(write_atomic(&self.dir.join("manifest.toml"), &text)?)
     }
 
     /// Read what other processes appended since this one last read or wrote the file (or, when

@@ -65,7 +65,7 @@ pub struct Loaded {
 /// Read and validate a kind's CSV (`Ok(default)` when absent). A header of another version is an
 /// error (the file is left alone); invalid rows are returned in `rejected`.
 pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
-    if !crate::input::regular_file(path)? {
+    if !shscale_files::input::regular_file(path)? {
         return Ok(Loaded::default());
     }
     let (columns, raw) = records::read_raw(path)?;
@@ -153,7 +153,7 @@ pub(crate) fn read_tail(
     first_line: u64,
 ) -> Result<(Vec<records::CsvLine>, u64), Error> {
     use std::io::{Read, Seek, SeekFrom};
-    crate::input::regular_file(path)?;
+    shscale_files::input::regular_file(path)?;
     let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
     let mut bytes = Vec::new();
@@ -291,7 +291,7 @@ pub(crate) fn set_aside(
         .and_then(|_| f.sync_data())
         .map_err(|e| Error::io(&p, e))?;
     if fresh {
-        crate::atomic::sync_parent(&p)?;
+        shscale_files::atomic::sync_parent(&p)?;
     }
     Ok(())
 }
@@ -299,7 +299,7 @@ pub(crate) fn set_aside(
 /// The rows of a file of set-aside rows ([`set_aside`]): `(line, reason, cells)` each, the
 /// cells exactly as the results file held them.
 pub fn read_set_aside(path: &Path) -> Result<Vec<(u64, String, Vec<String>)>, Error> {
-    let bytes = crate::input::read_regular(path)?;
+    let bytes = shscale_files::input::read_regular(path)?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)

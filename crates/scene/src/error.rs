@@ -33,6 +33,20 @@ impl Error {
     }
 }
 
+/// A file error of the ground floor, as the runner's (named the same way).
+impl From<shscale_files::Error> for Error {
+    fn from(e: shscale_files::Error) -> Self {
+        Self::Runner(e.into())
+    }
+}
+
+/// A presentation error (a figure that cannot be drawn, a file), as the runner's.
+impl From<shscale_present::Error> for Error {
+    fn from(e: shscale_present::Error) -> Self {
+        Self::Runner(e.into())
+    }
+}
+
 impl From<Error> for shscale_runner::Error {
     fn from(e: Error) -> Self {
         match e {

@@ -118,7 +118,7 @@ pub(crate) fn light_of(scene: &Scene, order: usize) -> Result<EnvLight, Error> {
         )?,
         LightSpec::Exr { path, intensity } => {
             // Finite, ≥ 0 (ringing clamped) and within the image bounds: read_radiance_exr.
-            let (w, h, px) = shscale_runner::image::read_radiance_exr(path)?;
+            let (w, h, px) = shscale_present::image::read_radiance_exr(path)?;
             let max = px.iter().flatten().fold(0f32, |a, v| a.max(*v)) as f64;
             if max * *intensity > crate::scene::MAX_RADIANCE {
                 return Err(Error::config(format!(

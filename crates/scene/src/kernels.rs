@@ -176,7 +176,7 @@ impl RaySet {
                 path.display()
             )));
         }
-        let bytes = shscale_runner::input::read_regular(path)?;
+        let bytes = shscale_files::input::read_regular(path)?;
         if bytes.is_empty() || bytes.len() % 24 != 0 {
             return Err(Error::config(format!(
                 "{}: {} bytes is not a whole number of rays (24 bytes each: origin and direction, f32)",
@@ -204,7 +204,7 @@ impl RaySet {
         }
         let mut set = Self::grouped(origins, dirs, 0.0);
         if let Some(h) = hits {
-            let b = shscale_runner::input::read_regular(h)?;
+            let b = shscale_files::input::read_regular(h)?;
             if b.len() != n.div_ceil(8) {
                 return Err(Error::config(format!(
                     "{}: {} bytes, but {n} rays need {}",

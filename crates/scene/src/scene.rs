@@ -351,7 +351,7 @@ impl Scene {
     /// Read and resolve a scene file: the scene and the render settings its top-level keys
     /// give (the method [`crate::method::Method::Extrapolated`] until a caller sets another).
     pub fn load(path: &Path) -> Result<(Self, RenderSettings), Error> {
-        let text = shscale_runner::input::read_regular_string(path)?;
+        let text = shscale_files::input::read_regular_string(path)?;
         Self::parse(
             &path.display().to_string(),
             &text,

@@ -250,7 +250,7 @@ pub fn check_sampling_keys(
     hemisphere_res: usize,
 ) -> Result<(), KeyError> {
     if !builtin_mesh(mesh) {
-        if let Err(e) = shscale_runner::input::regular_file(std::path::Path::new(mesh)) {
+        if let Err(e) = shscale_files::input::regular_file(std::path::Path::new(mesh)) {
             // Something is there, but not a file a mesh can be read from (a FIFO, a directory,
             // a symlink loop): say that, not "unknown".
             return Err(KeyError::new("mesh", e.to_string()));

@@ -147,7 +147,7 @@ intensity = 5
 #[test]
 fn real_hdr_environment_map_loads_and_lights_a_scene() {
     let exr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/envmaps/courtyard.exr");
-    let (w, h, px) = shscale_runner::image::read_exr(&exr).unwrap();
+    let (w, h, px) = shscale_present::image::read_exr(&exr).unwrap();
     assert_eq!((w, h), (1024, 512));
     assert!(px.iter().all(|p| p.iter().all(|v| v.is_finite())));
     // DWAB is lossy: a few texels come back slightly negative (clamped when used as a light).

@@ -137,11 +137,11 @@ pub(super) fn save_images(
 ) -> Result<(), Error> {
     let (w, h) = (img.width, img.height);
     let exr = |name: &str| dir.join(format!("{name}_{run_id}.exr"));
-    shscale_runner::image::write_exr(&exr("plane"), w, h, &img.pixels)?;
+    shscale_present::image::write_exr(&exr("plane"), w, h, &img.pixels)?;
     let truth: Vec<[f32; 3]> = (truth.chunks(3))
         .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
         .collect();
-    shscale_runner::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
+    shscale_present::image::write_exr(&exr("plane_truth"), w, h, &truth)?;
     Ok(())
 }
 

@@ -138,7 +138,7 @@ pub(super) fn figure(
     };
     let read = |name: &str, r: usize| {
         let path = dir.join(format!("{name}_{}.exr", t.cell(r, "run_id")));
-        shscale_runner::image::read_exr(&path).map_err(Error::from)
+        shscale_present::image::read_exr(&path).map_err(Error::from)
     };
     let (w, h, truth) = read("plane_truth", panels[0])?;
     let mut shown = Vec::new();

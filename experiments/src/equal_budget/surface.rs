@@ -20,7 +20,7 @@
 use super::verdict::{
     is_papers_extrapolation, mean_t95, name, place_zeros, sampling, seed_of, variant, Config, Split,
 };
-use shscale_runner::plots::{write_panels, Bands, Panel, MAX_PANELS};
+use shscale_present::plots::{write_panels, Bands, Panel, MAX_PANELS};
 use shscale_runner::records::Results;
 use shscale_scene::method::Method;
 use shscale_scene::Error;

@@ -108,3 +108,41 @@ fn the_continuous_verdict_finds_the_winner_its_interval_and_the_tie() {
     assert!(full.contains(&want), "{full}\nwant {want}");
     assert!(full.contains(fine), "{full}\nwant {fine}");
 }
+
+/// The `budget` kind's discussion of a table holding the papers' extrapolation and the papers'
+/// 16-shell full field at the same sampling (the claim as stated) reads only columns its rows
+/// have: the plane's cached-frame columns are looked up only where the table has them (before,
+/// `shscale run configs/experiments/budget_surface.toml` ended with "the report of kind budget
+/// read column(s) \"cached_frame_seconds\" that the file does not have").
+#[test]
+fn the_budget_discussion_of_the_speed_claim_reads_only_the_budget_rows_columns() {
+    use shscale_runner::records::to_cells;
+    use shscale_runner::Kind;
+    let row = |method: &str, rays: f64, seconds: f64| {
+        let p = Params {
+            method: method.into(),
+            ..Params::default()
+        };
+        let r = super::spheres::Row {
+            rays,
+            frame_seconds: seconds,
+            frame_seconds_lo: 0.9 * seconds,
+            frame_seconds_hi: 1.1 * seconds,
+            occ_rel_l2_mean: Some(0.1),
+            ..Default::default()
+        };
+        let (mut h, mut c) = to_cells(&p).unwrap();
+        let (rh, rc) = to_cells(&r).unwrap();
+        h.extend(rh);
+        c.extend(rc);
+        (h, c)
+    };
+    let (h, a) = row("extrapolated", 1e5, 1e-3);
+    let (_, b) = row("full_field", 1.6e6, 2e-2);
+    let t = Results::new(h, vec![a, b]);
+    let text = super::spheres::Budget::discussion(&t).unwrap();
+    println!("{text}");
+    assert!(text.contains("*The claim as stated*"), "{text}");
+    assert!(text.contains("16× the rays"), "{text}");
+    t.check_read("the test's discussion").unwrap();
+}

@@ -3,7 +3,7 @@
 //! varying numeric parameter, and the speed/accuracy Pareto scatter).
 
 use shscale_geometry::Occluder;
-use shscale_runner::plots::{words, Labels};
+use shscale_present::plots::{words, Labels};
 use shscale_runner::records::Results as Table;
 use shscale_scene::Error;
 use std::collections::BTreeMap;
@@ -62,13 +62,13 @@ pub(crate) fn visibility_figure(
             format!("ray-traced (full frequency), {where_}")
         };
         rows.push(vec![
-            shscale_runner::figure::Panel {
+            shscale_present::figure::Panel {
                 title: truth_title,
                 width: W,
                 height: H,
                 values: truth.clone(),
             },
-            shscale_runner::figure::Panel {
+            shscale_present::figure::Panel {
                 title: format!("extrapolated (SH order {order}), {where_}"),
                 width: W,
                 height: H,
@@ -77,16 +77,16 @@ pub(crate) fn visibility_figure(
         ]);
     }
     let exr = dir.join(format!("visibility_truth_vs_extrapolated_{run_id}.exr"));
-    shscale_runner::image::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
-    Ok(shscale_runner::figure::write_png(
+    shscale_present::image::write_exr(&exr, 2 * W, H * examples.len(), &px)?;
+    Ok(shscale_present::figure::write_png(
         &exr.with_extension("png"),
-        &shscale_runner::figure::Grid {
+        &shscale_present::figure::Grid {
             title:
                 "visibility at the probe radii: ray-traced vs extrapolated from the bounding sphere",
             rows,
             x: (0.0, 360.0, "azimuth φ (°)"),
             y: (0.0, 180.0, "polar angle θ from +z (°)"),
-            colours: shscale_runner::figure::ColourMap::Grey,
+            colours: shscale_present::figure::ColourMap::Grey,
             range: (0.0, 1.0),
             scale_label: "visibility (1 = unoccluded)",
             panel_px: (384, 192),
@@ -143,10 +143,10 @@ pub(crate) fn probe_plots(
 fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Error> {
     let values = |c: &str| t.distinct_in(0..t.rows.len(), c);
     let (xs, ys, radii) = (values(x), values(y), values("radius"));
-    if radii.len() > shscale_runner::plots::MAX_PANELS {
+    if radii.len() > shscale_present::plots::MAX_PANELS {
         return Ok(Vec::new());
     }
-    let panels: Vec<shscale_runner::heatmap::HeatPanel> = (radii.iter())
+    let panels: Vec<shscale_present::heatmap::HeatPanel> = (radii.iter())
         .map(|rho| {
             let mut cells = vec![vec![None; xs.len()]; ys.len()];
             for r in (0..t.rows.len()).filter(|&r| t.cell(r, "radius") == rho) {
@@ -157,7 +157,7 @@ fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Err
                     cells[j][i] = v.is_finite().then_some(v);
                 }
             }
-            shscale_runner::heatmap::HeatPanel {
+            shscale_present::heatmap::HeatPanel {
                 title: format!("probe radius ρ = {rho}"),
                 cells,
             }
@@ -168,7 +168,7 @@ fn heat_map(dir: &Path, t: &Table, x: &str, y: &str) -> Result<Vec<PathBuf>, Err
         words(x),
         words(y)
     );
-    Ok(shscale_runner::heatmap::write_heatmap(
+    Ok(shscale_present::heatmap::write_heatmap(
         dir,
         &format!("occ_rel_l2_heatmap_{x}_{y}"),
         &title,
@@ -200,7 +200,7 @@ fn error_against(
     keys.push("radius".to_string());
     let title = format!("extrapolation error against {}", words(param));
     let stem = format!("occ_rel_l2_vs_{param}");
-    let spec = shscale_runner::column_plot::PlotSpec {
+    let spec = shscale_present::column_plot::PlotSpec {
         metric: "occ_rel_l2_mean",
         x: param,
         series: &[],
@@ -211,7 +211,7 @@ fn error_against(
         stem: Some(&stem),
         title: Some(&title),
     };
-    Ok(shscale_runner::column_plot::plot_column(
+    Ok(shscale_present::column_plot::plot_column(
         dir, t, &keys, &spec,
     )?)
 }
@@ -297,7 +297,7 @@ fn pareto(dir: &Path, t: &Table, varying: &[String]) -> Result<Vec<PathBuf>, Err
             (!name.is_empty()).then(|| (p, name.clone()))
         })
         .collect();
-    Ok(shscale_runner::plots::write_scatter_noted(
+    Ok(shscale_present::plots::write_scatter_noted(
         dir,
         "pareto_time_vs_error",
         &labels,

@@ -514,7 +514,7 @@ impl Kind for Probe {
         let Some(r) = (0..t.rows.len()).next() else {
             return Ok(Vec::new());
         };
-        Ok(shscale_runner::image::copy_image(
+        Ok(shscale_present::image::copy_image(
             dir,
             &format!("visibility_truth_vs_extrapolated_{}", t.cell(r, "run_id")),
             out,

@@ -22,7 +22,7 @@ use serde::Serialize;
 use shscale_field::bsv::RadialRule;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing};
 use shscale_field::extrapolate::Plausibility;
-use shscale_runner::plots::{write_panels, write_scatter_noted, Labels, Panel};
+use shscale_present::plots::{write_panels, write_scatter_noted, Labels, Panel};
 use shscale_runner::records::Results;
 use shscale_scene::method::{
     Alpha, Combine, Extrapolation, Method, RayTracedSpec, SetSpec, Spec, SphereFit, SubVolumeSpec,

@@ -192,8 +192,11 @@ pub(crate) fn speed_claim(t: &Results, configs: &[Config], err: &str) -> String 
             let (ee, _, _) = ex.mean(t, err);
             let (ef, _, _) = ff.mean(t, err);
             let (layout, h) = sampling(&ex.spec).unwrap_or_default();
-            // Both through their per-receiver caches, where the rows have them (the plane).
-            let cached = {
+            // Both through their per-receiver caches, where the rows have them (the plane's;
+            // `budget`'s rows have no such column, and a lookup would be recorded as missing).
+            let cached = if t.col("cached_frame_seconds").is_none() {
+                String::new()
+            } else {
                 let c = |r: &[usize], col: &str| -> f64 {
                     r.iter().map(|&i| t.num(i, col)).sum::<f64>() / r.len() as f64
                 };

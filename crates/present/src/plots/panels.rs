@@ -46,7 +46,7 @@ pub fn write_scatter_noted(
         ..*labels
     };
     let (series, xbars) = (&series, &xbars[..]);
-    let mut tmps = crate::atomic::Temporaries::new();
+    let mut tmps = shscale_files::atomic::Temporaries::new();
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
@@ -113,7 +113,7 @@ pub fn write_panels(
     } else {
         22
     };
-    let mut tmps = crate::atomic::Temporaries::new();
+    let mut tmps = shscale_files::atomic::Temporaries::new();
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));
@@ -217,7 +217,7 @@ pub fn write_both_log(
     );
     // Both files to temporaries first, then both renamed: a failure leaves neither a new
     // file nor a temporary (the guard removes them on every path out).
-    let mut tmps = crate::atomic::Temporaries::new();
+    let mut tmps = shscale_files::atomic::Temporaries::new();
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));

@@ -2,8 +2,8 @@
 //! error over α and the sampling radius per probe radius), every cell's value written in it,
 //! written as PNG + SVG together like every plot.
 
-use crate::error::Error;
 use crate::plots::{check_stem, drawable, ensure_font, err, finish, Chart, MAX_PANELS};
+use crate::Error;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -42,7 +42,7 @@ pub fn write_heatmap(
     let cols = panels.len().min(3);
     let rows = panels.len().div_ceil(cols);
     let size = ((cols * 560) as u32, (rows * 440 + 40) as u32);
-    let mut tmps = crate::atomic::Temporaries::new();
+    let mut tmps = shscale_files::atomic::Temporaries::new();
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let (tmp_png, tmp_svg) = (tmps.beside(&png), tmps.beside(&svg));

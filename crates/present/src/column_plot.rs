@@ -4,9 +4,9 @@
 //! interquartile band where the table has it; a line through rows that differ in a parameter at
 //! one x refused; the file named by every selecting argument. Drawn by [`crate::plots`].
 
-use crate::error::Error;
 use crate::plots::Table;
 use crate::plots::{stem_part, words, write_panels, Bands, Panel, MAX_PANELS};
+use crate::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -28,18 +28,6 @@ pub struct PlotSpec<'a> {
     /// and "<metric> against <x>".
     pub stem: Option<&'a str>,
     pub title: Option<&'a str>,
-}
-
-/// The columns that tell a kind's rows apart, for [`plot_column`]: its parameters and its row key
-/// (the first headline column, e.g. the probe radius).
-pub fn row_keys(kind: &dyn crate::kind::DynKind) -> Vec<String> {
-    let mut keys = kind.param_columns();
-    if let Some(first) = kind.summary_columns().first() {
-        if !keys.iter().any(|k| k == first) {
-            keys.push(first.to_string());
-        }
-    }
-    keys
 }
 
 /// The most series a default plot puts in one panel before it facets.

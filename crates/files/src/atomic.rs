@@ -9,7 +9,7 @@
 //! process id and a random token drawn once per process, so processes on two Slurm nodes that
 //! share a results folder (and may have equal pids) never write the same temporary.
 
-use crate::error::Error;
+use crate::Error;
 use std::path::{Path, PathBuf};
 
 /// The steps of one durable replace, in order; a test injects a failure at each
@@ -112,7 +112,7 @@ pub fn tmp_path(path: &Path) -> PathBuf {
 
 /// `fsync` of the directory holding `path` (its entry, after a rename or a create, reaches the
 /// disk). Filesystems that cannot sync a directory (`EINVAL`) are taken as done.
-pub(crate) fn sync_parent(path: &Path) -> Result<(), Error> {
+pub fn sync_parent(path: &Path) -> Result<(), Error> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

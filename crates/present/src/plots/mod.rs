@@ -21,8 +21,8 @@ pub use draw::*;
 pub use names::*;
 pub use panels::*;
 
-use crate::error::Error;
 use crate::font::{caption_size, significant};
+use crate::Error;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub use crate::font::ensure_font;
 
 /// A results CSV (read through the `csv` crate).
-pub type Table = crate::records::Results;
+pub type Table = shscale_files::Table;
 
 pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::Io {
@@ -40,7 +40,7 @@ pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> Error {
 }
 
 pub(crate) fn finish(tmp: &Path, path: &Path) -> Result<(), Error> {
-    crate::atomic::rename_durable(tmp, path)
+    Ok(shscale_files::atomic::rename_durable(tmp, path)?)
 }
 
 /// Title and axis labels (with units) of a plot.

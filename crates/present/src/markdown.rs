@@ -4,7 +4,7 @@
 //! ([`markdown_to_html`]) for `report.html`.
 
 /// Escape text for HTML.
-pub(crate) fn esc(s: &str) -> String {
+pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -35,7 +35,7 @@ pub fn md_text(s: &str) -> String {
 }
 
 /// A cell of a Markdown table: [`md_text`] of the value.
-pub(crate) fn md_cell(s: &str) -> String {
+pub fn md_cell(s: &str) -> String {
     md_text(s)
 }
 
@@ -113,7 +113,7 @@ fn table_cells(row: &str) -> Vec<String> {
 
 /// A code fence for `text`: three backticks, or one more than the longest run of backticks in
 /// it, so no line of the text closes the block (CommonMark).
-pub(crate) fn fence_for(text: &str) -> String {
+pub fn fence_for(text: &str) -> String {
     let mut longest = 0;
     let mut run = 0;
     for c in text.chars() {

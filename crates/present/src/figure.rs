@@ -4,7 +4,7 @@
 //! it; this is the picture for a paper. Colour maps: grey (0 black … 1 white — visibility, the
 //! papers' convention), `magma`-like for irradiance, and blue–white–red for signed differences.
 
-use crate::error::Error;
+use crate::Error;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -231,7 +231,7 @@ pub fn write_png_stack(path: &Path, grids: &[Grid]) -> Result<(), Error> {
         sizes.iter().map(|s| s.0).max().unwrap_or(1),
         sizes.iter().map(|s| s.1).sum::<u32>().max(1),
     );
-    let tmp = crate::atomic::tmp_keeping_extension(path);
+    let tmp = shscale_files::atomic::tmp_keeping_extension(path);
     let stacked = || -> Result<(), String> {
         let root = BitMapBackend::new(&tmp, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -249,7 +249,7 @@ pub fn write_png_stack(path: &Path, grids: &[Grid]) -> Result<(), Error> {
             path: path.display().to_string(),
             reason: m,
         })
-        .and_then(|_| crate::atomic::rename_durable(&tmp, path));
+        .and_then(|_| Ok(shscale_files::atomic::rename_durable(&tmp, path)?));
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
