@@ -45,16 +45,13 @@
 //! ```
 
 use crate::error::Error;
-use crate::settings::RenderSettings;
+use crate::settings::{RenderSettings, DEFAULT_SCENE_TRUTH_RES};
 use crate::vocab::MAX_K_COUNT;
 use glam::DVec3;
 use serde::Deserialize;
 use shscale_field::Layout;
 use shscale_runner::check::{self, num, Ends};
 use std::path::{Path, PathBuf};
-
-/// The default truth resolution of a scene (`4T²` rays per receiver).
-pub(crate) const DEFAULT_SCENE_TRUTH_RES: usize = 32;
 
 /// The file as written.
 #[derive(Debug, Deserialize)]

@@ -7,10 +7,13 @@
 //! flags.
 
 use crate::combine::{Combine, SphereFit};
-use crate::method::Method;
+use crate::method::name::Method;
 use shscale_field::bsv::{Layout, RadialRule};
 use shscale_field::evaluator::Shells;
 use shscale_field::extrapolate::Plausibility;
+
+/// The default truth resolution of a scene (`4T²` rays per receiver).
+pub(crate) const DEFAULT_SCENE_TRUTH_RES: usize = 32;
 
 /// The method of a render and every parameter the methods read. A method reads only its own
 /// (docs/methods.md lists which); the others keep their defaults.
@@ -74,7 +77,7 @@ impl Default for RenderSettings {
             alpha: 45f64.to_radians(),
             layout: Layout::LatLong { rows: 12, cols: 20 },
             hemisphere_res: 32,
-            truth_res: crate::scene::DEFAULT_SCENE_TRUTH_RES,
+            truth_res: DEFAULT_SCENE_TRUTH_RES,
             plausibility: Plausibility::None,
             k_count: 40,
             sampling_radius: 1.0,
