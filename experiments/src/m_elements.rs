@@ -8,7 +8,6 @@
 
 use serde::{Deserialize, Serialize};
 use shscale_present::plots::{write_both, Labels};
-use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind};
 use shscale_scaling::{Cone, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily};
@@ -123,7 +122,7 @@ impl Kind for MElements {
     fn resolve(p: &Params) -> Result<Params, KeyError> {
         let n = p.order;
         KeyError::int("order", n, 1, 16)?;
-        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
+        shscale_scene::vocab::AlphaDeg::of_key("alpha_deg", p.alpha_deg)?;
         if !(p.k_min >= 1e-6 && p.k_max > p.k_min && p.k_max <= 1e6) {
             return Err(KeyError::new(
                 "k_min",

@@ -15,7 +15,6 @@ use crate::figures::{flat, lum, own_err, write_irradiance_figure};
 use serde::{Deserialize, Serialize};
 use shscale_field::shading::shade_rmse_rel;
 use shscale_field::Layout;
-use shscale_runner::check::Ends;
 use shscale_runner::records::Results;
 use shscale_runner::{Cost, Ctx, KeyError, Kind, Typed};
 use shscale_scene::render::{render, Method, RenderOutput};
@@ -309,7 +308,7 @@ impl Kind for Shadows {
             KeyError::int("order", n, 1, MAX_ORDER)?;
         }
         if let Some(a) = p.alpha_deg {
-            KeyError::real("alpha_deg", a, 0.0, 90.0, Ends::Open)?;
+            shscale_scene::vocab::AlphaDeg::of_key("alpha_deg", a)?;
         }
         let layout = (p.layout.as_deref())
             .map(Layout::parse)

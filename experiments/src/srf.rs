@@ -124,7 +124,7 @@ impl Kind for Srf {
         let layout =
             Layout::parse(&p.layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
         KeyError::int("hemisphere_res", p.hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
-        KeyError::real("alpha_deg", p.alpha_deg, 0.0, 90.0, Ends::Open)?;
+        shscale_scene::vocab::AlphaDeg::of_key("alpha_deg", p.alpha_deg)?;
         KeyError::real("hinge_deg", p.hinge_deg, 0.0, 360.0, Ends::Open)?;
         if p.radii.is_empty() || p.radii.len() > MAX_RADII {
             return Err(KeyError::new(

@@ -12,7 +12,6 @@
 
 use crate::args::DemoArgs;
 use crate::flags;
-use shscale_runner::check::Ends;
 use shscale_scaling::{AngularScaling, Cone, Eta, ScalingMatrix};
 use shscale_sh::{cap_coeffs, DirectionSet, ShBasis};
 use std::f64::consts::PI;
@@ -29,7 +28,8 @@ fn l2(a: &[f64], b: &[f64]) -> f64 {
 
 pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     flags::int("--order", a.order, 2, 32)?;
-    flags::real("--alpha-deg", a.alpha_deg, 0.0, 90.0, Ends::Open)?;
+    shscale_scene::vocab::AlphaDeg::new(a.alpha_deg)
+        .map_err(|m| anyhow::anyhow!("--alpha-deg: {m}"))?;
     let json = a.format == crate::args::TextFormat::Json;
     let say = |line: String| {
         if !json {

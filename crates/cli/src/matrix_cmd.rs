@@ -5,7 +5,6 @@ use crate::flags;
 use crate::output::{print_json, print_matrix};
 use anyhow::{bail, Context};
 use serde::Serialize;
-use shscale_runner::check::Ends;
 use shscale_scaling::{
     structural_nonzeros, Eta, Interp, KTable, ScalingMatrix, Spacing, TauFamily,
 };
@@ -75,7 +74,8 @@ fn family_of(a: &MatrixArgs) -> anyhow::Result<TauFamily> {
             let alpha = a
                 .alpha_deg
                 .context("--alpha-deg is required for --tau cone")?;
-            flags::real("--alpha-deg", alpha, 0.0, 90.0, Ends::Open)?;
+            shscale_scene::vocab::AlphaDeg::new(alpha)
+                .map_err(|m| anyhow::anyhow!("--alpha-deg: {m}"))?;
             TauFamily::Cone {
                 alpha: alpha.to_radians(),
             }

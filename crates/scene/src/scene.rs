@@ -406,7 +406,7 @@ impl Scene {
         };
         let settings = RenderSettings {
             order: s.order,
-            alpha: s.alpha_deg.to_radians(),
+            alpha: s.alpha_deg.radians(),
             layout: s.layout,
             hemisphere_res: s.hemisphere_res,
             truth_res: s.truth_res,
@@ -422,7 +422,7 @@ impl Scene {
 /// The top-level sampling keys of a scene, resolved.
 struct Sampling {
     order: usize,
-    alpha_deg: f64,
+    alpha_deg: crate::vocab::AlphaDeg,
     layout: Layout,
     hemisphere_res: usize,
     truth_res: usize,
@@ -503,13 +503,8 @@ impl Checker {
         .map_err(|m| self.err("plausibility", m))?;
         Ok(Sampling {
             order: self.int("order", raw.order.unwrap_or(4), 1, 16)?,
-            alpha_deg: self.real(
-                "alpha_deg",
-                raw.alpha_deg.unwrap_or(45.0),
-                0.0,
-                90.0,
-                Ends::Open,
-            )?,
+            alpha_deg: crate::vocab::AlphaDeg::new(raw.alpha_deg.unwrap_or(45.0))
+                .map_err(|m| self.err("alpha_deg", m))?,
             hemisphere_res: self.int("hemisphere_res", raw.hemisphere_res.unwrap_or(32), 1, 256)?,
             truth_res: self.int(
                 "truth_res",

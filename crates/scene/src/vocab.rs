@@ -115,6 +115,36 @@ pub fn unit_occluder(name: &str) -> Result<UnitOccluder, Error> {
 /// [`shscale_field::probe::k_range`], re-exported so every caller finds it here.
 pub use shscale_field::probe::k_range;
 
+/// A cone half-angle α in degrees, finite and in the open interval (0, 90) — a cone of 0° has no
+/// inside and one of 90° no outside — checked once, where a key or flag is read: the one
+/// statement of the bound in the code (configs, scene files, `demo` and `matrix` flags, the
+/// extrapolation's keys). Holding one is the proof it was checked.
+#[derive(Clone, Copy, Debug, PartialEq, PartialOrd)]
+pub struct AlphaDeg(f64);
+
+impl AlphaDeg {
+    /// The open interval of degrees.
+    pub const RANGE: (f64, f64) = (0.0, 90.0);
+
+    /// `deg` checked; the message states the range tested (`95 is outside (0, 90)`).
+    pub fn new(deg: f64) -> Result<Self, String> {
+        shscale_runner::check::real(deg, Self::RANGE.0, Self::RANGE.1, Ends::Open).map(Self)
+    }
+
+    /// [`AlphaDeg::new`] of the key `key` (its error names the key).
+    pub fn of_key(key: &str, deg: f64) -> Result<Self, KeyError> {
+        Self::new(deg).map_err(|m| KeyError::new(key, m))
+    }
+
+    pub fn degrees(self) -> f64 {
+        self.0
+    }
+
+    pub fn radians(self) -> f64 {
+        self.0.to_radians()
+    }
+}
+
 /// The family of angular scaling functions named in a config (`tau = "cone" | "midrange"`): the
 /// cone approximation with half-angle `alpha_deg` in (0, 90), or mid-range lighting (α unused).
 /// Errors name the key at fault.
@@ -122,7 +152,7 @@ pub fn tau_family(tau: &str, alpha_deg: f64) -> Result<shscale_scaling::TauFamil
     use shscale_runner::KeyError;
     match tau {
         "cone" => Ok(shscale_scaling::TauFamily::Cone {
-            alpha: KeyError::real("alpha_deg", alpha_deg, 0.0, 90.0, Ends::Open)?.to_radians(),
+            alpha: AlphaDeg::of_key("alpha_deg", alpha_deg)?.radians(),
         }),
         "midrange" => Ok(shscale_scaling::TauFamily::MidRange),
         other => Err(KeyError::new(
@@ -270,7 +300,7 @@ pub fn check_sampling_keys(
         ));
     }
     KeyError::int("order", order, 1, MAX_ORDER)?;
-    KeyError::real("alpha_deg", alpha_deg, 0.0, 90.0, Ends::Open)?;
+    AlphaDeg::of_key("alpha_deg", alpha_deg)?;
     Layout::parse(layout).map_err(|e| KeyError::new("layout", e.to_string()))?;
     KeyError::int("hemisphere_res", hemisphere_res, 1, MAX_HEMISPHERE_RES)?;
     Ok(())
@@ -360,5 +390,31 @@ impl VisibilityQuery {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::AlphaDeg;
+
+    /// The cone half-angle's domain at its edges: the open ends 0 and 90 refused with the range
+    /// stated, the nearest doubles inside kept as they are, NaN and the infinities refused; a
+    /// key's error names the key.
+    #[test]
+    fn a_cone_angle_is_checked_at_its_open_ends() {
+        for bad in [0.0, 90.0, -1e-300, 90.0 + 1e-13, f64::NAN, f64::INFINITY, -f64::INFINITY] {
+            let e = AlphaDeg::new(bad).unwrap_err();
+            assert!(e.contains("(0, 90)"), "{bad}: {e}");
+        }
+        assert_eq!(AlphaDeg::new(95.0).unwrap_err(), "95 is outside (0, 90)");
+        let lo = f64::MIN_POSITIVE;
+        let hi = f64::from_bits(90f64.to_bits() - 1);
+        for ok in [lo, 1e-9, 45.0, hi] {
+            let a = AlphaDeg::new(ok).unwrap();
+            assert_eq!(a.degrees(), ok);
+            assert!(a.radians() > 0.0 && a.radians() < std::f64::consts::FRAC_PI_2);
+        }
+        let e = AlphaDeg::of_key("alpha_deg", 90.0).unwrap_err();
+        assert_eq!((e.key.as_str(), e.message.as_str()), ("alpha_deg", "90 is outside (0, 90)"));
     }
 }

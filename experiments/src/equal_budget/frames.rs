@@ -88,8 +88,8 @@ pub(crate) fn extrapolation<'a>(
         .collect();
     let nn = order * order;
     let fixed: Option<Vec<KTable>> = match ex.alpha {
-        Alpha::Fixed(deg) => {
-            let alpha = deg.to_radians();
+        Alpha::Fixed(a) => {
+            let alpha = a.radians();
             Some(
                 (parts.iter())
                     .map(|(_, r)| k_table(order, k_count, TauFamily::Cone { alpha }, *r))

@@ -4,6 +4,7 @@
 
 use super::{Keys, MethodSpec, Spec};
 use crate::settings::RenderSettings;
+use crate::vocab::AlphaDeg;
 use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::check::Ends;
@@ -12,8 +13,8 @@ use shscale_runner::KeyError;
 /// How α of the extrapolation's k-table is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Alpha {
-    /// One cone angle, degrees, in (0, 90).
-    Fixed(f64),
+    /// One cone angle, checked.
+    Fixed(AlphaDeg),
     /// α by distance at the BSV's effective cap (the table is then built per frame).
     Fit,
 }
@@ -40,8 +41,7 @@ impl Extrapolation {
         let mode = k.alpha_mode.unwrap_or("fixed");
         let alpha = match AlphaMode::from_name(mode) {
             Some(AlphaMode::Fixed) => {
-                KeyError::real("alpha_deg", k.alpha_deg, 0.0, 90.0, Ends::Open)?;
-                Alpha::Fixed(k.alpha_deg)
+                Alpha::Fixed(AlphaDeg::of_key("alpha_deg", k.alpha_deg)?)
             }
             Some(AlphaMode::Fit) => Alpha::Fit,
             None => {
@@ -103,8 +103,8 @@ impl Extrapolation {
     pub(crate) fn set_on(&self, s: &mut RenderSettings) {
         s.layout = self.layout;
         s.hemisphere_res = self.hemisphere_res;
-        if let Alpha::Fixed(deg) = self.alpha {
-            s.alpha = deg.to_radians();
+        if let Alpha::Fixed(a) = self.alpha {
+            s.alpha = a.radians();
         }
         s.plausibility = self.plausibility;
         s.sampling_radius = self.sampling_radius;

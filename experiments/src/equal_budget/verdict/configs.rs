@@ -225,7 +225,7 @@ pub(crate) fn name(c: &Config) -> String {
             },
             e.hemisphere_res,
             match e.alpha {
-                Alpha::Fixed(deg) => format!(", α = {}°", cell(deg)),
+                Alpha::Fixed(a) => format!(", α = {}°", cell(a.degrees())),
                 // α by distance: the variant says so.
                 Alpha::Fit => String::new(),
             }
