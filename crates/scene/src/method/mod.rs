@@ -70,37 +70,77 @@ pub struct Keys<'a> {
     pub k_count: Option<usize>,
 }
 
+/// One method key's value as the kind holds it, compared by value (a number as a number:
+/// `0.1` and `0.10`, `0` and `-0` are one value) — the unread-key rule's comparison — and shown
+/// as its cell in messages.
+#[derive(Clone, Copy, Debug)]
+pub enum KeyValue<'a> {
+    Int(usize),
+    Real(f64),
+    Text(&'a str),
+}
+
+impl PartialEq for KeyValue<'_> {
+    fn eq(&self, o: &Self) -> bool {
+        match (self, o) {
+            (KeyValue::Int(a), KeyValue::Int(b)) => a == b,
+            // Values of keys are finite (checked where they are read, or refused first).
+            (KeyValue::Real(a), KeyValue::Real(b)) => a == b,
+            (KeyValue::Text(a), KeyValue::Text(b)) => a == b,
+            _ => false,
+        }
+    }
+}
+
+impl std::fmt::Display for KeyValue<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            KeyValue::Int(v) => write!(f, "{v}"),
+            KeyValue::Real(v) => write!(f, "{v}"),
+            KeyValue::Text(v) => f.write_str(v),
+        }
+    }
+}
+
 impl<'a> Keys<'a> {
-    /// Every method key this kind offers with its value as a cell, for the unread-key rule (and
-    /// the GPU forms' [`crate::gpu_methods::unhonoured`]).
-    pub fn cells(&self) -> Vec<(&'static str, String)> {
+    /// Every method key this kind offers with its value, in one order (the keys a kind does not
+    /// offer, `None`, left out): the unread-key rule compares them with the defaults' by value.
+    pub fn values(&self) -> Vec<(&'static str, KeyValue<'a>)> {
+        use KeyValue::{Int, Real, Text};
         let mut v = vec![
-            ("parts", self.parts.to_string()),
-            ("layout", self.layout.to_string()),
-            ("hemisphere_res", self.hemisphere_res.to_string()),
-            ("shells", self.shells.to_string()),
-            ("shell_max", self.shell_max.to_string()),
-            ("shell_spacing", self.shell_spacing.to_string()),
-            ("field_interp", self.field_interp.to_string()),
-            ("rt_res", self.rt_res.to_string()),
-            ("alpha_deg", self.alpha_deg.to_string()),
-            ("plausibility", self.plausibility.to_string()),
-            ("sampling_radius", self.sampling_radius.to_string()),
-            ("radial", self.radial.to_string()),
-            ("radial_delta", self.radial_delta.to_string()),
+            ("parts", Int(self.parts)),
+            ("layout", Text(self.layout)),
+            ("hemisphere_res", Int(self.hemisphere_res)),
+            ("shells", Int(self.shells)),
+            ("shell_max", Real(self.shell_max)),
+            ("shell_spacing", Text(self.shell_spacing)),
+            ("field_interp", Text(self.field_interp)),
+            ("rt_res", Int(self.rt_res)),
+            ("alpha_deg", Real(self.alpha_deg)),
+            ("plausibility", Text(self.plausibility)),
+            ("sampling_radius", Real(self.sampling_radius)),
+            ("radial", Text(self.radial)),
+            ("radial_delta", Real(self.radial_delta)),
         ];
-        let opt = [
-            ("alpha_mode", self.alpha_mode.map(str::to_string)),
-            ("radial_tau", self.radial_tau.map(|x| x.to_string())),
-            ("radial_max", self.radial_max.map(|x| x.to_string())),
-            ("sphere_combine", self.sphere_combine.map(str::to_string)),
-            ("sphere_fit", self.sphere_fit.map(str::to_string)),
-            ("sphere_order", self.sphere_order.map(|x| x.to_string())),
-            ("part_combine", self.part_combine.map(str::to_string)),
-            ("k_count", self.k_count.map(|x| x.to_string())),
+        let offered = [
+            ("alpha_mode", self.alpha_mode.map(Text)),
+            ("radial_tau", self.radial_tau.map(Real)),
+            ("radial_max", self.radial_max.map(Real)),
+            ("sphere_combine", self.sphere_combine.map(Text)),
+            ("sphere_fit", self.sphere_fit.map(Text)),
+            ("sphere_order", self.sphere_order.map(Int)),
+            ("part_combine", self.part_combine.map(Text)),
+            ("k_count", self.k_count.map(Int)),
         ];
-        v.extend(opt.into_iter().filter_map(|(k, c)| Some((k, c?))));
+        v.extend(offered.into_iter().filter_map(|(k, c)| Some((k, c?))));
         v
+    }
+
+    /// [`Keys::values`] as cells (the GPU forms' [`crate::gpu_methods::unhonoured`]).
+    pub fn cells(&self) -> Vec<(&'static str, String)> {
+        (self.values().into_iter())
+            .map(|(k, v)| (k, v.to_string()))
+            .collect()
     }
 }
 
@@ -185,12 +225,12 @@ impl Spec {
             .map(|(_, p)| *p)
             .expect("every budgeted method is registered");
         let spec = parse(k, rt_res_max)?;
-        let cells = k.cells();
+        let values = k.values();
         // The keys it reads among those the kind offers, for the message.
         let reads: Vec<&str> = (spec.reads().into_iter())
-            .filter(|r| cells.iter().any(|(c, _)| c == r))
+            .filter(|r| values.iter().any(|(c, _)| c == r))
             .collect();
-        for ((key, v), (_, d)) in cells.iter().zip(defaults.cells()) {
+        for ((key, v), (_, d)) in values.iter().zip(defaults.values()) {
             if *v != d && !reads.contains(key) {
                 return Err(KeyError::new(
                     key,

@@ -314,3 +314,23 @@ fn rays_and_bytes_follow_the_formulas() {
     let want = 4.0 * 240.0 * LOG_SAMPLE_SECONDS * 64.0 + 100.0 * SHEXP_SECONDS * 32.0;
     assert!((logs - want).abs() < 1e-12 * want, "{logs} vs {want}");
 }
+
+/// The unread-key rule compares values, not their cells: a number equal to its default by value
+/// (`-0` against `0`, which print differently) passes under a method that does not read it; one
+/// differing in the last bit is refused naming the key; an integer is never equal to a real.
+#[test]
+fn the_unread_key_rule_compares_values_by_value() {
+    assert_eq!(KeyValue::Real(0.0), KeyValue::Real(-0.0));
+    assert_ne!(KeyValue::Real(0.0).to_string(), KeyValue::Real(-0.0).to_string());
+    assert_ne!(KeyValue::Int(8), KeyValue::Real(8.0));
+    assert_ne!(KeyValue::Text("product"), KeyValue::Text("Product"));
+    let mut d = keys("ray_traced");
+    d.radial_delta = 0.0;
+    let mut k = keys("ray_traced");
+    k.radial_delta = -0.0;
+    assert!(Spec::parse(&k, &d, 1024).is_ok());
+    k.radial_delta = f64::from_bits(1);
+    let e = Spec::parse(&k, &d, 1024).unwrap_err();
+    assert_eq!(e.key, "radial_delta", "{}", e.message);
+    println!("{}", e.message);
+}
