@@ -9,7 +9,7 @@
 //! process id and a random token drawn once per process, so processes on two Slurm nodes that
 //! share a results folder (and may have equal pids) never write the same temporary.
 
-use crate::Error;
+use crate::error::Error;
 use std::path::{Path, PathBuf};
 
 /// The steps of one durable replace, in order; a test injects a failure at each

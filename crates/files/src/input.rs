@@ -2,7 +2,7 @@
 //! would block a reader forever, a device would never end, and a symlink loop or a dangling
 //! link is not "absent": each is refused by name before anything is read.
 
-use crate::Error;
+use crate::error::Error;
 use std::path::Path;
 
 /// What kind of thing is at `path`, in words, when it is not a regular file.

@@ -10,26 +10,10 @@
 //! Nothing numerical: it imports no crate of the project.
 
 pub mod atomic;
+pub mod error;
 pub mod input;
 pub mod table;
 
 pub use atomic::{write_atomic, write_atomic_all, write_atomic_bytes, Staging};
+pub use error::Error;
 pub use table::Table;
-
-/// A file or folder that could not be read or written, named.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{path}: {reason}")]
-pub struct Error {
-    pub path: String,
-    pub reason: String,
-}
-
-impl Error {
-    /// A file error naming `path`.
-    pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
-        Self {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        }
-    }
-}

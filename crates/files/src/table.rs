@@ -2,7 +2,7 @@
 //! cells looked up by column name, a missing column recorded and reported
 //! ([`Table::check_read`]), never NaN.
 
-use crate::Error;
+use crate::error::Error;
 use std::path::Path;
 
 /// A results CSV read through the `csv` crate.

@@ -4,9 +4,9 @@
 //! interquartile band where the table has it; a line through rows that differ in a parameter at
 //! one x refused; the file named by every selecting argument. Drawn by [`crate::plots`].
 
+use crate::error::Error;
 use crate::plots::Table;
 use crate::plots::{stem_part, words, write_panels, Bands, Panel, MAX_PANELS};
-use crate::Error;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

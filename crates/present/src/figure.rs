@@ -4,7 +4,7 @@
 //! it; this is the picture for a paper. Colour maps: grey (0 black … 1 white — visibility, the
 //! papers' convention), `magma`-like for irradiance, and blue–white–red for signed differences.
 
-use crate::Error;
+use crate::error::Error;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -2,8 +2,8 @@
 //! error over α and the sampling radius per probe radius), every cell's value written in it,
 //! written as PNG + SVG together like every plot.
 
+use crate::error::Error;
 use crate::plots::{check_stem, drawable, ensure_font, err, finish, Chart, MAX_PANELS};
-use crate::Error;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 

@@ -6,7 +6,7 @@
 //! ([`MAX_IMAGE_SIDE`], [`MAX_IMAGE_PIXELS`]) and every pixel checked finite and ≥ 0 (up to
 //! [`NEGATIVE_TOLERANCE`] of ringing, clamped).
 
-use crate::Error;
+use crate::error::Error;
 use shscale_files::atomic::tmp_path;
 use std::path::{Path, PathBuf};
 
@@ -22,7 +22,7 @@ fn check_dims(path: &Path, width: usize, height: usize) -> Result<(), Error> {
         || height > MAX_IMAGE_SIDE
         || width * height > MAX_IMAGE_PIXELS
     {
-        return Err(crate::Error::io(
+        return Err(crate::error::Error::io(
             path,
             format!(
                 "{width}×{height} pixels: each side must be 1..={MAX_IMAGE_SIDE} and the image at most {MAX_IMAGE_PIXELS} pixels"
@@ -35,7 +35,7 @@ fn check_dims(path: &Path, width: usize, height: usize) -> Result<(), Error> {
 /// Refuse to write over a directory (renaming onto one fails only after the work is done).
 fn check_target(path: &Path) -> Result<(), Error> {
     if path.is_dir() {
-        return Err(crate::Error::io(path, "is a directory"));
+        return Err(crate::error::Error::io(path, "is a directory"));
     }
     Ok(())
 }
@@ -125,13 +125,13 @@ fn exr_to(
 ) -> Result<(), Error> {
     check_dims(path, width, height)?;
     if pixels.len() != width * height {
-        return Err(crate::Error::io(
+        return Err(crate::error::Error::io(
             path,
             format!("{} pixels for {width}×{height}", pixels.len()),
         ));
     }
     if let Some(i) = pixels.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
-        return Err(crate::Error::io(
+        return Err(crate::error::Error::io(
             path,
             format!(
                 "pixel ({}, {}) is {:?}: not written (an input drove the result out of range)",
@@ -150,7 +150,7 @@ fn exr_to(
         .write()
         .non_parallel()
         .to_file(tmp)
-        .map_err(|e| crate::Error::io(path, e))
+        .map_err(|e| crate::error::Error::io(path, e))
 }
 
 fn unit_bytes(pixels: &[[f32; 3]]) -> Vec<u8> {
@@ -216,12 +216,12 @@ pub fn write_png_preview(
 /// is read first: a layer over [`MAX_IMAGE_SIDE`] or [`MAX_IMAGE_PIXELS`] is refused before any
 /// pixel is allocated; then every pixel must be finite, else the error names the first bad one.
 pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Error> {
-    let meta =
-        exr::meta::MetaData::read_from_file(path, false).map_err(|e| crate::Error::io(path, e))?;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| crate::error::Error::io(path, e))?;
     let header = meta
         .headers
         .first()
-        .ok_or_else(|| crate::Error::io(path, "no layer"))?;
+        .ok_or_else(|| crate::error::Error::io(path, "no layer"))?;
     let size = header.layer_size;
     check_dims(path, size.width(), size.height())?;
     let img = exr::prelude::read_first_rgba_layer_from_file(
@@ -238,10 +238,10 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Error> {
             px.2[pos.y() * w + pos.x()] = [r, g, b];
         },
     )
-    .map_err(|e| crate::Error::io(path, e))?;
+    .map_err(|e| crate::error::Error::io(path, e))?;
     let (w, h, px) = img.layer_data.channel_data.pixels;
     let bad = |i: usize, what: &str| {
-        crate::Error::io(
+        crate::error::Error::io(
             path,
             format!("pixel ({}, {}) is {:?}: {what}", i % w, i / w, px[i]),
         )
@@ -257,7 +257,7 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Error> {
 pub fn read_radiance_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Error> {
     let (w, h, mut px) = read_exr(path)?;
     let bad = |i: usize, what: &str, px: &[[f32; 3]]| {
-        crate::Error::io(
+        crate::error::Error::io(
             path,
             format!("pixel ({}, {}) is {:?}: {what}", i % w, i / w, px[i]),
         )
@@ -296,14 +296,16 @@ fn png_to(
     data: Vec<u8>,
 ) -> Result<(), Error> {
     check_dims(path, width, height)?;
-    let file = std::fs::File::create(tmp).map_err(|e| crate::Error::io(path, e))?;
+    let file = std::fs::File::create(tmp).map_err(|e| crate::error::Error::io(path, e))?;
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().map_err(|e| crate::Error::io(path, e))?;
+    let mut w = enc
+        .write_header()
+        .map_err(|e| crate::error::Error::io(path, e))?;
     w.write_image_data(&data)
-        .map_err(|e| crate::Error::io(path, e))?;
-    w.finish().map_err(|e| crate::Error::io(path, e))
+        .map_err(|e| crate::error::Error::io(path, e))?;
+    w.finish().map_err(|e| crate::error::Error::io(path, e))
 }
 
 /// Copy `dir/<from>.png` and `.exr` (those that exist) to `out/<stem>.*`, atomically; the files
@@ -313,7 +315,7 @@ pub fn copy_image(
     from: &str,
     out: &Path,
     stem: &str,
-) -> Result<Vec<PathBuf>, crate::Error> {
+) -> Result<Vec<PathBuf>, crate::error::Error> {
     let mut files = Vec::new();
     for ext in ["png", "exr"] {
         let from = dir.join(format!("{from}.{ext}"));
@@ -323,7 +325,7 @@ pub fn copy_image(
         let to = out.join(format!("{stem}.{ext}"));
         let tmp = shscale_files::atomic::tmp_keeping_extension(&to);
         std::fs::copy(&from, &tmp)
-            .map_err(|e| crate::Error::io(&to, e))
+            .map_err(|e| crate::error::Error::io(&to, e))
             .and_then(|_| Ok(shscale_files::atomic::rename_durable(&tmp, &to)?))
             .inspect_err(|_| {
                 let _ = std::fs::remove_file(&tmp);

@@ -402,7 +402,15 @@ mod tests {
     /// key's error names the key.
     #[test]
     fn a_cone_angle_is_checked_at_its_open_ends() {
-        for bad in [0.0, 90.0, -1e-300, 90.0 + 1e-13, f64::NAN, f64::INFINITY, -f64::INFINITY] {
+        for bad in [
+            0.0,
+            90.0,
+            -1e-300,
+            90.0 + 1e-13,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+        ] {
             let e = AlphaDeg::new(bad).unwrap_err();
             assert!(e.contains("(0, 90)"), "{bad}: {e}");
         }
@@ -415,6 +423,9 @@ mod tests {
             assert!(a.radians() > 0.0 && a.radians() < std::f64::consts::FRAC_PI_2);
         }
         let e = AlphaDeg::of_key("alpha_deg", 90.0).unwrap_err();
-        assert_eq!((e.key.as_str(), e.message.as_str()), ("alpha_deg", "90 is outside (0, 90)"));
+        assert_eq!(
+            (e.key.as_str(), e.message.as_str()),
+            ("alpha_deg", "90 is outside (0, 90)")
+        );
     }
 }

@@ -21,8 +21,8 @@ pub use draw::*;
 pub use names::*;
 pub use panels::*;
 
+use crate::error::Error;
 use crate::font::{caption_size, significant};
-use crate::Error;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -40,9 +40,7 @@ impl Extrapolation {
         let layout = super::layout(k.layout)?;
         let mode = k.alpha_mode.unwrap_or("fixed");
         let alpha = match AlphaMode::from_name(mode) {
-            Some(AlphaMode::Fixed) => {
-                Alpha::Fixed(AlphaDeg::of_key("alpha_deg", k.alpha_deg)?)
-            }
+            Some(AlphaMode::Fixed) => Alpha::Fixed(AlphaDeg::of_key("alpha_deg", k.alpha_deg)?),
             Some(AlphaMode::Fit) => Alpha::Fit,
             None => {
                 return Err(KeyError::new(

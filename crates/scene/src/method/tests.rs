@@ -321,7 +321,10 @@ fn rays_and_bytes_follow_the_formulas() {
 #[test]
 fn the_unread_key_rule_compares_values_by_value() {
     assert_eq!(KeyValue::Real(0.0), KeyValue::Real(-0.0));
-    assert_ne!(KeyValue::Real(0.0).to_string(), KeyValue::Real(-0.0).to_string());
+    assert_ne!(
+        KeyValue::Real(0.0).to_string(),
+        KeyValue::Real(-0.0).to_string()
+    );
     assert_ne!(KeyValue::Int(8), KeyValue::Real(8.0));
     assert_ne!(KeyValue::Text("product"), KeyValue::Text("Product"));
     let mut d = keys("ray_traced");
