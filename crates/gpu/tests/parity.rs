@@ -319,7 +319,7 @@ fn shading_matches_the_receiver_cache_and_sequences_run_end_to_end() {
     assert!(times.frame_seconds > 0.0 && times.sampling_seconds > 0.0);
 
     // Frames in flight: posed on the device only, at most two submitted and not finished; none
-    // in flight finishes nothing. (The images: scene/tests/sequence.rs.)
+    // in flight finishes nothing. (The images: scene/tests/gpu_parity.rs.)
     let e = seq.submit_at(&ctx, 0.0).unwrap_err().to_string();
     assert!(e.contains("pose_on_device"), "{e}");
     seq.pose_on_device(&ctx, &mesh, None, UpdateStrategy::Refit)
