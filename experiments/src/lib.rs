@@ -216,3 +216,36 @@ fn index_section(p: &Path, stem: &str, dir: &Path, discussion: &str, files: &[Pa
     }
     index
 }
+
+#[cfg(test)]
+mod tests {
+    /// Every column of every kind that holds a time — a duration in seconds or milliseconds,
+    /// its spread or its interval's ends, a rate of frames — is one of the kind's time columns
+    /// (machine-dependent: the schema marks them, `compare` and the reports treat them apart,
+    /// docs/provenance.md), so a time is never read as an accuracy metric.
+    #[test]
+    fn every_time_column_of_every_kind_is_declared_a_time() {
+        let timed = |c: &str| {
+            [
+                "_seconds",
+                "_seconds_lo",
+                "_seconds_hi",
+                "_spread",
+                "_ms",
+                "fps",
+            ]
+            .iter()
+            .any(|s| c.ends_with(s))
+        };
+        let mut missing = Vec::new();
+        for kind in super::registry() {
+            let times = kind.time_columns();
+            for c in shscale_runner::header(kind) {
+                if timed(&c) && !times.contains(&c.as_str()) {
+                    missing.push(format!("{}.{c}", kind.name()));
+                }
+            }
+        }
+        assert!(missing.is_empty(), "times not declared: {missing:?}");
+    }
+}

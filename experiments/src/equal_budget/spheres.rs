@@ -367,7 +367,14 @@ impl Kind for Budget {
     }
 
     fn time_columns() -> &'static [&'static str] {
-        &["build_seconds", "eval_seconds", "frame_seconds"]
+        &[
+            "build_seconds",
+            "eval_seconds",
+            "frame_seconds",
+            "frame_seconds_lo",
+            "frame_seconds_hi",
+            "partition_seconds",
+        ]
     }
 
     fn summary_columns() -> &'static [&'static str] {

@@ -443,6 +443,7 @@ impl Kind for Probe {
             "truth_seconds",
             "gpu_bsv_sampling_seconds",
             "gpu_sh_conversion_seconds",
+            "partition_seconds",
         ]
     }
 
