@@ -3,6 +3,8 @@
 //! reads, their domains, its cost and how it sets a render's settings, in one file.
 
 use super::{Keys, MethodSpec, Spec};
+use crate::error::Error;
+use crate::render::form::{Built, CpuForm, Inputs, LocalLights, Stages};
 use crate::settings::RenderSettings;
 use crate::vocab::AlphaDeg;
 use shscale_field::bsv::{Layout, RadialRule, OCCLUSION_STEPS};
@@ -174,3 +176,63 @@ shscale_names::names!(RadialName {
     Clearance = "clearance",
     Occlusion = "occlusion",
 });
+
+/// The extrapolation's CPU render: a base-sphere visibility on each occluder's own bounding
+/// sphere (scaled by the sampling radius, the samples placed by the radial rule) and a k-table
+/// over the receivers; local lights extrapolated too.
+pub(crate) const CPU: CpuForm = CpuForm {
+    build: |i, stages| {
+        let mut b = Built::default();
+        (b.bsvs, b.tables) = extrapolate(i, i.occs, stages)?;
+        Ok(b)
+    },
+    work: |w| (w.bsv_rays(), w.bytes(1.0, 0.0)),
+    local_lights: LocalLights::Extrapolated,
+    truth_sampler: false,
+    basis: false,
+    full_frequency: false,
+    extrapolates: true,
+};
+
+/// Each of `sources` (occluders, or sub-volumes' parts) sampled on its bounding sphere and its
+/// k-table over the receivers (the tables span the samples' radii under a radial rule), timed
+/// as the stages `bsv_sampling` and `table_build`.
+pub(crate) fn extrapolate(
+    i: &Inputs,
+    sources: &[Box<dyn shscale_geometry::Occluder>],
+    stages: &mut Stages,
+) -> Result<(Vec<shscale_field::Bsv>, Vec<shscale_scaling::KTable>), Error> {
+    let rs = i.rs;
+    let bsvs: Vec<shscale_field::Bsv> = stages.time("bsv_sampling", || {
+        (sources.iter())
+            .map(|o| {
+                Ok(shscale_field::Bsv::sample_radial(
+                    o.as_ref(),
+                    rs.layout,
+                    i.sampler,
+                    rs.sampling_radius,
+                    rs.radial,
+                )?)
+            })
+            .collect::<Result<_, Error>>()
+    })?;
+    let tables = stages.time("table_build", || {
+        (bsvs.iter())
+            .map(|b| {
+                let s = shscale_geometry::Sphere {
+                    center: b.sphere.center,
+                    radius: b.sampling_radius,
+                };
+                let outer = b.radii.iter().copied().fold(s.radius, f64::max);
+                crate::frame::table_for_radii(
+                    (i.scene, rs),
+                    s,
+                    outer,
+                    i.recv,
+                    shscale_scaling::Eta::Plain,
+                )
+            })
+            .collect()
+    })?;
+    Ok((bsvs, tables))
+}

@@ -2,6 +2,8 @@
 //! samples, interpolated. Its parameters, keys, domains, cost and how it sets a render's settings.
 
 use super::{Keys, MethodSpec, Spec};
+use crate::error::Error;
+use crate::render::form::{Built, CpuForm, LocalLights};
 use crate::settings::RenderSettings;
 use shscale_field::bsv::Layout;
 use shscale_field::evaluator::{FieldInterp, ShellSpacing, Shells};
@@ -107,3 +109,39 @@ pub fn full_field_shells(rs: &RenderSettings) -> Shells {
         ..Shells::PAPERS
     }
 }
+
+/// The full field's CPU render: its shells about each occluder's bounding sphere (the
+/// settings' construction, else the papers', [`full_field_shells`]), timed as
+/// `full_field_build`. No local lights.
+pub(crate) const CPU: CpuForm = CpuForm {
+    build: |i, stages| {
+        let rs = i.rs;
+        let shells = rs.full_field.unwrap_or_else(|| full_field_shells(rs));
+        let fulls = stages.time("full_field_build", || {
+            (i.occs.iter())
+                .map(|o| {
+                    Ok(shscale_field::evaluator::FullField::build(
+                        o.as_ref(),
+                        rs.layout,
+                        i.sampler,
+                        &shells,
+                    )?)
+                })
+                .collect::<Result<_, Error>>()
+        })?;
+        Ok(Built {
+            fulls,
+            ..Built::default()
+        })
+    },
+    work: |w| {
+        let rs = w.rs;
+        let shells = rs.full_field.unwrap_or_else(|| full_field_shells(rs)).count as f64;
+        (shells * w.bsv_rays(), w.bytes(shells, 0.0))
+    },
+    local_lights: LocalLights::Refused,
+    truth_sampler: false,
+    basis: false,
+    full_frequency: false,
+    extrapolates: false,
+};

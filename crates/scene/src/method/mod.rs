@@ -21,6 +21,7 @@ use shscale_runner::KeyError;
 
 mod extrapolated;
 mod full_field;
+mod full_frequency;
 pub mod name;
 mod ray_traced;
 mod sphere_set;
@@ -194,6 +195,18 @@ macro_rules! each {
 
 /// A method's parse from a kind's keys (`rt_res_max`: the kind's largest `rt_res`).
 type Parse = fn(&Keys, usize) -> Result<Spec, KeyError>;
+
+/// Each method's CPU render, from its own file (the one place a method's name meets its render).
+pub(crate) fn cpu_form(m: Method) -> &'static crate::render::form::CpuForm {
+    match m {
+        Method::Extrapolated => &extrapolated::CPU,
+        Method::FullField => &full_field::CPU,
+        Method::RayTraced => &ray_traced::CPU,
+        Method::FullFrequency => &full_frequency::CPU,
+        Method::SubVolumes => &sub_volumes::CPU,
+        Method::SphereSet => &sphere_set::CPU,
+    }
+}
 
 /// The budgeted methods, one registration line each: the name's variant and its parse.
 pub const REGISTRY: [(Method, Parse); 5] = [

@@ -3,6 +3,7 @@
 //! sets a render's settings.
 
 use super::{MethodSpec, Spec};
+use crate::render::form::{Built, CpuForm, LocalLights};
 use crate::settings::RenderSettings;
 use shscale_runner::KeyError;
 
@@ -42,3 +43,16 @@ impl MethodSpec for RayTracedSpec {
         Spec::RayTraced(self)
     }
 }
+
+/// The band-limited truth's CPU render: nothing built; every receiver's visibility the converged
+/// stratified truth of each occluder at the settings' `truth_res` (`4T²` rays per receiver and
+/// occluder); local lights ray traced.
+pub(crate) const CPU: CpuForm = CpuForm {
+    build: |_, _| Ok(Built::default()),
+    work: |w| (w.receivers * w.occluders * 4.0 * w.t2, w.bytes(1.0, 0.0)),
+    local_lights: LocalLights::Traced,
+    truth_sampler: true,
+    basis: false,
+    full_frequency: false,
+    extrapolates: false,
+};

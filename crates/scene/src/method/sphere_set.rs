@@ -7,6 +7,7 @@
 use super::{product_work, Keys, MethodSpec, Spec, SHEXP_SECONDS};
 use crate::combine::{Combine, SphereFit};
 use crate::error::Error;
+use crate::render::form::{partitioned, Built, CpuForm, Inputs, LocalLights};
 use crate::settings::RenderSettings;
 use shscale_field::evaluator::VisibilityField;
 use shscale_field::shexp_ol::{Exp, SphereSetShexp, ZonalLogTable, SHEXP_EPS};
@@ -260,4 +261,42 @@ impl SetTables {
             bytes,
         })
     }
+}
+
+/// A sphere set's CPU render: a mesh partitioned as for sub-volumes (on the rest pose, per
+/// triangle) and one sphere fitted per part on the posed mesh — or that pose's first inscribed
+/// balls (`RenderSettings::sphere_fit`) — timed as `sphere_fit`; the analytic sphere is its own
+/// set; shaded through an SH basis. No rays, no local lights.
+pub(crate) const CPU: CpuForm = CpuForm {
+    build: |i, stages| {
+        Ok(Built {
+            spheres: stages.time("sphere_fit", || spheres_of(i))?,
+            ..Built::default()
+        })
+    },
+    work: |w| {
+        let spheres = w.occluders * w.rs.parts.max(1) as f64 * 32.0;
+        (0.0, w.bytes(0.0, spheres))
+    },
+    local_lights: LocalLights::Refused,
+    truth_sampler: false,
+    basis: true,
+    full_frequency: false,
+    extrapolates: false,
+};
+
+/// The sphere set of every occluder ([`CPU`]).
+fn spheres_of(i: &Inputs) -> Result<Vec<Sphere>, Error> {
+    let (scene, rs) = (i.scene, i.rs);
+    let mut out = Vec::new();
+    for (o, split) in scene.occluders.iter().zip(partitioned(scene, rs.parts)?) {
+        match split {
+            Some((posed, labels)) => out.extend(
+                (rs.sphere_fit.spheres(&posed, &labels, rs.parts))
+                    .map_err(|e| Error::config(format!("{}: sphere_fit: {e}", scene.file)))?,
+            ),
+            None => out.push(o.build()?.bounding_sphere()),
+        }
+    }
+    Ok(out)
 }

@@ -5,6 +5,8 @@
 
 use super::{product_work, Extrapolation, Keys, MethodSpec, Spec, SHEXP_SECONDS};
 use crate::combine::Combine;
+use crate::error::Error;
+use crate::render::form::{partitioned, Built, CpuForm, Inputs, LocalLights};
 use crate::settings::RenderSettings;
 use shscale_field::extrapolate::Plausibility;
 use shscale_runner::KeyError;
@@ -101,4 +103,46 @@ impl MethodSpec for SubVolumeSpec {
     fn into_spec(self) -> Spec {
         Spec::SubVolumes(self)
     }
+}
+
+/// Sub-volumes' CPU render: every mesh occluder split into `parts` (timed as `partition`), each
+/// part extrapolated from its own bounding sphere as [`super::extrapolated::extrapolate`] does.
+/// No local lights.
+pub(crate) const CPU: CpuForm = CpuForm {
+    build: |i, stages| {
+        let parts = stages.time("partition", || parts_of(i))?;
+        let mut b = Built::default();
+        (b.bsvs, b.tables) = super::extrapolated::extrapolate(i, &parts, stages)?;
+        Ok(b)
+    },
+    work: |w| {
+        let parts = w.rs.parts.max(1) as f64;
+        (parts * w.bsv_rays(), w.bytes(parts, 0.0))
+    },
+    local_lights: LocalLights::Refused,
+    truth_sampler: false,
+    basis: false,
+    full_frequency: false,
+    extrapolates: true,
+};
+
+/// The parts of every occluder, each as its own BVH: a mesh split into `RenderSettings::parts`
+/// by k-means on the rest pose's triangle centroids (per triangle, so a deforming mesh keeps its
+/// partition over a sequence), posed at the scene's `pose_t`; the analytic sphere is one part.
+fn parts_of(i: &Inputs) -> Result<Vec<Box<dyn shscale_geometry::Occluder>>, Error> {
+    use shscale_geometry::ray::UpdateStrategy;
+    use shscale_geometry::{MeshBvh, Occluder};
+    let n = i.rs.parts;
+    let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
+    for (o, split) in i.scene.occluders.iter().zip(partitioned(i.scene, n)?) {
+        match split {
+            Some((posed, labels)) => {
+                for p in shscale_geometry::partition::split(&posed, &labels, n) {
+                    parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
+                }
+            }
+            None => parts.push(o.build()?),
+        }
+    }
+    Ok(parts)
 }

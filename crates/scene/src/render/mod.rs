@@ -8,6 +8,7 @@
 //!
 //! [`sequence`]: deforming sequences, frame by frame, with each entity's state carried over.
 
+pub(crate) mod form;
 mod sequence;
 
 pub use sequence::*;
@@ -20,6 +21,7 @@ use crate::frame::{
 use crate::method::Combine;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
+use form::{Built, Stages};
 use glam::DVec3;
 use rayon::prelude::*;
 use shscale_field::evaluator::{ConvergedTruth, FullField, VisibilityField};
@@ -78,40 +80,16 @@ impl RenderOutput {
 /// receiver and occluder for band-limited ray tracing, 4T² plus the sun's cap per receiver for
 /// full-frequency truth.
 pub fn estimated_work(scene: &Scene, rs: &RenderSettings) -> (f64, f64) {
-    let method = rs.method;
-    let samples = rs.layout.sample_count().unwrap_or(usize::MAX) as f64;
-    let h2 = (rs.hemisphere_res * rs.hemisphere_res) as f64;
-    let t2 = (rs.truth_res * rs.truth_res) as f64;
-    let receivers = (scene.resolution[0] * scene.resolution[1]) as f64;
-    let occluders = scene.occluders.len().max(1) as f64;
-    let nn = (rs.order * rs.order) as f64;
-    let bsv = occluders * samples * h2;
-    let shells = (rs.full_field)
-        .unwrap_or_else(|| full_field_shells(rs))
-        .count as f64;
-    let rays = match method {
-        Method::Extrapolated => bsv,
-        Method::SubVolumes => rs.parts.max(1) as f64 * bsv,
-        Method::SphereSet => 0.0,
-        Method::FullField => shells * bsv,
-        Method::RayTraced => receivers * occluders * 4.0 * t2,
-        Method::FullFrequency => {
-            receivers * 4.0 * (t2 + (shscale_field::shading::sun_bands(rs.truth_res).pow(2)) as f64)
-        }
+    let w = form::Work {
+        rs,
+        samples: rs.layout.sample_count().unwrap_or(usize::MAX) as f64,
+        h2: (rs.hemisphere_res * rs.hemisphere_res) as f64,
+        t2: (rs.truth_res * rs.truth_res) as f64,
+        receivers: (scene.resolution[0] * scene.resolution[1]) as f64,
+        occluders: scene.occluders.len().max(1) as f64,
+        nn: (rs.order * rs.order) as f64,
     };
-    let shells = match method {
-        Method::FullField => shells,
-        Method::SubVolumes => rs.parts.max(1) as f64,
-        Method::SphereSet => 0.0,
-        _ => 1.0,
-    };
-    let spheres = if method == Method::SphereSet {
-        occluders * rs.parts.max(1) as f64 * 32.0
-    } else {
-        0.0
-    };
-    let bytes = occluders * shells * samples * nn * 8.0 + spheres + receivers * (nn * 8.0 + 16.0);
-    (rays, bytes)
+    (crate::method::cpu_form(rs.method).work)(&w)
 }
 
 /// Render `scene` with the method and parameters of `rs` (its occluders posed at
@@ -119,7 +97,7 @@ pub fn estimated_work(scene: &Scene, rs: &RenderSettings) -> (f64, f64) {
 /// band-limited truth, the SH basis and the sphere-set tables for sphere sets, base-sphere
 /// samples and tables for the extrapolations, shells for the full field.
 pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error> {
-    let method = rs.method;
+    let form = crate::method::cpu_form(rs.method);
     let mut stages = Stages::default();
     let light = stages.time("light_projection", || light_of(scene, rs.order))?;
     let occs: Vec<Box<dyn Occluder>> = stages.time("bvh_build", || {
@@ -130,24 +108,31 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(rs.order, rs.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
-    let basis = match method {
-        Method::SphereSet => Some(
+    let basis = match form.basis {
+        true => Some(
             shscale_sh::ShBasis::<f64>::new(rs.order)
                 .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?,
         ),
-        _ => None,
+        false => None,
     };
-    let set_tables = SetTables::new(scene, rs, basis.as_ref())?;
-    let built = build_fields(scene, rs, &occs, &sampler, &recv, &mut stages)?;
+    let set_tables = SetTables::new((scene, rs), form, basis.as_ref())?;
+    let inputs = form::Inputs {
+        scene,
+        rs,
+        occs: &occs,
+        sampler: &sampler,
+        recv: &recv,
+    };
+    let built = (form.build)(&inputs, &mut stages)?;
     let built = set_tables.to_logs(built, &mut stages);
     let exs = extrapolators(&built, rs.plausibility);
-    let truth = match method {
-        Method::RayTraced => Some(shscale_field::truth::TruthSampler::new(
+    let truth = match form.truth_sampler {
+        true => Some(shscale_field::truth::TruthSampler::new(
             rs.order,
             rs.truth_res,
             shscale_field::truth::DEFAULT_TRUTH_SEED,
         )?),
-        _ => None,
+        false => None,
     };
     let rts = converged_truths(&occs, truth.as_ref());
     let spheres: Vec<SphereVisibility> = match &basis {
@@ -160,8 +145,8 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     // exponentiation, and extrapolated fields combined in log space, are one field (the shader
     // then multiplies nothing more).
     let one_set = set_tables.field(&built.spheres, basis.as_ref(), &exs);
-    let mut fields = fields_of(method, &spheres, &exs, &built.fulls, &rts);
-    let mut centers = field_centers(method, &built, &occs);
+    let mut fields = fields_of(&spheres, &exs, &built.fulls, &rts);
+    let mut centers = field_centers(&built, &occs);
     if let Some(set) = &one_set {
         fields = vec![set.as_ref()];
         centers.truncate(1);
@@ -173,7 +158,7 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
         sampler: &sampler,
     };
     shade_render(
-        (scene, rs),
+        (scene, rs, form),
         common,
         truth.as_ref(),
         (&fields, &centers),
@@ -194,7 +179,7 @@ struct Common<'a> {
 /// method's `fields` multiplied near to far about their `centers` (the full-frequency truth by
 /// its own quadrature, the band-limited truth of one occluder with its own error).
 fn shade_render(
-    (scene, rs): (&Scene, &RenderSettings),
+    (scene, rs, form): (&Scene, &RenderSettings, &form::CpuForm),
     c: Common,
     truth: Option<&shscale_field::truth::TruthSampler>,
     (fields, centers): (&[&dyn VisibilityField], &[DVec3]),
@@ -206,19 +191,18 @@ fn shade_render(
         recv,
         sampler,
     } = c;
-    let method = rs.method;
     let t = Instant::now();
     let emitters = build_emitters(scene)?;
     if !emitters.is_empty() {
         stages.push("light_sources_build", t);
     }
-    if method == Method::FullFrequency {
+    if form.full_frequency {
         return Ok(render_full_frequency(
             scene, rs, light, occs, &emitters, recv, stages,
         ));
     }
     let t = Instant::now();
-    let light_fields = light_fields(scene, rs, &emitters, sampler, recv)?;
+    let light_fields = light_fields((scene, rs, form), &emitters, sampler, recv)?;
     if !emitters.is_empty() {
         stages.push("light_fields", t);
     }
@@ -295,19 +279,18 @@ enum SetTables {
 impl SetTables {
     /// The tables of `rs`' method; `basis` is built for sphere sets only.
     fn new(
-        scene: &Scene,
-        rs: &RenderSettings,
+        (scene, rs): (&Scene, &RenderSettings),
+        form: &form::CpuForm,
         basis: Option<&shscale_sh::ShBasis<f64>>,
     ) -> Result<Self, Error> {
-        let extrapolated = matches!(rs.method, Method::Extrapolated | Method::SubVolumes);
-        if extrapolated && rs.part_combine == Combine::Shexp {
+        if form.extrapolates && rs.part_combine == Combine::Shexp {
             crate::method::check_log_space(rs.order, rs.plausibility)
                 .map_err(|e| Error::config(format!("{}: {}: {}", scene.file, e.key, e.message)))?;
             let gaunt = shscale_sh::GauntTensor::<f64>::new(rs.order)?;
             let table = ZonalLogTable::new(&gaunt, SHEXP_EPS);
             return Ok(SetTables::LogSpace(gaunt, table));
         }
-        let Some(basis) = basis.filter(|_| rs.method == Method::SphereSet) else {
+        let Some(basis) = basis else {
             return Ok(SetTables::Plain);
         };
         let set = crate::method::SetSpec::of_settings(rs);
@@ -352,34 +335,35 @@ impl SetTables {
     }
 }
 
-/// The method's visibility field per occluder (per part for sub-volumes and sphere sets); none
-/// for full-frequency truth, which is not shaded through SH.
+/// The method's visibility fields — whichever it built: one per sphere of a sphere set, per
+/// extrapolated occluder or part, per full field, or per occluder's converged truth — multiplied
+/// by the shader near to far; none for full-frequency truth, which is not shaded through SH.
 fn fields_of<'a>(
-    method: Method,
     spheres: &'a [SphereVisibility],
     exs: &'a [Extrapolator],
     fulls: &'a [FullField],
     rts: &'a [ConvergedTruth],
 ) -> Vec<&'a dyn VisibilityField> {
-    fn all<F: VisibilityField>(v: &[F]) -> Vec<&dyn VisibilityField> {
-        v.iter().map(|f| f as &dyn VisibilityField).collect()
+    fn all<F: VisibilityField>(v: &[F]) -> impl Iterator<Item = &dyn VisibilityField> {
+        v.iter().map(|f| f as &dyn VisibilityField)
     }
-    match method {
-        Method::SphereSet => all(spheres),
-        Method::Extrapolated | Method::SubVolumes => all(exs),
-        Method::FullField => all(fulls),
-        Method::RayTraced => all(rts),
-        Method::FullFrequency => Vec::new(),
-    }
+    (all(spheres)
+        .chain(all(exs))
+        .chain(all(fulls))
+        .chain(all(rts)))
+    .collect()
 }
 
-/// The centres of the fields multiplied near to far: every part's for sub-volumes and sphere
-/// sets, else the occluders'.
-fn field_centers(method: Method, built: &Built, occs: &[Box<dyn Occluder>]) -> Vec<DVec3> {
-    match method {
-        Method::SubVolumes => built.bsvs.iter().map(|b| b.sphere.center).collect(),
-        Method::SphereSet => built.spheres.iter().map(|s| s.center).collect(),
-        _ => occs.iter().map(|o| o.bounding_sphere().center).collect(),
+/// The centres the fields are multiplied near to far about: the spheres' of a sphere set, the
+/// base spheres' of extrapolated occluders or parts (an occluder's base sphere is centred on its
+/// bounding sphere), else the occluders'.
+fn field_centers(built: &Built, occs: &[Box<dyn Occluder>]) -> Vec<DVec3> {
+    if !built.spheres.is_empty() {
+        built.spheres.iter().map(|s| s.center).collect()
+    } else if !built.bsvs.is_empty() {
+        built.bsvs.iter().map(|b| b.sphere.center).collect()
+    } else {
+        occs.iter().map(|o| o.bounding_sphere().center).collect()
     }
 }
 
@@ -412,164 +396,6 @@ fn shade_all(
         skipped: shaded.iter().map(|s| s.2).sum(),
         error: Vec::new(),
     }
-}
-
-/// `(stage, seconds)` in execution order.
-#[derive(Default)]
-struct Stages(Vec<(String, f64)>);
-
-impl Stages {
-    /// Record the stage `name` as begun at `t0` and ended now.
-    fn push(&mut self, name: &str, t0: Instant) {
-        self.0.push((name.to_string(), t0.elapsed().as_secs_f64()));
-    }
-
-    /// Run `f` as the stage `name`.
-    fn time<T>(&mut self, name: &str, f: impl FnOnce() -> Result<T, Error>) -> Result<T, Error> {
-        let t = Instant::now();
-        let out = f()?;
-        self.push(name, t);
-        Ok(out)
-    }
-}
-
-/// The per-occluder fields a method needs: BSVs and k-tables (extrapolated) or full fields.
-#[derive(Default)]
-struct Built {
-    bsvs: Vec<Bsv>,
-    tables: Vec<KTable>,
-    fulls: Vec<FullField>,
-    spheres: Vec<Sphere>,
-}
-
-fn build_fields(
-    scene: &Scene,
-    rs: &RenderSettings,
-    occs: &[Box<dyn Occluder>],
-    sampler: &VisibilitySampler,
-    recv: &[DVec3],
-    stages: &mut Stages,
-) -> Result<Built, Error> {
-    let mut b = Built::default();
-    let method = rs.method;
-    match method {
-        Method::Extrapolated | Method::SubVolumes => {
-            // Whole occluders, or their sub-volumes: a BSV on each one's own bounding sphere and
-            // a table over the receivers.
-            let parts = if method == Method::SubVolumes {
-                stages.time("partition", || sub_volume_parts(scene, rs.parts))?
-            } else {
-                Vec::new()
-            };
-            let sources = if method == Method::SubVolumes {
-                &parts[..]
-            } else {
-                occs
-            };
-            let r = rs.sampling_radius;
-            b.bsvs = stages.time("bsv_sampling", || {
-                (sources.iter())
-                    .map(|o| {
-                        Ok(Bsv::sample_radial(
-                            o.as_ref(),
-                            rs.layout,
-                            sampler,
-                            r,
-                            rs.radial,
-                        )?)
-                    })
-                    .collect::<Result<_, Error>>()
-            })?;
-            let bsvs = &b.bsvs;
-            b.tables = stages.time("table_build", || {
-                (bsvs.iter())
-                    .map(|b| {
-                        let s = Sphere {
-                            center: b.sphere.center,
-                            radius: b.sampling_radius,
-                        };
-                        let outer = b.radii.iter().copied().fold(s.radius, f64::max);
-                        crate::frame::table_for_radii((scene, rs), s, outer, recv, Eta::Plain)
-                    })
-                    .collect()
-            })?;
-        }
-        Method::FullField => {
-            b.fulls = stages.time("full_field_build", || {
-                (occs.iter())
-                    .map(|o| {
-                        Ok(FullField::build(
-                            o.as_ref(),
-                            rs.layout,
-                            sampler,
-                            &rs.full_field.unwrap_or_else(|| full_field_shells(rs)),
-                        )?)
-                    })
-                    .collect::<Result<_, Error>>()
-            })?;
-        }
-        Method::SphereSet => {
-            b.spheres = stages.time("sphere_fit", || sphere_set(scene, rs))?;
-        }
-        Method::RayTraced | Method::FullFrequency => {}
-    }
-    Ok(b)
-}
-
-/// The parts of every occluder for [`Method::SubVolumes`], each as its own BVH: a mesh split into
-/// `n` parts ([`RenderSettings::parts`]) by k-means on the rest pose's triangle centroids (per
-/// triangle, so a deforming mesh keeps its partition over a sequence), posed at
-/// [`Scene::pose_t`]; the analytic sphere is one part.
-fn sub_volume_parts(scene: &Scene, n: usize) -> Result<Vec<Box<dyn Occluder>>, Error> {
-    let mut parts: Vec<Box<dyn Occluder>> = Vec::new();
-    for (o, split) in scene.occluders.iter().zip(partitioned(scene, n)?) {
-        match split {
-            Some((posed, labels)) => {
-                for p in shscale_geometry::partition::split(&posed, &labels, n) {
-                    parts.push(Box::new(MeshBvh::build(&p, UpdateStrategy::Rebuild)));
-                }
-            }
-            None => parts.push(o.build()?),
-        }
-    }
-    Ok(parts)
-}
-
-/// The sphere set of every occluder for [`Method::SphereSet`]: a mesh partitioned as for
-/// [`Method::SubVolumes`] (on the rest pose, per triangle) and one sphere fitted per part on the
-/// pose at [`Scene::pose_t`] — or that pose's first inscribed balls
-/// ([`RenderSettings::sphere_fit`]); the analytic sphere is its own set.
-fn sphere_set(scene: &Scene, rs: &RenderSettings) -> Result<Vec<Sphere>, Error> {
-    let mut out = Vec::new();
-    for (o, split) in scene.occluders.iter().zip(partitioned(scene, rs.parts)?) {
-        match split {
-            Some((posed, labels)) => out.extend(
-                (rs.sphere_fit.spheres(&posed, &labels, rs.parts))
-                    .map_err(|e| Error::config(format!("{}: sphere_fit: {e}", scene.file)))?,
-            ),
-            None => out.push(o.build()?.bounding_sphere()),
-        }
-    }
-    Ok(out)
-}
-
-/// A posed mesh and the part of each of its triangles.
-type Partitioned = (shscale_geometry::Mesh, Vec<u32>);
-
-/// Per occluder: its mesh posed at [`Scene::pose_t`] with the part of every triangle
-/// (`parts` by k-means on the rest pose's triangle centroids, so a deforming mesh keeps its
-/// partition over a sequence), or `None` for the analytic sphere.
-fn partitioned(scene: &Scene, parts: usize) -> Result<Vec<Option<Partitioned>>, Error> {
-    (scene.occluders.iter())
-        .map(|o| {
-            let Some(rest) = crate::frame::occluder_mesh_at(o, None)? else {
-                return Ok(None);
-            };
-            let labels = shscale_geometry::partition::kmeans_parts(&rest, parts)
-                .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
-            Ok(Some((crate::frame::posed(&rest, o, scene.pose_t), labels)))
-        })
-        .collect()
 }
 
 /// Full-frequency truth: `∫ L Π V cos⁺` by direct quadrature with exact visibility per receiver,
@@ -617,8 +443,7 @@ fn render_full_frequency(
 /// Source radiance fields of the local lights (docs/conventions.md §4): per channel a radiance
 /// BSV and the η k-table for the extrapolated method; nothing to build for ray tracing.
 fn light_fields(
-    scene: &Scene,
-    rs: &RenderSettings,
+    (scene, rs, form): (&Scene, &RenderSettings, &form::CpuForm),
     emitters: &[LightSource],
     sampler: &VisibilitySampler,
     recv: &[DVec3],
@@ -626,11 +451,7 @@ fn light_fields(
     if emitters.is_empty() {
         return Ok(Vec::new());
     }
-    let method = rs.method;
-    if matches!(
-        method,
-        Method::FullField | Method::SubVolumes | Method::SphereSet
-    ) {
+    if form.local_lights == form::LocalLights::Refused {
         return Err(Error::config(format!("{}: local light sources are supported with the extrapolated, raytraced and raytraced-full methods", scene.file)));
     }
     let mut out = Vec::new();
@@ -639,7 +460,7 @@ fn light_fields(
             bsvs: [None, None, None],
             table: None,
         };
-        if method == Method::Extrapolated {
+        if form.local_lights == form::LocalLights::Extrapolated {
             for c in 0..3 {
                 if let Some(em) = &e.channels[c] {
                     let b = shscale_field::srf::radiance_bsv(em, rs.layout, sampler, 1.0)?;
