@@ -62,10 +62,14 @@ pub struct Loaded {
     pub rejected: Vec<(u64, String, Vec<String>)>,
 }
 
-/// Read and validate a kind's CSV (`Ok(default)` when absent). A header of another version is an
-/// error (the file is left alone); invalid rows are returned in `rejected`.
+/// Read and validate a kind's CSV (`Ok(default)` when absent or empty — an empty file holds no
+/// rows, and the next append writes its header). A header of another version is an error (the
+/// file is left alone); invalid rows are returned in `rejected`.
 pub fn load_rows(kind: &dyn DynKind, path: &Path) -> Result<Loaded, Error> {
     if !shscale_files::input::regular_file(path)? {
+        return Ok(Loaded::default());
+    }
+    if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
         return Ok(Loaded::default());
     }
     let (columns, raw) = records::read_raw(path)?;
@@ -179,8 +183,10 @@ pub(crate) fn read_tail(
     Ok((rows, len))
 }
 
-/// Append `rows` to a results file (its header first when the file is new or empty), then
-/// flush and sync it: a finished run's rows reach the disk once, whole. Returns the new length.
+/// Append `rows` to a results file, then flush and sync it: a finished run's rows reach the disk
+/// once, whole. A new (or empty) file is written whole through a synced temporary and a rename
+/// (its header and rows), so no reader ever sees it empty or with half a header. Returns the
+/// new length.
 pub(crate) fn append_rows(
     path: &Path,
     header: &[String],
@@ -189,6 +195,10 @@ pub(crate) fn append_rows(
     use std::io::Write;
     let fresh = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
     let bytes = records::csv_bytes(fresh.then_some(header), rows)?;
+    if fresh {
+        shscale_files::atomic::write_atomic_bytes(path, &bytes)?;
+        return Ok(bytes.len() as u64);
+    }
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .read(true)
@@ -365,6 +375,32 @@ mod tests {
         let lines: Vec<u64> = rows.iter().map(|(l, _)| *l).collect();
         assert_eq!(lines, [3, 4, 5]);
         assert_eq!(rows[1].1, row("z"));
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
+    }
+
+    /// An empty results file (a writer killed between creating it and writing, or a reader
+    /// that looked before the first commit) holds no rows: it loads as none and the next append
+    /// writes the header. A new file appears whole: its header and first rows come by one rename,
+    /// and no temporary is left beside it.
+    #[test]
+    fn an_empty_results_file_holds_no_rows_and_a_new_one_appears_whole() {
+        let p = tmp("empty");
+        let kind: &dyn DynKind = &crate::bench::TALLY;
+        std::fs::write(&p, "").unwrap();
+        let l = load_rows(kind, &p).unwrap();
+        assert!(l.rows.is_empty() && l.rejected.is_empty());
+        let h = vec!["a".to_string(), "b".to_string()];
+        append_rows(&p, &h, &[vec!["x".into(), "1".into()]]).unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "a,b\nx,1\n");
+        let q = p.with_file_name("fresh.csv");
+        append_rows(&q, &h, &[vec!["y".into(), "2".into()]]).unwrap();
+        assert_eq!(std::fs::read_to_string(&q).unwrap(), "a,b\ny,2\n");
+        let names: Vec<String> = std::fs::read_dir(p.parent().unwrap())
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        assert!(names.iter().all(|n| !n.contains(".tmp-")), "{names:?}");
         std::fs::remove_dir_all(p.parent().unwrap()).ok();
     }
 
