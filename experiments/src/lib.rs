@@ -219,6 +219,47 @@ fn index_section(p: &Path, stem: &str, dir: &Path, discussion: &str, files: &[Pa
 
 #[cfg(test)]
 mod tests {
+    /// A file that computes rows (`*_rows.rs`) imports nothing from a file the numerical
+    /// fingerprint leaves out (a `verdict/` folder, `*_report.rs`, `discussion.rs`, `figure.rs`,
+    /// `figures.rs`): a row computed with such code would change without its rows going stale
+    /// (the clustered interval of `budget`'s rows once lived in `verdict/stats.rs`).
+    #[test]
+    fn row_files_import_nothing_the_fingerprint_leaves_out() {
+        fn walk(d: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+            for e in std::fs::read_dir(d).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    walk(&p, out);
+                } else if p.to_string_lossy().ends_with("_rows.rs") {
+                    out.push(p);
+                }
+            }
+        }
+        let mut files = Vec::new();
+        walk(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
+            &mut files,
+        );
+        assert!(files.len() >= 2, "{files:?}");
+        let left_out = [
+            "verdict::",
+            "_report::",
+            "discussion::",
+            "figure::",
+            "figures::",
+        ];
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap();
+            for line in text.lines().filter(|l| l.trim_start().starts_with("use ")) {
+                assert!(
+                    !left_out.iter().any(|m| line.contains(m)),
+                    "{}: {line}",
+                    f.display()
+                );
+            }
+        }
+    }
+
     /// Every column of every kind that holds a time — a duration in seconds or milliseconds,
     /// its spread or its interval's ends, a rate of frames — is one of the kind's time columns
     /// (machine-dependent: the schema marks them, `compare` and the reports treat them apart,

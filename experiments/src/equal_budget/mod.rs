@@ -29,12 +29,13 @@ pub mod spheres;
 mod spheres_params;
 mod spheres_report;
 mod spheres_rows;
+mod stats;
 mod surface;
 #[cfg(test)]
 mod surface_tests;
 mod verdict;
 
-pub use verdict::{mean_ci95, pareto};
+pub use stats::{mean_ci95, pareto};
 
 /// The near regime: receivers within 1.3 bounding radii (of the occluder's centre).
 pub(crate) const NEAR_RHO: f64 = 1.3;

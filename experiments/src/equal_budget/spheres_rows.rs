@@ -2,8 +2,8 @@
 //! receivers, near and far, contact directions and distance-to-surface bins.
 
 use super::frames;
+use super::stats::mean_ci95_clustered;
 use super::surface::{surface_bin, SURFACE_EDGES};
-use super::verdict::mean_ci95_clustered;
 use super::NEAR_RHO;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};

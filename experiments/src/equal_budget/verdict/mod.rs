@@ -3,19 +3,19 @@
 //! from its cells; the Pareto front of error against rays; the papers' speed claim as stated;
 //! equal accuracy per regime; each configuration named in words from its spec.
 //!
-//! [`stats`]: means and intervals, the Pareto front; [`configs`]: rows grouped into
+//! Its means, intervals and the Pareto front are `super::stats` (counted: rows use them);
+//! [`configs`]: rows grouped into
 //! configurations and named in words; [`fronts`]: the front plots; [`prose`]: the verdict
 //! tables and sentences.
 
 mod configs;
 mod fronts;
 mod prose;
-mod stats;
 
+pub use super::stats::{mean_t95, pareto};
 pub(crate) use configs::*;
 pub(crate) use fronts::*;
 pub(crate) use prose::*;
-pub use stats::{mean_ci95, mean_ci95_clustered, mean_t95, pareto};
 
 use serde::de::DeserializeOwned;
 use serde::Serialize;

@@ -1,5 +1,7 @@
 //! Means with their 95 % intervals (normal, Student-t with its quantile for any degrees of
-//! freedom, cluster-robust with t over the clusters) and the Pareto front.
+//! freedom, cluster-robust with t over the clusters) and the Pareto front. Outside `verdict/`
+//! because rows are computed with it (`spheres_rows.rs`' clustered intervals): a change here
+//! changes the numerical fingerprint (docs/provenance.md), as it changes rows.
 
 use std::collections::BTreeMap;
 
