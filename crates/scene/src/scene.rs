@@ -45,7 +45,7 @@
 //! ```
 
 use crate::error::Error;
-use crate::settings::{RenderSettings, DEFAULT_SCENE_TRUTH_RES};
+use crate::settings::RenderSettings;
 use crate::vocab::MAX_K_COUNT;
 use glam::DVec3;
 use serde::Deserialize;
@@ -404,31 +404,8 @@ impl Scene {
             light_sources,
             pose_t: None,
         };
-        let settings = RenderSettings {
-            order: s.order,
-            alpha: s.alpha_deg.radians(),
-            layout: s.layout,
-            hemisphere_res: s.hemisphere_res,
-            truth_res: s.truth_res,
-            plausibility: s.plausibility,
-            k_count: s.k_count,
-            sampling_radius: s.sampling_radius,
-            ..RenderSettings::default()
-        };
-        Ok((scene, settings))
+        Ok((scene, s))
     }
-}
-
-/// The top-level sampling keys of a scene, resolved.
-struct Sampling {
-    order: usize,
-    alpha_deg: crate::vocab::AlphaDeg,
-    layout: Layout,
-    hemisphere_res: usize,
-    truth_res: usize,
-    plausibility: shscale_field::extrapolate::Plausibility,
-    k_count: usize,
-    sampling_radius: f64,
 }
 
 /// Checks the values of one scene file: every error names the file, the key as a path
@@ -494,33 +471,48 @@ impl Checker {
             .ok_or_else(|| self.err(key, format!("{word:?} is not {expected}")))
     }
 
-    fn sampling(&self, raw: &RawScene) -> Result<Sampling, Error> {
-        let layout = Layout::parse(raw.layout.as_deref().unwrap_or("latlong:12x20"))
-            .map_err(|e| self.err("layout", e.to_string()))?;
-        let plausibility = shscale_field::extrapolate::Plausibility::parse(
-            raw.plausibility.as_deref().unwrap_or("none"),
-        )
-        .map_err(|m| self.err("plausibility", m))?;
-        Ok(Sampling {
-            order: self.int("order", raw.order.unwrap_or(4), 1, 16)?,
-            alpha_deg: crate::vocab::AlphaDeg::new(raw.alpha_deg.unwrap_or(45.0))
-                .map_err(|m| self.err("alpha_deg", m))?,
-            hemisphere_res: self.int("hemisphere_res", raw.hemisphere_res.unwrap_or(32), 1, 256)?,
-            truth_res: self.int(
-                "truth_res",
-                raw.truth_res.unwrap_or(DEFAULT_SCENE_TRUTH_RES),
-                1,
-                256,
-            )?,
+    /// The render settings the file's top-level keys give, each checked; a key left out keeps
+    /// [`RenderSettings::default`]'s value (docs/config.md).
+    fn sampling(&self, raw: &RawScene) -> Result<RenderSettings, Error> {
+        let d = RenderSettings::default();
+        let layout = match raw.layout.as_deref() {
+            Some(l) => Layout::parse(l).map_err(|e| self.err("layout", e.to_string()))?,
+            None => d.layout,
+        };
+        let plausibility = match raw.plausibility.as_deref() {
+            Some(p) => (shscale_field::extrapolate::Plausibility::parse(p))
+                .map_err(|m| self.err("plausibility", m))?,
+            None => d.plausibility,
+        };
+        let int = |key: &str, v: Option<usize>, dv: usize, (lo, hi): (usize, usize)| {
+            self.int(key, v.unwrap_or(dv), lo, hi)
+        };
+        // In the order the keys were always checked (the first bad key is the one named).
+        Ok(RenderSettings {
+            order: int("order", raw.order, d.order, (1, 16))?,
+            alpha: match raw.alpha_deg {
+                Some(a) => (crate::vocab::AlphaDeg::new(a))
+                    .map_err(|m| self.err("alpha_deg", m))?
+                    .radians(),
+                None => d.alpha,
+            },
             layout,
+            hemisphere_res: int(
+                "hemisphere_res",
+                raw.hemisphere_res,
+                d.hemisphere_res,
+                (1, 256),
+            )?,
+            truth_res: int("truth_res", raw.truth_res, d.truth_res, (1, 256))?,
             plausibility,
-            k_count: self.int("k_count", raw.k_count.unwrap_or(40), 2, MAX_K_COUNT)?,
+            k_count: int("k_count", raw.k_count, d.k_count, (2, MAX_K_COUNT))?,
             sampling_radius: self.within(
                 "sampling_radius",
-                raw.sampling_radius.unwrap_or(1.0),
+                raw.sampling_radius.unwrap_or(d.sampling_radius),
                 1.0,
                 1e3,
             )?,
+            ..d
         })
     }
 

@@ -108,13 +108,10 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     let recv = receiver_grid(scene);
     let sampler = VisibilitySampler::new(rs.order, rs.hemisphere_res)?;
     // Per-occluder fields (kept alive for the borrows below).
-    let basis = match form.basis {
-        true => Some(
-            shscale_sh::ShBasis::<f64>::new(rs.order)
-                .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?,
-        ),
-        false => None,
-    };
+    let basis = (form.basis)
+        .then(|| shscale_sh::ShBasis::<f64>::new(rs.order))
+        .transpose()
+        .map_err(|e| Error::config(format!("{}: {e}", scene.file)))?;
     let set_tables = SetTables::new((scene, rs), form, basis.as_ref())?;
     let inputs = form::Inputs {
         scene,
@@ -126,14 +123,12 @@ pub fn render(scene: &Scene, rs: &RenderSettings) -> Result<RenderOutput, Error>
     let built = (form.build)(&inputs, &mut stages)?;
     let built = set_tables.to_logs(built, &mut stages);
     let exs = extrapolators(&built, rs.plausibility);
-    let truth = match form.truth_sampler {
-        true => Some(shscale_field::truth::TruthSampler::new(
-            rs.order,
-            rs.truth_res,
-            shscale_field::truth::DEFAULT_TRUTH_SEED,
-        )?),
-        false => None,
-    };
+    let truth = (form.truth_sampler)
+        .then(|| {
+            let seed = shscale_field::truth::DEFAULT_TRUTH_SEED;
+            shscale_field::truth::TruthSampler::new(rs.order, rs.truth_res, seed)
+        })
+        .transpose()?;
     let rts = converged_truths(&occs, truth.as_ref());
     let spheres: Vec<SphereVisibility> = match &basis {
         Some(basis) => (built.spheres.iter())
